@@ -1,0 +1,153 @@
+//! The six component health parameters (REFERENCE §3, paper Table 2).
+//!
+//! Percent, positive = degraded. Scaled maps: corrected flow × (1 − D_G/100),
+//! efficiency × (1 − D_E/100). Pure data: no physics here beyond the scaler arithmetic.
+
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+
+/// Names of the six parameters in their canonical order.
+pub const HEALTH_NAMES: [&str; 6] = ["D_GC", "D_EC", "D_GT", "D_ET", "D_GP", "D_EP"];
+
+/// Default search bounds in percent (REFERENCE §3).
+pub const HEALTH_BOUNDS: (f64, f64) = (-3.0, 10.0);
+
+/// Component health vector, each in percent degradation.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[allow(non_snake_case)]
+pub struct HealthParams {
+    /// Compressor flow-capacity degradation.
+    pub D_GC: f64,
+    /// Compressor efficiency degradation.
+    pub D_EC: f64,
+    /// HP turbine flow-capacity degradation.
+    pub D_GT: f64,
+    /// HP turbine efficiency degradation.
+    pub D_ET: f64,
+    /// Power turbine flow-capacity degradation.
+    pub D_GP: f64,
+    /// Power turbine efficiency degradation.
+    pub D_EP: f64,
+}
+
+impl HealthParams {
+    pub const HEALTHY: HealthParams = HealthParams {
+        D_GC: 0.0,
+        D_EC: 0.0,
+        D_GT: 0.0,
+        D_ET: 0.0,
+        D_GP: 0.0,
+        D_EP: 0.0,
+    };
+
+    pub fn to_array(self) -> [f64; 6] {
+        [
+            self.D_GC, self.D_EC, self.D_GT, self.D_ET, self.D_GP, self.D_EP,
+        ]
+    }
+
+    pub fn from_array(a: [f64; 6]) -> Self {
+        HealthParams {
+            D_GC: a[0],
+            D_EC: a[1],
+            D_GT: a[2],
+            D_ET: a[3],
+            D_GP: a[4],
+            D_EP: a[5],
+        }
+    }
+
+    pub fn from_slice(a: &[f64]) -> Option<Self> {
+        let arr: [f64; 6] = a.try_into().ok()?;
+        Some(Self::from_array(arr))
+    }
+
+    /// Multiplier on the compressor corrected flow.
+    pub fn compressor_flow_factor(&self) -> f64 {
+        1.0 - self.D_GC / 100.0
+    }
+    pub fn compressor_eff_factor(&self) -> f64 {
+        1.0 - self.D_EC / 100.0
+    }
+    pub fn hpt_flow_factor(&self) -> f64 {
+        1.0 - self.D_GT / 100.0
+    }
+    pub fn hpt_eff_factor(&self) -> f64 {
+        1.0 - self.D_ET / 100.0
+    }
+    pub fn pt_flow_factor(&self) -> f64 {
+        1.0 - self.D_GP / 100.0
+    }
+    pub fn pt_eff_factor(&self) -> f64 {
+        1.0 - self.D_EP / 100.0
+    }
+}
+
+impl fmt::Display for HealthParams {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let a = self.to_array();
+        let parts: Vec<String> = HEALTH_NAMES
+            .iter()
+            .zip(a)
+            .map(|(n, v)| format!("{n}={v:.3}"))
+            .collect();
+        f.write_str(&parts.join(","))
+    }
+}
+
+/// Error parsing a `D_GC=3,D_EC=1` health string.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum HealthParseError {
+    #[error("'{0}' is not NAME=VALUE (expected e.g. D_GC=3,D_EC=1)")]
+    NotAssignment(String),
+    #[error("unknown health parameter '{0}' (expected one of D_GC, D_EC, D_GT, D_ET, D_GP, D_EP)")]
+    UnknownName(String),
+    #[error("value of {name} is not a number: '{value}'")]
+    NotANumber { name: String, value: String },
+}
+
+impl FromStr for HealthParams {
+    type Err = HealthParseError;
+    /// Parses `D_GC=3,D_EC=1` (unnamed parameters stay 0; names are case-insensitive).
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let mut a = [0.0; 6];
+        for part in s.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+            let (name, value) = part
+                .split_once('=')
+                .ok_or_else(|| HealthParseError::NotAssignment(part.into()))?;
+            let name = name.trim();
+            let idx = HEALTH_NAMES
+                .iter()
+                .position(|n| n.eq_ignore_ascii_case(name))
+                .ok_or_else(|| HealthParseError::UnknownName(name.into()))?;
+            a[idx] = value
+                .trim()
+                .parse()
+                .map_err(|_| HealthParseError::NotANumber {
+                    name: name.into(),
+                    value: value.trim().into(),
+                })?;
+        }
+        Ok(Self::from_array(a))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parse_and_display() {
+        let h: HealthParams = "D_GC=3, d_ec=1".parse().expect("parses");
+        assert_eq!(h.D_GC, 3.0);
+        assert_eq!(h.D_EC, 1.0);
+        assert_eq!(h.D_GT, 0.0);
+        assert!((h.compressor_flow_factor() - 0.97).abs() < 1e-12);
+        assert!("D_XX=1".parse::<HealthParams>().is_err());
+        assert!("D_GC=abc".parse::<HealthParams>().is_err());
+        assert!("D_GC".parse::<HealthParams>().is_err());
+        let back: HealthParams = h.to_string().parse().expect("round trip");
+        assert_eq!(back, h);
+    }
+}

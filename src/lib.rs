@@ -1,0 +1,8 @@
+//! gtwatch: transient-based gas-path diagnosis for a two-shaft industrial gas turbine.
+//!
+//! The physics (`thermo`, `maps`, `engine`, `optim`, `diagnosis`) is pure: no I/O, no async,
+//! no globals, deterministic for a given seed. The daemon modules are a thin async shell.
+#![deny(clippy::unwrap_used)]
+
+pub mod health;
+pub mod signals;
