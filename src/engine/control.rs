@@ -1,0 +1,302 @@
+//! Engine control: the fuel controller (PID with back-calculation anti-windup and ratio-unit
+//! acceleration/deceleration limits), set-point ramps, and the starter.
+//!
+//! These are the continuous parts evaluated inside the model's right-hand side; the discrete
+//! sequencing (which loop is active, when the starter cuts out) lives in `sequence.rs`.
+//! Pure: a command is a value; evaluating it has no side effects.
+
+use super::config::{ControlConfig, StarterConfig};
+use std::sync::Arc;
+
+/// A linear ramp from `v0` at `t0` towards `target` at `rate` per second (then held).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ramp {
+    pub t0: f64,
+    pub v0: f64,
+    pub rate: f64,
+    pub target: f64,
+}
+
+impl Ramp {
+    pub fn hold(v: f64) -> Ramp {
+        Ramp { t0: 0.0, v0: v, rate: 0.0, target: v }
+    }
+
+    pub fn value(&self, t: f64) -> f64 {
+        let dt = (t - self.t0).max(0.0);
+        if self.target >= self.v0 {
+            (self.v0 + self.rate.abs() * dt).min(self.target)
+        } else {
+            (self.v0 - self.rate.abs() * dt).max(self.target)
+        }
+    }
+
+    /// Time at which the ramp reaches its target.
+    pub fn end_time(&self) -> f64 {
+        if self.rate == 0.0 {
+            self.t0
+        } else {
+            self.t0 + (self.target - self.v0).abs() / self.rate.abs()
+        }
+    }
+}
+
+/// Quantities the fuel controller may measure.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Measured {
+    pub p2_kpa: f64,
+    pub n1_rpm: f64,
+    pub n2_rpm: f64,
+    pub power_mw: f64,
+}
+
+/// Fuel-flow limits: acceleration and deceleration schedules in ratio units (fuel / P2).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FuelLimits {
+    accel_speed_rpm: Vec<f64>,
+    accel_ratio: Vec<f64>,
+    decel_ratio: f64,
+    min_fuel: f64,
+}
+
+impl FuelLimits {
+    pub fn from_config(c: &ControlConfig) -> FuelLimits {
+        FuelLimits {
+            accel_speed_rpm: c.accel_limit_speed_rpm.clone(),
+            accel_ratio: c.accel_limit_ratio_kg_s_per_kpa.clone(),
+            decel_ratio: c.decel_limit_ratio_kg_s_per_kpa,
+            min_fuel: c.min_fuel_kg_s,
+        }
+    }
+
+    /// (lower, upper) fuel limit at this speed and compressor delivery pressure.
+    pub fn bounds(&self, n1_rpm: f64, p2_kpa: f64) -> (f64, f64) {
+        let ru = interp(&self.accel_speed_rpm, &self.accel_ratio, n1_rpm);
+        let hi = ru * p2_kpa;
+        let lo = (self.decel_ratio * p2_kpa).max(self.min_fuel).min(hi);
+        (lo, hi)
+    }
+}
+
+/// Piecewise-linear interpolation, held constant outside the table.
+pub fn interp(xs: &[f64], ys: &[f64], x: f64) -> f64 {
+    if xs.is_empty() {
+        return 0.0;
+    }
+    if x <= xs[0] {
+        return ys[0];
+    }
+    let last = xs.len() - 1;
+    if x >= xs[last] {
+        return ys[last];
+    }
+    let i = xs.partition_point(|&v| v <= x) - 1;
+    let f = (x - xs[i]) / (xs[i + 1] - xs[i]);
+    ys[i] + f * (ys[i + 1] - ys[i])
+}
+
+/// Which quantity a closed fuel loop regulates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Loop {
+    /// GG speed, rpm.
+    GgSpeed,
+    /// PT speed, rpm (unloaded PT before synchronisation).
+    PtSpeed,
+    /// Electrical power, MW.
+    Power,
+}
+
+/// A measured time series (piecewise linear in time, held outside its span): the fuel flow of an
+/// open-loop run, or a set-point that follows the plant.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Series {
+    pub t_s: Vec<f64>,
+    pub value: Vec<f64>,
+}
+
+impl Series {
+    pub fn value(&self, t: f64) -> f64 {
+        interp(&self.t_s, &self.value, t)
+    }
+}
+
+/// A controller set-point: a ramp, or a measured series to follow.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Setpoint {
+    Ramp(Ramp),
+    Series(Arc<Series>),
+}
+
+impl Setpoint {
+    pub fn value(&self, t: f64) -> f64 {
+        match self {
+            Setpoint::Ramp(r) => r.value(t),
+            Setpoint::Series(s) => s.value(t),
+        }
+    }
+}
+
+/// Where the fuel flow comes from during a step.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FuelCommand {
+    Off,
+    Fixed(f64),
+    /// Open loop: the plant's measured fuel flow drives the model.
+    Trace(Arc<Series>),
+    /// Closed loop: PI(D-less) on `loop_kind` towards `setpoint`, within `limits`.
+    Pid { loop_kind: Loop, setpoint: Setpoint, kp: f64, ki: f64, aw_tau: f64, limits: Arc<FuelLimits> },
+}
+
+/// The fuel command's value and its integrator's rate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FuelOut {
+    pub fuel_kg_s: f64,
+    pub integrator_rate: f64,
+}
+
+impl FuelCommand {
+    /// Builds the PID command for a loop from the control config.
+    pub fn pid(c: &ControlConfig, limits: Arc<FuelLimits>, loop_kind: Loop, setpoint: Setpoint) -> FuelCommand {
+        let (kp, ki) = match loop_kind {
+            Loop::GgSpeed => (c.speed_kp_kg_s_per_rpm, c.speed_ki_kg_s_per_rpm_s),
+            Loop::PtSpeed => (c.pt_speed_kp_kg_s_per_rpm, c.pt_speed_ki_kg_s_per_rpm_s),
+            Loop::Power => (c.power_kp_kg_s_per_mw, c.power_ki_kg_s_per_mw_s),
+        };
+        FuelCommand::Pid { loop_kind, setpoint, kp, ki, aw_tau: c.antiwindup_tau_s, limits }
+    }
+
+    /// Controller error at this instant (0 for open-loop commands).
+    pub fn error(&self, t: f64, m: &Measured) -> f64 {
+        match self {
+            FuelCommand::Pid { loop_kind, setpoint, .. } => {
+                let sp = setpoint.value(t);
+                match loop_kind {
+                    Loop::GgSpeed => sp - m.n1_rpm,
+                    Loop::PtSpeed => sp - m.n2_rpm,
+                    Loop::Power => sp - m.power_mw,
+                }
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// Fuel flow and integrator rate given the integrator value (kg/s).
+    pub fn evaluate(&self, t: f64, integ: f64, m: &Measured) -> FuelOut {
+        match self {
+            FuelCommand::Off => FuelOut { fuel_kg_s: 0.0, integrator_rate: 0.0 },
+            FuelCommand::Fixed(v) => FuelOut { fuel_kg_s: *v, integrator_rate: 0.0 },
+            FuelCommand::Trace(tr) => FuelOut { fuel_kg_s: tr.value(t).max(0.0), integrator_rate: 0.0 },
+            FuelCommand::Pid { kp, ki, aw_tau, limits, .. } => {
+                let e = self.error(t, m);
+                let u = kp * e + integ;
+                let (lo, hi) = limits.bounds(m.n1_rpm, m.p2_kpa);
+                let sat = u.clamp(lo, hi);
+                // Back-calculation anti-windup: the integrator is pulled towards the value that
+                // the limits let through, so it never winds up while a limit is active.
+                FuelOut { fuel_kg_s: sat, integrator_rate: ki * e + (sat - u) / aw_tau }
+            }
+        }
+    }
+
+    /// Integrator value that makes a switch to this command bumpless at fuel `current`.
+    pub fn bumpless_integrator(&self, t: f64, current: f64, m: &Measured) -> f64 {
+        match self {
+            FuelCommand::Pid { kp, .. } => current - kp * self.error(t, m),
+            _ => current,
+        }
+    }
+}
+
+/// What the starter does during a step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum StarterCommand {
+    Off,
+    /// Full available torque.
+    Full { max_torque: f64, free_speed: f64 },
+    /// Hold a speed (purge) with a proportional torque within the available torque.
+    Hold { speed_rpm: f64, gain: f64, max_torque: f64, free_speed: f64 },
+}
+
+impl StarterCommand {
+    pub fn full(c: &StarterConfig) -> StarterCommand {
+        StarterCommand::Full { max_torque: c.max_torque_n_m, free_speed: c.free_speed_rpm }
+    }
+
+    pub fn hold(c: &StarterConfig, speed_rpm: f64) -> StarterCommand {
+        StarterCommand::Hold {
+            speed_rpm,
+            gain: c.speed_hold_gain_n_m_per_rpm,
+            max_torque: c.max_torque_n_m,
+            free_speed: c.free_speed_rpm,
+        }
+    }
+
+    /// Starter torque on the GG shaft at speed `n1`, N·m.
+    pub fn torque(&self, n1: f64) -> f64 {
+        let avail = |max: f64, free: f64| max * (1.0 - n1 / free).max(0.0);
+        match *self {
+            StarterCommand::Off => 0.0,
+            StarterCommand::Full { max_torque, free_speed } => avail(max_torque, free_speed),
+            StarterCommand::Hold { speed_rpm, gain, max_torque, free_speed } => {
+                (gain * (speed_rpm - n1)).clamp(0.0, avail(max_torque, free_speed))
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ramp_and_interp() {
+        let r = Ramp { t0: 10.0, v0: 0.0, rate: 2.0, target: 10.0 };
+        assert_eq!(r.value(5.0), 0.0);
+        assert_eq!(r.value(12.0), 4.0);
+        assert_eq!(r.value(100.0), 10.0);
+        assert_eq!(r.end_time(), 15.0);
+        let down = Ramp { t0: 0.0, v0: 10.0, rate: 1.0, target: 4.0 };
+        assert_eq!(down.value(3.0), 7.0);
+        assert_eq!(down.value(30.0), 4.0);
+        assert_eq!(interp(&[0.0, 10.0], &[1.0, 3.0], 5.0), 2.0);
+        assert_eq!(interp(&[0.0, 10.0], &[1.0, 3.0], -5.0), 1.0);
+        assert_eq!(interp(&[0.0, 10.0], &[1.0, 3.0], 50.0), 3.0);
+    }
+
+    #[test]
+    fn pid_antiwindup_pulls_integrator_to_limit() {
+        let limits = Arc::new(FuelLimits {
+            accel_speed_rpm: vec![0.0, 10000.0],
+            accel_ratio: vec![1e-3, 1e-3],
+            decel_ratio: 1e-4,
+            min_fuel: 0.05,
+        });
+        let cmd = FuelCommand::Pid {
+            loop_kind: Loop::GgSpeed,
+            setpoint: Setpoint::Ramp(Ramp::hold(9000.0)),
+            kp: 1e-4,
+            ki: 1e-4,
+            aw_tau: 1.0,
+            limits,
+        };
+        let m = Measured { p2_kpa: 1000.0, n1_rpm: 5000.0, n2_rpm: 0.0, power_mw: 0.0 };
+        // Large error: output saturates at 1 kg/s and the integrator rate is negative when the
+        // integrator is above the limit (no wind-up).
+        let out = cmd.evaluate(0.0, 2.0, &m);
+        assert_eq!(out.fuel_kg_s, 1.0);
+        assert!(out.integrator_rate < 0.0);
+        let i0 = cmd.bumpless_integrator(0.0, 0.7, &m);
+        assert!((cmd.evaluate(0.0, i0, &m).fuel_kg_s - 0.7).abs() < 1e-12);
+    }
+
+    #[test]
+    fn starter_torque_curve() {
+        let s = StarterCommand::Full { max_torque: 3000.0, free_speed: 6000.0 };
+        assert_eq!(s.torque(0.0), 3000.0);
+        assert_eq!(s.torque(3000.0), 1500.0);
+        assert_eq!(s.torque(7000.0), 0.0);
+        let h = StarterCommand::Hold { speed_rpm: 2300.0, gain: 10.0, max_torque: 3000.0, free_speed: 6000.0 };
+        assert_eq!(h.torque(2400.0), 0.0);
+        assert_eq!(h.torque(2200.0), 1000.0);
+    }
+}

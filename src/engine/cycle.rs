@@ -1,0 +1,153 @@
+//! Component station calculations shared by the steady-state solver and the dynamic model.
+//!
+//! Each function takes the inlet state and the component's operating coordinate and returns the
+//! exit state, flow and power: compressor and turbines through their scaled maps, work from
+//! enthalpy differences (never constant cp). Pure functions of their arguments: no state, no I/O.
+
+use crate::maps::{ScaledCompressor, ScaledTurbine};
+use crate::thermo::Gas;
+
+/// ISO reference temperature and pressure for corrected quantities.
+pub const T_STD_K: f64 = 288.15;
+pub const P_STD_KPA: f64 = 101.325;
+
+/// Corrected speed N/√θ.
+#[inline]
+pub fn corrected_speed(n_rpm: f64, t_k: f64) -> f64 {
+    n_rpm / (t_k / T_STD_K).sqrt()
+}
+
+/// Physical flow from corrected flow: W = Wc·δ/√θ.
+#[inline]
+pub fn physical_flow(wc: f64, t_k: f64, p_kpa: f64) -> f64 {
+    wc * (p_kpa / P_STD_KPA) / (t_k / T_STD_K).sqrt()
+}
+
+/// Compressor exit state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CompressorStation {
+    pub w_kg_s: f64,
+    pub wc_kg_s: f64,
+    pub pr: f64,
+    pub t_out_k: f64,
+    pub h_in: f64,
+    pub h_out: f64,
+    pub eff: f64,
+    pub beta: f64,
+    pub surge_margin_pct: f64,
+    pub power_w: f64,
+}
+
+/// Compressor on its map at a given pressure ratio (dynamic model: PR set by the plenum).
+pub fn compressor_at_pr(
+    comp: &ScaledCompressor,
+    t_in: f64,
+    p_in_kpa: f64,
+    n_rpm: f64,
+    pr: f64,
+) -> CompressorStation {
+    let nc = corrected_speed(n_rpm, t_in);
+    let op = comp.at_pr(nc, pr);
+    compressor_finish(t_in, p_in_kpa, pr, op.wc_kg_s, op.eff, op.beta, op.surge_margin_pct)
+}
+
+/// Compressor on its map at a given β (steady solver: β is an unknown).
+pub fn compressor_at_beta(
+    comp: &ScaledCompressor,
+    t_in: f64,
+    p_in_kpa: f64,
+    n_rpm: f64,
+    beta: f64,
+) -> CompressorStation {
+    let nc = corrected_speed(n_rpm, t_in);
+    let op = comp.at_beta(nc, beta);
+    compressor_finish(t_in, p_in_kpa, op.pr, op.wc_kg_s, op.eff, op.beta, op.surge_margin_pct)
+}
+
+fn compressor_finish(
+    t_in: f64,
+    p_in_kpa: f64,
+    pr: f64,
+    wc: f64,
+    eff: f64,
+    beta: f64,
+    surge_margin_pct: f64,
+) -> CompressorStation {
+    let air = Gas::air();
+    let h_in = air.h(t_in);
+    let t_is = air.isentropic_t(t_in, pr.max(1e-6));
+    let h_is = air.h(t_is);
+    let h_out = h_in + (h_is - h_in) / eff;
+    let t_out = air.t_from_h(h_out);
+    let w = physical_flow(wc, t_in, p_in_kpa);
+    CompressorStation {
+        w_kg_s: w,
+        wc_kg_s: wc,
+        pr,
+        t_out_k: t_out,
+        h_in,
+        h_out,
+        eff,
+        beta,
+        surge_margin_pct,
+        power_w: w * (h_out - h_in),
+    }
+}
+
+/// Turbine exit state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TurbineStation {
+    pub w_kg_s: f64,
+    pub wc_kg_s: f64,
+    pub pr: f64,
+    pub t_out_k: f64,
+    pub h_in: f64,
+    pub h_out: f64,
+    pub eff: f64,
+    pub power_w: f64,
+}
+
+/// Turbine on its map at expansion ratio `pr = p_in/p_out` (≥ 1 for expansion).
+pub fn turbine(
+    turb: &ScaledTurbine,
+    gas: &Gas,
+    t_in: f64,
+    p_in_kpa: f64,
+    n_rpm: f64,
+    pr: f64,
+) -> TurbineStation {
+    let nc = corrected_speed(n_rpm, t_in);
+    let op = turb.at_pr(nc, pr);
+    let h_in = gas.h(t_in);
+    // Below PR 1 the map's linear law gives reverse flow; the gas then does no work.
+    let t_is = gas.isentropic_t(t_in, 1.0 / pr.max(1.0));
+    let h_is = gas.h(t_is);
+    let h_out = h_in - op.eff * (h_in - h_is);
+    let t_out = gas.t_from_h(h_out);
+    let w = physical_flow(op.wc_kg_s, t_in, p_in_kpa);
+    TurbineStation {
+        w_kg_s: w,
+        wc_kg_s: op.wc_kg_s,
+        pr,
+        t_out_k: t_out,
+        h_in,
+        h_out,
+        eff: op.eff,
+        power_w: w.max(0.0) * (h_in - h_out),
+    }
+}
+
+/// Combustor exit temperature from an adiabatic energy balance (steady state):
+/// W_air·h2 + W_f·η_b·LHV = (W_air + W_f)·h3 with sensible enthalpies referenced to 288.15 K.
+pub fn combustor_exit_temperature(
+    w_air: f64,
+    h2: f64,
+    w_fuel: f64,
+    eta_b: f64,
+    lhv: f64,
+) -> (f64, Gas) {
+    let far = if w_air > 0.0 { (w_fuel / w_air).clamp(0.0, 0.065) } else { 0.0 };
+    let gas = Gas::products(far);
+    let h3 = (w_air * h2 + w_fuel * eta_b * lhv) / (w_air + w_fuel);
+    (gas.t_from_h(h3), gas)
+}

@@ -1,0 +1,130 @@
+//! Design-point cycle: from the reference engine's table and assumptions, the turbine inlet
+//! temperature, fuel and air flow and every station at the design point (REFERENCE §1).
+//!
+//! The table fixes pressure ratio, compressor efficiency, exhaust flow and power; the cycle
+//! assumptions fix losses and turbine efficiencies. T3 is the one unknown: it is found so that
+//! the power at the PT coupling equals the table value. The map scalers are then derived from
+//! this cycle in [`super::model::Engine::new`]. Pure arithmetic, no I/O.
+
+use super::config::EngineConfig;
+use super::model::{DesignPoint, EngineError};
+use crate::thermo::Gas;
+
+/// Fuel flow for a given T3 at fixed total exhaust flow (fixed point, converges in a few steps).
+fn fuel_for_t3(cfg: &EngineConfig, w_total: f64, h2: f64, t3: f64) -> (f64, f64, Gas) {
+    let d = &cfg.design;
+    let mut wf = 0.02 * w_total;
+    let mut gas = Gas::products(0.02);
+    let mut w_comb_air = w_total - wf;
+    for _ in 0..50 {
+        w_comb_air = w_total - wf;
+        gas = Gas::products(wf / w_comb_air);
+        let wf_new = w_comb_air * (gas.h(t3) - h2) / (d.combustion_efficiency * d.fuel_lhv_j_per_kg - gas.h(t3));
+        if (wf_new - wf).abs() < 1e-13 * w_total {
+            wf = wf_new;
+            break;
+        }
+        wf = wf_new;
+    }
+    (wf, w_comb_air, gas)
+}
+
+/// Computes the design cycle; fails if no T3 in 900–2400 K meets the power.
+pub fn design_cycle(cfg: &EngineConfig) -> Result<DesignPoint, EngineError> {
+    let d = &cfg.design;
+    let air = Gas::air();
+    let t1 = cfg.ambient.temperature_k;
+    let p1 = cfg.ambient.pressure_kpa * (1.0 - d.inlet_loss_frac);
+    let p2 = p1 * d.pressure_ratio;
+    let h1 = air.h(t1);
+    let h2s = air.h(air.isentropic_t(t1, d.pressure_ratio));
+    let h2 = h1 + (h2s - h1) / d.compressor_efficiency;
+    let t2 = air.t_from_h(h2);
+    let p3 = p2 * (1.0 - d.combustor_loss_frac);
+    let p4 = cfg.ambient.pressure_kpa * d.exhaust_back_pressure_ratio;
+    let w_total = d.exhaust_flow_kg_s;
+    let eta_m = d.mechanical_efficiency;
+    // Shaft losses at design speed, as `Constants::gg_loss_w` / `pt_loss_w` compute them
+    // (the bearing torque's tanh factor is 1 at these speeds).
+    let dy = &cfg.dynamics;
+    let rad = std::f64::consts::PI / 30.0;
+    let gg_friction = dy.gg_friction_kw_at_design * 1e3
+        + dy.gg_bearing_torque_n_m * (d.gg_speed_rpm / 20.0).tanh() * d.gg_speed_rpm * rad;
+    let pt_windage = dy.pt_windage_kw_at_sync * 1e3
+        + dy.pt_bearing_torque_n_m * (d.pt_speed_rpm / 20.0).tanh() * d.pt_speed_rpm * rad;
+
+    // Everything that follows from a T3 guess.
+    let eval = |t3: f64| -> Result<DesignPoint, EngineError> {
+        let (wf, w_comb_air, gas) = fuel_for_t3(cfg, w_total, h2, t3);
+        // Bleed leaves the compressor overboard: the compressor passes more than the combustor gets.
+        let w_comp = w_comb_air / (1.0 - d.cooling_bleed_frac);
+        let p_comp = w_comp * (h2 - h1);
+        let p_hpt = (p_comp + gg_friction) / eta_m;
+        let h3 = gas.h(t3);
+        let h34 = h3 - p_hpt / w_total;
+        let t34 = gas.t_from_h(h34);
+        let h34s = h3 - (h3 - h34) / d.hpt_efficiency;
+        let t34s = gas.t_from_h(h34s);
+        let hpt_pr = ((gas.phi(t3) - gas.phi(t34s)) / gas.r()).exp();
+        let p34 = p3 / hpt_pr;
+        let pt_pr = p34 / p4;
+        if pt_pr <= 1.0 {
+            return Err(EngineError::Calibration(format!(
+                "T3 = {t3:.0} K leaves no expansion for the power turbine (P34/P4 = {pt_pr:.3})"
+            )));
+        }
+        let t4s = gas.isentropic_t(t34, 1.0 / pt_pr);
+        let h4 = h34 - d.pt_efficiency * (h34 - gas.h(t4s));
+        let t4 = gas.t_from_h(h4);
+        let p_pt = w_total * (h34 - h4);
+        let power = eta_m * p_pt - pt_windage;
+        Ok(DesignPoint {
+            t1_k: t1,
+            p1_kpa: p1,
+            t2_k: t2,
+            p2_kpa: p2,
+            t3_k: t3,
+            p3_kpa: p3,
+            t34_k: t34,
+            p34_kpa: p34,
+            t4_k: t4,
+            p4_kpa: p4,
+            air_kg_s: w_comp,
+            fuel_kg_s: wf,
+            exhaust_kg_s: w_total,
+            compressor_power_w: p_comp,
+            hpt_power_w: p_hpt,
+            pt_power_w: p_pt,
+            power_mw: power / 1e6,
+            hpt_pr,
+            pt_pr,
+        })
+    };
+
+    let target = d.power_mw;
+    let residual = |t3: f64| -> f64 {
+        match eval(t3) {
+            Ok(dp) => dp.power_mw - target,
+            Err(_) => -target,
+        }
+    };
+    // Power rises monotonically with T3 here; bisection is robust and exact enough.
+    let (mut lo, mut hi) = (900.0_f64, 2400.0_f64);
+    if residual(lo) > 0.0 || residual(hi) < 0.0 {
+        return Err(EngineError::Calibration(format!(
+            "no turbine inlet temperature in {lo}–{hi} K gives {target} MW with these assumptions"
+        )));
+    }
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if residual(mid) > 0.0 {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+        if hi - lo < 1e-10 {
+            break;
+        }
+    }
+    eval(0.5 * (lo + hi))
+}

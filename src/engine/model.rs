@@ -1,0 +1,279 @@
+//! The calibrated engine and its health-scaled instance.
+//!
+//! [`Engine`] is built once from an [`EngineConfig`]: it loads the three maps and calibrates their
+//! scalers so the reference design point (REFERENCE §1) holds. [`Model`] is that engine with one
+//! health vector applied; the steady solver and the dynamic model both run on a `Model`.
+//! Pure: map files are read only by [`Engine::new`] when the config names a file path.
+
+use super::config::EngineConfig;
+use super::cycle::{P_STD_KPA, T_STD_K};
+use crate::health::HealthParams;
+use crate::maps::{self, CompressorMap, ScaledCompressor, ScaledTurbine, TurbineMap};
+use std::path::Path;
+
+/// Errors building or running the engine model.
+#[derive(Debug, thiserror::Error)]
+pub enum EngineError {
+    #[error(transparent)]
+    Config(#[from] super::config::EngineConfigError),
+    #[error("map: {0}")]
+    Map(#[from] maps::MapError),
+    #[error("design-point calibration failed: {0}")]
+    Calibration(String),
+    #[error("steady-state solver: {0}")]
+    NoSteadySolution(String),
+    #[error("simulation failed at t = {t_s:.2} s: {reason}")]
+    Simulation { t_s: f64, reason: String },
+}
+
+/// The design point as calibrated: every station of the reference cycle.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct DesignPoint {
+    pub t1_k: f64,
+    pub p1_kpa: f64,
+    pub t2_k: f64,
+    pub p2_kpa: f64,
+    pub t3_k: f64,
+    pub p3_kpa: f64,
+    pub t34_k: f64,
+    pub p34_kpa: f64,
+    pub t4_k: f64,
+    pub p4_kpa: f64,
+    pub air_kg_s: f64,
+    pub fuel_kg_s: f64,
+    pub exhaust_kg_s: f64,
+    pub compressor_power_w: f64,
+    pub hpt_power_w: f64,
+    pub pt_power_w: f64,
+    pub power_mw: f64,
+    pub hpt_pr: f64,
+    pub pt_pr: f64,
+}
+
+/// Constants of the model, derived from the config and the design point (SI units, kPa).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Constants {
+    pub t_amb_k: f64,
+    pub p_amb_kpa: f64,
+    pub inlet_loss_frac: f64,
+    pub wc1_design: f64,
+    pub combustor_loss_frac: f64,
+    /// W2·√T2/P2 at design, for the combustor loss law.
+    pub q2_design: f64,
+    pub exhaust_excess_ratio: f64,
+    /// W·√T34/P_amb at design, for the exhaust back-pressure law.
+    pub q4_design: f64,
+    pub eta_b: f64,
+    pub lhv: f64,
+    pub eta_m: f64,
+    pub bleed: f64,
+    pub gg_inertia: f64,
+    pub pt_inertia: f64,
+    pub v_comb: f64,
+    pub v_duct: f64,
+    pub gg_friction_w: f64,
+    pub pt_windage_w: f64,
+    pub pt_breakaway_nm: f64,
+    pub gg_bearing_nm: f64,
+    pub pt_bearing_nm: f64,
+    pub n1_design: f64,
+    pub n2_design: f64,
+    pub power_design_w: f64,
+    pub fuel_design: f64,
+    pub flow_design: f64,
+    pub p2_design_kpa: f64,
+    pub t3_design_k: f64,
+    pub p34_design_kpa: f64,
+}
+
+impl Constants {
+    /// Compressor inlet pressure: ambient less an inlet loss ∝ (corrected flow)².
+    #[inline]
+    pub fn p1(&self, p_amb: f64, wc1: f64) -> f64 {
+        let r = wc1 / self.wc1_design;
+        p_amb * (1.0 - self.inlet_loss_frac * r * r)
+    }
+    /// Combustor exit pressure: P2 less a loss ∝ (W√T2/P2)².
+    #[inline]
+    pub fn p3(&self, p2: f64, w2: f64, t2: f64) -> f64 {
+        let r = w2 * t2.sqrt() / p2 / self.q2_design;
+        p2 * (1.0 - (self.combustor_loss_frac * r * r).min(0.5))
+    }
+    /// Exhaust back-pressure: ambient plus an excess ∝ (W√T34/P_amb)².
+    #[inline]
+    pub fn p4(&self, p_amb: f64, w: f64, t34: f64) -> f64 {
+        let r = w.max(0.0) * t34.sqrt() / p_amb / self.q4_design;
+        p_amb * (1.0 + self.exhaust_excess_ratio * r * r)
+    }
+    /// GG bearing and windage loss power ∝ n².
+    #[inline]
+    fn gg_friction(&self, n1: f64) -> f64 {
+        let r = n1 / self.n1_design;
+        self.gg_friction_w * r * r
+    }
+    /// Smooth Coulomb bearing torque (N·m): full value above ~50 rpm, zero at rest.
+    #[inline]
+    fn bearing_torque(torque: f64, n: f64) -> f64 {
+        torque * (n / 20.0).tanh()
+    }
+    /// All GG shaft losses outside the mechanical efficiency, W.
+    #[inline]
+    pub fn gg_loss_w(&self, n1: f64) -> f64 {
+        self.gg_friction(n1) + Self::bearing_torque(self.gg_bearing_nm, n1) * n1 * std::f64::consts::PI / 30.0
+    }
+    /// All PT + generator losses outside the mechanical efficiency, W.
+    #[inline]
+    pub fn pt_loss_w(&self, n2: f64) -> f64 {
+        self.pt_windage(n2) + Self::bearing_torque(self.pt_bearing_nm, n2) * n2 * std::f64::consts::PI / 30.0
+    }
+    /// PT and generator windage ∝ n³.
+    #[inline]
+    fn pt_windage(&self, n2: f64) -> f64 {
+        let r = n2.max(0.0) / self.n2_design;
+        self.pt_windage_w * r * r * r
+    }
+}
+
+/// The calibrated engine (healthy maps).
+#[derive(Debug, Clone)]
+pub struct Engine {
+    pub cfg: EngineConfig,
+    pub design: DesignPoint,
+    pub consts: Constants,
+    comp: ScaledCompressor,
+    hpt: ScaledTurbine,
+    pt: ScaledTurbine,
+}
+
+/// The engine with one health vector applied: what the solvers run on.
+#[derive(Debug, Clone)]
+pub struct Model {
+    pub comp: ScaledCompressor,
+    pub hpt: ScaledTurbine,
+    pub pt: ScaledTurbine,
+    pub consts: Constants,
+    pub health: HealthParams,
+}
+
+fn load_compressor(file: &str) -> Result<CompressorMap, EngineError> {
+    let parsed = if file.is_empty() {
+        maps::gasturb::parse(maps::HPC_MAP, "embedded hpc.map")?
+    } else {
+        maps::gasturb::read_file(Path::new(file))?
+    };
+    Ok(CompressorMap::from_gasturb(&parsed)?)
+}
+
+fn load_turbine(file: &str, embedded: &str, name: &str) -> Result<TurbineMap, EngineError> {
+    let parsed = if file.is_empty() {
+        maps::gasturb::parse(embedded, name)?
+    } else {
+        maps::gasturb::read_file(Path::new(file))?
+    };
+    Ok(TurbineMap::from_gasturb(&parsed)?)
+}
+
+impl Engine {
+    /// Loads the maps and calibrates them to the design point.
+    pub fn new(cfg: EngineConfig) -> Result<Engine, EngineError> {
+        let comp_map = load_compressor(&cfg.maps.compressor_file)?;
+        let hpt_map = load_turbine(&cfg.maps.hpt_file, maps::HPT_MAP, "embedded hpt.map")?;
+        let pt_map = load_turbine(&cfg.maps.pt_file, maps::LPT_MAP, "embedded lpt.map")?;
+        let design = super::design::design_cycle(&cfg)?;
+        let d = &cfg.design;
+        let m = &cfg.maps;
+        let theta1 = design.t1_k / T_STD_K;
+        let delta1 = design.p1_kpa / P_STD_KPA;
+        let wc1 = design.air_kg_s * theta1.sqrt() / delta1;
+        let comp = ScaledCompressor::calibrate(
+            comp_map,
+            m.compressor_design_speed,
+            m.compressor_design_beta,
+            d.gg_speed_rpm / theta1.sqrt(),
+            wc1,
+            d.pressure_ratio,
+            d.compressor_efficiency,
+        );
+        let theta3 = design.t3_k / T_STD_K;
+        let wc3 = design.exhaust_kg_s * theta3.sqrt() / (design.p3_kpa / P_STD_KPA);
+        let hpt = ScaledTurbine::calibrate(
+            hpt_map,
+            m.hpt_design_speed,
+            m.hpt_design_pr,
+            d.gg_speed_rpm / theta3.sqrt(),
+            wc3,
+            design.hpt_pr,
+            d.hpt_efficiency,
+        );
+        let theta34 = design.t34_k / T_STD_K;
+        let wc34 = design.exhaust_kg_s * theta34.sqrt() / (design.p34_kpa / P_STD_KPA);
+        let pt = ScaledTurbine::calibrate(
+            pt_map,
+            m.pt_design_speed,
+            m.pt_design_pr,
+            d.pt_speed_rpm / theta34.sqrt(),
+            wc34,
+            design.pt_pr,
+            d.pt_efficiency,
+        );
+        let dy = &cfg.dynamics;
+        let consts = Constants {
+            t_amb_k: cfg.ambient.temperature_k,
+            p_amb_kpa: cfg.ambient.pressure_kpa,
+            inlet_loss_frac: d.inlet_loss_frac,
+            wc1_design: wc1,
+            combustor_loss_frac: d.combustor_loss_frac,
+            q2_design: design.air_kg_s * design.t2_k.sqrt() / design.p2_kpa,
+            exhaust_excess_ratio: d.exhaust_back_pressure_ratio - 1.0,
+            q4_design: design.exhaust_kg_s * design.t34_k.sqrt() / cfg.ambient.pressure_kpa,
+            eta_b: d.combustion_efficiency,
+            lhv: d.fuel_lhv_j_per_kg,
+            eta_m: d.mechanical_efficiency,
+            bleed: d.cooling_bleed_frac,
+            gg_inertia: dy.gg_inertia_kg_m2,
+            pt_inertia: dy.pt_inertia_kg_m2,
+            v_comb: dy.combustor_volume_m3,
+            v_duct: dy.duct_volume_m3,
+            gg_friction_w: dy.gg_friction_kw_at_design * 1e3,
+            pt_windage_w: dy.pt_windage_kw_at_sync * 1e3,
+            pt_breakaway_nm: dy.pt_breakaway_torque_n_m,
+            gg_bearing_nm: dy.gg_bearing_torque_n_m,
+            pt_bearing_nm: dy.pt_bearing_torque_n_m,
+            n1_design: d.gg_speed_rpm,
+            n2_design: d.pt_speed_rpm,
+            power_design_w: d.power_mw * 1e6,
+            fuel_design: design.fuel_kg_s,
+            flow_design: design.exhaust_kg_s,
+            p2_design_kpa: design.p2_kpa,
+            t3_design_k: design.t3_k,
+            p34_design_kpa: design.p34_kpa,
+        };
+        Ok(Engine { cfg, design, consts, comp, hpt, pt })
+    }
+
+    /// The built-in reference engine.
+    pub fn reference() -> Result<Engine, EngineError> {
+        Engine::new(EngineConfig::reference())
+    }
+
+    /// The engine with `health` applied to its maps (REFERENCE §3 scalers).
+    pub fn model(&self, health: &HealthParams) -> Model {
+        Model {
+            comp: self
+                .comp
+                .with_health(health.compressor_flow_factor(), health.compressor_eff_factor()),
+            hpt: self.hpt.with_health(health.hpt_flow_factor(), health.hpt_eff_factor()),
+            pt: self.pt.with_health(health.pt_flow_factor(), health.pt_eff_factor()),
+            consts: self.consts,
+            health: *health,
+        }
+    }
+
+    /// The model at given ambient conditions (the design calibration stays ISO).
+    pub fn model_at(&self, health: &HealthParams, t_amb_k: f64, p_amb_kpa: f64) -> Model {
+        let mut m = self.model(health);
+        m.consts.t_amb_k = t_amb_k;
+        m.consts.p_amb_kpa = p_amb_kpa;
+        m
+    }
+}

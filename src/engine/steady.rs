@@ -1,0 +1,322 @@
+//! Steady-state matching: given ambient, health and one operating demand, find the operating
+//! point where the compressor, HPT and PT agree on flow and the GG shaft balances.
+//!
+//! Unknowns (normalised by design values): GG speed n1, compressor β, PT inlet pressure P34 and
+//! fuel flow; one of them is fixed or replaced by the demand. Residuals: HPT flow compatibility,
+//! PT flow compatibility, GG work balance, and (for a power demand) the power. Newton's method
+//! with a finite-difference Jacobian and backtracking; far off-design demands are reached by
+//! continuation from the design point. Pure: no I/O.
+
+use super::cycle::{self, CompressorStation, TurbineStation};
+use super::model::{EngineError, Model};
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+
+/// What the operator asks of the engine.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Demand {
+    /// Power at the PT coupling, MW.
+    PowerMw(f64),
+    /// Fuel mass flow, kg/s.
+    FuelKgS(f64),
+    /// GG speed, rpm.
+    N1Rpm(f64),
+}
+
+/// Operating conditions for a steady solve.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SteadyInputs {
+    pub t_amb_k: f64,
+    pub p_amb_kpa: f64,
+    pub n2_rpm: f64,
+    pub demand: Demand,
+}
+
+/// The full station table of a steady operating point.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SteadyPoint {
+    pub n1_rpm: f64,
+    pub n2_rpm: f64,
+    pub t1_k: f64,
+    pub p1_kpa: f64,
+    pub t2_k: f64,
+    pub p2_kpa: f64,
+    pub t3_k: f64,
+    pub p3_kpa: f64,
+    pub t34_k: f64,
+    pub p34_kpa: f64,
+    pub t4_k: f64,
+    pub p4_kpa: f64,
+    pub air_flow_kg_s: f64,
+    pub fuel_kg_s: f64,
+    pub exhaust_flow_kg_s: f64,
+    pub fuel_air_ratio: f64,
+    pub power_mw: f64,
+    pub pressure_ratio: f64,
+    pub hpt_pressure_ratio: f64,
+    pub pt_pressure_ratio: f64,
+    pub compressor_efficiency: f64,
+    pub hpt_efficiency: f64,
+    pub pt_efficiency: f64,
+    pub compressor_beta: f64,
+    pub surge_margin_pct: f64,
+    pub compressor_power_mw: f64,
+    pub hpt_power_mw: f64,
+    pub pt_power_mw: f64,
+    pub heat_rate_kj_kwh: f64,
+    pub thermal_efficiency: f64,
+    /// HPT map flow minus combustor exit flow, kg/s (mass closure; ~0 when solved).
+    pub hpt_flow_error_kg_s: f64,
+    /// PT map flow minus HPT flow, kg/s.
+    pub pt_flow_error_kg_s: f64,
+    /// HPT shaft power minus compressor power and losses, W (energy closure).
+    pub gg_power_error_w: f64,
+}
+
+/// Unknown vector layout: [n1, beta, p34, wf], each normalised.
+#[derive(Debug, Clone, Copy)]
+struct Unknowns([f64; 4]);
+
+struct Evaluated {
+    point: SteadyPoint,
+    residuals: [f64; 4],
+}
+
+fn evaluate(model: &Model, inp: &SteadyInputs, x: &Unknowns) -> Evaluated {
+    let c = &model.consts;
+    let n1 = x.0[0] * c.n1_design;
+    let beta = x.0[1];
+    let p34 = x.0[2] * c.p34_design_kpa;
+    let wf = x.0[3] * c.fuel_design;
+    let t1 = inp.t_amb_k;
+    // The inlet loss depends on the compressor's corrected flow, which β fixes directly.
+    let probe = cycle::compressor_at_beta(&model.comp, t1, inp.p_amb_kpa, n1, beta);
+    let p1 = c.p1(inp.p_amb_kpa, probe.wc_kg_s);
+    let comp: CompressorStation = cycle::compressor_at_beta(&model.comp, t1, p1, n1, beta);
+    let p2 = p1 * comp.pr;
+    let w_air = comp.w_kg_s * (1.0 - c.bleed);
+    let p3 = c.p3(p2, comp.w_kg_s, comp.t_out_k);
+    let (t3, gas) = cycle::combustor_exit_temperature(w_air, comp.h_out, wf, c.eta_b, c.lhv);
+    let w3 = w_air + wf;
+    let hpt: TurbineStation = cycle::turbine(&model.hpt, &gas, t3, p3, n1, p3 / p34);
+    let p4 = c.p4(inp.p_amb_kpa, w3, hpt.t_out_k);
+    let pt: TurbineStation = cycle::turbine(&model.pt, &gas, hpt.t_out_k, p34, inp.n2_rpm, p34 / p4);
+    let power_w = c.eta_m * pt.power_w - c.pt_loss_w(inp.n2_rpm);
+    let gg_err = c.eta_m * hpt.power_w - comp.power_w - c.gg_loss_w(n1);
+    let wd = c.flow_design;
+    let pd = c.power_design_w;
+    let target_power = match inp.demand {
+        Demand::PowerMw(p) => p * 1e6,
+        _ => power_w,
+    };
+    let residuals = [
+        (hpt.w_kg_s - w3) / wd,
+        (pt.w_kg_s - w3) / wd,
+        gg_err / pd,
+        (power_w - target_power) / pd,
+    ];
+    let heat = wf * c.lhv;
+    let point = SteadyPoint {
+        n1_rpm: n1,
+        n2_rpm: inp.n2_rpm,
+        t1_k: t1,
+        p1_kpa: p1,
+        t2_k: comp.t_out_k,
+        p2_kpa: p2,
+        t3_k: t3,
+        p3_kpa: p3,
+        t34_k: hpt.t_out_k,
+        p34_kpa: p34,
+        t4_k: pt.t_out_k,
+        p4_kpa: p4,
+        air_flow_kg_s: comp.w_kg_s,
+        fuel_kg_s: wf,
+        exhaust_flow_kg_s: w3,
+        fuel_air_ratio: gas.far(),
+        power_mw: power_w / 1e6,
+        pressure_ratio: comp.pr,
+        hpt_pressure_ratio: p3 / p34,
+        pt_pressure_ratio: p34 / p4,
+        compressor_efficiency: comp.eff,
+        hpt_efficiency: hpt.eff,
+        pt_efficiency: pt.eff,
+        compressor_beta: comp.beta,
+        surge_margin_pct: comp.surge_margin_pct,
+        compressor_power_mw: comp.power_w / 1e6,
+        hpt_power_mw: hpt.power_w / 1e6,
+        pt_power_mw: pt.power_w / 1e6,
+        heat_rate_kj_kwh: if power_w > 0.0 { heat / power_w * 3600.0 } else { f64::INFINITY },
+        thermal_efficiency: if heat > 0.0 { power_w / heat } else { 0.0 },
+        hpt_flow_error_kg_s: hpt.w_kg_s - w3,
+        pt_flow_error_kg_s: pt.w_kg_s - w3,
+        gg_power_error_w: gg_err,
+    };
+    Evaluated { point, residuals }
+}
+
+/// Which unknowns are free and which residuals are used for a demand.
+fn layout(demand: Demand) -> (&'static [usize], &'static [usize]) {
+    match demand {
+        Demand::PowerMw(_) => (&[0, 1, 2, 3], &[0, 1, 2, 3]),
+        Demand::FuelKgS(_) => (&[0, 1, 2], &[0, 1, 2]),
+        Demand::N1Rpm(_) => (&[1, 2, 3], &[0, 1, 2]),
+    }
+}
+
+fn fix_demand(model: &Model, demand: Demand, x: &mut Unknowns) {
+    match demand {
+        Demand::FuelKgS(wf) => x.0[3] = wf / model.consts.fuel_design,
+        Demand::N1Rpm(n) => x.0[0] = n / model.consts.n1_design,
+        Demand::PowerMw(_) => {}
+    }
+}
+
+fn norm(r: &[f64], rows: &[usize]) -> f64 {
+    rows.iter().map(|&i| r[i] * r[i]).sum::<f64>().sqrt()
+}
+
+fn valid(x: &Unknowns, model: &Model, inp: &SteadyInputs) -> bool {
+    x.0[0] > 0.05
+        && (-1.0..=2.0).contains(&x.0[1])
+        && x.0[2] * model.consts.p34_design_kpa > inp.p_amb_kpa * 1.0005
+        && x.0[3] > 0.0
+        && x.0.iter().all(|v| v.is_finite())
+}
+
+/// Newton iteration from `x0`; returns the converged unknowns.
+fn newton(model: &Model, inp: &SteadyInputs, x0: Unknowns) -> Result<Unknowns, String> {
+    let (free, rows) = layout(inp.demand);
+    let mut x = x0;
+    fix_demand(model, inp.demand, &mut x);
+    let mut ev = evaluate(model, inp, &x);
+    let mut f = norm(&ev.residuals, rows);
+    for _iter in 0..60 {
+        if f < 1e-11 {
+            return Ok(x);
+        }
+        let n = free.len();
+        let mut jac = DMatrix::<f64>::zeros(n, n);
+        for (j, &k) in free.iter().enumerate() {
+            let h = 1e-7 * x.0[k].abs().max(1e-2);
+            let mut xp = x;
+            xp.0[k] += h;
+            let evp = evaluate(model, inp, &xp);
+            for (i, &r) in rows.iter().enumerate() {
+                jac[(i, j)] = (evp.residuals[r] - ev.residuals[r]) / h;
+            }
+        }
+        let rhs = DVector::from_iterator(n, rows.iter().map(|&r| -ev.residuals[r]));
+        let dx = jac.lu().solve(&rhs).ok_or("singular Jacobian (no unique operating point)")?;
+        // Backtracking: accept the largest step that keeps the point valid and lowers |r|.
+        let mut lambda = 1.0;
+        let mut accepted = false;
+        for _ in 0..30 {
+            let mut xn = x;
+            for (j, &k) in free.iter().enumerate() {
+                xn.0[k] += lambda * dx[j];
+            }
+            if valid(&xn, model, inp) {
+                let evn = evaluate(model, inp, &xn);
+                let fnew = norm(&evn.residuals, rows);
+                if fnew.is_finite() && fnew < f {
+                    x = xn;
+                    ev = evn;
+                    f = fnew;
+                    accepted = true;
+                    break;
+                }
+            }
+            lambda *= 0.5;
+        }
+        if !accepted {
+            return Err(format!("Newton stalled with residual norm {f:.3e}"));
+        }
+    }
+    if f < 1e-9 {
+        Ok(x)
+    } else {
+        Err(format!("no convergence after 60 iterations (residual norm {f:.3e})"))
+    }
+}
+
+fn design_guess() -> Unknowns {
+    Unknowns([1.0, 0.5, 1.0, 1.0])
+}
+
+fn guess_from(model: &Model, p: &SteadyPoint) -> Unknowns {
+    let c = &model.consts;
+    Unknowns([
+        p.n1_rpm / c.n1_design,
+        p.compressor_beta,
+        p.p34_kpa / c.p34_design_kpa,
+        p.fuel_kg_s / c.fuel_design,
+    ])
+}
+
+fn demand_value(d: Demand) -> f64 {
+    match d {
+        Demand::PowerMw(v) | Demand::FuelKgS(v) | Demand::N1Rpm(v) => v,
+    }
+}
+
+fn with_value(d: Demand, v: f64) -> Demand {
+    match d {
+        Demand::PowerMw(_) => Demand::PowerMw(v),
+        Demand::FuelKgS(_) => Demand::FuelKgS(v),
+        Demand::N1Rpm(_) => Demand::N1Rpm(v),
+    }
+}
+
+/// Solves for the steady operating point. `guess` (a nearby solution) speeds it up; without it
+/// the solve starts at the design point and walks the demand there by continuation if needed.
+pub fn solve(
+    model: &Model,
+    inp: &SteadyInputs,
+    guess: Option<&SteadyPoint>,
+) -> Result<SteadyPoint, EngineError> {
+    let x0 = guess.map(|g| guess_from(model, g)).unwrap_or_else(design_guess);
+    if let Ok(x) = newton(model, inp, x0) {
+        return Ok(evaluate(model, inp, &x).point);
+    }
+    // Continuation: start from the design point's own demand value and step towards the target.
+    let design = newton(
+        model,
+        &SteadyInputs { demand: Demand::N1Rpm(model.consts.n1_design), ..*inp },
+        design_guess(),
+    )
+    .map_err(|e| EngineError::NoSteadySolution(format!("even the design speed fails: {e}")))?;
+    let dp = evaluate(model, inp, &design).point;
+    let start = match inp.demand {
+        Demand::PowerMw(_) => dp.power_mw,
+        Demand::FuelKgS(_) => dp.fuel_kg_s,
+        Demand::N1Rpm(_) => dp.n1_rpm,
+    };
+    let target = demand_value(inp.demand);
+    let mut x = design;
+    let mut s = 0.0_f64;
+    let mut ds = 0.1_f64;
+    while s < 1.0 {
+        let s_try = (s + ds).min(1.0);
+        let sub = SteadyInputs { demand: with_value(inp.demand, start + s_try * (target - start)), ..*inp };
+        match newton(model, &sub, x) {
+            Ok(xn) => {
+                x = xn;
+                s = s_try;
+                ds = (ds * 1.5).min(0.25);
+            }
+            Err(e) => {
+                ds *= 0.5;
+                if ds < 1e-3 {
+                    return Err(EngineError::NoSteadySolution(format!(
+                        "no operating point for {:?} at {:.2} K, {:.3} kPa: continuation stopped at {:.1} % of the way ({e})",
+                        inp.demand,
+                        inp.t_amb_k,
+                        inp.p_amb_kpa,
+                        s * 100.0
+                    )));
+                }
+            }
+        }
+    }
+    Ok(evaluate(model, inp, &x).point)
+}

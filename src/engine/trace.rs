@@ -1,0 +1,129 @@
+//! A simulated start-up as a table of samples: true values, measured values and phase, with the
+//! CSV layout that `gtwatch simulate` writes and the diagnosis reads.
+//!
+//! Column order follows [`Signal::ALL`]. Writing is to any `io::Write`; this module does not
+//! open files.
+
+use super::config::EngineConfig;
+use super::dynamic::Stations;
+use super::sensors::{self, MeasurementOptions};
+use super::sequence::TruthSample;
+use crate::signals::{Phase, Signal};
+use std::io::Write;
+
+/// Number of signals per sample.
+pub const NSIG: usize = Signal::ALL.len();
+
+/// Signal values indexed by [`Signal::index`].
+pub type Values = [f64; NSIG];
+
+/// The values of every signal in a station table.
+pub fn values_of(st: &Stations) -> Values {
+    let mut v = [0.0; NSIG];
+    for s in Signal::ALL {
+        v[s.index()] = match s {
+            Signal::N1 => st.n1_rpm,
+            Signal::N2 => st.n2_rpm,
+            Signal::T1 => st.t1_k,
+            Signal::P1 => st.p1_kpa,
+            Signal::T2 => st.t2_k,
+            Signal::P2 => st.p2_kpa,
+            Signal::T3 => st.t3_k,
+            Signal::P3 => st.p3_kpa,
+            Signal::T34 => st.t34_k,
+            Signal::P34 => st.p34_kpa,
+            Signal::T4 => st.t4_k,
+            Signal::P4 => st.p4_kpa,
+            Signal::FuelFlow => st.fuel_kg_s,
+            Signal::Power => st.power_mw,
+            Signal::SurgeMargin => st.surge_margin_pct,
+        };
+    }
+    v
+}
+
+/// A sampled run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Trace {
+    pub t_s: Vec<f64>,
+    pub phase: Vec<Phase>,
+    pub truth: Vec<Values>,
+    /// What the instruments report (equal to `truth` when no measurement model was applied).
+    pub measured: Vec<Values>,
+    /// Whether `measured` differs from `truth` (lags, noise or bias applied).
+    pub has_measurement_model: bool,
+}
+
+impl Trace {
+    /// Builds a trace from true samples, applying the measurement model if asked.
+    pub fn from_truth(cfg: &EngineConfig, samples: &[TruthSample], meas: Option<&MeasurementOptions>) -> Trace {
+        let t_s: Vec<f64> = samples.iter().map(|s| s.t_s).collect();
+        let phase = samples.iter().map(|s| s.phase).collect();
+        let truth: Vec<Values> = samples.iter().map(|s| values_of(&s.stations)).collect();
+        let mut measured = truth.clone();
+        if let Some(o) = meas {
+            let dt = cfg.sequence.sample_period_s;
+            for s in Signal::ALL {
+                let series: Vec<f64> = truth.iter().map(|v| v[s.index()]).collect();
+                let m = sensors::measure(&cfg.sensors, s, &series, dt, o);
+                for (row, val) in measured.iter_mut().zip(m) {
+                    row[s.index()] = val;
+                }
+            }
+        }
+        Trace { t_s, phase, truth, measured, has_measurement_model: meas.is_some() }
+    }
+
+    pub fn len(&self) -> usize {
+        self.t_s.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.t_s.is_empty()
+    }
+
+    /// Measured series of one signal.
+    pub fn measured_series(&self, s: Signal) -> Vec<f64> {
+        self.measured.iter().map(|v| v[s.index()]).collect()
+    }
+
+    /// True series of one signal.
+    pub fn true_series(&self, s: Signal) -> Vec<f64> {
+        self.truth.iter().map(|v| v[s.index()]).collect()
+    }
+
+    /// Writes the CSV: `time_s, phase`, the measured columns, and `true_` columns when a
+    /// measurement model was applied.
+    pub fn write_csv<W: Write>(&self, mut w: W) -> std::io::Result<()> {
+        let mut header: Vec<String> = vec!["time_s".into(), "phase".into()];
+        header.extend(Signal::ALL.iter().map(|s| s.column().to_string()));
+        if self.has_measurement_model {
+            header.extend(Signal::ALL.iter().map(|s| format!("true_{}", s.column())));
+        }
+        writeln!(w, "{}", header.join(","))?;
+        let mut line = String::with_capacity(512);
+        for k in 0..self.len() {
+            line.clear();
+            line.push_str(&format!("{:.3},{}", self.t_s[k], self.phase[k]));
+            for v in self.measured[k].iter() {
+                line.push_str(&format!(",{}", fmt_value(*v)));
+            }
+            if self.has_measurement_model {
+                for v in self.truth[k].iter() {
+                    line.push_str(&format!(",{}", fmt_value(*v)));
+                }
+            }
+            writeln!(w, "{line}")?;
+        }
+        Ok(())
+    }
+}
+
+/// Six significant decimals: enough for every channel, stable across platforms.
+fn fmt_value(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v:.6}")
+    } else {
+        String::new()
+    }
+}
