@@ -6,3 +6,4 @@
 
 pub mod health;
 pub mod signals;
+pub mod thermo;
