@@ -5,4 +5,6 @@
 #![deny(clippy::unwrap_used)]
 
 pub mod health;
+pub mod maps;
 pub mod signals;
+pub mod thermo;

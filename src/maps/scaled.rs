@@ -1,0 +1,324 @@
+//! Maps scaled to the engine's design point, with component health applied.
+//!
+//! What it is for: engine-unit look-ups for the dynamic model. Engine units are corrected speed
+//! `Nc = N / sqrt(T_in / 288.15 K)` in rpm and corrected flow
+//! `Wc = W · sqrt(T_in / 288.15 K) / (P_in / 101.325 kPa)` in kg/s. What it must not do: I/O,
+//! allocation per call; the maps are shared (`Arc`), so scaled components are cheap to clone
+//! and `Send + Sync`.
+//!
+//! Scaling (engine = scaler × map): `Nc = speed · nc`, `Wc = flow · wc`,
+//! `PR = 1 + pr_minus_one · (PR_map − 1)`, `eff = eff · eff_map`. [`ScaledCompressor::calibrate`]
+//! picks the scalers so that one map point becomes the engine design point exactly.
+//!
+//! Health (REFERENCE §3, `crate::health`): corrected flow × `flow_factor`, efficiency ×
+//! `eff_factor`, e.g. `flow_factor = 1 − D_GC/100`. The flow factor shifts the whole map
+//! including the surge line. `with_health` *replaces* the health factors (it is always relative
+//! to the calibrated, healthy map), so an optimiser can call it for every candidate.
+//!
+//! Surge margin, percent: `SM = (PR_surge(Wc) / PR − 1) · 100` with `PR_surge` the scaled surge
+//! line's pressure ratio at the operating point's corrected flow. Positive inside the map, 0 on
+//! the surge line, negative beyond it.
+
+use super::compressor::CompressorMap;
+use super::turbine::TurbineMap;
+use std::sync::Arc;
+
+/// Design-point scalers: engine = scaler × map (PR: `1 + pr_minus_one · (PR_map − 1)`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MapScalers {
+    pub speed: f64,
+    pub flow: f64,
+    pub pr_minus_one: f64,
+    pub eff: f64,
+}
+
+/// Compressor operating point in engine units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CompressorOp {
+    /// Corrected flow, kg/s.
+    pub wc_kg_s: f64,
+    /// Pressure ratio (engine).
+    pub pr: f64,
+    /// Isentropic efficiency (engine, health applied).
+    pub eff: f64,
+    /// Map auxiliary coordinate.
+    pub beta: f64,
+    /// `(PR_surge(Wc)/PR − 1) · 100`.
+    pub surge_margin_pct: f64,
+}
+
+/// Turbine operating point in engine units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TurbineOp {
+    /// Corrected flow, kg/s.
+    pub wc_kg_s: f64,
+    /// Isentropic efficiency (engine, health applied).
+    pub eff: f64,
+    /// Map auxiliary coordinate.
+    pub beta: f64,
+}
+
+/// A compressor map scaled to an engine, with health factors.
+#[derive(Debug, Clone)]
+pub struct ScaledCompressor {
+    map: Arc<CompressorMap>,
+    scalers: MapScalers,
+    flow_factor: f64,
+    eff_factor: f64,
+}
+
+impl ScaledCompressor {
+    /// Scalers so that the map point (`nc_map`, `beta_map`) becomes the engine design point
+    /// (`design_nc_rpm`, `design_wc_kg_s`, `design_pr`, `design_eff`). Healthy (factors 1).
+    pub fn calibrate(
+        map: impl Into<Arc<CompressorMap>>,
+        nc_map: f64,
+        beta_map: f64,
+        design_nc_rpm: f64,
+        design_wc_kg_s: f64,
+        design_pr: f64,
+        design_eff: f64,
+    ) -> Self {
+        let map = map.into();
+        let p = map.point(nc_map, beta_map);
+        let scalers = MapScalers {
+            speed: design_nc_rpm / nc_map,
+            flow: design_wc_kg_s / p.wc,
+            pr_minus_one: (design_pr - 1.0) / (p.pr - 1.0),
+            eff: design_eff / p.eff,
+        };
+        Self::from_scalers(map, scalers)
+    }
+
+    /// A scaled compressor with given scalers, healthy.
+    pub fn from_scalers(map: impl Into<Arc<CompressorMap>>, scalers: MapScalers) -> Self {
+        ScaledCompressor {
+            map: map.into(),
+            scalers,
+            flow_factor: 1.0,
+            eff_factor: 1.0,
+        }
+    }
+
+    /// Same calibration with health factors (replacing any previous ones): corrected flow ×
+    /// `flow_factor`, efficiency × `eff_factor`.
+    pub fn with_health(&self, flow_factor: f64, eff_factor: f64) -> Self {
+        ScaledCompressor {
+            map: Arc::clone(&self.map),
+            scalers: self.scalers,
+            flow_factor,
+            eff_factor,
+        }
+    }
+
+    pub fn scalers(&self) -> MapScalers {
+        self.scalers
+    }
+    /// `(flow_factor, eff_factor)`.
+    pub fn health(&self) -> (f64, f64) {
+        (self.flow_factor, self.eff_factor)
+    }
+    pub fn map(&self) -> &CompressorMap {
+        &self.map
+    }
+
+    #[inline]
+    fn op(&self, nc_map: f64, beta: f64) -> CompressorOp {
+        let s = &self.scalers;
+        let p = self.map.point(nc_map, beta);
+        let pr = 1.0 + s.pr_minus_one * (p.pr - 1.0);
+        // Surge line in map units at the same map flow (health shifts the map as a whole).
+        let pr_surge = 1.0 + s.pr_minus_one * (self.map.surge_pr(p.wc) - 1.0);
+        CompressorOp {
+            wc_kg_s: s.flow * self.flow_factor * p.wc,
+            pr,
+            eff: s.eff * self.eff_factor * p.eff,
+            beta,
+            surge_margin_pct: (pr_surge / pr - 1.0) * 100.0,
+        }
+    }
+
+    /// Operating point at corrected speed `nc_rpm` and engine pressure ratio `pr`.
+    pub fn at_pr(&self, nc_rpm: f64, pr: f64) -> CompressorOp {
+        let s = &self.scalers;
+        let nc_map = nc_rpm / s.speed;
+        let pr_map = 1.0 + (pr - 1.0) / s.pr_minus_one;
+        let beta = self.map.beta_for_pr(nc_map, pr_map);
+        let mut op = self.op(nc_map, beta);
+        op.pr = pr;
+        op
+    }
+
+    /// Operating point at corrected speed `nc_rpm` and map coordinate `beta`.
+    pub fn at_beta(&self, nc_rpm: f64, beta: f64) -> CompressorOp {
+        self.op(nc_rpm / self.scalers.speed, beta)
+    }
+}
+
+/// A turbine map scaled to an engine, with health factors.
+#[derive(Debug, Clone)]
+pub struct ScaledTurbine {
+    map: Arc<TurbineMap>,
+    scalers: MapScalers,
+    flow_factor: f64,
+    eff_factor: f64,
+}
+
+impl ScaledTurbine {
+    /// Scalers so that the map point (`nc_map`, `pr_map`) becomes the engine design point.
+    pub fn calibrate(
+        map: impl Into<Arc<TurbineMap>>,
+        nc_map: f64,
+        pr_map: f64,
+        design_nc_rpm: f64,
+        design_wc_kg_s: f64,
+        design_pr: f64,
+        design_eff: f64,
+    ) -> Self {
+        let map = map.into();
+        let p = map.point(nc_map, pr_map);
+        let scalers = MapScalers {
+            speed: design_nc_rpm / nc_map,
+            flow: design_wc_kg_s / p.wc,
+            pr_minus_one: (design_pr - 1.0) / (pr_map - 1.0),
+            eff: design_eff / p.eff,
+        };
+        Self::from_scalers(map, scalers)
+    }
+
+    /// A scaled turbine with given scalers, healthy.
+    pub fn from_scalers(map: impl Into<Arc<TurbineMap>>, scalers: MapScalers) -> Self {
+        ScaledTurbine {
+            map: map.into(),
+            scalers,
+            flow_factor: 1.0,
+            eff_factor: 1.0,
+        }
+    }
+
+    /// Same calibration with health factors (replacing any previous ones).
+    pub fn with_health(&self, flow_factor: f64, eff_factor: f64) -> Self {
+        ScaledTurbine {
+            map: Arc::clone(&self.map),
+            scalers: self.scalers,
+            flow_factor,
+            eff_factor,
+        }
+    }
+
+    pub fn scalers(&self) -> MapScalers {
+        self.scalers
+    }
+    pub fn health(&self) -> (f64, f64) {
+        (self.flow_factor, self.eff_factor)
+    }
+    pub fn map(&self) -> &TurbineMap {
+        &self.map
+    }
+
+    /// Operating point at corrected speed `nc_rpm` and engine pressure ratio `pr` (inlet/outlet).
+    pub fn at_pr(&self, nc_rpm: f64, pr: f64) -> TurbineOp {
+        let s = &self.scalers;
+        let p = self
+            .map
+            .point(nc_rpm / s.speed, 1.0 + (pr - 1.0) / s.pr_minus_one);
+        TurbineOp {
+            wc_kg_s: s.flow * self.flow_factor * p.wc,
+            eff: s.eff * self.eff_factor * p.eff,
+            beta: p.beta,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::health::HealthParams;
+    use crate::maps::{hpc, hpt, lpt};
+
+    fn comp() -> ScaledCompressor {
+        ScaledCompressor::calibrate(hpc().expect("hpc"), 1.0, 0.5, 9500.0, 80.0, 24.1, 0.85)
+    }
+
+    #[test]
+    fn calibration_reproduces_design() {
+        let c = comp();
+        let op = c.at_beta(9500.0, 0.5);
+        assert!((op.wc_kg_s - 80.0).abs() < 1e-12);
+        assert!((op.pr - 24.1).abs() < 1e-12);
+        assert!((op.eff - 0.85).abs() < 1e-14);
+        let op = c.at_pr(9500.0, 24.1);
+        assert!((op.beta - 0.5).abs() < 1e-12);
+        assert!((op.wc_kg_s - 80.0).abs() < 1e-10);
+        assert!((op.eff - 0.85).abs() < 1e-12);
+        for (t, pr, eff) in [
+            (hpt().expect("hpt"), 4.4, 0.88),
+            (lpt().expect("lpt"), 5.3, 0.90),
+        ] {
+            let s = ScaledTurbine::calibrate(t, 1.0, 5.0, 9500.0, 12.5, pr, eff);
+            let op = s.at_pr(9500.0, pr);
+            assert!((op.wc_kg_s - 12.5).abs() < 1e-12);
+            assert!((op.eff - eff).abs() < 1e-14);
+            assert!((op.beta - 0.4).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn health_scales_flow_and_efficiency_exactly() {
+        let c = comp();
+        let h = HealthParams {
+            D_GC: 3.0,
+            D_EC: 1.0,
+            ..HealthParams::HEALTHY
+        };
+        let d = c.with_health(h.compressor_flow_factor(), h.compressor_eff_factor());
+        for (n, pr) in [(9500.0, 24.1), (7000.0, 8.0), (3000.0, 1.3)] {
+            let (a, b) = (c.at_pr(n, pr), d.at_pr(n, pr));
+            assert!((b.wc_kg_s / a.wc_kg_s - 0.97).abs() < 1e-12);
+            assert!((b.eff / a.eff - 0.99).abs() < 1e-12);
+            assert!((b.surge_margin_pct - a.surge_margin_pct).abs() < 1e-9);
+        }
+        // with_health replaces, it does not compound.
+        let e = d.with_health(1.0, 1.0);
+        assert_eq!(e.at_pr(9000.0, 20.0), c.at_pr(9000.0, 20.0));
+        let t = ScaledTurbine::calibrate(hpt().expect("hpt"), 1.0, 5.0, 9500.0, 12.5, 4.4, 0.88);
+        let u = t.with_health(0.98, 0.95);
+        for pr in [1.01, 2.0, 4.4, 9.0] {
+            let (a, b) = (t.at_pr(9000.0, pr), u.at_pr(9000.0, pr));
+            assert!((b.wc_kg_s - 0.98 * a.wc_kg_s).abs() < 1e-12);
+            assert!((b.eff - 0.95 * a.eff).abs() < 1e-14);
+        }
+    }
+
+    #[test]
+    fn surge_margin() {
+        let c = comp();
+        // On the surge line (beta 0 on each speed line, and its sub-idle continuation): 0.
+        for &nc in c.map().speeds() {
+            let op = c.at_beta(nc * 9500.0, 0.0);
+            assert!(op.surge_margin_pct.abs() < 1e-9, "{op:?}");
+        }
+        assert!(c.at_beta(3000.0, 0.0).surge_margin_pct.abs() < 1e-9);
+        // Inside the map: positive; beyond surge: negative.
+        for nc in [0.55, 0.7, 0.83, 0.96, 1.0, 1.04] {
+            for beta in [0.05, 0.3, 0.5, 0.8, 1.0] {
+                let op = c.at_beta(nc * 9500.0, beta);
+                assert!(op.surge_margin_pct > 0.0, "nc {nc} beta {beta}: {op:?}");
+            }
+        }
+        assert!(c.at_beta(9500.0, -0.1).surge_margin_pct < 0.0);
+        // Design point margin is a plausible number.
+        let sm = c.at_beta(9500.0, 0.5).surge_margin_pct;
+        assert!((5.0..40.0).contains(&sm), "design SM {sm}");
+    }
+
+    #[test]
+    fn send_sync_and_cheap_clone() {
+        fn assert_send_sync<T: Send + Sync + Clone>() {}
+        assert_send_sync::<ScaledCompressor>();
+        assert_send_sync::<ScaledTurbine>();
+        let c = comp();
+        let d = c.clone();
+        assert!(std::ptr::eq(c.map(), d.map()));
+    }
+}
