@@ -5,6 +5,7 @@
 #![deny(clippy::unwrap_used)]
 
 pub mod health;
+pub mod engine;
 pub mod maps;
 pub mod signals;
 pub mod thermo;

@@ -10,10 +10,57 @@
 //! An embedded first-order solution gives the local error estimate for step-size control.
 //! Pure numerics: no knowledge of the engine.
 
-use nalgebra::{SMatrix, SVector};
 
 /// γ = 1 + 1/√2 (L-stability).
 const GAMMA: f64 = 1.0 + std::f64::consts::FRAC_1_SQRT_2;
+
+/// LU factorisation with partial pivoting of a small dense matrix (row-major).
+#[derive(Debug, Clone, Copy)]
+struct Lu<const N: usize> {
+    a: [[f64; N]; N],
+    piv: [usize; N],
+}
+
+impl<const N: usize> Lu<N> {
+    fn factor(mut a: [[f64; N]; N]) -> Option<Self> {
+        let mut piv = [0usize; N];
+        for k in 0..N {
+            let p = (k..N).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs()))?;
+            if a[p][k] == 0.0 || !a[p][k].is_finite() {
+                return None;
+            }
+            a.swap(k, p);
+            piv[k] = p;
+            for i in k + 1..N {
+                let f = a[i][k] / a[k][k];
+                a[i][k] = f;
+                for j in k + 1..N {
+                    a[i][j] -= f * a[k][j];
+                }
+            }
+        }
+        Some(Lu { a, piv })
+    }
+
+    fn solve(&self, b: &[f64; N]) -> [f64; N] {
+        let mut x = *b;
+        for k in 0..N {
+            x.swap(k, self.piv[k]);
+        }
+        for i in 0..N {
+            for j in 0..i {
+                x[i] -= self.a[i][j] * x[j];
+            }
+        }
+        for i in (0..N).rev() {
+            for j in i + 1..N {
+                x[i] -= self.a[i][j] * x[j];
+            }
+            x[i] /= self.a[i][i];
+        }
+        x
+    }
+}
 
 /// Result of one attempted step.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -26,7 +73,7 @@ pub struct StepResult<const N: usize> {
 /// Integrator state: the reusable Jacobian and counters.
 #[derive(Debug, Clone)]
 pub struct Ros2<const N: usize> {
-    jac: SMatrix<f64, N, N>,
+    jac: [[f64; N]; N],
     jac_valid: bool,
     steps_since_jac: usize,
     /// Refresh the Jacobian after this many steps.
@@ -41,7 +88,7 @@ pub struct Ros2<const N: usize> {
 impl<const N: usize> Ros2<N> {
     pub fn new(rtol: f64, atol: f64) -> Self {
         Ros2 {
-            jac: SMatrix::zeros(),
+            jac: [[0.0; N]; N],
             jac_valid: false,
             steps_since_jac: 0,
             jac_every: 5,
@@ -70,7 +117,7 @@ impl<const N: usize> Ros2<N> {
             yp[j] += h;
             let fp = f(t, &yp);
             for i in 0..N {
-                self.jac[(i, j)] = (fp[i] - f0[i]) / h;
+                self.jac[i][j] = (fp[i] - f0[i]) / h;
             }
         }
         self.rhs_evals += N;
@@ -93,17 +140,25 @@ impl<const N: usize> Ros2<N> {
             self.refresh_jacobian(f, t, y, &f0);
         }
         self.steps_since_jac += 1;
-        let w = SMatrix::<f64, N, N>::identity() - self.jac * (GAMMA * h);
-        let lu = w.lu();
-        let k1 = lu.solve(&SVector::<f64, N>::from(f0))?;
+        let mut w = [[0.0; N]; N];
+        for i in 0..N {
+            for j in 0..N {
+                w[i][j] = if i == j { 1.0 } else { 0.0 } - GAMMA * h * self.jac[i][j];
+            }
+        }
+        let lu = Lu::factor(w)?;
+        let k1 = lu.solve(&f0);
         let mut y1 = *y;
         for i in 0..N {
             y1[i] += h * k1[i];
         }
         let f1 = f(t + h, &y1);
         self.rhs_evals += 1;
-        let rhs2 = SVector::<f64, N>::from(f1) - k1 * 2.0;
-        let k2 = lu.solve(&rhs2)?;
+        let mut rhs2 = f1;
+        for i in 0..N {
+            rhs2[i] -= 2.0 * k1[i];
+        }
+        let k2 = lu.solve(&rhs2);
         let mut out = *y;
         let mut acc = 0.0;
         for i in 0..N {

@@ -320,3 +320,63 @@ pub fn solve(
     }
     Ok(evaluate(model, inp, &x).point)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::Engine;
+    use crate::health::HealthParams;
+
+    fn iso(demand: Demand) -> SteadyInputs {
+        SteadyInputs { t_amb_k: 288.15, p_amb_kpa: 101.325, n2_rpm: 3600.0, demand }
+    }
+
+    #[test]
+    fn design_point_meets_reference_table() {
+        let e = Engine::reference().expect("engine");
+        let m = e.model(&HealthParams::HEALTHY);
+        let p = solve(&m, &iso(Demand::PowerMw(31.4)), None).expect("solves");
+        // REFERENCE §1 tolerances.
+        assert!((p.pressure_ratio / 24.1 - 1.0).abs() < 0.005, "PR {}", p.pressure_ratio);
+        assert!((p.exhaust_flow_kg_s / 84.31 - 1.0).abs() < 0.005, "W {}", p.exhaust_flow_kg_s);
+        assert!((p.power_mw / 31.4 - 1.0).abs() < 0.005, "P {}", p.power_mw);
+        assert!((p.compressor_efficiency - 0.85).abs() < 0.002, "eta {}", p.compressor_efficiency);
+        assert!((p.n1_rpm / 9500.0 - 1.0).abs() < 1e-6, "n1 {}", p.n1_rpm);
+        assert!(p.surge_margin_pct > 5.0, "surge margin {}", p.surge_margin_pct);
+    }
+
+    #[test]
+    fn mass_and_energy_close_at_off_design() {
+        let e = Engine::reference().expect("engine");
+        let m = e.model(&HealthParams::HEALTHY);
+        for demand in [Demand::PowerMw(20.0), Demand::PowerMw(8.0), Demand::N1Rpm(6800.0), Demand::FuelKgS(1.2)] {
+            let p = solve(&m, &iso(demand), None).expect("solves");
+            assert!(p.hpt_flow_error_kg_s.abs() / p.exhaust_flow_kg_s < 1e-6, "{demand:?} {p:?}");
+            assert!(p.pt_flow_error_kg_s.abs() / p.exhaust_flow_kg_s < 1e-6, "{demand:?}");
+            assert!(p.gg_power_error_w.abs() / (p.compressor_power_mw * 1e6) < 1e-6, "{demand:?}");
+            // Energy closure over the whole engine: fuel heat = exhaust enthalpy rise + PT shaft
+            // work + the GG's net shaft work (its mechanical losses leave the gas path).
+            let gas = crate::thermo::Gas::products(p.fuel_air_ratio);
+            let air = crate::thermo::Gas::air();
+            let c = &m.consts;
+            let heat_in = p.fuel_kg_s * c.eta_b * c.lhv;
+            let exhaust = p.exhaust_flow_kg_s * gas.h(p.t4_k) - p.air_flow_kg_s * air.h(p.t1_k);
+            let shafts = (p.pt_power_mw + p.hpt_power_mw - p.compressor_power_mw) * 1e6;
+            assert!(((exhaust + shafts) - heat_in).abs() / heat_in < 1e-6, "{demand:?}: {exhaust} + {shafts} vs {heat_in}");
+        }
+    }
+
+    #[test]
+    fn idle_solves_and_compressor_fouling_signs() {
+        let e = Engine::reference().expect("engine");
+        let clean = e.model(&HealthParams::HEALTHY);
+        let idle = solve(&clean, &iso(Demand::N1Rpm(6800.0)), None).expect("idle");
+        assert!(idle.power_mw > 0.0 && idle.power_mw < 8.0, "idle power {}", idle.power_mw);
+        let fouled = e.model(&HealthParams { D_GC: 3.0, D_EC: 1.0, ..HealthParams::HEALTHY });
+        let a = solve(&clean, &iso(Demand::PowerMw(31.4)), None).expect("clean");
+        let b = solve(&fouled, &iso(Demand::PowerMw(31.4)), None).expect("fouled");
+        assert!(b.t3_k > a.t3_k + 5.0, "T3 {} -> {}", a.t3_k, b.t3_k);
+        assert!(b.fuel_kg_s > a.fuel_kg_s, "fuel {} -> {}", a.fuel_kg_s, b.fuel_kg_s);
+        assert!(b.air_flow_kg_s < a.air_flow_kg_s, "air {} -> {}", a.air_flow_kg_s, b.air_flow_kg_s);
+    }
+}
