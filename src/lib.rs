@@ -5,4 +5,5 @@
 #![deny(clippy::unwrap_used)]
 
 pub mod health;
+pub mod optim;
 pub mod signals;

@@ -1,0 +1,398 @@
+//! Pure, reusable bounded optimisation: global search (cuckoo search, differential evolution,
+//! CMA-ES), Levenberg–Marquardt refinement and least-squares uncertainty.
+//!
+//! Built for fitting the six gas-path health parameters, where one objective evaluation is a
+//! ~10 ms engine simulation: evaluations are expensive (a budget of a few thousand), the
+//! objective is mildly nonlinear and a little noisy, the dimension is small and the constraints
+//! are a box. This module must not do I/O, keep globals, read clocks or depend on scheduling:
+//! a run is a pure function of (problem, solver configuration, seed, budget).
+//!
+//! # Design (in the style of argmin)
+//!
+//! * A [`Problem`] states the dimension, the box [`Bounds`] and the cost in physical units.
+//!   A [`ResidualProblem`] additionally exposes the residual vector, for [`refine`] and
+//!   [`uncertainty`].
+//! * A solver ([`CuckooSearch`], [`DifferentialEvolution`], [`CmaEs`]) is a small state machine
+//!   behind the [`Solver`] trait: `init` evaluates the first population, `step` runs one
+//!   generation. Solvers work in coordinates normalised to `[0, 1]` per parameter and *reflect*
+//!   at the bounds ([`bounds::reflect_unit`]); they never clip, so no probability mass piles up
+//!   on the faces of the box.
+//! * Solver configuration uses validating builders: `with_*` returns `Result<Self, OptimError>`.
+//! * [`run`] drives a solver under a [`Budget`] (evaluations, generations, stall, target) and a
+//!   [`Cancel`] flag checked between generations, and returns an [`OptimResult`].
+//! * Every generation's candidates are evaluated in parallel on a caller-supplied
+//!   `rayon::ThreadPool` ([`thread_pool`] builds one). All random numbers are drawn on the
+//!   calling thread *before* the parallel evaluation and results are collected in order, so a
+//!   run is bit-identical for 1 or N threads.
+//! * [`Evaluator`] enforces the evaluation budget exactly: once it is exhausted, candidates are
+//!   not evaluated and get cost `+∞`, which no solver ever accepts. So `evals <= max_evals`
+//!   always holds, which makes comparisons "at equal budget" honest. A `NaN` cost from the
+//!   problem is treated as `+∞` (a failed simulation), never propagated.
+//!
+//! # Usage
+//!
+//! ```
+//! use gtwatch::optim::{run, thread_pool, Budget, Cancel, CuckooSearch, Solver};
+//! use gtwatch::optim::test_functions::TestFunction;
+//!
+//! let problem = TestFunction::sphere(6, -3.0, 10.0, 1.0).expect("valid test problem");
+//! let mut solver = CuckooSearch::new(42).with_nests(25).expect("nests >= 2");
+//! let budget = Budget::new().with_max_evals(3000).expect("positive");
+//! let pool = thread_pool(Some(2)).expect("thread pool");
+//! let result = run(&mut solver, &problem, &budget, &Cancel::new(), &pool).expect("run");
+//! assert!(result.evals <= 3000);
+//! assert!(result.cost < 1e-2);
+//! ```
+//!
+//! Refinement and uncertainty: `refine(&problem, &result.x, &LmOptions::default(), &pool)` then
+//! `uncertainty(&problem, &refined.x, &JacobianOptions::default(), &pool)`.
+
+pub mod bounds;
+pub mod cmaes;
+pub mod cuckoo;
+pub mod de;
+pub mod levy;
+pub mod lm;
+pub mod problem;
+pub mod test_functions;
+pub mod uncertainty;
+
+pub use bounds::Bounds;
+pub use cmaes::CmaEs;
+pub use cuckoo::CuckooSearch;
+pub use de::{DeStrategy, DifferentialEvolution};
+pub use lm::{refine, FiniteDifference, JacobianOptions, LmOptions, RefineResult, RefineStop};
+pub use problem::{Problem, ResidualProblem};
+pub use uncertainty::{uncertainty, Uncertainty};
+
+use rayon::prelude::*;
+use rayon::ThreadPool;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+/// Everything that can go wrong when configuring or running an optimisation.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum OptimError {
+    /// A configuration value is out of range; names the setting and the reason.
+    #[error("invalid optimiser setting `{name}`: {reason}")]
+    InvalidSetting { name: &'static str, reason: String },
+    /// Lower/upper bounds are inconsistent.
+    #[error("invalid bounds for parameter {index}: {reason}")]
+    InvalidBounds { index: usize, reason: String },
+    /// A vector has the wrong length for the problem.
+    #[error("dimension mismatch: expected {expected}, got {got}")]
+    DimensionMismatch { expected: usize, got: usize },
+    /// A start point lies outside the bounds or is not finite.
+    #[error("start point component {index} = {value} is outside the bounds or not finite")]
+    StartOutOfBounds { index: usize, value: f64 },
+    /// The budget has neither an evaluation nor a generation limit, so a run might never end.
+    #[error("budget is unbounded: set max_evals or max_generations")]
+    UnboundedBudget,
+    /// The residual vector is too short for the number of parameters (needs m > n).
+    #[error("need more residuals than parameters for least squares: m = {m}, n = {n}")]
+    TooFewResiduals { m: usize, n: usize },
+    /// The residual vector at the start point is not finite, so least squares cannot start.
+    #[error("residuals are not finite at the start point")]
+    NonFiniteResiduals,
+    /// The rayon thread pool could not be built.
+    #[error("cannot build thread pool: {0}")]
+    ThreadPool(String),
+}
+
+/// Build a rayon pool for candidate evaluation: `Some(n)` threads, or `None` for all cores.
+pub fn thread_pool(threads: Option<usize>) -> Result<ThreadPool, OptimError> {
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = threads {
+        if n == 0 {
+            return Err(OptimError::InvalidSetting {
+                name: "threads",
+                reason: "must be at least 1".into(),
+            });
+        }
+        builder = builder.num_threads(n);
+    }
+    builder
+        .build()
+        .map_err(|e| OptimError::ThreadPool(e.to_string()))
+}
+
+/// Stopping rules for [`run`]; any combination. At least one of `max_evals` or
+/// `max_generations` must be set (checked by [`run`]).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Budget {
+    /// Hard cap on objective evaluations, including the initial population (never exceeded).
+    pub max_evals: Option<usize>,
+    /// Cap on generations (calls to [`Solver::step`]).
+    pub max_generations: Option<usize>,
+    /// Stop when the best cost improved by no more than `stall_tol · max(|f_old|, 1e-300)`
+    /// (relative) over this many generations.
+    pub stall_generations: Option<usize>,
+    /// Relative improvement tolerance for the stall rule (default 0 = any improvement counts).
+    pub stall_tol: f64,
+    /// Stop as soon as the best cost is `<= target_cost`.
+    pub target_cost: Option<f64>,
+}
+
+impl Budget {
+    /// An empty budget; add limits with the `with_*` builders.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Cap the number of objective evaluations (must be > 0).
+    pub fn with_max_evals(mut self, n: usize) -> Result<Self, OptimError> {
+        if n == 0 {
+            return Err(setting("max_evals", "must be > 0"));
+        }
+        self.max_evals = Some(n);
+        Ok(self)
+    }
+
+    /// Cap the number of generations (must be > 0).
+    pub fn with_max_generations(mut self, n: usize) -> Result<Self, OptimError> {
+        if n == 0 {
+            return Err(setting("max_generations", "must be > 0"));
+        }
+        self.max_generations = Some(n);
+        Ok(self)
+    }
+
+    /// Stop after `generations` generations with relative improvement `<= tol` (tol >= 0).
+    pub fn with_stall(mut self, generations: usize, tol: f64) -> Result<Self, OptimError> {
+        if generations == 0 {
+            return Err(setting("stall_generations", "must be > 0"));
+        }
+        if !(tol.is_finite() && tol >= 0.0) {
+            return Err(setting("stall_tol", "must be finite and >= 0"));
+        }
+        self.stall_generations = Some(generations);
+        self.stall_tol = tol;
+        Ok(self)
+    }
+
+    /// Stop once the best cost reaches `target` (must be finite).
+    pub fn with_target_cost(mut self, target: f64) -> Result<Self, OptimError> {
+        if !target.is_finite() {
+            return Err(setting("target_cost", "must be finite"));
+        }
+        self.target_cost = Some(target);
+        Ok(self)
+    }
+
+    fn is_bounded(&self) -> bool {
+        self.max_evals.is_some() || self.max_generations.is_some()
+    }
+}
+
+pub(crate) fn setting(name: &'static str, reason: &str) -> OptimError {
+    OptimError::InvalidSetting {
+        name,
+        reason: reason.to_string(),
+    }
+}
+
+/// Cooperative cancellation: a cloneable flag that [`run`] checks between generations.
+/// Passed in as a value (like mini-redis' shutdown) so callers and tests drive it.
+#[derive(Debug, Clone, Default)]
+pub struct Cancel(Arc<AtomicBool>);
+
+impl Cancel {
+    /// A fresh, un-cancelled flag.
+    pub fn new() -> Self {
+        Self::default()
+    }
+    /// Request that the run stop after the current generation.
+    pub fn cancel(&self) {
+        self.0.store(true, Ordering::SeqCst);
+    }
+    /// Whether cancellation was requested.
+    pub fn is_cancelled(&self) -> bool {
+        self.0.load(Ordering::SeqCst)
+    }
+}
+
+/// Why a run stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StopReason {
+    /// The evaluation budget is used up.
+    MaxEvals,
+    /// The generation limit was reached.
+    MaxGenerations,
+    /// No sufficient improvement over `stall_generations`.
+    Stalled,
+    /// The best cost reached `target_cost`.
+    TargetReached,
+    /// The [`Cancel`] flag was set.
+    Cancelled,
+    /// The solver reports it cannot make progress (e.g. CMA-ES step size collapsed).
+    SolverConverged,
+}
+
+/// What one [`Solver::step`] reports to the driver.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StepOutcome {
+    /// Keep going.
+    Continue,
+    /// The solver has converged or degenerated; further steps are pointless.
+    Converged,
+}
+
+/// Result of [`run`]. `x` is in physical units.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OptimResult {
+    /// Best point found, physical units.
+    pub x: Vec<f64>,
+    /// Its cost.
+    pub cost: f64,
+    /// Objective evaluations used (including the initial population).
+    pub evals: usize,
+    /// Generations run (calls to [`Solver::step`]).
+    pub generations: usize,
+    /// Why the run stopped.
+    pub stop_reason: StopReason,
+    /// Best cost after initialisation (`history[0]`) and after each generation.
+    pub history: Vec<f64>,
+}
+
+/// Evaluates batches of candidates given in normalised `[0, 1]` coordinates, in parallel,
+/// counting evaluations and enforcing the evaluation cap.
+pub struct Evaluator<'a, P: Problem + ?Sized> {
+    problem: &'a P,
+    pool: &'a ThreadPool,
+    evals: usize,
+    max_evals: Option<usize>,
+}
+
+impl<'a, P: Problem + ?Sized> Evaluator<'a, P> {
+    /// An evaluator over `problem` using `pool`, with an optional hard evaluation cap.
+    pub fn new(problem: &'a P, pool: &'a ThreadPool, max_evals: Option<usize>) -> Self {
+        Self {
+            problem,
+            pool,
+            evals: 0,
+            max_evals,
+        }
+    }
+
+    /// The problem being evaluated.
+    pub fn problem(&self) -> &'a P {
+        self.problem
+    }
+
+    /// Problem dimension.
+    pub fn dim(&self) -> usize {
+        self.problem.dim()
+    }
+
+    /// Evaluations so far.
+    pub fn evals(&self) -> usize {
+        self.evals
+    }
+
+    /// Evaluations still allowed (`usize::MAX` without a cap).
+    pub fn remaining(&self) -> usize {
+        self.max_evals
+            .map_or(usize::MAX, |m| m.saturating_sub(self.evals))
+    }
+
+    /// Cost of each unit-coordinate candidate, in order. Candidates beyond the remaining budget
+    /// are not evaluated and get `+∞`; `NaN` costs become `+∞`.
+    pub fn eval_unit(&mut self, candidates: &[Vec<f64>]) -> Vec<f64> {
+        let n_eval = candidates.len().min(self.remaining());
+        let problem = self.problem;
+        let bounds = problem.bounds();
+        let mut costs: Vec<f64> = self.pool.install(|| {
+            candidates[..n_eval]
+                .par_iter()
+                .map(|u| sanitize(problem.cost(&bounds.from_unit(u))))
+                .collect()
+        });
+        self.evals += n_eval;
+        costs.resize(candidates.len(), f64::INFINITY);
+        costs
+    }
+}
+
+/// A failed evaluation (NaN) counts as infinitely bad.
+pub(crate) fn sanitize(c: f64) -> f64 {
+    if c.is_nan() {
+        f64::INFINITY
+    } else {
+        c
+    }
+}
+
+/// A population-based optimiser as a state machine. Coordinates are normalised to `[0, 1]`.
+pub trait Solver {
+    /// Short name for reports ("cuckoo", "de", "cmaes").
+    fn name(&self) -> &'static str;
+    /// Create and evaluate the initial population; resets any previous state.
+    fn init<P: Problem + ?Sized>(&mut self, eval: &mut Evaluator<'_, P>)
+        -> Result<(), OptimError>;
+    /// Run one generation.
+    fn step<P: Problem + ?Sized>(&mut self, eval: &mut Evaluator<'_, P>) -> StepOutcome;
+    /// Best point so far in normalised `[0, 1]` coordinates, and its cost.
+    fn best(&self) -> (&[f64], f64);
+}
+
+/// Drive `solver` on `problem` until a [`Budget`] rule fires or `cancel` is set (checked
+/// between generations). Deterministic for a given solver seed, independent of the pool size.
+pub fn run<S: Solver, P: Problem + ?Sized>(
+    solver: &mut S,
+    problem: &P,
+    budget: &Budget,
+    cancel: &Cancel,
+    pool: &ThreadPool,
+) -> Result<OptimResult, OptimError> {
+    if !budget.is_bounded() {
+        return Err(OptimError::UnboundedBudget);
+    }
+    let mut eval = Evaluator::new(problem, pool, budget.max_evals);
+    solver.init(&mut eval)?;
+    let mut history = vec![solver.best().1];
+    let mut generations = 0usize;
+    let stop_reason = loop {
+        let best = solver.best().1;
+        if budget.target_cost.is_some_and(|t| best <= t) {
+            break StopReason::TargetReached;
+        }
+        if eval.remaining() == 0 {
+            break StopReason::MaxEvals;
+        }
+        if budget.max_generations.is_some_and(|g| generations >= g) {
+            break StopReason::MaxGenerations;
+        }
+        if let Some(k) = budget.stall_generations {
+            if generations >= k {
+                let old = history[generations - k];
+                // From +inf to finite is progress; +inf to +inf is none.
+                let stalled = if old.is_finite() {
+                    old - best <= budget.stall_tol * old.abs().max(1e-300)
+                } else {
+                    !best.is_finite()
+                };
+                if stalled {
+                    break StopReason::Stalled;
+                }
+            }
+        }
+        if cancel.is_cancelled() {
+            break StopReason::Cancelled;
+        }
+        let outcome = solver.step(&mut eval);
+        generations += 1;
+        history.push(solver.best().1);
+        if outcome == StepOutcome::Converged {
+            break StopReason::SolverConverged;
+        }
+    };
+    let (u, cost) = solver.best();
+    Ok(OptimResult {
+        x: problem.bounds().from_unit(u),
+        cost,
+        evals: eval.evals(),
+        generations,
+        stop_reason,
+        history,
+    })
+}
