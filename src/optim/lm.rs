@@ -383,3 +383,151 @@ pub fn refine<P: ResidualProblem + ?Sized>(
         stop,
     })
 }
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::super::{thread_pool, uncertainty, Problem};
+    use super::*;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::{Distribution, Normal};
+
+    /// y(t) = A exp(−k t) + c sampled at 40 points on [0, 5], residuals (model − y) / σ.
+    pub(crate) struct ExpDecay {
+        pub t: Vec<f64>,
+        pub y: Vec<f64>,
+        pub noise: f64,
+        pub bounds: Bounds,
+    }
+
+    pub(crate) const TRUTH: [f64; 3] = [2.0, 0.7, 0.3];
+
+    impl ExpDecay {
+        pub(crate) fn new(noise: f64, seed: u64) -> Self {
+            let t: Vec<f64> = (0..40).map(|i| i as f64 * 5.0 / 39.0).collect();
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            let n = Normal::new(0.0, noise.max(1e-300)).expect("valid normal");
+            let y = t
+                .iter()
+                .map(|&t| model(&TRUTH, t) + if noise > 0.0 { n.sample(&mut rng) } else { 0.0 })
+                .collect();
+            let bounds =
+                Bounds::new(vec![0.0, 0.01, -1.0], vec![5.0, 3.0, 1.0]).expect("valid bounds");
+            Self {
+                t,
+                y,
+                noise,
+                bounds,
+            }
+        }
+    }
+
+    fn model(p: &[f64], t: f64) -> f64 {
+        p[0] * (-p[1] * t).exp() + p[2]
+    }
+
+    impl Problem for ExpDecay {
+        fn dim(&self) -> usize {
+            3
+        }
+        fn bounds(&self) -> &Bounds {
+            &self.bounds
+        }
+        fn cost(&self, x: &[f64]) -> f64 {
+            let mut r = Vec::new();
+            self.residuals(x, &mut r);
+            r.iter().map(|v| v * v).sum()
+        }
+    }
+
+    impl ResidualProblem for ExpDecay {
+        fn residuals(&self, x: &[f64], out: &mut Vec<f64>) {
+            out.clear();
+            let s = if self.noise > 0.0 { self.noise } else { 1.0 };
+            out.extend(self.t.iter().zip(&self.y).map(|(&t, &y)| (model(x, t) - y) / s));
+        }
+    }
+
+    #[test]
+    fn lm_converges_on_noise_free_exponential_decay() {
+        let p = ExpDecay::new(0.0, 0);
+        let pool = thread_pool(Some(2)).expect("pool");
+        for scheme in [FiniteDifference::Forward, FiniteDifference::Central] {
+            let opts = LmOptions::default()
+                .with_jacobian(JacobianOptions::default().with_scheme(scheme).expect("ok"))
+                .expect("ok");
+            let r = refine(&p, &[0.5, 2.5, -0.5], &opts, &pool).expect("refine");
+            for (a, b) in r.x.iter().zip(TRUTH) {
+                assert!((a - b).abs() < 1e-6, "{scheme:?}: {:?} stop {:?}", r.x, r.stop);
+            }
+            assert!(r.ssr < 1e-12 && r.cost < 1e-12);
+            assert!(r.iterations < 50 && r.evals > r.iterations);
+            // Identical with one thread: evaluation order cannot change the result.
+            let one = thread_pool(Some(1)).expect("pool");
+            assert_eq!(refine(&p, &[0.5, 2.5, -0.5], &opts, &one).expect("refine"), r);
+        }
+    }
+
+    #[test]
+    fn lm_respects_bounds_and_evaluation_cap() {
+        // Unconstrained optimum c = 0.3 + 5 lies far outside c ≤ 1: LM must stop on the bound.
+        let mut p = ExpDecay::new(0.0, 0);
+        p.y.iter_mut().for_each(|y| *y += 5.0);
+        let pool = thread_pool(Some(1)).expect("pool");
+        let r = refine(&p, &[1.0, 1.0, 0.0], &LmOptions::default(), &pool).expect("refine");
+        assert_eq!(r.x[2], 1.0);
+        assert!(p.bounds.check_inside(&r.x).is_ok());
+        let capped = LmOptions::default().with_max_evals(20).expect("ok");
+        let r = refine(&p, &[1.0, 1.0, 0.0], &capped, &pool).expect("refine");
+        assert!(r.evals <= 20, "evals {}", r.evals);
+        assert_eq!(r.stop, RefineStop::MaxEvals);
+        assert!(refine(&p, &[9.0, 1.0, 0.0], &capped, &pool).is_err());
+    }
+
+    #[test]
+    fn sigma_matches_monte_carlo_spread() {
+        let pool = thread_pool(Some(2)).expect("pool");
+        let noise = 0.02;
+        let opts = LmOptions::default();
+        let fits: Vec<Vec<f64>> = (0..300)
+            .map(|seed| {
+                let p = ExpDecay::new(noise, seed);
+                refine(&p, &[1.5, 1.0, 0.0], &opts, &pool).expect("refine").x
+            })
+            .collect();
+        let p = ExpDecay::new(noise, 1000);
+        let x = refine(&p, &[1.5, 1.0, 0.0], &opts, &pool).expect("refine").x;
+        let u = uncertainty(&p, &x, &JacobianOptions::default(), &pool).expect("uncertainty");
+        assert_eq!((u.dof, u.rank), (37, 3));
+        assert!(u.identifiable.iter().all(|&b| b) && u.at_bound.iter().all(|&b| !b));
+        // Residuals are scaled by the true σ, so s² ≈ 1.
+        assert!((u.s2 - 1.0).abs() < 0.5, "s2 {}", u.s2);
+        for j in 0..3 {
+            let mean = fits.iter().map(|f| f[j]).sum::<f64>() / fits.len() as f64;
+            let var = fits.iter().map(|f| (f[j] - mean).powi(2)).sum::<f64>()
+                / (fits.len() - 1) as f64;
+            let ratio = u.sigma[j] / var.sqrt();
+            assert!((0.7..1.4).contains(&ratio), "param {j}: ratio {ratio}");
+            // Unbiased to within the Monte-Carlo error.
+            assert!((mean - TRUTH[j]).abs() < 4.0 * var.sqrt() / (fits.len() as f64).sqrt() + 1e-3);
+        }
+        // Correlations match the Monte-Carlo ones, and the matrix is symmetric.
+        let c = &u.correlation;
+        let mean = |j: usize| fits.iter().map(|f| f[j]).sum::<f64>() / fits.len() as f64;
+        let cov = |i: usize, j: usize| {
+            let (mi, mj) = (mean(i), mean(j));
+            fits.iter().map(|f| (f[i] - mi) * (f[j] - mj)).sum::<f64>() / fits.len() as f64
+        };
+        for (i, j) in [(0, 1), (0, 2), (1, 2)] {
+            let mc = cov(i, j) / (cov(i, i) * cov(j, j)).sqrt();
+            assert!((c[i][j] - mc).abs() < 0.15, "corr({i},{j}) {} vs MC {mc}", c[i][j]);
+        }
+        assert!(c[1][2].abs() > 0.5, "k and c are strongly correlated: {}", c[1][2]);
+        for i in 0..3 {
+            assert_eq!(c[i][i], 1.0);
+            for j in 0..3 {
+                assert!((c[i][j] - c[j][i]).abs() < 1e-12);
+            }
+        }
+    }
+}

@@ -133,3 +133,65 @@ pub fn uncertainty<P: ResidualProblem + ?Sized>(
         evals: used + 1,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::{thread_pool, Bounds, Problem};
+    use super::*;
+
+    /// Residuals depend on x0 + x1 only: x0 and x1 are not separately identifiable.
+    struct Degenerate(Bounds);
+    impl Problem for Degenerate {
+        fn dim(&self) -> usize {
+            3
+        }
+        fn bounds(&self) -> &Bounds {
+            &self.0
+        }
+        fn cost(&self, x: &[f64]) -> f64 {
+            let mut r = Vec::new();
+            self.residuals(x, &mut r);
+            r.iter().map(|v| v * v).sum()
+        }
+    }
+    impl ResidualProblem for Degenerate {
+        fn residuals(&self, x: &[f64], out: &mut Vec<f64>) {
+            out.clear();
+            for i in 0..10 {
+                let t = i as f64;
+                out.push(x[0] + x[1] - 1.0 + 0.01 * (t * 1.3).sin());
+                out.push(x[2] * t - 2.0 + 0.01 * (t * 0.7).cos());
+            }
+        }
+    }
+
+    #[test]
+    fn rank_deficiency_gives_infinite_sigma_never_nan() {
+        let p = Degenerate(Bounds::uniform(3, -5.0, 5.0).expect("valid"));
+        let pool = thread_pool(Some(1)).expect("pool");
+        let u = uncertainty(&p, &[0.5, 0.5, 0.2], &JacobianOptions::default(), &pool)
+            .expect("uncertainty");
+        assert_eq!(u.rank, 2);
+        assert_eq!(u.identifiable, vec![false, false, true]);
+        assert!(u.sigma[0].is_infinite() && u.sigma[1].is_infinite());
+        assert!(u.sigma[2].is_finite() && u.sigma[2] > 0.0);
+        let all = u.covariance.iter().chain(&u.correlation).flatten();
+        assert!(all.clone().all(|v| !v.is_nan()));
+        assert_eq!(u.correlation[0][2], 0.0);
+        assert_eq!(u.correlation[1][1], 1.0);
+    }
+
+    #[test]
+    fn rejects_too_few_residuals_and_bad_points() {
+        let p = super::super::test_functions::TestFunction::sphere(6, -3.0, 10.0, 1.7)
+            .expect("valid");
+        let pool = thread_pool(Some(1)).expect("pool");
+        let o = JacobianOptions::default();
+        assert_eq!(
+            uncertainty(&p, &[1.7; 6], &o, &pool),
+            Err(OptimError::TooFewResiduals { m: 6, n: 6 })
+        );
+        assert!(uncertainty(&p, &[11.0; 6], &o, &pool).is_err());
+        assert!(JacobianOptions::default().with_step(0.0).is_err());
+    }
+}
