@@ -184,10 +184,7 @@ impl Solver for CmaEs {
         "cmaes"
     }
 
-    fn init<P: Problem + ?Sized>(
-        &mut self,
-        eval: &mut Evaluator<'_, P>,
-    ) -> Result<(), OptimError> {
+    fn init<P: Problem + ?Sized>(&mut self, eval: &mut Evaluator<'_, P>) -> Result<(), OptimError> {
         let dim = eval.dim();
         let bounds = eval.problem().bounds();
         let mean = match &self.initial_guess {
@@ -256,7 +253,8 @@ impl Solver for CmaEs {
         // C^{-1/2} = B D^{-1} Bᵀ.
         let dinv = DMatrix::from_diagonal(&st.d.map(|v| 1.0 / v));
         let c_inv_sqrt = &st.b * dinv * st.b.transpose();
-        st.ps = (1.0 - st.cs) * &st.ps + (st.cs * (2.0 - st.cs) * st.mueff).sqrt() * (c_inv_sqrt * &dm);
+        st.ps =
+            (1.0 - st.cs) * &st.ps + (st.cs * (2.0 - st.cs) * st.mueff).sqrt() * (c_inv_sqrt * &dm);
         let gen = (st.gen_evals / st.lambda) as f64;
         let hsig_norm = st.ps.norm() / (1.0 - (1.0 - st.cs).powf(2.0 * gen)).sqrt() / st.chi_n;
         let hsig = if hsig_norm < 1.4 + 2.0 / (n as f64 + 1.0) {

@@ -16,6 +16,14 @@
 //!    never lost. Only discovered nests are evaluated, so a generation costs ≈ `n (1 + pa)`
 //!    evaluations rather than `2n`.
 //!
+//! **On α.** The default α = 0.01 is the reference value. Because the Lévy step is scaled by
+//! `x_i − x_best`, it shrinks as the nests converge, and with α = 0.01 the flights barely
+//! move: convergence comes mostly from the random walk and is slow. Measured on the 6-D sphere
+//! (box −3…10, 20 seeds): after 3000 evaluations the median best cost is 1.2 with α = 0.01 but
+//! 6e-5 with α = 0.3; after 6000, α = 0.3 reaches < 1e-6 on every seed. The intended use is
+//! cuckoo search for the basin followed by [`super::refine`], which makes α matter less; tune it
+//! with [`CuckooSearch::with_alpha`] if cuckoo search must converge on its own.
+//!
 //! Coordinates are normalised to `[0, 1]` and proposals are *reflected* into the box
 //! ([`super::bounds::reflect_unit`]), never clipped. All random numbers of a generation are
 //! drawn on the calling thread before the (parallel) evaluation, from a `ChaCha8Rng` seeded
@@ -140,10 +148,7 @@ impl Solver for CuckooSearch {
         "cuckoo"
     }
 
-    fn init<P: Problem + ?Sized>(
-        &mut self,
-        eval: &mut Evaluator<'_, P>,
-    ) -> Result<(), OptimError> {
+    fn init<P: Problem + ?Sized>(&mut self, eval: &mut Evaluator<'_, P>) -> Result<(), OptimError> {
         let dim = eval.dim();
         let bounds = eval.problem().bounds();
         let mut rng = ChaCha8Rng::seed_from_u64(self.seed);

@@ -117,10 +117,7 @@ impl Solver for DifferentialEvolution {
         "de"
     }
 
-    fn init<P: Problem + ?Sized>(
-        &mut self,
-        eval: &mut Evaluator<'_, P>,
-    ) -> Result<(), OptimError> {
+    fn init<P: Problem + ?Sized>(&mut self, eval: &mut Evaluator<'_, P>) -> Result<(), OptimError> {
         let dim = eval.dim();
         let np = self.population.unwrap_or((5 * dim).max(8));
         let bounds = eval.problem().bounds();
@@ -165,9 +162,7 @@ impl Solver for DifferentialEvolution {
                     let [a, b, _] = distinct(&mut st.rng, np, i, 2);
                     let xb = &st.pop[st.best];
                     (0..dim)
-                        .map(|d| {
-                            xi[d] + f * (xb[d] - xi[d]) + f * (st.pop[a][d] - st.pop[b][d])
-                        })
+                        .map(|d| xi[d] + f * (xb[d] - xi[d]) + f * (st.pop[a][d] - st.pop[b][d]))
                         .collect()
                 }
             };

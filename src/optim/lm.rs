@@ -52,7 +52,10 @@ impl JacobianOptions {
     /// Step in normalised units, in (0, 0.1].
     pub fn with_step(mut self, h: f64) -> Result<Self, OptimError> {
         if !(h > 0.0 && h <= 0.1) {
-            return Err(setting("fd_step", "must lie in (0, 0.1] (normalised units)"));
+            return Err(setting(
+                "fd_step",
+                "must lie in (0, 0.1] (normalised units)",
+            ));
         }
         self.step = h;
         Ok(self)
@@ -107,7 +110,8 @@ impl LmOptions {
         self.max_iterations = n;
         Ok(self)
     }
-    /// Cap on residual evaluations (≥ 2n + 2, enough for one central-difference iteration).
+    /// Cap on evaluations including the final cost evaluation (≥ 2). Refinement stops before
+    /// a Jacobian or trial step that would exceed it, so `evals <= max_evals` always holds.
     pub fn with_max_evals(mut self, n: usize) -> Result<Self, OptimError> {
         if n < 2 {
             return Err(setting("max_evals", "must be >= 2"));
@@ -268,7 +272,11 @@ pub fn refine<P: ResidualProblem + ?Sized>(
     let bounds: &Bounds = problem.bounds();
     bounds.check_inside(x0)?;
     let n = problem.dim();
-    let mut u: Vec<f64> = bounds.to_unit(x0).iter().map(|v| v.clamp(0.0, 1.0)).collect();
+    let mut u: Vec<f64> = bounds
+        .to_unit(x0)
+        .iter()
+        .map(|v| v.clamp(0.0, 1.0))
+        .collect();
     let mut r = residuals_unit(problem, &u, None).ok_or(OptimError::NonFiniteResiduals)?;
     if r.is_empty() {
         return Err(OptimError::TooFewResiduals { m: 0, n });
@@ -444,7 +452,12 @@ pub(crate) mod tests {
         fn residuals(&self, x: &[f64], out: &mut Vec<f64>) {
             out.clear();
             let s = if self.noise > 0.0 { self.noise } else { 1.0 };
-            out.extend(self.t.iter().zip(&self.y).map(|(&t, &y)| (model(x, t) - y) / s));
+            out.extend(
+                self.t
+                    .iter()
+                    .zip(&self.y)
+                    .map(|(&t, &y)| (model(x, t) - y) / s),
+            );
         }
     }
 
@@ -458,13 +471,21 @@ pub(crate) mod tests {
                 .expect("ok");
             let r = refine(&p, &[0.5, 2.5, -0.5], &opts, &pool).expect("refine");
             for (a, b) in r.x.iter().zip(TRUTH) {
-                assert!((a - b).abs() < 1e-6, "{scheme:?}: {:?} stop {:?}", r.x, r.stop);
+                assert!(
+                    (a - b).abs() < 1e-6,
+                    "{scheme:?}: {:?} stop {:?}",
+                    r.x,
+                    r.stop
+                );
             }
             assert!(r.ssr < 1e-12 && r.cost < 1e-12);
             assert!(r.iterations < 50 && r.evals > r.iterations);
             // Identical with one thread: evaluation order cannot change the result.
             let one = thread_pool(Some(1)).expect("pool");
-            assert_eq!(refine(&p, &[0.5, 2.5, -0.5], &opts, &one).expect("refine"), r);
+            assert_eq!(
+                refine(&p, &[0.5, 2.5, -0.5], &opts, &one).expect("refine"),
+                r
+            );
         }
     }
 
@@ -492,11 +513,15 @@ pub(crate) mod tests {
         let fits: Vec<Vec<f64>> = (0..300)
             .map(|seed| {
                 let p = ExpDecay::new(noise, seed);
-                refine(&p, &[1.5, 1.0, 0.0], &opts, &pool).expect("refine").x
+                refine(&p, &[1.5, 1.0, 0.0], &opts, &pool)
+                    .expect("refine")
+                    .x
             })
             .collect();
         let p = ExpDecay::new(noise, 1000);
-        let x = refine(&p, &[1.5, 1.0, 0.0], &opts, &pool).expect("refine").x;
+        let x = refine(&p, &[1.5, 1.0, 0.0], &opts, &pool)
+            .expect("refine")
+            .x;
         let u = uncertainty(&p, &x, &JacobianOptions::default(), &pool).expect("uncertainty");
         assert_eq!((u.dof, u.rank), (37, 3));
         assert!(u.identifiable.iter().all(|&b| b) && u.at_bound.iter().all(|&b| !b));
@@ -504,8 +529,8 @@ pub(crate) mod tests {
         assert!((u.s2 - 1.0).abs() < 0.5, "s2 {}", u.s2);
         for j in 0..3 {
             let mean = fits.iter().map(|f| f[j]).sum::<f64>() / fits.len() as f64;
-            let var = fits.iter().map(|f| (f[j] - mean).powi(2)).sum::<f64>()
-                / (fits.len() - 1) as f64;
+            let var =
+                fits.iter().map(|f| (f[j] - mean).powi(2)).sum::<f64>() / (fits.len() - 1) as f64;
             let ratio = u.sigma[j] / var.sqrt();
             assert!((0.7..1.4).contains(&ratio), "param {j}: ratio {ratio}");
             // Unbiased to within the Monte-Carlo error.
@@ -520,13 +545,21 @@ pub(crate) mod tests {
         };
         for (i, j) in [(0, 1), (0, 2), (1, 2)] {
             let mc = cov(i, j) / (cov(i, i) * cov(j, j)).sqrt();
-            assert!((c[i][j] - mc).abs() < 0.15, "corr({i},{j}) {} vs MC {mc}", c[i][j]);
+            assert!(
+                (c[i][j] - mc).abs() < 0.15,
+                "corr({i},{j}) {} vs MC {mc}",
+                c[i][j]
+            );
         }
-        assert!(c[1][2].abs() > 0.5, "k and c are strongly correlated: {}", c[1][2]);
-        for i in 0..3 {
-            assert_eq!(c[i][i], 1.0);
-            for j in 0..3 {
-                assert!((c[i][j] - c[j][i]).abs() < 1e-12);
+        assert!(
+            c[1][2].abs() > 0.5,
+            "k and c are strongly correlated: {}",
+            c[1][2]
+        );
+        for (i, row) in c.iter().enumerate() {
+            assert_eq!(row[i], 1.0);
+            for (j, v) in row.iter().enumerate() {
+                assert!((v - c[j][i]).abs() < 1e-12);
             }
         }
     }

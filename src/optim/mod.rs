@@ -32,20 +32,25 @@
 //! # Usage
 //!
 //! ```
-//! use gtwatch::optim::{run, thread_pool, Budget, Cancel, CuckooSearch, Solver};
 //! use gtwatch::optim::test_functions::TestFunction;
+//! use gtwatch::optim::{refine, run, thread_pool, uncertainty, Budget, Cancel, CuckooSearch};
+//! use gtwatch::optim::{JacobianOptions, LmOptions};
 //!
-//! let problem = TestFunction::sphere(6, -3.0, 10.0, 1.0).expect("valid test problem");
-//! let mut solver = CuckooSearch::new(42).with_nests(25).expect("nests >= 2");
-//! let budget = Budget::new().with_max_evals(3000).expect("positive");
-//! let pool = thread_pool(Some(2)).expect("thread pool");
-//! let result = run(&mut solver, &problem, &budget, &Cancel::new(), &pool).expect("run");
-//! assert!(result.evals <= 3000);
-//! assert!(result.cost < 1e-2);
+//! let problem = TestFunction::sphere(6, -3.0, 10.0, 1.7).expect("valid test problem");
+//! let pool = thread_pool(Some(2)).expect("thread pool"); // `None` = all cores
+//! let mut cs = CuckooSearch::new(42).with_nests(25).expect("nests >= 3");
+//! let budget = Budget::new().with_max_evals(2500).expect("> 0").with_stall(50, 1e-9).expect("ok");
+//! let global = run(&mut cs, &problem, &budget, &Cancel::new(), &pool).expect("run");
+//! assert!(global.evals <= 2500 && global.history.len() == global.generations + 1);
+//! let lm = LmOptions::default().with_max_evals(500).expect("ok");
+//! let local = refine(&problem, &global.x, &lm, &pool).expect("refine");
+//! assert!(local.cost < 1e-12 && local.cost <= global.cost);
+//! // Sphere's 6 residuals cannot give a 6-parameter uncertainty (needs m > n): a clear error.
+//! assert!(uncertainty(&problem, &local.x, &JacobianOptions::default(), &pool).is_err());
 //! ```
 //!
-//! Refinement and uncertainty: `refine(&problem, &result.x, &LmOptions::default(), &pool)` then
-//! `uncertainty(&problem, &refined.x, &JacobianOptions::default(), &pool)`.
+//! For a [`ResidualProblem`] with more residuals than parameters, `uncertainty` then reports
+//! 1σ per parameter, the covariance and the correlation matrix at `local.x`.
 
 pub mod bounds;
 pub mod cmaes;
@@ -327,8 +332,7 @@ pub trait Solver {
     /// Short name for reports ("cuckoo", "de", "cmaes").
     fn name(&self) -> &'static str;
     /// Create and evaluate the initial population; resets any previous state.
-    fn init<P: Problem + ?Sized>(&mut self, eval: &mut Evaluator<'_, P>)
-        -> Result<(), OptimError>;
+    fn init<P: Problem + ?Sized>(&mut self, eval: &mut Evaluator<'_, P>) -> Result<(), OptimError>;
     /// Run one generation.
     fn step<P: Problem + ?Sized>(&mut self, eval: &mut Evaluator<'_, P>) -> StepOutcome;
     /// Best point so far in normalised `[0, 1]` coordinates, and its cost.
@@ -427,8 +431,14 @@ mod tests {
         let opts = LmOptions::default().with_max_evals(lm).expect("lm budget");
         (0..SEEDS)
             .map(|seed| {
-                let g = run(&mut CuckooSearch::new(seed), f, &evals(n - lm), &Cancel::new(), &p)
-                    .expect("run");
+                let g = run(
+                    &mut CuckooSearch::new(seed),
+                    f,
+                    &evals(n - lm),
+                    &Cancel::new(),
+                    &p,
+                )
+                .expect("run");
                 let r = refine(f, &g.x, &opts, &p).expect("refine");
                 (r.cost.min(g.cost), g.evals + r.evals)
             })
@@ -540,8 +550,14 @@ mod tests {
         assert!(r.evals >= 200 && r.evals < 200 + 50, "evals {}", r.evals);
         assert_eq!(r.history.len(), r.generations + 1);
         // Cancelled before starting: only the initial population is evaluated.
-        let r = run(&mut DifferentialEvolution::new(1), &sphere(), &b, &cancel, &pool(1))
-            .expect("run");
+        let r = run(
+            &mut DifferentialEvolution::new(1),
+            &sphere(),
+            &b,
+            &cancel,
+            &pool(1),
+        )
+        .expect("run");
         assert_eq!((r.generations, r.evals), (0, 30));
         assert_eq!(r.stop_reason, StopReason::Cancelled);
     }
@@ -567,7 +583,10 @@ mod tests {
         }
         let g = Budget::new().with_max_generations(7).expect("positive");
         let r = run(&mut CuckooSearch::new(3), &f, &g, &c, &p).expect("run");
-        assert_eq!((r.generations, r.stop_reason), (7, StopReason::MaxGenerations));
+        assert_eq!(
+            (r.generations, r.stop_reason),
+            (7, StopReason::MaxGenerations)
+        );
         let t = evals(100_000).with_target_cost(1e-3).expect("finite");
         let r = run(&mut CmaEs::new(3), &f, &t, &c, &p).expect("run");
         assert_eq!(r.stop_reason, StopReason::TargetReached);
@@ -585,7 +604,9 @@ mod tests {
         assert!(Budget::new().with_target_cost(f64::INFINITY).is_err());
         assert!(thread_pool(Some(0)).is_err());
         // Initial guesses are checked against the bounds.
-        let bad = CuckooSearch::new(1).with_initial_guess(vec![11.0; 6]).expect("finite");
+        let bad = CuckooSearch::new(1)
+            .with_initial_guess(vec![11.0; 6])
+            .expect("finite");
         assert!(matches!(
             run(&mut bad.clone(), &f, &evals(100), &c, &p),
             Err(OptimError::StartOutOfBounds { index: 0, .. })
@@ -599,9 +620,31 @@ mod tests {
         let p = pool(1);
         let g = Budget::new().with_max_generations(1).expect("positive");
         for r in [
-            run(&mut CuckooSearch::new(1).with_initial_guess(vec![1.7; 6]).expect("ok"), &f, &g, &c, &p),
-            run(&mut DifferentialEvolution::new(1).with_initial_guess(vec![1.7; 6]).expect("ok"), &f, &g, &c, &p),
-            run(&mut CmaEs::new(1).with_initial_guess(vec![1.7; 6]).expect("ok"), &f, &g, &c, &p),
+            run(
+                &mut CuckooSearch::new(1)
+                    .with_initial_guess(vec![1.7; 6])
+                    .expect("ok"),
+                &f,
+                &g,
+                &c,
+                &p,
+            ),
+            run(
+                &mut DifferentialEvolution::new(1)
+                    .with_initial_guess(vec![1.7; 6])
+                    .expect("ok"),
+                &f,
+                &g,
+                &c,
+                &p,
+            ),
+            run(
+                &mut CmaEs::new(1).with_initial_guess(vec![1.7; 6]).expect("ok"),
+                &f,
+                &g,
+                &c,
+                &p,
+            ),
         ] {
             assert!(r.expect("run").history[0] < 1e-20);
         }
@@ -612,8 +655,20 @@ mod tests {
         let f = HalfNan(sphere());
         let p = pool(2);
         for r in [
-            run(&mut CuckooSearch::new(5), &f, &evals(1500), &Cancel::new(), &p),
-            run(&mut DifferentialEvolution::new(5), &f, &evals(1500), &Cancel::new(), &p),
+            run(
+                &mut CuckooSearch::new(5),
+                &f,
+                &evals(1500),
+                &Cancel::new(),
+                &p,
+            ),
+            run(
+                &mut DifferentialEvolution::new(5),
+                &f,
+                &evals(1500),
+                &Cancel::new(),
+                &p,
+            ),
             run(&mut CmaEs::new(5), &f, &evals(1500), &Cancel::new(), &p),
         ] {
             let r = r.expect("run");
@@ -650,7 +705,11 @@ mod tests {
         // Robust ordering (orders of magnitude apart): CMA-ES < DE/rand < CS at 3000 evals.
         assert!(med(&cma) < med(&de) && med(&de) < med(&cs));
         // CS with α = 0.3 reaches 1e-6 in 6000 evaluations on every seed (worst 7.5e-9).
-        let cs3 = runs(|s| CuckooSearch::new(s).with_alpha(0.3).expect("alpha"), &f, 6000);
+        let cs3 = runs(
+            |s| CuckooSearch::new(s).with_alpha(0.3).expect("alpha"),
+            &f,
+            6000,
+        );
         assert_eq!(count(&cs3, |r| r.cost < 1e-6), 20);
         // CS (2700) + LM (≤ 300) at the same total budget: exact on every seed.
         let hybrid = cs_lm(&f, 3000, 300);
@@ -675,7 +734,11 @@ mod tests {
     #[test]
     fn rastrigin_global_basin_rates() {
         let f = rastrigin();
-        let cs3 = runs(|s| CuckooSearch::new(s).with_alpha(0.3).expect("alpha"), &f, 6000);
+        let cs3 = runs(
+            |s| CuckooSearch::new(s).with_alpha(0.3).expect("alpha"),
+            &f,
+            6000,
+        );
         let cma = runs(
             |s| CmaEs::new(s).with_restarts(false).expect("restarts"),
             &f,

@@ -43,7 +43,11 @@ impl TestFunction {
 
     /// Rosenbrock in `[lo, hi]^dim` with minimiser `(s, …, s)`.
     pub fn rosenbrock(dim: usize, lo: f64, hi: f64, s: f64) -> Result<Self, OptimError> {
-        Self::new(Kind::Rosenbrock, Bounds::uniform(dim, lo, hi)?, vec![s; dim])
+        Self::new(
+            Kind::Rosenbrock,
+            Bounds::uniform(dim, lo, hi)?,
+            vec![s; dim],
+        )
     }
 
     /// Rastrigin in `[lo, hi]^dim` with minimiser `(s, …, s)`.

@@ -52,7 +52,11 @@ pub fn uncertainty<P: ResidualProblem + ?Sized>(
     let bounds = problem.bounds();
     bounds.check_inside(x)?;
     let n = problem.dim();
-    let u: Vec<f64> = bounds.to_unit(x).iter().map(|v| v.clamp(0.0, 1.0)).collect();
+    let u: Vec<f64> = bounds
+        .to_unit(x)
+        .iter()
+        .map(|v| v.clamp(0.0, 1.0))
+        .collect();
     let r = residuals_unit(problem, &u, None).ok_or(OptimError::NonFiniteResiduals)?;
     let m = r.len();
     if m <= n {
@@ -68,7 +72,10 @@ pub fn uncertainty<P: ResidualProblem + ?Sized>(
     let v_t = svd.v_t.ok_or(OptimError::NonFiniteResiduals)?;
     let s = &svd.singular_values;
     let s_max = s.iter().cloned().fold(0.0, f64::max);
-    let keep: Vec<bool> = s.iter().map(|&v| s_max > 0.0 && v > RCOND * s_max).collect();
+    let keep: Vec<bool> = s
+        .iter()
+        .map(|&v| s_max > 0.0 && v > RCOND * s_max)
+        .collect();
     let rank = keep.iter().filter(|&&k| k).count();
     let mut identifiable: Vec<bool> = failed.iter().map(|f| !f).collect();
     for (k, &kept) in keep.iter().enumerate() {
@@ -183,8 +190,8 @@ mod tests {
 
     #[test]
     fn rejects_too_few_residuals_and_bad_points() {
-        let p = super::super::test_functions::TestFunction::sphere(6, -3.0, 10.0, 1.7)
-            .expect("valid");
+        let p =
+            super::super::test_functions::TestFunction::sphere(6, -3.0, 10.0, 1.7).expect("valid");
         let pool = thread_pool(Some(1)).expect("pool");
         let o = JacobianOptions::default();
         assert_eq!(
