@@ -1,5 +1,5 @@
 //! Levenberg–Marquardt local refinement of a [`ResidualProblem`] inside box bounds, and the
-//! finite-difference residual Jacobian it shares with [`super::uncertainty`].
+//! finite-difference residual Jacobian it shares with [`super::uncertainty()`].
 //!
 //! Works in normalised `[0, 1]` coordinates so the finite-difference step and the damping are
 //! comparable across parameters. Bounds: parameters sitting on a bound whose gradient pushes

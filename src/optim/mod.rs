@@ -11,7 +11,7 @@
 //!
 //! * A [`Problem`] states the dimension, the box [`Bounds`] and the cost in physical units.
 //!   A [`ResidualProblem`] additionally exposes the residual vector, for [`refine`] and
-//!   [`uncertainty`].
+//!   [`uncertainty()`].
 //! * A solver ([`CuckooSearch`], [`DifferentialEvolution`], [`CmaEs`]) is a small state machine
 //!   behind the [`Solver`] trait: `init` evaluates the first population, `step` runs one
 //!   generation. Solvers work in coordinates normalised to `[0, 1]` per parameter and *reflect*

@@ -19,7 +19,7 @@ pub trait Problem: Sync {
 /// Levenberg–Marquardt refinement and least-squares uncertainty.
 ///
 /// The residuals should be scaled so that each has (roughly) the same noise standard
-/// deviation; [`super::uncertainty`] estimates that common σ from the fit (`s² = SSR/(m−n)`).
+/// deviation; [`super::uncertainty()`] estimates that common σ from the fit (`s² = SSR/(m−n)`).
 pub trait ResidualProblem: Problem {
     /// Write the residual vector at `x` into `out` (cleared first by the implementation or the
     /// caller; implementations must leave exactly `m` entries, the same `m` at every `x`).
