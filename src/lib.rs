@@ -4,8 +4,9 @@
 //! no globals, deterministic for a given seed. The daemon modules are a thin async shell.
 #![deny(clippy::unwrap_used)]
 
-pub mod health;
 pub mod engine;
+pub mod health;
 pub mod maps;
+pub mod optim;
 pub mod signals;
 pub mod thermo;

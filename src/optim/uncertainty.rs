@@ -1,0 +1,204 @@
+//! Linearised least-squares uncertainty at an optimum: covariance `s² (JᵀJ)⁻¹` with
+//! `s² = SSR / (m − n)`, reported as 1σ per parameter in physical units plus the correlation
+//! matrix. Pure; the finite-difference Jacobian is evaluated in parallel on the caller's pool.
+//!
+//! Rank deficiency is reported, never hidden: the inverse is an SVD pseudo-inverse that drops
+//! singular values below `1e-9 · s_max` (below that a finite-difference Jacobian is noise), and
+//! every parameter that loads on a dropped direction (or whose Jacobian column could not be
+//! evaluated) is marked not identifiable, with σ = +∞ and zero correlations. No NaN leaves
+//! this module.
+
+use super::lm::{jacobian_unit, residuals_unit};
+use super::{JacobianOptions, OptimError, ResidualProblem};
+use rayon::ThreadPool;
+
+/// Relative singular-value cut-off for the pseudo-inverse.
+const RCOND: f64 = 1e-9;
+
+/// Parameter uncertainty at a least-squares optimum, physical units.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Uncertainty {
+    /// 1σ per parameter (`+∞` where not identifiable).
+    pub sigma: Vec<f64>,
+    /// Covariance matrix (n × n, row-major rows); `+∞` on the diagonal and 0 off it for
+    /// parameters that are not identifiable.
+    pub covariance: Vec<Vec<f64>>,
+    /// Correlation matrix (n × n); 1 on the diagonal, 0 for non-identifiable parameters.
+    pub correlation: Vec<Vec<f64>>,
+    /// Whether each parameter is determined by the data (full rank in its direction).
+    pub identifiable: Vec<bool>,
+    /// Whether each parameter sits on a bound (the linear estimate is then only indicative).
+    pub at_bound: Vec<bool>,
+    /// Residual variance estimate `SSR / (m − n)`.
+    pub s2: f64,
+    /// Residual sum of squares at `x`.
+    pub ssr: f64,
+    /// Degrees of freedom `m − n`.
+    pub dof: usize,
+    /// Numerical rank of J.
+    pub rank: usize,
+    /// Residual evaluations used.
+    pub evals: usize,
+}
+
+/// Uncertainty of the parameters `x` (physical units) of `problem`, from the residual
+/// Jacobian at `x`. Needs more residuals than parameters and finite residuals at `x`.
+pub fn uncertainty<P: ResidualProblem + ?Sized>(
+    problem: &P,
+    x: &[f64],
+    opts: &JacobianOptions,
+    pool: &ThreadPool,
+) -> Result<Uncertainty, OptimError> {
+    let bounds = problem.bounds();
+    bounds.check_inside(x)?;
+    let n = problem.dim();
+    let u: Vec<f64> = bounds
+        .to_unit(x)
+        .iter()
+        .map(|v| v.clamp(0.0, 1.0))
+        .collect();
+    let r = residuals_unit(problem, &u, None).ok_or(OptimError::NonFiniteResiduals)?;
+    let m = r.len();
+    if m <= n {
+        return Err(OptimError::TooFewResiduals { m, n });
+    }
+    let (jac, failed, used) = jacobian_unit(problem, &u, &r, opts, pool);
+    let ssr: f64 = r.iter().map(|v| v * v).sum();
+    let dof = m - n;
+    let s2 = ssr / dof as f64;
+
+    // J = U S Vᵀ  ⇒  (JᵀJ)⁺ = V S⁻² Vᵀ over the kept singular values.
+    let svd = jac.svd(false, true);
+    let v_t = svd.v_t.ok_or(OptimError::NonFiniteResiduals)?;
+    let s = &svd.singular_values;
+    let s_max = s.iter().cloned().fold(0.0, f64::max);
+    let keep: Vec<bool> = s
+        .iter()
+        .map(|&v| s_max > 0.0 && v > RCOND * s_max)
+        .collect();
+    let rank = keep.iter().filter(|&&k| k).count();
+    let mut identifiable: Vec<bool> = failed.iter().map(|f| !f).collect();
+    for (k, &kept) in keep.iter().enumerate() {
+        if !kept {
+            for (j, id) in identifiable.iter_mut().enumerate() {
+                if v_t[(k, j)].abs() > 1e-6 {
+                    *id = false;
+                }
+            }
+        }
+    }
+    let mut cov_unit = vec![vec![0.0; n]; n];
+    for (k, &kept) in keep.iter().enumerate() {
+        if kept {
+            let w = 1.0 / (s[k] * s[k]);
+            for i in 0..n {
+                for j in 0..n {
+                    cov_unit[i][j] += w * v_t[(k, i)] * v_t[(k, j)];
+                }
+            }
+        }
+    }
+    // Scale to physical units: x = lower + u · width.
+    let mut covariance = vec![vec![0.0; n]; n];
+    for i in 0..n {
+        for j in 0..n {
+            covariance[i][j] = if !identifiable[i] || !identifiable[j] {
+                if i == j {
+                    f64::INFINITY
+                } else {
+                    0.0
+                }
+            } else {
+                s2 * cov_unit[i][j] * bounds.width(i) * bounds.width(j)
+            };
+        }
+    }
+    let sigma: Vec<f64> = (0..n).map(|i| covariance[i][i].max(0.0).sqrt()).collect();
+    let mut correlation = vec![vec![0.0; n]; n];
+    for i in 0..n {
+        for j in 0..n {
+            correlation[i][j] = if i == j {
+                1.0
+            } else if identifiable[i] && identifiable[j] && sigma[i] > 0.0 && sigma[j] > 0.0 {
+                (covariance[i][j] / (sigma[i] * sigma[j])).clamp(-1.0, 1.0)
+            } else {
+                0.0
+            };
+        }
+    }
+    let at_bound = u.iter().map(|&v| v <= 0.0 || v >= 1.0).collect();
+    Ok(Uncertainty {
+        sigma,
+        covariance,
+        correlation,
+        identifiable,
+        at_bound,
+        s2,
+        ssr,
+        dof,
+        rank,
+        evals: used + 1,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{thread_pool, Bounds, Problem};
+    use super::*;
+
+    /// Residuals depend on x0 + x1 only: x0 and x1 are not separately identifiable.
+    struct Degenerate(Bounds);
+    impl Problem for Degenerate {
+        fn dim(&self) -> usize {
+            3
+        }
+        fn bounds(&self) -> &Bounds {
+            &self.0
+        }
+        fn cost(&self, x: &[f64]) -> f64 {
+            let mut r = Vec::new();
+            self.residuals(x, &mut r);
+            r.iter().map(|v| v * v).sum()
+        }
+    }
+    impl ResidualProblem for Degenerate {
+        fn residuals(&self, x: &[f64], out: &mut Vec<f64>) {
+            out.clear();
+            for i in 0..10 {
+                let t = i as f64;
+                out.push(x[0] + x[1] - 1.0 + 0.01 * (t * 1.3).sin());
+                out.push(x[2] * t - 2.0 + 0.01 * (t * 0.7).cos());
+            }
+        }
+    }
+
+    #[test]
+    fn rank_deficiency_gives_infinite_sigma_never_nan() {
+        let p = Degenerate(Bounds::uniform(3, -5.0, 5.0).expect("valid"));
+        let pool = thread_pool(Some(1)).expect("pool");
+        let u = uncertainty(&p, &[0.5, 0.5, 0.2], &JacobianOptions::default(), &pool)
+            .expect("uncertainty");
+        assert_eq!(u.rank, 2);
+        assert_eq!(u.identifiable, vec![false, false, true]);
+        assert!(u.sigma[0].is_infinite() && u.sigma[1].is_infinite());
+        assert!(u.sigma[2].is_finite() && u.sigma[2] > 0.0);
+        let all = u.covariance.iter().chain(&u.correlation).flatten();
+        assert!(all.clone().all(|v| !v.is_nan()));
+        assert_eq!(u.correlation[0][2], 0.0);
+        assert_eq!(u.correlation[1][1], 1.0);
+    }
+
+    #[test]
+    fn rejects_too_few_residuals_and_bad_points() {
+        let p =
+            super::super::test_functions::TestFunction::sphere(6, -3.0, 10.0, 1.7).expect("valid");
+        let pool = thread_pool(Some(1)).expect("pool");
+        let o = JacobianOptions::default();
+        assert_eq!(
+            uncertainty(&p, &[1.7; 6], &o, &pool),
+            Err(OptimError::TooFewResiduals { m: 6, n: 6 })
+        );
+        assert!(uncertainty(&p, &[11.0; 6], &o, &pool).is_err());
+        assert!(JacobianOptions::default().with_step(0.0).is_err());
+    }
+}
