@@ -37,6 +37,8 @@ pub type State = [f64; NX];
 /// Below this fraction of design GG speed the compressor's flow and work fade linearly to zero:
 /// the maps' speed lines degenerate at standstill, and a machine at rest moves no air.
 const STANDSTILL_FADE: f64 = 0.02;
+/// PT speed fraction below which its gas torque is held at the value there (stall torque).
+const PT_STALL_FRACTION: f64 = 0.1;
 /// Speed below which torques are computed from power at this speed (rad/s), avoiding 1/ω.
 const OMEGA_MIN: f64 = 2.0;
 
@@ -151,9 +153,14 @@ pub fn evaluate(model: &Model, t: f64, y: &State, drive: &Drive) -> (State, Stat
     let hpt = cycle::turbine(&model.hpt, &gas, t3, p3, n1.max(0.0), p3 / p34);
     let w3 = hpt.w_kg_s;
     let p4 = c.p4(p_amb, w3, hpt.t_out_k);
-    let pt = cycle::turbine(&model.pt, &gas, hpt.t_out_k, p34, n2.max(0.0), p34 / p4);
+    // The PT's gas torque is largest at stall; the map's efficiency (and so P/ω) is meaningless
+    // there, so the torque is evaluated at no less than PT_STALL_FRACTION of design speed and
+    // held constant below it (a turbine's torque-speed line is nearly flat near stall).
+    let n2_eval = n2.max(PT_STALL_FRACTION * c.n2_design);
+    let pt = cycle::turbine(&model.pt, &gas, hpt.t_out_k, p34, n2_eval, p34 / p4);
     let w4 = pt.w_kg_s;
-    let pt_net = c.eta_m * pt.power_w - c.pt_loss_w(n2.max(0.0));
+    let pt_gas_torque = c.eta_m * pt.power_w / (n2_eval * PI / 30.0);
+    let pt_net = pt_gas_torque * n2.max(0.0) * PI / 30.0 - c.pt_loss_w(n2.max(0.0));
 
     // Fuel control, now that every measured quantity it may look at is known.
     let meas = Measured { p2_kpa: p2, n1_rpm: n1, n2_rpm: n2, power_mw: pt_net / 1e6 };
@@ -192,7 +199,7 @@ pub fn evaluate(model: &Model, t: f64, y: &State, drive: &Drive) -> (State, Stat
         0.0
     } else {
         let tq2 = pt_net / w2r.max(OMEGA_MIN);
-        if n2 <= 0.5 && c.eta_m * pt.power_w / OMEGA_MIN < c.pt_breakaway_nm {
+        if n2 <= 0.5 && pt_gas_torque < c.pt_breakaway_nm {
             0.0
         } else {
             tq2 / c.pt_inertia * 30.0 / PI
