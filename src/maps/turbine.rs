@@ -16,17 +16,19 @@
 //!   flow is linear in (PR − 1), matched in value at 1.02: finite slope, zero flow at PR = 1 and
 //!   *negative* (reverse) flow below 1, which keeps the model's residuals continuous if a
 //!   transient briefly inverts the pressure ratio.
-//! * **efficiency below PRmin**: blade-speed-ratio law. With `ν = U/C₀ ∝ 1/sqrt(Δh_is)` and
-//!   `Δh_is ∝ 1 − PR^(−1/4)` (γ ≈ 1.33), `ν̂ = sqrt((1 − PRmin^(−1/4)) / (1 − PR^(−1/4)))` ≥ 1
-//!   and `eff = eff(PRmin) · (2ν̂ − ν̂²)`, the classic parabola of stage efficiency over velocity
-//!   ratio, equal with zero slope at PRmin, falling towards low PR; floored at `EFF_FLOOR_PR` =
-//!   0.1 (and 0.1 for PR ≤ 1).
+//! * **efficiency outside the map** (below PRmin and/or below the lowest speed line): one
+//!   blade-to-gas velocity-ratio law. With `ν = U/C₀`, `C₀ ∝ sqrt(Δh_is)` and
+//!   `Δh_is ∝ 1 − PR^(−1/4)` (γ ≈ 1.33), relative to the nearest map point
+//!   `ν̂ = (nc / n_lowest if below the lowest line) · sqrt((1 − PRmin^(−1/4)) / (1 − PR^(−1/4)))`
+//!   and `eff = eff(map point) · (2ν̂ − ν̂²)`, the classic parabola of stage efficiency over
+//!   velocity ratio: equal with zero slope at the map edge, 0 at standstill, and floored at
+//!   `EFF_FLOOR_PR` = 0.1 on the low-PR side. Low speed and low PR act on the same ratio, so a
+//!   slowly turning PT fed a small pressure ratio (a start-up) keeps a realistic efficiency.
 //! * **PR above PRmax**: choked: flow and efficiency held at their PRmax values.
 //! * **speed below the lowest line** (0.6 for the JT9D maps) down to 0: flow shape of the lowest
-//!   line held; efficiency × `(2r − r²)`, `r = nc / n_lowest` (the same velocity-ratio
-//!   parabola in blade speed). This takes efficiency, and so power, to 0 at standstill
-//!   while torque ∝ power/speed stays finite (stall torque), which is what a free power turbine
-//!   at break-away needs. The 0.1 floor therefore applies at and above the lowest line only.
+//!   line held; efficiency from the velocity-ratio law above. This takes efficiency, and so
+//!   power, to 0 at standstill while torque ∝ power/speed stays finite (stall torque), which is
+//!   what a free power turbine at break-away needs.
 //! * **speed above the highest line**: the highest line is held.
 
 use super::gasturb::{GasTurbFile, MapError, MapTable};
@@ -35,6 +37,18 @@ use super::gasturb::{GasTurbFile, MapError, MapTable};
 pub const PR_LINEAR: f64 = 1.02;
 /// Floor of the efficiency below PRmin (at and above the lowest speed line).
 pub const EFF_FLOOR_PR: f64 = 0.1;
+
+/// Efficiency at relative velocity ratio ν̂ from the map-edge efficiency `e_ref`: the stage
+/// parabola `e_ref (2ν̂ − ν̂²)`, equal with zero slope at ν̂ = 1, 0 at standstill, and floored at
+/// [`EFF_FLOOR_PR`] on the high-ν̂ (low PR) side.
+fn velocity_ratio_eff(e_ref: f64, nu: f64) -> f64 {
+    let f = e_ref * (2.0 * nu - nu * nu);
+    if nu > 1.0 {
+        f.max(EFF_FLOOR_PR)
+    } else {
+        f.max(0.0)
+    }
+}
 
 /// One map point in map units.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -204,8 +218,12 @@ impl TurbineMap {
         let (pr_lo, pr_hi) = self.pr_limits(nc_map);
         let beta = (pr - pr_lo) / (pr_hi - pr_lo);
         let (b0, b1) = (self.betas[0], self.betas[self.betas.len() - 1]);
-        let (wc, mut eff) = if pr >= pr_lo {
-            self.grid(nc_map, beta.clamp(b0, b1))
+        // One blade-to-gas velocity ratio ν̂ = U/C relative to the nearest map point: low speed
+        // lowers it, low PR raises it, so the two extrapolations compensate rather than stack.
+        let nu_speed = if nc < s[0] { nc / s[0] } else { 1.0 };
+        let (wc, eff) = if pr >= pr_lo {
+            let (w, e) = self.grid(nc_map, beta.clamp(b0, b1));
+            (w, velocity_ratio_eff(e, nu_speed))
         } else {
             let (w_lo, e_lo) = self.grid(nc_map, b0);
             let pr_lin = PR_LINEAR.min(pr_lo);
@@ -216,17 +234,18 @@ impl TurbineMap {
                 ellipse(pr_lin) * (pr - 1.0) / (pr_lin - 1.0)
             };
             let e = if pr <= 1.0 {
-                EFF_FLOOR_PR
+                // The limit of the law as PR → 1⁺ (ν̂ → ∞), zero at standstill.
+                if nu_speed > 0.0 {
+                    EFF_FLOOR_PR
+                } else {
+                    0.0
+                }
             } else {
-                let nu = (dh_is(pr_lo) / dh_is(pr)).sqrt();
-                (e_lo * (2.0 * nu - nu * nu)).max(EFF_FLOOR_PR)
+                let nu_pr = (dh_is(pr_lo) / dh_is(pr)).sqrt();
+                velocity_ratio_eff(e_lo, nu_speed * nu_pr)
             };
             (w, e)
         };
-        if nc < s[0] {
-            let r = nc / s[0];
-            eff *= 2.0 * r - r * r;
-        }
         TurbinePoint { wc, eff, beta }
     }
 }
