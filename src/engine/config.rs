@@ -140,6 +140,10 @@ pub struct SequenceConfig {
     /// GG speed set-point ramp during acceleration, rpm/s.
     pub accel_rate_rpm_s: f64,
     pub idle_speed_rpm: f64,
+    /// Time at core idle before the PT governor starts accelerating the PT, s.
+    pub idle_hold_s: f64,
+    /// PT speed set-point ramp from break-away to synchronous speed, rpm/s.
+    pub pt_accel_rate_rpm_s: f64,
     /// Time the synchroniser needs at synchronous speed before closing the breaker, s.
     pub sync_s: f64,
     pub min_load_mw: f64,
@@ -258,7 +262,7 @@ impl EngineConfig {
             key: key.into(),
             reason: reason.into(),
         };
-        let positive: [(&str, f64); 21] = [
+        let positive: [(&str, f64); 22] = [
             ("ambient.temperature_k", self.ambient.temperature_k),
             ("ambient.pressure_kpa", self.ambient.pressure_kpa),
             ("design.pressure_ratio", self.design.pressure_ratio - 1.0),
@@ -277,6 +281,7 @@ impl EngineConfig {
             ("sequence.idle_speed_rpm", self.sequence.idle_speed_rpm),
             ("sequence.light_off_fuel_kg_s", self.sequence.light_off_fuel_kg_s),
             ("sequence.accel_rate_rpm_s", self.sequence.accel_rate_rpm_s),
+            ("sequence.pt_accel_rate_rpm_s", self.sequence.pt_accel_rate_rpm_s),
             ("sequence.load_ramp_mw_s", self.sequence.load_ramp_mw_s),
             ("sequence.sample_period_s", self.sequence.sample_period_s),
             ("solver.max_step_s", self.solver.max_step_s),

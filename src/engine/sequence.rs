@@ -69,7 +69,7 @@ enum Mode {
     Coast,
     Ignition { until: f64 },
     Accel,
-    Idle,
+    Idle { until: f64 },
     PtGovern,
     Sync { until: f64 },
     Loading { ramp_done_at: f64 },
@@ -132,7 +132,7 @@ impl Sequencer {
             Mode::Purge { .. } => Phase::Purge,
             Mode::Coast | Mode::Ignition { .. } => Phase::LightOff,
             Mode::Accel => Phase::Acceleration,
-            Mode::Idle | Mode::PtGovern => Phase::Idle,
+            Mode::Idle { .. } | Mode::PtGovern => Phase::Idle,
             Mode::Sync { .. } => Phase::Synchronisation,
             Mode::Loading { .. } => Phase::Loading,
             Mode::Steady => Phase::Steady,
@@ -165,7 +165,11 @@ impl Sequencer {
     /// Earliest timed event strictly after `t` (mode timers and scheduled commands).
     fn next_time_event(&self, t: f64) -> Option<f64> {
         let timer = match self.mode {
-            Mode::Purge { until } | Mode::Ignition { until } | Mode::Sync { until } | Mode::Cooldown { until } => {
+            Mode::Purge { until }
+            | Mode::Ignition { until }
+            | Mode::Idle { until }
+            | Mode::Sync { until }
+            | Mode::Cooldown { until } => {
                 Some(until)
             }
             Mode::Loading { ramp_done_at } | Mode::Unloading { ramp_done_at } => Some(ramp_done_at),
@@ -190,7 +194,6 @@ impl Sequencer {
                 }
                 w
             }
-            Mode::Idle => vec![n2(0.97 * self.cfg.design.pt_speed_rpm, true)],
             Mode::PtGovern => vec![n2(0.99 * self.cfg.design.pt_speed_rpm, true)],
             Mode::Coastdown { .. } => vec![n1(q.rest_speed_rpm, false)],
             _ => Vec::new(),
@@ -323,11 +326,18 @@ impl Sequencer {
             }
             Mode::Accel if n1 >= 0.99 * q.idle_speed_rpm * (1.0 - tol) => {
                 self.starter_engaged = false;
-                self.mode = Mode::Idle;
+                self.mode = Mode::Idle { until: t + q.idle_hold_s };
             }
-            Mode::Idle if n2 >= 0.97 * sync * (1.0 - tol) => {
-                let ramp = Ramp { t0: t, v0: n2, rate: 20.0, target: sync };
-                let cmd = self.pid(Loop::PtSpeed, Setpoint::Ramp(ramp));
+            Mode::Idle { until } if t >= until - 1e-9 => {
+                // The PT governor takes over: a PT speed ramp from wherever the PT has got to, at a
+                // sixth of the rate over the last 5 %, so the PT's acceleration power (≈ 2 MW at
+                // full rate) fades out instead of vanishing, and the GG is not starved.
+                let r = q.pt_accel_rate_rpm_s;
+                let knee = (0.95 * sync).max(n2);
+                let t1 = t + (knee - n2) / r;
+                let t2 = t1 + (sync - knee) / (r / 6.0);
+                let series = Series { t_s: vec![t, t1, t2], value: vec![n2, knee, sync] };
+                let cmd = self.pid(Loop::PtSpeed, Setpoint::Series(Arc::new(series)));
                 self.switch_fuel(t, y, st, cmd);
                 self.mode = Mode::PtGovern;
             }
@@ -449,10 +459,14 @@ impl<'m> Simulation<'m> {
             self.sequencer_update();
         }
         while self.t < t_target - 1e-9 {
-            let mut h = self.fixed_step.unwrap_or(self.h).min(self.max_step).min(t_target - self.t);
+            let h_prop = self.fixed_step.unwrap_or(self.h).min(self.max_step);
+            let mut h = h_prop.min(t_target - self.t);
             if let Some(te) = self.seq.next_time_event(self.t) {
                 h = h.min(te - self.t);
             }
+            // A step cut short by an output sample or an event says nothing about the step the
+            // error allows: keep the proposal so the next step is not needlessly small.
+            let limited = h < h_prop * 0.999;
             let drive = self.seq.drive(self.t_amb_k, self.p_amb_kpa);
             let model = self.model;
             let mut f = |tt: f64, yy: &State| dynamic::evaluate(model, tt, yy, &drive).0;
@@ -476,11 +490,16 @@ impl<'m> Simulation<'m> {
                     }
                 }
             }
+            if std::env::var_os("GTW_TRACE_STEPS").is_some() {
+                eprintln!("step t={:.3} h={:.4} err={:.3} phase={}", self.t, h, res.err, self.seq.phase());
+            }
             self.t += h;
             self.y = res.y;
             self.stats.steps += 1;
             if self.fixed_step.is_none() {
-                self.h = (h * step_factor(res.err)).clamp(1e-4, self.max_step);
+                let grown = h * step_factor(res.err);
+                let next = if limited && !crossed { grown.max(h_prop) } else { grown };
+                self.h = next.clamp(1e-4, self.max_step);
             }
             let timed = self.seq.next_time_event(self.t - h).is_some_and(|te| te <= self.t + 1e-9);
             if crossed || timed || self.seq.polls(self.t) {
