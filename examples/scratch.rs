@@ -7,7 +7,12 @@ fn main() {
     let sc = Scenario::startup(&e.cfg);
     let t0 = std::time::Instant::now();
     let (s, stats) = sequence::run_scenario(&e.cfg, &m, &sc).unwrap();
-    println!("wall {:?} stats {:?} samples {}", t0.elapsed(), stats, s.len());
+    println!(
+        "wall {:?} stats {:?} samples {}",
+        t0.elapsed(),
+        stats,
+        s.len()
+    );
     let mut last = None;
     for x in &s {
         let st = &x.stations;

@@ -15,11 +15,18 @@ pub const REFERENCE_ENGINE_TOML: &str = include_str!("../../config/engine.toml")
 #[derive(Debug, thiserror::Error)]
 pub enum EngineConfigError {
     #[error("cannot read engine file {path}: {source}")]
-    Io { path: String, source: std::io::Error },
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
     #[error("engine file {path}: {message}")]
     Parse { path: String, message: String },
     #[error("engine file {path}: key `{key}`: {reason}")]
-    Invalid { path: String, key: String, reason: String },
+    Invalid {
+        path: String,
+        key: String,
+        reason: String,
+    },
 }
 
 /// Ambient (ISO day by default).
@@ -234,8 +241,10 @@ impl EngineConfig {
     }
 
     pub fn from_toml_str(text: &str, path: &str) -> Result<EngineConfig, EngineConfigError> {
-        let cfg: EngineConfig = toml::from_str(text)
-            .map_err(|e| EngineConfigError::Parse { path: path.into(), message: e.to_string() })?;
+        let cfg: EngineConfig = toml::from_str(text).map_err(|e| EngineConfigError::Parse {
+            path: path.into(),
+            message: e.to_string(),
+        })?;
         cfg.validate(path)?;
         Ok(cfg)
     }
@@ -273,15 +282,24 @@ impl EngineConfig {
             ("design.fuel_lhv_j_per_kg", self.design.fuel_lhv_j_per_kg),
             ("dynamics.gg_inertia_kg_m2", self.dynamics.gg_inertia_kg_m2),
             ("dynamics.pt_inertia_kg_m2", self.dynamics.pt_inertia_kg_m2),
-            ("dynamics.combustor_volume_m3", self.dynamics.combustor_volume_m3),
+            (
+                "dynamics.combustor_volume_m3",
+                self.dynamics.combustor_volume_m3,
+            ),
             ("dynamics.duct_volume_m3", self.dynamics.duct_volume_m3),
             ("starter.max_torque_n_m", self.starter.max_torque_n_m),
             ("starter.free_speed_rpm", self.starter.free_speed_rpm),
             ("sequence.purge_speed_rpm", self.sequence.purge_speed_rpm),
             ("sequence.idle_speed_rpm", self.sequence.idle_speed_rpm),
-            ("sequence.light_off_fuel_kg_s", self.sequence.light_off_fuel_kg_s),
+            (
+                "sequence.light_off_fuel_kg_s",
+                self.sequence.light_off_fuel_kg_s,
+            ),
             ("sequence.accel_rate_rpm_s", self.sequence.accel_rate_rpm_s),
-            ("sequence.pt_accel_rate_rpm_s", self.sequence.pt_accel_rate_rpm_s),
+            (
+                "sequence.pt_accel_rate_rpm_s",
+                self.sequence.pt_accel_rate_rpm_s,
+            ),
             ("sequence.load_ramp_mw_s", self.sequence.load_ramp_mw_s),
             ("sequence.sample_period_s", self.sequence.sample_period_s),
             ("solver.max_step_s", self.solver.max_step_s),
@@ -292,13 +310,25 @@ impl EngineConfig {
             }
         }
         let fractions: [(&str, f64); 9] = [
-            ("design.compressor_efficiency", self.design.compressor_efficiency),
+            (
+                "design.compressor_efficiency",
+                self.design.compressor_efficiency,
+            ),
             ("design.hpt_efficiency", self.design.hpt_efficiency),
             ("design.pt_efficiency", self.design.pt_efficiency),
-            ("design.combustion_efficiency", self.design.combustion_efficiency),
-            ("design.mechanical_efficiency", self.design.mechanical_efficiency),
+            (
+                "design.combustion_efficiency",
+                self.design.combustion_efficiency,
+            ),
+            (
+                "design.mechanical_efficiency",
+                self.design.mechanical_efficiency,
+            ),
             ("design.inlet_loss_frac", self.design.inlet_loss_frac),
-            ("design.combustor_loss_frac", self.design.combustor_loss_frac),
+            (
+                "design.combustor_loss_frac",
+                self.design.combustor_loss_frac,
+            ),
             ("design.cooling_bleed_frac", self.design.cooling_bleed_frac),
             ("solver.rtol", self.solver.rtol),
         ];
@@ -320,7 +350,10 @@ impl EngineConfig {
             ));
         }
         if c.accel_limit_speed_rpm.windows(2).any(|w| w[1] <= w[0]) {
-            return Err(bad("control.accel_limit_speed_rpm", "must be strictly increasing"));
+            return Err(bad(
+                "control.accel_limit_speed_rpm",
+                "must be strictly increasing",
+            ));
         }
         let s = &self.sequence;
         if !(s.light_off_speed_rpm < s.purge_speed_rpm
@@ -334,7 +367,10 @@ impl EngineConfig {
             ));
         }
         if s.base_load_mw < s.min_load_mw {
-            return Err(bad("sequence.base_load_mw", "must be at least sequence.min_load_mw"));
+            return Err(bad(
+                "sequence.base_load_mw",
+                "must be at least sequence.min_load_mw",
+            ));
         }
         if self.solver.fixed_step_s < 0.0 {
             return Err(bad("solver.fixed_step_s", "must be >= 0 (0 = adaptive)"));
@@ -363,9 +399,14 @@ mod tests {
 
     #[test]
     fn invalid_value_is_named() {
-        let text = REFERENCE_ENGINE_TOML
-            .replace("compressor_efficiency = 0.85", "compressor_efficiency = 1.5");
+        let text = REFERENCE_ENGINE_TOML.replace(
+            "compressor_efficiency = 0.85",
+            "compressor_efficiency = 1.5",
+        );
         let err = EngineConfig::from_toml_str(&text, "x.toml").expect_err("bad value");
-        assert!(err.to_string().contains("design.compressor_efficiency"), "{err}");
+        assert!(
+            err.to_string().contains("design.compressor_efficiency"),
+            "{err}"
+        );
     }
 }

@@ -19,7 +19,12 @@ pub struct Ramp {
 
 impl Ramp {
     pub fn hold(v: f64) -> Ramp {
-        Ramp { t0: 0.0, v0: v, rate: 0.0, target: v }
+        Ramp {
+            t0: 0.0,
+            v0: v,
+            rate: 0.0,
+            target: v,
+        }
     }
 
     pub fn value(&self, t: f64) -> f64 {
@@ -144,7 +149,14 @@ pub enum FuelCommand {
     /// Open loop: the plant's measured fuel flow drives the model.
     Trace(Arc<Series>),
     /// Closed loop: PI(D-less) on `loop_kind` towards `setpoint`, within `limits`.
-    Pid { loop_kind: Loop, setpoint: Setpoint, kp: f64, ki: f64, aw_tau: f64, limits: Arc<FuelLimits> },
+    Pid {
+        loop_kind: Loop,
+        setpoint: Setpoint,
+        kp: f64,
+        ki: f64,
+        aw_tau: f64,
+        limits: Arc<FuelLimits>,
+    },
 }
 
 /// The fuel command's value and its integrator's rate.
@@ -156,19 +168,35 @@ pub struct FuelOut {
 
 impl FuelCommand {
     /// Builds the PID command for a loop from the control config.
-    pub fn pid(c: &ControlConfig, limits: Arc<FuelLimits>, loop_kind: Loop, setpoint: Setpoint) -> FuelCommand {
+    pub fn pid(
+        c: &ControlConfig,
+        limits: Arc<FuelLimits>,
+        loop_kind: Loop,
+        setpoint: Setpoint,
+    ) -> FuelCommand {
         let (kp, ki) = match loop_kind {
             Loop::GgSpeed => (c.speed_kp_kg_s_per_rpm, c.speed_ki_kg_s_per_rpm_s),
             Loop::PtSpeed => (c.pt_speed_kp_kg_s_per_rpm, c.pt_speed_ki_kg_s_per_rpm_s),
             Loop::Power => (c.power_kp_kg_s_per_mw, c.power_ki_kg_s_per_mw_s),
         };
-        FuelCommand::Pid { loop_kind, setpoint, kp, ki, aw_tau: c.antiwindup_tau_s, limits }
+        FuelCommand::Pid {
+            loop_kind,
+            setpoint,
+            kp,
+            ki,
+            aw_tau: c.antiwindup_tau_s,
+            limits,
+        }
     }
 
     /// Controller error at this instant (0 for open-loop commands).
     pub fn error(&self, t: f64, m: &Measured) -> f64 {
         match self {
-            FuelCommand::Pid { loop_kind, setpoint, .. } => {
+            FuelCommand::Pid {
+                loop_kind,
+                setpoint,
+                ..
+            } => {
                 let sp = setpoint.value(t);
                 match loop_kind {
                     Loop::GgSpeed => sp - m.n1_rpm,
@@ -183,17 +211,35 @@ impl FuelCommand {
     /// Fuel flow and integrator rate given the integrator value (kg/s).
     pub fn evaluate(&self, t: f64, integ: f64, m: &Measured) -> FuelOut {
         match self {
-            FuelCommand::Off => FuelOut { fuel_kg_s: 0.0, integrator_rate: 0.0 },
-            FuelCommand::Fixed(v) => FuelOut { fuel_kg_s: *v, integrator_rate: 0.0 },
-            FuelCommand::Trace(tr) => FuelOut { fuel_kg_s: tr.value(t).max(0.0), integrator_rate: 0.0 },
-            FuelCommand::Pid { kp, ki, aw_tau, limits, .. } => {
+            FuelCommand::Off => FuelOut {
+                fuel_kg_s: 0.0,
+                integrator_rate: 0.0,
+            },
+            FuelCommand::Fixed(v) => FuelOut {
+                fuel_kg_s: *v,
+                integrator_rate: 0.0,
+            },
+            FuelCommand::Trace(tr) => FuelOut {
+                fuel_kg_s: tr.value(t).max(0.0),
+                integrator_rate: 0.0,
+            },
+            FuelCommand::Pid {
+                kp,
+                ki,
+                aw_tau,
+                limits,
+                ..
+            } => {
                 let e = self.error(t, m);
                 let u = kp * e + integ;
                 let (lo, hi) = limits.bounds(m.n1_rpm, m.p2_kpa);
                 let sat = u.clamp(lo, hi);
                 // Back-calculation anti-windup: the integrator is pulled towards the value that
                 // the limits let through, so it never winds up while a limit is active.
-                FuelOut { fuel_kg_s: sat, integrator_rate: ki * e + (sat - u) / aw_tau }
+                FuelOut {
+                    fuel_kg_s: sat,
+                    integrator_rate: ki * e + (sat - u) / aw_tau,
+                }
             }
         }
     }
@@ -212,14 +258,32 @@ impl FuelCommand {
 pub enum StarterCommand {
     Off,
     /// Full available torque.
-    Full { max_torque: f64, free_speed: f64 },
+    Full {
+        max_torque: f64,
+        free_speed: f64,
+    },
+    /// Full available torque until the GG reaches `cutout_rpm`, then nothing (replays, where the
+    /// cut-out is not in the data).
+    FullUntil {
+        max_torque: f64,
+        free_speed: f64,
+        cutout_rpm: f64,
+    },
     /// Hold a speed (purge) with a proportional torque within the available torque.
-    Hold { speed_rpm: f64, gain: f64, max_torque: f64, free_speed: f64 },
+    Hold {
+        speed_rpm: f64,
+        gain: f64,
+        max_torque: f64,
+        free_speed: f64,
+    },
 }
 
 impl StarterCommand {
     pub fn full(c: &StarterConfig) -> StarterCommand {
-        StarterCommand::Full { max_torque: c.max_torque_n_m, free_speed: c.free_speed_rpm }
+        StarterCommand::Full {
+            max_torque: c.max_torque_n_m,
+            free_speed: c.free_speed_rpm,
+        }
     }
 
     pub fn hold(c: &StarterConfig, speed_rpm: f64) -> StarterCommand {
@@ -236,10 +300,27 @@ impl StarterCommand {
         let avail = |max: f64, free: f64| max * (1.0 - n1 / free).max(0.0);
         match *self {
             StarterCommand::Off => 0.0,
-            StarterCommand::Full { max_torque, free_speed } => avail(max_torque, free_speed),
-            StarterCommand::Hold { speed_rpm, gain, max_torque, free_speed } => {
-                (gain * (speed_rpm - n1)).clamp(0.0, avail(max_torque, free_speed))
+            StarterCommand::Full {
+                max_torque,
+                free_speed,
+            } => avail(max_torque, free_speed),
+            StarterCommand::FullUntil {
+                max_torque,
+                free_speed,
+                cutout_rpm,
+            } => {
+                if n1 < cutout_rpm {
+                    avail(max_torque, free_speed)
+                } else {
+                    0.0
+                }
             }
+            StarterCommand::Hold {
+                speed_rpm,
+                gain,
+                max_torque,
+                free_speed,
+            } => (gain * (speed_rpm - n1)).clamp(0.0, avail(max_torque, free_speed)),
         }
     }
 }
@@ -250,12 +331,22 @@ mod tests {
 
     #[test]
     fn ramp_and_interp() {
-        let r = Ramp { t0: 10.0, v0: 0.0, rate: 2.0, target: 10.0 };
+        let r = Ramp {
+            t0: 10.0,
+            v0: 0.0,
+            rate: 2.0,
+            target: 10.0,
+        };
         assert_eq!(r.value(5.0), 0.0);
         assert_eq!(r.value(12.0), 4.0);
         assert_eq!(r.value(100.0), 10.0);
         assert_eq!(r.end_time(), 15.0);
-        let down = Ramp { t0: 0.0, v0: 10.0, rate: 1.0, target: 4.0 };
+        let down = Ramp {
+            t0: 0.0,
+            v0: 10.0,
+            rate: 1.0,
+            target: 4.0,
+        };
         assert_eq!(down.value(3.0), 7.0);
         assert_eq!(down.value(30.0), 4.0);
         assert_eq!(interp(&[0.0, 10.0], &[1.0, 3.0], 5.0), 2.0);
@@ -279,7 +370,12 @@ mod tests {
             aw_tau: 1.0,
             limits,
         };
-        let m = Measured { p2_kpa: 1000.0, n1_rpm: 5000.0, n2_rpm: 0.0, power_mw: 0.0 };
+        let m = Measured {
+            p2_kpa: 1000.0,
+            n1_rpm: 5000.0,
+            n2_rpm: 0.0,
+            power_mw: 0.0,
+        };
         // Large error: output saturates at 1 kg/s and the integrator rate is negative when the
         // integrator is above the limit (no wind-up).
         let out = cmd.evaluate(0.0, 2.0, &m);
@@ -291,11 +387,19 @@ mod tests {
 
     #[test]
     fn starter_torque_curve() {
-        let s = StarterCommand::Full { max_torque: 3000.0, free_speed: 6000.0 };
+        let s = StarterCommand::Full {
+            max_torque: 3000.0,
+            free_speed: 6000.0,
+        };
         assert_eq!(s.torque(0.0), 3000.0);
         assert_eq!(s.torque(3000.0), 1500.0);
         assert_eq!(s.torque(7000.0), 0.0);
-        let h = StarterCommand::Hold { speed_rpm: 2300.0, gain: 10.0, max_torque: 3000.0, free_speed: 6000.0 };
+        let h = StarterCommand::Hold {
+            speed_rpm: 2300.0,
+            gain: 10.0,
+            max_torque: 3000.0,
+            free_speed: 6000.0,
+        };
         assert_eq!(h.torque(2400.0), 0.0);
         assert_eq!(h.torque(2200.0), 1000.0);
     }

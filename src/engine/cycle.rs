@@ -48,7 +48,15 @@ pub fn compressor_at_pr(
 ) -> CompressorStation {
     let nc = corrected_speed(n_rpm, t_in);
     let op = comp.at_pr(nc, pr);
-    compressor_finish(t_in, p_in_kpa, pr, op.wc_kg_s, op.eff, op.beta, op.surge_margin_pct)
+    compressor_finish(
+        t_in,
+        p_in_kpa,
+        pr,
+        op.wc_kg_s,
+        op.eff,
+        op.beta,
+        op.surge_margin_pct,
+    )
 }
 
 /// Compressor on its map at a given β (steady solver: β is an unknown).
@@ -61,7 +69,15 @@ pub fn compressor_at_beta(
 ) -> CompressorStation {
     let nc = corrected_speed(n_rpm, t_in);
     let op = comp.at_beta(nc, beta);
-    compressor_finish(t_in, p_in_kpa, op.pr, op.wc_kg_s, op.eff, op.beta, op.surge_margin_pct)
+    compressor_finish(
+        t_in,
+        p_in_kpa,
+        op.pr,
+        op.wc_kg_s,
+        op.eff,
+        op.beta,
+        op.surge_margin_pct,
+    )
 }
 
 fn compressor_finish(
@@ -146,7 +162,11 @@ pub fn combustor_exit_temperature(
     eta_b: f64,
     lhv: f64,
 ) -> (f64, Gas) {
-    let far = if w_air > 0.0 { (w_fuel / w_air).clamp(0.0, 0.065) } else { 0.0 };
+    let far = if w_air > 0.0 {
+        (w_fuel / w_air).clamp(0.0, 0.065)
+    } else {
+        0.0
+    };
     let gas = Gas::products(far);
     let h3 = (w_air * h2 + w_fuel * eta_b * lhv) / (w_air + w_fuel);
     (gas.t_from_h(h3), gas)

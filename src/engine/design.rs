@@ -19,7 +19,8 @@ fn fuel_for_t3(cfg: &EngineConfig, w_total: f64, h2: f64, t3: f64) -> (f64, f64,
     for _ in 0..50 {
         w_comb_air = w_total - wf;
         gas = Gas::products(wf / w_comb_air);
-        let wf_new = w_comb_air * (gas.h(t3) - h2) / (d.combustion_efficiency * d.fuel_lhv_j_per_kg - gas.h(t3));
+        let wf_new = w_comb_air * (gas.h(t3) - h2)
+            / (d.combustion_efficiency * d.fuel_lhv_j_per_kg - gas.h(t3));
         if (wf_new - wf).abs() < 1e-13 * w_total {
             wf = wf_new;
             break;

@@ -163,7 +163,12 @@ pub fn evaluate(model: &Model, t: f64, y: &State, drive: &Drive) -> (State, Stat
     let pt_net = pt_gas_torque * n2.max(0.0) * PI / 30.0 - c.pt_loss_w(n2.max(0.0));
 
     // Fuel control, now that every measured quantity it may look at is known.
-    let meas = Measured { p2_kpa: p2, n1_rpm: n1, n2_rpm: n2, power_mw: pt_net / 1e6 };
+    let meas = Measured {
+        p2_kpa: p2,
+        n1_rpm: n1,
+        n2_rpm: n2,
+        power_mw: pt_net / 1e6,
+    };
     let cmd = drive.fuel.evaluate(t, y[IX_FUEL_I] * s.fuel, &meas);
     let wf = if drive.flame { cmd.fuel_kg_s } else { 0.0 };
 

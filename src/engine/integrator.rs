@@ -10,7 +10,6 @@
 //! An embedded first-order solution gives the local error estimate for step-size control.
 //! Pure numerics: no knowledge of the engine.
 
-
 /// γ = 1 + 1/√2 (L-stability).
 const GAMMA: f64 = 1.0 + std::f64::consts::FRAC_1_SQRT_2;
 
@@ -189,9 +188,14 @@ impl<const N: usize> Ros2<N> {
             for i in 0..N {
                 let est = 0.5 * h * (k1[i] + k2[i]);
                 let sc = self.atol + self.rtol * y[i].abs().max(out[i].abs());
-                if (est / sc).abs() > worst.1 { worst = (i, (est / sc).abs()); }
+                if (est / sc).abs() > worst.1 {
+                    worst = (i, (est / sc).abs());
+                }
             }
-            eprintln!("err t={t:.3} h={h:.4} worst state {} ({:.3}) y={:?} f0={:?}", worst.0, worst.1, y, f0);
+            eprintln!(
+                "err t={t:.3} h={h:.4} worst state {} ({:.3}) y={:?} f0={:?}",
+                worst.0, worst.1, y, f0
+            );
         }
         if out.iter().all(|v| v.is_finite()) && err.is_finite() {
             Some(StepResult { y: out, err })

@@ -119,12 +119,14 @@ impl Constants {
     /// All GG shaft losses outside the mechanical efficiency, W.
     #[inline]
     pub fn gg_loss_w(&self, n1: f64) -> f64 {
-        self.gg_friction(n1) + Self::bearing_torque(self.gg_bearing_nm, n1) * n1 * std::f64::consts::PI / 30.0
+        self.gg_friction(n1)
+            + Self::bearing_torque(self.gg_bearing_nm, n1) * n1 * std::f64::consts::PI / 30.0
     }
     /// All PT + generator losses outside the mechanical efficiency, W.
     #[inline]
     pub fn pt_loss_w(&self, n2: f64) -> f64 {
-        self.pt_windage(n2) + Self::bearing_torque(self.pt_bearing_nm, n2) * n2 * std::f64::consts::PI / 30.0
+        self.pt_windage(n2)
+            + Self::bearing_torque(self.pt_bearing_nm, n2) * n2 * std::f64::consts::PI / 30.0
     }
     /// PT and generator windage ∝ n³.
     #[inline]
@@ -248,7 +250,14 @@ impl Engine {
             t3_design_k: design.t3_k,
             p34_design_kpa: design.p34_kpa,
         };
-        Ok(Engine { cfg, design, consts, comp, hpt, pt })
+        Ok(Engine {
+            cfg,
+            design,
+            consts,
+            comp,
+            hpt,
+            pt,
+        })
     }
 
     /// The built-in reference engine.
@@ -259,11 +268,16 @@ impl Engine {
     /// The engine with `health` applied to its maps (REFERENCE §3 scalers).
     pub fn model(&self, health: &HealthParams) -> Model {
         Model {
-            comp: self
-                .comp
-                .with_health(health.compressor_flow_factor(), health.compressor_eff_factor()),
-            hpt: self.hpt.with_health(health.hpt_flow_factor(), health.hpt_eff_factor()),
-            pt: self.pt.with_health(health.pt_flow_factor(), health.pt_eff_factor()),
+            comp: self.comp.with_health(
+                health.compressor_flow_factor(),
+                health.compressor_eff_factor(),
+            ),
+            hpt: self
+                .hpt
+                .with_health(health.hpt_flow_factor(), health.hpt_eff_factor()),
+            pt: self
+                .pt
+                .with_health(health.pt_flow_factor(), health.pt_eff_factor()),
             consts: self.consts,
             health: *health,
         }

@@ -71,7 +71,11 @@ pub fn measure(
     let Some(ch) = channel(cfg, s) else {
         return truth.to_vec();
     };
-    let mut y = if opts.lags { lag(truth, dt, ch.tau_s) } else { truth.to_vec() };
+    let mut y = if opts.lags {
+        lag(truth, dt, ch.tau_s)
+    } else {
+        truth.to_vec()
+    };
     if opts.noise && (ch.noise_rel > 0.0 || ch.noise_abs > 0.0) {
         let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
         rng.set_stream(s.index() as u64 + 1);
@@ -119,11 +123,22 @@ mod tests {
     fn noise_is_seeded_and_sized() {
         let cfg = crate::engine::config::EngineConfig::reference().sensors;
         let truth = vec![1000.0; 20000];
-        let o = MeasurementOptions { lags: true, noise: true, bias: false, seed: 7 };
+        let o = MeasurementOptions {
+            lags: true,
+            noise: true,
+            bias: false,
+            seed: 7,
+        };
         let a = measure(&cfg, Signal::T2, &truth, 1.0, &o);
         let b = measure(&cfg, Signal::T2, &truth, 1.0, &o);
         assert_eq!(a, b);
-        let other = measure(&cfg, Signal::T2, &truth, 1.0, &MeasurementOptions { seed: 8, ..o });
+        let other = measure(
+            &cfg,
+            Signal::T2,
+            &truth,
+            1.0,
+            &MeasurementOptions { seed: 8, ..o },
+        );
         assert_ne!(a, other);
         let mean = a.iter().sum::<f64>() / a.len() as f64;
         let sd = (a.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / a.len() as f64).sqrt();

@@ -10,7 +10,9 @@
 //! Pure and deterministic: no I/O, no randomness (sensor noise is applied afterwards).
 
 use super::config::EngineConfig;
-use super::control::{FuelCommand, FuelLimits, Loop, Measured, Ramp, Series, Setpoint, StarterCommand};
+use super::control::{
+    FuelCommand, FuelLimits, Loop, Measured, Ramp, Series, Setpoint, StarterCommand,
+};
 use super::dynamic::{self, Drive, Scales, State, Stations, IX_FUEL_I, IX_N1, IX_N2, NX};
 use super::integrator::{step_factor, Ros2};
 use super::model::{EngineError, Model};
@@ -54,8 +56,14 @@ impl Scenario {
     /// REFERENCE §2 start-up from standstill to steady base load.
     pub fn startup(cfg: &EngineConfig) -> Scenario {
         Scenario {
-            events: vec![Event { t_s: cfg.sequence.standstill_s, command: Command::Start }],
-            end: End::AfterSteady { hold_s: cfg.sequence.steady_s, max_s: 3600.0 },
+            events: vec![Event {
+                t_s: cfg.sequence.standstill_s,
+                command: Command::Start,
+            }],
+            end: End::AfterSteady {
+                hold_s: cfg.sequence.steady_s,
+                max_s: 3600.0,
+            },
         }
     }
 }
@@ -86,6 +94,24 @@ struct Watch {
     /// Threshold in normalised state units.
     level: f64,
     rising: bool,
+}
+
+/// The discrete part of whatever drives the model: the start-up sequencer, or a replay of a
+/// measured segment. The simulation loop asks it for the drive of each step, integrates, and
+/// lets it react at its events.
+pub trait Controller {
+    /// Drive for the next step.
+    fn drive(&self, t_amb_k: f64, p_amb_kpa: f64) -> Drive;
+    /// Earliest timed event strictly after `t`.
+    fn next_time_event(&self, t: f64) -> Option<f64>;
+    /// Fraction of the step y0 → y1 at which a watched threshold is crossed.
+    fn first_crossing(&self, y0: &State, y1: &State) -> Option<f64>;
+    /// Applies the transitions due at (t, y); may adjust `y` (bumpless switches, locking).
+    fn update(&mut self, t: f64, y: &mut State, st: &Stations) -> bool;
+    /// Whether `update` must run after every step.
+    fn polls(&self, t: f64) -> bool;
+    /// Reported phase.
+    fn phase(&self) -> Phase;
 }
 
 /// The discrete controller.
@@ -148,7 +174,9 @@ impl Sequencer {
             StarterCommand::Off
         } else {
             match self.mode {
-                Mode::Crank | Mode::Purge { .. } => StarterCommand::hold(st, self.cfg.sequence.purge_speed_rpm),
+                Mode::Crank | Mode::Purge { .. } => {
+                    StarterCommand::hold(st, self.cfg.sequence.purge_speed_rpm)
+                }
                 _ => StarterCommand::full(st),
             }
         };
@@ -169,21 +197,31 @@ impl Sequencer {
             | Mode::Ignition { until }
             | Mode::Idle { until }
             | Mode::Sync { until }
-            | Mode::Cooldown { until } => {
-                Some(until)
-            }
+            | Mode::Cooldown { until } => Some(until),
             Mode::Loading { ramp_done_at } | Mode::Unloading { ramp_done_at } => Some(ramp_done_at),
             _ => None,
         };
         let cmd = self.events.get(self.next_event).map(|e| e.t_s);
-        [timer, cmd].into_iter().flatten().filter(|&x| x > t + 1e-9).reduce(f64::min)
+        [timer, cmd]
+            .into_iter()
+            .flatten()
+            .filter(|&x| x > t + 1e-9)
+            .reduce(f64::min)
     }
 
     fn watches(&self) -> Vec<Watch> {
         let q = &self.cfg.sequence;
         let sc = &self.scales;
-        let n1 = |rpm: f64, rising: bool| Watch { index: IX_N1, level: rpm / sc.n1, rising };
-        let n2 = |rpm: f64, rising: bool| Watch { index: IX_N2, level: rpm / sc.n2, rising };
+        let n1 = |rpm: f64, rising: bool| Watch {
+            index: IX_N1,
+            level: rpm / sc.n1,
+            rising,
+        };
+        let n2 = |rpm: f64, rising: bool| Watch {
+            index: IX_N2,
+            level: rpm / sc.n2,
+            rising,
+        };
         match self.mode {
             Mode::Crank => vec![n1(0.98 * q.purge_speed_rpm, true)],
             Mode::Coast => vec![n1(q.light_off_speed_rpm, false)],
@@ -206,14 +244,23 @@ impl Sequencer {
             .iter()
             .filter_map(|w| {
                 let (a, b) = (y0[w.index] - w.level, y1[w.index] - w.level);
-                let crossed = if w.rising { a < 0.0 && b >= 0.0 } else { a > 0.0 && b <= 0.0 };
+                let crossed = if w.rising {
+                    a < 0.0 && b >= 0.0
+                } else {
+                    a > 0.0 && b <= 0.0
+                };
                 crossed.then(|| (a / (a - b)).clamp(0.0, 1.0))
             })
             .reduce(f64::min)
     }
 
     fn measured(st: &Stations) -> Measured {
-        Measured { p2_kpa: st.p2_kpa, n1_rpm: st.n1_rpm, n2_rpm: st.n2_rpm, power_mw: st.pt_shaft_mw }
+        Measured {
+            p2_kpa: st.p2_kpa,
+            n1_rpm: st.n1_rpm,
+            n2_rpm: st.n2_rpm,
+            power_mw: st.pt_shaft_mw,
+        }
     }
 
     /// Switches the fuel command bumplessly (the fuel flow is continuous across the switch).
@@ -260,7 +307,9 @@ impl Sequencer {
                     self.pt_locked = false;
                     self.starter_engaged = true;
                     self.mode = if st.n1_rpm >= 0.98 * q.purge_speed_rpm {
-                        Mode::Purge { until: t + q.purge_s }
+                        Mode::Purge {
+                            until: t + q.purge_s,
+                        }
                     } else {
                         Mode::Crank
                     };
@@ -269,12 +318,22 @@ impl Sequencer {
             Command::Stop => match self.mode {
                 Mode::Steady | Mode::Loading { .. } => {
                     let p0 = st.pt_shaft_mw;
-                    let ramp = Ramp { t0: t, v0: p0, rate: q.load_ramp_mw_s, target: q.min_load_mw.min(p0) };
+                    let ramp = Ramp {
+                        t0: t,
+                        v0: p0,
+                        rate: q.load_ramp_mw_s,
+                        target: q.min_load_mw.min(p0),
+                    };
                     let cmd = self.pid(Loop::Power, Setpoint::Ramp(ramp));
                     self.switch_fuel(t, y, st, cmd);
-                    self.mode = Mode::Unloading { ramp_done_at: ramp.end_time().max(t + 1.0) };
+                    self.mode = Mode::Unloading {
+                        ramp_done_at: ramp.end_time().max(t + 1.0),
+                    };
                 }
-                Mode::Standstill | Mode::Coastdown { .. } | Mode::Unloading { .. } | Mode::Cooldown { .. } => {}
+                Mode::Standstill
+                | Mode::Coastdown { .. }
+                | Mode::Unloading { .. }
+                | Mode::Cooldown { .. } => {}
                 _ => self.cut_fuel(false),
             },
             Command::Trip => {
@@ -302,7 +361,9 @@ impl Sequencer {
         let n2 = y[IX_N2] * self.scales.n2;
         match self.mode {
             Mode::Crank if n1 >= 0.98 * q.purge_speed_rpm * (1.0 - tol) => {
-                self.mode = Mode::Purge { until: t + q.purge_s };
+                self.mode = Mode::Purge {
+                    until: t + q.purge_s,
+                };
             }
             Mode::Purge { until } if t >= until - 1e-9 => {
                 self.starter_engaged = false;
@@ -313,20 +374,31 @@ impl Sequencer {
                 self.flame = true;
                 self.fuel = FuelCommand::Fixed(q.light_off_fuel_kg_s);
                 y[IX_FUEL_I] = q.light_off_fuel_kg_s / self.scales.fuel;
-                self.mode = Mode::Ignition { until: t + q.light_off_hold_s };
+                self.mode = Mode::Ignition {
+                    until: t + q.light_off_hold_s,
+                };
             }
             Mode::Ignition { until } if t >= until - 1e-9 => {
-                let ramp = Ramp { t0: t, v0: n1, rate: q.accel_rate_rpm_s, target: q.idle_speed_rpm };
+                let ramp = Ramp {
+                    t0: t,
+                    v0: n1,
+                    rate: q.accel_rate_rpm_s,
+                    target: q.idle_speed_rpm,
+                };
                 let cmd = self.pid(Loop::GgSpeed, Setpoint::Ramp(ramp));
                 self.switch_fuel(t, y, st, cmd);
                 self.mode = Mode::Accel;
             }
-            Mode::Accel if self.starter_engaged && n1 >= self.cfg.starter.cutout_rpm * (1.0 - tol) => {
+            Mode::Accel
+                if self.starter_engaged && n1 >= self.cfg.starter.cutout_rpm * (1.0 - tol) =>
+            {
                 self.starter_engaged = false;
             }
             Mode::Accel if n1 >= 0.99 * q.idle_speed_rpm * (1.0 - tol) => {
                 self.starter_engaged = false;
-                self.mode = Mode::Idle { until: t + q.idle_hold_s };
+                self.mode = Mode::Idle {
+                    until: t + q.idle_hold_s,
+                };
             }
             Mode::Idle { until } if t >= until - 1e-9 => {
                 // The PT governor takes over: a PT speed ramp from wherever the PT has got to, at a
@@ -336,13 +408,18 @@ impl Sequencer {
                 let knee = (0.95 * sync).max(n2);
                 let t1 = t + (knee - n2) / r;
                 let t2 = t1 + (sync - knee) / (r / 6.0);
-                let series = Series { t_s: vec![t, t1, t2], value: vec![n2, knee, sync] };
+                let series = Series {
+                    t_s: vec![t, t1, t2],
+                    value: vec![n2, knee, sync],
+                };
                 let cmd = self.pid(Loop::PtSpeed, Setpoint::Series(Arc::new(series)));
                 self.switch_fuel(t, y, st, cmd);
                 self.mode = Mode::PtGovern;
             }
             Mode::PtGovern if n2 >= 0.99 * sync * (1.0 - tol) => {
-                self.mode = Mode::Sync { until: t + q.sync_s };
+                self.mode = Mode::Sync {
+                    until: t + q.sync_s,
+                };
             }
             Mode::Sync { until } if t >= until - 1e-9 => {
                 // Breaker closes: the grid holds the PT at synchronous speed from now on.
@@ -353,13 +430,17 @@ impl Sequencer {
                 let t1 = t + (q.min_load_mw - p0).max(0.0) / r;
                 let t2 = t1 + q.warmup_s;
                 let t3 = t2 + (q.base_load_mw - q.min_load_mw) / r;
-                let series = Series { t_s: vec![t, t1, t2, t3], value: vec![p0, q.min_load_mw, q.min_load_mw, q.base_load_mw] };
+                let series = Series {
+                    t_s: vec![t, t1, t2, t3],
+                    value: vec![p0, q.min_load_mw, q.min_load_mw, q.base_load_mw],
+                };
                 let cmd = self.pid(Loop::Power, Setpoint::Series(Arc::new(series)));
                 self.switch_fuel(t, y, st, cmd);
                 self.mode = Mode::Loading { ramp_done_at: t3 };
             }
             Mode::Loading { ramp_done_at }
-                if t >= ramp_done_at - 1e-9 && (st.pt_shaft_mw - q.base_load_mw).abs() <= 0.01 * q.base_load_mw =>
+                if t >= ramp_done_at - 1e-9
+                    && (st.pt_shaft_mw - q.base_load_mw).abs() <= 0.01 * q.base_load_mw =>
             {
                 self.mode = Mode::Steady;
                 self.steady_since.get_or_insert(t);
@@ -369,7 +450,9 @@ impl Sequencer {
                 self.pt_locked = false;
                 let cmd = self.pid(Loop::PtSpeed, Setpoint::Ramp(Ramp::hold(sync)));
                 self.switch_fuel(t, y, st, cmd);
-                self.mode = Mode::Cooldown { until: t + q.cooldown_s };
+                self.mode = Mode::Cooldown {
+                    until: t + q.cooldown_s,
+                };
             }
             Mode::Cooldown { until } if t >= until - 1e-9 => self.cut_fuel(false),
             Mode::Coastdown { .. } if n1 <= q.rest_speed_rpm * (1.0 + tol) => {
@@ -384,6 +467,27 @@ impl Sequencer {
     /// Whether `update` must be called after every step (conditions that are not thresholds).
     fn polls(&self, t: f64) -> bool {
         matches!(self.mode, Mode::Loading { ramp_done_at } if t >= ramp_done_at - 1e-9)
+    }
+}
+
+impl Controller for Sequencer {
+    fn drive(&self, t_amb_k: f64, p_amb_kpa: f64) -> Drive {
+        Sequencer::drive(self, t_amb_k, p_amb_kpa)
+    }
+    fn next_time_event(&self, t: f64) -> Option<f64> {
+        Sequencer::next_time_event(self, t)
+    }
+    fn first_crossing(&self, y0: &State, y1: &State) -> Option<f64> {
+        Sequencer::first_crossing(self, y0, y1)
+    }
+    fn update(&mut self, t: f64, y: &mut State, st: &Stations) -> bool {
+        Sequencer::update(self, t, y, st)
+    }
+    fn polls(&self, t: f64) -> bool {
+        Sequencer::polls(self, t)
+    }
+    fn phase(&self) -> Phase {
+        Sequencer::phase(self)
     }
 }
 
@@ -404,10 +508,10 @@ pub struct RunStats {
     pub jacobians: usize,
 }
 
-/// The engine model running through a scenario.
-pub struct Simulation<'m> {
+/// The engine model running under a controller (the sequencer by default).
+pub struct Simulation<'m, C: Controller = Sequencer> {
     model: &'m Model,
-    pub seq: Sequencer,
+    pub seq: C,
     ros: Ros2<NX>,
     fixed_step: Option<f64>,
     max_step: f64,
@@ -419,15 +523,30 @@ pub struct Simulation<'m> {
     pub stats: RunStats,
 }
 
-impl<'m> Simulation<'m> {
-    /// Starts at standstill at time 0 in the model's ambient.
-    pub fn new(cfg: &EngineConfig, model: &'m Model, scenario: &Scenario) -> Simulation<'m> {
+impl<'m> Simulation<'m, Sequencer> {
+    /// Starts at standstill at time 0 in the model's ambient, under the start-up sequencer.
+    pub fn new(
+        cfg: &EngineConfig,
+        model: &'m Model,
+        scenario: &Scenario,
+    ) -> Simulation<'m, Sequencer> {
+        Simulation::with_controller(cfg, model, Sequencer::new(cfg, model, scenario))
+    }
+}
+
+impl<'m, C: Controller> Simulation<'m, C> {
+    /// Starts at standstill at time 0 in the model's ambient under `controller`.
+    pub fn with_controller(
+        cfg: &EngineConfig,
+        model: &'m Model,
+        controller: C,
+    ) -> Simulation<'m, C> {
         let c = &model.consts;
         let y = dynamic::standstill_state(model, c.t_amb_k, c.p_amb_kpa);
         let fixed = (cfg.solver.fixed_step_s > 0.0).then_some(cfg.solver.fixed_step_s);
         Simulation {
             model,
-            seq: Sequencer::new(cfg, model, scenario),
+            seq: controller,
             ros: Ros2::new(cfg.solver.rtol, cfg.solver.rtol * 0.1),
             fixed_step: fixed,
             max_step: cfg.solver.max_step_s,
@@ -491,17 +610,30 @@ impl<'m> Simulation<'m> {
                 }
             }
             if std::env::var_os("GTW_TRACE_STEPS").is_some() {
-                eprintln!("step t={:.3} h={:.4} err={:.3} phase={}", self.t, h, res.err, self.seq.phase());
+                eprintln!(
+                    "step t={:.3} h={:.4} err={:.3} phase={}",
+                    self.t,
+                    h,
+                    res.err,
+                    self.seq.phase()
+                );
             }
             self.t += h;
             self.y = res.y;
             self.stats.steps += 1;
             if self.fixed_step.is_none() {
                 let grown = h * step_factor(res.err);
-                let next = if limited && !crossed { grown.max(h_prop) } else { grown };
+                let next = if limited && !crossed {
+                    grown.max(h_prop)
+                } else {
+                    grown
+                };
                 self.h = next.clamp(1e-4, self.max_step);
             }
-            let timed = self.seq.next_time_event(self.t - h).is_some_and(|te| te <= self.t + 1e-9);
+            let timed = self
+                .seq
+                .next_time_event(self.t - h)
+                .is_some_and(|te| te <= self.t + 1e-9);
             if crossed || timed || self.seq.polls(self.t) {
                 self.sequencer_update();
             }
@@ -540,11 +672,18 @@ pub fn run_scenario(
         let t = k as f64 * dt;
         sim.advance_to(t)?;
         let st = sim.stations();
-        out.push(TruthSample { t_s: t, phase: sim.seq.phase(), stations: st });
+        out.push(TruthSample {
+            t_s: t,
+            phase: sim.seq.phase(),
+            stations: st,
+        });
         let done = match scenario.end {
             End::At(te) => t >= te - 1e-9,
             End::AfterSteady { hold_s, max_s } => {
-                sim.seq.steady_since.is_some_and(|ts| t >= ts + hold_s - 1e-9) || t >= max_s
+                sim.seq
+                    .steady_since
+                    .is_some_and(|ts| t >= ts + hold_s - 1e-9)
+                    || t >= max_s
             }
         };
         if done {

@@ -100,7 +100,8 @@ fn evaluate(model: &Model, inp: &SteadyInputs, x: &Unknowns) -> Evaluated {
     let w3 = w_air + wf;
     let hpt: TurbineStation = cycle::turbine(&model.hpt, &gas, t3, p3, n1, p3 / p34);
     let p4 = c.p4(inp.p_amb_kpa, w3, hpt.t_out_k);
-    let pt: TurbineStation = cycle::turbine(&model.pt, &gas, hpt.t_out_k, p34, inp.n2_rpm, p34 / p4);
+    let pt: TurbineStation =
+        cycle::turbine(&model.pt, &gas, hpt.t_out_k, p34, inp.n2_rpm, p34 / p4);
     let power_w = c.eta_m * pt.power_w - c.pt_loss_w(inp.n2_rpm);
     let gg_err = c.eta_m * hpt.power_w - comp.power_w - c.gg_loss_w(n1);
     let wd = c.flow_design;
@@ -145,7 +146,11 @@ fn evaluate(model: &Model, inp: &SteadyInputs, x: &Unknowns) -> Evaluated {
         compressor_power_mw: comp.power_w / 1e6,
         hpt_power_mw: hpt.power_w / 1e6,
         pt_power_mw: pt.power_w / 1e6,
-        heat_rate_kj_kwh: if power_w > 0.0 { heat / power_w * 3600.0 } else { f64::INFINITY },
+        heat_rate_kj_kwh: if power_w > 0.0 {
+            heat / power_w * 3600.0
+        } else {
+            f64::INFINITY
+        },
         thermal_efficiency: if heat > 0.0 { power_w / heat } else { 0.0 },
         hpt_flow_error_kg_s: hpt.w_kg_s - w3,
         pt_flow_error_kg_s: pt.w_kg_s - w3,
@@ -206,7 +211,10 @@ fn newton(model: &Model, inp: &SteadyInputs, x0: Unknowns) -> Result<Unknowns, S
             }
         }
         let rhs = DVector::from_iterator(n, rows.iter().map(|&r| -ev.residuals[r]));
-        let dx = jac.lu().solve(&rhs).ok_or("singular Jacobian (no unique operating point)")?;
+        let dx = jac
+            .lu()
+            .solve(&rhs)
+            .ok_or("singular Jacobian (no unique operating point)")?;
         // Backtracking: accept the largest step that keeps the point valid and lowers |r|.
         let mut lambda = 1.0;
         let mut accepted = false;
@@ -235,7 +243,9 @@ fn newton(model: &Model, inp: &SteadyInputs, x0: Unknowns) -> Result<Unknowns, S
     if f < 1e-9 {
         Ok(x)
     } else {
-        Err(format!("no convergence after 60 iterations (residual norm {f:.3e})"))
+        Err(format!(
+            "no convergence after 60 iterations (residual norm {f:.3e})"
+        ))
     }
 }
 
@@ -274,14 +284,19 @@ pub fn solve(
     inp: &SteadyInputs,
     guess: Option<&SteadyPoint>,
 ) -> Result<SteadyPoint, EngineError> {
-    let x0 = guess.map(|g| guess_from(model, g)).unwrap_or_else(design_guess);
+    let x0 = guess
+        .map(|g| guess_from(model, g))
+        .unwrap_or_else(design_guess);
     if let Ok(x) = newton(model, inp, x0) {
         return Ok(evaluate(model, inp, &x).point);
     }
     // Continuation: start from the design point's own demand value and step towards the target.
     let design = newton(
         model,
-        &SteadyInputs { demand: Demand::N1Rpm(model.consts.n1_design), ..*inp },
+        &SteadyInputs {
+            demand: Demand::N1Rpm(model.consts.n1_design),
+            ..*inp
+        },
         design_guess(),
     )
     .map_err(|e| EngineError::NoSteadySolution(format!("even the design speed fails: {e}")))?;
@@ -297,7 +312,10 @@ pub fn solve(
     let mut ds = 0.1_f64;
     while s < 1.0 {
         let s_try = (s + ds).min(1.0);
-        let sub = SteadyInputs { demand: with_value(inp.demand, start + s_try * (target - start)), ..*inp };
+        let sub = SteadyInputs {
+            demand: with_value(inp.demand, start + s_try * (target - start)),
+            ..*inp
+        };
         match newton(model, &sub, x) {
             Ok(xn) => {
                 x = xn;
@@ -328,7 +346,12 @@ mod tests {
     use crate::health::HealthParams;
 
     fn iso(demand: Demand) -> SteadyInputs {
-        SteadyInputs { t_amb_k: 288.15, p_amb_kpa: 101.325, n2_rpm: 3600.0, demand }
+        SteadyInputs {
+            t_amb_k: 288.15,
+            p_amb_kpa: 101.325,
+            n2_rpm: 3600.0,
+            demand,
+        }
     }
 
     #[test]
@@ -337,23 +360,53 @@ mod tests {
         let m = e.model(&HealthParams::HEALTHY);
         let p = solve(&m, &iso(Demand::PowerMw(31.4)), None).expect("solves");
         // REFERENCE §1 tolerances.
-        assert!((p.pressure_ratio / 24.1 - 1.0).abs() < 0.005, "PR {}", p.pressure_ratio);
-        assert!((p.exhaust_flow_kg_s / 84.31 - 1.0).abs() < 0.005, "W {}", p.exhaust_flow_kg_s);
+        assert!(
+            (p.pressure_ratio / 24.1 - 1.0).abs() < 0.005,
+            "PR {}",
+            p.pressure_ratio
+        );
+        assert!(
+            (p.exhaust_flow_kg_s / 84.31 - 1.0).abs() < 0.005,
+            "W {}",
+            p.exhaust_flow_kg_s
+        );
         assert!((p.power_mw / 31.4 - 1.0).abs() < 0.005, "P {}", p.power_mw);
-        assert!((p.compressor_efficiency - 0.85).abs() < 0.002, "eta {}", p.compressor_efficiency);
+        assert!(
+            (p.compressor_efficiency - 0.85).abs() < 0.002,
+            "eta {}",
+            p.compressor_efficiency
+        );
         assert!((p.n1_rpm / 9500.0 - 1.0).abs() < 1e-6, "n1 {}", p.n1_rpm);
-        assert!(p.surge_margin_pct > 5.0, "surge margin {}", p.surge_margin_pct);
+        assert!(
+            p.surge_margin_pct > 5.0,
+            "surge margin {}",
+            p.surge_margin_pct
+        );
     }
 
     #[test]
     fn mass_and_energy_close_at_off_design() {
         let e = Engine::reference().expect("engine");
         let m = e.model(&HealthParams::HEALTHY);
-        for demand in [Demand::PowerMw(20.0), Demand::PowerMw(8.0), Demand::N1Rpm(6800.0), Demand::FuelKgS(1.2)] {
+        for demand in [
+            Demand::PowerMw(20.0),
+            Demand::PowerMw(8.0),
+            Demand::N1Rpm(6800.0),
+            Demand::FuelKgS(1.2),
+        ] {
             let p = solve(&m, &iso(demand), None).expect("solves");
-            assert!(p.hpt_flow_error_kg_s.abs() / p.exhaust_flow_kg_s < 1e-6, "{demand:?} {p:?}");
-            assert!(p.pt_flow_error_kg_s.abs() / p.exhaust_flow_kg_s < 1e-6, "{demand:?}");
-            assert!(p.gg_power_error_w.abs() / (p.compressor_power_mw * 1e6) < 1e-6, "{demand:?}");
+            assert!(
+                p.hpt_flow_error_kg_s.abs() / p.exhaust_flow_kg_s < 1e-6,
+                "{demand:?} {p:?}"
+            );
+            assert!(
+                p.pt_flow_error_kg_s.abs() / p.exhaust_flow_kg_s < 1e-6,
+                "{demand:?}"
+            );
+            assert!(
+                p.gg_power_error_w.abs() / (p.compressor_power_mw * 1e6) < 1e-6,
+                "{demand:?}"
+            );
             // Energy closure over the whole engine: fuel heat = exhaust enthalpy rise + PT shaft
             // work + the GG's net shaft work (its mechanical losses leave the gas path).
             let gas = crate::thermo::Gas::products(p.fuel_air_ratio);
@@ -362,7 +415,10 @@ mod tests {
             let heat_in = p.fuel_kg_s * c.eta_b * c.lhv;
             let exhaust = p.exhaust_flow_kg_s * gas.h(p.t4_k) - p.air_flow_kg_s * air.h(p.t1_k);
             let shafts = (p.pt_power_mw + p.hpt_power_mw - p.compressor_power_mw) * 1e6;
-            assert!(((exhaust + shafts) - heat_in).abs() / heat_in < 1e-6, "{demand:?}: {exhaust} + {shafts} vs {heat_in}");
+            assert!(
+                ((exhaust + shafts) - heat_in).abs() / heat_in < 1e-6,
+                "{demand:?}: {exhaust} + {shafts} vs {heat_in}"
+            );
         }
     }
 
@@ -371,12 +427,30 @@ mod tests {
         let e = Engine::reference().expect("engine");
         let clean = e.model(&HealthParams::HEALTHY);
         let idle = solve(&clean, &iso(Demand::N1Rpm(6800.0)), None).expect("idle");
-        assert!(idle.power_mw > 0.0 && idle.power_mw < 8.0, "idle power {}", idle.power_mw);
-        let fouled = e.model(&HealthParams { D_GC: 3.0, D_EC: 1.0, ..HealthParams::HEALTHY });
+        assert!(
+            idle.power_mw > 0.0 && idle.power_mw < 8.0,
+            "idle power {}",
+            idle.power_mw
+        );
+        let fouled = e.model(&HealthParams {
+            D_GC: 3.0,
+            D_EC: 1.0,
+            ..HealthParams::HEALTHY
+        });
         let a = solve(&clean, &iso(Demand::PowerMw(31.4)), None).expect("clean");
         let b = solve(&fouled, &iso(Demand::PowerMw(31.4)), None).expect("fouled");
         assert!(b.t3_k > a.t3_k + 5.0, "T3 {} -> {}", a.t3_k, b.t3_k);
-        assert!(b.fuel_kg_s > a.fuel_kg_s, "fuel {} -> {}", a.fuel_kg_s, b.fuel_kg_s);
-        assert!(b.air_flow_kg_s < a.air_flow_kg_s, "air {} -> {}", a.air_flow_kg_s, b.air_flow_kg_s);
+        assert!(
+            b.fuel_kg_s > a.fuel_kg_s,
+            "fuel {} -> {}",
+            a.fuel_kg_s,
+            b.fuel_kg_s
+        );
+        assert!(
+            b.air_flow_kg_s < a.air_flow_kg_s,
+            "air {} -> {}",
+            a.air_flow_kg_s,
+            b.air_flow_kg_s
+        );
     }
 }

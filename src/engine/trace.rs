@@ -56,7 +56,11 @@ pub struct Trace {
 
 impl Trace {
     /// Builds a trace from true samples, applying the measurement model if asked.
-    pub fn from_truth(cfg: &EngineConfig, samples: &[TruthSample], meas: Option<&MeasurementOptions>) -> Trace {
+    pub fn from_truth(
+        cfg: &EngineConfig,
+        samples: &[TruthSample],
+        meas: Option<&MeasurementOptions>,
+    ) -> Trace {
         let t_s: Vec<f64> = samples.iter().map(|s| s.t_s).collect();
         let phase = samples.iter().map(|s| s.phase).collect();
         let truth: Vec<Values> = samples.iter().map(|s| values_of(&s.stations)).collect();
@@ -71,7 +75,13 @@ impl Trace {
                 }
             }
         }
-        Trace { t_s, phase, truth, measured, has_measurement_model: meas.is_some() }
+        Trace {
+            t_s,
+            phase,
+            truth,
+            measured,
+            has_measurement_model: meas.is_some(),
+        }
     }
 
     pub fn len(&self) -> usize {
