@@ -4,5 +4,11 @@
 //! no globals, deterministic for a given seed. The daemon modules are a thin async shell.
 #![deny(clippy::unwrap_used)]
 
+pub mod cli;
+pub mod config_problem;
+pub mod detect;
 pub mod health;
+pub mod query;
+pub mod replay;
 pub mod signals;
+pub mod store;
