@@ -698,4 +698,4 @@ fn line_fit(pts: &[(f64, f64)]) -> Option<(f64, f64)> {
 
 #[cfg(test)]
 #[path = "machine_tests.rs"]
-mod tests;
+pub(crate) mod tests;

@@ -44,7 +44,6 @@ pub(crate) struct Script {
 pub(crate) struct StartTimes {
     pub crank: f64,
     pub purge_hold_end: f64,
-    pub fuel_on: f64,
     pub accel: f64,
     pub at_idle: f64,
     pub breaker: f64,
@@ -91,7 +90,6 @@ pub(crate) fn push_start(s: &mut Script, t0: f64, n1_0: f64) -> StartTimes {
     StartTimes {
         crank: t0,
         purge_hold_end: release,
-        fuel_on,
         accel,
         at_idle: idle,
         breaker,
