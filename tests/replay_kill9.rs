@@ -74,7 +74,10 @@ fn replay_survives_kill_9_and_rerun_completes_exactly() {
             started.elapsed() < Duration::from_secs(60),
             "replay made no progress"
         );
-        assert!(child.try_wait().expect("wait").is_none(), "replay finished before the kill; make the file larger");
+        assert!(
+            child.try_wait().expect("wait").is_none(),
+            "replay finished before the kill; make the file larger"
+        );
         std::thread::sleep(Duration::from_millis(5));
     }
     child.kill().expect("SIGKILL"); // Child::kill sends SIGKILL on Unix
@@ -87,7 +90,11 @@ fn replay_survives_kill_9_and_rerun_completes_exactly() {
     assert!(committed >= 60_000, "committed data lost: {committed}");
     assert!(committed < total, "the kill came too late to test anything");
     // Committed transactions are whole: a multiple of the transaction size.
-    assert_eq!(committed % 20_000, 0, "partial transaction visible: {committed}");
+    assert_eq!(
+        committed % 20_000,
+        0,
+        "partial transaction visible: {committed}"
+    );
     drop(store);
 
     // Second run completes.

@@ -12,14 +12,29 @@ fn setup(csv: &str) -> (tempfile::TempDir, Store, PathBuf) {
 #[test]
 fn time_formats() {
     let ms = |s: &str, f| parse_time(s.as_bytes(), f);
-    assert_eq!(ms("2024-03-01T00:00:00Z", TimeFormat::Iso8601), Ok(1_709_251_200_000));
-    assert_eq!(ms("2024-03-01T01:00:00+01:00", TimeFormat::Iso8601), Ok(1_709_251_200_000));
+    assert_eq!(
+        ms("2024-03-01T00:00:00Z", TimeFormat::Iso8601),
+        Ok(1_709_251_200_000)
+    );
+    assert_eq!(
+        ms("2024-03-01T01:00:00+01:00", TimeFormat::Iso8601),
+        Ok(1_709_251_200_000)
+    );
     // No offset = UTC; a space instead of T; fractions.
-    assert_eq!(ms("2024-03-01 00:00:00.250", TimeFormat::Iso8601), Ok(1_709_251_200_250));
+    assert_eq!(
+        ms("2024-03-01 00:00:00.250", TimeFormat::Iso8601),
+        Ok(1_709_251_200_250)
+    );
     assert_eq!(ms("2024-03-01", TimeFormat::Iso8601), Ok(1_709_251_200_000));
     assert_eq!(ms("1709251200", TimeFormat::EpochS), Ok(1_709_251_200_000));
-    assert_eq!(ms("1709251200.5", TimeFormat::EpochS), Ok(1_709_251_200_500));
-    assert_eq!(ms("1709251200500", TimeFormat::EpochMs), Ok(1_709_251_200_500));
+    assert_eq!(
+        ms("1709251200.5", TimeFormat::EpochS),
+        Ok(1_709_251_200_500)
+    );
+    assert_eq!(
+        ms("1709251200500", TimeFormat::EpochMs),
+        Ok(1_709_251_200_500)
+    );
     assert!(ms("yesterday", TimeFormat::Iso8601).is_err());
     assert!(ms("12:00", TimeFormat::EpochS).is_err());
     assert_eq!(fmt_ms(1_709_251_200_250), "2024-03-01T00:00:00.250Z");
@@ -40,7 +55,10 @@ fn replay_is_idempotent_and_maps_signal_columns() {
     let r2 = replay_file(&mut store, &cfg, &path, Progress::Silent).expect("replay");
     assert_eq!((r2.samples_inserted, r2.samples_present), (0, 5));
     assert_eq!(store.sample_count().expect("count"), 5);
-    let tag = store.tag_for_signal(Signal::N1).expect("q").expect("n1 tag");
+    let tag = store
+        .tag_for_signal(Signal::N1)
+        .expect("q")
+        .expect("n1 tag");
     assert_eq!(tag.name, "n1_rpm");
     assert_eq!(tag.unit, "rpm");
 }
@@ -61,7 +79,12 @@ fn explicit_mapping_epoch_and_delimiter() {
     assert!(cfg.validate().is_empty());
     let r = replay_file(&mut store, &cfg, &path, Progress::Silent).expect("replay");
     assert_eq!(r.samples_inserted, 6);
-    let names: Vec<String> = store.tags().expect("tags").into_iter().map(|t| t.name).collect();
+    let names: Vec<String> = store
+        .tags()
+        .expect("tags")
+        .into_iter()
+        .map(|t| t.name)
+        .collect();
     assert!(names.contains(&"n1_rpm".to_string()));
     assert!(names.contains(&"fuel_kg_s".to_string()));
     assert!(names.contains(&"bearing_temp".to_string()));
@@ -82,8 +105,13 @@ const MALFORMED: &str = "time,n1_rpm,fuel_kg_s\n\
 #[test]
 fn malformed_rows_are_reported_by_line_and_skipped() {
     let (_d, mut store, path) = setup(MALFORMED);
-    let r = replay_file(&mut store, &ReplayConfig::default(), &path, Progress::Silent)
-        .expect("replay");
+    let r = replay_file(
+        &mut store,
+        &ReplayConfig::default(),
+        &path,
+        Progress::Silent,
+    )
+    .expect("replay");
     let lines: Vec<u64> = r.malformed.iter().map(|m| m.line).collect();
     assert_eq!(lines, vec![3, 4, 5, 7, 8, 9, 11], "{:#?}", r.malformed);
     assert!(r.malformed[0].reason.contains("expected 3 fields, found 2"));
@@ -108,7 +136,9 @@ fn stop_policy_names_the_line_and_keeps_what_came_before() {
     };
     let err = replay_file(&mut store, &cfg, &path, Progress::Silent).expect_err("must stop");
     match &err {
-        ReplayError::Malformed { line, committed, .. } => {
+        ReplayError::Malformed {
+            line, committed, ..
+        } => {
             assert_eq!(*line, 3);
             assert_eq!(*committed, 2);
         }
@@ -162,14 +192,20 @@ fn config_problems_name_their_keys() {
     cfg.columns.insert("a".into(), "n1".into());
     cfg.columns.insert("b".into(), "n1_rpm".into());
     let keys: Vec<String> = cfg.validate().into_iter().map(|p| p.key).collect();
-    for k in ["replay.delimiter", "replay.time_column", "replay.transaction_samples", "replay.columns.b"] {
+    for k in [
+        "replay.delimiter",
+        "replay.time_column",
+        "replay.transaction_samples",
+        "replay.columns.b",
+    ] {
         assert!(keys.contains(&k.to_string()), "{k} missing from {keys:?}");
     }
     let parsed: Result<ReplayConfig, _> = toml::from_str("time_colum = \"t\"");
     assert!(parsed.is_err(), "unknown keys are rejected");
-    let parsed: ReplayConfig =
-        toml::from_str("on_malformed = \"stop\"\ntime_format = \"epoch_ms\"\n[columns]\nN1 = \"n1\"")
-            .expect("parse");
+    let parsed: ReplayConfig = toml::from_str(
+        "on_malformed = \"stop\"\ntime_format = \"epoch_ms\"\n[columns]\nN1 = \"n1\"",
+    )
+    .expect("parse");
     assert_eq!(parsed.on_malformed, OnMalformed::Stop);
     assert_eq!(parsed.columns.get("N1").map(String::as_str), Some("n1"));
 }
@@ -177,11 +213,21 @@ fn config_problems_name_their_keys() {
 #[test]
 fn missing_columns_are_clear_errors() {
     let (_d, mut store, path) = setup("when,n1_rpm\n1,2\n");
-    let err = replay_file(&mut store, &ReplayConfig::default(), &path, Progress::Silent)
-        .expect_err("no time column");
+    let err = replay_file(
+        &mut store,
+        &ReplayConfig::default(),
+        &path,
+        Progress::Silent,
+    )
+    .expect_err("no time column");
     assert!(err.to_string().contains("column 'time' not found"), "{err}");
     let (_d2, mut store2, path2) = setup("time,foo\n2024-01-01,2\n");
-    let err = replay_file(&mut store2, &ReplayConfig::default(), &path2, Progress::Silent)
-        .expect_err("no data columns");
+    let err = replay_file(
+        &mut store2,
+        &ReplayConfig::default(),
+        &path2,
+        Progress::Silent,
+    )
+    .expect_err("no data columns");
     assert!(matches!(err, ReplayError::NoColumns { .. }));
 }

@@ -114,13 +114,13 @@ pub struct TagRow {
 /// Errors from the store.
 #[derive(Debug, thiserror::Error)]
 pub enum StoreError {
-    #[error("database {path}: {source}")]
+    #[error("cannot open database {path}")]
     Open {
         path: PathBuf,
         #[source]
         source: rusqlite::Error,
     },
-    #[error("database {path}: schema migration failed: {source}")]
+    #[error("database {path}: schema migration failed")]
     Migration {
         path: PathBuf,
         #[source]
