@@ -1,12 +1,20 @@
 //! gtwatch: transient-based gas-path diagnosis for a two-shaft industrial gas turbine.
 //!
 //! The physics (`thermo`, `maps`, `engine`, `optim`, `diagnosis`) is pure: no I/O, no async,
-//! no globals, deterministic for a given seed. The daemon modules are a thin async shell.
+//! no globals, deterministic for a given seed. The daemon modules (`store`, `replay`, `detect`,
+//! `query`, `cli`) are a thin shell around it.
 #![deny(clippy::unwrap_used)]
 
+pub mod cli;
+pub mod config_problem;
+pub mod detect;
 pub mod engine;
 pub mod health;
 pub mod maps;
 pub mod optim;
+pub mod plot;
+pub mod query;
+pub mod replay;
 pub mod signals;
+pub mod store;
 pub mod thermo;

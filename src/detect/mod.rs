@@ -1,0 +1,526 @@
+//! Start-up detection over the stored samples: reads what is not yet scanned, feeds the pure
+//! state machine in [`machine`], and stores segments, their phases and the resume point in one
+//! transaction.
+//!
+//! Same code path live (the daemon calls [`scan`] periodically from a blocking task) and after
+//! a replay. Resume rule: each scan restarts the machine a margin before the earliest of (the
+//! start of any open segment, the last scanned time, the oldest late-arriving sample), deletes
+//! the not-yet-diagnosed segments that start after that point and finds them again. The
+//! machine is deterministic, so a start interrupted by a daemon restart is found whole and
+//! never twice. Must not talk to Modbus or fit models.
+
+pub mod machine;
+
+pub use machine::{AbortCause, Frame, Machine, Outcome, PhaseSpan, SegmentRecord};
+
+use crate::config_problem::ConfigProblem;
+use crate::signals::Signal;
+use crate::store::{now_ms, Store, StoreError, TagId};
+use rusqlite::{params, OptionalExtension};
+use serde::{Deserialize, Serialize};
+
+/// `[detector]` section: start-up detection thresholds (defaults from the daemon contract).
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DetectorConfig {
+    /// Starter purge speed, rpm. Default 2300.
+    pub purge_speed_rpm: f64,
+    /// Light-off speed, rpm. Default 1700.
+    pub light_off_speed_rpm: f64,
+    /// Starter cut-out speed, rpm. Default 4500 (informational; not a boundary).
+    pub starter_cutout_rpm: f64,
+    /// Core idle speed, rpm. Default 6800.
+    pub idle_speed_rpm: f64,
+    /// Power-turbine synchronous speed, rpm. Default 3600.
+    pub pt_sync_speed_rpm: f64,
+    /// Base load, MW. Default 31.4.
+    pub base_load_mw: f64,
+    /// n1 at or below this is "at rest", rpm. Default 100.
+    pub rest_speed_rpm: f64,
+    /// Fuel above this is "fuel on", kg/s. Default 0.005.
+    pub fuel_on_kg_s: f64,
+    /// Power above this means the breaker is closed, MW. Default 0.5.
+    pub breaker_closed_mw: f64,
+    /// Crank ends at this fraction of purge speed. Default 0.98.
+    pub purge_entry_frac: f64,
+    /// Purge band half-width as a fraction of purge speed. Default 0.02.
+    pub purge_band_frac: f64,
+    /// Acceleration ends at this fraction of idle speed. Default 0.99.
+    pub idle_entry_frac: f64,
+    /// Idle ends when n2 is within this fraction of PT sync speed. Default 0.01.
+    pub sync_band_frac: f64,
+    /// Steady load: power within this fraction of its level. Default 0.01.
+    pub steady_band_frac: f64,
+    /// ... for this long, seconds. Default 60.
+    pub steady_hold_s: f64,
+    /// A plateau below this fraction of base load is warm-up, not steady load. Default 0.2.
+    pub steady_min_load_frac: f64,
+    /// Fuel falling from on to off within this time is a trip (abrupt cut), s. Default 3.
+    pub trip_fuel_cut_s: f64,
+    /// n1 falling this far below its peak with fuel on is a flame-out, rpm. Default 300.
+    pub flame_out_drop_rpm: f64,
+    /// A start within this time of the previous fuel-off is a hot restart, s. Default 1800.
+    pub hot_restart_window_s: f64,
+    /// Samples further apart than this mark a data gap, s. Default 10.
+    pub max_sample_gap_s: f64,
+    /// On resume, restart the machine this long before the resume point, s. Default 600.
+    pub resume_margin_s: f64,
+    /// Tag names of the inputs; default: the first tag of signal n1 / fuel_flow / power / n2.
+    pub n1_tag: Option<String>,
+    pub fuel_tag: Option<String>,
+    pub power_tag: Option<String>,
+    pub n2_tag: Option<String>,
+}
+
+impl Default for DetectorConfig {
+    fn default() -> Self {
+        DetectorConfig {
+            purge_speed_rpm: 2300.0,
+            light_off_speed_rpm: 1700.0,
+            starter_cutout_rpm: 4500.0,
+            idle_speed_rpm: 6800.0,
+            pt_sync_speed_rpm: 3600.0,
+            base_load_mw: 31.4,
+            rest_speed_rpm: 100.0,
+            fuel_on_kg_s: 0.005,
+            breaker_closed_mw: 0.5,
+            purge_entry_frac: 0.98,
+            purge_band_frac: 0.02,
+            idle_entry_frac: 0.99,
+            sync_band_frac: 0.01,
+            steady_band_frac: 0.01,
+            steady_hold_s: 60.0,
+            steady_min_load_frac: 0.2,
+            trip_fuel_cut_s: 3.0,
+            flame_out_drop_rpm: 300.0,
+            hot_restart_window_s: 1800.0,
+            max_sample_gap_s: 10.0,
+            resume_margin_s: 600.0,
+            n1_tag: None,
+            fuel_tag: None,
+            power_tag: None,
+            n2_tag: None,
+        }
+    }
+}
+
+impl DetectorConfig {
+    /// Problems with this section; keys are prefixed `detector.`.
+    pub fn validate(&self) -> Vec<ConfigProblem> {
+        let mut p = Vec::new();
+        let positive = [
+            ("purge_speed_rpm", self.purge_speed_rpm),
+            ("light_off_speed_rpm", self.light_off_speed_rpm),
+            ("starter_cutout_rpm", self.starter_cutout_rpm),
+            ("idle_speed_rpm", self.idle_speed_rpm),
+            ("pt_sync_speed_rpm", self.pt_sync_speed_rpm),
+            ("base_load_mw", self.base_load_mw),
+            ("rest_speed_rpm", self.rest_speed_rpm),
+            ("fuel_on_kg_s", self.fuel_on_kg_s),
+            ("breaker_closed_mw", self.breaker_closed_mw),
+            ("steady_hold_s", self.steady_hold_s),
+            ("trip_fuel_cut_s", self.trip_fuel_cut_s),
+            ("flame_out_drop_rpm", self.flame_out_drop_rpm),
+            ("max_sample_gap_s", self.max_sample_gap_s),
+        ];
+        for (k, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                p.push(ConfigProblem::new(
+                    format!("detector.{k}"),
+                    format!("must be a number > 0 (got {v})"),
+                ));
+            }
+        }
+        let non_negative = [
+            ("hot_restart_window_s", self.hot_restart_window_s),
+            ("resume_margin_s", self.resume_margin_s),
+        ];
+        for (k, v) in non_negative {
+            if !(v.is_finite() && v >= 0.0) {
+                p.push(ConfigProblem::new(
+                    format!("detector.{k}"),
+                    format!("must be a number >= 0 (got {v})"),
+                ));
+            }
+        }
+        let fractions = [
+            ("purge_entry_frac", self.purge_entry_frac),
+            ("purge_band_frac", self.purge_band_frac),
+            ("idle_entry_frac", self.idle_entry_frac),
+            ("sync_band_frac", self.sync_band_frac),
+            ("steady_band_frac", self.steady_band_frac),
+            ("steady_min_load_frac", self.steady_min_load_frac),
+        ];
+        for (k, v) in fractions {
+            if !(v.is_finite() && v > 0.0 && v < 1.0) {
+                p.push(ConfigProblem::new(
+                    format!("detector.{k}"),
+                    format!("must be a fraction between 0 and 1 (got {v})"),
+                ));
+            }
+        }
+        if self.light_off_speed_rpm >= self.purge_speed_rpm {
+            p.push(ConfigProblem::new(
+                "detector.light_off_speed_rpm",
+                "must be below purge_speed_rpm",
+            ));
+        }
+        if self.purge_speed_rpm >= self.idle_speed_rpm {
+            p.push(ConfigProblem::new(
+                "detector.purge_speed_rpm",
+                "must be below idle_speed_rpm",
+            ));
+        }
+        if self.rest_speed_rpm >= self.light_off_speed_rpm {
+            p.push(ConfigProblem::new(
+                "detector.rest_speed_rpm",
+                "must be below light_off_speed_rpm",
+            ));
+        }
+        p
+    }
+}
+
+/// What one [`scan`] did.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
+pub struct ScanReport {
+    /// Frames fed to the machine (including the re-scanned margin).
+    pub frames: u64,
+    /// Time the scan restarted from, if there was anything to scan.
+    pub resumed_from_ms: Option<i64>,
+    pub scanned_to_ms: Option<i64>,
+    /// Segments written (new or updated), open ones included.
+    pub segments_written: u64,
+    /// Segments closed in this scan.
+    pub segments_closed: u64,
+    /// Segments still open at the end of the scan.
+    pub segments_open: u64,
+}
+
+/// Detector errors.
+#[derive(Debug, thiserror::Error)]
+pub enum DetectError {
+    #[error("detector input '{what}': no tag found ({hint})")]
+    MissingTag { what: &'static str, hint: String },
+    #[error("invalid value in database: {0}")]
+    Corrupt(String),
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    #[error(transparent)]
+    Sql(#[from] rusqlite::Error),
+}
+
+/// The tags the detector reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct InputTags {
+    n1: TagId,
+    fuel: TagId,
+    power: TagId,
+    n2: Option<TagId>,
+}
+
+fn resolve_tags(store: &Store, cfg: &DetectorConfig) -> Result<Option<InputTags>, DetectError> {
+    let pick = |name: &Option<String>, sig: Signal| -> Result<Option<TagId>, DetectError> {
+        match name {
+            Some(n) => Ok(Some(store.tag_by_name(n)?.id)),
+            None => Ok(store.tag_for_signal(sig)?.map(|t| t.id)),
+        }
+    };
+    let n1 = pick(&cfg.n1_tag, Signal::N1)?;
+    let fuel = pick(&cfg.fuel_tag, Signal::FuelFlow)?;
+    let power = pick(&cfg.power_tag, Signal::Power)?;
+    let n2 = pick(&cfg.n2_tag, Signal::N2)?;
+    Ok(match (n1, fuel, power) {
+        (Some(n1), Some(fuel), Some(power)) => Some(InputTags {
+            n1,
+            fuel,
+            power,
+            n2,
+        }),
+        _ => None,
+    })
+}
+
+/// Persistent detector progress (table `detector_state`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+struct ResumeState {
+    scanned_to_ms: Option<i64>,
+    rescan_from_ms: Option<i64>,
+    last_fuel_off_ms: Option<i64>,
+}
+
+fn read_state(conn: &rusqlite::Connection) -> Result<ResumeState, DetectError> {
+    Ok(conn.query_row(
+        "SELECT scanned_to_ms, rescan_from_ms, last_fuel_off_ms FROM detector_state WHERE id = 1",
+        [],
+        |r| {
+            Ok(ResumeState {
+                scanned_to_ms: r.get(0)?,
+                rescan_from_ms: r.get(1)?,
+                last_fuel_off_ms: r.get(2)?,
+            })
+        },
+    )?)
+}
+
+/// Where the machine must restart so that no start is seen only in part.
+fn resume_point(
+    conn: &rusqlite::Connection,
+    st: &ResumeState,
+    margin_ms: i64,
+) -> Result<Option<i64>, DetectError> {
+    let Some(scanned) = st.scanned_to_ms else {
+        return Ok(None); // never scanned: from the beginning
+    };
+    let mut from = scanned;
+    if let Some(r) = st.rescan_from_ms {
+        from = from.min(r);
+    }
+    let open: Option<i64> = conn.query_row(
+        "SELECT MIN(start_ms) FROM segments WHERE kind = 'startup' AND status = 'open'",
+        [],
+        |r| r.get(0),
+    )?;
+    if let Some(o) = open {
+        from = from.min(o);
+    }
+    // A (not yet diagnosed) segment spanning the resume point is found again from its start.
+    let spanning: Option<i64> = conn.query_row(
+        "SELECT MIN(start_ms) FROM segments WHERE kind = 'startup' AND status != 'diagnosed'
+           AND start_ms < ?1 AND (end_ms IS NULL OR end_ms >= ?1)",
+        params![from],
+        |r| r.get(0),
+    )?;
+    if let Some(s) = spanning {
+        from = from.min(s);
+    }
+    Ok(Some(from.saturating_sub(margin_ms)))
+}
+
+/// Reads one tag's samples in `[from, to)`, time-ordered.
+fn read_tag(
+    conn: &rusqlite::Connection,
+    tag: TagId,
+    from: i64,
+    to: i64,
+) -> Result<Vec<(i64, f64)>, DetectError> {
+    let mut stmt = conn.prepare_cached(
+        "SELECT t_ms, value FROM samples WHERE tag_id = ?1 AND t_ms >= ?2 AND t_ms < ?3 ORDER BY t_ms",
+    )?;
+    let rows = stmt.query_map(params![tag, from, to], |r| Ok((r.get(0)?, r.get(1)?)))?;
+    Ok(rows.collect::<Result<Vec<_>, _>>()?)
+}
+
+/// Carries the latest value of a secondary tag forward while n1 time stamps advance.
+struct Hold {
+    samples: Vec<(i64, f64)>,
+    pos: usize,
+    value: Option<f64>,
+}
+
+impl Hold {
+    fn new(samples: Vec<(i64, f64)>, carried: Option<f64>) -> Hold {
+        Hold {
+            samples,
+            pos: 0,
+            value: carried,
+        }
+    }
+    fn at(&mut self, t: i64) -> Option<f64> {
+        while self.pos < self.samples.len() && self.samples[self.pos].0 <= t {
+            self.value = Some(self.samples[self.pos].1);
+            self.pos += 1;
+        }
+        self.value
+    }
+}
+
+/// Time span read per chunk.
+const CHUNK_MS: i64 = 6 * 3600 * 1000;
+
+/// Processes the samples not yet scanned and stores/updates segments (see the module comment).
+///
+/// Returns an empty report when the input tags (n1, fuel flow, power) do not exist yet.
+pub fn scan(store: &mut Store, cfg: &DetectorConfig) -> Result<ScanReport, DetectError> {
+    let mut report = ScanReport::default();
+    let Some(tags) = resolve_tags(store, cfg)? else {
+        return Ok(report);
+    };
+    let conn = store.conn_mut();
+    let st = read_state(conn)?;
+    let margin_ms = (cfg.resume_margin_s * 1000.0) as i64;
+    let (first, last): (Option<i64>, Option<i64>) = conn.query_row(
+        "SELECT MIN(t_ms), MAX(t_ms) FROM samples WHERE tag_id = ?1",
+        params![tags.n1],
+        |r| Ok((r.get(0)?, r.get(1)?)),
+    )?;
+    let (Some(first), Some(last)) = (first, last) else {
+        return Ok(report);
+    };
+    if st.rescan_from_ms.is_none() && st.scanned_to_ms.is_some_and(|s| s >= last) {
+        return Ok(report); // nothing new
+    }
+    let from = resume_point(conn, &st, margin_ms)?
+        .unwrap_or(first)
+        .max(first);
+    report.resumed_from_ms = Some(from);
+
+    let fuel_off_before = st.last_fuel_off_ms.filter(|&t| t <= from);
+    let mut machine = Machine::new(cfg.clone(), fuel_off_before);
+    let mut finished = Vec::new();
+    let mut carried: [Option<f64>; 3] = [None; 3];
+    let mut chunk_from = from;
+    let mut scanned_to = None;
+    while chunk_from <= last {
+        let chunk_to = chunk_from.saturating_add(CHUNK_MS);
+        let n1 = read_tag(conn, tags.n1, chunk_from, chunk_to)?;
+        let mut fuel = Hold::new(read_tag(conn, tags.fuel, chunk_from, chunk_to)?, carried[0]);
+        let mut power = Hold::new(
+            read_tag(conn, tags.power, chunk_from, chunk_to)?,
+            carried[1],
+        );
+        let mut n2 = match tags.n2 {
+            Some(t) => Some(Hold::new(
+                read_tag(conn, t, chunk_from, chunk_to)?,
+                carried[2],
+            )),
+            None => None,
+        };
+        for (t, v) in n1 {
+            let (Some(fv), Some(pv)) = (fuel.at(t), power.at(t)) else {
+                continue;
+            };
+            let n2v = n2.as_mut().and_then(|h| h.at(t));
+            machine.push(Frame {
+                t_ms: t,
+                n1: v,
+                fuel: fv,
+                power: pv,
+                n2: n2v,
+            });
+            report.frames += 1;
+            scanned_to = Some(t);
+        }
+        carried = [fuel.value, power.value, n2.as_ref().and_then(|h| h.value)];
+        finished.extend(machine.take_finished());
+        chunk_from = chunk_to;
+    }
+    let open = machine.open_segment();
+    report.segments_closed = finished.len() as u64;
+    report.segments_open = u64::from(open.is_some());
+    report.scanned_to_ms = scanned_to;
+
+    let tx = conn.transaction()?;
+    let mut kept: Vec<i64> = Vec::new();
+    for rec in finished.iter().chain(open.iter()) {
+        if let Some(id) = upsert_segment(&tx, rec)? {
+            kept.push(id);
+            report.segments_written += 1;
+        }
+    }
+    // Segments from an earlier pass over this span that were not found again.
+    {
+        let mut stale = tx.prepare(
+            "SELECT id FROM segments WHERE kind = 'startup' AND start_ms >= ?1 AND status != 'diagnosed'
+               AND id NOT IN (SELECT segment_id FROM diagnoses)",
+        )?;
+        let ids: Vec<i64> = stale
+            .query_map(params![from], |r| r.get(0))?
+            .collect::<Result<_, _>>()?;
+        for id in ids.into_iter().filter(|id| !kept.contains(id)) {
+            tx.execute("DELETE FROM segments WHERE id = ?1", params![id])?;
+        }
+    }
+    tx.execute(
+        "UPDATE detector_state SET scanned_to_ms = MAX(COALESCE(scanned_to_ms, ?1), ?1),
+                rescan_from_ms = NULL, last_fuel_off_ms = ?2, updated_at_ms = ?3 WHERE id = 1",
+        params![
+            scanned_to.unwrap_or(last),
+            machine.last_fuel_off_ms().or(st.last_fuel_off_ms),
+            now_ms()
+        ],
+    )?;
+    tx.commit()?;
+    Ok(report)
+}
+
+/// Inserts or updates a segment keyed by its start time; a diagnosed segment is left alone.
+/// Returns its id, or `None` if it was left alone.
+fn upsert_segment(
+    tx: &rusqlite::Transaction<'_>,
+    rec: &SegmentRecord,
+) -> Result<Option<i64>, DetectError> {
+    let end = rec.end_ms.unwrap_or(i64::MAX);
+    let gap_in_span: bool = tx.query_row(
+        "SELECT EXISTS(SELECT 1 FROM gaps WHERE start_ms <= ?2 AND end_ms >= ?1)",
+        params![rec.start_ms, end],
+        |r| r.get(0),
+    )?;
+    let status = if rec.is_open() { "open" } else { "closed" };
+    let existing: Option<(i64, String)> = tx
+        .query_row(
+            "SELECT id, status FROM segments WHERE kind = 'startup' AND start_ms = ?1",
+            params![rec.start_ms],
+            |r| Ok((r.get(0)?, r.get(1)?)),
+        )
+        .optional()?;
+    let id = match existing {
+        Some((_, s)) if s == "diagnosed" => return Ok(None),
+        Some((id, _)) => {
+            tx.execute(
+                "UPDATE segments SET end_ms = ?2, outcome = ?3, abort_cause = ?4, status = ?5,
+                        hot_restart = ?6, has_gap = ?7, updated_at_ms = ?8 WHERE id = ?1",
+                params![
+                    id,
+                    rec.end_ms,
+                    rec.outcome.as_str(),
+                    rec.abort_cause.map(|c| c.as_str()),
+                    status,
+                    rec.hot_restart,
+                    rec.has_gap || gap_in_span,
+                    now_ms()
+                ],
+            )?;
+            tx.execute(
+                "DELETE FROM segment_phases WHERE segment_id = ?1",
+                params![id],
+            )?;
+            id
+        }
+        None => {
+            tx.execute(
+                "INSERT INTO segments (kind, start_ms, end_ms, outcome, abort_cause, status,
+                                       hot_restart, has_gap, updated_at_ms)
+                 VALUES ('startup', ?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
+                params![
+                    rec.start_ms,
+                    rec.end_ms,
+                    rec.outcome.as_str(),
+                    rec.abort_cause.map(|c| c.as_str()),
+                    status,
+                    rec.hot_restart,
+                    rec.has_gap || gap_in_span,
+                    now_ms()
+                ],
+            )?;
+            tx.last_insert_rowid()
+        }
+    };
+    let mut ins = tx.prepare_cached(
+        "INSERT OR REPLACE INTO segment_phases (segment_id, phase, phase_code, start_ms, end_ms)
+         VALUES (?1, ?2, ?3, ?4, ?5)",
+    )?;
+    for p in &rec.phases {
+        ins.execute(params![
+            id,
+            p.phase.name(),
+            p.phase.code(),
+            p.start_ms,
+            p.end_ms
+        ])?;
+    }
+    Ok(Some(id))
+}
+
+#[cfg(test)]
+mod tests;
