@@ -45,13 +45,18 @@ pub fn startup_svg(trace: &Trace, title: &str) -> Result<String, String> {
     {
         let root = SVGBackend::with_string(&mut svg, (1200, 1400)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| e.to_string())?;
-        let root = root.titled(title, ("sans-serif", 24)).map_err(|e| e.to_string())?;
+        let root = root
+            .titled(title, ("sans-serif", 24))
+            .map_err(|e| e.to_string())?;
         let panels = root.split_evenly((5, 1));
         let t0 = trace.t_s.first().copied().unwrap_or(0.0);
         let t1 = trace.t_s.last().copied().unwrap_or(1.0).max(t0 + 1.0);
         let groups: [(&str, &[Signal]); 5] = [
             ("speed [rpm]", &[Signal::N1, Signal::N2]),
-            ("temperature [K]", &[Signal::T2, Signal::T34, Signal::T4, Signal::T3]),
+            (
+                "temperature [K]",
+                &[Signal::T2, Signal::T34, Signal::T4, Signal::T3],
+            ),
             ("pressure [kPa]", &[Signal::P2, Signal::P34, Signal::P4]),
             ("fuel [kg/s]", &[Signal::FuelFlow]),
             ("power [MW]", &[Signal::Power]),
@@ -90,15 +95,28 @@ pub fn startup_svg(trace: &Trace, title: &str) -> Result<String, String> {
                 .map_err(|e| e.to_string())?;
             if label.starts_with("speed") {
                 chart
-                    .draw_series(runs.iter().filter(|(_, a, b)| b - a > 0.04 * (t1 - t0)).map(|(p, a, _)| {
-                        Text::new(p.name().to_string(), (*a + 2.0, hi), ("sans-serif", 12).into_font())
-                    }))
+                    .draw_series(
+                        runs.iter()
+                            .filter(|(_, a, b)| b - a > 0.04 * (t1 - t0))
+                            .map(|(p, a, _)| {
+                                Text::new(
+                                    p.name().to_string(),
+                                    (*a + 2.0, hi),
+                                    ("sans-serif", 12).into_font(),
+                                )
+                            }),
+                    )
                     .map_err(|e| e.to_string())?;
             }
             for ((s, data), colour) in signals.iter().zip(&series).zip(colours) {
                 chart
                     .draw_series(LineSeries::new(
-                        trace.t_s.iter().zip(data).filter(|(_, v)| v.is_finite()).map(|(t, v)| (*t, *v)),
+                        trace
+                            .t_s
+                            .iter()
+                            .zip(data)
+                            .filter(|(_, v)| v.is_finite())
+                            .map(|(t, v)| (*t, *v)),
                         colour,
                     ))
                     .map_err(|e| e.to_string())?

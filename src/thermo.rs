@@ -424,8 +424,9 @@ impl Gas {
         for _ in 0..40 {
             let dt = (self.h(t) - h) / self.cp(t);
             let t_new = (t - dt).max(0.5 * t);
-            // Newton's error after a step is O(step²): a step below 1e-9 T leaves ~1e-18 T.
-            if (t_new - t).abs() <= 1e-9 * t {
+            // Newton's error after a step is O(step²/T): a step below 3e-6 T leaves < 1e-11 T,
+            // so stop there rather than spend one more evaluation confirming it.
+            if (t_new - t).abs() <= 3e-6 * t {
                 return t_new;
             }
             t = t_new;
@@ -462,8 +463,8 @@ impl Gas {
             let t = x.exp();
             let dx = (self.phi_ln(t, x) - target) / self.cp(t);
             x -= dx;
-            // Error after a step is O(dx²): |dx| < 1e-9 leaves a relative T error ~1e-18.
-            if dx.abs() <= 1e-9 {
+            // Error after a step is O(dx²): |dx| < 3e-6 leaves a relative T error < 1e-11.
+            if dx.abs() <= 3e-6 {
                 break;
             }
         }

@@ -6,10 +6,13 @@ use std::process::ExitCode;
 pub enum BenchCmd {
     /// Replay ingest throughput into SQLite (synthetic CSV in a temporary directory).
     Replay(super::bench_replay::BenchReplayArgs),
+    /// Wall time of one complete start-up simulation (median of repeated runs).
+    Sim(super::bench_sim::BenchSimArgs),
 }
 
 pub fn run(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
     match cmd {
         BenchCmd::Replay(a) => super::bench_replay::run(a),
+        BenchCmd::Sim(a) => super::bench_sim::run(a),
     }
 }

@@ -6,10 +6,14 @@
 
 mod bench;
 mod bench_replay;
+mod bench_sim;
 mod common;
+mod engine_args;
 mod export;
 mod replay;
 mod segments;
+mod simulate;
+mod steady;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -24,6 +28,10 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Simulate a start-up on the engine model and write it as CSV (and SVG).
+    Simulate(simulate::SimulateArgs),
+    /// Solve one steady operating point and print the station table.
+    Steady(steady::SteadyArgs),
     /// Ingest a historical CSV log into the database (idempotent), then detect start-ups.
     Replay(replay::ReplayArgs),
     /// List detected start-ups with outcome and phase durations.
@@ -40,6 +48,8 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     init_logging();
     let result = match cli.command {
+        Command::Simulate(a) => simulate::run(a),
+        Command::Steady(a) => steady::run(a),
         Command::Replay(a) => replay::run(a),
         Command::Segments(a) => segments::run(a),
         Command::Export(a) => export::run(a),

@@ -59,6 +59,24 @@ pub fn compressor_at_pr(
     )
 }
 
+/// Compressor exit state from an already evaluated map point, at pressure ratio `pr`.
+pub fn compressor_from_op(
+    t_in: f64,
+    p_in_kpa: f64,
+    pr: f64,
+    op: &crate::maps::CompressorOp,
+) -> CompressorStation {
+    compressor_finish(
+        t_in,
+        p_in_kpa,
+        pr,
+        op.wc_kg_s,
+        op.eff,
+        op.beta,
+        op.surge_margin_pct,
+    )
+}
+
 /// Compressor on its map at a given β (steady solver: β is an unknown).
 pub fn compressor_at_beta(
     comp: &ScaledCompressor,

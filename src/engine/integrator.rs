@@ -93,7 +93,7 @@ impl<const N: usize> Ros2<N> {
             ft: [0.0; N],
             jac_valid: false,
             steps_since_jac: 0,
-            jac_every: 5,
+            jac_every: 8,
             rtol,
             atol,
             rhs_evals: 0,

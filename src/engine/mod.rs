@@ -26,3 +26,5 @@ pub use model::{DesignPoint, Engine, EngineError, Model};
 pub use sequence::{Command, End, Event, Scenario};
 pub use steady::{Demand, SteadyInputs, SteadyPoint};
 pub use trace::Trace;
+#[cfg(test)]
+mod tests;

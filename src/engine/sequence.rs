@@ -68,6 +68,45 @@ impl Scenario {
     }
 }
 
+impl Scenario {
+    /// A stretch of operations for the plant simulator and the detector's tests: a start to base
+    /// load, a normal stop, an aborted start (tripped during acceleration), and a hot restart
+    /// soon after the trip that runs to base load.
+    pub fn operations(cfg: &EngineConfig) -> Scenario {
+        let s0 = cfg.sequence.standstill_s;
+        // A start takes ~13 min; hold base load 5 min, then stop (cool-down + coast ≈ 6 min).
+        let stop = s0 + 1100.0;
+        let second = stop + 600.0;
+        let trip = second + 120.0;
+        let hot = trip + 240.0;
+        Scenario {
+            events: vec![
+                Event {
+                    t_s: s0,
+                    command: Command::Start,
+                },
+                Event {
+                    t_s: stop,
+                    command: Command::Stop,
+                },
+                Event {
+                    t_s: second,
+                    command: Command::Start,
+                },
+                Event {
+                    t_s: trip,
+                    command: Command::Trip,
+                },
+                Event {
+                    t_s: hot,
+                    command: Command::Start,
+                },
+            ],
+            end: End::At(hot + 1100.0),
+        }
+    }
+}
+
 /// Internal sequencer mode (finer than the reported [`Phase`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Mode {
@@ -491,6 +530,17 @@ impl Controller for Sequencer {
     }
 }
 
+/// Error level at which even fixed-step mode subdivides a step.
+const FIXED_STEP_EMERGENCY_ERR: f64 = 50.0;
+
+/// States within their physical range (normalised): positive pressures and temperature.
+fn plausible(y: &State) -> bool {
+    y[dynamic::IX_P2] > 0.01
+        && y[dynamic::IX_T3] > 0.1
+        && y[dynamic::IX_P34] > 0.01
+        && y[dynamic::IX_T3] < 2.0
+}
+
 /// One output sample: the true station table and the phase.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TruthSample {
@@ -550,7 +600,7 @@ impl<'m, C: Controller> Simulation<'m, C> {
             ros: Ros2::new(cfg.solver.rtol, cfg.solver.rtol * 0.1),
             fixed_step: fixed,
             max_step: cfg.solver.max_step_s,
-            h: 0.05,
+            h: fixed.unwrap_or(0.05),
             t: 0.0,
             y,
             t_amb_k: c.t_amb_k,
@@ -578,7 +628,11 @@ impl<'m, C: Controller> Simulation<'m, C> {
             self.sequencer_update();
         }
         while self.t < t_target - 1e-9 {
-            let h_prop = self.fixed_step.unwrap_or(self.h).min(self.max_step);
+            let h_prop = match self.fixed_step {
+                Some(fixed) => fixed.min(self.h),
+                None => self.h,
+            }
+            .min(self.max_step);
             let mut h = h_prop.min(t_target - self.t);
             if let Some(te) = self.seq.next_time_event(self.t) {
                 h = h.min(te - self.t);
@@ -593,8 +647,16 @@ impl<'m, C: Controller> Simulation<'m, C> {
                 self.reject(h)?;
                 continue;
             };
-            if self.fixed_step.is_none() && res.err > 1.0 {
-                self.reject(h * step_factor(res.err).min(0.5))?;
+            // Adaptive mode rejects any step over the tolerance. Fixed-step mode keeps its step
+            // unless the step is wildly wrong (ignition dumps ~2 MW into 0.2 kg of gas): then it
+            // subdivides, so a fixed step can never run the states out of their physical range.
+            let limit = if self.fixed_step.is_some() {
+                FIXED_STEP_EMERGENCY_ERR
+            } else {
+                1.0
+            };
+            if res.err > limit || !plausible(&res.y) {
+                self.reject(h * step_factor(res.err).min(0.25))?;
                 continue;
             }
             // Locate a speed-threshold crossing inside the step and shorten the step to it.

@@ -1,0 +1,92 @@
+//! `gtwatch steady`: one steady operating point and its full station table.
+
+use super::engine_args::EngineArgs;
+use crate::engine::steady::{solve, Demand, SteadyInputs};
+use std::process::ExitCode;
+
+#[derive(Debug, clap::Args)]
+#[command(group(clap::ArgGroup::new("demand").args(["power_mw", "fuel_kg_s", "n1_rpm"])))]
+pub struct SteadyArgs {
+    #[command(flatten)]
+    pub engine: EngineArgs,
+    /// Power at the PT coupling, MW (default with no demand: the design power).
+    #[arg(long)]
+    pub power_mw: Option<f64>,
+    /// Fuel flow, kg/s.
+    #[arg(long)]
+    pub fuel_kg_s: Option<f64>,
+    /// GG speed, rpm.
+    #[arg(long)]
+    pub n1_rpm: Option<f64>,
+    /// PT speed, rpm (default: synchronous).
+    #[arg(long)]
+    pub n2_rpm: Option<f64>,
+    /// Ambient temperature, K (default: the engine file's ambient).
+    #[arg(long)]
+    pub t_amb_k: Option<f64>,
+    /// Ambient pressure, kPa.
+    #[arg(long)]
+    pub p_amb_kpa: Option<f64>,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(a: SteadyArgs) -> anyhow::Result<ExitCode> {
+    let engine = a.engine.engine()?;
+    let health = a.engine.health()?;
+    let cfg = &engine.cfg;
+    let demand = match (a.power_mw, a.fuel_kg_s, a.n1_rpm) {
+        (Some(p), _, _) => Demand::PowerMw(p),
+        (_, Some(f), _) => Demand::FuelKgS(f),
+        (_, _, Some(n)) => Demand::N1Rpm(n),
+        _ => Demand::PowerMw(cfg.design.power_mw),
+    };
+    let t_amb = a.t_amb_k.unwrap_or(cfg.ambient.temperature_k);
+    let p_amb = a.p_amb_kpa.unwrap_or(cfg.ambient.pressure_kpa);
+    let model = engine.model_at(&health, t_amb, p_amb);
+    let inputs = SteadyInputs {
+        t_amb_k: t_amb,
+        p_amb_kpa: p_amb,
+        n2_rpm: a.n2_rpm.unwrap_or(cfg.design.pt_speed_rpm),
+        demand,
+    };
+    let p = solve(&model, &inputs, None)?;
+    if a.json {
+        let mut v = serde_json::to_value(p)?;
+        if let Some(o) = v.as_object_mut() {
+            o.insert("health".into(), serde_json::to_value(health)?);
+            o.insert(
+                "demand".into(),
+                serde_json::Value::String(format!("{demand:?}")),
+            );
+        }
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        println!("steady operating point: {demand:?}, health {health}");
+        println!("{:>8} {:>10} {:>10}", "station", "T [K]", "P [kPa]");
+        for (name, t, pr) in [
+            ("1 inlet", p.t1_k, p.p1_kpa),
+            ("2 comp", p.t2_k, p.p2_kpa),
+            ("3 comb", p.t3_k, p.p3_kpa),
+            ("34 HPT", p.t34_k, p.p34_kpa),
+            ("4 PT", p.t4_k, p.p4_kpa),
+        ] {
+            println!("{name:>8} {t:>10.1} {pr:>10.2}");
+        }
+        println!("n1 {:.0} rpm, n2 {:.0} rpm", p.n1_rpm, p.n2_rpm);
+        println!(
+            "air {:.2} kg/s, fuel {:.4} kg/s, exhaust {:.2} kg/s, power {:.2} MW, heat rate {:.0} kJ/kWh",
+            p.air_flow_kg_s, p.fuel_kg_s, p.exhaust_flow_kg_s, p.power_mw, p.heat_rate_kj_kwh
+        );
+        println!(
+            "PR {:.3}, efficiencies: compressor {:.4}, HPT {:.4}, PT {:.4}; surge margin {:.1} %",
+            p.pressure_ratio,
+            p.compressor_efficiency,
+            p.hpt_efficiency,
+            p.pt_efficiency,
+            p.surge_margin_pct
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,256 @@
+//! Acceptance tests of the dynamic model against the steady solver and itself (issue 2).
+
+use super::control::{FuelCommand, StarterCommand};
+use super::dynamic::{
+    self, Drive, Scales, State, Stations, IX_FAR, IX_FUEL_I, IX_N1, IX_N2, IX_P2, IX_P34, IX_T3,
+};
+use super::sensors::MeasurementOptions;
+use super::sequence::{run_scenario, Controller, Simulation};
+use super::steady::{solve, Demand, SteadyInputs, SteadyPoint};
+use super::trace::{values_of, Trace};
+use super::{Engine, Scenario};
+use crate::health::HealthParams;
+use crate::signals::{Phase, Signal};
+
+/// Constant inputs: fixed fuel, PT on the grid.
+struct Constant {
+    fuel: f64,
+}
+
+impl Controller for Constant {
+    fn drive(&self, t_amb_k: f64, p_amb_kpa: f64) -> Drive {
+        Drive {
+            t_amb_k,
+            p_amb_kpa,
+            fuel: FuelCommand::Fixed(self.fuel),
+            starter: StarterCommand::Off,
+            pt_locked: true,
+            flame: true,
+        }
+    }
+    fn next_time_event(&self, _t: f64) -> Option<f64> {
+        None
+    }
+    fn first_crossing(&self, _y0: &State, _y1: &State) -> Option<f64> {
+        None
+    }
+    fn update(&mut self, _t: f64, _y: &mut State, _st: &Stations) -> bool {
+        false
+    }
+    fn polls(&self, _t: f64) -> bool {
+        false
+    }
+    fn phase(&self) -> Phase {
+        Phase::Steady
+    }
+}
+
+fn state_of(engine: &Engine, p: &SteadyPoint) -> State {
+    let s = Scales::of(&engine.model(&HealthParams::HEALTHY));
+    let mut y = [0.0; dynamic::NX];
+    y[IX_P2] = p.p2_kpa / s.p2;
+    y[IX_T3] = p.t3_k / s.t3;
+    y[IX_P34] = p.p34_kpa / s.p34;
+    y[IX_N1] = p.n1_rpm / s.n1;
+    y[IX_N2] = p.n2_rpm / s.n2;
+    y[IX_FUEL_I] = p.fuel_kg_s / s.fuel;
+    y[IX_FAR] = p.fuel_air_ratio / dynamic::FAR_SCALE;
+    y
+}
+
+#[test]
+fn constant_inputs_settle_onto_the_steady_solution() {
+    let engine = Engine::reference().expect("engine");
+    let h = HealthParams {
+        D_GC: 2.0,
+        D_EC: 0.7,
+        D_ET: 0.5,
+        ..HealthParams::HEALTHY
+    };
+    let model = engine.model(&h);
+    let iso = |d| SteadyInputs {
+        t_amb_k: 288.15,
+        p_amb_kpa: 101.325,
+        n2_rpm: 3600.0,
+        demand: d,
+    };
+    // Start at the 31.4 MW point and step the fuel down to 1.1 kg/s.
+    let start = solve(&model, &iso(Demand::PowerMw(31.4)), None).expect("start point");
+    let target = solve(&model, &iso(Demand::FuelKgS(1.1)), None).expect("target point");
+    let mut sim = Simulation::with_controller(&engine.cfg, &model, Constant { fuel: 1.1 });
+    sim.y = state_of(&engine, &start);
+    sim.advance_to(400.0).expect("runs");
+    let st = sim.stations();
+    let pairs = [
+        ("n1", st.n1_rpm, target.n1_rpm),
+        ("T2", st.t2_k, target.t2_k),
+        ("P2", st.p2_kpa, target.p2_kpa),
+        ("T3", st.t3_k, target.t3_k),
+        ("P3", st.p3_kpa, target.p3_kpa),
+        ("T34", st.t34_k, target.t34_k),
+        ("P34", st.p34_kpa, target.p34_kpa),
+        ("T4", st.t4_k, target.t4_k),
+        ("air", st.air_kg_s, target.air_flow_kg_s),
+        ("power", st.power_mw, target.power_mw),
+    ];
+    for (name, dynamic, steady) in pairs {
+        let rel = (dynamic - steady).abs() / steady.abs();
+        assert!(
+            rel < 1e-3,
+            "{name}: dynamic {dynamic} vs steady {steady} ({rel:.2e})"
+        );
+    }
+}
+
+fn startup_with_step(fixed_step: f64) -> Trace {
+    let mut engine = Engine::reference().expect("engine");
+    engine.cfg.solver.fixed_step_s = fixed_step;
+    let model = engine.model(&HealthParams::HEALTHY);
+    let (s, _) = run_scenario(&engine.cfg, &model, &Scenario::startup(&engine.cfg)).expect("runs");
+    Trace::from_truth(&engine.cfg, &s, None)
+}
+
+/// Largest relative difference between two runs over every output and sample, each signal
+/// normalised by its own range over the start-up (so a value crossing zero is not divided by ~0).
+/// The surge margin is compared above 10 % GG speed only: below that the extrapolated map's surge
+/// line is degenerate and the margin sweeps from 0 to 25 % within the first seconds of cranking.
+fn max_rel_diff(a: &Trace, b: &Trace) -> (f64, Signal, f64) {
+    let mut worst = (0.0, Signal::N1, 0.0);
+    let n1 = b.true_series(Signal::N1);
+    for s in Signal::ALL {
+        let (va, vb) = (a.true_series(s), b.true_series(s));
+        let range = vb.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1e-9);
+        for (k, (x, y)) in va.iter().zip(&vb).enumerate() {
+            if s == Signal::SurgeMargin && n1[k] < 950.0 {
+                continue;
+            }
+            let d = (x - y).abs() / range;
+            if d > worst.0 {
+                worst = (d, s, a.t_s.get(k).copied().unwrap_or(0.0));
+            }
+        }
+    }
+    worst
+}
+
+#[test]
+fn halving_the_step_changes_every_output_by_less_than_a_tenth_of_a_percent() {
+    let a = startup_with_step(0.1);
+    let b = startup_with_step(0.05);
+    assert_eq!(a.len(), b.len(), "same phase timing");
+    let (d, s, t) = max_rel_diff(&a, &b);
+    assert!(
+        d < 1e-3,
+        "halving the step changed {s} by {:.3} % at t = {t} s",
+        d * 100.0
+    );
+    // The adaptive default is as good as the fine fixed step.
+    let c = startup_with_step(0.0);
+    let (d, s, t) = max_rel_diff(&c, &b);
+    assert!(
+        d < 1e-3,
+        "adaptive vs fixed 0.05 s: {s} differs by {:.3} % at t = {t} s",
+        d * 100.0
+    );
+}
+
+#[test]
+fn startup_reaches_base_load_in_time_without_surge() {
+    let engine = Engine::reference().expect("engine");
+    let model = engine.model(&HealthParams::HEALTHY);
+    let (s, _) = run_scenario(&engine.cfg, &model, &Scenario::startup(&engine.cfg)).expect("runs");
+    let order = [
+        Phase::Standstill,
+        Phase::Crank,
+        Phase::Purge,
+        Phase::LightOff,
+        Phase::Acceleration,
+        Phase::Idle,
+        Phase::Synchronisation,
+        Phase::Loading,
+        Phase::Steady,
+    ];
+    let mut seen: Vec<Phase> = Vec::new();
+    for x in &s {
+        if seen.last() != Some(&x.phase) {
+            seen.push(x.phase);
+        }
+    }
+    assert_eq!(seen, order, "phases in order");
+    let steady_at = s
+        .iter()
+        .find(|x| x.phase == Phase::Steady)
+        .map(|x| x.t_s)
+        .expect("steady");
+    // Configured sequence: ~2.5 min to idle, PT run-up, 30 s sync, 4 min warm-up, ramp at 0.2 MW/s.
+    assert!(
+        steady_at > 600.0 && steady_at < 1000.0,
+        "base load at {steady_at} s"
+    );
+    let last = values_of(&s.last().expect("samples").stations);
+    assert!(
+        (last[Signal::Power.index()] - 31.4).abs() < 0.05,
+        "power {}",
+        last[Signal::Power.index()]
+    );
+    assert!(
+        (last[Signal::N1.index()] - 9500.0).abs() < 10.0,
+        "n1 {}",
+        last[Signal::N1.index()]
+    );
+    let running: Vec<&super::sequence::TruthSample> =
+        s.iter().filter(|x| x.stations.n1_rpm > 500.0).collect();
+    let min_sm = running
+        .iter()
+        .map(|x| x.stations.surge_margin_pct)
+        .fold(f64::INFINITY, f64::min);
+    assert!(min_sm > 0.0, "surge margin went to {min_sm} %");
+    let max_t3 = s.iter().map(|x| x.stations.t3_k).fold(0.0, f64::max);
+    assert!(max_t3 < 1600.0, "T3 peaked at {max_t3} K");
+}
+
+#[test]
+fn same_seed_gives_byte_identical_csv() {
+    let engine = Engine::reference().expect("engine");
+    let model = engine.model(&HealthParams {
+        D_GC: 1.0,
+        ..HealthParams::HEALTHY
+    });
+    let csv = |seed: u64| {
+        let (s, _) =
+            run_scenario(&engine.cfg, &model, &Scenario::startup(&engine.cfg)).expect("runs");
+        let o = MeasurementOptions {
+            lags: true,
+            noise: true,
+            bias: false,
+            seed,
+        };
+        let mut out = Vec::new();
+        Trace::from_truth(&engine.cfg, &s, Some(&o))
+            .write_csv(&mut out)
+            .expect("writes");
+        out
+    };
+    let (a, b, c) = (csv(5), csv(5), csv(6));
+    assert_eq!(a, b);
+    assert_ne!(a, c);
+    let text = String::from_utf8(a).expect("utf8");
+    let header = text.lines().next().expect("header");
+    assert!(header.starts_with("time_s,phase,n1_rpm,n2_rpm,t1_k,p1_kpa,t2_k,p2_kpa,t3_k,p3_kpa,t34_k,p34_kpa,t4_k,p4_kpa,fuel_kg_s,power_mw,surge_margin"));
+    assert!(header.contains("true_n1_rpm"));
+}
+
+#[test]
+fn operations_scenario_has_stop_trip_and_hot_restart() {
+    let engine = Engine::reference().expect("engine");
+    let model = engine.model(&HealthParams::HEALTHY);
+    let (s, _) =
+        run_scenario(&engine.cfg, &model, &Scenario::operations(&engine.cfg)).expect("runs");
+    let phases: Vec<Phase> = s.iter().map(|x| x.phase).collect();
+    let count = |p: Phase| phases.windows(2).filter(|w| w[0] != p && w[1] == p).count();
+    assert_eq!(count(Phase::Crank), 3, "three starts");
+    assert_eq!(count(Phase::Steady), 2, "two reach base load");
+    assert_eq!(count(Phase::Trip), 1, "one trip");
+    assert_eq!(count(Phase::Shutdown), 1, "one normal stop");
+    assert!((s.last().expect("samples").stations.power_mw - 31.4).abs() < 0.1);
+}
