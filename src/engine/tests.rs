@@ -135,8 +135,8 @@ fn max_rel_diff(a: &Trace, b: &Trace) -> (f64, Signal, f64) {
 
 #[test]
 fn halving_the_step_changes_every_output_by_less_than_a_tenth_of_a_percent() {
-    let a = startup_with_step(0.1);
-    let b = startup_with_step(0.05);
+    let a = startup_with_step(0.05);
+    let b = startup_with_step(0.025);
     assert_eq!(a.len(), b.len(), "same phase timing");
     let (d, s, t) = max_rel_diff(&a, &b);
     assert!(
