@@ -91,6 +91,63 @@ pub fn measure(
     y
 }
 
+/// One instrument channel applied sample by sample (the live counterpart of [`measure`]): the
+/// same exact first-order-hold lag recursion, noise from the channel's own seeded stream.
+#[derive(Debug, Clone)]
+pub struct OnlineChannel {
+    ch: Option<SensorChannel>,
+    dt: f64,
+    prev_x: Option<f64>,
+    y: f64,
+    rng: ChaCha8Rng,
+    opts: MeasurementOptions,
+}
+
+impl OnlineChannel {
+    pub fn new(
+        cfg: &SensorsConfig,
+        s: Signal,
+        dt: f64,
+        opts: &MeasurementOptions,
+    ) -> OnlineChannel {
+        let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
+        rng.set_stream(s.index() as u64 + 1);
+        OnlineChannel {
+            ch: channel(cfg, s).cloned(),
+            dt,
+            prev_x: None,
+            y: 0.0,
+            rng,
+            opts: *opts,
+        }
+    }
+
+    /// The reading for true value `x` at the next sample.
+    pub fn sample(&mut self, x: f64) -> f64 {
+        let Some(ch) = &self.ch else {
+            return x;
+        };
+        self.y = match self.prev_x {
+            Some(px) if self.opts.lags && ch.tau_s > 0.0 => {
+                let a = (-self.dt / ch.tau_s).exp();
+                let c = ch.tau_s / self.dt * (1.0 - a);
+                a * self.y + (1.0 - c) * x + (c - a) * px
+            }
+            _ => x,
+        };
+        self.prev_x = Some(x);
+        let mut v = self.y;
+        if self.opts.noise && (ch.noise_rel > 0.0 || ch.noise_abs > 0.0) {
+            let z: f64 = StandardNormal.sample(&mut self.rng);
+            v += ((ch.noise_rel * v).powi(2) + ch.noise_abs * ch.noise_abs).sqrt() * z;
+        }
+        if self.opts.bias {
+            v += ch.bias;
+        }
+        v
+    }
+}
+
 /// The 1σ noise of a channel at a reading (used to normalise residuals).
 pub fn noise_sigma(cfg: &SensorsConfig, s: Signal, value: f64) -> f64 {
     channel(cfg, s)
@@ -117,6 +174,26 @@ mod tests {
         let exact = 1.0 - tau / dt * ((-(t - dt) / tau).exp() - (-t / tau).exp());
         assert!((y[12] - exact).abs() < 1e-12, "{} vs {}", y[12], exact);
         assert_eq!(lag(&x, dt, 0.0), x);
+    }
+
+    #[test]
+    fn online_channel_matches_batch_measurement() {
+        let cfg = crate::engine::config::EngineConfig::reference().sensors;
+        let truth: Vec<f64> = (0..300)
+            .map(|k| 600.0 + 300.0 * (k as f64 / 40.0).sin())
+            .collect();
+        let o = MeasurementOptions {
+            lags: true,
+            noise: true,
+            bias: false,
+            seed: 3,
+        };
+        let batch = measure(&cfg, Signal::T34, &truth, 1.0, &o);
+        let mut ch = OnlineChannel::new(&cfg, Signal::T34, 1.0, &o);
+        let online: Vec<f64> = truth.iter().map(|x| ch.sample(*x)).collect();
+        for (a, b) in batch.iter().zip(&online) {
+            assert!((a - b).abs() < 1e-9, "{a} vs {b}");
+        }
     }
 
     #[test]

@@ -558,9 +558,10 @@ pub struct RunStats {
     pub jacobians: usize,
 }
 
-/// The engine model running under a controller (the sequencer by default).
-pub struct Simulation<'m, C: Controller = Sequencer> {
-    model: &'m Model,
+/// The engine model running under a controller (the sequencer by default). It owns a clone of
+/// its model (the maps are shared behind `Arc`s, so this is cheap).
+pub struct Simulation<C: Controller = Sequencer> {
+    model: Model,
     pub seq: C,
     ros: Ros2<NX>,
     fixed_step: Option<f64>,
@@ -573,29 +574,21 @@ pub struct Simulation<'m, C: Controller = Sequencer> {
     pub stats: RunStats,
 }
 
-impl<'m> Simulation<'m, Sequencer> {
+impl Simulation<Sequencer> {
     /// Starts at standstill at time 0 in the model's ambient, under the start-up sequencer.
-    pub fn new(
-        cfg: &EngineConfig,
-        model: &'m Model,
-        scenario: &Scenario,
-    ) -> Simulation<'m, Sequencer> {
+    pub fn new(cfg: &EngineConfig, model: &Model, scenario: &Scenario) -> Simulation<Sequencer> {
         Simulation::with_controller(cfg, model, Sequencer::new(cfg, model, scenario))
     }
 }
 
-impl<'m, C: Controller> Simulation<'m, C> {
+impl<C: Controller> Simulation<C> {
     /// Starts at standstill at time 0 in the model's ambient under `controller`.
-    pub fn with_controller(
-        cfg: &EngineConfig,
-        model: &'m Model,
-        controller: C,
-    ) -> Simulation<'m, C> {
+    pub fn with_controller(cfg: &EngineConfig, model: &Model, controller: C) -> Simulation<C> {
         let c = &model.consts;
         let y = dynamic::standstill_state(model, c.t_amb_k, c.p_amb_kpa);
         let fixed = (cfg.solver.fixed_step_s > 0.0).then_some(cfg.solver.fixed_step_s);
         Simulation {
-            model,
+            model: model.clone(),
             seq: controller,
             ros: Ros2::new(cfg.solver.rtol, cfg.solver.rtol * 0.1),
             fixed_step: fixed,
@@ -612,7 +605,7 @@ impl<'m, C: Controller> Simulation<'m, C> {
     /// Station table at the current time.
     pub fn stations(&self) -> Stations {
         let drive = self.seq.drive(self.t_amb_k, self.p_amb_kpa);
-        dynamic::evaluate(self.model, self.t, &self.y, &drive).1
+        dynamic::evaluate(&self.model, self.t, &self.y, &drive).1
     }
 
     fn sequencer_update(&mut self) {
@@ -641,7 +634,7 @@ impl<'m, C: Controller> Simulation<'m, C> {
             // error allows: keep the proposal so the next step is not needlessly small.
             let limited = h < h_prop * 0.999;
             let drive = self.seq.drive(self.t_amb_k, self.p_amb_kpa);
-            let model = self.model;
+            let model = &self.model;
             let mut f = |tt: f64, yy: &State| dynamic::evaluate(model, tt, yy, &drive).0;
             let Some(mut res) = self.ros.step(&mut f, self.t, &self.y, h) else {
                 self.reject(h)?;
