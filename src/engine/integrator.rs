@@ -186,20 +186,6 @@ impl<const N: usize> Ros2<N> {
             acc += (est / sc) * (est / sc);
         }
         let err = (acc / N as f64).sqrt();
-        if std::env::var_os("GTW_TRACE_ERR").is_some() {
-            let mut worst = (0, 0.0);
-            for i in 0..N {
-                let est = 0.5 * h * (k1[i] + k2[i]);
-                let sc = self.atol + self.rtol * y[i].abs().max(out[i].abs());
-                if (est / sc).abs() > worst.1 {
-                    worst = (i, (est / sc).abs());
-                }
-            }
-            eprintln!(
-                "err t={t:.3} h={h:.4} worst state {} ({:.3}) y={:?} f0={:?}",
-                worst.0, worst.1, y, f0
-            );
-        }
         if out.iter().all(|v| v.is_finite()) && err.is_finite() {
             Some(StepResult { y: out, err })
         } else {

@@ -664,15 +664,6 @@ impl<C: Controller> Simulation<C> {
                     }
                 }
             }
-            if std::env::var_os("GTW_TRACE_STEPS").is_some() {
-                eprintln!(
-                    "step t={:.3} h={:.4} err={:.3} phase={}",
-                    self.t,
-                    h,
-                    res.err,
-                    self.seq.phase()
-                );
-            }
             self.t += h;
             self.y = res.y;
             self.stats.steps += 1;
