@@ -81,7 +81,11 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<ExitCode> {
             .filter(|(_, v)| *v != 0.0)
             .map(|(n, v)| format!("{n}={v}"))
             .collect();
-        let health_text = if degraded.is_empty() { "healthy".to_string() } else { degraded.join(", ") };
+        let health_text = if degraded.is_empty() {
+            "healthy".to_string()
+        } else {
+            degraded.join(", ")
+        };
         let title = format!("{} — {:?}, {health_text}", engine.cfg.name, a.scenario);
         let svg = crate::plot::startup_svg(&trace, &title).map_err(anyhow::Error::msg)?;
         std::fs::write(&path, svg).with_context(|| format!("writing {}", path.display()))?;

@@ -138,6 +138,8 @@ struct Active {
     /// Crank: highest n1 (operator stop = n1 falls back). After ignition: highest n1 (flame-out).
     peak_n1: f64,
     peak_ms: i64,
+    /// Fuel flow when `peak_n1` was seen (flame-out needs the fuel to have stayed up).
+    peak_fuel: f64,
     /// Purge: speed level the starter holds.
     ignition_ms: Option<i64>,
     ignition_n1: f64,
@@ -318,6 +320,7 @@ impl Machine {
             phase: Phase::Crank,
             peak_n1: f64::MIN,
             peak_ms: start_ms,
+            peak_fuel: 0.0,
             ignition_ms: None,
             ignition_n1: 0.0,
         };
@@ -355,11 +358,14 @@ impl Machine {
             self.finish_abort(a, cause, knee, f);
             return;
         }
-        // Flame-out: fuel present but the gas generator decays.
+        // Flame-out: fuel present but the gas generator decays. A decay the control commanded
+        // (the governor cut the fuel back, e.g. while synchronising the PT) is not one: when the
+        // fuel has fallen below 80 % of its value at the speed peak, the peak restarts here.
         if a.ignition_ms.is_some() && fuel_on {
-            if f.n1 > a.peak_n1 {
+            if f.n1 > a.peak_n1 || f.fuel < 0.8 * a.peak_fuel {
                 a.peak_n1 = f.n1;
                 a.peak_ms = f.t_ms;
+                a.peak_fuel = f.fuel;
             } else if f.n1 < a.peak_n1 - c.flame_out_drop_rpm {
                 let at = a.peak_ms;
                 self.finish_abort(a, AbortCause::FlameOut, at, f);
@@ -401,6 +407,7 @@ impl Machine {
                         a.ignition_n1 = f.n1;
                         a.peak_n1 = f.n1;
                         a.peak_ms = f.t_ms;
+                        a.peak_fuel = f.fuel;
                     } else if f.n1 < 0.85 * c.light_off_speed_rpm {
                         // No fuel came: the start was stopped; it ended when the starter let go.
                         let at = a.rec.phases.last().map_or(f.t_ms, |p| p.start_ms);
@@ -409,7 +416,7 @@ impl Machine {
                         return;
                     }
                 } else if let Some(ign) = a.ignition_ms {
-                    if f.n1 < a.ignition_n1 - c.flame_out_drop_rpm {
+                    if f.n1 < a.ignition_n1 - c.light_off_flame_out_drop_rpm {
                         self.finish_abort(a, AbortCause::FlameOut, ign, f);
                         return;
                     }
@@ -481,13 +488,22 @@ impl Machine {
         }
         let sigma = noise(&win.iter().map(|x| x.power).collect::<Vec<_>>());
         let band = (c.steady_band_frac * level).max(4.0 * sigma);
-        if win.iter().any(|x| (x.power - level).abs() > band) {
+        // Noise alone puts a ~4σ sample in a 60-sample window now and then: tolerate up to 2 %
+        // of the window outside the band, and step over isolated outliers when walking back.
+        let outside = |x: &Frame| (x.power - level).abs() > band;
+        let n_out = win.iter().filter(|x| outside(x)).count();
+        if n_out > win.len() / 50 {
             return None;
         }
-        // Coarse start: first sample after the last one outside the band.
+        // Coarse start: first sample after the last two consecutive ones outside the band.
         let li = self.index_at_or_after(loading_start);
         let mut s = lo;
-        while s > li && (self.hist[s - 1].power - level).abs() <= band {
+        while s > li {
+            let out1 = outside(&self.hist[s - 1]);
+            let out2 = s >= li + 2 && outside(&self.hist[s - 2]);
+            if out1 && (out2 || s - 1 == li) {
+                break;
+            }
             s -= 1;
         }
         // Refine on the ramp before it: where a line through the ramp reaches the level.

@@ -57,8 +57,15 @@ pub struct DetectorConfig {
     pub steady_min_load_frac: f64,
     /// Fuel falling from on to off within this time is a trip (abrupt cut), s. Default 3.
     pub trip_fuel_cut_s: f64,
-    /// n1 falling this far below its peak with fuel on is a flame-out, rpm. Default 300.
+    /// After light-off: n1 falling this far below its peak while the fuel stays up (≥ 80 % of its
+    /// value at the peak) is a flame-out, rpm. Default 1500: a commanded deceleration (the PT
+    /// governor cutting fuel at synchronisation) can lose several hundred rpm; a flame-out decays
+    /// towards rest.
     pub flame_out_drop_rpm: f64,
+    /// During light-off (starter still turning the GG): GG speed loss below the ignition speed,
+    /// with fuel on, that counts as a failed light-off / flame-out, rpm.
+    #[serde(default = "default_light_off_flame_out_drop_rpm")]
+    pub light_off_flame_out_drop_rpm: f64,
     /// A start within this time of the previous fuel-off is a hot restart, s. Default 1800.
     pub hot_restart_window_s: f64,
     /// Samples further apart than this mark a data gap, s. Default 10.
@@ -70,6 +77,10 @@ pub struct DetectorConfig {
     pub fuel_tag: Option<String>,
     pub power_tag: Option<String>,
     pub n2_tag: Option<String>,
+}
+
+fn default_light_off_flame_out_drop_rpm() -> f64 {
+    300.0
 }
 
 impl Default for DetectorConfig {
@@ -92,7 +103,8 @@ impl Default for DetectorConfig {
             steady_hold_s: 60.0,
             steady_min_load_frac: 0.2,
             trip_fuel_cut_s: 3.0,
-            flame_out_drop_rpm: 300.0,
+            flame_out_drop_rpm: 1500.0,
+            light_off_flame_out_drop_rpm: 300.0,
             hot_restart_window_s: 1800.0,
             max_sample_gap_s: 10.0,
             resume_margin_s: 600.0,
@@ -121,6 +133,10 @@ impl DetectorConfig {
             ("steady_hold_s", self.steady_hold_s),
             ("trip_fuel_cut_s", self.trip_fuel_cut_s),
             ("flame_out_drop_rpm", self.flame_out_drop_rpm),
+            (
+                "light_off_flame_out_drop_rpm",
+                self.light_off_flame_out_drop_rpm,
+            ),
             ("max_sample_gap_s", self.max_sample_gap_s),
         ];
         for (k, v) in positive {

@@ -418,9 +418,11 @@ impl Sequencer {
                 };
             }
             Mode::Ignition { until } if t >= until - 1e-9 => {
+                // The speed reference starts a little ahead of the GG so the fuel rises from the
+                // light-off level at once (an acceleration schedule), never dipping below it.
                 let ramp = Ramp {
                     t0: t,
-                    v0: n1,
+                    v0: (n1 + ACCEL_REFERENCE_LEAD_RPM).min(q.idle_speed_rpm),
                     rate: q.accel_rate_rpm_s,
                     target: q.idle_speed_rpm,
                 };
@@ -466,7 +468,8 @@ impl Sequencer {
                 y[IX_N2] = sync / self.scales.n2;
                 let p0 = st.pt_shaft_mw.max(0.0);
                 let r = q.load_ramp_mw_s;
-                let t1 = t + (q.min_load_mw - p0).max(0.0) / r;
+                // Block load on closing (no reverse power), then warm-up, then the ramp.
+                let t1 = t + (q.min_load_mw - p0).max(0.0) / BLOCK_LOAD_RATE_MW_S;
                 let t2 = t1 + q.warmup_s;
                 let t3 = t2 + (q.base_load_mw - q.min_load_mw) / r;
                 let series = Series {
@@ -529,6 +532,12 @@ impl Controller for Sequencer {
         Sequencer::phase(self)
     }
 }
+
+/// Rate at which the set-point takes the minimum (block) load when the breaker closes, MW/s.
+const BLOCK_LOAD_RATE_MW_S: f64 = 1.0;
+
+/// How far ahead of the GG speed the acceleration reference starts, rpm.
+const ACCEL_REFERENCE_LEAD_RPM: f64 = 150.0;
 
 /// Error level at which even fixed-step mode subdivides a step.
 const FIXED_STEP_EMERGENCY_ERR: f64 = 50.0;

@@ -1,0 +1,104 @@
+//! The start-up detector against the engine model: the operations scenario (normal start and
+//! stop, a start tripped during acceleration, a hot restart) simulated with default sensor noise
+//! at 1 Hz, fed to the detector's state machine; every start found, each phase boundary within 2
+//! samples of the simulator's truth.
+
+use gtwatch::detect::{DetectorConfig, Frame, Machine, Outcome, SegmentRecord};
+use gtwatch::engine::sensors::MeasurementOptions;
+use gtwatch::engine::sequence::run_scenario;
+use gtwatch::engine::{Engine, Scenario, Trace};
+use gtwatch::health::HealthParams;
+use gtwatch::signals::{Phase, Signal};
+
+fn detect(trace: &Trace, with_n2: bool) -> Vec<SegmentRecord> {
+    let mut m = Machine::new(DetectorConfig::default(), None);
+    for (k, v) in trace.measured.iter().enumerate() {
+        m.push(Frame {
+            t_ms: (trace.t_s[k] * 1000.0).round() as i64,
+            n1: v[Signal::N1.index()],
+            fuel: v[Signal::FuelFlow.index()],
+            power: v[Signal::Power.index()],
+            n2: with_n2.then_some(v[Signal::N2.index()]),
+        });
+    }
+    let mut segs = m.take_finished();
+    segs.extend(m.open_segment());
+    segs
+}
+
+/// Start times (ms) of each run of `phase` in the truth.
+fn truth_starts(trace: &Trace, phase: Phase) -> Vec<i64> {
+    let mut out = Vec::new();
+    for k in 1..trace.len() {
+        if trace.phase[k] == phase && trace.phase[k - 1] != phase {
+            out.push((trace.t_s[k] * 1000.0).round() as i64);
+        }
+    }
+    out
+}
+
+#[test]
+fn detector_finds_every_start_of_the_engine_model() {
+    let engine = Engine::reference().expect("engine");
+    let model = engine.model(&HealthParams::HEALTHY);
+    let (samples, _) =
+        run_scenario(&engine.cfg, &model, &Scenario::operations(&engine.cfg)).expect("runs");
+    for seed in 11..17 {
+        let o = MeasurementOptions {
+            lags: true,
+            noise: true,
+            bias: false,
+            seed,
+        };
+        let trace = Trace::from_truth(&engine.cfg, &samples, Some(&o));
+        for with_n2 in [true, false] {
+            let segs = detect(&trace, with_n2);
+            let cranks = truth_starts(&trace, Phase::Crank);
+            assert_eq!(
+                segs.len(),
+                cranks.len(),
+                "one segment per start (n2: {with_n2}): {segs:#?}"
+            );
+            let outcomes: Vec<Outcome> = segs.iter().map(|s| s.outcome).collect();
+            assert_eq!(
+                outcomes,
+                vec![Outcome::Completed, Outcome::Aborted, Outcome::Completed],
+                "n2: {with_n2}: {:#?}",
+                segs[0]
+            );
+            assert!(
+                !segs[0].hot_restart && segs[2].hot_restart,
+                "third start is a hot restart"
+            );
+            let mut checked = 0;
+            for phase in [
+                Phase::Crank,
+                Phase::Purge,
+                Phase::LightOff,
+                Phase::Acceleration,
+                Phase::Idle,
+                Phase::Synchronisation,
+                Phase::Loading,
+                Phase::Steady,
+            ] {
+                if phase == Phase::Synchronisation && !with_n2 {
+                    continue;
+                }
+                let truth = truth_starts(&trace, phase);
+                for seg in &segs {
+                    let Some(span) = seg.phase(phase) else {
+                        continue;
+                    };
+                    let nearest = truth
+                        .iter()
+                        .map(|t| (t - span.start_ms).abs())
+                        .min()
+                        .expect("truth has the phase");
+                    assert!(nearest <= 2000, "{phase} starts {} ms from the truth (n2: {with_n2}): detected {} truth {truth:?}", nearest, span.start_ms);
+                    checked += 1;
+                }
+            }
+            assert!(checked >= 15, "checked {checked} boundaries");
+        }
+    }
+}
