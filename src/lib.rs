@@ -4,5 +4,8 @@
 //! no globals, deterministic for a given seed. The daemon modules are a thin async shell.
 #![deny(clippy::unwrap_used)]
 
+pub mod acquire;
+pub mod config_problem;
 pub mod health;
+pub mod plantsim;
 pub mod signals;
