@@ -8,4 +8,5 @@ pub mod acquire;
 pub mod config_problem;
 pub mod health;
 pub mod plantsim;
+pub mod shutdown;
 pub mod signals;
