@@ -1,13 +1,16 @@
-//! One problem found while checking a configuration: the key path it concerns and why.
+//! One problem found while checking a configuration: which key, and why it is wrong.
 //!
-//! Shared by every config section's `validate`/`check`. Holds data only; no I/O.
+//! Shared by every config section's `validate()` so `gtwatch check-config` can list all
+//! problems at once. Data only: no parsing, no I/O.
 
 use std::fmt;
 
-/// A problem in a configuration, named by its key path (e.g. `modbus.request[2].field[3].address`).
+/// A configuration problem, e.g. `storage.batch_size: must be at least 1`.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ConfigProblem {
+    /// Dotted key path, e.g. `replay.time_column`.
     pub key: String,
+    /// What is wrong and, where possible, what would be right.
     pub message: String,
 }
 

@@ -5,8 +5,13 @@
 #![deny(clippy::unwrap_used)]
 
 pub mod acquire;
+pub mod cli;
 pub mod config_problem;
+pub mod detect;
 pub mod health;
 pub mod plantsim;
+pub mod query;
+pub mod replay;
 pub mod shutdown;
 pub mod signals;
+pub mod store;

@@ -1,0 +1,79 @@
+//! Helpers shared by the data commands: loading the `[storage]`, `[replay]` and `[detector]`
+//! sections from the config file, and parsing times given on the command line.
+//!
+//! Reads only the three sections the data side owns and ignores the others (they belong to the
+//! full `Config`, which validates them); must not validate other sections.
+
+use crate::detect::DetectorConfig;
+use crate::replay::ReplayConfig;
+use crate::store::StorageConfig;
+use anyhow::{bail, Context};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// The sections of `gtwatch.toml` the data commands need.
+#[derive(Debug, Clone, Default, Deserialize)]
+pub struct DataSections {
+    #[serde(default)]
+    pub storage: StorageConfig,
+    #[serde(default)]
+    pub replay: ReplayConfig,
+    #[serde(default)]
+    pub detector: DetectorConfig,
+}
+
+impl DataSections {
+    /// Reads and checks the three sections; every problem names its key.
+    pub fn load(path: &Path) -> anyhow::Result<DataSections> {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("reading config {}", path.display()))?;
+        let value: toml::Table =
+            toml::from_str(&text).with_context(|| format!("config {}", path.display()))?;
+        let mut pick = toml::Table::new();
+        for key in ["storage", "replay", "detector"] {
+            if let Some(v) = value.get(key) {
+                pick.insert(key.to_string(), v.clone());
+            }
+        }
+        let mut sections: DataSections = pick
+            .try_into()
+            .with_context(|| format!("config {}", path.display()))?;
+        let mut problems = sections.storage.validate();
+        problems.extend(sections.replay.validate());
+        problems.extend(sections.detector.validate());
+        if !problems.is_empty() {
+            let list: Vec<String> = problems.iter().map(|p| p.to_string()).collect();
+            bail!("config {}:\n  {}", path.display(), list.join("\n  "));
+        }
+        // A relative database path is relative to the config file's directory.
+        if sections.storage.path.is_relative() {
+            if let Some(dir) = path.parent() {
+                sections.storage.path = dir.join(&sections.storage.path);
+            }
+        }
+        Ok(sections)
+    }
+}
+
+/// The database path from `--db`, else from `--config`'s `[storage].path`.
+pub fn db_path(db: Option<&PathBuf>, config: Option<&PathBuf>) -> anyhow::Result<PathBuf> {
+    match (db, config) {
+        (Some(db), _) => Ok(db.clone()),
+        (None, Some(cfg)) => Ok(DataSections::load(cfg)?.storage.path),
+        (None, None) => bail!("give the database with --db FILE or --config FILE"),
+    }
+}
+
+/// Parses a command-line time: ISO 8601 date-time (no offset = UTC), a date (midnight UTC),
+/// or `@SECONDS` since the Unix epoch.
+pub fn parse_cli_time(s: &str) -> anyhow::Result<i64> {
+    if let Some(rest) = s.strip_prefix('@') {
+        return crate::replay::parse_time(rest.as_bytes(), crate::replay::TimeFormat::EpochS)
+            .map_err(|e| anyhow::anyhow!("'{s}': {e}"));
+    }
+    crate::replay::parse_iso8601_ms(s).map_err(|e| {
+        anyhow::anyhow!(
+            "'{s}' is not a time (use 2024-03-01, 2024-03-01T12:00:00Z or @EPOCH_S): {e}"
+        )
+    })
+}

@@ -1,0 +1,65 @@
+//! Command-line interface: the clap command tree and dispatch to one handler per file.
+//!
+//! Each subcommand's args struct and handler live in `src/cli/<name>.rs`; this file only lists
+//! them. Handlers return `anyhow::Result` and print a readable error chain. Must not hold
+//! business logic.
+
+mod bench;
+mod bench_replay;
+mod common;
+mod export;
+mod replay;
+mod segments;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// gtwatch: gas-turbine start-up monitoring and gas-path diagnosis.
+#[derive(Debug, Parser)]
+#[command(name = "gtwatch", version, about)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Ingest a historical CSV log into the database (idempotent), then detect start-ups.
+    Replay(replay::ReplayArgs),
+    /// List detected start-ups with outcome and phase durations.
+    Segments(segments::SegmentsArgs),
+    /// Write stored samples as CSV.
+    Export(export::ExportArgs),
+    /// Benchmarks that print JSON.
+    #[command(subcommand)]
+    Bench(bench::BenchCmd),
+}
+
+/// Entry point used by `src/main.rs`.
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    init_logging();
+    let result = match cli.command {
+        Command::Replay(a) => replay::run(a),
+        Command::Segments(a) => segments::run(a),
+        Command::Export(a) => export::run(a),
+        Command::Bench(b) => bench::run(b),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("gtwatch: error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Logs to stderr; `RUST_LOG` overrides the default `info` level.
+pub fn init_logging() {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .try_init();
+}

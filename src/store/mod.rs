@@ -1,0 +1,528 @@
+//! The SQLite store: tags, samples, gaps, segments and the diagnosis tables.
+//!
+//! One [`Store`] wraps one `rusqlite::Connection`. The daemon owns exactly one writable store
+//! (the single writer, [`spawn_writer`]); admin and query commands open it read-only so they
+//! never block or disturb the writer. Schema lives in `migrations/` and is applied on open.
+//! This module must not know about Modbus, CSV or the detector's rules: it stores and fetches.
+//!
+//! Durability choice: `journal_mode=WAL` with `synchronous=NORMAL`. In WAL mode a committed
+//! transaction is in the WAL file before `COMMIT` returns, so killing the process (kill -9,
+//! panic, OOM) never loses or corrupts committed data; only a power loss or OS crash can roll
+//! back the last few transactions (never corrupt). Set `storage.synchronous = "full"` if the
+//! host may lose power without a UPS.
+
+mod schema;
+mod writer;
+
+pub use writer::{spawn_writer, WriteCmd, WriterConfig, WriterStats};
+
+use crate::config_problem::ConfigProblem;
+use crate::signals::Signal;
+use rusqlite::{params, Connection, OpenFlags, OptionalExtension};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+/// Row id of a tag in the `tags` table.
+pub type TagId = i64;
+
+/// Sample quality, stored as INTEGER.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[repr(u8)]
+pub enum Quality {
+    #[default]
+    Good = 0,
+    OutOfRange = 1,
+    Bad = 2,
+}
+
+impl Quality {
+    pub fn from_code(code: i64) -> Option<Quality> {
+        match code {
+            0 => Some(Quality::Good),
+            1 => Some(Quality::OutOfRange),
+            2 => Some(Quality::Bad),
+            _ => None,
+        }
+    }
+    pub fn code(self) -> u8 {
+        self as u8
+    }
+}
+
+/// One measured value of one tag at one time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample {
+    pub tag: TagId,
+    /// Unix epoch milliseconds, UTC.
+    pub t_ms: i64,
+    pub value: f64,
+    pub quality: Quality,
+}
+
+/// A period without data (Modbus outage, hole in a replayed log).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Gap {
+    pub start_ms: i64,
+    pub end_ms: i64,
+    /// Who noticed it, e.g. `modbus` or `replay:plant.csv`.
+    pub source: String,
+    pub reason: String,
+}
+
+/// A tag as declared by the register map or the replay column mapping.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TagInfo {
+    pub name: String,
+    pub unit: String,
+    /// The engine quantity this tag measures, if it is one of [`Signal`].
+    pub signal: Option<Signal>,
+}
+
+impl TagInfo {
+    /// The canonical tag for a signal: name = column name (`n1_rpm`), unit from the name.
+    pub fn for_signal(signal: Signal) -> TagInfo {
+        TagInfo {
+            name: signal.column().to_string(),
+            unit: signal_unit(signal).to_string(),
+            signal: Some(signal),
+        }
+    }
+}
+
+/// Engineering unit of a signal (the suffix of its column name).
+pub fn signal_unit(signal: Signal) -> &'static str {
+    match signal {
+        Signal::N1 | Signal::N2 => "rpm",
+        Signal::T1 | Signal::T2 | Signal::T3 | Signal::T34 | Signal::T4 => "K",
+        Signal::P1 | Signal::P2 | Signal::P3 | Signal::P34 | Signal::P4 => "kPa",
+        Signal::FuelFlow => "kg/s",
+        Signal::Power => "MW",
+        Signal::SurgeMargin => "%",
+    }
+}
+
+/// A tag row as read back from the database.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TagRow {
+    pub id: TagId,
+    pub name: String,
+    pub unit: String,
+    pub signal: Option<Signal>,
+}
+
+/// Errors from the store.
+#[derive(Debug, thiserror::Error)]
+pub enum StoreError {
+    #[error("database {path}: {source}")]
+    Open {
+        path: PathBuf,
+        #[source]
+        source: rusqlite::Error,
+    },
+    #[error("database {path}: schema migration failed: {source}")]
+    Migration {
+        path: PathBuf,
+        #[source]
+        source: rusqlite_migration::Error,
+    },
+    #[error("database {path} has schema version {found}, newer than this gtwatch ({supported}); upgrade gtwatch")]
+    SchemaTooNew {
+        path: PathBuf,
+        found: usize,
+        supported: usize,
+    },
+    #[error(
+        "database {path} is not initialised (no schema); run the daemon or `gtwatch replay` first"
+    )]
+    NotInitialised { path: PathBuf },
+    #[error("unknown tag '{0}'")]
+    UnknownTag(String),
+    #[error("invalid value in database: {0}")]
+    Corrupt(String),
+    #[error("writer task failed: {0}")]
+    Writer(String),
+    #[error(transparent)]
+    Sql(#[from] rusqlite::Error),
+}
+
+/// How strictly SQLite syncs to disk (see the module comment).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Synchronous {
+    /// Safe against process crashes; may lose the last transactions on power loss.
+    #[default]
+    Normal,
+    /// Also safe against power loss; slower commits.
+    Full,
+}
+
+/// `[storage]` section.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct StorageConfig {
+    /// Database file. Default `/var/lib/gtwatch/gtwatch.db`.
+    pub path: PathBuf,
+    /// The writer commits when it holds this many samples. Default 5000.
+    pub batch_size: usize,
+    /// ... or when the oldest buffered sample is this old, in ms. Default 1000.
+    pub flush_interval_ms: u64,
+    /// SQLite page cache in MiB. Default 64.
+    pub cache_mib: u32,
+    /// `normal` (default) or `full`.
+    pub synchronous: Synchronous,
+    /// Read-only connections wait this long for a lock, in ms. Default 5000.
+    pub busy_timeout_ms: u64,
+}
+
+impl Default for StorageConfig {
+    fn default() -> Self {
+        StorageConfig {
+            path: PathBuf::from("/var/lib/gtwatch/gtwatch.db"),
+            batch_size: 5000,
+            flush_interval_ms: 1000,
+            cache_mib: 64,
+            synchronous: Synchronous::Normal,
+            busy_timeout_ms: 5000,
+        }
+    }
+}
+
+impl StorageConfig {
+    /// Problems with this section; keys are prefixed `storage.`.
+    pub fn validate(&self) -> Vec<ConfigProblem> {
+        let mut p = Vec::new();
+        if self.path.as_os_str().is_empty() {
+            p.push(ConfigProblem::new("storage.path", "must not be empty"));
+        }
+        if self.batch_size == 0 {
+            p.push(ConfigProblem::new(
+                "storage.batch_size",
+                "must be at least 1",
+            ));
+        }
+        if self.flush_interval_ms == 0 {
+            p.push(ConfigProblem::new(
+                "storage.flush_interval_ms",
+                "must be at least 1 ms",
+            ));
+        }
+        if self.cache_mib == 0 || self.cache_mib > 16 * 1024 {
+            p.push(ConfigProblem::new(
+                "storage.cache_mib",
+                "must be between 1 and 16384",
+            ));
+        }
+        p
+    }
+
+    /// The writer settings of this section.
+    pub fn writer(&self) -> WriterConfig {
+        WriterConfig {
+            batch_size: self.batch_size.max(1),
+            flush_interval: Duration::from_millis(self.flush_interval_ms.max(1)),
+        }
+    }
+
+    /// Store options of this section.
+    pub fn options(&self) -> StoreOptions {
+        StoreOptions {
+            cache_mib: self.cache_mib,
+            synchronous: self.synchronous,
+            busy_timeout_ms: self.busy_timeout_ms,
+        }
+    }
+}
+
+/// Connection tuning applied by [`Store::open_with`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StoreOptions {
+    pub cache_mib: u32,
+    pub synchronous: Synchronous,
+    pub busy_timeout_ms: u64,
+}
+
+impl Default for StoreOptions {
+    fn default() -> Self {
+        StorageConfig::default().options()
+    }
+}
+
+/// The database. Not `Sync`: one owner at a time (the writer task, or a command).
+#[derive(Debug)]
+pub struct Store {
+    conn: Connection,
+    path: PathBuf,
+    read_only: bool,
+}
+
+/// Current wall-clock time in Unix epoch ms.
+pub fn now_ms() -> i64 {
+    let now = time::OffsetDateTime::now_utc();
+    (now.unix_timestamp_nanos() / 1_000_000) as i64
+}
+
+impl Store {
+    /// Opens (creating if needed) a writable store with default options.
+    pub fn open(path: &Path) -> Result<Store, StoreError> {
+        Store::open_with(path, &StoreOptions::default())
+    }
+
+    /// Opens (creating if needed) a writable store: WAL, pragmas, migrations.
+    pub fn open_with(path: &Path, opts: &StoreOptions) -> Result<Store, StoreError> {
+        let open_err = |source| StoreError::Open {
+            path: path.to_path_buf(),
+            source,
+        };
+        if let Some(dir) = path.parent() {
+            if !dir.as_os_str().is_empty() && !dir.exists() {
+                std::fs::create_dir_all(dir).map_err(|e| StoreError::Open {
+                    path: path.to_path_buf(),
+                    source: rusqlite::Error::ToSqlConversionFailure(Box::new(e)),
+                })?;
+            }
+        }
+        let mut conn = Connection::open(path).map_err(open_err)?;
+        conn.busy_timeout(Duration::from_millis(opts.busy_timeout_ms))
+            .map_err(open_err)?;
+        let mode: String = conn
+            .query_row("PRAGMA journal_mode=WAL", [], |r| r.get(0))
+            .map_err(open_err)?;
+        if !mode.eq_ignore_ascii_case("wal") {
+            tracing::warn!(path = %path.display(), mode, "could not switch the database to WAL mode");
+        }
+        let sync = match opts.synchronous {
+            Synchronous::Normal => "NORMAL",
+            Synchronous::Full => "FULL",
+        };
+        conn.execute_batch(&format!(
+            "PRAGMA synchronous={sync};
+             PRAGMA foreign_keys=ON;
+             PRAGMA temp_store=MEMORY;
+             PRAGMA cache_size=-{};",
+            u64::from(opts.cache_mib.max(1)) * 1024
+        ))
+        .map_err(open_err)?;
+        schema::migrate(&mut conn, path)?;
+        Ok(Store {
+            conn,
+            path: path.to_path_buf(),
+            read_only: false,
+        })
+    }
+
+    /// Opens an existing store read-only (for `segments`, `export`, … while the daemon runs).
+    /// Fails if the file does not exist or has no schema; never writes.
+    pub fn open_readonly(path: &Path) -> Result<Store, StoreError> {
+        let open_err = |source| StoreError::Open {
+            path: path.to_path_buf(),
+            source,
+        };
+        let conn = Connection::open_with_flags(
+            path,
+            OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX,
+        )
+        .map_err(open_err)?;
+        conn.busy_timeout(Duration::from_millis(5000))
+            .map_err(open_err)?;
+        schema::check_readonly(&conn, path)?;
+        Ok(Store {
+            conn,
+            path: path.to_path_buf(),
+            read_only: true,
+        })
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    pub fn is_read_only(&self) -> bool {
+        self.read_only
+    }
+
+    /// The underlying connection, for the detector, queries and the diagnosis tables.
+    pub fn conn(&self) -> &Connection {
+        &self.conn
+    }
+
+    /// Mutable connection access (transactions).
+    pub fn conn_mut(&mut self) -> &mut Connection {
+        &mut self.conn
+    }
+
+    /// Returns the id of the tag named `tag.name`, creating it if absent. An existing tag's
+    /// unit and signal are updated to the declared ones.
+    pub fn ensure_tag(&mut self, tag: &TagInfo) -> Result<TagId, StoreError> {
+        let signal = tag.signal.map(|s| s.column());
+        let existing: Option<TagId> = self
+            .conn
+            .query_row(
+                "SELECT id FROM tags WHERE name = ?1",
+                params![tag.name],
+                |r| r.get(0),
+            )
+            .optional()?;
+        if let Some(id) = existing {
+            self.conn.execute(
+                "UPDATE tags SET unit = ?2, signal = ?3 WHERE id = ?1 AND (unit IS NOT ?2 OR signal IS NOT ?3)",
+                params![id, tag.unit, signal],
+            )?;
+            return Ok(id);
+        }
+        self.conn.execute(
+            "INSERT INTO tags (name, unit, signal, created_at_ms) VALUES (?1, ?2, ?3, ?4)",
+            params![tag.name, tag.unit, signal, now_ms()],
+        )?;
+        Ok(self.conn.last_insert_rowid())
+    }
+
+    /// All tags, by id.
+    pub fn tags(&self) -> Result<Vec<TagRow>, StoreError> {
+        let mut stmt = self
+            .conn
+            .prepare_cached("SELECT id, name, unit, signal FROM tags ORDER BY id")?;
+        let rows = stmt.query_map([], |r| {
+            Ok((
+                r.get::<_, i64>(0)?,
+                r.get::<_, String>(1)?,
+                r.get::<_, String>(2)?,
+                r.get::<_, Option<String>>(3)?,
+            ))
+        })?;
+        let mut out = Vec::new();
+        for row in rows {
+            let (id, name, unit, signal) = row?;
+            let signal = match signal {
+                Some(s) => Some(
+                    s.parse::<Signal>()
+                        .map_err(|e| StoreError::Corrupt(format!("tag {name}: {e}")))?,
+                ),
+                None => None,
+            };
+            out.push(TagRow {
+                id,
+                name,
+                unit,
+                signal,
+            });
+        }
+        Ok(out)
+    }
+
+    /// The tag with this name.
+    pub fn tag_by_name(&self, name: &str) -> Result<TagRow, StoreError> {
+        self.tags()?
+            .into_iter()
+            .find(|t| t.name == name)
+            .ok_or_else(|| StoreError::UnknownTag(name.to_string()))
+    }
+
+    /// The first (lowest id) tag that measures `signal`.
+    pub fn tag_for_signal(&self, signal: Signal) -> Result<Option<TagRow>, StoreError> {
+        Ok(self.tags()?.into_iter().find(|t| t.signal == Some(signal)))
+    }
+
+    /// Inserts a batch in one transaction. Idempotent on (tag, t_ms): a sample already stored
+    /// is left as it is. Returns how many were new.
+    pub fn insert_samples(&mut self, batch: &[Sample]) -> Result<usize, StoreError> {
+        if batch.is_empty() {
+            return Ok(0);
+        }
+        let tx = self.conn.transaction()?;
+        let inserted = insert_samples_in(&tx, batch)?;
+        tx.commit()?;
+        Ok(inserted)
+    }
+
+    /// Inserts samples and records gaps in one transaction; returns how many samples were new.
+    pub fn insert_samples_and_gaps(
+        &mut self,
+        batch: &[Sample],
+        gaps: &[Gap],
+    ) -> Result<usize, StoreError> {
+        let tx = self.conn.transaction()?;
+        let inserted = insert_samples_in(&tx, batch)?;
+        for g in gaps {
+            record_gap_in(&tx, g)?;
+        }
+        tx.commit()?;
+        Ok(inserted)
+    }
+
+    /// Records a gap (idempotent on source, start, end).
+    pub fn record_gap(&mut self, gap: &Gap) -> Result<(), StoreError> {
+        record_gap_in(&self.conn, gap)
+    }
+
+    /// All gaps overlapping `[from_ms, to_ms]`.
+    pub fn gaps_between(&self, from_ms: i64, to_ms: i64) -> Result<Vec<Gap>, StoreError> {
+        let mut stmt = self.conn.prepare_cached(
+            "SELECT start_ms, end_ms, source, reason FROM gaps
+             WHERE end_ms >= ?1 AND start_ms <= ?2 ORDER BY start_ms",
+        )?;
+        let rows = stmt.query_map(params![from_ms, to_ms], |r| {
+            Ok(Gap {
+                start_ms: r.get(0)?,
+                end_ms: r.get(1)?,
+                source: r.get(2)?,
+                reason: r.get(3)?,
+            })
+        })?;
+        Ok(rows.collect::<Result<Vec<_>, _>>()?)
+    }
+
+    /// Number of stored samples (all tags).
+    pub fn sample_count(&self) -> Result<i64, StoreError> {
+        Ok(self
+            .conn
+            .query_row("SELECT COUNT(*) FROM samples", [], |r| r.get(0))?)
+    }
+
+    /// `PRAGMA integrity_check`; `Ok("ok")` when the file is sound.
+    pub fn integrity_check(&self) -> Result<String, StoreError> {
+        Ok(self
+            .conn
+            .query_row("PRAGMA integrity_check", [], |r| r.get(0))?)
+    }
+}
+
+/// Inserts within an open transaction; returns how many rows were new.
+pub(crate) fn insert_samples_in(conn: &Connection, batch: &[Sample]) -> Result<usize, StoreError> {
+    let mut inserted = 0usize;
+    let mut min_t = i64::MAX;
+    {
+        let mut stmt = conn.prepare_cached(
+            "INSERT OR IGNORE INTO samples (tag_id, t_ms, value, quality) VALUES (?1, ?2, ?3, ?4)",
+        )?;
+        for s in batch {
+            inserted += stmt.execute(params![s.tag, s.t_ms, s.value, s.quality.code()])?;
+            min_t = min_t.min(s.t_ms);
+        }
+    }
+    // Samples older than what the detector has scanned (a late replay) make it rescan.
+    let mut stmt = conn.prepare_cached(
+        "UPDATE detector_state SET rescan_from_ms = MIN(COALESCE(rescan_from_ms, ?1), ?1)
+         WHERE id = 1 AND scanned_to_ms IS NOT NULL AND ?1 <= scanned_to_ms",
+    )?;
+    if inserted > 0 {
+        stmt.execute(params![min_t])?;
+    }
+    Ok(inserted)
+}
+
+pub(crate) fn record_gap_in(conn: &Connection, gap: &Gap) -> Result<(), StoreError> {
+    let (start, end) = if gap.end_ms >= gap.start_ms {
+        (gap.start_ms, gap.end_ms)
+    } else {
+        (gap.end_ms, gap.start_ms)
+    };
+    conn.prepare_cached(
+        "INSERT OR IGNORE INTO gaps (start_ms, end_ms, source, reason) VALUES (?1, ?2, ?3, ?4)",
+    )?
+    .execute(params![start, end, gap.source, gap.reason])?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,186 @@
+use super::*;
+
+fn temp_store() -> (tempfile::TempDir, Store) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let store = Store::open(&dir.path().join("t.db")).expect("open");
+    (dir, store)
+}
+
+#[test]
+fn open_sets_wal_and_schema() {
+    let (_d, store) = temp_store();
+    let mode: String = store
+        .conn()
+        .query_row("PRAGMA journal_mode", [], |r| r.get(0))
+        .expect("pragma");
+    assert_eq!(mode, "wal");
+    let v: i64 = store
+        .conn()
+        .query_row("PRAGMA user_version", [], |r| r.get(0))
+        .expect("pragma");
+    assert_eq!(v as usize, schema::latest_version());
+    for view in [
+        "v_startups",
+        "v_health_trend",
+        "v_latest_health",
+        "v_gaps",
+        "v_tag_latest",
+        "v_samples",
+    ] {
+        store
+            .conn()
+            .prepare(&format!("SELECT * FROM {view}"))
+            .unwrap_or_else(|e| panic!("{view}: {e}"));
+    }
+}
+
+#[test]
+fn insert_is_idempotent_and_tags_are_stable() {
+    let (_d, mut store) = temp_store();
+    let n1 = store
+        .ensure_tag(&TagInfo::for_signal(Signal::N1))
+        .expect("tag");
+    let again = store
+        .ensure_tag(&TagInfo::for_signal(Signal::N1))
+        .expect("tag");
+    assert_eq!(n1, again);
+    let batch: Vec<Sample> = (0..100)
+        .map(|i| Sample {
+            tag: n1,
+            t_ms: 1_000 * i,
+            value: i as f64,
+            quality: Quality::Good,
+        })
+        .collect();
+    assert_eq!(store.insert_samples(&batch).expect("insert"), 100);
+    assert_eq!(store.insert_samples(&batch).expect("insert"), 0);
+    assert_eq!(store.insert_samples(&batch[50..]).expect("insert"), 0);
+    assert_eq!(store.sample_count().expect("count"), 100);
+    assert_eq!(
+        store.tag_for_signal(Signal::N1).expect("q").map(|t| t.id),
+        Some(n1)
+    );
+}
+
+#[test]
+fn gaps_are_idempotent() {
+    let (_d, mut store) = temp_store();
+    let g = Gap {
+        start_ms: 10,
+        end_ms: 5000,
+        source: "modbus".into(),
+        reason: "timeout".into(),
+    };
+    store.record_gap(&g).expect("gap");
+    store.record_gap(&g).expect("gap");
+    assert_eq!(store.gaps_between(0, 100).expect("gaps"), vec![g]);
+    assert!(store.gaps_between(6000, 7000).expect("gaps").is_empty());
+}
+
+#[test]
+fn readonly_refuses_missing_or_uninitialised_db() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    assert!(Store::open_readonly(&dir.path().join("none.db")).is_err());
+    let p = dir.path().join("x.db");
+    rusqlite::Connection::open(&p).expect("create");
+    assert!(matches!(
+        Store::open_readonly(&p),
+        Err(StoreError::NotInitialised { .. })
+    ));
+    drop(Store::open(&p).expect("init"));
+    let ro = Store::open_readonly(&p).expect("ro");
+    assert!(ro.conn().execute("DELETE FROM tags", []).is_err());
+}
+
+#[tokio::test]
+async fn writer_batches_and_flushes_on_close() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("w.db");
+    let mut store = Store::open(&path).expect("open");
+    let tag = store
+        .ensure_tag(&TagInfo::for_signal(Signal::Power))
+        .expect("tag");
+    let (tx, rx) = tokio::sync::mpsc::channel(16);
+    let cfg = WriterConfig {
+        batch_size: 250,
+        flush_interval: Duration::from_secs(3600),
+    };
+    let h = spawn_writer(store, rx, cfg);
+    for k in 0..10 {
+        let batch = (0..100)
+            .map(|i| Sample {
+                tag,
+                t_ms: k * 100 + i,
+                value: 1.0,
+                quality: Quality::Good,
+            })
+            .collect();
+        tx.send(WriteCmd::Samples(batch)).await.expect("send");
+    }
+    let (ack_tx, ack_rx) = tokio::sync::oneshot::channel();
+    tx.send(WriteCmd::Flush(ack_tx)).await.expect("send");
+    ack_rx.await.expect("ack");
+    // Visible to another connection once acknowledged.
+    let ro = Store::open_readonly(&path).expect("ro");
+    assert_eq!(ro.sample_count().expect("count"), 1000);
+    tx.send(WriteCmd::Gap(Gap {
+        start_ms: 0,
+        end_ms: 1,
+        source: "test".into(),
+        reason: "r".into(),
+    }))
+    .await
+    .expect("send");
+    tx.send(WriteCmd::Samples(vec![Sample {
+        tag,
+        t_ms: 0,
+        value: 2.0,
+        quality: Quality::Bad,
+    }]))
+    .await
+    .expect("send");
+    drop(tx);
+    let stats = h.await.expect("join").expect("writer");
+    assert_eq!(stats.samples_received, 1001);
+    assert_eq!(stats.samples_inserted, 1000);
+    assert_eq!(stats.samples_duplicate, 1);
+    assert_eq!(stats.gaps, 1);
+    assert_eq!(ro.gaps_between(0, 10).expect("gaps").len(), 1);
+}
+
+#[tokio::test]
+async fn writer_flushes_on_interval() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("w.db");
+    let mut store = Store::open(&path).expect("open");
+    let tag = store
+        .ensure_tag(&TagInfo::for_signal(Signal::N1))
+        .expect("tag");
+    let (tx, rx) = tokio::sync::mpsc::channel(16);
+    let cfg = WriterConfig {
+        batch_size: 1_000_000,
+        flush_interval: Duration::from_millis(20),
+    };
+    let h = spawn_writer(store, rx, cfg);
+    tx.send(WriteCmd::Samples(vec![Sample {
+        tag,
+        t_ms: 5,
+        value: 1.0,
+        quality: Quality::Good,
+    }]))
+    .await
+    .expect("send");
+    let ro = Store::open_readonly(&path).expect("ro");
+    let mut seen = 0;
+    for _ in 0..200 {
+        tokio::time::sleep(Duration::from_millis(10)).await;
+        seen = ro.sample_count().expect("count");
+        if seen == 1 {
+            break;
+        }
+    }
+    assert_eq!(seen, 1, "interval flush did not happen");
+    drop(tx);
+    let stats = h.await.expect("join").expect("writer");
+    assert_eq!(stats.transactions, 1);
+}
