@@ -6,6 +6,7 @@
 
 pub mod acquire;
 pub mod cli;
+pub mod config;
 pub mod config_problem;
 pub mod detect;
 pub mod health;

@@ -571,9 +571,8 @@ pub async fn poll_loop(
         progress.gaps.fetch_add(1, Ordering::Relaxed);
         let _ = tx.send(WriteCmd::Gap(gap)).await;
     }
-    if let Some(mut c) = client.take() {
-        let _ = tokio::time::timeout(Duration::from_millis(200), c.ctx.disconnect()).await;
-    }
+    // Dropping the client closes the socket; no generic `Client::call` is reachable here.
+    drop(client);
     progress.snapshot()
 }
 
