@@ -93,7 +93,10 @@ pub enum ConfigError {
 fn line_col(text: &str, offset: usize) -> (usize, usize) {
     let before = &text[..offset.min(text.len())];
     let line = before.matches('\n').count() + 1;
-    let col = before.rfind('\n').map_or(before.len(), |i| before.len() - i - 1) + 1;
+    let col = before
+        .rfind('\n')
+        .map_or(before.len(), |i| before.len() - i - 1)
+        + 1;
     (line, col)
 }
 
@@ -239,12 +242,20 @@ signal = "n1"
 
     #[test]
     fn unknown_keys_name_file_line_and_column() {
-        let text = MINIMAL.replace("poll_period_ms = 100", "poll_period_ms = 100\npoll_perod = 5");
+        let text = MINIMAL.replace(
+            "poll_period_ms = 100",
+            "poll_period_ms = 100\npoll_perod = 5",
+        );
         let e = Config::parse(&text, "x.toml").expect_err("unknown key");
         let s = e.to_string();
-        assert!(s.starts_with("x.toml:10:1: unknown field `poll_perod`"), "{s}");
+        assert!(
+            s.starts_with("x.toml:10:1: unknown field `poll_perod`"),
+            "{s}"
+        );
         let text = MINIMAL.replace("type = \"f32\"", "type = \"float\"");
-        let s = Config::parse(&text, "x.toml").expect_err("bad type").to_string();
+        let s = Config::parse(&text, "x.toml")
+            .expect_err("bad type")
+            .to_string();
         assert!(s.starts_with("x.toml:22:8: unknown variant `float`"), "{s}");
     }
 

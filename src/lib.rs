@@ -8,6 +8,7 @@ pub mod acquire;
 pub mod cli;
 pub mod config;
 pub mod config_problem;
+pub mod daemon;
 pub mod detect;
 pub mod health;
 pub mod plantsim;

@@ -293,6 +293,8 @@ pub struct PollProgress {
     pub flagged: AtomicU64,
     pub gaps: AtomicU64,
     pub connects: AtomicU64,
+    /// Loop iterations completed (a poll, a recorded failure or a backoff wait): liveness.
+    pub cycles: AtomicU64,
 }
 
 /// Final tallies when the loop ends.
@@ -450,6 +452,7 @@ pub async fn poll_loop(
             _ = shutdown.wait() => break,
             _ = interval.tick() => {}
         }
+        progress.cycles.fetch_add(1, Ordering::Relaxed);
         if client.is_none() {
             if retry_at.is_some_and(|t| Instant::now() < t) {
                 continue;
@@ -483,7 +486,10 @@ pub async fn poll_loop(
         };
         let stamp = clock.now();
         if let Some(jump) = stamp.reanchored_by_ms {
-            tracing::warn!(jump_ms = jump, "wall clock jumped; sample clock re-anchored");
+            tracing::warn!(
+                jump_ms = jump,
+                "wall clock jumped; sample clock re-anchored"
+            );
         }
         batch.clear();
         let mut error: Option<String> = None;
@@ -491,8 +497,13 @@ pub async fn poll_loop(
             let read = async {
                 match req.kind {
                     RegisterKind::Holding => {
-                        conn.read_holding_registers(req.slave, req.start, req.count, request_timeout)
-                            .await
+                        conn.read_holding_registers(
+                            req.slave,
+                            req.start,
+                            req.count,
+                            request_timeout,
+                        )
+                        .await
                     }
                     RegisterKind::Input => {
                         conn.read_input_registers(req.slave, req.start, req.count, request_timeout)
