@@ -3,7 +3,10 @@
 //! Works on a read-only [`Store`] so it never disturbs the running daemon. Must not write.
 
 use crate::detect::{AbortCause, Outcome, PhaseSpan};
+use crate::replay::fmt_ms;
+use crate::signals::Phase;
 use crate::store::{Store, StoreError};
+use rusqlite::params;
 use serde::Serialize;
 use std::io::Write;
 
@@ -59,29 +62,371 @@ pub enum QueryError {
 
 /// Start-ups whose start is at or after `since_ms` (all if `None`), oldest first.
 pub fn list_segments(
-    _store: &Store,
-    _since_ms: Option<i64>,
+    store: &Store,
+    since_ms: Option<i64>,
 ) -> Result<Vec<SegmentSummary>, QueryError> {
-    Ok(Vec::new())
+    let conn = store.conn();
+    let mut stmt = conn.prepare_cached(
+        "SELECT id, start_ms, end_ms, outcome, abort_cause, status, hot_restart, has_gap
+         FROM segments WHERE kind = 'startup' AND start_ms >= ?1 ORDER BY start_ms",
+    )?;
+    let rows = stmt.query_map([since_ms.unwrap_or(i64::MIN)], |r| {
+        Ok((
+            r.get::<_, i64>(0)?,
+            r.get::<_, i64>(1)?,
+            r.get::<_, Option<i64>>(2)?,
+            r.get::<_, String>(3)?,
+            r.get::<_, Option<String>>(4)?,
+            r.get::<_, String>(5)?,
+            r.get::<_, bool>(6)?,
+            r.get::<_, bool>(7)?,
+        ))
+    })?;
+    let mut phases = conn.prepare_cached(
+        "SELECT phase, start_ms, end_ms FROM segment_phases WHERE segment_id = ?1
+         ORDER BY start_ms, phase_code",
+    )?;
+    let mut out = Vec::new();
+    for row in rows {
+        let (id, start_ms, end_ms, outcome, cause, status, hot_restart, has_gap) = row?;
+        let outcome = Outcome::parse(&outcome)
+            .ok_or_else(|| QueryError::Corrupt(format!("segment {id}: outcome '{outcome}'")))?;
+        let abort_cause = match cause {
+            Some(c) => Some(
+                AbortCause::parse(&c)
+                    .ok_or_else(|| QueryError::Corrupt(format!("segment {id}: cause '{c}'")))?,
+            ),
+            None => None,
+        };
+        let spans = phases
+            .query_map([id], |r| {
+                Ok((
+                    r.get::<_, String>(0)?,
+                    r.get::<_, i64>(1)?,
+                    r.get::<_, Option<i64>>(2)?,
+                ))
+            })?
+            .map(|p| {
+                let (name, start_ms, end_ms) = p?;
+                let phase = name
+                    .parse::<Phase>()
+                    .map_err(|e| QueryError::Corrupt(format!("segment {id}: {e}")))?;
+                Ok(PhaseSpan {
+                    phase,
+                    start_ms,
+                    end_ms,
+                })
+            })
+            .collect::<Result<Vec<_>, QueryError>>()?;
+        out.push(SegmentSummary {
+            id,
+            start_ms,
+            end_ms,
+            outcome,
+            abort_cause,
+            status,
+            hot_restart,
+            has_gap,
+            phases: spans,
+        });
+    }
+    Ok(out)
 }
 
-/// Writes segments as an aligned table, CSV or JSON.
+/// Phases shown as duration columns, in start-up order.
+const PHASE_COLUMNS: [Phase; 8] = [
+    Phase::Crank,
+    Phase::Purge,
+    Phase::LightOff,
+    Phase::Acceleration,
+    Phase::Idle,
+    Phase::Synchronisation,
+    Phase::Loading,
+    Phase::Steady,
+];
+
+impl SegmentSummary {
+    /// Duration of a phase in seconds (`None` if absent or still running).
+    pub fn phase_s(&self, phase: Phase) -> Option<f64> {
+        self.phases
+            .iter()
+            .find(|p| p.phase == phase)
+            .and_then(|p| p.end_ms.map(|e| (e - p.start_ms) as f64 / 1000.0))
+    }
+
+    fn cells(&self) -> Vec<String> {
+        let opt = |v: Option<f64>| v.map(|x| format!("{x:.1}")).unwrap_or_default();
+        let mut c = vec![
+            self.id.to_string(),
+            fmt_ms(self.start_ms),
+            self.end_ms.map(fmt_ms).unwrap_or_default(),
+            self.outcome.as_str().to_string(),
+            self.abort_cause
+                .map(|c| c.as_str().to_string())
+                .unwrap_or_default(),
+            self.status.clone(),
+            if self.hot_restart { "yes" } else { "no" }.to_string(),
+            if self.has_gap { "yes" } else { "no" }.to_string(),
+            opt(self.end_ms.map(|e| (e - self.start_ms) as f64 / 1000.0)),
+        ];
+        c.extend(PHASE_COLUMNS.iter().map(|p| opt(self.phase_s(*p))));
+        c
+    }
+}
+
+fn header() -> Vec<String> {
+    let mut h: Vec<String> = [
+        "id",
+        "start",
+        "end",
+        "outcome",
+        "cause",
+        "status",
+        "hot_restart",
+        "data_gap",
+        "duration_s",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    h.extend(PHASE_COLUMNS.iter().map(|p| format!("{}_s", p.name())));
+    h
+}
+
+/// Writes segments as an aligned table, CSV or JSON. Times are ISO 8601 UTC; durations in s.
 pub fn write_segments(
-    _segments: &[SegmentSummary],
-    _format: Format,
-    _out: &mut dyn Write,
+    segments: &[SegmentSummary],
+    format: Format,
+    out: &mut dyn Write,
 ) -> Result<(), QueryError> {
+    match format {
+        Format::Json => {
+            serde_json::to_writer_pretty(&mut *out, segments)?;
+            writeln!(out)?;
+        }
+        Format::Csv => {
+            let mut w = csv::Writer::from_writer(out);
+            w.write_record(header())?;
+            for s in segments {
+                w.write_record(s.cells())?;
+            }
+            w.flush()?;
+        }
+        Format::Table => {
+            let mut rows = vec![header()];
+            rows.extend(segments.iter().map(|s| s.cells()));
+            let n = rows[0].len();
+            let widths: Vec<usize> = (0..n)
+                .map(|i| rows.iter().map(|r| r[i].len()).max().unwrap_or(0))
+                .collect();
+            for r in &rows {
+                let line: Vec<String> = r
+                    .iter()
+                    .zip(&widths)
+                    .map(|(c, w)| format!("{c:<w$}"))
+                    .collect();
+                writeln!(out, "{}", line.join("  ").trim_end())?;
+            }
+            if segments.is_empty() {
+                writeln!(out, "(no start-ups)")?;
+            }
+        }
+    }
     Ok(())
 }
 
-/// Writes the samples of `tags` in `[from_ms, to_ms]` as CSV; returns the rows written.
+/// Writes the samples of `tags` in `[from_ms, to_ms]` as CSV; returns the data rows written.
+///
+/// Wide: `time,t_ms,<tag>...`, one row per time stamp at which any of the tags has a sample;
+/// an empty cell means that tag has no sample at that time. Long: `time,t_ms,tag,value,quality`.
 pub fn export_csv(
-    _store: &Store,
-    _tags: &[String],
-    _from_ms: i64,
-    _to_ms: i64,
-    _layout: ExportLayout,
-    _out: &mut dyn Write,
+    store: &Store,
+    tags: &[String],
+    from_ms: i64,
+    to_ms: i64,
+    layout: ExportLayout,
+    out: &mut dyn Write,
 ) -> Result<u64, QueryError> {
-    Ok(0)
+    let ids = tags
+        .iter()
+        .map(|t| store.tag_by_name(t.trim()).map(|r| r.id))
+        .collect::<Result<Vec<_>, _>>()?;
+    let conn = store.conn();
+    let mut stmt = conn.prepare_cached(
+        "SELECT t_ms, value, quality FROM samples WHERE tag_id = ?1 AND t_ms BETWEEN ?2 AND ?3 ORDER BY t_ms",
+    )?;
+    let mut w = csv::Writer::from_writer(out);
+    let mut rows = 0u64;
+    match layout {
+        ExportLayout::Long => {
+            w.write_record(["time", "t_ms", "tag", "value", "quality"])?;
+            // Merge by time so the output is time-ordered across tags.
+            let mut all: Vec<(i64, usize, f64, i64)> = Vec::new();
+            for (k, id) in ids.iter().enumerate() {
+                let it = stmt.query_map(params![id, from_ms, to_ms], |r| {
+                    Ok((
+                        r.get::<_, i64>(0)?,
+                        k,
+                        r.get::<_, f64>(1)?,
+                        r.get::<_, i64>(2)?,
+                    ))
+                })?;
+                for s in it {
+                    all.push(s?);
+                }
+            }
+            all.sort_by_key(|s| (s.0, s.1));
+            for (t, k, v, q) in all {
+                w.write_record([
+                    fmt_ms(t),
+                    t.to_string(),
+                    tags[k].trim().to_string(),
+                    v.to_string(),
+                    q.to_string(),
+                ])?;
+                rows += 1;
+            }
+        }
+        ExportLayout::Wide => {
+            let mut cols: Vec<Vec<(i64, f64)>> = Vec::with_capacity(ids.len());
+            for id in &ids {
+                let it = stmt.query_map(params![id, from_ms, to_ms], |r| {
+                    Ok((r.get::<_, i64>(0)?, r.get::<_, f64>(1)?))
+                })?;
+                cols.push(it.collect::<Result<Vec<_>, _>>()?);
+            }
+            let mut head = vec!["time".to_string(), "t_ms".to_string()];
+            head.extend(tags.iter().map(|t| t.trim().to_string()));
+            w.write_record(&head)?;
+            let mut pos = vec![0usize; cols.len()];
+            loop {
+                let next = cols
+                    .iter()
+                    .zip(&pos)
+                    .filter_map(|(c, &p)| c.get(p).map(|s| s.0))
+                    .min();
+                let Some(t) = next else { break };
+                let mut rec = vec![fmt_ms(t), t.to_string()];
+                for (c, p) in cols.iter().zip(pos.iter_mut()) {
+                    match c.get(*p) {
+                        Some(&(ts, v)) if ts == t => {
+                            rec.push(v.to_string());
+                            *p += 1;
+                        }
+                        _ => rec.push(String::new()),
+                    }
+                }
+                w.write_record(&rec)?;
+                rows += 1;
+            }
+        }
+    }
+    w.flush()?;
+    Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::signals::Signal;
+    use crate::store::{Quality, Sample, TagInfo};
+
+    #[test]
+    fn export_wide_and_long() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join("q.db");
+        let mut store = Store::open(&path).expect("open");
+        let a = store
+            .ensure_tag(&TagInfo::for_signal(Signal::N1))
+            .expect("tag");
+        let b = store
+            .ensure_tag(&TagInfo::for_signal(Signal::Power))
+            .expect("tag");
+        let s = |tag, t_ms, value| Sample {
+            tag,
+            t_ms,
+            value,
+            quality: Quality::Good,
+        };
+        store
+            .insert_samples(&[
+                s(a, 0, 1.0),
+                s(a, 1000, 2.0),
+                s(b, 1000, 5.5),
+                s(a, 9000, 3.0),
+            ])
+            .expect("insert");
+        drop(store);
+        let ro = Store::open_readonly(&path).expect("ro");
+        let tags = vec!["n1_rpm".to_string(), "power_mw".to_string()];
+        let mut out = Vec::new();
+        let n = export_csv(&ro, &tags, 0, 5000, ExportLayout::Wide, &mut out).expect("export");
+        assert_eq!(n, 2);
+        let text = String::from_utf8(out).expect("utf8");
+        assert_eq!(
+            text,
+            "time,t_ms,n1_rpm,power_mw\n\
+             1970-01-01T00:00:00.000Z,0,1,\n\
+             1970-01-01T00:00:01.000Z,1000,2,5.5\n"
+        );
+        let mut out = Vec::new();
+        let n = export_csv(&ro, &tags, 0, 9000, ExportLayout::Long, &mut out).expect("export");
+        assert_eq!(n, 4);
+        let text = String::from_utf8(out).expect("utf8");
+        assert!(text.starts_with("time,t_ms,tag,value,quality\n"));
+        assert!(text.contains("1970-01-01T00:00:01.000Z,1000,power_mw,5.5,0\n"));
+        assert!(export_csv(
+            &ro,
+            &["nope".into()],
+            0,
+            1,
+            ExportLayout::Wide,
+            &mut Vec::new()
+        )
+        .is_err());
+    }
+
+    #[test]
+    fn segments_render_in_all_formats() {
+        let seg = SegmentSummary {
+            id: 1,
+            start_ms: 0,
+            end_ms: Some(120_000),
+            outcome: Outcome::Aborted,
+            abort_cause: Some(AbortCause::Trip),
+            status: "closed".into(),
+            hot_restart: true,
+            has_gap: false,
+            phases: vec![
+                PhaseSpan {
+                    phase: Phase::Crank,
+                    start_ms: 0,
+                    end_ms: Some(40_000),
+                },
+                PhaseSpan {
+                    phase: Phase::Purge,
+                    start_ms: 40_000,
+                    end_ms: Some(120_000),
+                },
+            ],
+        };
+        let mut t = Vec::new();
+        write_segments(std::slice::from_ref(&seg), Format::Table, &mut t).expect("table");
+        let t = String::from_utf8(t).expect("utf8");
+        let lines: Vec<&str> = t.lines().collect();
+        assert_eq!(lines.len(), 2);
+        assert!(lines[0].starts_with("id  start"));
+        assert!(
+            lines[1].contains("aborted") && lines[1].contains("trip") && lines[1].contains("80.0")
+        );
+        let mut c = Vec::new();
+        write_segments(std::slice::from_ref(&seg), Format::Csv, &mut c).expect("csv");
+        let c = String::from_utf8(c).expect("utf8");
+        assert!(c.lines().nth(1).expect("row").starts_with("1,1970-01-01T00:00:00.000Z,1970-01-01T00:02:00.000Z,aborted,trip,closed,yes,no,120.0,40.0,80.0"));
+        let mut j = Vec::new();
+        write_segments(&[seg], Format::Json, &mut j).expect("json");
+        let v: serde_json::Value = serde_json::from_slice(&j).expect("json parse");
+        assert_eq!(v[0]["abort_cause"], "trip");
+        assert_eq!(v[0]["phases"][1]["phase"], "purge");
+    }
 }

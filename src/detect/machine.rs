@@ -117,6 +117,35 @@ impl SegmentRecord {
     }
 }
 
+/// What the machine believes the engine is doing outside a start.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Idle {
+    /// Not enough context yet (fresh machine, resume point in the middle of operation).
+    Unknown,
+    /// n1 at rest, fuel off.
+    Standstill,
+    /// Fuel on after a completed start (or found running on resume).
+    Running,
+    /// Fuel off, n1 coasting down; tracks the lowest n1 seen (a restart rises from there).
+    Coast { min_n1: f64, min_ms: i64 },
+}
+
+/// A start in progress.
+#[derive(Debug, Clone)]
+struct Active {
+    rec: SegmentRecord,
+    phase: Phase,
+    /// Crank: highest n1 (operator stop = n1 falls back). After ignition: highest n1 (flame-out).
+    peak_n1: f64,
+    peak_ms: i64,
+    /// Purge: speed level the starter holds.
+    ignition_ms: Option<i64>,
+    ignition_n1: f64,
+}
+
+/// Frames kept before a start, for finding its onset (at 1 Hz: 15 min).
+const CONTEXT_FRAMES: usize = 900;
+
 /// The state machine. Feed frames in time order with [`Machine::push`].
 #[derive(Debug, Clone)]
 pub struct Machine {
@@ -124,6 +153,10 @@ pub struct Machine {
     /// Time of the last fuel-off seen (for the hot-restart rule), carried across restarts.
     last_fuel_off_ms: Option<i64>,
     finished: Vec<SegmentRecord>,
+    idle: Idle,
+    active: Option<Active>,
+    /// Recent frames: the open segment and some context before it.
+    hist: Vec<Frame>,
 }
 
 impl Machine {
@@ -133,16 +166,50 @@ impl Machine {
             cfg,
             last_fuel_off_ms,
             finished: Vec::new(),
+            idle: Idle::Unknown,
+            active: None,
+            hist: Vec::new(),
         }
     }
 
-    /// Feeds one frame (time must increase).
-    pub fn push(&mut self, _frame: Frame) {
-        let _ = &self.cfg;
+    /// Feeds one frame. Frames not later than the previous one are ignored.
+    pub fn push(&mut self, frame: Frame) {
+        if !(frame.n1.is_finite() && frame.fuel.is_finite() && frame.power.is_finite()) {
+            return;
+        }
+        if let Some(prev) = self.hist.last() {
+            if frame.t_ms <= prev.t_ms {
+                return;
+            }
+            let gap_ms = (self.cfg.max_sample_gap_s * 1000.0) as i64;
+            if frame.t_ms - prev.t_ms > gap_ms {
+                let from = prev.t_ms;
+                self.note_gap(from, frame.t_ms);
+            }
+        }
+        let fuel_was_on = self.hist.last().map(|f| f.fuel > self.cfg.fuel_on_kg_s);
+        self.hist.push(frame);
+        let fuel_on = frame.fuel > self.cfg.fuel_on_kg_s;
+        if fuel_was_on == Some(true) && !fuel_on {
+            self.last_fuel_off_ms = Some(frame.t_ms);
+        }
+        if self.active.is_some() {
+            self.step_active(frame, fuel_was_on == Some(true) && !fuel_on);
+        } else {
+            self.step_idle(frame);
+        }
+        if self.active.is_none() && self.hist.len() > 2 * CONTEXT_FRAMES {
+            let cut = self.hist.len() - CONTEXT_FRAMES;
+            self.hist.drain(..cut);
+        }
     }
 
-    /// Marks a data gap between `from_ms` and `to_ms` (the open segment, if any, gets `has_gap`).
-    pub fn note_gap(&mut self, _from_ms: i64, _to_ms: i64) {}
+    /// Marks a data gap; the open segment, if any, gets `has_gap`.
+    pub fn note_gap(&mut self, _from_ms: i64, _to_ms: i64) {
+        if let Some(a) = &mut self.active {
+            a.rec.has_gap = true;
+        }
+    }
 
     /// Segments closed since the last call.
     pub fn take_finished(&mut self) -> Vec<SegmentRecord> {
@@ -151,10 +218,484 @@ impl Machine {
 
     /// The segment in progress, if any.
     pub fn open_segment(&self) -> Option<SegmentRecord> {
-        None
+        self.active.as_ref().map(|a| a.rec.clone())
     }
 
     pub fn last_fuel_off_ms(&self) -> Option<i64> {
         self.last_fuel_off_ms
     }
+
+    fn rest(&self, f: &Frame) -> bool {
+        f.n1 <= self.cfg.rest_speed_rpm
+    }
+
+    fn fuel_on(&self, f: &Frame) -> bool {
+        f.fuel > self.cfg.fuel_on_kg_s
+    }
+
+    fn step_idle(&mut self, f: Frame) {
+        let c = &self.cfg;
+        match self.idle {
+            Idle::Unknown => {
+                self.idle = if self.fuel_on(&f) {
+                    if f.power > c.breaker_closed_mw {
+                        Idle::Running
+                    } else {
+                        Idle::Unknown
+                    }
+                } else if self.rest(&f) {
+                    Idle::Standstill
+                } else {
+                    Idle::Coast {
+                        min_n1: f.n1,
+                        min_ms: f.t_ms,
+                    }
+                };
+            }
+            Idle::Running => {
+                if !self.fuel_on(&f) {
+                    self.idle = Idle::Coast {
+                        min_n1: f.n1,
+                        min_ms: f.t_ms,
+                    };
+                }
+            }
+            Idle::Standstill => {
+                if f.n1 > c.rest_speed_rpm {
+                    // Onset: the last sample still at the rest level before the rise.
+                    let base = self.level_before(f.t_ms, |x| x.n1);
+                    let band = (0.005 * base.abs()).max(5.0);
+                    let onset = self.knee_back(|x| x.n1, base, band);
+                    self.begin(onset, false);
+                } else if self.fuel_on(&f) {
+                    self.idle = Idle::Unknown;
+                }
+            }
+            Idle::Coast { min_n1, min_ms } => {
+                if self.rest(&f) && !self.fuel_on(&f) {
+                    self.idle = Idle::Standstill;
+                } else if !self.fuel_on(&f) {
+                    let rise = (0.02 * min_n1).max(50.0);
+                    if f.n1 < min_n1 {
+                        self.idle = Idle::Coast {
+                            min_n1: f.n1,
+                            min_ms: f.t_ms,
+                        };
+                    } else if f.n1 > min_n1 + rise {
+                        // The starter re-engaged while the rotor was still turning.
+                        self.begin(min_ms, true);
+                    }
+                } else if f.power > c.breaker_closed_mw {
+                    self.idle = Idle::Running;
+                } else {
+                    self.idle = Idle::Unknown;
+                }
+            }
+        }
+    }
+
+    fn begin(&mut self, start_ms: i64, rotor_turning: bool) {
+        let window_ms = (self.cfg.hot_restart_window_s * 1000.0) as i64;
+        let recent_fuel_off = self
+            .last_fuel_off_ms
+            .is_some_and(|off| off <= start_ms && start_ms - off <= window_ms);
+        let n1_at_start = self.value_at(start_ms, |x| x.n1);
+        let hot = rotor_turning || recent_fuel_off || n1_at_start > self.cfg.rest_speed_rpm;
+        let mut a = Active {
+            rec: SegmentRecord {
+                start_ms,
+                end_ms: None,
+                outcome: Outcome::InProgress,
+                abort_cause: None,
+                hot_restart: hot,
+                has_gap: false,
+                phases: vec![PhaseSpan {
+                    phase: Phase::Crank,
+                    start_ms,
+                    end_ms: None,
+                }],
+            },
+            phase: Phase::Crank,
+            peak_n1: f64::MIN,
+            peak_ms: start_ms,
+            ignition_ms: None,
+            ignition_n1: 0.0,
+        };
+        // Catch up on the frames between the onset and now (they are already in `hist`).
+        let start_idx = self.index_at_or_after(start_ms);
+        let frames: Vec<Frame> = self.hist[start_idx..].to_vec();
+        for f in &frames {
+            if f.n1 > a.peak_n1 {
+                a.peak_n1 = f.n1;
+                a.peak_ms = f.t_ms;
+            }
+        }
+        self.active = Some(a);
+        // Let the phase rules see the catch-up frames (e.g. crank already past purge entry).
+        if let Some(last) = frames.last().copied() {
+            self.step_active(last, false);
+        }
+    }
+
+    fn step_active(&mut self, f: Frame, fuel_just_off: bool) {
+        let Some(mut a) = self.active.take() else {
+            return;
+        };
+        let c = self.cfg.clone();
+        let fuel_on = self.fuel_on(&f);
+
+        // Fuel cut during a fuelled phase: trip (abrupt) or operator stop (ramped).
+        if fuel_just_off && a.ignition_ms.is_some() {
+            let (abrupt, knee) = self.classify_fuel_cut(f.t_ms);
+            let cause = if abrupt {
+                AbortCause::Trip
+            } else {
+                AbortCause::OperatorStop
+            };
+            self.finish_abort(a, cause, knee, f);
+            return;
+        }
+        // Flame-out: fuel present but the gas generator decays.
+        if a.ignition_ms.is_some() && fuel_on {
+            if f.n1 > a.peak_n1 {
+                a.peak_n1 = f.n1;
+                a.peak_ms = f.t_ms;
+            } else if f.n1 < a.peak_n1 - c.flame_out_drop_rpm {
+                let at = a.peak_ms;
+                self.finish_abort(a, AbortCause::FlameOut, at, f);
+                return;
+            }
+        }
+
+        match a.phase {
+            Phase::Crank => {
+                if f.n1 > a.peak_n1 {
+                    a.peak_n1 = f.n1;
+                    a.peak_ms = f.t_ms;
+                }
+                if f.n1 >= c.purge_entry_frac * c.purge_speed_rpm {
+                    enter(&mut a, Phase::Purge, f.t_ms);
+                } else if f.n1 < a.peak_n1 - (0.03 * a.peak_n1).max(50.0) {
+                    let at = a.peak_ms;
+                    self.finish_abort(a, AbortCause::OperatorStop, at, f);
+                    return;
+                }
+            }
+            Phase::Purge => {
+                if f.n1 < c.purge_speed_rpm * (1.0 - c.purge_band_frac) {
+                    // Starter released: light-off starts where n1 left the purge level.
+                    let start = a.rec.phases.last().map_or(f.t_ms, |p| p.start_ms);
+                    let level = self.median_between(start, f.t_ms, |x| x.n1);
+                    let band =
+                        (0.002 * level).max(4.0 * self.noise_between(start, f.t_ms, |x| x.n1));
+                    let knee = self.knee_back(|x| x.n1, level, band);
+                    enter(&mut a, Phase::LightOff, knee.max(start));
+                } else if fuel_on {
+                    enter(&mut a, Phase::LightOff, f.t_ms);
+                }
+            }
+            Phase::LightOff => {
+                if a.ignition_ms.is_none() {
+                    if fuel_on {
+                        a.ignition_ms = Some(f.t_ms);
+                        a.ignition_n1 = f.n1;
+                        a.peak_n1 = f.n1;
+                        a.peak_ms = f.t_ms;
+                    } else if f.n1 < 0.85 * c.light_off_speed_rpm {
+                        // No fuel came: the start was stopped; it ended when the starter let go.
+                        let at = a.rec.phases.last().map_or(f.t_ms, |p| p.start_ms);
+                        a.rec.phases.pop();
+                        self.finish_abort(a, AbortCause::OperatorStop, at, f);
+                        return;
+                    }
+                } else if let Some(ign) = a.ignition_ms {
+                    if f.n1 < a.ignition_n1 - c.flame_out_drop_rpm {
+                        self.finish_abort(a, AbortCause::FlameOut, ign, f);
+                        return;
+                    }
+                    // Acceleration: fuel rises above the light-off hold level.
+                    if f.t_ms > ign {
+                        let hold = self.median_between(ign, f.t_ms - 1, |x| x.fuel);
+                        if f.fuel > 1.1 * hold + c.fuel_on_kg_s {
+                            let band = (0.02 * hold)
+                                .max(4.0 * self.noise_between(ign, f.t_ms - 1, |x| x.fuel));
+                            let knee = self.knee_back(|x| x.fuel, hold, band).max(ign);
+                            enter(&mut a, Phase::Acceleration, knee);
+                        }
+                    }
+                }
+            }
+            Phase::Acceleration => {
+                if f.n1 >= c.idle_entry_frac * c.idle_speed_rpm {
+                    enter(&mut a, Phase::Idle, f.t_ms);
+                }
+                if f.power > c.breaker_closed_mw {
+                    enter(&mut a, Phase::Loading, f.t_ms);
+                }
+            }
+            Phase::Idle => {
+                let n2_in_band = f.n2.is_some_and(|n2| {
+                    (n2 - c.pt_sync_speed_rpm).abs() <= c.sync_band_frac * c.pt_sync_speed_rpm
+                });
+                if f.power > c.breaker_closed_mw {
+                    enter(&mut a, Phase::Loading, f.t_ms);
+                } else if n2_in_band {
+                    enter(&mut a, Phase::Synchronisation, f.t_ms);
+                }
+            }
+            Phase::Synchronisation => {
+                if f.power > c.breaker_closed_mw {
+                    enter(&mut a, Phase::Loading, f.t_ms);
+                }
+            }
+            Phase::Loading => {
+                if let Some(steady_start) = self.steady_start(&a, f.t_ms) {
+                    enter(&mut a, Phase::Steady, steady_start);
+                    close(&mut a, f.t_ms, Outcome::Completed, None);
+                    self.finished.push(a.rec);
+                    self.idle = Idle::Running;
+                    self.trim_history();
+                    return;
+                }
+            }
+            _ => {}
+        }
+        self.active = Some(a);
+    }
+
+    /// Start of steady load, once power has held within the band for `steady_hold_s`.
+    fn steady_start(&self, a: &Active, now_ms: i64) -> Option<i64> {
+        let c = &self.cfg;
+        let hold_ms = (c.steady_hold_s * 1000.0) as i64;
+        let loading_start = a.rec.phases.last().map_or(now_ms, |p| p.start_ms);
+        if now_ms - loading_start < hold_ms {
+            return None;
+        }
+        let from = now_ms - hold_ms;
+        let lo = self.index_at_or_after(from);
+        let win = &self.hist[lo..];
+        if win.len() < 3 {
+            return None;
+        }
+        let level = median(win.iter().map(|x| x.power).collect());
+        if level < c.steady_min_load_frac * c.base_load_mw {
+            return None;
+        }
+        let sigma = noise(&win.iter().map(|x| x.power).collect::<Vec<_>>());
+        let band = (c.steady_band_frac * level).max(4.0 * sigma);
+        if win.iter().any(|x| (x.power - level).abs() > band) {
+            return None;
+        }
+        // Coarse start: first sample after the last one outside the band.
+        let li = self.index_at_or_after(loading_start);
+        let mut s = lo;
+        while s > li && (self.hist[s - 1].power - level).abs() <= band {
+            s -= 1;
+        }
+        // Refine on the ramp before it: where a line through the ramp reaches the level.
+        let mut ramp_lo = s;
+        while ramp_lo > li
+            && s - ramp_lo < 10
+            && self.hist[ramp_lo - 1].power < self.hist[ramp_lo].power + 2.0 * sigma
+        {
+            ramp_lo -= 1;
+        }
+        let ramp: Vec<(f64, f64)> = self.hist[ramp_lo..s]
+            .iter()
+            .map(|x| (x.t_ms as f64, x.power))
+            .collect();
+        let mut start = self.hist[s].t_ms;
+        if let Some((slope, icpt)) = line_fit(&ramp) {
+            if slope > 0.0 && ramp.len() >= 3 {
+                let t_knee = (level - icpt) / slope;
+                // Nearest sample to the knee, within a few samples of the coarse start.
+                let hi = (s + 4).min(self.hist.len());
+                let cand = self.hist[s.saturating_sub(2).max(li)..hi]
+                    .iter()
+                    .min_by(|p, q| {
+                        (p.t_ms as f64 - t_knee)
+                            .abs()
+                            .total_cmp(&(q.t_ms as f64 - t_knee).abs())
+                    })
+                    .map(|x| x.t_ms);
+                if let Some(t) = cand {
+                    start = t;
+                }
+            }
+        }
+        Some(start)
+    }
+
+    /// Was the fuel that just went off cut abruptly? Also returns when the cut began.
+    fn classify_fuel_cut(&self, now_ms: i64) -> (bool, i64) {
+        let c = &self.cfg;
+        let cut_ms = (c.trip_fuel_cut_s * 1000.0) as i64;
+        let before = self.value_at(now_ms - cut_ms, |x| x.fuel);
+        let recent_max = self
+            .hist
+            .iter()
+            .rev()
+            .take_while(|x| x.t_ms >= now_ms - 60_000)
+            .map(|x| x.fuel)
+            .fold(0.0, f64::max);
+        let abrupt = before >= 0.5 * recent_max && before > c.fuel_on_kg_s;
+        if abrupt {
+            // A trip ends the start at the first sample without fuel.
+            return (true, now_ms);
+        }
+        // A ramped stop began where the fuel started to fall.
+        let tol = 0.01 * recent_max;
+        let mut i = self.hist.len() - 1;
+        while i > 0 && self.hist[i - 1].fuel > self.hist[i].fuel + tol {
+            i -= 1;
+        }
+        (false, self.hist[i].t_ms)
+    }
+
+    fn finish_abort(&mut self, mut a: Active, cause: AbortCause, at_ms: i64, f: Frame) {
+        let at = at_ms.max(a.rec.start_ms);
+        // Phases that began after the abort point did not really happen.
+        a.rec.phases.retain(|p| p.start_ms <= at);
+        close(&mut a, at, Outcome::Aborted, Some(cause));
+        self.finished.push(a.rec);
+        self.idle = if self.rest(&f) && !self.fuel_on(&f) {
+            Idle::Standstill
+        } else if self.fuel_on(&f) {
+            Idle::Unknown
+        } else {
+            Idle::Coast {
+                min_n1: f.n1,
+                min_ms: f.t_ms,
+            }
+        };
+        self.trim_history();
+    }
+
+    fn trim_history(&mut self) {
+        if self.hist.len() > CONTEXT_FRAMES {
+            let cut = self.hist.len() - CONTEXT_FRAMES;
+            self.hist.drain(..cut);
+        }
+    }
+
+    fn index_at_or_after(&self, t_ms: i64) -> usize {
+        self.hist.partition_point(|x| x.t_ms < t_ms)
+    }
+
+    /// Value of the last frame at or before `t_ms` (the first frame if none).
+    fn value_at(&self, t_ms: i64, get: impl Fn(&Frame) -> f64) -> f64 {
+        let i = self.hist.partition_point(|x| x.t_ms <= t_ms);
+        self.hist.get(i.saturating_sub(1)).map_or(0.0, get)
+    }
+
+    fn median_between(&self, from_ms: i64, to_ms: i64, get: impl Fn(&Frame) -> f64) -> f64 {
+        let v: Vec<f64> = self
+            .hist
+            .iter()
+            .filter(|x| x.t_ms >= from_ms && x.t_ms <= to_ms)
+            .map(get)
+            .collect();
+        median(v)
+    }
+
+    fn noise_between(&self, from_ms: i64, to_ms: i64, get: impl Fn(&Frame) -> f64) -> f64 {
+        let v: Vec<f64> = self
+            .hist
+            .iter()
+            .filter(|x| x.t_ms >= from_ms && x.t_ms <= to_ms)
+            .map(get)
+            .collect();
+        noise(&v)
+    }
+
+    /// Level of a signal over the frames before the newest one (median of up to 30).
+    fn level_before(&self, now_ms: i64, get: impl Fn(&Frame) -> f64) -> f64 {
+        let v: Vec<f64> = self
+            .hist
+            .iter()
+            .rev()
+            .filter(|x| x.t_ms < now_ms)
+            .take(30)
+            .map(get)
+            .collect();
+        median(v)
+    }
+
+    /// Walks back from the newest frame to the last one within `band` of `level`: the knee
+    /// where a plateau turned into the current ramp.
+    fn knee_back(&self, get: impl Fn(&Frame) -> f64, level: f64, band: f64) -> i64 {
+        let mut i = self.hist.len().saturating_sub(1);
+        while i > 0 && (get(&self.hist[i]) - level).abs() > band {
+            i -= 1;
+        }
+        self.hist.get(i).map_or(0, |x| x.t_ms)
+    }
 }
+
+fn enter(a: &mut Active, phase: Phase, at_ms: i64) {
+    if let Some(last) = a.rec.phases.last_mut() {
+        let at = at_ms.max(last.start_ms);
+        last.end_ms = Some(at);
+        a.rec.phases.push(PhaseSpan {
+            phase,
+            start_ms: at,
+            end_ms: None,
+        });
+    }
+    a.phase = phase;
+}
+
+fn close(a: &mut Active, at_ms: i64, outcome: Outcome, cause: Option<AbortCause>) {
+    if let Some(last) = a.rec.phases.last_mut() {
+        last.end_ms = Some(at_ms.max(last.start_ms));
+    }
+    a.rec.end_ms = Some(at_ms);
+    a.rec.outcome = outcome;
+    a.rec.abort_cause = cause;
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Robust noise estimate: spread of successive differences about their median (a clean ramp
+/// has none), scaled to a Gaussian sigma.
+fn noise(v: &[f64]) -> f64 {
+    if v.len() < 3 {
+        return 0.0;
+    }
+    let d: Vec<f64> = v.windows(2).map(|w| w[1] - w[0]).collect();
+    let m = median(d.clone());
+    let mad = median(d.iter().map(|x| (x - m).abs()).collect());
+    1.4826 * mad / std::f64::consts::SQRT_2
+}
+
+/// Least-squares line through (x, y); `None` with fewer than 2 distinct x.
+fn line_fit(pts: &[(f64, f64)]) -> Option<(f64, f64)> {
+    if pts.len() < 2 {
+        return None;
+    }
+    let n = pts.len() as f64;
+    let mx = pts.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = pts.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    if sxx <= 0.0 {
+        return None;
+    }
+    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let slope = sxy / sxx;
+    Some((slope, my - slope * mx))
+}
+
+#[cfg(test)]
+#[path = "machine_tests.rs"]
+pub(crate) mod tests;

@@ -14,7 +14,9 @@ pub mod machine;
 pub use machine::{AbortCause, Frame, Machine, Outcome, PhaseSpan, SegmentRecord};
 
 use crate::config_problem::ConfigProblem;
-use crate::store::{Store, StoreError};
+use crate::signals::Signal;
+use crate::store::{now_ms, Store, StoreError, TagId};
+use rusqlite::{params, OptionalExtension};
 use serde::{Deserialize, Serialize};
 
 /// `[detector]` section: start-up detection thresholds (defaults from the daemon contract).
@@ -208,7 +210,317 @@ pub enum DetectError {
     Sql(#[from] rusqlite::Error),
 }
 
-/// Processes the samples not yet scanned and stores/updates segments (see the module comment).
-pub fn scan(_store: &mut Store, _cfg: &DetectorConfig) -> Result<ScanReport, DetectError> {
-    Err(DetectError::Corrupt("scan: not implemented yet".into()))
+/// The tags the detector reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct InputTags {
+    n1: TagId,
+    fuel: TagId,
+    power: TagId,
+    n2: Option<TagId>,
 }
+
+fn resolve_tags(store: &Store, cfg: &DetectorConfig) -> Result<Option<InputTags>, DetectError> {
+    let pick = |name: &Option<String>, sig: Signal| -> Result<Option<TagId>, DetectError> {
+        match name {
+            Some(n) => Ok(Some(store.tag_by_name(n)?.id)),
+            None => Ok(store.tag_for_signal(sig)?.map(|t| t.id)),
+        }
+    };
+    let n1 = pick(&cfg.n1_tag, Signal::N1)?;
+    let fuel = pick(&cfg.fuel_tag, Signal::FuelFlow)?;
+    let power = pick(&cfg.power_tag, Signal::Power)?;
+    let n2 = pick(&cfg.n2_tag, Signal::N2)?;
+    Ok(match (n1, fuel, power) {
+        (Some(n1), Some(fuel), Some(power)) => Some(InputTags {
+            n1,
+            fuel,
+            power,
+            n2,
+        }),
+        _ => None,
+    })
+}
+
+/// Persistent detector progress (table `detector_state`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+struct ResumeState {
+    scanned_to_ms: Option<i64>,
+    rescan_from_ms: Option<i64>,
+    last_fuel_off_ms: Option<i64>,
+}
+
+fn read_state(conn: &rusqlite::Connection) -> Result<ResumeState, DetectError> {
+    Ok(conn.query_row(
+        "SELECT scanned_to_ms, rescan_from_ms, last_fuel_off_ms FROM detector_state WHERE id = 1",
+        [],
+        |r| {
+            Ok(ResumeState {
+                scanned_to_ms: r.get(0)?,
+                rescan_from_ms: r.get(1)?,
+                last_fuel_off_ms: r.get(2)?,
+            })
+        },
+    )?)
+}
+
+/// Where the machine must restart so that no start is seen only in part.
+fn resume_point(
+    conn: &rusqlite::Connection,
+    st: &ResumeState,
+    margin_ms: i64,
+) -> Result<Option<i64>, DetectError> {
+    let Some(scanned) = st.scanned_to_ms else {
+        return Ok(None); // never scanned: from the beginning
+    };
+    let mut from = scanned;
+    if let Some(r) = st.rescan_from_ms {
+        from = from.min(r);
+    }
+    let open: Option<i64> = conn.query_row(
+        "SELECT MIN(start_ms) FROM segments WHERE kind = 'startup' AND status = 'open'",
+        [],
+        |r| r.get(0),
+    )?;
+    if let Some(o) = open {
+        from = from.min(o);
+    }
+    // A (not yet diagnosed) segment spanning the resume point is found again from its start.
+    let spanning: Option<i64> = conn.query_row(
+        "SELECT MIN(start_ms) FROM segments WHERE kind = 'startup' AND status != 'diagnosed'
+           AND start_ms < ?1 AND (end_ms IS NULL OR end_ms >= ?1)",
+        params![from],
+        |r| r.get(0),
+    )?;
+    if let Some(s) = spanning {
+        from = from.min(s);
+    }
+    Ok(Some(from.saturating_sub(margin_ms)))
+}
+
+/// Reads one tag's samples in `[from, to)`, time-ordered.
+fn read_tag(
+    conn: &rusqlite::Connection,
+    tag: TagId,
+    from: i64,
+    to: i64,
+) -> Result<Vec<(i64, f64)>, DetectError> {
+    let mut stmt = conn.prepare_cached(
+        "SELECT t_ms, value FROM samples WHERE tag_id = ?1 AND t_ms >= ?2 AND t_ms < ?3 ORDER BY t_ms",
+    )?;
+    let rows = stmt.query_map(params![tag, from, to], |r| Ok((r.get(0)?, r.get(1)?)))?;
+    Ok(rows.collect::<Result<Vec<_>, _>>()?)
+}
+
+/// Carries the latest value of a secondary tag forward while n1 time stamps advance.
+struct Hold {
+    samples: Vec<(i64, f64)>,
+    pos: usize,
+    value: Option<f64>,
+}
+
+impl Hold {
+    fn new(samples: Vec<(i64, f64)>, carried: Option<f64>) -> Hold {
+        Hold {
+            samples,
+            pos: 0,
+            value: carried,
+        }
+    }
+    fn at(&mut self, t: i64) -> Option<f64> {
+        while self.pos < self.samples.len() && self.samples[self.pos].0 <= t {
+            self.value = Some(self.samples[self.pos].1);
+            self.pos += 1;
+        }
+        self.value
+    }
+}
+
+/// Time span read per chunk.
+const CHUNK_MS: i64 = 6 * 3600 * 1000;
+
+/// Processes the samples not yet scanned and stores/updates segments (see the module comment).
+///
+/// Returns an empty report when the input tags (n1, fuel flow, power) do not exist yet.
+pub fn scan(store: &mut Store, cfg: &DetectorConfig) -> Result<ScanReport, DetectError> {
+    let mut report = ScanReport::default();
+    let Some(tags) = resolve_tags(store, cfg)? else {
+        return Ok(report);
+    };
+    let conn = store.conn_mut();
+    let st = read_state(conn)?;
+    let margin_ms = (cfg.resume_margin_s * 1000.0) as i64;
+    let (first, last): (Option<i64>, Option<i64>) = conn.query_row(
+        "SELECT MIN(t_ms), MAX(t_ms) FROM samples WHERE tag_id = ?1",
+        params![tags.n1],
+        |r| Ok((r.get(0)?, r.get(1)?)),
+    )?;
+    let (Some(first), Some(last)) = (first, last) else {
+        return Ok(report);
+    };
+    if st.rescan_from_ms.is_none() && st.scanned_to_ms.is_some_and(|s| s >= last) {
+        return Ok(report); // nothing new
+    }
+    let from = resume_point(conn, &st, margin_ms)?
+        .unwrap_or(first)
+        .max(first);
+    report.resumed_from_ms = Some(from);
+
+    let fuel_off_before = st.last_fuel_off_ms.filter(|&t| t <= from);
+    let mut machine = Machine::new(cfg.clone(), fuel_off_before);
+    let mut finished = Vec::new();
+    let mut carried: [Option<f64>; 3] = [None; 3];
+    let mut chunk_from = from;
+    let mut scanned_to = None;
+    while chunk_from <= last {
+        let chunk_to = chunk_from.saturating_add(CHUNK_MS);
+        let n1 = read_tag(conn, tags.n1, chunk_from, chunk_to)?;
+        let mut fuel = Hold::new(read_tag(conn, tags.fuel, chunk_from, chunk_to)?, carried[0]);
+        let mut power = Hold::new(
+            read_tag(conn, tags.power, chunk_from, chunk_to)?,
+            carried[1],
+        );
+        let mut n2 = match tags.n2 {
+            Some(t) => Some(Hold::new(
+                read_tag(conn, t, chunk_from, chunk_to)?,
+                carried[2],
+            )),
+            None => None,
+        };
+        for (t, v) in n1 {
+            let (Some(fv), Some(pv)) = (fuel.at(t), power.at(t)) else {
+                continue;
+            };
+            let n2v = n2.as_mut().and_then(|h| h.at(t));
+            machine.push(Frame {
+                t_ms: t,
+                n1: v,
+                fuel: fv,
+                power: pv,
+                n2: n2v,
+            });
+            report.frames += 1;
+            scanned_to = Some(t);
+        }
+        carried = [fuel.value, power.value, n2.as_ref().and_then(|h| h.value)];
+        finished.extend(machine.take_finished());
+        chunk_from = chunk_to;
+    }
+    let open = machine.open_segment();
+    report.segments_closed = finished.len() as u64;
+    report.segments_open = u64::from(open.is_some());
+    report.scanned_to_ms = scanned_to;
+
+    let tx = conn.transaction()?;
+    let mut kept: Vec<i64> = Vec::new();
+    for rec in finished.iter().chain(open.iter()) {
+        if let Some(id) = upsert_segment(&tx, rec)? {
+            kept.push(id);
+            report.segments_written += 1;
+        }
+    }
+    // Segments from an earlier pass over this span that were not found again.
+    {
+        let mut stale = tx.prepare(
+            "SELECT id FROM segments WHERE kind = 'startup' AND start_ms >= ?1 AND status != 'diagnosed'
+               AND id NOT IN (SELECT segment_id FROM diagnoses)",
+        )?;
+        let ids: Vec<i64> = stale
+            .query_map(params![from], |r| r.get(0))?
+            .collect::<Result<_, _>>()?;
+        for id in ids.into_iter().filter(|id| !kept.contains(id)) {
+            tx.execute("DELETE FROM segments WHERE id = ?1", params![id])?;
+        }
+    }
+    tx.execute(
+        "UPDATE detector_state SET scanned_to_ms = MAX(COALESCE(scanned_to_ms, ?1), ?1),
+                rescan_from_ms = NULL, last_fuel_off_ms = ?2, updated_at_ms = ?3 WHERE id = 1",
+        params![
+            scanned_to.unwrap_or(last),
+            machine.last_fuel_off_ms().or(st.last_fuel_off_ms),
+            now_ms()
+        ],
+    )?;
+    tx.commit()?;
+    Ok(report)
+}
+
+/// Inserts or updates a segment keyed by its start time; a diagnosed segment is left alone.
+/// Returns its id, or `None` if it was left alone.
+fn upsert_segment(
+    tx: &rusqlite::Transaction<'_>,
+    rec: &SegmentRecord,
+) -> Result<Option<i64>, DetectError> {
+    let end = rec.end_ms.unwrap_or(i64::MAX);
+    let gap_in_span: bool = tx.query_row(
+        "SELECT EXISTS(SELECT 1 FROM gaps WHERE start_ms <= ?2 AND end_ms >= ?1)",
+        params![rec.start_ms, end],
+        |r| r.get(0),
+    )?;
+    let status = if rec.is_open() { "open" } else { "closed" };
+    let existing: Option<(i64, String)> = tx
+        .query_row(
+            "SELECT id, status FROM segments WHERE kind = 'startup' AND start_ms = ?1",
+            params![rec.start_ms],
+            |r| Ok((r.get(0)?, r.get(1)?)),
+        )
+        .optional()?;
+    let id = match existing {
+        Some((_, s)) if s == "diagnosed" => return Ok(None),
+        Some((id, _)) => {
+            tx.execute(
+                "UPDATE segments SET end_ms = ?2, outcome = ?3, abort_cause = ?4, status = ?5,
+                        hot_restart = ?6, has_gap = ?7, updated_at_ms = ?8 WHERE id = ?1",
+                params![
+                    id,
+                    rec.end_ms,
+                    rec.outcome.as_str(),
+                    rec.abort_cause.map(|c| c.as_str()),
+                    status,
+                    rec.hot_restart,
+                    rec.has_gap || gap_in_span,
+                    now_ms()
+                ],
+            )?;
+            tx.execute(
+                "DELETE FROM segment_phases WHERE segment_id = ?1",
+                params![id],
+            )?;
+            id
+        }
+        None => {
+            tx.execute(
+                "INSERT INTO segments (kind, start_ms, end_ms, outcome, abort_cause, status,
+                                       hot_restart, has_gap, updated_at_ms)
+                 VALUES ('startup', ?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
+                params![
+                    rec.start_ms,
+                    rec.end_ms,
+                    rec.outcome.as_str(),
+                    rec.abort_cause.map(|c| c.as_str()),
+                    status,
+                    rec.hot_restart,
+                    rec.has_gap || gap_in_span,
+                    now_ms()
+                ],
+            )?;
+            tx.last_insert_rowid()
+        }
+    };
+    let mut ins = tx.prepare_cached(
+        "INSERT OR REPLACE INTO segment_phases (segment_id, phase, phase_code, start_ms, end_ms)
+         VALUES (?1, ?2, ?3, ?4, ?5)",
+    )?;
+    for p in &rec.phases {
+        ins.execute(params![
+            id,
+            p.phase.name(),
+            p.phase.code(),
+            p.start_ms,
+            p.end_ms
+        ])?;
+    }
+    Ok(Some(id))
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,373 @@
+//! Synthetic start-ups that follow the contract's phase definitions, at 1 Hz, with sensor
+//! noise (speeds 0.05 %, fuel 0.5 %, power 0.5 %, 1 sigma). Truth boundaries are computed
+//! from the noise-free trajectories by the contract's rules.
+
+use super::*;
+use crate::signals::Phase;
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
+
+/// Piecewise-linear function through (t_s, value) points; constant outside.
+#[derive(Clone)]
+pub(crate) struct Pl(pub Vec<(f64, f64)>);
+
+impl Pl {
+    pub(crate) fn at(&self, t: f64) -> f64 {
+        let p = &self.0;
+        if t <= p[0].0 {
+            return p[0].1;
+        }
+        for w in p.windows(2) {
+            let ((t0, v0), (t1, v1)) = (w[0], w[1]);
+            if t <= t1 {
+                return if t1 > t0 {
+                    v0 + (v1 - v0) * (t - t0) / (t1 - t0)
+                } else {
+                    v1
+                };
+            }
+        }
+        p[p.len() - 1].1
+    }
+}
+
+/// A scripted trace: n1, fuel, power, n2 as functions of time (s).
+#[derive(Clone)]
+pub(crate) struct Script {
+    pub n1: Pl,
+    pub fuel: Pl,
+    pub power: Pl,
+    pub n2: Pl,
+}
+
+/// Times (s) of a normal start beginning at `t0` with the rotor at `n1_0`.
+pub(crate) struct StartTimes {
+    pub crank: f64,
+    pub purge_hold_end: f64,
+    pub accel: f64,
+    pub at_idle: f64,
+    pub breaker: f64,
+    pub ramp_start: f64,
+    pub at_load: f64,
+}
+
+/// Appends a normal start to the point lists. Returns its key times.
+pub(crate) fn push_start(s: &mut Script, t0: f64, n1_0: f64) -> StartTimes {
+    let crank_s = 40.0 * (2300.0 - n1_0) / 2300.0;
+    let purge_at = t0 + crank_s;
+    let release = purge_at + 60.0;
+    let fuel_on = release + 20.0;
+    let accel = fuel_on + 5.0;
+    let idle = accel + 45.0;
+    let n2_sync = idle + 60.0;
+    let breaker = n2_sync + 40.0;
+    let warm = breaker + 10.0;
+    let ramp = warm + 240.0;
+    let load = ramp + 120.0;
+    s.n1.0.extend([
+        (t0, n1_0),
+        (purge_at, 2300.0),
+        (release, 2300.0),
+        (fuel_on, 1700.0),
+        (accel, 1700.0),
+        (idle, 6800.0),
+        (ramp, 6800.0),
+        (load, 7600.0),
+    ]);
+    s.fuel.0.extend([
+        (fuel_on - 0.001, 0.0),
+        (fuel_on, 0.08),
+        (accel, 0.08),
+        (accel + 40.0, 0.6),
+        (warm, 0.7),
+        (ramp, 0.8),
+        (load, 2.1),
+    ]);
+    s.n2.0.extend([(idle, 0.0), (n2_sync, 3600.0)]);
+    s.power
+        .0
+        .extend([(breaker - 0.5, 0.0), (warm, 3.0), (ramp, 3.0), (load, 31.4)]);
+    StartTimes {
+        crank: t0,
+        purge_hold_end: release,
+        accel,
+        at_idle: idle,
+        breaker,
+        ramp_start: ramp,
+        at_load: load,
+    }
+}
+
+pub(crate) fn empty_script() -> Script {
+    Script {
+        n1: Pl(vec![(0.0, 0.0)]),
+        fuel: Pl(vec![(0.0, 0.0)]),
+        power: Pl(vec![(0.0, 0.0)]),
+        n2: Pl(vec![(0.0, 0.0)]),
+    }
+}
+
+pub(crate) const T0_MS: i64 = 1_700_000_000_000;
+
+/// Samples the script at 1 Hz over [0, end_s], with relative Gaussian noise.
+pub(crate) fn frames(s: &Script, end_s: i64, seed: u64, with_n2: bool) -> Vec<Frame> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let unit = Normal::new(0.0, 1.0).expect("normal");
+    let mut noisy = |v: f64, rel: f64| v * (1.0 + rel * unit.sample(&mut rng));
+    (0..=end_s)
+        .map(|k| {
+            let t = k as f64;
+            Frame {
+                t_ms: T0_MS + k * 1000,
+                n1: noisy(s.n1.at(t), 0.0005),
+                fuel: noisy(s.fuel.at(t), 0.005),
+                power: noisy(s.power.at(t), 0.005),
+                n2: if with_n2 {
+                    Some(noisy(s.n2.at(t), 0.0005))
+                } else {
+                    None
+                },
+            }
+        })
+        .collect()
+}
+
+fn run(frames: &[Frame]) -> (Vec<SegmentRecord>, Option<SegmentRecord>) {
+    let mut m = Machine::new(DetectorConfig::default(), None);
+    for f in frames {
+        m.push(*f);
+    }
+    (m.take_finished(), m.open_segment())
+}
+
+/// First whole second in [from, to] where `pred` holds on the noise-free script.
+fn first_where(from: f64, to: f64, pred: impl Fn(f64) -> bool) -> f64 {
+    let mut t = from.ceil();
+    while t <= to {
+        if pred(t) {
+            return t;
+        }
+        t += 1.0;
+    }
+    panic!("condition never holds in [{from}, {to}]");
+}
+
+/// Contract truth for each phase start of a normal start.
+fn truth(s: &Script, k: &StartTimes, with_n2: bool) -> Vec<(Phase, f64)> {
+    let purge = first_where(k.crank, k.purge_hold_end, |t| s.n1.at(t) >= 0.98 * 2300.0);
+    let idle = first_where(k.accel, k.ramp_start, |t| s.n1.at(t) >= 0.99 * 6800.0);
+    let loading = first_where(k.at_idle, k.ramp_start, |t| s.power.at(t) > 0.5);
+    // Steady: power within 1 % of the final setpoint from here on.
+    let steady = first_where(k.ramp_start, k.at_load + 10.0, |t| {
+        (s.power.at(t) - 31.4).abs() <= 0.01 * 31.4
+    });
+    let mut v = vec![
+        (Phase::Crank, k.crank),
+        (Phase::Purge, purge),
+        (Phase::LightOff, k.purge_hold_end),
+        (Phase::Acceleration, k.accel),
+    ];
+    if with_n2 {
+        let sync = first_where(k.at_idle, k.breaker, |t| {
+            (s.n2.at(t) - 3600.0).abs() <= 0.01 * 3600.0
+        });
+        v.push((Phase::Idle, idle));
+        v.push((Phase::Synchronisation, sync));
+    } else {
+        v.push((Phase::Idle, idle));
+    }
+    v.push((Phase::Loading, loading));
+    v.push((Phase::Steady, steady));
+    v
+}
+
+fn assert_phases(seg: &SegmentRecord, truth: &[(Phase, f64)]) {
+    let found: Vec<Phase> = seg.phases.iter().map(|p| p.phase).collect();
+    let want: Vec<Phase> = truth.iter().map(|p| p.0).collect();
+    assert_eq!(found, want, "phase sequence");
+    for (phase, t) in truth {
+        let span = seg.phase(*phase).expect("phase present");
+        let got = (span.start_ms - T0_MS) as f64 / 1000.0;
+        assert!(
+            (got - t).abs() <= 2.0,
+            "{phase}: found start {got} s, truth {t} s"
+        );
+    }
+    // Phases tile the segment.
+    for w in seg.phases.windows(2) {
+        assert_eq!(w[0].end_ms, Some(w[1].start_ms));
+    }
+}
+
+#[test]
+fn normal_start_boundaries_within_two_samples() {
+    for seed in 0..5 {
+        for with_n2 in [true, false] {
+            let mut s = empty_script();
+            let k = push_start(&mut s, 30.0, 0.0);
+            let end = k.at_load as i64 + 300;
+            let (done, open) = run(&frames(&s, end, seed, with_n2));
+            assert!(open.is_none(), "seed {seed}: segment left open");
+            assert_eq!(done.len(), 1, "seed {seed}: {done:?}");
+            let seg = &done[0];
+            assert_eq!(seg.outcome, Outcome::Completed);
+            assert!(!seg.hot_restart && !seg.has_gap && seg.abort_cause.is_none());
+            assert_phases(seg, &truth(&s, &k, with_n2));
+        }
+    }
+}
+
+/// A normal start cut at `cut_s`: `trip` cuts the fuel, otherwise the flame goes out
+/// (fuel stays, n1 decays at 150 rpm/s to rest).
+fn cut_start(cut_s: f64, trip: bool) -> (Script, StartTimes) {
+    let mut s = empty_script();
+    let k = push_start(&mut s, 30.0, 0.0);
+    let n1_cut = s.n1.at(cut_s);
+    let fuel_cut = s.fuel.at(cut_s);
+    let fuel_before = s.fuel.at(cut_s - 1.0);
+    s.n1.0.retain(|p| p.0 < cut_s);
+    s.fuel.0.retain(|p| p.0 < cut_s);
+    s.power.0.retain(|p| p.0 < cut_s);
+    s.n1.0
+        .extend([(cut_s, n1_cut), (cut_s + n1_cut / 150.0, 0.0)]);
+    if trip {
+        s.fuel.0.extend([(cut_s - 1.0, fuel_before), (cut_s, 0.0)]);
+    } else {
+        s.fuel.0.extend([
+            (cut_s, fuel_cut),
+            (cut_s + 20.0, fuel_cut),
+            (cut_s + 21.0, 0.0),
+        ]);
+    }
+    s.power.0.push((cut_s, 0.0));
+    s.n2.0.retain(|p| p.0 < cut_s);
+    (s, k)
+}
+
+#[test]
+fn aborted_start_by_trip() {
+    let (s, k) = cut_start(185.0, true);
+    assert!(185.0 > k.accel && 185.0 < k.at_idle);
+    let (done, open) = run(&frames(&s, 600, 7, true));
+    assert!(open.is_none());
+    assert_eq!(done.len(), 1, "{done:?}");
+    let seg = &done[0];
+    assert_eq!(seg.outcome, Outcome::Aborted);
+    assert_eq!(seg.abort_cause, Some(AbortCause::Trip));
+    let end = (seg.end_ms.expect("closed") - T0_MS) as f64 / 1000.0;
+    assert!((end - 185.0).abs() <= 2.0, "trip at {end}");
+    assert_eq!(
+        seg.phases.last().map(|p| p.phase),
+        Some(Phase::Acceleration)
+    );
+    let accel = seg.phase(Phase::Acceleration).expect("accel");
+    assert!(((accel.start_ms - T0_MS) as f64 / 1000.0 - k.accel).abs() <= 2.0);
+}
+
+#[test]
+fn aborted_start_by_flame_out() {
+    let (s, _k) = cut_start(205.0, false);
+    let (done, _open) = run(&frames(&s, 600, 8, true));
+    assert_eq!(done.len(), 1, "{done:?}");
+    let seg = &done[0];
+    assert_eq!(seg.outcome, Outcome::Aborted);
+    assert_eq!(seg.abort_cause, Some(AbortCause::FlameOut));
+    let end = (seg.end_ms.expect("closed") - T0_MS) as f64 / 1000.0;
+    assert!((end - 205.0).abs() <= 2.0, "flame-out at {end}");
+}
+
+#[test]
+fn operator_stop_during_purge() {
+    let mut s = empty_script();
+    // Crank 0 -> 2300 over 40 s, purge 30 s, starter released, rotor coasts to rest, no fuel.
+    s.n1.0
+        .extend([(10.0, 0.0), (50.0, 2300.0), (80.0, 2300.0), (200.0, 0.0)]);
+    let (done, open) = run(&frames(&s, 300, 9, true));
+    assert!(open.is_none());
+    assert_eq!(done.len(), 1, "{done:?}");
+    let seg = &done[0];
+    assert_eq!(seg.abort_cause, Some(AbortCause::OperatorStop));
+    let end = (seg.end_ms.expect("closed") - T0_MS) as f64 / 1000.0;
+    assert!((end - 80.0).abs() <= 2.0, "stopped at {end}");
+    assert_eq!(seg.phases.last().map(|p| p.phase), Some(Phase::Purge));
+}
+
+/// A completed start, a trip from load, and a restart while the rotor still turns.
+pub(crate) fn hot_restart_script() -> (Script, StartTimes, f64, StartTimes) {
+    let mut s = empty_script();
+    let k1 = push_start(&mut s, 30.0, 0.0);
+    let trip = k1.at_load + 200.0;
+    // Trip from load: fuel and power cut, n1 coasts 7600 -> 1000 rpm in 66 s.
+    s.n1.0.push((trip, 7600.0));
+    s.fuel.0.extend([(trip - 1.0, 2.1), (trip, 0.0)]);
+    s.power.0.extend([(trip - 1.0, 31.4), (trip, 0.0)]);
+    s.n2.0.extend([(trip, 3600.0), (trip + 120.0, 0.0)]);
+    let restart = trip + 66.0;
+    s.n1.0.push((restart, 1000.0));
+    let k2 = push_start(&mut s, restart, 1000.0);
+    (s, k1, trip, k2)
+}
+
+#[test]
+fn hot_restart_after_trip_from_load() {
+    let (s, k1, _trip, k2) = hot_restart_script();
+    let end = k2.at_load as i64 + 300;
+    let (done, open) = run(&frames(&s, end, 11, true));
+    assert!(open.is_none());
+    assert_eq!(done.len(), 2, "{done:?}");
+    assert!(!done[0].hot_restart);
+    assert_phases(&done[0], &truth(&s, &k1, true));
+    let seg = &done[1];
+    assert!(seg.hot_restart, "second start must be a hot restart");
+    assert_eq!(seg.outcome, Outcome::Completed);
+    assert_phases(seg, &truth(&s, &k2, true));
+}
+
+#[test]
+fn start_within_window_of_fuel_off_is_hot_even_from_rest() {
+    let mut s = empty_script();
+    let k1 = push_start(&mut s, 30.0, 0.0);
+    let stop = k1.at_load + 100.0;
+    s.n1.0.extend([(stop, 7600.0), (stop + 100.0, 0.0)]);
+    s.fuel.0.extend([(stop - 1.0, 2.1), (stop, 0.0)]);
+    s.power.0.extend([(stop - 1.0, 31.4), (stop, 0.0)]);
+    s.n2.0.extend([(stop, 3600.0), (stop + 100.0, 0.0)]);
+    // 10 minutes at rest, then a new start: within the 30-minute window.
+    let k2 = push_start(&mut s, stop + 700.0, 0.0);
+    let (done, _) = run(&frames(&s, k2.at_load as i64 + 120, 12, true));
+    assert_eq!(done.len(), 2, "{done:?}");
+    assert!(done[1].hot_restart);
+    assert_eq!(done[1].outcome, Outcome::Completed);
+}
+
+#[test]
+fn start_with_data_gap_is_marked_and_still_found() {
+    let mut s = empty_script();
+    let k = push_start(&mut s, 30.0, 0.0);
+    let all = frames(&s, k.at_load as i64 + 300, 13, true);
+    // 30 s without samples during the warm-up at minimum load.
+    let gap_from = T0_MS + ((k.breaker + 60.0) as i64) * 1000;
+    let kept: Vec<Frame> = all
+        .into_iter()
+        .filter(|f| f.t_ms < gap_from || f.t_ms >= gap_from + 30_000)
+        .collect();
+    let (done, open) = run(&kept);
+    assert!(open.is_none());
+    assert_eq!(done.len(), 1);
+    assert!(done[0].has_gap);
+    assert_eq!(done[0].outcome, Outcome::Completed);
+    assert_phases(&done[0], &truth(&s, &k, true));
+}
+
+#[test]
+fn open_segment_while_start_is_running() {
+    let mut s = empty_script();
+    let k = push_start(&mut s, 30.0, 0.0);
+    let (done, open) = run(&frames(&s, k.at_idle as i64 + 10, 14, true));
+    assert!(done.is_empty());
+    let open = open.expect("open segment");
+    assert!(open.is_open());
+    assert_eq!(open.outcome, Outcome::InProgress);
+    assert_eq!(open.phases.last().map(|p| p.phase), Some(Phase::Idle));
+    assert_eq!(open.phases.last().and_then(|p| p.end_ms), None);
+}
