@@ -492,6 +492,13 @@ fn start_legs(
             duration_s: tm.crank_s * crank_frac,
             end: op(crank_end, 0.0, 0.0, 0.0),
         },
+        // The starter governor settles at purge speed and holds it (the last few rpm of the
+        // crank are taken between two frames).
+        Leg {
+            phase: Phase::Purge,
+            duration_s: 0.0,
+            end: op(lv.purge_rpm, 0.0, 0.0, 0.0),
+        },
         Leg {
             phase: Phase::Purge,
             duration_s: tm.purge_s,
