@@ -6,10 +6,13 @@ use std::process::ExitCode;
 pub enum BenchCmd {
     /// Replay ingest throughput into SQLite (synthetic CSV in a temporary directory).
     Replay(super::bench_replay::BenchReplayArgs),
+    /// Daemon CPU (live polling of a simulated plant) or memory after a simulated day (--day).
+    Daemon(super::bench_daemon::BenchDaemonArgs),
 }
 
 pub fn run(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
     match cmd {
         BenchCmd::Replay(a) => super::bench_replay::run(a),
+        BenchCmd::Daemon(a) => super::bench_daemon::run(a),
     }
 }

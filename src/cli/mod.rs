@@ -5,6 +5,7 @@
 //! business logic.
 
 mod bench;
+mod bench_daemon;
 mod bench_replay;
 mod check_config;
 mod common;
