@@ -52,11 +52,11 @@ pub enum QueryError {
     Sql(#[from] rusqlite::Error),
     #[error("invalid value in database: {0}")]
     Corrupt(String),
-    #[error("writing output: {0}")]
+    #[error("writing output")]
     Io(#[from] std::io::Error),
-    #[error("{0}")]
+    #[error("writing CSV")]
     Csv(#[from] csv::Error),
-    #[error("{0}")]
+    #[error("writing JSON")]
     Json(#[from] serde_json::Error),
 }
 

@@ -234,7 +234,7 @@ impl ReplayReport {
 /// Replay errors. Data committed before the error stays committed.
 #[derive(Debug, thiserror::Error)]
 pub enum ReplayError {
-    #[error("{path}: {source}")]
+    #[error("cannot read {path}")]
     Io {
         path: PathBuf,
         #[source]

@@ -443,10 +443,8 @@ impl Machine {
                     enter(&mut a, Phase::Synchronisation, f.t_ms);
                 }
             }
-            Phase::Synchronisation => {
-                if f.power > c.breaker_closed_mw {
-                    enter(&mut a, Phase::Loading, f.t_ms);
-                }
+            Phase::Synchronisation if f.power > c.breaker_closed_mw => {
+                enter(&mut a, Phase::Loading, f.t_ms);
             }
             Phase::Loading => {
                 if let Some(steady_start) = self.steady_start(&a, f.t_ms) {

@@ -1,1 +1,233 @@
+use super::*;
+use crate::store::Store;
 
+fn setup(csv: &str) -> (tempfile::TempDir, Store, PathBuf) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let store = Store::open(&dir.path().join("r.db")).expect("open");
+    let path = dir.path().join("log.csv");
+    std::fs::write(&path, csv).expect("write csv");
+    (dir, store, path)
+}
+
+#[test]
+fn time_formats() {
+    let ms = |s: &str, f| parse_time(s.as_bytes(), f);
+    assert_eq!(
+        ms("2024-03-01T00:00:00Z", TimeFormat::Iso8601),
+        Ok(1_709_251_200_000)
+    );
+    assert_eq!(
+        ms("2024-03-01T01:00:00+01:00", TimeFormat::Iso8601),
+        Ok(1_709_251_200_000)
+    );
+    // No offset = UTC; a space instead of T; fractions.
+    assert_eq!(
+        ms("2024-03-01 00:00:00.250", TimeFormat::Iso8601),
+        Ok(1_709_251_200_250)
+    );
+    assert_eq!(ms("2024-03-01", TimeFormat::Iso8601), Ok(1_709_251_200_000));
+    assert_eq!(ms("1709251200", TimeFormat::EpochS), Ok(1_709_251_200_000));
+    assert_eq!(
+        ms("1709251200.5", TimeFormat::EpochS),
+        Ok(1_709_251_200_500)
+    );
+    assert_eq!(
+        ms("1709251200500", TimeFormat::EpochMs),
+        Ok(1_709_251_200_500)
+    );
+    assert!(ms("yesterday", TimeFormat::Iso8601).is_err());
+    assert!(ms("12:00", TimeFormat::EpochS).is_err());
+    assert_eq!(fmt_ms(1_709_251_200_250), "2024-03-01T00:00:00.250Z");
+}
+
+#[test]
+fn replay_is_idempotent_and_maps_signal_columns() {
+    let csv = "time,n1_rpm,power_mw,comment\n\
+               2024-03-01T00:00:00Z,100,1.5,a\n\
+               2024-03-01T00:00:01Z,200,,b\n\
+               2024-03-01T00:00:02Z,300,2.5,c\n";
+    let (_d, mut store, path) = setup(csv);
+    let cfg = ReplayConfig::default();
+    let r = replay_file(&mut store, &cfg, &path, Progress::Silent).expect("replay");
+    assert_eq!(r.rows_read, 3);
+    assert_eq!(r.samples_inserted, 5, "empty cell = no sample");
+    assert_eq!(r.ignored_columns, vec!["comment".to_string()]);
+    let r2 = replay_file(&mut store, &cfg, &path, Progress::Silent).expect("replay");
+    assert_eq!((r2.samples_inserted, r2.samples_present), (0, 5));
+    assert_eq!(store.sample_count().expect("count"), 5);
+    let tag = store
+        .tag_for_signal(Signal::N1)
+        .expect("q")
+        .expect("n1 tag");
+    assert_eq!(tag.name, "n1_rpm");
+    assert_eq!(tag.unit, "rpm");
+}
+
+#[test]
+fn explicit_mapping_epoch_and_delimiter() {
+    let csv = "ts;GG speed;Fuel;Other\n1709251200;5000;0.4;7\n1709251201;5001;0.41;8\n";
+    let (_d, mut store, path) = setup(csv);
+    let mut cfg = ReplayConfig {
+        time_column: "ts".into(),
+        time_format: TimeFormat::EpochS,
+        delimiter: ";".into(),
+        ..ReplayConfig::default()
+    };
+    cfg.columns.insert("GG speed".into(), "n1".into());
+    cfg.columns.insert("Fuel".into(), "fuel_flow".into());
+    cfg.columns.insert("Other".into(), "bearing_temp".into());
+    assert!(cfg.validate().is_empty());
+    let r = replay_file(&mut store, &cfg, &path, Progress::Silent).expect("replay");
+    assert_eq!(r.samples_inserted, 6);
+    let names: Vec<String> = store
+        .tags()
+        .expect("tags")
+        .into_iter()
+        .map(|t| t.name)
+        .collect();
+    assert!(names.contains(&"n1_rpm".to_string()));
+    assert!(names.contains(&"fuel_kg_s".to_string()));
+    assert!(names.contains(&"bearing_temp".to_string()));
+}
+
+const MALFORMED: &str = "time,n1_rpm,fuel_kg_s\n\
+    2024-03-01T00:00:00Z,1,0.1\n\
+    2024-03-01T00:00:01Z,2\n\
+    2024-03-01T00:00:02Z,abc,0.1\n\
+    not-a-time,4,0.1\n\
+    2024-03-01T00:00:03Z,5,0.1\n\
+    2024-03-01T00:00:03Z,6,0.1\n\
+    2024-03-01T00:00:02Z,7,0.1\n\
+    2024-03-01T00:00:04Z,8,inf\n\
+    2024-03-01T00:00:05Z,9,0.1\n\
+    2024-03-01T00:00:06Z,10";
+
+#[test]
+fn malformed_rows_are_reported_by_line_and_skipped() {
+    let (_d, mut store, path) = setup(MALFORMED);
+    let r = replay_file(
+        &mut store,
+        &ReplayConfig::default(),
+        &path,
+        Progress::Silent,
+    )
+    .expect("replay");
+    let lines: Vec<u64> = r.malformed.iter().map(|m| m.line).collect();
+    assert_eq!(lines, vec![3, 4, 5, 7, 8, 9, 11], "{:#?}", r.malformed);
+    assert!(r.malformed[0].reason.contains("expected 3 fields, found 2"));
+    assert!(r.malformed[1].reason.contains("'abc' is not a number"));
+    assert!(r.malformed[2].reason.contains("not-a-time"));
+    assert!(r.malformed[3].reason.contains("duplicate time"));
+    assert!(r.malformed[4].reason.contains("goes backwards"));
+    assert!(r.malformed[5].reason.contains("finite"));
+    // The truncated last line (no newline, missing field) is malformed too.
+    assert!(r.malformed[6].reason.contains("expected 3 fields"));
+    assert_eq!(r.rows_read, 10);
+    assert_eq!(r.rows_malformed, 7);
+    assert_eq!(r.samples_inserted, 6, "rows on lines 2, 6 and 10");
+}
+
+#[test]
+fn stop_policy_names_the_line_and_keeps_what_came_before() {
+    let (_d, mut store, path) = setup(MALFORMED);
+    let cfg = ReplayConfig {
+        on_malformed: OnMalformed::Stop,
+        ..ReplayConfig::default()
+    };
+    let err = replay_file(&mut store, &cfg, &path, Progress::Silent).expect_err("must stop");
+    match &err {
+        ReplayError::Malformed {
+            line, committed, ..
+        } => {
+            assert_eq!(*line, 3);
+            assert_eq!(*committed, 2);
+        }
+        other => panic!("unexpected error {other}"),
+    }
+    assert!(err.to_string().contains("line 3"));
+    assert_eq!(store.sample_count().expect("count"), 2);
+}
+
+#[test]
+fn max_reported_limits_the_list_not_the_count() {
+    let mut csv = String::from("time,n1_rpm\n");
+    for i in 0..50 {
+        csv.push_str(&format!("{},x\n", 1000 + i));
+    }
+    let (_d, mut store, path) = setup(&csv);
+    let cfg = ReplayConfig {
+        time_format: TimeFormat::EpochS,
+        max_reported: 5,
+        ..ReplayConfig::default()
+    };
+    let r = replay_file(&mut store, &cfg, &path, Progress::Silent).expect("replay");
+    assert_eq!(r.rows_malformed, 50);
+    assert_eq!(r.malformed.len(), 5);
+}
+
+#[test]
+fn gaps_in_the_log_are_recorded_once() {
+    let csv = "time,n1_rpm\n0,1\n1,1\n2,1\n60,1\n61,1\n";
+    let (_d, mut store, path) = setup(csv);
+    let cfg = ReplayConfig {
+        time_format: TimeFormat::EpochS,
+        ..ReplayConfig::default()
+    };
+    let r = replay_file(&mut store, &cfg, &path, Progress::Silent).expect("replay");
+    assert_eq!(r.gaps_recorded, 1);
+    replay_file(&mut store, &cfg, &path, Progress::Silent).expect("replay");
+    let gaps = store.gaps_between(0, 100_000).expect("gaps");
+    assert_eq!(gaps.len(), 1);
+    assert_eq!((gaps[0].start_ms, gaps[0].end_ms), (2000, 60_000));
+}
+
+#[test]
+fn config_problems_name_their_keys() {
+    let mut cfg = ReplayConfig {
+        delimiter: ";;".into(),
+        time_column: String::new(),
+        transaction_samples: 0,
+        ..ReplayConfig::default()
+    };
+    cfg.columns.insert("a".into(), "n1".into());
+    cfg.columns.insert("b".into(), "n1_rpm".into());
+    let keys: Vec<String> = cfg.validate().into_iter().map(|p| p.key).collect();
+    for k in [
+        "replay.delimiter",
+        "replay.time_column",
+        "replay.transaction_samples",
+        "replay.columns.b",
+    ] {
+        assert!(keys.contains(&k.to_string()), "{k} missing from {keys:?}");
+    }
+    let parsed: Result<ReplayConfig, _> = toml::from_str("time_colum = \"t\"");
+    assert!(parsed.is_err(), "unknown keys are rejected");
+    let parsed: ReplayConfig = toml::from_str(
+        "on_malformed = \"stop\"\ntime_format = \"epoch_ms\"\n[columns]\nN1 = \"n1\"",
+    )
+    .expect("parse");
+    assert_eq!(parsed.on_malformed, OnMalformed::Stop);
+    assert_eq!(parsed.columns.get("N1").map(String::as_str), Some("n1"));
+}
+
+#[test]
+fn missing_columns_are_clear_errors() {
+    let (_d, mut store, path) = setup("when,n1_rpm\n1,2\n");
+    let err = replay_file(
+        &mut store,
+        &ReplayConfig::default(),
+        &path,
+        Progress::Silent,
+    )
+    .expect_err("no time column");
+    assert!(err.to_string().contains("column 'time' not found"), "{err}");
+    let (_d2, mut store2, path2) = setup("time,foo\n2024-01-01,2\n");
+    let err = replay_file(
+        &mut store2,
+        &ReplayConfig::default(),
+        &path2,
+        Progress::Silent,
+    )
+    .expect_err("no data columns");
+    assert!(matches!(err, ReplayError::NoColumns { .. }));
+}

@@ -114,13 +114,13 @@ pub struct TagRow {
 /// Errors from the store.
 #[derive(Debug, thiserror::Error)]
 pub enum StoreError {
-    #[error("database {path}: {source}")]
+    #[error("cannot open database {path}")]
     Open {
         path: PathBuf,
         #[source]
         source: rusqlite::Error,
     },
-    #[error("database {path}: schema migration failed: {source}")]
+    #[error("database {path}: schema migration failed")]
     Migration {
         path: PathBuf,
         #[source]
@@ -489,24 +489,38 @@ impl Store {
 
 /// Inserts within an open transaction; returns how many rows were new.
 pub(crate) fn insert_samples_in(conn: &Connection, batch: &[Sample]) -> Result<usize, StoreError> {
+    // Sorted by (tag, time) the inserts append to each tag's run of the primary-key B-tree
+    // instead of hopping between tags row by row: several times faster for large batches.
+    let mut order: Vec<u32> = (0..batch.len() as u32).collect();
+    if batch.len() > 64 {
+        order.sort_unstable_by_key(|&i| {
+            let s = &batch[i as usize];
+            (s.tag, s.t_ms)
+        });
+    }
     let mut inserted = 0usize;
     let mut min_t = i64::MAX;
     {
         let mut stmt = conn.prepare_cached(
             "INSERT OR IGNORE INTO samples (tag_id, t_ms, value, quality) VALUES (?1, ?2, ?3, ?4)",
         )?;
-        for s in batch {
-            inserted += stmt.execute(params![s.tag, s.t_ms, s.value, s.quality.code()])?;
+        for &i in &order {
+            let s = &batch[i as usize];
+            stmt.raw_bind_parameter(1, s.tag)?;
+            stmt.raw_bind_parameter(2, s.t_ms)?;
+            stmt.raw_bind_parameter(3, s.value)?;
+            stmt.raw_bind_parameter(4, s.quality.code())?;
+            inserted += stmt.raw_execute()?;
             min_t = min_t.min(s.t_ms);
         }
     }
     // Samples older than what the detector has scanned (a late replay) make it rescan.
-    let mut stmt = conn.prepare_cached(
-        "UPDATE detector_state SET rescan_from_ms = MIN(COALESCE(rescan_from_ms, ?1), ?1)
-         WHERE id = 1 AND scanned_to_ms IS NOT NULL AND ?1 <= scanned_to_ms",
-    )?;
     if inserted > 0 {
-        stmt.execute(params![min_t])?;
+        conn.prepare_cached(
+            "UPDATE detector_state SET rescan_from_ms = MIN(COALESCE(rescan_from_ms, ?1), ?1)
+             WHERE id = 1 AND scanned_to_ms IS NOT NULL AND ?1 <= scanned_to_ms",
+        )?
+        .execute(params![min_t])?;
     }
     Ok(inserted)
 }
