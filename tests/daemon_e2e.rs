@@ -192,8 +192,14 @@ async fn detector_finds_every_simulated_start_within_two_samples() {
     );
     assert_eq!(report.poll.gaps, 0, "{report:?}");
     // Graceful shutdown flushed the last batch: everything polled was committed.
-    assert_eq!(report.writer.samples_received, report.poll.samples, "{report:?}");
-    assert_eq!(report.writer.samples_inserted, report.poll.samples, "{report:?}");
+    assert_eq!(
+        report.writer.samples_received, report.poll.samples,
+        "{report:?}"
+    );
+    assert_eq!(
+        report.writer.samples_inserted, report.poll.samples,
+        "{report:?}"
+    );
 
     let db = common::open_db(&db_path);
     let truth = common::tag_samples(&db, "phase_truth");

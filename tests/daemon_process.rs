@@ -40,7 +40,10 @@ fn run_notifies_systemd_and_stops_cleanly_on_sigterm() {
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("config/gtwatch.toml"),
     )
     .expect("reference config")
-    .replace("endpoint = \"127.0.0.1:5020\"", &format!("endpoint = \"{addr}\""))
+    .replace(
+        "endpoint = \"127.0.0.1:5020\"",
+        &format!("endpoint = \"{addr}\""),
+    )
     .replace(
         "path = \"/var/lib/gtwatch/gtwatch.db\"",
         &format!("path = \"{}\"", db.display()),
@@ -82,7 +85,10 @@ fn run_notifies_systemd_and_stops_cleanly_on_sigterm() {
     });
     let after = recv_all(&sock, 1500);
     assert!(after.iter().any(|m| m == "READY=1"), "{after:?}");
-    assert!(after.iter().filter(|m| *m == "WATCHDOG=1").count() >= 2, "{after:?}");
+    assert!(
+        after.iter().filter(|m| *m == "WATCHDOG=1").count() >= 2,
+        "{after:?}"
+    );
 
     let pid = child.id().to_string();
     let killed = Command::new("kill")

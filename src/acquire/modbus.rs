@@ -457,9 +457,13 @@ pub async fn poll_loop(
             if retry_at.is_some_and(|t| Instant::now() < t) {
                 continue;
             }
+            // Name resolution counts against the connect timeout too.
             let attempt = async {
-                let addr = resolve(&plan.endpoint).await?;
-                ReadOnlyClient::connect(addr, connect_timeout).await
+                match tokio::time::timeout(connect_timeout, resolve(&plan.endpoint)).await {
+                    Err(_) => Err(ReadError::Timeout(connect_timeout.as_millis() as u64)),
+                    Ok(Err(e)) => Err(e),
+                    Ok(Ok(addr)) => ReadOnlyClient::connect(addr, connect_timeout).await,
+                }
             };
             let result = tokio::select! {
                 biased;

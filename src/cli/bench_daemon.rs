@@ -78,11 +78,7 @@ fn memory_kib() -> anyhow::Result<(u64, u64)> {
             .lines()
             .find(|l| l.starts_with(key))
             .with_context(|| format!("{key} missing"))?;
-        Ok(line
-            .split_whitespace()
-            .nth(1)
-            .context("value")?
-            .parse()?)
+        Ok(line.split_whitespace().nth(1).context("value")?.parse()?)
     };
     Ok((get("VmRSS:")?, get("VmHWM:")?))
 }
@@ -295,7 +291,10 @@ async fn day(args: &BenchDaemonArgs) -> anyhow::Result<DayReport> {
     let period_ms = (1000.0 * period_s).round() as i64;
     let t_start = crate::store::now_ms() - frames as i64 * period_ms;
     let scan_every = (3600.0 * args.rate_hz) as u64;
-    let mut det_store = Some(Store::open_with(&storage.path, &storage.options())?);
+    let mut det_store = Some(Store::open_with(
+        &storage.path,
+        &daemon::detector_store_options(&storage.options()),
+    )?);
     let mut scans = 0u64;
     let mut closed = 0u64;
     let mut blocks: Vec<Vec<u16>> = plan
@@ -347,7 +346,9 @@ async fn day(args: &BenchDaemonArgs) -> anyhow::Result<DayReport> {
     writer.await??;
     let wall = started.elapsed().as_secs_f64();
     let (rss, hwm) = memory_kib()?;
-    let db_bytes = std::fs::metadata(&storage.path).map(|m| m.len()).unwrap_or(0);
+    let db_bytes = std::fs::metadata(&storage.path)
+        .map(|m| m.len())
+        .unwrap_or(0);
     drop(det_store);
     Ok(DayReport {
         mode: "day",
