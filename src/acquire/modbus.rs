@@ -725,4 +725,54 @@ mod tests {
         assert!(codes.iter().all(|&c| c == 3 || c == 4), "{codes:?}");
         assert!(codes.contains(&3) && codes.contains(&4));
     }
+
+    #[tokio::test]
+    async fn an_outage_open_at_shutdown_is_recorded_as_a_gap() {
+        // A port nobody listens on.
+        let l = std::net::TcpListener::bind("127.0.0.1:0").expect("bind");
+        let addr = l.local_addr().expect("addr");
+        drop(l);
+        let plan = PollPlan {
+            endpoint: addr.to_string(),
+            requests: vec![],
+        };
+        let cfg = AcquisitionConfig {
+            poll_period_ms: 10,
+            backoff_initial_ms: 10,
+            backoff_max_ms: 40,
+            ..AcquisitionConfig::default()
+        };
+        let (tx, mut rx) = mpsc::channel(64);
+        let (trigger, shutdown) = crate::shutdown::shutdown_channel();
+        let progress = Arc::new(PollProgress::default());
+        let p2 = Arc::clone(&progress);
+        let task = tokio::spawn(async move { poll_loop(&cfg, &plan, tx, p2, shutdown).await });
+        tokio::time::sleep(Duration::from_millis(200)).await;
+        trigger.trigger();
+        let stats = task.await.expect("join");
+        assert_eq!(stats.polls_ok, 0);
+        assert!(stats.failures >= 3, "{stats:?}");
+        assert!(progress.cycles.load(Ordering::Relaxed) >= 10);
+        let mut gaps = Vec::new();
+        while let Some(cmd) = rx.recv().await {
+            if let WriteCmd::Gap(g) = cmd {
+                gaps.push(g);
+            }
+        }
+        assert_eq!(gaps.len(), 1, "{gaps:?}");
+        let g = &gaps[0];
+        assert!(g.end_ms - g.start_ms >= 150, "{g:?}");
+        assert!(
+            g.reason
+                .starts_with(&format!("connect to {addr} failed: I/O error:")),
+            "{}",
+            g.reason
+        );
+        assert!(
+            g.reason
+                .ends_with("failed attempts) (still down at shutdown)"),
+            "{}",
+            g.reason
+        );
+    }
 }
