@@ -20,7 +20,7 @@ use std::collections::HashMap;
 use std::future::Future;
 use std::io;
 use std::net::SocketAddr;
-use std::sync::{Arc, RwLock};
+use std::sync::{Arc, Mutex, RwLock};
 use std::time::Duration;
 use tokio::net::TcpListener;
 use tokio::sync::watch;
@@ -595,9 +595,48 @@ fn publish(image: &mut Image, map: &ModbusConfig, frame: &PlantFrame) {
     image.frames += 1;
 }
 
+/// The plant side of the simulator: the model, stepped either by a timer or by reads.
+struct Stepper {
+    model: Box<dyn PlantModel>,
+    map: ModbusConfig,
+    image: Arc<RwLock<Image>>,
+    frames_tx: watch::Sender<u64>,
+    produced: u64,
+    max_frames: Option<u64>,
+}
+
+impl Stepper {
+    /// Advances up to `n` frames and publishes the last one.
+    fn advance(&mut self, n: u64) {
+        let mut last = None;
+        for _ in 0..n {
+            if self.max_frames.is_some_and(|m| self.produced >= m) {
+                break;
+            }
+            self.produced += 1;
+            last = Some(self.model.step());
+        }
+        if let Some(frame) = last {
+            if let Ok(mut img) = self.image.write() {
+                publish(&mut img, &self.map, &frame);
+            }
+            let _ = self.frames_tx.send(self.produced);
+        }
+    }
+}
+
+/// In lock-step mode, a read of this block advances the plant one frame first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct StepTrigger {
+    slave: u8,
+    kind: RegisterKind,
+    start: u16,
+}
+
 /// The Modbus service: answers reads from the shared image.
 struct SimService {
     image: Arc<RwLock<Image>>,
+    lockstep: Option<(StepTrigger, Arc<Mutex<Stepper>>)>,
 }
 
 impl tokio_modbus::server::Service for SimService {
@@ -612,6 +651,18 @@ impl tokio_modbus::server::Service for SimService {
             Request::ReadInputRegisters(a, c) => (RegisterKind::Input, a, c),
             _ => return std::future::ready(Err(ExceptionCode::IllegalFunction)),
         };
+        if let Some((trigger, stepper)) = &self.lockstep {
+            let this = StepTrigger {
+                slave: req.slave,
+                kind,
+                start: addr,
+            };
+            if this == *trigger {
+                if let Ok(mut st) = stepper.lock() {
+                    st.advance(1);
+                }
+            }
+        }
         std::future::ready(read_image(&self.image, req.slave, kind, addr, cnt))
     }
 }
@@ -651,6 +702,12 @@ pub struct SimOptions {
     pub speedup: f64,
     /// Wall-clock update interval; default the model period (clamped to ≥ 1 ms).
     pub tick: Option<Duration>,
+    /// Instead of a timer, advance one frame whenever a client reads the map's first request
+    /// block (`speedup` and `tick` are then unused). The plant then moves in lock-step with a
+    /// single poller, so every poll sees exactly the next frame: tests compare detection with
+    /// the truth sample by sample, which two free-running clocks (plant tick, poll tick) would
+    /// blur with repeated and skipped frames under CPU load.
+    pub lockstep: bool,
 }
 
 impl Default for SimOptions {
@@ -658,6 +715,7 @@ impl Default for SimOptions {
         SimOptions {
             speedup: 1.0,
             tick: None,
+            lockstep: false,
         }
     }
 }
@@ -698,7 +756,7 @@ impl PlantSimHandle {
 pub fn spawn_plant_sim(
     listener: TcpListener,
     map: ModbusConfig,
-    mut model: Box<dyn PlantModel>,
+    model: Box<dyn PlantModel>,
     opts: SimOptions,
     max_frames: Option<u64>,
 ) -> io::Result<PlantSimHandle> {
@@ -712,38 +770,53 @@ pub fn spawn_plant_sim(
         .unwrap_or_else(|| Duration::from_secs_f64(period))
         .max(Duration::from_millis(1));
     let frames_per_tick = opts.speedup.max(0.0) * tick.as_secs_f64() / period;
+    let trigger = map.requests.first().and_then(|r| {
+        Some(StepTrigger {
+            slave: r.slave_id,
+            kind: r.register,
+            start: u16::try_from(r.start_address).ok()?,
+        })
+    });
+    let stepper = Arc::new(Mutex::new(Stepper {
+        model,
+        map,
+        image: Arc::clone(&image),
+        frames_tx,
+        produced: 0,
+        max_frames,
+    }));
     // Publish the first frame before accepting connections, so a client never reads zeros.
-    {
-        let first = model.step();
-        let mut img = image.write().map_err(|_| io::Error::other("image lock"))?;
-        publish(&mut img, &map, &first);
-    }
-    let _ = frames_tx.send(1);
-    let img_for_plant = Arc::clone(&image);
+    stepper
+        .lock()
+        .map_err(|_| io::Error::other("plant lock"))?
+        .advance(1);
+    let lockstep = match (opts.lockstep, trigger) {
+        (true, Some(t)) => Some((t, Arc::clone(&stepper))),
+        (true, None) => return Err(io::Error::other("lock-step plant-sim needs a request")),
+        (false, _) => None,
+    };
+    let timed = !opts.lockstep;
     let mut stop_plant = stop_rx.clone();
     let plant = async move {
+        if !timed {
+            return;
+        }
         let mut interval = tokio::time::interval(tick);
         interval.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
         interval.tick().await;
         let mut owed = 0.0;
-        let mut produced: u64 = 1;
         loop {
             tokio::select! {
                 _ = interval.tick() => {}
                 _ = stop_plant.changed() => break,
             }
             owed += frames_per_tick;
-            let mut last = None;
-            while owed >= 1.0 && max_frames.is_none_or(|m| produced < m) {
-                owed -= 1.0;
-                produced += 1;
-                last = Some(model.step());
-            }
-            if let Some(frame) = last {
-                if let Ok(mut img) = img_for_plant.write() {
-                    publish(&mut img, &map, &frame);
+            let whole = owed.floor();
+            owed -= whole;
+            if whole >= 1.0 {
+                if let Ok(mut st) = stepper.lock() {
+                    st.advance(whole as u64);
                 }
-                let _ = frames_tx.send(produced);
             }
         }
     };
@@ -754,6 +827,7 @@ pub fn spawn_plant_sim(
         let new_service = move |_addr: SocketAddr| {
             Ok(Some(SimService {
                 image: Arc::clone(&server_image),
+                lockstep: lockstep.clone(),
             }))
         };
         let on_connected = |stream, addr| {

@@ -36,6 +36,7 @@ fn sim_opts() -> SimOptions {
     SimOptions {
         speedup: 100.0,
         tick: Some(Duration::from_millis(POLL_MS)),
+        lockstep: false,
     }
 }
 
@@ -289,6 +290,7 @@ async fn garbage_and_out_of_range_values_are_flagged_never_good() {
         SimOptions {
             speedup: 1.0,
             tick: Some(Duration::from_millis(25)),
+            lockstep: false,
         },
         None,
     )

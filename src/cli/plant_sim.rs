@@ -44,6 +44,7 @@ pub fn run(args: PlantSimArgs) -> anyhow::Result<ExitCode> {
     let opts = SimOptions {
         speedup: args.speedup,
         tick: None,
+        lockstep: false,
     };
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(1)
