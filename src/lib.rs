@@ -5,16 +5,21 @@
 //! `query`, `cli`) are a thin shell around it.
 #![deny(clippy::unwrap_used)]
 
+pub mod acquire;
 pub mod cli;
+pub mod config;
 pub mod config_problem;
+pub mod daemon;
 pub mod detect;
 pub mod engine;
 pub mod health;
 pub mod maps;
 pub mod optim;
 pub mod plot;
+pub mod plantsim;
 pub mod query;
 pub mod replay;
+pub mod shutdown;
 pub mod signals;
 pub mod store;
 pub mod thermo;

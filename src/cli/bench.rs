@@ -8,11 +8,14 @@ pub enum BenchCmd {
     Replay(super::bench_replay::BenchReplayArgs),
     /// Wall time of one complete start-up simulation (median of repeated runs).
     Sim(super::bench_sim::BenchSimArgs),
+    /// Daemon CPU (live polling of a simulated plant) or memory after a simulated day (--day).
+    Daemon(super::bench_daemon::BenchDaemonArgs),
 }
 
 pub fn run(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
     match cmd {
         BenchCmd::Replay(a) => super::bench_replay::run(a),
         BenchCmd::Sim(a) => super::bench_sim::run(a),
+        BenchCmd::Daemon(a) => super::bench_daemon::run(a),
     }
 }

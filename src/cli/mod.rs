@@ -5,12 +5,16 @@
 //! business logic.
 
 mod bench;
+mod bench_daemon;
 mod bench_replay;
 mod bench_sim;
+mod check_config;
 mod common;
 mod engine_args;
 mod export;
+mod plant_sim;
 mod replay;
+mod run;
 mod segments;
 mod simulate;
 mod steady;
@@ -38,6 +42,12 @@ pub enum Command {
     Segments(segments::SegmentsArgs),
     /// Write stored samples as CSV.
     Export(export::ExportArgs),
+    /// Run the monitoring daemon (Modbus acquisition, storage, start-up detection).
+    Run(run::RunArgs),
+    /// Validate a configuration file and explain every problem found.
+    CheckConfig(check_config::CheckConfigArgs),
+    /// Serve a simulated plant over Modbus TCP (tests and commissioning).
+    PlantSim(plant_sim::PlantSimArgs),
     /// Benchmarks that print JSON.
     #[command(subcommand)]
     Bench(bench::BenchCmd),
@@ -53,6 +63,9 @@ pub fn main() -> ExitCode {
         Command::Replay(a) => replay::run(a),
         Command::Segments(a) => segments::run(a),
         Command::Export(a) => export::run(a),
+        Command::Run(a) => run::run(a),
+        Command::CheckConfig(a) => check_config::run(a),
+        Command::PlantSim(a) => plant_sim::run(a),
         Command::Bench(b) => bench::run(b),
     };
     match result {
@@ -79,12 +92,19 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
     })
 }
 
-/// Logs to stderr; `RUST_LOG` overrides the default `info` level.
+/// Logs to stderr; `RUST_LOG` overrides the default `info` level. When stderr is not a
+/// terminal (systemd/journald, pipes) lines are plain: no colours and no timestamps, because
+/// journald stamps every line itself.
 pub fn init_logging() {
+    use std::io::IsTerminal;
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
-    let _ = tracing_subscriber::fmt()
+    let builder = tracing_subscriber::fmt()
         .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .try_init();
+        .with_writer(std::io::stderr);
+    let _ = if std::io::stderr().is_terminal() {
+        builder.try_init()
+    } else {
+        builder.with_ansi(false).without_time().try_init()
+    };
 }

@@ -1,0 +1,393 @@
+//! `gtwatch bench daemon`: CPU and memory of the monitoring daemon, printed as JSON.
+//!
+//! Two modes:
+//! - live (default): an in-process plant-sim serves `--tags` f32 tags; the real daemon
+//!   (`daemon::run`: poll loop, writer, detector) polls it at `--rate-hz` for `--seconds`.
+//!   CPU is the process's utime+stime delta (from /proc/self/stat) over wall time, as percent
+//!   of one core — an upper bound for the daemon, since the simulator runs in the same process.
+//! - `--day`: pushes `--hours` (default 24) of `--tags` × `--rate-hz` samples through the
+//!   daemon's ingest path (decode → writer channel → SQLite writer, detector scans every
+//!   simulated hour) as fast as it goes, then reports resident memory.
+//!
+//! Memory is VmRSS / VmHWM from /proc/self/status. Linux only. Must not be used as a test.
+
+use crate::acquire::modbus::{decode_request, PollPlan, PollProgress};
+use crate::acquire::register_map::{
+    encode_field, ByteOrder, DataType, FieldSpec, ModbusConfig, RegisterKind, RequestSpec,
+};
+use crate::config::{Config, DaemonConfig, PlantConfig};
+use crate::daemon::{self, RunOptions};
+use crate::detect::{self, DetectorConfig};
+use crate::plantsim::{spawn_plant_sim, PlantModel, ScriptedPlant, SimOptions};
+use crate::shutdown::shutdown_channel;
+use crate::signals::Signal;
+use crate::store::{spawn_writer, StorageConfig, Store, TagInfo, WriteCmd};
+use anyhow::{bail, Context};
+use serde::Serialize;
+use std::process::ExitCode;
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+#[derive(Debug, clap::Args)]
+pub struct BenchDaemonArgs {
+    /// Number of tags (f32 each; the first 12 feed the engine signals).
+    #[arg(long, default_value_t = 50)]
+    pub tags: usize,
+    /// Poll rate, Hz.
+    #[arg(long, default_value_t = 10.0)]
+    pub rate_hz: f64,
+    /// Live mode: measured duration, s (after a 3 s warm-up).
+    #[arg(long, default_value_t = 30)]
+    pub seconds: u64,
+    /// Push a simulated span of data through the ingest path at full speed instead.
+    #[arg(long)]
+    pub day: bool,
+    /// `--day` mode: simulated hours.
+    #[arg(long, default_value_t = 24.0)]
+    pub hours: f64,
+    /// SQLite page cache, MiB (as `[storage].cache_mib`).
+    #[arg(long, default_value_t = 16)]
+    pub cache_mib: u32,
+    /// Print JSON only.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Process CPU time (user + system), s. /proc/self/stat fields 14 and 15, in USER_HZ (100 on
+/// every Linux architecture's user-space ABI).
+fn cpu_seconds() -> anyhow::Result<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").context("/proc/self/stat")?;
+    // The command name (field 2) may contain spaces: split after its closing parenthesis.
+    let rest = stat
+        .rsplit_once(')')
+        .map(|(_, r)| r)
+        .context("malformed /proc/self/stat")?;
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    // `rest` starts at field 3 (state); utime is field 14, stime 15.
+    let utime: f64 = f.get(11).context("utime")?.parse()?;
+    let stime: f64 = f.get(12).context("stime")?.parse()?;
+    Ok((utime + stime) / 100.0)
+}
+
+/// (VmRSS, VmHWM) in KiB.
+fn memory_kib() -> anyhow::Result<(u64, u64)> {
+    let status = std::fs::read_to_string("/proc/self/status").context("/proc/self/status")?;
+    let get = |key: &str| -> anyhow::Result<u64> {
+        let line = status
+            .lines()
+            .find(|l| l.starts_with(key))
+            .with_context(|| format!("{key} missing"))?;
+        Ok(line.split_whitespace().nth(1).context("value")?.parse()?)
+    };
+    Ok((get("VmRSS:")?, get("VmHWM:")?))
+}
+
+/// A register map of `tags` f32 fields in holding-register requests of ≤ 60 fields.
+pub fn bench_map(tags: usize, endpoint: &str) -> ModbusConfig {
+    const SIGNALS: [Signal; 12] = [
+        Signal::N1,
+        Signal::N2,
+        Signal::T1,
+        Signal::P1,
+        Signal::T2,
+        Signal::P2,
+        Signal::T34,
+        Signal::P34,
+        Signal::T4,
+        Signal::P4,
+        Signal::FuelFlow,
+        Signal::Power,
+    ];
+    let mut requests = Vec::new();
+    for chunk_start in (0..tags).step_by(60) {
+        let start_address = (chunk_start * 2) as u32;
+        let fields = (chunk_start..tags.min(chunk_start + 60))
+            .map(|i| {
+                let signal = SIGNALS.get(i).copied();
+                FieldSpec {
+                    name: signal.map_or_else(|| format!("x{i:03}"), |s| s.column().to_string()),
+                    address: (i * 2) as u32,
+                    data_type: DataType::F32,
+                    byte_order: ByteOrder::ABCD,
+                    scale: 1.0,
+                    offset: 0.0,
+                    unit: String::new(),
+                    signal,
+                    min: Some(-1.0e6),
+                    max: Some(1.0e6),
+                }
+            })
+            .collect();
+        requests.push(RequestSpec {
+            slave_id: 1,
+            register: RegisterKind::Holding,
+            start_address,
+            count: None,
+            fields,
+        });
+    }
+    ModbusConfig {
+        endpoint: endpoint.to_string(),
+        requests,
+    }
+}
+
+#[derive(Debug, Serialize)]
+struct LiveReport {
+    mode: &'static str,
+    tags: usize,
+    rate_hz: f64,
+    seconds: f64,
+    cpu_seconds: f64,
+    cpu_percent_of_one_core: f64,
+    rss_kib: u64,
+    hwm_kib: u64,
+    polls_ok: u64,
+    poll_failures: u64,
+    samples: u64,
+    samples_per_s: f64,
+    note: &'static str,
+}
+
+#[derive(Debug, Serialize)]
+struct DayReport {
+    mode: &'static str,
+    tags: usize,
+    rate_hz: f64,
+    simulated_hours: f64,
+    samples: u64,
+    wall_seconds: f64,
+    samples_per_s: f64,
+    detector_scans: u64,
+    segments_closed: u64,
+    rss_kib_after: u64,
+    hwm_kib: u64,
+    db_mib: f64,
+    cache_mib: u32,
+}
+
+pub fn run(args: BenchDaemonArgs) -> anyhow::Result<ExitCode> {
+    if args.tags == 0 || !(args.rate_hz > 0.0 && args.rate_hz <= 100.0) {
+        bail!("--tags must be ≥ 1 and --rate-hz in (0, 100]");
+    }
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()?;
+    let json = if args.day {
+        let r = rt.block_on(day(&args))?;
+        serde_json::to_string_pretty(&r)?
+    } else {
+        let r = rt.block_on(live(&args))?;
+        serde_json::to_string_pretty(&r)?
+    };
+    println!("{json}");
+    Ok(ExitCode::SUCCESS)
+}
+
+async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
+    let dir = tempfile_dir()?;
+    let period_ms = (1000.0 / args.rate_hz).round() as u64;
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
+    let addr = listener.local_addr()?;
+    let map = bench_map(args.tags, &addr.to_string());
+    let sim = spawn_plant_sim(
+        listener,
+        map.clone(),
+        Box::new(ScriptedPlant::demo(period_ms as f64 / 1000.0)),
+        SimOptions::default(),
+        None,
+    )?;
+    let mut cfg = Config {
+        plant: PlantConfig {
+            name: "bench".into(),
+            engine_model: None,
+        },
+        storage: StorageConfig {
+            path: dir.path().join("bench.db"),
+            cache_mib: args.cache_mib,
+            ..StorageConfig::default()
+        },
+        replay: Default::default(),
+        detector: DetectorConfig::default(),
+        acquisition: Default::default(),
+        modbus: Some(map),
+        daemon: DaemonConfig::default(),
+    };
+    cfg.acquisition.poll_period_ms = period_ms;
+    let problems = cfg.check();
+    if !problems.is_empty() {
+        bail!("bench config: {problems:?}");
+    }
+    let progress = Arc::new(PollProgress::default());
+    let (trigger, shutdown) = shutdown_channel();
+    let task = tokio::spawn(daemon::run(
+        cfg,
+        shutdown,
+        RunOptions {
+            systemd_notify: false,
+            progress: Some(Arc::clone(&progress)),
+        },
+    ));
+    tokio::time::sleep(Duration::from_secs(3)).await;
+    let (c0, t0, s0) = (
+        cpu_seconds()?,
+        Instant::now(),
+        progress.samples.load(Ordering::Relaxed),
+    );
+    tokio::time::sleep(Duration::from_secs(args.seconds)).await;
+    let (c1, wall, s1) = (
+        cpu_seconds()?,
+        t0.elapsed().as_secs_f64(),
+        progress.samples.load(Ordering::Relaxed),
+    );
+    let (rss, hwm) = memory_kib()?;
+    trigger.trigger();
+    let report = task.await?.context("daemon")?;
+    sim.stop().await?;
+    Ok(LiveReport {
+        mode: "live",
+        tags: args.tags,
+        rate_hz: args.rate_hz,
+        seconds: wall,
+        cpu_seconds: c1 - c0,
+        cpu_percent_of_one_core: 100.0 * (c1 - c0) / wall,
+        rss_kib: rss,
+        hwm_kib: hwm,
+        polls_ok: report.poll.polls_ok,
+        poll_failures: report.poll.failures,
+        samples: s1 - s0,
+        samples_per_s: (s1 - s0) as f64 / wall,
+        note: "CPU includes the in-process plant-sim server",
+    })
+}
+
+async fn day(args: &BenchDaemonArgs) -> anyhow::Result<DayReport> {
+    let dir = tempfile_dir()?;
+    let storage = StorageConfig {
+        path: dir.path().join("day.db"),
+        cache_mib: args.cache_mib,
+        ..StorageConfig::default()
+    };
+    let map = bench_map(args.tags, "127.0.0.1:502");
+    let mut store = Store::open_with(&storage.path, &storage.options())?;
+    let tags = map
+        .fields()
+        .map(|(_, f)| {
+            store.ensure_tag(&TagInfo {
+                name: f.name.clone(),
+                unit: f.unit.clone(),
+                signal: f.signal,
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let plan = PollPlan::new(&map, &tags).map_err(anyhow::Error::msg)?;
+    let (tx, rx) = tokio::sync::mpsc::channel(DaemonConfig::default().queue_capacity);
+    let writer = spawn_writer(store, rx, storage.writer());
+    let period_s = 1.0 / args.rate_hz;
+    let mut plant = ScriptedPlant::demo(period_s);
+    let frames = (args.hours * 3600.0 * args.rate_hz).round() as u64;
+    let period_ms = (1000.0 * period_s).round() as i64;
+    let t_start = crate::store::now_ms() - frames as i64 * period_ms;
+    let scan_every = (3600.0 * args.rate_hz) as u64;
+    let mut det_store = Some(Store::open_with(
+        &storage.path,
+        &daemon::detector_store_options(&storage.options()),
+    )?);
+    let mut scans = 0u64;
+    let mut closed = 0u64;
+    let mut blocks: Vec<Vec<u16>> = plan
+        .requests
+        .iter()
+        .map(|r| vec![0u16; r.count as usize])
+        .collect();
+    let started = Instant::now();
+    let mut samples = 0u64;
+    for k in 0..frames {
+        // Plant side: encode the frame into register blocks (what the PLC would answer).
+        let frame = plant.step();
+        for (req, block) in plan.requests.iter().zip(blocks.iter_mut()) {
+            for (_, f) in &req.fields {
+                let v = f.signal.map_or(k as f64 * 1e-3, |s| frame.get(s));
+                let at = (f.address - u32::from(req.start)) as usize;
+                for (i, w) in encode_field(f, v).into_iter().enumerate() {
+                    block[at + i] = w;
+                }
+            }
+        }
+        // Daemon side: decode and hand to the writer, exactly as the poll loop does.
+        let t_ms = t_start + k as i64 * period_ms;
+        let mut batch = Vec::with_capacity(plan.tag_count());
+        for (req, block) in plan.requests.iter().zip(&blocks) {
+            decode_request(req, block, t_ms, &mut batch);
+        }
+        samples += batch.len() as u64;
+        tx.send(WriteCmd::Samples(batch))
+            .await
+            .context("writer stopped")?;
+        if (k + 1) % scan_every == 0 {
+            let (ack_tx, ack_rx) = tokio::sync::oneshot::channel();
+            tx.send(WriteCmd::Flush(ack_tx)).await?;
+            let _ = ack_rx.await;
+            let mut s = det_store.take().context("detector store")?;
+            let (s, r) = tokio::task::spawn_blocking(move || {
+                let r = detect::scan(&mut s, &DetectorConfig::default());
+                (s, r)
+            })
+            .await?;
+            det_store = Some(s);
+            let r = r?;
+            scans += 1;
+            closed += r.segments_closed;
+        }
+    }
+    drop(tx);
+    writer.await??;
+    let wall = started.elapsed().as_secs_f64();
+    let (rss, hwm) = memory_kib()?;
+    let db_bytes = std::fs::metadata(&storage.path)
+        .map(|m| m.len())
+        .unwrap_or(0);
+    drop(det_store);
+    Ok(DayReport {
+        mode: "day",
+        tags: args.tags,
+        rate_hz: args.rate_hz,
+        simulated_hours: args.hours,
+        samples,
+        wall_seconds: wall,
+        samples_per_s: samples as f64 / wall,
+        detector_scans: scans,
+        segments_closed: closed,
+        rss_kib_after: rss,
+        hwm_kib: hwm,
+        db_mib: db_bytes as f64 / (1024.0 * 1024.0),
+        cache_mib: args.cache_mib,
+    })
+}
+
+/// A temporary directory removed on drop (under $TMPDIR).
+fn tempfile_dir() -> anyhow::Result<TempDir> {
+    let base = std::env::temp_dir().join(format!(
+        "gtwatch-bench-{}-{}",
+        std::process::id(),
+        crate::store::now_ms()
+    ));
+    std::fs::create_dir_all(&base).with_context(|| format!("creating {}", base.display()))?;
+    Ok(TempDir(base))
+}
+
+struct TempDir(std::path::PathBuf);
+
+impl TempDir {
+    fn path(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}

@@ -1,0 +1,72 @@
+//! `gtwatch check-config FILE`: parse and check a configuration, explaining every problem.
+//!
+//! Exit status 0 when the file is valid, 1 otherwise. Reads the file only.
+
+use crate::acquire::register_map::REQUIRED_SIGNALS;
+use crate::config::Config;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Debug, clap::Args)]
+pub struct CheckConfigArgs {
+    /// Configuration file to check.
+    pub file: PathBuf,
+}
+
+/// The report printed by `check-config` (separate from printing so tests can check it).
+pub fn report(file: &std::path::Path) -> (bool, String) {
+    let shown = file.display().to_string();
+    let cfg = match Config::load(file) {
+        Ok(c) => c,
+        Err(e) => return (false, format!("{e}\n")),
+    };
+    let problems = cfg.check();
+    if !problems.is_empty() {
+        let mut out = format!("{shown}: {} problem(s)\n", problems.len());
+        for p in &problems {
+            out.push_str(&format!("  {}: {}\n", p.key, p.message));
+        }
+        return (false, out);
+    }
+    let mut out = format!("{shown}: OK — plant '{}'\n", cfg.plant.name);
+    out.push_str(&format!("  storage: {}\n", cfg.storage.path.display()));
+    match &cfg.modbus {
+        Some(m) => {
+            let tags = m.fields().count();
+            out.push_str(&format!(
+                "  modbus: {} every {} ms, {} request(s), {} tag(s)\n",
+                m.endpoint,
+                cfg.acquisition.poll_period_ms,
+                m.requests.len(),
+                tags
+            ));
+            for (_, f) in m.fields() {
+                let sig = f.signal.map(|s| s.short()).unwrap_or("-");
+                out.push_str(&format!(
+                    "    {:<14} {:>5} {:<4} {:<4} {:<10} {}\n",
+                    f.name,
+                    f.address,
+                    f.data_type.to_string(),
+                    format!("{:?}", f.byte_order),
+                    sig,
+                    f.unit
+                ));
+            }
+            let req: Vec<&str> = REQUIRED_SIGNALS.iter().map(|s| s.short()).collect();
+            out.push_str(&format!("  required signals present: {}\n", req.join(", ")));
+        }
+        None => out.push_str("  no live acquisition (acquisition.source = \"none\")\n"),
+    }
+    (true, out)
+}
+
+pub fn run(args: CheckConfigArgs) -> anyhow::Result<ExitCode> {
+    let (ok, text) = report(&args.file);
+    if ok {
+        print!("{text}");
+        Ok(ExitCode::SUCCESS)
+    } else {
+        eprint!("{text}");
+        Ok(ExitCode::FAILURE)
+    }
+}

@@ -1,0 +1,288 @@
+//! The daemon's configuration file (`config/gtwatch.toml`): parsing and checking.
+//!
+//! Parsing is strict (`deny_unknown_fields` everywhere): a misspelt key is an error naming the
+//! file, line and column. [`Config::check`] then collects every semantic problem at once (each
+//! naming its key path and the reason), so `gtwatch check-config` can list them all. The
+//! sections `[storage]`, `[replay]` and `[detector]` belong to the data side (`store`, `replay`,
+//! `detect`); their own `validate` is called here. This module reads the file and nothing else.
+
+use crate::acquire::modbus::{AcquisitionConfig, SourceKind};
+use crate::acquire::register_map::ModbusConfig;
+use crate::config_problem::ConfigProblem;
+use crate::detect::DetectorConfig;
+use crate::replay::ReplayConfig;
+use crate::store::StorageConfig;
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// The whole configuration file.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    pub plant: PlantConfig,
+    #[serde(default)]
+    pub storage: StorageConfig,
+    #[serde(default)]
+    pub replay: ReplayConfig,
+    #[serde(default)]
+    pub detector: DetectorConfig,
+    #[serde(default)]
+    pub acquisition: AcquisitionConfig,
+    /// Required when `acquisition.source = "modbus"`.
+    #[serde(default)]
+    pub modbus: Option<ModbusConfig>,
+    #[serde(default)]
+    pub daemon: DaemonConfig,
+}
+
+/// `[plant]`: which machine this is and the engine model used to diagnose it.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlantConfig {
+    /// Free-text plant / unit name, used in logs and reports.
+    pub name: String,
+    /// Engine model parameter file; relative paths are relative to the config file. Optional
+    /// until diagnosis runs in the daemon: the built-in reference engine is used without it.
+    #[serde(default)]
+    pub engine_model: Option<PathBuf>,
+}
+
+/// `[daemon]`: how the daemon schedules its tasks.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DaemonConfig {
+    /// Run the start-up detector over new samples every this many ms. Default 10 000.
+    pub detect_interval_ms: u64,
+    /// Poll results buffered between acquisition and the writer. Default 1024.
+    pub queue_capacity: usize,
+}
+
+impl Default for DaemonConfig {
+    fn default() -> Self {
+        DaemonConfig {
+            detect_interval_ms: 10_000,
+            queue_capacity: 1024,
+        }
+    }
+}
+
+/// Reading or parsing the file failed.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    #[error("{path}: {source}")]
+    Read {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{path}:{line}:{column}: {message}")]
+    Parse {
+        path: String,
+        line: usize,
+        column: usize,
+        message: String,
+    },
+    /// The file parsed but `check()` found problems (used by callers that refuse to start).
+    #[error("{path}: {} problem(s):\n  {}", problems.len(), problems.iter().map(|p| p.to_string()).collect::<Vec<_>>().join("\n  "))]
+    Invalid {
+        path: String,
+        problems: Vec<ConfigProblem>,
+    },
+}
+
+/// 1-based line and column of a byte offset.
+fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let col = before
+        .rfind('\n')
+        .map_or(before.len(), |i| before.len() - i - 1)
+        + 1;
+    (line, col)
+}
+
+impl Config {
+    /// Parses `text` (named `path` in errors). Relative paths are left as written.
+    pub fn parse(text: &str, path: &str) -> Result<Config, ConfigError> {
+        toml::from_str(text).map_err(|e: toml::de::Error| {
+            let (line, column) = e.span().map_or((0, 0), |s| line_col(text, s.start));
+            ConfigError::Parse {
+                path: path.to_string(),
+                line,
+                column,
+                message: e.message().trim().to_string(),
+            }
+        })
+    }
+
+    /// Reads and parses the file; relative `storage.path` and `plant.engine_model` are
+    /// resolved against the file's directory. Does not run [`Config::check`].
+    pub fn load(path: &Path) -> Result<Config, ConfigError> {
+        let shown = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+            path: shown.clone(),
+            source,
+        })?;
+        let mut cfg = Config::parse(&text, &shown)?;
+        if let Some(dir) = path.parent() {
+            if cfg.storage.path.is_relative() {
+                cfg.storage.path = dir.join(&cfg.storage.path);
+            }
+            if let Some(m) = cfg.plant.engine_model.as_mut() {
+                if m.is_relative() {
+                    *m = dir.join(&*m);
+                }
+            }
+        }
+        Ok(cfg)
+    }
+
+    /// Loads and checks; any problem is an error (what `run` uses).
+    pub fn load_checked(path: &Path) -> Result<Config, ConfigError> {
+        let cfg = Config::load(path)?;
+        let problems = cfg.check();
+        if problems.is_empty() {
+            Ok(cfg)
+        } else {
+            Err(ConfigError::Invalid {
+                path: path.display().to_string(),
+                problems,
+            })
+        }
+    }
+
+    /// Every problem in the configuration (empty = valid), in file order of sections.
+    pub fn check(&self) -> Vec<ConfigProblem> {
+        let mut p = Vec::new();
+        if self.plant.name.trim().is_empty() {
+            p.push(ConfigProblem::new("plant.name", "must not be empty"));
+        }
+        if let Some(m) = &self.plant.engine_model {
+            if !m.is_file() {
+                p.push(ConfigProblem::new(
+                    "plant.engine_model",
+                    format!("file {} not found", m.display()),
+                ));
+            }
+        }
+        p.extend(self.storage.validate());
+        p.extend(self.replay.validate());
+        p.extend(self.detector.validate());
+        p.extend(self.acquisition.validate());
+        match (&self.modbus, self.acquisition.source) {
+            (Some(m), _) => {
+                p.extend(m.check());
+                // Detector inputs named explicitly must exist in the register map.
+                let names: Vec<&str> = m.fields().map(|(_, f)| f.name.as_str()).collect();
+                for (key, tag) in [
+                    ("n1_tag", &self.detector.n1_tag),
+                    ("fuel_tag", &self.detector.fuel_tag),
+                    ("power_tag", &self.detector.power_tag),
+                    ("n2_tag", &self.detector.n2_tag),
+                ] {
+                    if let Some(t) = tag {
+                        if !names.contains(&t.as_str()) {
+                            p.push(ConfigProblem::new(
+                                format!("detector.{key}"),
+                                format!("tag '{t}' is not a field of the register map"),
+                            ));
+                        }
+                    }
+                }
+            }
+            (None, SourceKind::Modbus) => p.push(ConfigProblem::new(
+                "modbus",
+                "acquisition.source = \"modbus\" needs a [modbus] section with the register map",
+            )),
+            (None, SourceKind::None) => {}
+        }
+        if self.daemon.detect_interval_ms < 100 {
+            p.push(ConfigProblem::new(
+                "daemon.detect_interval_ms",
+                "must be at least 100 ms",
+            ));
+        }
+        if self.daemon.queue_capacity == 0 {
+            p.push(ConfigProblem::new(
+                "daemon.queue_capacity",
+                "must be at least 1",
+            ));
+        }
+        p
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MINIMAL: &str = r#"
+[plant]
+name = "GT1"
+
+[storage]
+path = "gt.db"
+
+[acquisition]
+poll_period_ms = 100
+
+[modbus]
+endpoint = "127.0.0.1:5020"
+
+[[modbus.request]]
+slave_id = 1
+register = "holding"
+start_address = 0
+
+[[modbus.request.field]]
+name = "n1_rpm"
+address = 0
+type = "f32"
+signal = "n1"
+"#;
+
+    #[test]
+    fn unknown_keys_name_file_line_and_column() {
+        let text = MINIMAL.replace(
+            "poll_period_ms = 100",
+            "poll_period_ms = 100\npoll_perod = 5",
+        );
+        let e = Config::parse(&text, "x.toml").expect_err("unknown key");
+        let s = e.to_string();
+        assert!(
+            s.starts_with("x.toml:10:1: unknown field `poll_perod`"),
+            "{s}"
+        );
+        let text = MINIMAL.replace("type = \"f32\"", "type = \"float\"");
+        let s = Config::parse(&text, "x.toml")
+            .expect_err("bad type")
+            .to_string();
+        assert!(s.starts_with("x.toml:22:8: unknown variant `float`"), "{s}");
+    }
+
+    #[test]
+    fn check_lists_problems_from_every_section() {
+        let mut c = Config::parse(MINIMAL, "x.toml").expect("parse");
+        c.storage.batch_size = 0;
+        c.acquisition.backoff_max_ms = 1;
+        c.detector.n1_tag = Some("nope".into());
+        let keys: Vec<String> = c.check().into_iter().map(|p| p.key).collect();
+        assert_eq!(
+            keys,
+            vec![
+                "storage.batch_size",
+                "acquisition.backoff_max_ms",
+                "modbus.request", // missing required signals
+                "detector.n1_tag",
+            ]
+        );
+        c.modbus = None;
+        let keys: Vec<String> = c.check().into_iter().map(|p| p.key).collect();
+        assert!(keys.contains(&"modbus".to_string()));
+    }
+
+    #[test]
+    fn line_col_is_one_based() {
+        assert_eq!(line_col("ab\ncd", 0), (1, 1));
+        assert_eq!(line_col("ab\ncd", 4), (2, 2));
+    }
+}

@@ -1,0 +1,269 @@
+//! `gtwatch run`: wires acquisition, the writer and the detector as tokio tasks.
+//!
+//! The shape follows mini-redis: [`run`] receives the shutdown signal as a value, so `main` maps
+//! SIGTERM/SIGINT onto it and tests trigger it directly. Tasks:
+//! - acquisition (`acquire::modbus::poll_loop`) → bounded channel → the single writer
+//!   (`store::spawn_writer`), which batches inserts into transactions;
+//! - the detector (`detect::scan`) every `daemon.detect_interval_ms` on the blocking pool, with
+//!   its own connection (SQLite WAL: readers and the writer do not block each other);
+//! - systemd notification: READY=1 after the first successful poll, WATCHDOG=1 only while the
+//!   poll loop makes progress, STOPPING=1 at shutdown.
+//!
+//! Shutdown order: stop polling (an open outage is recorded as a gap), close the channel, let
+//! the writer commit its last batch, then run the detector once more over everything stored.
+//! Errors in the detector are logged and retried on the next interval; they never stop
+//! acquisition. This module holds no business logic of its own.
+
+use crate::acquire::modbus::{poll_loop, PollPlan, PollProgress, PollStats, SourceKind};
+use crate::config::Config;
+use crate::detect::{self, DetectorConfig, ScanReport};
+use crate::shutdown::Shutdown;
+use crate::store::{
+    spawn_writer, Store, StoreError, StoreOptions, TagId, TagInfo, WriteCmd, WriterStats,
+};
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+use std::time::Duration;
+use tokio::sync::mpsc;
+
+/// Daemon failures that stop it (anything else is logged and survived).
+#[derive(Debug, thiserror::Error)]
+pub enum DaemonError {
+    #[error("opening the database: {0}")]
+    Store(#[from] StoreError),
+    #[error("register map: {0}")]
+    Plan(String),
+    #[error("writer task failed: {0}")]
+    Writer(String),
+}
+
+/// Options that are not configuration: how the daemon talks to its supervisor.
+#[derive(Debug, Clone, Default)]
+pub struct RunOptions {
+    /// Send sd_notify messages (READY, WATCHDOG, STOPPING). Off in tests.
+    pub systemd_notify: bool,
+    /// Shared progress counters (benchmarks and tests watch them); created if `None`.
+    pub progress: Option<Arc<PollProgress>>,
+}
+
+/// What the daemon did, returned at shutdown.
+#[derive(Debug, Clone, Default)]
+pub struct RunReport {
+    pub poll: PollStats,
+    pub writer: WriterStats,
+    /// Detector scans that succeeded / failed.
+    pub scans_ok: u64,
+    pub scans_failed: u64,
+    /// The final scan at shutdown.
+    pub last_scan: Option<ScanReport>,
+}
+
+/// Tag ids for every register-map field, in map order (creating tags as needed).
+fn ensure_tags(store: &mut Store, cfg: &Config) -> Result<Vec<TagId>, StoreError> {
+    let Some(map) = &cfg.modbus else {
+        return Ok(Vec::new());
+    };
+    map.fields()
+        .map(|(_, f)| {
+            store.ensure_tag(&TagInfo {
+                name: f.name.clone(),
+                unit: f.unit.clone(),
+                signal: f.signal,
+            })
+        })
+        .collect()
+}
+
+fn notify(enabled: bool, state: &[sd_notify::NotifyState]) {
+    if enabled {
+        if let Err(e) = sd_notify::notify(false, state) {
+            tracing::debug!("sd_notify: {e}");
+        }
+    }
+}
+
+/// Page cache of the detector's connection, MiB. The detector reads each tag's new samples
+/// once, in time order: a big cache would only hold pages it never reads again, and the
+/// daemon's resident memory is budgeted (< 50 MB after a day of data).
+pub const DETECTOR_CACHE_MIB: u32 = 2;
+
+/// Connection options of the detector: those of `[storage]` with a small page cache.
+pub fn detector_store_options(storage: &StoreOptions) -> StoreOptions {
+    StoreOptions {
+        cache_mib: storage.cache_mib.min(DETECTOR_CACHE_MIB),
+        ..*storage
+    }
+}
+
+/// One detector pass on the blocking pool; hands the connection back. A missing connection
+/// (first use, or lost in a panicked pass) is reopened; a panic is reported, not propagated.
+async fn scan_once(
+    store: Option<Store>,
+    path: PathBuf,
+    opts: StoreOptions,
+    cfg: DetectorConfig,
+) -> (Option<Store>, Result<ScanReport, String>) {
+    let r = tokio::task::spawn_blocking(move || {
+        let mut store = match store {
+            Some(s) => s,
+            None => match Store::open_with(&path, &opts) {
+                Ok(s) => s,
+                Err(e) => return (None, Err(e.to_string())),
+            },
+        };
+        let r = detect::scan(&mut store, &cfg).map_err(|e| e.to_string());
+        (Some(store), r)
+    })
+    .await;
+    r.unwrap_or_else(|e| (None, Err(format!("detector task failed: {e}"))))
+}
+
+/// Runs the daemon until `shutdown` fires. `cfg` must have passed [`Config::check`].
+pub async fn run(
+    cfg: Config,
+    shutdown: Shutdown,
+    opts: RunOptions,
+) -> Result<RunReport, DaemonError> {
+    let db_path: PathBuf = cfg.storage.path.clone();
+    let store_opts = cfg.storage.options();
+    let detector_opts = detector_store_options(&store_opts);
+    let mut store = {
+        let p = db_path.clone();
+        tokio::task::spawn_blocking(move || Store::open_with(&p, &store_opts))
+            .await
+            .map_err(|e| DaemonError::Writer(e.to_string()))??
+    };
+    let tags = ensure_tags(&mut store, &cfg)?;
+    tracing::info!(
+        plant = %cfg.plant.name,
+        db = %db_path.display(),
+        tags = tags.len(),
+        "gtwatch daemon starting"
+    );
+
+    let (tx, rx) = mpsc::channel::<WriteCmd>(cfg.daemon.queue_capacity.max(1));
+    let writer = spawn_writer(store, rx, cfg.storage.writer());
+    let progress = opts.progress.clone().unwrap_or_default();
+
+    // Acquisition.
+    let poller = match (&cfg.modbus, cfg.acquisition.source) {
+        (Some(map), SourceKind::Modbus) => {
+            let plan = PollPlan::new(map, &tags).map_err(DaemonError::Plan)?;
+            let acq = cfg.acquisition.clone();
+            let p = Arc::clone(&progress);
+            let sd = shutdown.clone();
+            let tx = tx.clone();
+            Some(tokio::spawn(async move {
+                poll_loop(&acq, &plan, tx, p, sd).await
+            }))
+        }
+        _ => None,
+    };
+    drop(tx); // the writer ends once the poller's sender is gone
+
+    // Detector and supervisor notifications, until shutdown.
+    let mut report = RunReport::default();
+    let mut det_store: Option<Store> = None;
+    let mut detect_tick =
+        tokio::time::interval(Duration::from_millis(cfg.daemon.detect_interval_ms));
+    detect_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    detect_tick.tick().await;
+    let mut watchdog_usec = 0u64;
+    let watchdog = opts.systemd_notify && sd_notify::watchdog_enabled(false, &mut watchdog_usec);
+    let wd_period = Duration::from_micros((watchdog_usec / 2).max(100_000));
+    let mut wd_tick = tokio::time::interval(wd_period);
+    wd_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut ready = poller.is_none();
+    if ready {
+        notify(opts.systemd_notify, &[sd_notify::NotifyState::Ready]);
+    }
+    let mut last_cycles = 0u64;
+    let mut ready_check = tokio::time::interval(Duration::from_millis(50));
+    let mut sd = shutdown.clone();
+    loop {
+        tokio::select! {
+            biased;
+            _ = sd.wait() => break,
+            _ = ready_check.tick(), if !ready => {
+                if progress.polls_ok.load(Ordering::Relaxed) > 0 {
+                    ready = true;
+                    tracing::info!("first poll succeeded; ready");
+                    notify(opts.systemd_notify, &[sd_notify::NotifyState::Ready]);
+                }
+            }
+            _ = wd_tick.tick(), if watchdog => {
+                // Progress = the poll loop finished a cycle (a poll, or a failure it recorded).
+                // A PLC outage is a recorded gap, not a daemon fault; a hung loop or a writer
+                // that stopped accepting samples is, and then systemd restarts us.
+                let cycles = progress.cycles.load(Ordering::Relaxed);
+                if cycles != last_cycles || poller.is_none() {
+                    last_cycles = cycles;
+                    notify(true, &[sd_notify::NotifyState::Watchdog]);
+                } else {
+                    tracing::warn!("acquisition made no progress; withholding watchdog ping");
+                }
+            }
+            _ = detect_tick.tick() => {
+                {
+                    let (s, r) = scan_once(
+                        det_store.take(),
+                        db_path.clone(),
+                        detector_opts,
+                        cfg.detector.clone(),
+                    ).await;
+                    det_store = s;
+                    match r {
+                        Ok(rep) => {
+                            report.scans_ok += 1;
+                            if rep.segments_closed > 0 {
+                                tracing::info!(closed = rep.segments_closed, open = rep.segments_open, "start-up segments detected");
+                            }
+                        }
+                        Err(e) => {
+                            report.scans_failed += 1;
+                            tracing::warn!("detector: {e}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+    notify(opts.systemd_notify, &[sd_notify::NotifyState::Stopping]);
+    tracing::info!("shutting down: stopping acquisition");
+    if let Some(p) = poller {
+        report.poll = p.await.unwrap_or_else(|e| {
+            tracing::error!("acquisition task failed: {e}");
+            progress.snapshot()
+        });
+    }
+    report.writer = writer
+        .await
+        .map_err(|e| DaemonError::Writer(e.to_string()))?
+        .map_err(|e| DaemonError::Writer(e.to_string()))?;
+    tracing::info!(
+        inserted = report.writer.samples_inserted,
+        gaps = report.writer.gaps,
+        "last batch committed"
+    );
+    {
+        let (_s, r) = scan_once(
+            det_store.take(),
+            db_path.clone(),
+            detector_opts,
+            cfg.detector.clone(),
+        )
+        .await;
+        match r {
+            Ok(rep) => {
+                report.scans_ok += 1;
+                report.last_scan = Some(rep);
+            }
+            Err(e) => {
+                report.scans_failed += 1;
+                tracing::warn!("final detector scan: {e}");
+            }
+        }
+    }
+    Ok(report)
+}

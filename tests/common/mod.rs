@@ -1,0 +1,59 @@
+//! Helpers shared by the daemon's end-to-end and fault tests.
+#![allow(dead_code)]
+
+use gtwatch::config::Config;
+use std::path::{Path, PathBuf};
+
+/// The reference configuration shipped in `config/gtwatch.toml`.
+pub fn reference_config() -> Config {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("config/gtwatch.toml");
+    Config::load(&p).expect("config/gtwatch.toml loads")
+}
+
+/// The reference config pointed at `endpoint` and `db`, polling fast with short timeouts.
+pub fn fast_config(endpoint: &str, db: PathBuf, poll_ms: u64) -> Config {
+    let mut c = reference_config();
+    c.storage.path = db;
+    c.storage.flush_interval_ms = 50;
+    let m = c.modbus.as_mut().expect("modbus section");
+    m.endpoint = endpoint.to_string();
+    c.acquisition.poll_period_ms = poll_ms;
+    c.acquisition.connect_timeout_ms = 200;
+    c.acquisition.request_timeout_ms = 100;
+    c.acquisition.backoff_initial_ms = 20;
+    c.acquisition.backoff_max_ms = 100;
+    c.daemon.detect_interval_ms = 300;
+    assert_eq!(c.check(), vec![], "test config is valid");
+    c
+}
+
+/// Opens the database read-only for assertions.
+pub fn open_db(path: &Path) -> rusqlite::Connection {
+    rusqlite::Connection::open_with_flags(path, rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY)
+        .expect("open db")
+}
+
+/// (t_ms, value, quality) of one tag, time-ordered.
+pub fn tag_samples(db: &rusqlite::Connection, tag: &str) -> Vec<(i64, f64, i64)> {
+    let mut st = db
+        .prepare(
+            "SELECT s.t_ms, s.value, s.quality FROM samples s JOIN tags t ON t.id = s.tag_id
+             WHERE t.name = ?1 ORDER BY s.t_ms",
+        )
+        .expect("prepare");
+    st.query_map([tag], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))
+        .expect("query")
+        .collect::<Result<Vec<_>, _>>()
+        .expect("rows")
+}
+
+/// (start_ms, end_ms, source, reason) of every gap.
+pub fn gaps(db: &rusqlite::Connection) -> Vec<(i64, i64, String, String)> {
+    let mut st = db
+        .prepare("SELECT start_ms, end_ms, source, reason FROM gaps ORDER BY start_ms")
+        .expect("prepare");
+    st.query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?)))
+        .expect("query")
+        .collect::<Result<Vec<_>, _>>()
+        .expect("rows")
+}
