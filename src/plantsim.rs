@@ -51,6 +51,55 @@ pub trait PlantModel: Send {
     fn period_s(&self) -> f64;
 }
 
+/// The engine model as the plant source: [`crate::engine::plant::SimulatedPlant`] (the dynamic
+/// model through a repeating schedule of starts, stops, an aborted start and a hot restart, with
+/// live sensor lags and noise). If the model ever fails to advance, the last frame is held and the
+/// failure logged: a test plant must not crash the server.
+pub struct ModelPlant {
+    plant: crate::engine::plant::SimulatedPlant,
+    last: PlantFrame,
+    failed: bool,
+}
+
+impl ModelPlant {
+    pub fn new(plant: crate::engine::plant::SimulatedPlant) -> ModelPlant {
+        ModelPlant {
+            plant,
+            last: PlantFrame {
+                t_s: 0.0,
+                values: [0.0; 15],
+                phase: Phase::Standstill,
+            },
+            failed: false,
+        }
+    }
+}
+
+impl PlantModel for ModelPlant {
+    fn step(&mut self) -> PlantFrame {
+        if !self.failed {
+            match self.plant.step() {
+                Ok(s) => {
+                    self.last = PlantFrame {
+                        t_s: s.t_s,
+                        values: s.values,
+                        phase: s.phase,
+                    }
+                }
+                Err(e) => {
+                    tracing::error!("engine model stopped advancing, holding the last frame: {e}");
+                    self.failed = true;
+                }
+            }
+        }
+        self.last.clone()
+    }
+
+    fn period_s(&self) -> f64 {
+        self.plant.period_s()
+    }
+}
+
 /// Operating points of the scripted start (contract defaults; speeds rpm, fuel kg/s, power MW).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScriptLevels {

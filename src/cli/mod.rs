@@ -10,7 +10,7 @@ mod bench_replay;
 mod bench_sim;
 mod check_config;
 mod common;
-mod engine_args;
+pub(crate) mod engine_args;
 mod export;
 mod plant_sim;
 mod replay;

@@ -321,7 +321,8 @@ fn read_tag(
     to: i64,
 ) -> Result<Vec<(i64, f64)>, DetectError> {
     let mut stmt = conn.prepare_cached(
-        "SELECT t_ms, value FROM samples WHERE tag_id = ?1 AND t_ms >= ?2 AND t_ms < ?3 ORDER BY t_ms",
+        // Only good samples: a flagged (bad or out-of-range) value must never steer the detector.
+        "SELECT t_ms, value FROM samples WHERE tag_id = ?1 AND t_ms >= ?2 AND t_ms < ?3 AND quality = 0 ORDER BY t_ms",
     )?;
     let rows = stmt.query_map(params![tag, from, to], |r| Ok((r.get(0)?, r.get(1)?)))?;
     Ok(rows.collect::<Result<Vec<_>, _>>()?)
