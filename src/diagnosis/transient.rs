@@ -1,0 +1,188 @@
+//! Method B (paper §2.3): fit the health vector to one whole measured start-up.
+//!
+//! The forward model is [`simulate_segment`]: the dynamic engine model driven through the
+//! segment's phases with its measured ambient and either its measured fuel flow (default,
+//! open loop) or its measured GG speed / power as controller demand. The simulated, lagged
+//! instrument values are compared with the measured ones by [`Objective`]. This module builds
+//! the problem and runs the fit; it does no I/O.
+
+use super::objective::Objective;
+use super::{
+    fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, DiagnosisProblem, Method,
+    MethodResult, ParamMap,
+};
+use crate::engine::replay::{simulate_segment, DriveMode, Segment};
+use crate::engine::trace::Values;
+use crate::engine::Engine;
+use crate::optim::{Bounds, Problem, ResidualProblem};
+use crate::signals::{Phase, Signal};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+/// Signals that are operating inputs of the replay (never compared).
+fn is_input(s: Signal, mode: DriveMode) -> bool {
+    matches!(s, Signal::T1 | Signal::P1)
+        || (s == Signal::FuelFlow && mode == DriveMode::MeasuredFuel)
+}
+
+/// Method B as an optimisation problem over the free health parameters.
+pub struct TransientProblem<'a> {
+    engine: Engine,
+    segment: &'a Segment,
+    mode: DriveMode,
+    objective: Objective,
+    params: ParamMap,
+    least_squares: bool,
+    runs: AtomicUsize,
+}
+
+impl<'a> TransientProblem<'a> {
+    /// Builds the problem for `segment` under `cfg` (window, signals, drive mode, fixed step).
+    pub fn new(
+        engine: &Engine,
+        segment: &'a Segment,
+        cfg: &DiagnosisConfig,
+    ) -> Result<TransientProblem<'a>, DiagnosisError> {
+        if segment.len() < 2 {
+            return Err(DiagnosisError::Data(
+                "segment has fewer than two samples".into(),
+            ));
+        }
+        let mut engine = engine.clone();
+        if cfg.fixed_step_s > 0.0 {
+            engine.cfg.solver.fixed_step_s = cfg.fixed_step_s;
+        }
+        let signals: Vec<Signal> = cfg
+            .signals
+            .iter()
+            .copied()
+            .filter(|s| !is_input(*s, cfg.drive_mode))
+            .collect();
+        let in_window: Vec<bool> = segment
+            .t_s
+            .iter()
+            .zip(&segment.phase)
+            .map(|(&t, &p)| cfg.window.contains(t, p))
+            .collect();
+        let objective = Objective::new(
+            &segment.t_s,
+            &segment.values,
+            &in_window,
+            &signals,
+            &engine.cfg.sensors,
+            cfg.rate_weight,
+        );
+        if objective.len() <= cfg.free().len() {
+            return Err(DiagnosisError::Data(format!(
+                "only {} valid measured samples in the window for {} parameters",
+                objective.len(),
+                cfg.free().len()
+            )));
+        }
+        if !segment.phase.iter().any(|p| {
+            !matches!(
+                p,
+                Phase::Standstill | Phase::Crank | Phase::Purge | Phase::Shutdown | Phase::Trip
+            )
+        }) {
+            return Err(DiagnosisError::Data(
+                "segment never lights off: no fired start-up to diagnose".into(),
+            ));
+        }
+        Ok(TransientProblem {
+            engine,
+            segment,
+            mode: cfg.drive_mode,
+            objective,
+            params: ParamMap::new(cfg.free(), cfg.base)?,
+            least_squares: false,
+            runs: AtomicUsize::new(0),
+        })
+    }
+
+    /// The prepared objective.
+    pub fn objective(&self) -> &Objective {
+        &self.objective
+    }
+
+    /// The simulated instrument values for free parameters `x` (`None` if the model failed).
+    pub fn simulate(&self, x: &[f64]) -> Option<Vec<Values>> {
+        self.runs.fetch_add(1, Ordering::Relaxed);
+        let h = self.params.health(x);
+        simulate_segment(&self.engine, &h, self.segment, self.mode)
+            .ok()
+            .map(|t| t.measured)
+    }
+}
+
+impl Problem for TransientProblem<'_> {
+    fn dim(&self) -> usize {
+        self.params.free().len()
+    }
+    fn bounds(&self) -> &Bounds {
+        self.params.bounds()
+    }
+    fn cost(&self, x: &[f64]) -> f64 {
+        match self.simulate(x) {
+            Some(m) if self.least_squares => self.objective.ssr(&m),
+            Some(m) => self.objective.eq10(&m),
+            None => f64::INFINITY,
+        }
+    }
+}
+
+impl ResidualProblem for TransientProblem<'_> {
+    fn residuals(&self, x: &[f64], out: &mut Vec<f64>) {
+        match self.simulate(x) {
+            Some(m) => self.objective.residuals(&m, out),
+            None => {
+                out.clear();
+                out.resize(self.objective.len(), f64::NAN);
+            }
+        }
+    }
+}
+
+impl DiagnosisProblem for TransientProblem<'_> {
+    fn set_least_squares(&mut self, on: bool) {
+        self.least_squares = on;
+    }
+    fn model_runs(&self) -> usize {
+        self.runs.load(Ordering::Relaxed)
+    }
+    fn eq10(&self, x: &[f64]) -> f64 {
+        self.simulate(x)
+            .map_or(f64::INFINITY, |m| self.objective.eq10(&m))
+    }
+    fn params(&self) -> &ParamMap {
+        &self.params
+    }
+}
+
+/// Method B on `segment`.
+pub fn diagnose_transient(
+    engine: &Engine,
+    segment: &Segment,
+    cfg: &DiagnosisConfig,
+) -> Result<MethodResult, DiagnosisError> {
+    let start = Instant::now();
+    let pool = pool_for(cfg)?;
+    let mut problem = TransientProblem::new(engine, segment, cfg)?;
+    let out = fit(&mut problem, cfg, &pool)?;
+    let signals = problem.objective().signals().to_vec();
+    let n_res = problem.objective().len();
+    // result_of evaluates the objective and residuals once more at the result (2 runs,
+    // counted); wall time includes them.
+    let mut r = result_of(
+        Method::Transient,
+        &problem,
+        &out,
+        cfg,
+        signals,
+        n_res,
+        0.0,
+        Vec::new(),
+    );
+    r.wall_s = start.elapsed().as_secs_f64();
+    Ok(r)
+}
