@@ -4,6 +4,7 @@
 //! no globals, deterministic for a given seed. The daemon modules are a thin async shell.
 #![deny(clippy::unwrap_used)]
 
+pub mod cli;
 pub mod diagnosis;
 pub mod engine;
 pub mod health;
