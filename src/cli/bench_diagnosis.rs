@@ -82,7 +82,11 @@ pub fn run(a: &BenchDiagnosisArgs) -> anyhow::Result<ExitCode> {
         rep.optimiser.name(),
         rep.max_model_runs
     );
-    println!("{:22}      {}", "", HEALTH_NAMES.map(|n| format!("{n:>7}")).join(" "));
+    println!(
+        "{:22}      {}",
+        "",
+        HEALTH_NAMES.map(|n| format!("{n:>7}")).join(" ")
+    );
     row("Method B (transient)", &rep.transient);
     row("Method A (steady)", &rep.steady);
     for c in &rep.comparison {

@@ -19,7 +19,12 @@ pub struct BenchWashArgs {
     pub json: bool,
 }
 
-fn line(time: &str, process: &str, m: &std::collections::BTreeMap<String, f64>, ratios: Option<(f64, f64)>) {
+fn line(
+    time: &str,
+    process: &str,
+    m: &std::collections::BTreeMap<String, f64>,
+    ratios: Option<(f64, f64)>,
+) {
     let g = |k: &str| m.get(k).copied().unwrap_or(f64::NAN);
     let (r1, r2) = match ratios {
         Some((a, b)) => (format!("{a:8.2}"), format!("{b:8.2}")),
@@ -54,13 +59,22 @@ pub fn run(a: &BenchWashArgs) -> anyhow::Result<ExitCode> {
         ("Steady-state (A)", &rep.steady),
         ("Transient (B)", &rep.transient),
     ];
-    for (t, get) in [("Before washing", 0), ("After washing", 1), ("Improvement", 2)] {
+    for (t, get) in [
+        ("Before washing", 0),
+        ("After washing", 1),
+        ("Improvement", 2),
+    ] {
         for (i, (name, r)) in rows.iter().enumerate() {
             let label = if i == 0 { t } else { "" };
             match get {
                 0 => line(label, name, &r.before, None),
                 1 => line(label, name, &r.after, None),
-                _ => line(label, name, &r.improvement, Some((r.ratio_gc_ec, r.ratio_gt_et))),
+                _ => line(
+                    label,
+                    name,
+                    &r.improvement,
+                    Some((r.ratio_gc_ec, r.ratio_gt_et)),
+                ),
             }
         }
     }

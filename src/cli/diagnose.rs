@@ -153,8 +153,8 @@ pub fn run(a: &DiagnoseArgs) -> anyhow::Result<ExitCode> {
         Some(m) => parse_mapping(m)?,
         None => HashMap::new(),
     };
-    let file = std::fs::File::open(&a.input)
-        .with_context(|| format!("opening {}", a.input.display()))?;
+    let file =
+        std::fs::File::open(&a.input).with_context(|| format!("opening {}", a.input.display()))?;
     let seg = read_segment(std::io::BufReader::new(file), &mapping)
         .with_context(|| format!("reading {}", a.input.display()))?;
     let cfg = a.fit.config();
@@ -187,7 +187,10 @@ pub fn run(a: &DiagnoseArgs) -> anyhow::Result<ExitCode> {
         }
     }
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&json!({ "methods": out }))?);
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&json!({ "methods": out }))?
+        );
     }
     if failed == methods.len() {
         bail!("no method succeeded");

@@ -53,9 +53,7 @@ pub fn main() -> ExitCode {
 }
 
 /// Loads the engine from `--engine FILE`, or the built-in reference engine.
-pub(crate) fn load_engine(
-    path: Option<&std::path::Path>,
-) -> anyhow::Result<crate::engine::Engine> {
+pub(crate) fn load_engine(path: Option<&std::path::Path>) -> anyhow::Result<crate::engine::Engine> {
     use anyhow::Context;
     let cfg = match path {
         Some(p) => crate::engine::EngineConfig::load(p)

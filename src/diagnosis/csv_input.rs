@@ -64,7 +64,11 @@ fn parse_phase(s: &str) -> Option<Phase> {
 
 fn parse_value(s: &str) -> Result<f64, String> {
     let t = s.trim();
-    if t.is_empty() || ["nan", "na", "n/a", "null"].iter().any(|m| t.eq_ignore_ascii_case(m)) {
+    if t.is_empty()
+        || ["nan", "na", "n/a", "null"]
+            .iter()
+            .any(|m| t.eq_ignore_ascii_case(m))
+    {
         return Ok(f64::NAN);
     }
     match t.parse::<f64>() {
@@ -86,7 +90,10 @@ pub fn read_segment<R: Read>(
         .from_reader(reader);
     let headers = rdr.headers()?.clone();
     let find = |canonical: &str, short: Option<&str>| -> Option<usize> {
-        let want = mapping.get(canonical).map(String::as_str).unwrap_or(canonical);
+        let want = mapping
+            .get(canonical)
+            .map(String::as_str)
+            .unwrap_or(canonical);
         headers
             .iter()
             .position(|h| h.eq_ignore_ascii_case(want))

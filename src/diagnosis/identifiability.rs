@@ -88,7 +88,11 @@ pub fn identifiability<P: ResidualProblem + ?Sized>(
     let sv = js.singular_values();
     let smax = sv.iter().cloned().fold(0.0, f64::max);
     let smin = sv.iter().cloned().fold(f64::INFINITY, f64::min);
-    let condition = if smin > 0.0 { smax / smin } else { f64::INFINITY };
+    let condition = if smin > 0.0 {
+        smax / smin
+    } else {
+        f64::INFINITY
+    };
     Ok(Identifiability {
         crb_sigma,
         alone_sigma,

@@ -161,12 +161,15 @@ pub struct SteadyCriteria {
     pub max_drift_sigma: f64,
     /// Scatter allowed around the linear trend (RMS), in noise σ.
     pub max_scatter_sigma: f64,
+    /// Largest deviation of any sample from the trend, in noise σ.
+    pub max_deviation_sigma: f64,
     /// GG speed must be at least this fraction of design (fired, above idle transients).
     pub min_n1_fraction: f64,
 }
 
 impl Default for SteadyCriteria {
-    /// n1, P2, T2, T34 and power stable; ≥ 20 s; drift ≤ 2σ; scatter ≤ 1.5σ; n1 ≥ 60 % design.
+    /// n1, P2, T2, T34 and power stable; ≥ 20 s; drift ≤ 2σ; scatter ≤ 1.5σ;
+    /// every sample within 4.5σ of the trend; n1 ≥ 60 % design.
     fn default() -> Self {
         SteadyCriteria {
             signals: vec![
@@ -179,6 +182,7 @@ impl Default for SteadyCriteria {
             min_duration_s: 20.0,
             max_drift_sigma: 2.0,
             max_scatter_sigma: 1.5,
+            max_deviation_sigma: 4.5,
             min_n1_fraction: 0.6,
         }
     }
@@ -197,6 +201,9 @@ pub struct DiagnosisConfig {
     /// Method B's allowance for model timing error, as a multiple of a sample's change to its
     /// neighbour, combined with the noise σ (see [`objective::Objective::new`]).
     pub rate_weight: f64,
+    /// Smooth the measured fuel flow before it drives the model (Method B, measured-fuel
+    /// mode; see [`transient::smooth_fuel`]).
+    pub smooth_fuel: bool,
     /// Method A's stability criteria.
     pub steady: SteadyCriteria,
     /// Optimisation strategy.
@@ -245,6 +252,7 @@ impl Default for DiagnosisConfig {
             window: Window::default(),
             drive_mode: DriveMode::MeasuredFuel,
             rate_weight: 1.0,
+            smooth_fuel: true,
             steady: SteadyCriteria::default(),
             optimiser: Optimiser::CuckooLm,
             max_model_runs: 1000,
@@ -446,7 +454,7 @@ pub fn fit<P: DiagnosisProblem>(
     })
 }
 
-/// Assembles a [`MethodResult`] after [`fit`].
+/// Assembles a [`MethodResult`] after [`fit`] (the caller sets `wall_s`).
 pub(crate) fn result_of<P: DiagnosisProblem>(
     method: Method,
     problem: &P,
@@ -454,11 +462,11 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
     cfg: &DiagnosisConfig,
     signals: Vec<Signal>,
     residuals: usize,
-    wall_s: f64,
     windows: Vec<(f64, f64)>,
 ) -> MethodResult {
     let pm = problem.params();
-    let mut sigma: BTreeMap<String, f64> = HEALTH_NAMES.iter().map(|n| (n.to_string(), 0.0)).collect();
+    let mut sigma: BTreeMap<String, f64> =
+        HEALTH_NAMES.iter().map(|n| (n.to_string(), 0.0)).collect();
     for (&i, &s) in pm.free().iter().zip(&fit.sigma) {
         sigma.insert(HEALTH_NAMES[i].to_string(), s);
     }
@@ -476,7 +484,7 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
         residuals,
         global_objective: fit.global_objective,
         model_runs: problem.model_runs(),
-        wall_s,
+        wall_s: 0.0,
         signals,
         windows,
     }
@@ -485,4 +493,165 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
 /// A thread pool for `cfg.threads`.
 pub fn pool_for(cfg: &DiagnosisConfig) -> Result<ThreadPool, DiagnosisError> {
     Ok(optim::thread_pool(cfg.threads)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::bench::synthetic_startup;
+    use super::identifiability::identifiability;
+    use super::steady::{detect_windows, diagnose_steady};
+    use super::transient::{diagnose_transient, TransientProblem};
+    use super::*;
+    use crate::engine::Engine;
+
+    fn truth() -> HealthParams {
+        HealthParams {
+            D_GC: 3.0,
+            D_EC: 1.0,
+            D_GT: 1.5,
+            D_ET: 1.0,
+            D_GP: 0.5,
+            D_EP: 0.8,
+        }
+    }
+
+    fn errors(h: &HealthParams, t: &HealthParams) -> [f64; 6] {
+        let (a, b) = (h.to_array(), t.to_array());
+        std::array::from_fn(|i| (a[i] - b[i]).abs())
+    }
+
+    fn small(cfg: DiagnosisConfig) -> DiagnosisConfig {
+        DiagnosisConfig {
+            max_model_runs: 300,
+            lm_runs: 200,
+            threads: Some(2),
+            ..cfg
+        }
+    }
+
+    #[test]
+    fn method_b_recovers_implanted_degradation() {
+        let engine = Engine::reference().expect("engine");
+        let t = truth();
+        let cfg = small(DiagnosisConfig::default());
+        // Noise-free: every parameter within 0.05 points.
+        let clean = synthetic_startup(&engine, &t, 0, false).expect("start-up");
+        let r = diagnose_transient(&engine, &clean, &cfg).expect("diagnoses");
+        let e = errors(&r.health, &t);
+        assert!(e.iter().all(|&x| x < 0.05), "noise-free errors {e:?}");
+        assert!(r.sigma.values().all(|s| s.is_finite() && *s > 0.0));
+        assert!(r.model_runs > 0 && r.objective < r.global_objective + 1e-12);
+        // Default noise and lags: within 0.5 points.
+        let noisy = synthetic_startup(&engine, &t, 5, true).expect("start-up");
+        let r = diagnose_transient(&engine, &noisy, &cfg).expect("diagnoses");
+        let e = errors(&r.health, &t);
+        assert!(e.iter().all(|&x| x < 0.5), "noisy errors {e:?}");
+    }
+
+    #[test]
+    fn method_b_with_fixed_parameters_and_cuckoo_alone() {
+        // Two free parameters (PT), the rest fixed at the truth: even CS alone gets close.
+        let engine = Engine::reference().expect("engine");
+        let t = truth();
+        let clean = synthetic_startup(&engine, &t, 0, false).expect("start-up");
+        let cfg = DiagnosisConfig {
+            fixed: [true, true, true, true, false, false],
+            base: t,
+            optimiser: Optimiser::Cuckoo,
+            max_model_runs: 150,
+            threads: Some(2),
+            ..DiagnosisConfig::default()
+        };
+        let r = diagnose_transient(&engine, &clean, &cfg).expect("diagnoses");
+        assert_eq!(r.health.D_GC, 3.0);
+        assert_eq!(r.sigma["D_GC"], 0.0);
+        let e = errors(&r.health, &t);
+        assert!(e[4] < 0.3 && e[5] < 0.3, "CS alone, 2 parameters: {e:?}");
+    }
+
+    #[test]
+    fn method_a_recovers_and_is_deterministic() {
+        let engine = Engine::reference().expect("engine");
+        let t = truth();
+        let clean = synthetic_startup(&engine, &t, 0, false).expect("start-up");
+        let w = detect_windows(&clean, &engine.cfg, &SteadyCriteria::default());
+        // The 4-min warm-up at minimum load and the base-load hold, never the load ramp.
+        assert!(w.len() >= 2, "{w:?}");
+        for win in &w {
+            let ph = clean.phase[win.start];
+            assert!(
+                matches!(
+                    ph,
+                    Phase::Loading | Phase::Steady | Phase::Idle | Phase::Synchronisation
+                ),
+                "{ph}"
+            );
+            let p0 = clean.values[win.start][Signal::Power.index()];
+            let p1 = clean.values[win.end - 1][Signal::Power.index()];
+            assert!((p1 - p0).abs() < 0.2, "window spans a ramp: {p0} → {p1}");
+        }
+        let cfg = DiagnosisConfig {
+            threads: Some(1),
+            ..DiagnosisConfig::default()
+        };
+        let r = diagnose_steady(&engine, &clean, &cfg).expect("diagnoses");
+        let e = errors(&r.health, &t);
+        assert!(e.iter().all(|&x| x < 0.05), "noise-free errors {e:?}");
+        let noisy = synthetic_startup(&engine, &t, 9, true).expect("start-up");
+        let r1 = diagnose_steady(&engine, &noisy, &cfg).expect("diagnoses");
+        let e = errors(&r1.health, &t);
+        assert!(e.iter().all(|&x| x < 0.5), "noisy errors {e:?}");
+        // Same seed, 1 or 2 threads: the same result.
+        let r2 = diagnose_steady(
+            &engine,
+            &noisy,
+            &DiagnosisConfig {
+                threads: Some(2),
+                ..cfg.clone()
+            },
+        )
+        .expect("diagnoses");
+        assert_eq!(r1.health, r2.health);
+        assert_eq!(r1.sigma, r2.sigma);
+    }
+
+    #[test]
+    fn start_up_identifies_all_six_parameters() {
+        let engine = Engine::reference().expect("engine");
+        let t = truth();
+        let clean = synthetic_startup(&engine, &t, 0, false).expect("start-up");
+        let cfg = DiagnosisConfig::default();
+        let p = TransientProblem::new(&engine, &clean, &cfg).expect("problem");
+        let pool = optim::thread_pool(Some(2)).expect("pool");
+        let id = identifiability(&p, &t.to_array(), cfg.fd_step, &pool).expect("computes");
+        // Cramér–Rao 1σ at the default noise well below the 0.3-point target for every one.
+        assert!(id.crb_sigma.iter().all(|s| *s < 0.1), "{:?}", id.crb_sigma);
+        assert!(id.condition < 200.0, "condition {}", id.condition);
+    }
+
+    #[test]
+    fn bad_data_gives_clear_errors() {
+        let engine = Engine::reference().expect("engine");
+        let t = truth();
+        let mut seg = synthetic_startup(&engine, &t, 0, false).expect("start-up");
+        // No steady window: cut the segment before the load is applied.
+        let keep = seg
+            .phase
+            .iter()
+            .position(|p| *p == Phase::Synchronisation)
+            .expect("syncs");
+        seg.t_s.truncate(keep);
+        seg.phase.truncate(keep);
+        seg.values.truncate(keep);
+        let cfg = DiagnosisConfig::default();
+        let e = diagnose_steady(&engine, &seg, &cfg).expect_err("no windows");
+        assert!(e.to_string().contains("steady"), "{e}");
+        // Nothing measured in the window.
+        let mut empty = seg.clone();
+        empty
+            .values
+            .iter_mut()
+            .for_each(|v| v.iter_mut().for_each(|x| *x = f64::NAN));
+        assert!(TransientProblem::new(&engine, &empty, &cfg).is_err());
+    }
 }

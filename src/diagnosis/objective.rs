@@ -104,11 +104,24 @@ impl Objective {
                 // Largest change to a neighbouring sample: the replay knows its inputs only at
                 // the samples, so events between samples (light-off, breaker) shift the model
                 // by up to one sample; that mismatch scales with the local rate of change.
+                // Measured with noise: take the change of a 3-sample moving average, so the
+                // allowance follows the signal's rate of change and not its noise.
+                let avg = |j: usize| -> Option<f64> {
+                    let lo = j.saturating_sub(1);
+                    let hi = (j + 1).min(n - 1);
+                    let v: Vec<f64> = (lo..=hi)
+                        .map(|i| measured[i][si])
+                        .filter(|x| x.is_finite())
+                        .collect();
+                    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+                };
+                let here = avg(k).unwrap_or(z);
                 let step = [k.checked_sub(1), Some(k + 1)]
                     .into_iter()
                     .flatten()
-                    .filter(|&j| j < n && measured[j][si].is_finite())
-                    .map(|j| (measured[j][si] - z).abs())
+                    .filter(|&j| j < n)
+                    .filter_map(avg)
+                    .map(|a| (a - here).abs())
                     .fold(0.0, f64::max);
                 let sigma = noise.hypot(rate_weight * step);
                 terms.push(Term {

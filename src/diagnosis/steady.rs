@@ -6,7 +6,9 @@
 //! 2. for every stability signal (default n1, P2, T2, T34, power) present in the data, the
 //!    least-squares linear trend over the window drifts by at most `max_drift_sigma` noise σ
 //!    from start to end, and the RMS scatter around that trend is at most
-//!    `max_scatter_sigma` σ (σ = the instrument's 1σ noise at the window mean);
+//!    `max_scatter_sigma` σ and no sample deviates from it by more than `max_deviation_sigma` σ
+//!    (σ = the instrument's 1σ noise at the window mean; the last rule stops a long window
+//!    from swallowing the first samples of a ramp);
 //! 3. at least `min_duration_s` long. Windows are grown greedily from the earliest admissible
 //!    start and do not overlap.
 //!
@@ -48,8 +50,9 @@ fn finite_mean(v: impl Iterator<Item = f64>) -> Option<(f64, usize)> {
     (n > 0).then(|| (s / n as f64, n))
 }
 
-/// Linear trend drift over the window and RMS scatter around it, for the finite samples.
-fn trend(t: &[f64], y: &[f64]) -> Option<(f64, f64)> {
+/// Linear trend drift over the window, RMS scatter and largest deviation around it, for the
+/// finite samples.
+fn trend(t: &[f64], y: &[f64]) -> Option<(f64, f64, f64)> {
     let pts: Vec<(f64, f64)> = t
         .iter()
         .zip(y)
@@ -65,10 +68,18 @@ fn trend(t: &[f64], y: &[f64]) -> Option<(f64, f64)> {
     let sxx: f64 = pts.iter().map(|p| (p.0 - tm).powi(2)).sum();
     let sxy: f64 = pts.iter().map(|p| (p.0 - tm) * (p.1 - ym)).sum();
     let b = if sxx > 0.0 { sxy / sxx } else { 0.0 };
-    let scatter =
-        (pts.iter().map(|p| (p.1 - ym - b * (p.0 - tm)).powi(2)).sum::<f64>() / n).sqrt();
+    let scatter = (pts
+        .iter()
+        .map(|p| (p.1 - ym - b * (p.0 - tm)).powi(2))
+        .sum::<f64>()
+        / n)
+        .sqrt();
+    let worst = pts
+        .iter()
+        .map(|p| (p.1 - ym - b * (p.0 - tm)).abs())
+        .fold(0.0, f64::max);
     let span = pts[pts.len() - 1].0 - pts[0].0;
-    Some((b * span, scatter))
+    Some((b * span, scatter, worst))
 }
 
 fn window_is_steady(
@@ -83,9 +94,9 @@ fn window_is_steady(
         return false;
     }
     let n1_min = crit.min_n1_fraction * cfg.design.gg_speed_rpm;
-    let fired = seg.values[a..b].iter().all(|v| {
-        v[Signal::FuelFlow.index()] > 0.0 && v[Signal::N1.index()] >= n1_min
-    });
+    let fired = seg.values[a..b]
+        .iter()
+        .all(|v| v[Signal::FuelFlow.index()] > 0.0 && v[Signal::N1.index()] >= n1_min);
     if !fired {
         return false;
     }
@@ -100,9 +111,10 @@ fn window_is_steady(
             continue;
         }
         match trend(t, &y) {
-            Some((drift, scatter)) => {
+            Some((drift, scatter, worst)) => {
                 if drift.abs() > crit.max_drift_sigma * sigma
                     || scatter > crit.max_scatter_sigma * sigma
+                    || worst > crit.max_deviation_sigma * sigma
                 {
                     return false;
                 }
@@ -114,7 +126,11 @@ fn window_is_steady(
 }
 
 /// Finds the steady windows of `seg` (criteria in the module docs).
-pub fn detect_windows(seg: &Segment, cfg: &EngineConfig, crit: &SteadyCriteria) -> Vec<SteadyWindow> {
+pub fn detect_windows(
+    seg: &Segment,
+    cfg: &EngineConfig,
+    crit: &SteadyCriteria,
+) -> Vec<SteadyWindow> {
     let n = seg.len();
     let mut out = Vec::new();
     let mut a = 0;
@@ -272,7 +288,9 @@ impl SteadyProblem {
         let h: HealthParams = self.params.health(x);
         let mut rows = Vec::with_capacity(self.points.len());
         for (p, g) in self.points.iter().zip(&self.guesses) {
-            let m = self.engine.model_at(&h, p.inputs.t_amb_k, p.inputs.p_amb_kpa);
+            let m = self
+                .engine
+                .model_at(&h, p.inputs.t_amb_k, p.inputs.p_amb_kpa);
             let sp = solve(&m, &p.inputs, Some(g)).ok()?;
             let mut v = [f64::NAN; NSIG];
             for s in Signal::ALL {
@@ -357,16 +375,7 @@ pub fn diagnose_steady(
         .iter()
         .map(|p| (p.window.t_start_s, p.window.t_end_s))
         .collect();
-    let mut r = result_of(
-        Method::Steady,
-        &problem,
-        &out,
-        cfg,
-        signals,
-        n_res,
-        0.0,
-        win,
-    );
+    let mut r = result_of(Method::Steady, &problem, &out, cfg, signals, n_res, win);
     r.wall_s = start.elapsed().as_secs_f64();
     Ok(r)
 }

@@ -25,10 +25,32 @@ fn is_input(s: Signal, mode: DriveMode) -> bool {
         || (s == Signal::FuelFlow && mode == DriveMode::MeasuredFuel)
 }
 
+/// Savitzky–Golay (quadratic, 7 points) smoothing of the measured fuel flow where it is a
+/// smooth function: every sample of the 7-point window finite, positive and in the same phase.
+/// It keeps ramps exactly and takes ~60 % of the white noise off the model's input; steps
+/// (light-off, fuel off) and phase changes are left as measured.
+pub fn smooth_fuel(seg: &mut Segment) {
+    const C: [f64; 7] = [-2.0, 3.0, 6.0, 7.0, 6.0, 3.0, -2.0];
+    let fi = Signal::FuelFlow.index();
+    let raw: Vec<f64> = seg.values.iter().map(|v| v[fi]).collect();
+    for k in 3..raw.len().saturating_sub(3) {
+        let win = &raw[k - 3..=k + 3];
+        let same_phase = seg.phase[k - 3..=k + 3].iter().all(|p| *p == seg.phase[k]);
+        if same_phase && win.iter().all(|v| v.is_finite() && *v > 0.0) {
+            let s: f64 = win.iter().zip(C).map(|(v, c)| v * c).sum::<f64>() / 21.0;
+            if s > 0.0 {
+                seg.values[k][fi] = s;
+            }
+        }
+    }
+}
+
 /// Method B as an optimisation problem over the free health parameters.
-pub struct TransientProblem<'a> {
+pub struct TransientProblem {
     engine: Engine,
-    segment: &'a Segment,
+    /// The segment that drives the model: the measured one, with the fuel flow smoothed when
+    /// [`DiagnosisConfig::smooth_fuel`] is set.
+    drive: Segment,
     mode: DriveMode,
     objective: Objective,
     params: ParamMap,
@@ -36,13 +58,13 @@ pub struct TransientProblem<'a> {
     runs: AtomicUsize,
 }
 
-impl<'a> TransientProblem<'a> {
+impl TransientProblem {
     /// Builds the problem for `segment` under `cfg` (window, signals, drive mode, fixed step).
     pub fn new(
         engine: &Engine,
-        segment: &'a Segment,
+        segment: &Segment,
         cfg: &DiagnosisConfig,
-    ) -> Result<TransientProblem<'a>, DiagnosisError> {
+    ) -> Result<TransientProblem, DiagnosisError> {
         if segment.len() < 2 {
             return Err(DiagnosisError::Data(
                 "segment has fewer than two samples".into(),
@@ -89,9 +111,13 @@ impl<'a> TransientProblem<'a> {
                 "segment never lights off: no fired start-up to diagnose".into(),
             ));
         }
+        let mut drive = segment.clone();
+        if cfg.smooth_fuel && cfg.drive_mode == DriveMode::MeasuredFuel {
+            smooth_fuel(&mut drive);
+        }
         Ok(TransientProblem {
             engine,
-            segment,
+            drive,
             mode: cfg.drive_mode,
             objective,
             params: ParamMap::new(cfg.free(), cfg.base)?,
@@ -109,13 +135,13 @@ impl<'a> TransientProblem<'a> {
     pub fn simulate(&self, x: &[f64]) -> Option<Vec<Values>> {
         self.runs.fetch_add(1, Ordering::Relaxed);
         let h = self.params.health(x);
-        simulate_segment(&self.engine, &h, self.segment, self.mode)
+        simulate_segment(&self.engine, &h, &self.drive, self.mode)
             .ok()
             .map(|t| t.measured)
     }
 }
 
-impl Problem for TransientProblem<'_> {
+impl Problem for TransientProblem {
     fn dim(&self) -> usize {
         self.params.free().len()
     }
@@ -131,7 +157,7 @@ impl Problem for TransientProblem<'_> {
     }
 }
 
-impl ResidualProblem for TransientProblem<'_> {
+impl ResidualProblem for TransientProblem {
     fn residuals(&self, x: &[f64], out: &mut Vec<f64>) {
         match self.simulate(x) {
             Some(m) => self.objective.residuals(&m, out),
@@ -143,7 +169,7 @@ impl ResidualProblem for TransientProblem<'_> {
     }
 }
 
-impl DiagnosisProblem for TransientProblem<'_> {
+impl DiagnosisProblem for TransientProblem {
     fn set_least_squares(&mut self, on: bool) {
         self.least_squares = on;
     }
@@ -180,7 +206,6 @@ pub fn diagnose_transient(
         cfg,
         signals,
         n_res,
-        0.0,
         Vec::new(),
     );
     r.wall_s = start.elapsed().as_secs_f64();
