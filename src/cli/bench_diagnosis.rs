@@ -38,6 +38,7 @@ fn row(name: &str, s: &MethodStats) {
     };
     println!("{name:22} RMSE {}", f(&s.rmse));
     println!("{:22} max  {}", "", f(&s.max_error));
+    println!("{:22} |e|/σ {}", "", f(&s.z_rms));
     println!(
         "{:22} median {:.2} s, {:.0} model runs, {} cases, {} failures",
         "", s.median_wall_s, s.median_model_runs, s.cases, s.failures

@@ -83,6 +83,8 @@ pub struct MethodStats {
     pub cases: usize,
     /// Cases where the method failed (counted, never hidden).
     pub failures: usize,
+    /// RMS of error / reported σ per parameter (≈ 1 when the reported σ is honest).
+    pub z_rms: BTreeMap<String, f64>,
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -101,6 +103,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 impl MethodStats {
     fn from(truths: &[HealthParams], results: &[Option<MethodResult>]) -> MethodStats {
         let mut sq = [0.0; 6];
+        let mut zsq = [0.0; 6];
         let mut mx = [0.0f64; 6];
         let mut walls = Vec::new();
         let mut runs = Vec::new();
@@ -111,6 +114,8 @@ impl MethodStats {
             for (i, (a, b)) in r.health.to_array().iter().zip(t.to_array()).enumerate() {
                 let e = a - b;
                 sq[i] += e * e;
+                let sd = r.sigma.get(HEALTH_NAMES[i]).copied().unwrap_or(f64::NAN);
+                zsq[i] += (e / sd).powi(2);
                 mx[i] = mx[i].max(e.abs());
             }
             walls.push(r.wall_s);
@@ -127,6 +132,11 @@ impl MethodStats {
                 .iter()
                 .zip(mx)
                 .map(|(k, m)| (k.to_string(), m))
+                .collect(),
+            z_rms: HEALTH_NAMES
+                .iter()
+                .zip(zsq)
+                .map(|(k, s)| (k.to_string(), (s / n).sqrt()))
                 .collect(),
             median_wall_s: median(walls),
             median_model_runs: median(runs),
@@ -206,15 +216,21 @@ pub fn bench_diagnosis(
         };
         progress(&rec);
         per_case.push(rec);
+        for (k, &o) in compare.iter().enumerate() {
+            // The configured optimiser's run is the Method B result itself.
+            let r = if o == cfg.optimiser {
+                b.as_ref().ok().cloned()
+            } else {
+                let c = DiagnosisConfig {
+                    optimiser: o,
+                    ..cfg.clone()
+                };
+                diagnose_transient(engine, &seg, &c).ok()
+            };
+            cmp[k].push(r);
+        }
         tr.push(b.ok());
         st.push(a.ok());
-        for (k, &o) in compare.iter().enumerate() {
-            let c = DiagnosisConfig {
-                optimiser: o,
-                ..cfg.clone()
-            };
-            cmp[k].push(diagnose_transient(engine, &seg, &c).ok());
-        }
     }
     let comparison = compare
         .iter()

@@ -255,8 +255,8 @@ impl Default for DiagnosisConfig {
             smooth_fuel: true,
             steady: SteadyCriteria::default(),
             optimiser: Optimiser::CuckooLm,
-            max_model_runs: 1000,
-            lm_runs: 250,
+            max_model_runs: 400,
+            lm_runs: 200,
             stall_generations: 30,
             stall_tol: 1e-4,
             seed: 1,
@@ -329,6 +329,8 @@ pub trait DiagnosisProblem: ResidualProblem {
     fn model_runs(&self) -> usize;
     /// Paper eq. 10 at `x`.
     fn eq10(&self, x: &[f64]) -> f64;
+    /// Variance inflation of the least-squares σ for correlated residuals `r` (1 = none).
+    fn sigma_inflation(&self, r: &[f64]) -> f64;
     /// The parameter map.
     fn params(&self) -> &ParamMap;
 }
@@ -340,7 +342,9 @@ pub struct MethodResult {
     pub optimiser: Optimiser,
     /// Fitted health vector (fixed parameters at their given values), %.
     pub health: HealthParams,
-    /// 1σ per parameter, % (0 for fixed parameters, +∞ for unidentifiable ones).
+    /// 1σ per parameter, % (0 for fixed parameters, +∞ for unidentifiable ones): the
+    /// linearised least-squares σ at the optimum (Jacobian, residual variance SSR/(m−n)),
+    /// inflated for the residuals' serial correlation (Method B).
     pub sigma: BTreeMap<String, f64>,
     /// Paper eq. 10 (normalised) at the result.
     pub objective: f64,
@@ -474,6 +478,10 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
     let mut r = Vec::new();
     problem.residuals(&fit.x, &mut r);
     let ssr = r.iter().map(|v| v * v).sum();
+    let inflation = problem.sigma_inflation(&r).sqrt();
+    for v in sigma.values_mut() {
+        *v *= inflation;
+    }
     MethodResult {
         method,
         optimiser: cfg.optimiser,

@@ -220,6 +220,50 @@ impl Objective {
         }));
     }
 
+    /// Variance inflation for serially correlated residuals: per signal, the Bartlett-weighted
+    /// sum `1 + 2 Σ_{l=1..L} (1 − l/(L+1)) ρ_l` of the residuals' autocorrelations (lags,
+    /// input noise propagated by the dynamics make neighbouring residuals correlated, so the
+    /// data hold fewer independent samples than residuals), averaged over signals weighted by
+    /// their share of the sum of squares; at least 1. Signals with fewer than 4·L residuals
+    /// count as uncorrelated.
+    pub fn correlation_inflation(&self, residuals: &[f64], max_lag: usize) -> f64 {
+        let mut total_w = 0.0;
+        let mut acc = 0.0;
+        for sig in &self.signals {
+            let r: Vec<f64> = self
+                .terms
+                .iter()
+                .zip(residuals)
+                .filter(|(t, v)| t.s == sig.index() && v.is_finite())
+                .map(|(_, v)| *v)
+                .collect();
+            let ss: f64 = r.iter().map(|v| v * v).sum();
+            if ss <= 0.0 {
+                continue;
+            }
+            let mut f = 1.0;
+            if r.len() >= 4 * max_lag {
+                let mean = r.iter().sum::<f64>() / r.len() as f64;
+                let c0: f64 = r.iter().map(|v| (v - mean).powi(2)).sum();
+                for l in 1..=max_lag {
+                    let cl: f64 = r
+                        .windows(l + 1)
+                        .map(|w| (w[0] - mean) * (w[l] - mean))
+                        .sum();
+                    let w = 1.0 - l as f64 / (max_lag as f64 + 1.0);
+                    f += 2.0 * w * cl / c0.max(1e-300);
+                }
+            }
+            acc += ss * f.max(1.0);
+            total_w += ss;
+        }
+        if total_w > 0.0 {
+            (acc / total_w).max(1.0)
+        } else {
+            1.0
+        }
+    }
+
     /// Sum of squared residuals (`+∞` on a failed evaluation).
     pub fn ssr(&self, model: &[Values]) -> f64 {
         let mut r = Vec::with_capacity(self.len());

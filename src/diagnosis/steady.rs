@@ -349,6 +349,9 @@ impl DiagnosisProblem for SteadyProblem {
     fn params(&self) -> &ParamMap {
         &self.params
     }
+    fn sigma_inflation(&self, _r: &[f64]) -> f64 {
+        1.0 // window means are independent
+    }
 }
 
 /// Method A on `segment`.

@@ -183,6 +183,10 @@ impl DiagnosisProblem for TransientProblem {
     fn params(&self) -> &ParamMap {
         &self.params
     }
+    fn sigma_inflation(&self, r: &[f64]) -> f64 {
+        // 30 samples: longer than the slowest sensor lag and the spool time constants.
+        self.objective.correlation_inflation(r, 30)
+    }
 }
 
 /// Method B on `segment`.
