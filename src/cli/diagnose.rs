@@ -127,6 +127,7 @@ pub fn result_json(r: &MethodResult) -> Value {
         "optimiser": r.optimiser.name(),
         "signals": r.signals.iter().map(|s| s.column()).collect::<Vec<_>>(),
         "steady_windows_s": r.windows,
+        "ambient_kpa": r.ambient_kpa.map(|(p, s)| json!({ "value": p, "sigma": s })),
     })
 }
 

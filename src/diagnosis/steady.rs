@@ -13,7 +13,7 @@
 //!    start and do not overlap.
 //!
 //! Each window becomes one steady operating point: ambient T1 (window mean) and the ambient
-//! pressure of the segment, PT speed n2 and fuel flow (window means) as the solver's inputs
+//! pressure of the segment (fitted as a nuisance parameter by default, with P1 compared), PT speed n2 and fuel flow (window means) as the solver's inputs
 //! (`Demand::FuelKgS`), and the window means of the compared outputs with a 1σ of
 //! σ_noise / √N (the standard error of a mean of N independent samples). Pure: no I/O.
 
@@ -207,7 +207,7 @@ pub fn average_windows(
         let t_amb = mean(Signal::T1).map_or(cfg.ambient.temperature_k, |m| m.0);
         let outputs = signals
             .iter()
-            .filter(|s| !matches!(s, Signal::T1 | Signal::P1 | Signal::FuelFlow | Signal::N2))
+            .filter(|s| !matches!(s, Signal::T1 | Signal::FuelFlow | Signal::N2))
             .filter_map(|&s| {
                 let (m, n) = mean(s)?;
                 let sd = noise_sigma(&cfg.sensors, s, m) / (n as f64).sqrt();
@@ -257,6 +257,11 @@ impl SteadyProblem {
             }
         }
         let pts: Vec<Vec<(Signal, f64, f64)>> = kept.iter().map(|p| p.outputs.clone()).collect();
+        let ambient0 = if cfg.fit_ambient_pressure {
+            kept.first().map(|p| p.inputs.p_amb_kpa)
+        } else {
+            None
+        };
         let objective = Objective::from_points(&pts);
         if objective.len() <= cfg.free().len() {
             return Err(DiagnosisError::Data(format!(
@@ -271,7 +276,7 @@ impl SteadyProblem {
             points: kept,
             guesses,
             objective,
-            params: ParamMap::new(cfg.free(), cfg.base)?,
+            params: ParamMap::new(cfg.free(), cfg.base, ambient0)?,
             least_squares: false,
             runs: AtomicUsize::new(0),
         })
@@ -309,7 +314,7 @@ impl SteadyProblem {
 
 impl Problem for SteadyProblem {
     fn dim(&self) -> usize {
-        self.params.free().len()
+        self.params.bounds().dim()
     }
     fn bounds(&self) -> &Bounds {
         self.params.bounds()

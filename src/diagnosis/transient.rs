@@ -20,9 +20,15 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 /// Signals that are operating inputs of the replay (never compared).
-fn is_input(s: Signal, mode: DriveMode) -> bool {
-    matches!(s, Signal::T1 | Signal::P1)
+fn is_input(s: Signal, mode: DriveMode, fit_ambient: bool) -> bool {
+    s == Signal::T1
+        || (s == Signal::P1 && !fit_ambient)
         || (s == Signal::FuelFlow && mode == DriveMode::MeasuredFuel)
+}
+
+/// Samples whose P1 reading `Segment::ambient` takes as the ambient pressure (GG at rest).
+fn at_rest(v: &crate::engine::trace::Values) -> bool {
+    v[Signal::N1.index()].abs() < 50.0 && v[Signal::P1.index()].is_finite()
 }
 
 /// Savitzky–Golay (quadratic, 7 points) smoothing of the measured fuel flow where it is a
@@ -78,7 +84,7 @@ impl TransientProblem {
             .signals
             .iter()
             .copied()
-            .filter(|s| !is_input(*s, cfg.drive_mode))
+            .filter(|s| !is_input(*s, cfg.drive_mode, cfg.fit_ambient_pressure))
             .collect();
         let in_window: Vec<bool> = segment
             .t_s
@@ -115,12 +121,15 @@ impl TransientProblem {
         if cfg.smooth_fuel && cfg.drive_mode == DriveMode::MeasuredFuel {
             smooth_fuel(&mut drive);
         }
+        // The replay takes the ambient pressure from P1 at rest; fitting it needs such samples.
+        let ambient0 = (cfg.fit_ambient_pressure && segment.values.iter().any(at_rest))
+            .then(|| segment.ambient(&engine.cfg).1);
         Ok(TransientProblem {
             engine,
             drive,
             mode: cfg.drive_mode,
             objective,
-            params: ParamMap::new(cfg.free(), cfg.base)?,
+            params: ParamMap::new(cfg.free(), cfg.base, ambient0)?,
             least_squares: false,
             runs: AtomicUsize::new(0),
         })
@@ -135,15 +144,29 @@ impl TransientProblem {
     pub fn simulate(&self, x: &[f64]) -> Option<Vec<Values>> {
         self.runs.fetch_add(1, Ordering::Relaxed);
         let h = self.params.health(x);
-        simulate_segment(&self.engine, &h, &self.drive, self.mode)
-            .ok()
-            .map(|t| t.measured)
+        let run = |seg: &Segment| {
+            simulate_segment(&self.engine, &h, seg, self.mode)
+                .ok()
+                .map(|t| t.measured)
+        };
+        match self.params.ambient(x) {
+            Some(p) => {
+                // The replay reads the ambient pressure from P1 at rest: set it there.
+                let mut seg = self.drive.clone();
+                seg.values
+                    .iter_mut()
+                    .filter(|v| at_rest(v))
+                    .for_each(|v| v[Signal::P1.index()] = p);
+                run(&seg)
+            }
+            None => run(&self.drive),
+        }
     }
 }
 
 impl Problem for TransientProblem {
     fn dim(&self) -> usize {
-        self.params.free().len()
+        self.params.bounds().dim()
     }
     fn bounds(&self) -> &Bounds {
         self.params.bounds()
