@@ -658,6 +658,12 @@ mod tests {
         let r1 = diagnose_steady(&engine, &noisy, &cfg).expect("diagnoses");
         let e = errors(&r1.health, &t);
         assert!(e.iter().all(|&x| x < 0.5), "noisy errors {e:?}");
+        // The ambient pressure is fitted (it moves the model, so it has a finite σ).
+        let (p, sp) = r1.ambient_kpa.expect("ambient fitted by default");
+        assert!(
+            (p - 101.325).abs() < 0.1 && sp.is_finite() && sp > 0.0,
+            "{p} ± {sp}"
+        );
         // Same seed, 1 or 2 threads: the same result.
         let r2 = diagnose_steady(
             &engine,

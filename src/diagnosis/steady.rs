@@ -291,12 +291,15 @@ impl SteadyProblem {
     pub fn simulate(&self, x: &[f64]) -> Option<Vec<Values>> {
         self.runs.fetch_add(1, Ordering::Relaxed);
         let h: HealthParams = self.params.health(x);
+        let p_amb = self.params.ambient(x);
         let mut rows = Vec::with_capacity(self.points.len());
         for (p, g) in self.points.iter().zip(&self.guesses) {
-            let m = self
-                .engine
-                .model_at(&h, p.inputs.t_amb_k, p.inputs.p_amb_kpa);
-            let sp = solve(&m, &p.inputs, Some(g)).ok()?;
+            let inputs = SteadyInputs {
+                p_amb_kpa: p_amb.unwrap_or(p.inputs.p_amb_kpa),
+                ..p.inputs
+            };
+            let m = self.engine.model_at(&h, inputs.t_amb_k, inputs.p_amb_kpa);
+            let sp = solve(&m, &inputs, Some(g)).ok()?;
             let mut v = [f64::NAN; NSIG];
             for s in Signal::ALL {
                 v[s.index()] = steady_value(&sp, s);

@@ -1,4 +1,6 @@
-//! Which input channel's noise makes the D_EP error on the wash data (seed 1, after wash)?
+//! Error sources of the diagnosis: the wash bench's after-wash start-up (noise seed 14) diagnosed
+//! with the noise of one channel at a time removed. Showed that the rest-sample ambient pressure
+//! (P1 noise) dominated both methods' error before the ambient pressure was fitted.
 use gtwatch::diagnosis::bench::wash_truth;
 use gtwatch::diagnosis::steady::diagnose_steady;
 use gtwatch::diagnosis::transient::diagnose_transient;
