@@ -29,8 +29,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let w = detect_windows(&seg, &e.cfg, &cfg.steady);
     let a = SteadyProblem::new(&e, average_windows(&seg, &e.cfg, &w, &cfg.signals), &cfg)?;
     let ia = identifiability(&a, &x, cfg.fd_step, &pool)?;
-    println!("dim {} r0 {:?}\nr1 {:?} {:?}", a.dim(), r0, r1, a.bounds());
-    }
     println!(
         "{:6} {:>10} {:>10} {:>10} {:>10}",
         "", "B CRB", "B alone", "A CRB", "A alone"
