@@ -11,6 +11,7 @@ pub mod config;
 pub mod config_problem;
 pub mod daemon;
 pub mod detect;
+pub mod diagnosis;
 pub mod engine;
 pub mod health;
 pub mod maps;

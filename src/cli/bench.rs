@@ -8,6 +8,10 @@ pub enum BenchCmd {
     Replay(super::bench_replay::BenchReplayArgs),
     /// Wall time of one complete start-up simulation (median of repeated runs).
     Sim(super::bench_sim::BenchSimArgs),
+    /// Diagnosis accuracy on synthetic start-ups with known truth (Method B and Method A).
+    Diagnosis(super::bench_diagnosis::BenchDiagnosisArgs),
+    /// The paper's Table 3 (before/after a compressor wash) on synthetic truth.
+    Wash(super::bench_wash::BenchWashArgs),
     /// Daemon CPU (live polling of a simulated plant) or memory after a simulated day (--day).
     Daemon(super::bench_daemon::BenchDaemonArgs),
 }
@@ -16,6 +20,8 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
     match cmd {
         BenchCmd::Replay(a) => super::bench_replay::run(a),
         BenchCmd::Sim(a) => super::bench_sim::run(a),
+        BenchCmd::Diagnosis(a) => super::bench_diagnosis::run(&a),
+        BenchCmd::Wash(a) => super::bench_wash::run(&a),
         BenchCmd::Daemon(a) => super::bench_daemon::run(a),
     }
 }

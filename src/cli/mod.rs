@@ -6,10 +6,13 @@
 
 mod bench;
 mod bench_daemon;
+mod bench_diagnosis;
 mod bench_replay;
 mod bench_sim;
+mod bench_wash;
 mod check_config;
 mod common;
+mod diagnose;
 pub(crate) mod engine_args;
 mod export;
 mod plant_sim;
@@ -36,6 +39,8 @@ pub enum Command {
     Simulate(simulate::SimulateArgs),
     /// Solve one steady operating point and print the station table.
     Steady(steady::SteadyArgs),
+    /// Diagnose the six health parameters from a start-up CSV (Method B and/or Method A).
+    Diagnose(diagnose::DiagnoseArgs),
     /// Ingest a historical CSV log into the database (idempotent), then detect start-ups.
     Replay(replay::ReplayArgs),
     /// List detected start-ups with outcome and phase durations.
@@ -60,6 +65,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Simulate(a) => simulate::run(a),
         Command::Steady(a) => steady::run(a),
+        Command::Diagnose(a) => diagnose::run(&a),
         Command::Replay(a) => replay::run(a),
         Command::Segments(a) => segments::run(a),
         Command::Export(a) => export::run(a),
@@ -107,4 +113,15 @@ pub fn init_logging() {
     } else {
         builder.with_ansi(false).without_time().try_init()
     };
+}
+
+/// Loads the engine from `--engine FILE`, or the built-in reference engine.
+pub(crate) fn load_engine(path: Option<&std::path::Path>) -> anyhow::Result<crate::engine::Engine> {
+    use anyhow::Context;
+    let cfg = match path {
+        Some(p) => crate::engine::EngineConfig::load(p)
+            .with_context(|| format!("loading engine config {}", p.display()))?,
+        None => crate::engine::EngineConfig::reference(),
+    };
+    Ok(crate::engine::Engine::new(cfg)?)
 }

@@ -1,0 +1,98 @@
+//! `gtwatch bench diagnosis`: accuracy of both methods on synthetic start-ups with known truth
+//! (per-parameter RMSE and maximum error, median wall time and model runs), optionally with the
+//! optimiser comparison at equal budget.
+
+use super::diagnose::FitArgs;
+use crate::diagnosis::bench::{bench_diagnosis, MethodStats};
+use crate::diagnosis::Optimiser;
+use crate::health::HEALTH_NAMES;
+use clap::Args;
+use std::process::ExitCode;
+
+/// `gtwatch bench diagnosis`
+#[derive(Debug, Clone, Args)]
+pub struct BenchDiagnosisArgs {
+    /// Number of health vectors.
+    #[arg(long, default_value_t = 20)]
+    pub cases: usize,
+    /// Also run Method B with cuckoo alone, cuckoo + LM, CMA-ES and DE at the same budget.
+    #[arg(long)]
+    pub compare: bool,
+    /// Engine TOML (default: the built-in reference engine).
+    #[arg(long)]
+    pub engine: Option<std::path::PathBuf>,
+    #[command(flatten)]
+    pub fit: FitArgs,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn row(name: &str, s: &MethodStats) {
+    let f = |m: &std::collections::BTreeMap<String, f64>| {
+        HEALTH_NAMES
+            .iter()
+            .map(|n| format!("{:7.3}", m.get(*n).copied().unwrap_or(f64::NAN)))
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    println!("{name:22} RMSE {}", f(&s.rmse));
+    println!("{:22} max  {}", "", f(&s.max_error));
+    println!("{:22} |e|/σ {}", "", f(&s.z_rms));
+    println!(
+        "{:22} median {:.2} s, {:.0} model runs, {} cases, {} failures",
+        "", s.median_wall_s, s.median_model_runs, s.cases, s.failures
+    );
+}
+
+/// Runs the bench.
+pub fn run(a: &BenchDiagnosisArgs) -> anyhow::Result<ExitCode> {
+    let engine = super::load_engine(a.engine.as_deref())?;
+    let cfg = a.fit.config();
+    let compare: Vec<Optimiser> = if a.compare {
+        vec![
+            Optimiser::Cuckoo,
+            Optimiser::CuckooLm,
+            Optimiser::CmaEs,
+            Optimiser::De,
+        ]
+    } else {
+        Vec::new()
+    };
+    let mut progress = |c: &crate::diagnosis::bench::CaseRecord| {
+        eprintln!(
+            "case {:3}: transient {:.1} s, steady {:.2} s{}",
+            c.index,
+            c.transient_wall_s,
+            c.steady_wall_s,
+            match (&c.transient, &c.steady) {
+                (Err(e), _) | (_, Err(e)) => format!(" ({e})"),
+                _ => String::new(),
+            }
+        )
+    };
+    let rep = bench_diagnosis(&engine, a.cases, a.fit.seed, &cfg, &compare, &mut progress)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&rep)?);
+        return Ok(ExitCode::SUCCESS);
+    }
+    println!(
+        "{} cases, seed {}, optimiser {}, budget {} model runs",
+        rep.cases,
+        rep.seed,
+        rep.optimiser.name(),
+        rep.max_model_runs
+    );
+    println!(
+        "{:22}      {}",
+        "",
+        HEALTH_NAMES.map(|n| format!("{n:>7}")).join(" ")
+    );
+    row("Method B (transient)", &rep.transient);
+    row("Method A (steady)", &rep.steady);
+    for c in &rep.comparison {
+        row(&format!("B with {}", c.optimiser.name()), &c.stats);
+        println!("{:22} median objective {:.4}", "", c.median_objective);
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,83 @@
+//! `gtwatch bench wash`: the paper's Table 3 (before/after a compressor wash) on synthetic
+//! truth, diagnosed by both methods, printed in the paper's layout next to the truth.
+
+use super::diagnose::FitArgs;
+use crate::diagnosis::bench::{bench_wash, WashRow};
+use clap::Args;
+use std::process::ExitCode;
+
+/// `gtwatch bench wash`
+#[derive(Debug, Clone, Args)]
+pub struct BenchWashArgs {
+    /// Engine TOML (default: the built-in reference engine).
+    #[arg(long)]
+    pub engine: Option<std::path::PathBuf>,
+    #[command(flatten)]
+    pub fit: FitArgs,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn line(
+    time: &str,
+    process: &str,
+    m: &std::collections::BTreeMap<String, f64>,
+    ratios: Option<(f64, f64)>,
+) {
+    let g = |k: &str| m.get(k).copied().unwrap_or(f64::NAN);
+    let (r1, r2) = match ratios {
+        Some((a, b)) => (format!("{a:8.2}"), format!("{b:8.2}")),
+        None => ("       -".into(), "       -".into()),
+    };
+    println!(
+        "{time:15} {process:18} {:7.2} {:7.2} {r1} {:7.2} {:7.2} {r2} {:7.2} {:7.2}",
+        g("D_GC"),
+        g("D_EC"),
+        g("D_GT"),
+        g("D_ET"),
+        g("D_GP"),
+        g("D_EP")
+    );
+}
+
+/// Runs the bench.
+pub fn run(a: &BenchWashArgs) -> anyhow::Result<ExitCode> {
+    let engine = super::load_engine(a.engine.as_deref())?;
+    let cfg = a.fit.config();
+    let rep = bench_wash(&engine, a.fit.seed, &cfg)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&rep)?);
+        return Ok(ExitCode::SUCCESS);
+    }
+    println!(
+        "{:15} {:18} {:>7} {:>7} {:>8} {:>7} {:>7} {:>8} {:>7} {:>7}",
+        "Time", "Process", "D_GC", "D_EC", "GC/EC", "D_GT", "D_ET", "GT/ET", "D_GP", "D_EP"
+    );
+    let rows: [(&str, &WashRow); 3] = [
+        ("Truth", &rep.truth),
+        ("Steady-state (A)", &rep.steady),
+        ("Transient (B)", &rep.transient),
+    ];
+    for (t, get) in [
+        ("Before washing", 0),
+        ("After washing", 1),
+        ("Improvement", 2),
+    ] {
+        for (i, (name, r)) in rows.iter().enumerate() {
+            let label = if i == 0 { t } else { "" };
+            match get {
+                0 => line(label, name, &r.before, None),
+                1 => line(label, name, &r.after, None),
+                _ => line(
+                    label,
+                    name,
+                    &r.improvement,
+                    Some((r.ratio_gc_ec, r.ratio_gt_et)),
+                ),
+            }
+        }
+    }
+    println!("wall time (s): {:?}", rep.wall_s);
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,204 @@
+//! `gtwatch diagnose`: read a start-up CSV, run Method B and/or Method A, print the health
+//! parameters with 1σ, the objective, model runs and wall time (text or JSON).
+
+use crate::diagnosis::csv_input::{parse_mapping, read_segment};
+use crate::diagnosis::steady::diagnose_steady;
+use crate::diagnosis::transient::diagnose_transient;
+use crate::diagnosis::{DiagnosisConfig, Method, MethodResult, Optimiser};
+use crate::engine::replay::DriveMode;
+use crate::health::HEALTH_NAMES;
+use anyhow::{bail, Context};
+use clap::{Args, ValueEnum};
+use serde_json::{json, Value};
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Which diagnosis method(s).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum MethodArg {
+    Transient,
+    Steady,
+    Both,
+}
+
+/// Method B's drive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum DriveArg {
+    /// Open loop on the measured fuel flow (default).
+    MeasuredFuel,
+    /// Controllers follow the measured GG speed and power; fuel flow is compared.
+    Demand,
+}
+
+/// Optimiser choice.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum OptimiserArg {
+    Cuckoo,
+    CuckooLm,
+    Cmaes,
+    De,
+}
+
+impl From<OptimiserArg> for Optimiser {
+    fn from(o: OptimiserArg) -> Optimiser {
+        match o {
+            OptimiserArg::Cuckoo => Optimiser::Cuckoo,
+            OptimiserArg::CuckooLm => Optimiser::CuckooLm,
+            OptimiserArg::Cmaes => Optimiser::CmaEs,
+            OptimiserArg::De => Optimiser::De,
+        }
+    }
+}
+
+/// Options shared by `diagnose` and the benches.
+#[derive(Debug, Clone, Args)]
+pub struct FitArgs {
+    /// Seed of the global optimiser.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Optimiser.
+    #[arg(long, value_enum, default_value = "cuckoo-lm")]
+    pub optimiser: OptimiserArg,
+    /// Model runs per method for the optimisation (global + LM).
+    #[arg(long)]
+    pub max_runs: Option<usize>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Method B drive mode.
+    #[arg(long, value_enum, default_value = "measured-fuel")]
+    pub drive: DriveArg,
+}
+
+impl FitArgs {
+    /// The diagnosis configuration these options select.
+    pub fn config(&self) -> DiagnosisConfig {
+        let mut cfg = DiagnosisConfig {
+            seed: self.seed,
+            optimiser: self.optimiser.into(),
+            threads: self.threads,
+            drive_mode: match self.drive {
+                DriveArg::MeasuredFuel => DriveMode::MeasuredFuel,
+                DriveArg::Demand => DriveMode::Demand,
+            },
+            ..DiagnosisConfig::default()
+        };
+        if let Some(n) = self.max_runs {
+            cfg.max_model_runs = n;
+        }
+        cfg
+    }
+}
+
+/// `gtwatch diagnose`
+#[derive(Debug, Clone, Args)]
+pub struct DiagnoseArgs {
+    /// Start-up CSV (the layout `gtwatch simulate` writes, or any CSV with --map).
+    #[arg(long)]
+    pub input: PathBuf,
+    /// Column mapping for other CSVs: `time_s=Time,phase=State,n1_rpm=NGG,…`.
+    #[arg(long)]
+    pub map: Option<String>,
+    /// Method(s).
+    #[arg(long, value_enum, default_value = "both")]
+    pub method: MethodArg,
+    /// Engine TOML (default: the built-in reference engine).
+    #[arg(long)]
+    pub engine: Option<PathBuf>,
+    #[command(flatten)]
+    pub fit: FitArgs,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// JSON of one method's result.
+pub fn result_json(r: &MethodResult) -> Value {
+    json!({
+        "health": r.health_map(),
+        "sigma": r.sigma,
+        "objective": r.objective,
+        "ssr": r.ssr,
+        "residuals": r.residuals,
+        "global_objective": r.global_objective,
+        "model_runs": r.model_runs,
+        "wall_s": r.wall_s,
+        "optimiser": r.optimiser.name(),
+        "signals": r.signals.iter().map(|s| s.column()).collect::<Vec<_>>(),
+        "steady_windows_s": r.windows,
+        "ambient_kpa": r.ambient_kpa.map(|(p, s)| json!({ "value": p, "sigma": s })),
+    })
+}
+
+fn print_text(m: Method, r: &MethodResult) {
+    println!(
+        "{} (Method {}): objective {:.4}, {} model runs, {:.2} s",
+        m.name(),
+        if m == Method::Transient { "B" } else { "A" },
+        r.objective,
+        r.model_runs,
+        r.wall_s
+    );
+    let h = r.health.to_array();
+    for (i, n) in HEALTH_NAMES.iter().enumerate() {
+        let s = r.sigma.get(*n).copied().unwrap_or(f64::NAN);
+        println!("  {n:5} {:8.3} ± {:.3} %", h[i], s);
+    }
+}
+
+/// Runs `gtwatch diagnose`.
+pub fn run(a: &DiagnoseArgs) -> anyhow::Result<ExitCode> {
+    let engine = super::load_engine(a.engine.as_deref())?;
+    let mapping = match &a.map {
+        Some(m) => parse_mapping(m)?,
+        None => HashMap::new(),
+    };
+    let file =
+        std::fs::File::open(&a.input).with_context(|| format!("opening {}", a.input.display()))?;
+    let seg = read_segment(std::io::BufReader::new(file), &mapping)
+        .with_context(|| format!("reading {}", a.input.display()))?;
+    let cfg = a.fit.config();
+    let methods: Vec<Method> = match a.method {
+        MethodArg::Transient => vec![Method::Transient],
+        MethodArg::Steady => vec![Method::Steady],
+        MethodArg::Both => vec![Method::Transient, Method::Steady],
+    };
+    let mut out = serde_json::Map::new();
+    let mut failed = 0;
+    for m in &methods {
+        let r = match m {
+            Method::Transient => diagnose_transient(&engine, &seg, &cfg),
+            Method::Steady => diagnose_steady(&engine, &seg, &cfg),
+        };
+        match r {
+            Ok(r) => {
+                if !a.json {
+                    print_text(*m, &r);
+                }
+                out.insert(m.name().into(), result_json(&r));
+            }
+            Err(e) => {
+                failed += 1;
+                if !a.json {
+                    eprintln!("{}: {e}", m.name());
+                }
+                out.insert(m.name().into(), json!({ "error": e.to_string() }));
+            }
+        }
+    }
+    if a.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&json!({ "methods": out }))?
+        );
+    }
+    if failed == methods.len() {
+        bail!("no method succeeded");
+    }
+    Ok(if failed > 0 {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    })
+}

@@ -1,0 +1,217 @@
+//! Reads a measured segment from CSV: the layout `gtwatch simulate` writes (`time_s,phase,`
+//! then the signal columns by [`Signal::column`] name; any `true_…` columns are ignored), or any
+//! CSV with a column mapping `time_s=Time,phase=State,n1_rpm=NGG,…` (canonical name = header in
+//! the file). Signal columns are matched by canonical column name or short name
+//! (case-insensitive). Empty cells and `nan`/`NA` are missing samples (NaN, excluded from the
+//! objective, never zero); any other unparseable cell, an unknown phase or a time that does not
+//! increase is an error naming the line and column. Reads from any `io::Read`; opens no files.
+
+use crate::engine::replay::Segment;
+use crate::engine::trace::{Values, NSIG};
+use crate::signals::{Phase, Signal};
+use std::collections::HashMap;
+use std::io::Read;
+
+/// A problem with the CSV input.
+#[derive(Debug, thiserror::Error)]
+pub enum CsvError {
+    #[error("CSV: {0}")]
+    Csv(#[from] csv::Error),
+    #[error("column mapping entry '{0}' is not NAME=COLUMN")]
+    BadMapping(String),
+    #[error("column mapping names '{0}', which is not time_s, phase or a signal column")]
+    UnknownTarget(String),
+    #[error("required column '{0}' is missing from the header")]
+    MissingColumn(String),
+    #[error("line {line}, column '{column}': {reason}")]
+    Cell {
+        line: u64,
+        column: String,
+        reason: String,
+    },
+    #[error("no data rows")]
+    Empty,
+}
+
+/// Parses a mapping `time_s=Time,phase=State,n1_rpm=NGG` (canonical = file header).
+pub fn parse_mapping(s: &str) -> Result<HashMap<String, String>, CsvError> {
+    let mut m = HashMap::new();
+    for part in s.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let (k, v) = part
+            .split_once('=')
+            .ok_or_else(|| CsvError::BadMapping(part.into()))?;
+        let k = k.trim();
+        let canonical = if k.eq_ignore_ascii_case("time_s") || k.eq_ignore_ascii_case("time") {
+            "time_s".to_string()
+        } else if k.eq_ignore_ascii_case("phase") {
+            "phase".to_string()
+        } else {
+            k.parse::<Signal>()
+                .map_err(|_| CsvError::UnknownTarget(k.into()))?
+                .column()
+                .to_string()
+        };
+        m.insert(canonical, v.trim().to_string());
+    }
+    Ok(m)
+}
+
+fn parse_phase(s: &str) -> Option<Phase> {
+    s.parse::<Phase>()
+        .ok()
+        .or_else(|| s.trim().parse::<u16>().ok().and_then(Phase::from_code))
+}
+
+fn parse_value(s: &str) -> Result<f64, String> {
+    let t = s.trim();
+    if t.is_empty()
+        || ["nan", "na", "n/a", "null"]
+            .iter()
+            .any(|m| t.eq_ignore_ascii_case(m))
+    {
+        return Ok(f64::NAN);
+    }
+    match t.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(_) => Ok(f64::NAN), // ±inf: an invalid reading, treated as missing
+        Err(_) => Err(format!("'{t}' is not a number")),
+    }
+}
+
+/// Reads a segment. `mapping` maps canonical names to the file's headers (empty = the
+/// `gtwatch simulate` layout).
+pub fn read_segment<R: Read>(
+    reader: R,
+    mapping: &HashMap<String, String>,
+) -> Result<Segment, CsvError> {
+    let mut rdr = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .trim(csv::Trim::All)
+        .from_reader(reader);
+    let headers = rdr.headers()?.clone();
+    let find = |canonical: &str, short: Option<&str>| -> Option<usize> {
+        let want = mapping
+            .get(canonical)
+            .map(String::as_str)
+            .unwrap_or(canonical);
+        headers
+            .iter()
+            .position(|h| h.eq_ignore_ascii_case(want))
+            .or_else(|| {
+                if mapping.contains_key(canonical) {
+                    None
+                } else {
+                    short.and_then(|s| headers.iter().position(|h| h.eq_ignore_ascii_case(s)))
+                }
+            })
+    };
+    let time_col = find("time_s", None).ok_or_else(|| {
+        CsvError::MissingColumn(mapping.get("time_s").cloned().unwrap_or("time_s".into()))
+    })?;
+    let phase_col = find("phase", None).ok_or_else(|| {
+        CsvError::MissingColumn(mapping.get("phase").cloned().unwrap_or("phase".into()))
+    })?;
+    let sig_cols: Vec<(Signal, usize)> = Signal::ALL
+        .iter()
+        .filter_map(|&s| find(s.column(), Some(s.short())).map(|c| (s, c)))
+        .collect();
+    for (canonical, file_col) in mapping {
+        if find(canonical, None).is_none() {
+            return Err(CsvError::MissingColumn(file_col.clone()));
+        }
+    }
+    let mut seg = Segment {
+        t_s: Vec::new(),
+        phase: Vec::new(),
+        values: Vec::new(),
+    };
+    for rec in rdr.records() {
+        let rec = rec?;
+        let line = rec.position().map_or(0, |p| p.line());
+        let cell = |c: usize| rec.get(c).unwrap_or("");
+        let col_name = |c: usize| headers.get(c).unwrap_or("?").to_string();
+        let t = parse_value(cell(time_col)).map_err(|reason| CsvError::Cell {
+            line,
+            column: col_name(time_col),
+            reason,
+        })?;
+        if !t.is_finite() {
+            return Err(CsvError::Cell {
+                line,
+                column: col_name(time_col),
+                reason: "time is missing".into(),
+            });
+        }
+        if let Some(&prev) = seg.t_s.last() {
+            if t <= prev {
+                return Err(CsvError::Cell {
+                    line,
+                    column: col_name(time_col),
+                    reason: format!("time {t} does not increase (previous {prev})"),
+                });
+            }
+        }
+        let ph = parse_phase(cell(phase_col)).ok_or_else(|| CsvError::Cell {
+            line,
+            column: col_name(phase_col),
+            reason: format!("unknown phase '{}'", cell(phase_col)),
+        })?;
+        let mut v: Values = [f64::NAN; NSIG];
+        for &(s, c) in &sig_cols {
+            v[s.index()] = parse_value(cell(c)).map_err(|reason| CsvError::Cell {
+                line,
+                column: col_name(c),
+                reason,
+            })?;
+        }
+        seg.t_s.push(t);
+        seg.phase.push(ph);
+        seg.values.push(v);
+    }
+    if seg.is_empty() {
+        return Err(CsvError::Empty);
+    }
+    Ok(seg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_simulate_layout_and_mapping_with_clear_errors() {
+        let csv = "time_s,phase,n1_rpm,p2_kpa,true_n1_rpm\n0.0,standstill,0,101.3,0\n1.0,crank,,102.0,5\n2.0,crank,nan,103,6\n";
+        let seg = read_segment(csv.as_bytes(), &HashMap::new()).expect("reads");
+        assert_eq!(seg.len(), 3);
+        assert_eq!(seg.phase[1], Phase::Crank);
+        assert!(seg.values[1][Signal::N1.index()].is_nan());
+        assert!(seg.values[2][Signal::N1.index()].is_nan());
+        assert_eq!(seg.values[2][Signal::P2.index()], 103.0);
+        // A column absent from the file is missing, not zero.
+        assert!(seg.values[0][Signal::T34.index()].is_nan());
+
+        let other = "Time,State,NGG\n0,0,0\n1,1,100\n";
+        let map = parse_mapping("time_s=Time,phase=State,n1=NGG").expect("mapping");
+        let seg = read_segment(other.as_bytes(), &map).expect("reads");
+        assert_eq!(seg.values[1][Signal::N1.index()], 100.0);
+        assert_eq!(seg.phase[1], Phase::from_code(1).expect("code 1"));
+
+        let bad = "time_s,phase,n1_rpm\n0,standstill,0\n1,crank,abc\n";
+        let e = read_segment(bad.as_bytes(), &HashMap::new()).expect_err("bad cell");
+        assert_eq!(
+            e.to_string(),
+            "line 3, column 'n1_rpm': 'abc' is not a number"
+        );
+        let bad = "time_s,phase\n0,standstill\n0,flying\n";
+        let e = read_segment(bad.as_bytes(), &HashMap::new()).expect_err("bad");
+        assert!(e.to_string().starts_with("line 3, column 'time_s'"), "{e}");
+        assert!(matches!(
+            read_segment("t,phase\n".as_bytes(), &HashMap::new()),
+            Err(CsvError::MissingColumn(c)) if c == "time_s"
+        ));
+        assert!(matches!(
+            parse_mapping("bogus=X"),
+            Err(CsvError::UnknownTarget(_))
+        ));
+    }
+}

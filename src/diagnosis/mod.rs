@@ -1,0 +1,737 @@
+//! Gas-path diagnosis: fit the six health parameters to measured data (REFERENCE §4, paper
+//! §2.2–3.4).
+//!
+//! * Method B ([`transient`]): drive the dynamic model through a whole measured start-up with
+//!   the segment's operating inputs and fit the health vector to the instruments' traces.
+//! * Method A ([`steady`]): detect steady windows in the same data, average them, and fit the
+//!   same vector with the steady-state solver.
+//!
+//! Both minimise paper eq. 10 normalised per signal by its noise σ ([`objective`]) with a
+//! global optimiser from [`crate::optim`] (cuckoo search by default), then (by default) refine
+//! with Levenberg–Marquardt on the per-sample residual vector and report a 1σ uncertainty per
+//! parameter from the residual Jacobian at the optimum ([`Optimiser`], [`fit`]).
+//! [`identifiability`] computes the sensitivity matrix / Fisher information behind those σ;
+//! [`bench`] holds the accuracy and wash benchmarks; [`csv_input`] parses a segment CSV.
+//!
+//! # Defaults, and why (measured with `gtwatch bench diagnosis --compare`, release, 8 cases)
+//!
+//! * Optimiser: cuckoo search (200 runs, seeded with the healthy engine) then
+//!   Levenberg–Marquardt (≤ 200 runs). At the same 400-run budget, Method B's RMSE per
+//!   parameter was 0.03–0.04 points with CS + LM (which stops early, ~290 runs), 0.2–0.6 with
+//!   CMA-ES, 1.0–1.9 with DE and 0.6–3.5 with CS alone: with α = 0.01 the Lévy flights explore
+//!   but do not converge in a few hundred runs, while the objective is smooth enough near the
+//!   optimum for LM.
+//! * Drive: measured fuel (open loop), the plant's actual input. Demand mode (PID on measured
+//!   n1/power) biased D_EC/D_EP by 0.1–0.3 points on one case over 3 noise seeds
+//!   (controller mismatch).
+//! * Weighting: noise σ combined with one sample's change (`rate_weight` 1), because the replay
+//!   knows its inputs only at the samples (noise-free replay of the true engine deviates by up
+//!   to 20σ in light-off/acceleration without it, < 0.4σ elsewhere).
+//! * Ambient pressure fitted as a nuisance parameter (see
+//!   [`DiagnosisConfig::fit_ambient_pressure`]).
+//!
+//! Pure: no I/O (the CSV parser takes a reader), no globals, deterministic for a given seed.
+//! The one exception is `wall_s` in the results, read from a monotonic clock for reporting; it
+//! never influences a computed value.
+
+pub mod bench;
+pub mod csv_input;
+pub mod identifiability;
+pub mod objective;
+pub mod steady;
+pub mod transient;
+
+use crate::engine::replay::DriveMode;
+use crate::engine::EngineError;
+use crate::health::{HealthParams, HEALTH_BOUNDS, HEALTH_NAMES};
+use crate::optim::{
+    self, refine, run, uncertainty, Bounds, Budget, Cancel, CmaEs, CuckooSearch,
+    DifferentialEvolution, JacobianOptions, LmOptions, OptimError, ResidualProblem,
+};
+use crate::signals::{Phase, Signal};
+use rayon::ThreadPool;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// Everything that can go wrong in a diagnosis.
+#[derive(Debug, thiserror::Error)]
+pub enum DiagnosisError {
+    /// The optimiser was misconfigured or failed.
+    #[error("optimiser: {0}")]
+    Optim(#[from] OptimError),
+    /// The engine model failed where it must not (e.g. on the reference segment set-up).
+    #[error("engine model: {0}")]
+    Engine(#[from] EngineError),
+    /// The data do not allow this method (no steady window, empty window, …).
+    #[error("{0}")]
+    Data(String),
+}
+
+/// Which method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// Method B: the whole start-up.
+    Transient,
+    /// Method A: averaged steady windows.
+    Steady,
+}
+
+impl Method {
+    /// `transient` / `steady`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Transient => "transient",
+            Method::Steady => "steady",
+        }
+    }
+}
+
+/// The optimisation strategy. All are run under the same model-run budget
+/// ([`DiagnosisConfig::max_model_runs`]), so they can be compared at equal cost.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Optimiser {
+    /// Cuckoo search alone (the paper).
+    Cuckoo,
+    /// Cuckoo search, then Levenberg–Marquardt on the residuals (default: measured best, see
+    /// the crate's bench figures in `bench`).
+    CuckooLm,
+    /// CMA-ES alone.
+    CmaEs,
+    /// Differential evolution (rand/1/bin) alone.
+    De,
+}
+
+impl Optimiser {
+    /// Short name for reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Optimiser::Cuckoo => "cuckoo",
+            Optimiser::CuckooLm => "cuckoo_lm",
+            Optimiser::CmaEs => "cmaes",
+            Optimiser::De => "de",
+        }
+    }
+    /// Parses the short name.
+    pub fn parse(s: &str) -> Option<Optimiser> {
+        [
+            Optimiser::Cuckoo,
+            Optimiser::CuckooLm,
+            Optimiser::CmaEs,
+            Optimiser::De,
+        ]
+        .into_iter()
+        .find(|o| o.name().eq_ignore_ascii_case(s.trim()))
+    }
+}
+
+/// Which samples of the segment take part in Method B's objective.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Window {
+    /// Phases whose samples count (the model is still run through the whole segment).
+    pub phases: Vec<Phase>,
+    /// Only samples at or after this time, s (segment time axis).
+    pub t_from_s: Option<f64>,
+    /// Only samples at or before this time, s.
+    pub t_to_s: Option<f64>,
+}
+
+impl Default for Window {
+    /// Every phase of a start-up with the engine turning: crank to steady. Standstill carries
+    /// no information; shutdown/trip/unloading are not part of a start-up.
+    fn default() -> Self {
+        Window {
+            phases: vec![
+                Phase::Crank,
+                Phase::Purge,
+                Phase::LightOff,
+                Phase::Acceleration,
+                Phase::Idle,
+                Phase::Synchronisation,
+                Phase::Loading,
+                Phase::Steady,
+            ],
+            t_from_s: None,
+            t_to_s: None,
+        }
+    }
+}
+
+impl Window {
+    /// Whether sample (t, phase) is inside.
+    pub fn contains(&self, t: f64, phase: Phase) -> bool {
+        self.phases.contains(&phase)
+            && self.t_from_s.is_none_or(|a| t >= a)
+            && self.t_to_s.is_none_or(|b| t <= b)
+    }
+}
+
+/// Stability criteria for Method A's steady windows (see [`steady::detect_windows`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SteadyCriteria {
+    /// Signals that must be stable.
+    pub signals: Vec<Signal>,
+    /// Minimum window length, s.
+    pub min_duration_s: f64,
+    /// Drift allowed over the window (least-squares slope × duration), in noise σ.
+    pub max_drift_sigma: f64,
+    /// Scatter allowed around the linear trend (RMS), in noise σ.
+    pub max_scatter_sigma: f64,
+    /// Largest deviation of any sample from the trend, in noise σ.
+    pub max_deviation_sigma: f64,
+    /// GG speed must be at least this fraction of design (fired, above idle transients).
+    pub min_n1_fraction: f64,
+}
+
+impl Default for SteadyCriteria {
+    /// n1, P2, T2, T34 and power stable; ≥ 20 s; drift ≤ 2σ; scatter ≤ 1.5σ;
+    /// every sample within 4.5σ of the trend; n1 ≥ 60 % design.
+    fn default() -> Self {
+        SteadyCriteria {
+            signals: vec![
+                Signal::N1,
+                Signal::P2,
+                Signal::T2,
+                Signal::T34,
+                Signal::Power,
+            ],
+            min_duration_s: 20.0,
+            max_drift_sigma: 2.0,
+            max_scatter_sigma: 1.5,
+            max_deviation_sigma: 4.5,
+            min_n1_fraction: 0.6,
+        }
+    }
+}
+
+/// Settings of a diagnosis. `Default` is the documented default of `gtwatch diagnose`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DiagnosisConfig {
+    /// Output signals compared with the model. Operating inputs (T1; P1 unless the ambient
+    /// pressure is fitted; fuel flow when it drives the model) are dropped automatically;
+    /// signals the data lack are skipped.
+    pub signals: Vec<Signal>,
+    /// Method B's window.
+    pub window: Window,
+    /// Method B's drive: measured fuel (default) or speed/power demand.
+    pub drive_mode: DriveMode,
+    /// Method B's allowance for model timing error, as a multiple of a sample's change to its
+    /// neighbour, combined with the noise σ (see [`objective::Objective::new`]).
+    pub rate_weight: f64,
+    /// Smooth the measured fuel flow before it drives the model (Method B, measured-fuel
+    /// mode; see [`transient::smooth_fuel`]).
+    pub smooth_fuel: bool,
+    /// Method A's stability criteria.
+    pub steady: SteadyCriteria,
+    /// Optimisation strategy.
+    pub optimiser: Optimiser,
+    /// Model runs for the optimisation (global + local), per method. The uncertainty estimate
+    /// costs 2 × (free parameters) + 1 more runs, reported in `model_runs`.
+    pub max_model_runs: usize,
+    /// Of those, the runs reserved for Levenberg–Marquardt ([`Optimiser::CuckooLm`]).
+    pub lm_runs: usize,
+    /// Global stage stops early after this many generations without relative improvement
+    /// above `stall_tol`.
+    pub stall_generations: usize,
+    /// Relative improvement tolerance of the stall rule.
+    pub stall_tol: f64,
+    /// Seed of the global optimiser.
+    pub seed: u64,
+    /// Worker threads (`None` = all cores).
+    pub threads: Option<usize>,
+    /// Finite-difference step of the LM/uncertainty Jacobian, fraction of the −3 … +10 % box.
+    pub fd_step: f64,
+    /// Fixed integrator step for Method B's simulations, s (0 = the engine's adaptive
+    /// integrator). A fixed step makes the simulated traces a smooth function of the health
+    /// parameters, which the finite-difference Jacobian needs.
+    pub fixed_step_s: f64,
+    /// Fit the ambient pressure as a nuisance parameter, with the compressor inlet pressure P1
+    /// compared as an output over the whole segment. Without it the ambient pressure comes from
+    /// the few samples at rest before the start (`Segment::ambient`), and the noise of that
+    /// average (≈ 0.03 % for 10 samples) was measured to be the largest single error source of
+    /// both methods (0.1 points on D_EP, 0.1 on D_GC).
+    pub fit_ambient_pressure: bool,
+    /// Parameters held at `base` (not fitted), by index into [`HEALTH_NAMES`].
+    pub fixed: [bool; 6],
+    /// Values of the fixed parameters (and the start nest of the global search).
+    pub base: HealthParams,
+}
+
+impl Default for DiagnosisConfig {
+    fn default() -> Self {
+        DiagnosisConfig {
+            signals: vec![
+                Signal::N1,
+                Signal::N2,
+                Signal::P1,
+                Signal::T2,
+                Signal::P2,
+                Signal::T34,
+                Signal::P34,
+                Signal::T4,
+                Signal::P4,
+                Signal::Power,
+                Signal::FuelFlow,
+            ],
+            window: Window::default(),
+            drive_mode: DriveMode::MeasuredFuel,
+            rate_weight: 1.0,
+            smooth_fuel: true,
+            steady: SteadyCriteria::default(),
+            optimiser: Optimiser::CuckooLm,
+            max_model_runs: 400,
+            lm_runs: 200,
+            stall_generations: 30,
+            stall_tol: 1e-4,
+            seed: 1,
+            threads: None,
+            fd_step: 1e-3,
+            fixed_step_s: 0.0,
+            fit_ambient_pressure: true,
+            fixed: [false; 6],
+            base: HealthParams::HEALTHY,
+        }
+    }
+}
+
+impl DiagnosisConfig {
+    /// Indices of the fitted parameters.
+    pub fn free(&self) -> Vec<usize> {
+        (0..6).filter(|&i| !self.fixed[i]).collect()
+    }
+}
+
+/// Maps the optimiser's vector to a full health vector: the free health parameters first, then
+/// (optionally) the ambient pressure as a nuisance parameter.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamMap {
+    free: Vec<usize>,
+    base: [f64; 6],
+    /// Start value of the fitted ambient pressure, kPa (`None` = not fitted).
+    ambient0: Option<f64>,
+    bounds: Bounds,
+}
+
+/// Half-width of the ambient-pressure search interval around its first estimate, kPa.
+pub const AMBIENT_HALF_RANGE_KPA: f64 = 1.0;
+
+impl ParamMap {
+    /// Free parameters `free`, the others at `base`; bounds [`HEALTH_BOUNDS`]. With
+    /// `ambient0 = Some(p)` the ambient pressure is fitted too, within
+    /// p ± [`AMBIENT_HALF_RANGE_KPA`].
+    pub fn new(
+        free: Vec<usize>,
+        base: HealthParams,
+        ambient0: Option<f64>,
+    ) -> Result<ParamMap, DiagnosisError> {
+        if free.is_empty() {
+            return Err(DiagnosisError::Data("no free health parameter".into()));
+        }
+        let mut lo = vec![HEALTH_BOUNDS.0; free.len()];
+        let mut hi = vec![HEALTH_BOUNDS.1; free.len()];
+        if let Some(p) = ambient0 {
+            lo.push(p - AMBIENT_HALF_RANGE_KPA);
+            hi.push(p + AMBIENT_HALF_RANGE_KPA);
+        }
+        let bounds = Bounds::new(lo, hi)?;
+        Ok(ParamMap {
+            free,
+            base: base.to_array(),
+            ambient0,
+            bounds,
+        })
+    }
+    /// The full health vector for `x`.
+    pub fn health(&self, x: &[f64]) -> HealthParams {
+        let mut a = self.base;
+        for (&i, &v) in self.free.iter().zip(x) {
+            a[i] = v;
+        }
+        HealthParams::from_array(a)
+    }
+    /// The fitted ambient pressure in `x`, kPa (`None` if not fitted).
+    pub fn ambient(&self, x: &[f64]) -> Option<f64> {
+        self.ambient0.and_then(|_| x.get(self.free.len()).copied())
+    }
+    /// The optimiser's start vector for health `h` (ambient at its first estimate).
+    pub fn project(&self, h: &HealthParams) -> Vec<f64> {
+        let a = h.to_array();
+        let mut x: Vec<f64> = self.free.iter().map(|&i| a[i]).collect();
+        x.extend(self.ambient0);
+        x
+    }
+    /// Box bounds of the optimiser's vector.
+    pub fn bounds(&self) -> &Bounds {
+        &self.bounds
+    }
+    /// Indices of the free health parameters.
+    pub fn free(&self) -> &[usize] {
+        &self.free
+    }
+}
+
+/// A diagnosis problem both methods provide: the optimiser's [`ResidualProblem`] plus the
+/// bookkeeping the driver needs.
+pub trait DiagnosisProblem: ResidualProblem {
+    /// Switches the scalar cost between paper eq. 10 (`false`) and the residual sum of squares.
+    fn set_least_squares(&mut self, on: bool);
+    /// Model runs so far.
+    fn model_runs(&self) -> usize;
+    /// Paper eq. 10 at `x`.
+    fn eq10(&self, x: &[f64]) -> f64;
+    /// Variance inflation of the least-squares σ for correlated residuals `r` (1 = none).
+    fn sigma_inflation(&self, r: &[f64]) -> f64;
+    /// The parameter map.
+    fn params(&self) -> &ParamMap;
+}
+
+/// The outcome of one method on one data set.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MethodResult {
+    pub method: Method,
+    pub optimiser: Optimiser,
+    /// Fitted health vector (fixed parameters at their given values), %.
+    pub health: HealthParams,
+    /// 1σ per parameter, % (0 for fixed parameters, +∞ for unidentifiable ones): the
+    /// linearised least-squares σ at the optimum (Jacobian, residual variance SSR/(m−n)),
+    /// inflated for the residuals' serial correlation (Method B).
+    pub sigma: BTreeMap<String, f64>,
+    /// Paper eq. 10 (normalised) at the result.
+    pub objective: f64,
+    /// Residual sum of squares at the result.
+    pub ssr: f64,
+    /// Number of residuals (measured samples × signals taking part).
+    pub residuals: usize,
+    /// Objective after the global stage alone.
+    pub global_objective: f64,
+    /// Model runs (simulations or steady solves of the whole data set) in total.
+    pub model_runs: usize,
+    /// Wall time, s (reporting only).
+    pub wall_s: f64,
+    /// Signals that took part.
+    pub signals: Vec<Signal>,
+    /// Method A: the steady windows used, (start, end) times in s.
+    pub windows: Vec<(f64, f64)>,
+    /// Fitted ambient pressure and its 1σ, kPa (when fitted as a nuisance parameter).
+    pub ambient_kpa: Option<(f64, f64)>,
+}
+
+impl MethodResult {
+    /// Health vector as name → value.
+    pub fn health_map(&self) -> BTreeMap<String, f64> {
+        health_map(&self.health)
+    }
+}
+
+/// A health vector as name → value (ordered by name for stable JSON).
+pub fn health_map(h: &HealthParams) -> BTreeMap<String, f64> {
+    HEALTH_NAMES
+        .iter()
+        .zip(h.to_array())
+        .map(|(n, v)| (n.to_string(), v))
+        .collect()
+}
+
+/// What the optimisation stage found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitOutcome {
+    /// Best free-parameter vector.
+    pub x: Vec<f64>,
+    /// Eq. 10 after the global stage.
+    pub global_objective: f64,
+    /// 1σ per free parameter.
+    pub sigma: Vec<f64>,
+}
+
+fn unit_step_jacobian(cfg: &DiagnosisConfig) -> Result<JacobianOptions, OptimError> {
+    JacobianOptions::default().with_step(cfg.fd_step)
+}
+
+/// Runs the configured optimiser on `problem` and estimates the uncertainty at the result.
+pub fn fit<P: DiagnosisProblem>(
+    problem: &mut P,
+    cfg: &DiagnosisConfig,
+    pool: &ThreadPool,
+) -> Result<FitOutcome, DiagnosisError> {
+    let n = problem.dim();
+    let x0 = problem.params().project(&cfg.base);
+    let lm_budget = match cfg.optimiser {
+        Optimiser::CuckooLm => cfg.lm_runs.min(cfg.max_model_runs.saturating_sub(n + 2)),
+        _ => 0,
+    };
+    let global_budget = cfg.max_model_runs.saturating_sub(lm_budget).max(1);
+    let budget = Budget::new()
+        .with_max_evals(global_budget)?
+        .with_stall(cfg.stall_generations.max(1), cfg.stall_tol)?;
+    let cancel = Cancel::new();
+    problem.set_least_squares(false);
+    let global = match cfg.optimiser {
+        Optimiser::Cuckoo | Optimiser::CuckooLm => {
+            let mut s = CuckooSearch::new(cfg.seed).with_initial_guess(x0.clone())?;
+            run(&mut s, &*problem, &budget, &cancel, pool)?
+        }
+        Optimiser::CmaEs => {
+            let mut s = CmaEs::new(cfg.seed).with_initial_guess(x0.clone())?;
+            run(&mut s, &*problem, &budget, &cancel, pool)?
+        }
+        Optimiser::De => {
+            let mut s = DifferentialEvolution::new(cfg.seed).with_initial_guess(x0.clone())?;
+            run(&mut s, &*problem, &budget, &cancel, pool)?
+        }
+    };
+    let global_objective = global.cost;
+    let mut x = global.x.clone();
+    problem.set_least_squares(true);
+    if lm_budget >= 2 {
+        let opts = LmOptions::default()
+            .with_jacobian(unit_step_jacobian(cfg)?)?
+            .with_max_evals(lm_budget)?
+            .with_ftol(1e-6)?
+            .with_xtol(1e-6)?;
+        match refine(&*problem, &x, &opts, pool) {
+            Ok(r) => x = r.x,
+            // A failed refinement (e.g. non-finite residuals) keeps the global result.
+            Err(OptimError::NonFiniteResiduals) => {}
+            Err(e) => return Err(e.into()),
+        }
+    }
+    let sigma = match uncertainty(&*problem, &x, &unit_step_jacobian(cfg)?, pool) {
+        Ok(u) => u.sigma,
+        Err(OptimError::NonFiniteResiduals) | Err(OptimError::TooFewResiduals { .. }) => {
+            vec![f64::INFINITY; n]
+        }
+        Err(e) => return Err(e.into()),
+    };
+    problem.set_least_squares(false);
+    Ok(FitOutcome {
+        x,
+        global_objective,
+        sigma,
+    })
+}
+
+/// Assembles a [`MethodResult`] after [`fit`] (the caller sets `wall_s`).
+pub(crate) fn result_of<P: DiagnosisProblem>(
+    method: Method,
+    problem: &P,
+    fit: &FitOutcome,
+    cfg: &DiagnosisConfig,
+    signals: Vec<Signal>,
+    residuals: usize,
+    windows: Vec<(f64, f64)>,
+) -> MethodResult {
+    let pm = problem.params();
+    let mut sigma: BTreeMap<String, f64> =
+        HEALTH_NAMES.iter().map(|n| (n.to_string(), 0.0)).collect();
+    for (&i, &s) in pm.free().iter().zip(&fit.sigma) {
+        sigma.insert(HEALTH_NAMES[i].to_string(), s);
+    }
+    let objective = problem.eq10(&fit.x);
+    let mut r = Vec::new();
+    problem.residuals(&fit.x, &mut r);
+    let ssr = r.iter().map(|v| v * v).sum();
+    let inflation = problem.sigma_inflation(&r).sqrt();
+    for v in sigma.values_mut() {
+        *v *= inflation;
+    }
+    MethodResult {
+        method,
+        optimiser: cfg.optimiser,
+        health: pm.health(&fit.x),
+        sigma,
+        objective,
+        ssr,
+        residuals,
+        global_objective: fit.global_objective,
+        model_runs: problem.model_runs(),
+        wall_s: 0.0,
+        signals,
+        windows,
+        ambient_kpa: pm.ambient(&fit.x).map(|p| {
+            (
+                p,
+                fit.sigma.get(pm.free().len()).copied().unwrap_or(f64::NAN) * inflation,
+            )
+        }),
+    }
+}
+
+/// A thread pool for `cfg.threads`.
+pub fn pool_for(cfg: &DiagnosisConfig) -> Result<ThreadPool, DiagnosisError> {
+    Ok(optim::thread_pool(cfg.threads)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::bench::synthetic_startup;
+    use super::identifiability::identifiability;
+    use super::steady::{detect_windows, diagnose_steady};
+    use super::transient::{diagnose_transient, TransientProblem};
+    use super::*;
+    use crate::engine::Engine;
+
+    fn truth() -> HealthParams {
+        HealthParams {
+            D_GC: 3.0,
+            D_EC: 1.0,
+            D_GT: 1.5,
+            D_ET: 1.0,
+            D_GP: 0.5,
+            D_EP: 0.8,
+        }
+    }
+
+    fn errors(h: &HealthParams, t: &HealthParams) -> [f64; 6] {
+        let (a, b) = (h.to_array(), t.to_array());
+        std::array::from_fn(|i| (a[i] - b[i]).abs())
+    }
+
+    fn small(cfg: DiagnosisConfig) -> DiagnosisConfig {
+        DiagnosisConfig {
+            max_model_runs: 300,
+            lm_runs: 200,
+            threads: Some(2),
+            ..cfg
+        }
+    }
+
+    #[test]
+    fn method_b_recovers_implanted_degradation() {
+        let engine = Engine::reference().expect("engine");
+        let t = truth();
+        let cfg = small(DiagnosisConfig::default());
+        // Noise-free: every parameter within 0.05 points.
+        let clean = synthetic_startup(&engine, &t, 0, false).expect("start-up");
+        let r = diagnose_transient(&engine, &clean, &cfg).expect("diagnoses");
+        let e = errors(&r.health, &t);
+        assert!(e.iter().all(|&x| x < 0.05), "noise-free errors {e:?}");
+        assert!(r.sigma.values().all(|s| s.is_finite() && *s > 0.0));
+        assert!(r.model_runs > 0 && r.objective < r.global_objective + 1e-12);
+        // Default noise and lags: within 0.5 points.
+        let noisy = synthetic_startup(&engine, &t, 5, true).expect("start-up");
+        let r = diagnose_transient(&engine, &noisy, &cfg).expect("diagnoses");
+        let e = errors(&r.health, &t);
+        assert!(e.iter().all(|&x| x < 0.5), "noisy errors {e:?}");
+        // The ambient pressure, fitted from P1 over the whole start-up, is better than the
+        // ±0.03 kPa of the rest-sample average it starts from.
+        let (p, sp) = r.ambient_kpa.expect("ambient fitted by default");
+        assert!(
+            (p - 101.325).abs() < 0.02 && sp > 0.0 && sp < 0.02,
+            "{p} ± {sp}"
+        );
+    }
+
+    #[test]
+    fn method_b_with_fixed_parameters_and_cuckoo_alone() {
+        // Two free parameters (PT), the rest fixed at the truth: even CS alone gets close.
+        let engine = Engine::reference().expect("engine");
+        let t = truth();
+        let clean = synthetic_startup(&engine, &t, 0, false).expect("start-up");
+        let cfg = DiagnosisConfig {
+            fixed: [true, true, true, true, false, false],
+            base: t,
+            optimiser: Optimiser::Cuckoo,
+            max_model_runs: 150,
+            threads: Some(2),
+            ..DiagnosisConfig::default()
+        };
+        let r = diagnose_transient(&engine, &clean, &cfg).expect("diagnoses");
+        assert_eq!(r.health.D_GC, 3.0);
+        assert_eq!(r.sigma["D_GC"], 0.0);
+        let e = errors(&r.health, &t);
+        assert!(e[4] < 0.3 && e[5] < 0.3, "CS alone, 2 parameters: {e:?}");
+    }
+
+    #[test]
+    fn method_a_recovers_and_is_deterministic() {
+        let engine = Engine::reference().expect("engine");
+        let t = truth();
+        let clean = synthetic_startup(&engine, &t, 0, false).expect("start-up");
+        let w = detect_windows(&clean, &engine.cfg, &SteadyCriteria::default());
+        // The 4-min warm-up at minimum load and the base-load hold, never the load ramp.
+        assert!(w.len() >= 2, "{w:?}");
+        for win in &w {
+            let ph = clean.phase[win.start];
+            assert!(
+                matches!(
+                    ph,
+                    Phase::Loading | Phase::Steady | Phase::Idle | Phase::Synchronisation
+                ),
+                "{ph}"
+            );
+            let p0 = clean.values[win.start][Signal::Power.index()];
+            let p1 = clean.values[win.end - 1][Signal::Power.index()];
+            assert!((p1 - p0).abs() < 0.2, "window spans a ramp: {p0} → {p1}");
+        }
+        let cfg = DiagnosisConfig {
+            threads: Some(1),
+            ..DiagnosisConfig::default()
+        };
+        let r = diagnose_steady(&engine, &clean, &cfg).expect("diagnoses");
+        let e = errors(&r.health, &t);
+        assert!(e.iter().all(|&x| x < 0.05), "noise-free errors {e:?}");
+        let noisy = synthetic_startup(&engine, &t, 9, true).expect("start-up");
+        let r1 = diagnose_steady(&engine, &noisy, &cfg).expect("diagnoses");
+        let e = errors(&r1.health, &t);
+        assert!(e.iter().all(|&x| x < 0.5), "noisy errors {e:?}");
+        // The ambient pressure is fitted (it moves the model, so it has a finite σ).
+        let (p, sp) = r1.ambient_kpa.expect("ambient fitted by default");
+        assert!(
+            (p - 101.325).abs() < 0.1 && sp.is_finite() && sp > 0.0,
+            "{p} ± {sp}"
+        );
+        // Same seed, 1 or 2 threads: the same result.
+        let r2 = diagnose_steady(
+            &engine,
+            &noisy,
+            &DiagnosisConfig {
+                threads: Some(2),
+                ..cfg.clone()
+            },
+        )
+        .expect("diagnoses");
+        assert_eq!(r1.health, r2.health);
+        assert_eq!(r1.sigma, r2.sigma);
+    }
+
+    #[test]
+    fn start_up_identifies_all_six_parameters() {
+        let engine = Engine::reference().expect("engine");
+        let t = truth();
+        let clean = synthetic_startup(&engine, &t, 0, false).expect("start-up");
+        let cfg = DiagnosisConfig::default();
+        let p = TransientProblem::new(&engine, &clean, &cfg).expect("problem");
+        let pool = optim::thread_pool(Some(2)).expect("pool");
+        let id = identifiability(&p, &t.to_array(), cfg.fd_step, &pool).expect("computes");
+        // Cramér–Rao 1σ at the default noise well below the 0.3-point target for every one.
+        assert!(id.crb_sigma.iter().all(|s| *s < 0.1), "{:?}", id.crb_sigma);
+        assert!(id.condition < 200.0, "condition {}", id.condition);
+    }
+
+    #[test]
+    fn bad_data_gives_clear_errors() {
+        let engine = Engine::reference().expect("engine");
+        let t = truth();
+        let mut seg = synthetic_startup(&engine, &t, 0, false).expect("start-up");
+        // No steady window: cut the segment before the load is applied.
+        let keep = seg
+            .phase
+            .iter()
+            .position(|p| *p == Phase::Synchronisation)
+            .expect("syncs");
+        seg.t_s.truncate(keep);
+        seg.phase.truncate(keep);
+        seg.values.truncate(keep);
+        let cfg = DiagnosisConfig::default();
+        let e = diagnose_steady(&engine, &seg, &cfg).expect_err("no windows");
+        assert!(e.to_string().contains("steady"), "{e}");
+        // Nothing measured in the window.
+        let mut empty = seg.clone();
+        empty
+            .values
+            .iter_mut()
+            .for_each(|v| v.iter_mut().for_each(|x| *x = f64::NAN));
+        assert!(TransientProblem::new(&engine, &empty, &cfg).is_err());
+    }
+}

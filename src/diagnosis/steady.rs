@@ -1,0 +1,392 @@
+//! Method A (paper §3.4): detect steady windows in a measured segment, average them, and fit the
+//! health vector with the steady-state solver.
+//!
+//! Steady-window criteria ([`detect_windows`], settings in [`SteadyCriteria`]):
+//! 1. one phase label throughout, with flame (fuel > 0) and n1 ≥ `min_n1_fraction` × design;
+//! 2. for every stability signal (default n1, P2, T2, T34, power) present in the data, the
+//!    least-squares linear trend over the window drifts by at most `max_drift_sigma` noise σ
+//!    from start to end, and the RMS scatter around that trend is at most
+//!    `max_scatter_sigma` σ and no sample deviates from it by more than `max_deviation_sigma` σ
+//!    (σ = the instrument's 1σ noise at the window mean; the last rule stops a long window
+//!    from swallowing the first samples of a ramp);
+//! 3. at least `min_duration_s` long. Windows are grown greedily from the earliest admissible
+//!    start and do not overlap.
+//!
+//! Each window becomes one steady operating point: ambient T1 (window mean) and the ambient
+//! pressure of the segment (fitted as a nuisance parameter by default, with P1 compared), PT speed n2 and fuel flow (window means) as the solver's inputs
+//! (`Demand::FuelKgS`), and the window means of the compared outputs with a 1σ of
+//! σ_noise / √N (the standard error of a mean of N independent samples). Pure: no I/O.
+
+use super::objective::Objective;
+use super::{
+    fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, DiagnosisProblem, Method,
+    MethodResult, ParamMap, SteadyCriteria,
+};
+use crate::engine::config::EngineConfig;
+use crate::engine::replay::Segment;
+use crate::engine::sensors::noise_sigma;
+use crate::engine::steady::{solve, Demand, SteadyInputs, SteadyPoint};
+use crate::engine::trace::{Values, NSIG};
+use crate::engine::Engine;
+use crate::health::HealthParams;
+use crate::optim::{Bounds, Problem, ResidualProblem};
+use crate::signals::Signal;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+/// A detected steady window: sample index range `[start, end)` and times.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SteadyWindow {
+    pub start: usize,
+    pub end: usize,
+    pub t_start_s: f64,
+    pub t_end_s: f64,
+}
+
+fn finite_mean(v: impl Iterator<Item = f64>) -> Option<(f64, usize)> {
+    let (s, n) = v
+        .filter(|x| x.is_finite())
+        .fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+    (n > 0).then(|| (s / n as f64, n))
+}
+
+/// Linear trend drift over the window, RMS scatter and largest deviation around it, for the
+/// finite samples.
+fn trend(t: &[f64], y: &[f64]) -> Option<(f64, f64, f64)> {
+    let pts: Vec<(f64, f64)> = t
+        .iter()
+        .zip(y)
+        .filter(|(_, v)| v.is_finite())
+        .map(|(a, b)| (*a, *b))
+        .collect();
+    if pts.len() < 3 {
+        return None;
+    }
+    let n = pts.len() as f64;
+    let tm = pts.iter().map(|p| p.0).sum::<f64>() / n;
+    let ym = pts.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxx: f64 = pts.iter().map(|p| (p.0 - tm).powi(2)).sum();
+    let sxy: f64 = pts.iter().map(|p| (p.0 - tm) * (p.1 - ym)).sum();
+    let b = if sxx > 0.0 { sxy / sxx } else { 0.0 };
+    let scatter = (pts
+        .iter()
+        .map(|p| (p.1 - ym - b * (p.0 - tm)).powi(2))
+        .sum::<f64>()
+        / n)
+        .sqrt();
+    let worst = pts
+        .iter()
+        .map(|p| (p.1 - ym - b * (p.0 - tm)).abs())
+        .fold(0.0, f64::max);
+    let span = pts[pts.len() - 1].0 - pts[0].0;
+    Some((b * span, scatter, worst))
+}
+
+fn window_is_steady(
+    seg: &Segment,
+    cfg: &EngineConfig,
+    crit: &SteadyCriteria,
+    a: usize,
+    b: usize,
+) -> bool {
+    let ph = seg.phase[a];
+    if seg.phase[a..b].iter().any(|p| *p != ph) {
+        return false;
+    }
+    let n1_min = crit.min_n1_fraction * cfg.design.gg_speed_rpm;
+    let fired = seg.values[a..b]
+        .iter()
+        .all(|v| v[Signal::FuelFlow.index()] > 0.0 && v[Signal::N1.index()] >= n1_min);
+    if !fired {
+        return false;
+    }
+    let t = &seg.t_s[a..b];
+    for &s in &crit.signals {
+        let y: Vec<f64> = seg.values[a..b].iter().map(|v| v[s.index()]).collect();
+        let Some((mean, _)) = finite_mean(y.iter().copied()) else {
+            continue; // the plant lacks this signal
+        };
+        let sigma = noise_sigma(&cfg.sensors, s, mean);
+        if sigma <= 0.0 {
+            continue;
+        }
+        match trend(t, &y) {
+            Some((drift, scatter, worst)) => {
+                if drift.abs() > crit.max_drift_sigma * sigma
+                    || scatter > crit.max_scatter_sigma * sigma
+                    || worst > crit.max_deviation_sigma * sigma
+                {
+                    return false;
+                }
+            }
+            None => return false,
+        }
+    }
+    true
+}
+
+/// Finds the steady windows of `seg` (criteria in the module docs).
+pub fn detect_windows(
+    seg: &Segment,
+    cfg: &EngineConfig,
+    crit: &SteadyCriteria,
+) -> Vec<SteadyWindow> {
+    let n = seg.len();
+    let mut out = Vec::new();
+    let mut a = 0;
+    while a < n {
+        // Smallest end that spans min_duration_s.
+        let Some(b0) = (a + 1..=n).find(|&b| seg.t_s[b - 1] - seg.t_s[a] >= crit.min_duration_s)
+        else {
+            break;
+        };
+        if !window_is_steady(seg, cfg, crit, a, b0) {
+            a += 1;
+            continue;
+        }
+        let mut b = b0;
+        while b < n && window_is_steady(seg, cfg, crit, a, b + 1) {
+            b += 1;
+        }
+        out.push(SteadyWindow {
+            start: a,
+            end: b,
+            t_start_s: seg.t_s[a],
+            t_end_s: seg.t_s[b - 1],
+        });
+        a = b;
+    }
+    out
+}
+
+/// One averaged steady operating point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SteadyData {
+    pub window: SteadyWindow,
+    pub inputs: SteadyInputs,
+    /// Compared outputs: (signal, window mean, 1σ of the mean).
+    pub outputs: Vec<(Signal, f64, f64)>,
+}
+
+/// The model's value of a signal at a steady point.
+pub fn steady_value(p: &SteadyPoint, s: Signal) -> f64 {
+    match s {
+        Signal::N1 => p.n1_rpm,
+        Signal::N2 => p.n2_rpm,
+        Signal::T1 => p.t1_k,
+        Signal::P1 => p.p1_kpa,
+        Signal::T2 => p.t2_k,
+        Signal::P2 => p.p2_kpa,
+        Signal::T3 => p.t3_k,
+        Signal::P3 => p.p3_kpa,
+        Signal::T34 => p.t34_k,
+        Signal::P34 => p.p34_kpa,
+        Signal::T4 => p.t4_k,
+        Signal::P4 => p.p4_kpa,
+        Signal::FuelFlow => p.fuel_kg_s,
+        Signal::Power => p.power_mw,
+        Signal::SurgeMargin => p.surge_margin_pct,
+    }
+}
+
+/// Averages each window into a steady operating point.
+pub fn average_windows(
+    seg: &Segment,
+    cfg: &EngineConfig,
+    windows: &[SteadyWindow],
+    signals: &[Signal],
+) -> Vec<SteadyData> {
+    let (_, p_amb) = seg.ambient(cfg);
+    let mut out = Vec::new();
+    for w in windows {
+        let vals = &seg.values[w.start..w.end];
+        let mean = |s: Signal| finite_mean(vals.iter().map(|v| v[s.index()]));
+        let (Some((fuel, _)), Some((n2, _))) = (mean(Signal::FuelFlow), mean(Signal::N2)) else {
+            continue; // no fuel or PT speed: cannot state the operating point
+        };
+        let t_amb = mean(Signal::T1).map_or(cfg.ambient.temperature_k, |m| m.0);
+        let outputs = signals
+            .iter()
+            .filter(|s| !matches!(s, Signal::T1 | Signal::FuelFlow | Signal::N2))
+            .filter_map(|&s| {
+                let (m, n) = mean(s)?;
+                let sd = noise_sigma(&cfg.sensors, s, m) / (n as f64).sqrt();
+                (sd > 0.0).then_some((s, m, sd))
+            })
+            .collect();
+        out.push(SteadyData {
+            window: *w,
+            inputs: SteadyInputs {
+                t_amb_k: t_amb,
+                p_amb_kpa: p_amb,
+                n2_rpm: n2,
+                demand: Demand::FuelKgS(fuel),
+            },
+            outputs,
+        });
+    }
+    out
+}
+
+/// Method A as an optimisation problem.
+pub struct SteadyProblem {
+    engine: Engine,
+    points: Vec<SteadyData>,
+    /// Healthy solutions, the Newton start of every solve (keeps evaluations independent).
+    guesses: Vec<SteadyPoint>,
+    objective: Objective,
+    params: ParamMap,
+    least_squares: bool,
+    runs: AtomicUsize,
+}
+
+impl SteadyProblem {
+    /// Builds the problem; windows whose healthy steady solve fails are dropped.
+    pub fn new(
+        engine: &Engine,
+        points: Vec<SteadyData>,
+        cfg: &DiagnosisConfig,
+    ) -> Result<SteadyProblem, DiagnosisError> {
+        let mut kept = Vec::new();
+        let mut guesses = Vec::new();
+        for p in points {
+            let m = engine.model_at(&cfg.base, p.inputs.t_amb_k, p.inputs.p_amb_kpa);
+            if let Ok(g) = solve(&m, &p.inputs, None) {
+                kept.push(p);
+                guesses.push(g);
+            }
+        }
+        let pts: Vec<Vec<(Signal, f64, f64)>> = kept.iter().map(|p| p.outputs.clone()).collect();
+        let ambient0 = if cfg.fit_ambient_pressure {
+            kept.first().map(|p| p.inputs.p_amb_kpa)
+        } else {
+            None
+        };
+        let objective = Objective::from_points(&pts);
+        if objective.len() <= cfg.free().len() {
+            return Err(DiagnosisError::Data(format!(
+                "Method A needs more averaged values than parameters: {} steady window(s) give {} values for {} parameters",
+                kept.len(),
+                objective.len(),
+                cfg.free().len()
+            )));
+        }
+        Ok(SteadyProblem {
+            engine: engine.clone(),
+            points: kept,
+            guesses,
+            objective,
+            params: ParamMap::new(cfg.free(), cfg.base, ambient0)?,
+            least_squares: false,
+            runs: AtomicUsize::new(0),
+        })
+    }
+
+    /// The steady operating points used.
+    pub fn points(&self) -> &[SteadyData] {
+        &self.points
+    }
+
+    /// Model values at every point, as rows indexed like a trace (`None` if a solve failed).
+    pub fn simulate(&self, x: &[f64]) -> Option<Vec<Values>> {
+        self.runs.fetch_add(1, Ordering::Relaxed);
+        let h: HealthParams = self.params.health(x);
+        let p_amb = self.params.ambient(x);
+        let mut rows = Vec::with_capacity(self.points.len());
+        for (p, g) in self.points.iter().zip(&self.guesses) {
+            let inputs = SteadyInputs {
+                p_amb_kpa: p_amb.unwrap_or(p.inputs.p_amb_kpa),
+                ..p.inputs
+            };
+            let m = self.engine.model_at(&h, inputs.t_amb_k, inputs.p_amb_kpa);
+            let sp = solve(&m, &inputs, Some(g)).ok()?;
+            let mut v = [f64::NAN; NSIG];
+            for s in Signal::ALL {
+                v[s.index()] = steady_value(&sp, s);
+            }
+            rows.push(v);
+        }
+        Some(rows)
+    }
+
+    /// The prepared objective.
+    pub fn objective(&self) -> &Objective {
+        &self.objective
+    }
+}
+
+impl Problem for SteadyProblem {
+    fn dim(&self) -> usize {
+        self.params.bounds().dim()
+    }
+    fn bounds(&self) -> &Bounds {
+        self.params.bounds()
+    }
+    fn cost(&self, x: &[f64]) -> f64 {
+        match self.simulate(x) {
+            Some(m) if self.least_squares => self.objective.ssr(&m),
+            Some(m) => self.objective.eq10(&m),
+            None => f64::INFINITY,
+        }
+    }
+}
+
+impl ResidualProblem for SteadyProblem {
+    fn residuals(&self, x: &[f64], out: &mut Vec<f64>) {
+        match self.simulate(x) {
+            Some(m) => self.objective.residuals(&m, out),
+            None => {
+                out.clear();
+                out.resize(self.objective.len(), f64::NAN);
+            }
+        }
+    }
+}
+
+impl DiagnosisProblem for SteadyProblem {
+    fn set_least_squares(&mut self, on: bool) {
+        self.least_squares = on;
+    }
+    fn model_runs(&self) -> usize {
+        self.runs.load(Ordering::Relaxed)
+    }
+    fn eq10(&self, x: &[f64]) -> f64 {
+        self.simulate(x)
+            .map_or(f64::INFINITY, |m| self.objective.eq10(&m))
+    }
+    fn params(&self) -> &ParamMap {
+        &self.params
+    }
+    fn sigma_inflation(&self, _r: &[f64]) -> f64 {
+        1.0 // window means are independent
+    }
+}
+
+/// Method A on `segment`.
+pub fn diagnose_steady(
+    engine: &Engine,
+    segment: &Segment,
+    cfg: &DiagnosisConfig,
+) -> Result<MethodResult, DiagnosisError> {
+    let start = Instant::now();
+    let pool = pool_for(cfg)?;
+    let windows = detect_windows(segment, &engine.cfg, &cfg.steady);
+    if windows.is_empty() {
+        return Err(DiagnosisError::Data(
+            "no steady window found (see SteadyCriteria)".into(),
+        ));
+    }
+    let points = average_windows(segment, &engine.cfg, &windows, &cfg.signals);
+    let mut problem = SteadyProblem::new(engine, points, cfg)?;
+    let out = fit(&mut problem, cfg, &pool)?;
+    let signals = problem.objective().signals().to_vec();
+    let n_res = problem.objective().len();
+    let win: Vec<(f64, f64)> = problem
+        .points()
+        .iter()
+        .map(|p| (p.window.t_start_s, p.window.t_end_s))
+        .collect();
+    let mut r = result_of(Method::Steady, &problem, &out, cfg, signals, n_res, win);
+    r.wall_s = start.elapsed().as_secs_f64();
+    Ok(r)
+}

@@ -1,0 +1,70 @@
+//! End-to-end: `gtwatch diagnose` on a CSV written in the `gtwatch simulate` layout.
+
+use gtwatch::engine::sensors::MeasurementOptions;
+use gtwatch::engine::{sequence, Engine, Scenario, Trace};
+use gtwatch::health::HealthParams;
+use std::process::Command;
+
+fn write_startup(path: &std::path::Path, h: &HealthParams) {
+    let e = Engine::reference().expect("engine");
+    let (s, _) = sequence::run_scenario(&e.cfg, &e.model(h), &Scenario::startup(&e.cfg))
+        .expect("start-up runs");
+    let opts = MeasurementOptions {
+        lags: true,
+        noise: true,
+        bias: false,
+        seed: 4,
+    };
+    let tr = Trace::from_truth(&e.cfg, &s, Some(&opts));
+    let f = std::fs::File::create(path).expect("create csv");
+    tr.write_csv(std::io::BufWriter::new(f)).expect("write csv");
+}
+
+#[test]
+fn diagnose_prints_json_and_rejects_bad_rows() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let csv = dir.path().join("startup.csv");
+    let truth = HealthParams {
+        D_GC: 3.0,
+        D_EC: 1.0,
+        ..HealthParams::HEALTHY
+    };
+    write_startup(&csv, &truth);
+    let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(["diagnose", "--input"])
+        .arg(&csv)
+        .args(["--method", "steady", "--seed", "3", "--json"])
+        .output()
+        .expect("runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    let st = &v["methods"]["steady"];
+    let gc = st["health"]["D_GC"].as_f64().expect("D_GC");
+    let ec = st["health"]["D_EC"].as_f64().expect("D_EC");
+    assert!((gc - 3.0).abs() < 0.5 && (ec - 1.0).abs() < 0.5, "{st}");
+    assert!(st["sigma"]["D_GC"].as_f64().expect("sigma") > 0.0);
+    assert!(st["model_runs"].as_u64().expect("runs") > 0);
+    assert!(st["objective"].as_f64().is_some() && st["wall_s"].as_f64().is_some());
+    assert!(v["methods"].get("transient").is_none());
+
+    // A malformed cell is reported with its line and column.
+    let text = std::fs::read_to_string(&csv).expect("read");
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let mut cells: Vec<String> = lines[5].split(',').map(String::from).collect();
+    cells[2] = "fast".into();
+    lines[5] = cells.join(",");
+    let bad = dir.path().join("bad.csv");
+    std::fs::write(&bad, lines.join("\n")).expect("write");
+    let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(["diagnose", "--input"])
+        .arg(&bad)
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("line 6, column 'n1_rpm'"), "{err}");
+}
