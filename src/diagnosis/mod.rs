@@ -182,11 +182,15 @@ pub struct SteadyCriteria {
     pub max_deviation_sigma: f64,
     /// GG speed must be at least this fraction of design (fired, above idle transients).
     pub min_n1_fraction: f64,
+    /// Settling guard: the first part of a window this long is not averaged (when at least
+    /// `min_duration_s` remains), because a window opens as soon as the drift falls inside the
+    /// noise band, i.e. still on the tail of the preceding transient, s.
+    pub settle_s: f64,
 }
 
 impl Default for SteadyCriteria {
     /// n1, P2, T2, T34 and power stable; ≥ 20 s; drift ≤ 2σ; scatter ≤ 1.5σ;
-    /// every sample within 4.5σ of the trend; n1 ≥ 60 % design.
+    /// every sample within 4.5σ of the trend; n1 ≥ 60 % design; first 30 s of a window not averaged.
     fn default() -> Self {
         SteadyCriteria {
             signals: vec![
@@ -201,6 +205,7 @@ impl Default for SteadyCriteria {
             max_scatter_sigma: 1.5,
             max_deviation_sigma: 4.5,
             min_n1_fraction: 0.6,
+            settle_s: 30.0,
         }
     }
 }

@@ -148,10 +148,15 @@ pub fn detect_windows(
         while b < n && window_is_steady(seg, cfg, crit, a, b + 1) {
             b += 1;
         }
+        // Settling guard: skip the window's opening stretch if enough remains after it.
+        let settled = (a..b)
+            .find(|&k| seg.t_s[k] - seg.t_s[a] >= crit.settle_s)
+            .filter(|&k| seg.t_s[b - 1] - seg.t_s[k] >= crit.min_duration_s)
+            .unwrap_or(a);
         out.push(SteadyWindow {
-            start: a,
+            start: settled,
             end: b,
-            t_start_s: seg.t_s[a],
+            t_start_s: seg.t_s[settled],
             t_end_s: seg.t_s[b - 1],
         });
         a = b;
