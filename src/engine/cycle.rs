@@ -38,28 +38,8 @@ pub struct CompressorStation {
     pub power_w: f64,
 }
 
-/// Compressor on its map at a given pressure ratio (dynamic model: PR set by the plenum).
-pub fn compressor_at_pr(
-    comp: &ScaledCompressor,
-    t_in: f64,
-    p_in_kpa: f64,
-    n_rpm: f64,
-    pr: f64,
-) -> CompressorStation {
-    let nc = corrected_speed(n_rpm, t_in);
-    let op = comp.at_pr(nc, pr);
-    compressor_finish(
-        t_in,
-        p_in_kpa,
-        pr,
-        op.wc_kg_s,
-        op.eff,
-        op.beta,
-        op.surge_margin_pct,
-    )
-}
-
-/// Compressor exit state from an already evaluated map point, at pressure ratio `pr`.
+/// Compressor exit state from an already evaluated map point, at pressure ratio `pr` (the
+/// dynamic model: PR set by the plenum, map read once).
 pub fn compressor_from_op(
     t_in: f64,
     p_in_kpa: f64,
