@@ -391,6 +391,62 @@ pub trait DiagnosisProblem: ResidualProblem {
     fn params(&self) -> &ParamMap;
 }
 
+/// The optimiser-facing traits of a diagnosis problem, for a type with the fields `objective:
+/// Objective`, `params: ParamMap`, `least_squares: bool`, `runs: AtomicUsize`, a method
+/// `simulate(&self, x) -> Option<Vec<Values>>` (None = the model failed) and a method
+/// `residual_inflation(&self, r) -> f64`. Method A and Method B differ only in those two methods.
+macro_rules! impl_diagnosis_problem {
+    ($ty:ty) => {
+        impl $crate::optim::Problem for $ty {
+            fn dim(&self) -> usize {
+                self.params.bounds().dim()
+            }
+            fn bounds(&self) -> &$crate::optim::Bounds {
+                self.params.bounds()
+            }
+            fn cost(&self, x: &[f64]) -> f64 {
+                match self.simulate(x) {
+                    Some(m) if self.least_squares => self.objective.ssr(&m),
+                    Some(m) => self.objective.eq10(&m),
+                    None => f64::INFINITY,
+                }
+            }
+        }
+
+        impl $crate::optim::ResidualProblem for $ty {
+            fn residuals(&self, x: &[f64], out: &mut Vec<f64>) {
+                match self.simulate(x) {
+                    Some(m) => self.objective.residuals(&m, out),
+                    None => {
+                        out.clear();
+                        out.resize(self.objective.len(), f64::NAN);
+                    }
+                }
+            }
+        }
+
+        impl $crate::diagnosis::DiagnosisProblem for $ty {
+            fn set_least_squares(&mut self, on: bool) {
+                self.least_squares = on;
+            }
+            fn model_runs(&self) -> usize {
+                self.runs.load(std::sync::atomic::Ordering::Relaxed)
+            }
+            fn eq10(&self, x: &[f64]) -> f64 {
+                self.simulate(x)
+                    .map_or(f64::INFINITY, |m| self.objective.eq10(&m))
+            }
+            fn params(&self) -> &$crate::diagnosis::ParamMap {
+                &self.params
+            }
+            fn sigma_inflation(&self, r: &[f64]) -> f64 {
+                self.residual_inflation(r)
+            }
+        }
+    };
+}
+pub(crate) use impl_diagnosis_problem;
+
 /// The outcome of one method on one data set.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct MethodResult {

@@ -19,8 +19,8 @@
 
 use super::objective::Objective;
 use super::{
-    fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, DiagnosisProblem, Method,
-    MethodResult, ParamMap, SteadyCriteria,
+    fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, Method, MethodResult, ParamMap,
+    SteadyCriteria,
 };
 use crate::engine::config::EngineConfig;
 use crate::engine::replay::Segment;
@@ -29,7 +29,6 @@ use crate::engine::steady::{solve, Demand, SteadyInputs, SteadyPoint};
 use crate::engine::trace::{Values, NSIG};
 use crate::engine::Engine;
 use crate::health::HealthParams;
-use crate::optim::{Bounds, Problem, ResidualProblem};
 use crate::signals::Signal;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
@@ -320,52 +319,15 @@ impl SteadyProblem {
     }
 }
 
-impl Problem for SteadyProblem {
-    fn dim(&self) -> usize {
-        self.params.bounds().dim()
-    }
-    fn bounds(&self) -> &Bounds {
-        self.params.bounds()
-    }
-    fn cost(&self, x: &[f64]) -> f64 {
-        match self.simulate(x) {
-            Some(m) if self.least_squares => self.objective.ssr(&m),
-            Some(m) => self.objective.eq10(&m),
-            None => f64::INFINITY,
-        }
-    }
-}
-
-impl ResidualProblem for SteadyProblem {
-    fn residuals(&self, x: &[f64], out: &mut Vec<f64>) {
-        match self.simulate(x) {
-            Some(m) => self.objective.residuals(&m, out),
-            None => {
-                out.clear();
-                out.resize(self.objective.len(), f64::NAN);
-            }
-        }
-    }
-}
-
-impl DiagnosisProblem for SteadyProblem {
-    fn set_least_squares(&mut self, on: bool) {
-        self.least_squares = on;
-    }
-    fn model_runs(&self) -> usize {
-        self.runs.load(Ordering::Relaxed)
-    }
-    fn eq10(&self, x: &[f64]) -> f64 {
-        self.simulate(x)
-            .map_or(f64::INFINITY, |m| self.objective.eq10(&m))
-    }
-    fn params(&self) -> &ParamMap {
-        &self.params
-    }
-    fn sigma_inflation(&self, _r: &[f64]) -> f64 {
+impl SteadyProblem {
+    /// Variance inflation of the least-squares σ for correlated residuals (see
+    /// [`DiagnosisProblem::sigma_inflation`]).
+    fn residual_inflation(&self, _r: &[f64]) -> f64 {
         1.0 // window means are independent
     }
 }
+
+super::impl_diagnosis_problem!(SteadyProblem);
 
 /// Method A on `segment`.
 pub fn diagnose_steady(

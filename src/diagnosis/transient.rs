@@ -8,13 +8,11 @@
 
 use super::objective::Objective;
 use super::{
-    fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, DiagnosisProblem, Method,
-    MethodResult, ParamMap,
+    fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, Method, MethodResult, ParamMap,
 };
 use crate::engine::replay::{simulate_segment, DriveMode, Segment};
 use crate::engine::trace::Values;
 use crate::engine::Engine;
-use crate::optim::{Bounds, Problem, ResidualProblem};
 use crate::signals::{Phase, Signal};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
@@ -164,53 +162,16 @@ impl TransientProblem {
     }
 }
 
-impl Problem for TransientProblem {
-    fn dim(&self) -> usize {
-        self.params.bounds().dim()
-    }
-    fn bounds(&self) -> &Bounds {
-        self.params.bounds()
-    }
-    fn cost(&self, x: &[f64]) -> f64 {
-        match self.simulate(x) {
-            Some(m) if self.least_squares => self.objective.ssr(&m),
-            Some(m) => self.objective.eq10(&m),
-            None => f64::INFINITY,
-        }
-    }
-}
-
-impl ResidualProblem for TransientProblem {
-    fn residuals(&self, x: &[f64], out: &mut Vec<f64>) {
-        match self.simulate(x) {
-            Some(m) => self.objective.residuals(&m, out),
-            None => {
-                out.clear();
-                out.resize(self.objective.len(), f64::NAN);
-            }
-        }
-    }
-}
-
-impl DiagnosisProblem for TransientProblem {
-    fn set_least_squares(&mut self, on: bool) {
-        self.least_squares = on;
-    }
-    fn model_runs(&self) -> usize {
-        self.runs.load(Ordering::Relaxed)
-    }
-    fn eq10(&self, x: &[f64]) -> f64 {
-        self.simulate(x)
-            .map_or(f64::INFINITY, |m| self.objective.eq10(&m))
-    }
-    fn params(&self) -> &ParamMap {
-        &self.params
-    }
-    fn sigma_inflation(&self, r: &[f64]) -> f64 {
+impl TransientProblem {
+    /// Variance inflation of the least-squares σ for correlated residuals (see
+    /// [`DiagnosisProblem::sigma_inflation`]).
+    fn residual_inflation(&self, r: &[f64]) -> f64 {
         // 30 samples: longer than the slowest sensor lag and the spool time constants.
         self.objective.correlation_inflation(r, 30)
     }
 }
+
+super::impl_diagnosis_problem!(TransientProblem);
 
 /// Method B on `segment`.
 pub fn diagnose_transient(
