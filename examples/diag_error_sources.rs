@@ -5,7 +5,6 @@ use gtwatch::diagnosis::bench::wash_truth;
 use gtwatch::diagnosis::steady::diagnose_steady;
 use gtwatch::diagnosis::transient::diagnose_transient;
 use gtwatch::diagnosis::DiagnosisConfig;
-use gtwatch::engine::replay::Segment;
 use gtwatch::engine::sensors::MeasurementOptions;
 use gtwatch::engine::{sequence, Engine, Scenario, Trace};
 use gtwatch::signals::Signal;
@@ -45,10 +44,10 @@ fn main() {
         vec![Signal::P4],
         vec![Signal::T34, Signal::P34],
     ] {
-        let mut seg = Segment::from_trace(&tr);
-        for (k, v) in seg.values.iter_mut().enumerate() {
+        let mut seg = tr.to_recording().expect("recording");
+        for k in 0..seg.len() {
             for s in &fix {
-                v[s.index()] = clean.measured[k][s.index()];
+                seg.set(k, *s, clean.measured[k][s.index()]).expect("valid");
             }
         }
         let r = diagnose_transient(&e, &seg, &cfg).expect("b");

@@ -23,7 +23,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let cfg = DiagnosisConfig::default();
     let pool = thread_pool(None)?;
     let mut x = t.to_array().to_vec();
-    x.push(seg.ambient(&e.cfg).1);
+    x.push(
+        seg.ambient(e.cfg.ambient.temperature_k, e.cfg.ambient.pressure_kpa)
+            .1,
+    );
     let b = TransientProblem::new(&e, &seg, &cfg)?;
     let ib = identifiability(&b, &x, cfg.fd_step, &pool)?;
     let w = detect_windows(&seg, &e.cfg, &cfg.steady);

@@ -19,6 +19,7 @@ pub mod optim;
 pub mod plantsim;
 pub mod plot;
 pub mod query;
+pub mod recording;
 pub mod replay;
 pub mod shutdown;
 pub mod signals;

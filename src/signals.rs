@@ -118,6 +118,12 @@ impl fmt::Display for Signal {
     }
 }
 
+/// Number of signals ([`Signal::ALL`]).
+pub const NSIG: usize = Signal::ALL.len();
+
+/// One value per signal, indexed by [`Signal::index`] (NaN where missing).
+pub type Values = [f64; NSIG];
+
 /// Error for an unknown signal or phase name.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("unknown {kind} '{name}' (expected one of: {expected})")]

@@ -1,7 +1,7 @@
 //! `gtwatch diagnose`: read a start-up CSV, run Method B and/or Method A, print the health
 //! parameters with 1σ, the objective, model runs and wall time (text or JSON).
 
-use crate::diagnosis::csv_input::{parse_mapping, read_segment};
+use crate::diagnosis::csv_input::{parse_mapping, read_recording};
 use crate::diagnosis::steady::diagnose_steady;
 use crate::diagnosis::transient::diagnose_transient;
 use crate::diagnosis::{DiagnosisConfig, Method, MethodResult, Optimiser};
@@ -156,7 +156,7 @@ pub fn run(a: &DiagnoseArgs) -> anyhow::Result<ExitCode> {
     };
     let file =
         std::fs::File::open(&a.input).with_context(|| format!("opening {}", a.input.display()))?;
-    let seg = read_segment(std::io::BufReader::new(file), &mapping)
+    let seg = read_recording(std::io::BufReader::new(file), &mapping)
         .with_context(|| format!("reading {}", a.input.display()))?;
     let cfg = a.fit.config();
     let methods: Vec<Method> = match a.method {

@@ -14,11 +14,11 @@
 use super::steady::diagnose_steady;
 use super::transient::diagnose_transient;
 use super::{health_map, DiagnosisConfig, DiagnosisError, Method, MethodResult, Optimiser};
-use crate::engine::replay::Segment;
 use crate::engine::sensors::MeasurementOptions;
 use crate::engine::sequence::run_scenario;
 use crate::engine::{Engine, Scenario, Trace};
 use crate::health::{HealthParams, HEALTH_NAMES};
+use crate::recording::Recording;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
@@ -46,13 +46,14 @@ pub fn bench_cases(n: usize, seed: u64) -> Vec<HealthParams> {
 }
 
 /// Simulates a start-up of an engine with `truth` as the plant's instruments record it
-/// (default noise and lags, no bias), as a segment for the diagnosis.
+/// (default noise and lags, no bias, sampled every `sequence.sample_period_s` of the engine
+/// file), as a recording for the diagnosis.
 pub fn synthetic_startup(
     engine: &Engine,
     truth: &HealthParams,
     noise_seed: u64,
     noise: bool,
-) -> Result<Segment, DiagnosisError> {
+) -> Result<Recording, DiagnosisError> {
     let model = engine.model(truth);
     let (samples, _) = run_scenario(&engine.cfg, &model, &Scenario::startup(&engine.cfg))?;
     let trace = Trace::from_truth(
@@ -65,7 +66,7 @@ pub fn synthetic_startup(
             seed: noise_seed,
         }),
     );
-    Ok(Segment::from_trace(&trace))
+    Ok(trace.to_recording()?)
 }
 
 /// Error statistics of one method over the bench cases.
@@ -334,7 +335,7 @@ pub fn bench_wash(
     let seg_a = synthetic_startup(engine, &after, seed.wrapping_mul(2).wrapping_add(12), true)?;
     let mut wall = BTreeMap::new();
     let mut row = |m: Method| -> Result<WashRow, DiagnosisError> {
-        let run = |seg: &Segment| match m {
+        let run = |seg: &Recording| match m {
             Method::Transient => diagnose_transient(engine, seg, cfg),
             Method::Steady => diagnose_steady(engine, seg, cfg),
         };

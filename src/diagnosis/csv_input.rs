@@ -1,4 +1,4 @@
-//! Reads a measured segment from CSV: the layout `gtwatch simulate` writes (`time_s,phase,`
+//! Reads a measured start-up from CSV into a [`Recording`]: the layout `gtwatch simulate` writes (`time_s,phase,`
 //! then the signal columns by [`Signal::column`] name; any `true_…` columns are ignored), or any
 //! CSV with a column mapping `time_s=Time,phase=State,n1_rpm=NGG,…` (canonical name = header in
 //! the file). Signal columns are matched by canonical column name or short name
@@ -6,9 +6,8 @@
 //! objective, never zero); any other unparseable cell, an unknown phase or a time that does not
 //! increase is an error naming the line and column. Reads from any `io::Read`; opens no files.
 
-use crate::engine::replay::Segment;
-use crate::engine::trace::{Values, NSIG};
-use crate::signals::{Phase, Signal};
+use crate::recording::{Recording, RecordingError};
+use crate::signals::{Phase, Signal, Values, NSIG};
 use std::collections::HashMap;
 use std::io::Read;
 
@@ -31,6 +30,12 @@ pub enum CsvError {
     },
     #[error("no data rows")]
     Empty,
+    /// The rows do not form a usable recording (see [`Recording::new`]).
+    #[error("{}{source}", line.map(|l| format!("line {l}: ")).unwrap_or_default())]
+    Recording {
+        line: Option<u64>,
+        source: RecordingError,
+    },
 }
 
 /// Parses a mapping `time_s=Time,phase=State,n1_rpm=NGG` (canonical = file header).
@@ -78,12 +83,13 @@ fn parse_value(s: &str) -> Result<f64, String> {
     }
 }
 
-/// Reads a segment. `mapping` maps canonical names to the file's headers (empty = the
-/// `gtwatch simulate` layout).
-pub fn read_segment<R: Read>(
+/// Reads a recording. `mapping` maps canonical names to the file's headers (empty = the
+/// `gtwatch simulate` layout). The rows must also pass [`Recording::new`]'s checks; an error
+/// there names the file line of the offending sample.
+pub fn read_recording<R: Read>(
     reader: R,
     mapping: &HashMap<String, String>,
-) -> Result<Segment, CsvError> {
+) -> Result<Recording, CsvError> {
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(true)
         .trim(csv::Trim::All)
@@ -120,11 +126,10 @@ pub fn read_segment<R: Read>(
             return Err(CsvError::MissingColumn(file_col.clone()));
         }
     }
-    let mut seg = Segment {
-        t_s: Vec::new(),
-        phase: Vec::new(),
-        values: Vec::new(),
-    };
+    let mut t_s: Vec<f64> = Vec::new();
+    let mut phases: Vec<Phase> = Vec::new();
+    let mut rows: Vec<Values> = Vec::new();
+    let mut lines: Vec<u64> = Vec::new();
     for rec in rdr.records() {
         let rec = rec?;
         let line = rec.position().map_or(0, |p| p.line());
@@ -142,7 +147,7 @@ pub fn read_segment<R: Read>(
                 reason: "time is missing".into(),
             });
         }
-        if let Some(&prev) = seg.t_s.last() {
+        if let Some(&prev) = t_s.last() {
             if t <= prev {
                 return Err(CsvError::Cell {
                     line,
@@ -164,14 +169,18 @@ pub fn read_segment<R: Read>(
                 reason,
             })?;
         }
-        seg.t_s.push(t);
-        seg.phase.push(ph);
-        seg.values.push(v);
+        t_s.push(t);
+        phases.push(ph);
+        rows.push(v);
+        lines.push(line);
     }
-    if seg.is_empty() {
+    if t_s.is_empty() {
         return Err(CsvError::Empty);
     }
-    Ok(seg)
+    Recording::new(t_s, phases, rows).map_err(|source| CsvError::Recording {
+        line: source.index().and_then(|i| lines.get(i).copied()),
+        source,
+    })
 }
 
 #[cfg(test)]
@@ -181,37 +190,55 @@ mod tests {
     #[test]
     fn reads_simulate_layout_and_mapping_with_clear_errors() {
         let csv = "time_s,phase,n1_rpm,p2_kpa,true_n1_rpm\n0.0,standstill,0,101.3,0\n1.0,crank,,102.0,5\n2.0,crank,nan,103,6\n";
-        let seg = read_segment(csv.as_bytes(), &HashMap::new()).expect("reads");
+        let seg = read_recording(csv.as_bytes(), &HashMap::new()).expect("reads");
         assert_eq!(seg.len(), 3);
-        assert_eq!(seg.phase[1], Phase::Crank);
-        assert!(seg.values[1][Signal::N1.index()].is_nan());
-        assert!(seg.values[2][Signal::N1.index()].is_nan());
-        assert_eq!(seg.values[2][Signal::P2.index()], 103.0);
+        assert_eq!(seg.phases()[1], Phase::Crank);
+        assert_eq!(seg.value(1, Signal::N1), None);
+        assert_eq!(seg.value(2, Signal::N1), None);
+        assert_eq!(seg.value(2, Signal::P2), Some(103.0));
         // A column absent from the file is missing, not zero.
-        assert!(seg.values[0][Signal::T34.index()].is_nan());
+        assert_eq!(seg.value(0, Signal::T34), None);
 
         let other = "Time,State,NGG\n0,0,0\n1,1,100\n";
         let map = parse_mapping("time_s=Time,phase=State,n1=NGG").expect("mapping");
-        let seg = read_segment(other.as_bytes(), &map).expect("reads");
-        assert_eq!(seg.values[1][Signal::N1.index()], 100.0);
-        assert_eq!(seg.phase[1], Phase::from_code(1).expect("code 1"));
+        let seg = read_recording(other.as_bytes(), &map).expect("reads");
+        assert_eq!(seg.value(1, Signal::N1), Some(100.0));
+        assert_eq!(seg.phases()[1], Phase::from_code(1).expect("code 1"));
 
         let bad = "time_s,phase,n1_rpm\n0,standstill,0\n1,crank,abc\n";
-        let e = read_segment(bad.as_bytes(), &HashMap::new()).expect_err("bad cell");
+        let e = read_recording(bad.as_bytes(), &HashMap::new()).expect_err("bad cell");
         assert_eq!(
             e.to_string(),
             "line 3, column 'n1_rpm': 'abc' is not a number"
         );
         let bad = "time_s,phase\n0,standstill\n0,flying\n";
-        let e = read_segment(bad.as_bytes(), &HashMap::new()).expect_err("bad");
+        let e = read_recording(bad.as_bytes(), &HashMap::new()).expect_err("bad");
         assert!(e.to_string().starts_with("line 3, column 'time_s'"), "{e}");
         assert!(matches!(
-            read_segment("t,phase\n".as_bytes(), &HashMap::new()),
+            read_recording("t,phase\n".as_bytes(), &HashMap::new()),
             Err(CsvError::MissingColumn(c)) if c == "time_s"
         ));
         assert!(matches!(
             parse_mapping("bogus=X"),
             Err(CsvError::UnknownTarget(_))
         ));
+    }
+
+    #[test]
+    fn unusable_recordings_name_their_line() {
+        // Issue 12 item 6: P1 = 0, T1 <= 0, a last time of 1e12 s, a 1e7 s jump.
+        let head = "time_s,phase,n1_rpm,p1_kpa,t1_k\n";
+        let cases = [
+            ("0,standstill,0,101.3,288\n1,crank,10,0,288\n2,crank,20,101.3,288\n", "line 3: sample 1 (t = 1 s): p1_kpa = 0"),
+            ("0,standstill,0,101.3,288\n1,crank,10,101.3,-3\n2,crank,20,101.3,288\n", "line 3: sample 1 (t = 1 s): t1_k = -3"),
+            ("0,standstill,0,101.3,288\n1,crank,10,101.3,288\n1000000000000,crank,20,101.3,288\n", "line 4: sample 2: time jumps"),
+            ("0,standstill,0,101.3,288\n1,crank,10,101.3,288\n10000001,crank,20,101.3,288\n10000002,crank,20,101.3,288\n", "line 4: sample 2: time jumps"),
+            ("0,standstill,0,101.3,288\n", "recording has 1 sample(s)"),
+        ];
+        for (body, want) in cases {
+            let e = read_recording(format!("{head}{body}").as_bytes(), &HashMap::new())
+                .expect_err(want);
+            assert!(e.to_string().starts_with(want), "{e} (want {want})");
+        }
     }
 }

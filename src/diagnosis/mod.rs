@@ -65,6 +65,9 @@ pub enum DiagnosisError {
     /// The data do not allow this method (no steady window, empty window, …).
     #[error("{0}")]
     Data(String),
+    /// The recording is unusable (see [`crate::recording::Recording`]).
+    #[error(transparent)]
+    Recording(#[from] crate::recording::RecordingError),
 }
 
 /// Which method.
@@ -253,7 +256,7 @@ pub struct DiagnosisConfig {
     pub fixed_step_s: f64,
     /// Fit the ambient pressure as a nuisance parameter, with the compressor inlet pressure P1
     /// compared as an output over the whole segment. Without it the ambient pressure comes from
-    /// the few samples at rest before the start (`Segment::ambient`), and the noise of that
+    /// the few samples at rest before the start (`Recording::ambient`), and the noise of that
     /// average (≈ 0.03 % for 10 samples) was measured to be the largest single error source of
     /// both methods (0.1 points on D_EP, 0.1 on D_GC).
     pub fit_ambient_pressure: bool,
@@ -713,7 +716,7 @@ mod tests {
         // The 4-min warm-up at minimum load and the base-load hold, never the load ramp.
         assert!(w.len() >= 2, "{w:?}");
         for win in &w {
-            let ph = clean.phase[win.start];
+            let ph = clean.phases()[win.start];
             assert!(
                 matches!(
                     ph,
@@ -721,8 +724,8 @@ mod tests {
                 ),
                 "{ph}"
             );
-            let p0 = clean.values[win.start][Signal::Power.index()];
-            let p1 = clean.values[win.end - 1][Signal::Power.index()];
+            let p0 = clean.rows()[win.start][Signal::Power.index()];
+            let p1 = clean.rows()[win.end - 1][Signal::Power.index()];
             assert!((p1 - p0).abs() < 0.2, "window spans a ramp: {p0} → {p1}");
         }
         let cfg = DiagnosisConfig {
@@ -777,22 +780,21 @@ mod tests {
         let mut seg = synthetic_startup(&engine, &t, 0, false).expect("start-up");
         // No steady window: cut the segment before the load is applied.
         let keep = seg
-            .phase
+            .phases()
             .iter()
             .position(|p| *p == Phase::Synchronisation)
             .expect("syncs");
-        seg.t_s.truncate(keep);
-        seg.phase.truncate(keep);
-        seg.values.truncate(keep);
+        seg = seg.truncated(keep).expect("still a recording");
         let cfg = DiagnosisConfig::default();
         let e = diagnose_steady(&engine, &seg, &cfg).expect_err("no windows");
         assert!(e.to_string().contains("steady"), "{e}");
         // Nothing measured in the window.
         let mut empty = seg.clone();
-        empty
-            .values
-            .iter_mut()
-            .for_each(|v| v.iter_mut().for_each(|x| *x = f64::NAN));
+        for k in 0..empty.len() {
+            for s in Signal::ALL {
+                empty.set(k, s, f64::NAN).expect("missing is fine");
+            }
+        }
         assert!(TransientProblem::new(&engine, &empty, &cfg).is_err());
     }
 }

@@ -23,12 +23,12 @@ use super::{
     SteadyCriteria,
 };
 use crate::engine::config::EngineConfig;
-use crate::engine::replay::Segment;
 use crate::engine::sensors::noise_sigma;
 use crate::engine::steady::{solve, Demand, SteadyInputs, SteadyPoint};
 use crate::engine::trace::{Values, NSIG};
 use crate::engine::Engine;
 use crate::health::HealthParams;
+use crate::recording::Recording;
 use crate::signals::Signal;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
@@ -82,26 +82,26 @@ fn trend(t: &[f64], y: &[f64]) -> Option<(f64, f64, f64)> {
 }
 
 fn window_is_steady(
-    seg: &Segment,
+    seg: &Recording,
     cfg: &EngineConfig,
     crit: &SteadyCriteria,
     a: usize,
     b: usize,
 ) -> bool {
-    let ph = seg.phase[a];
-    if seg.phase[a..b].iter().any(|p| *p != ph) {
+    let ph = seg.phases()[a];
+    if seg.phases()[a..b].iter().any(|p| *p != ph) {
         return false;
     }
     let n1_min = crit.min_n1_fraction * cfg.design.gg_speed_rpm;
-    let fired = seg.values[a..b]
+    let fired = seg.rows()[a..b]
         .iter()
         .all(|v| v[Signal::FuelFlow.index()] > 0.0 && v[Signal::N1.index()] >= n1_min);
     if !fired {
         return false;
     }
-    let t = &seg.t_s[a..b];
+    let t = &seg.times()[a..b];
     for &s in &crit.signals {
-        let y: Vec<f64> = seg.values[a..b].iter().map(|v| v[s.index()]).collect();
+        let y: Vec<f64> = seg.rows()[a..b].iter().map(|v| v[s.index()]).collect();
         let Some((mean, _)) = finite_mean(y.iter().copied()) else {
             continue; // the plant lacks this signal
         };
@@ -126,7 +126,7 @@ fn window_is_steady(
 
 /// Finds the steady windows of `seg` (criteria in the module docs).
 pub fn detect_windows(
-    seg: &Segment,
+    seg: &Recording,
     cfg: &EngineConfig,
     crit: &SteadyCriteria,
 ) -> Vec<SteadyWindow> {
@@ -135,7 +135,8 @@ pub fn detect_windows(
     let mut a = 0;
     while a < n {
         // Smallest end that spans min_duration_s.
-        let Some(b0) = (a + 1..=n).find(|&b| seg.t_s[b - 1] - seg.t_s[a] >= crit.min_duration_s)
+        let Some(b0) =
+            (a + 1..=n).find(|&b| seg.times()[b - 1] - seg.times()[a] >= crit.min_duration_s)
         else {
             break;
         };
@@ -149,14 +150,14 @@ pub fn detect_windows(
         }
         // Settling guard: skip the window's opening stretch if enough remains after it.
         let settled = (a..b)
-            .find(|&k| seg.t_s[k] - seg.t_s[a] >= crit.settle_s)
-            .filter(|&k| seg.t_s[b - 1] - seg.t_s[k] >= crit.min_duration_s)
+            .find(|&k| seg.times()[k] - seg.times()[a] >= crit.settle_s)
+            .filter(|&k| seg.times()[b - 1] - seg.times()[k] >= crit.min_duration_s)
             .unwrap_or(a);
         out.push(SteadyWindow {
             start: settled,
             end: b,
-            t_start_s: seg.t_s[settled],
-            t_end_s: seg.t_s[b - 1],
+            t_start_s: seg.times()[settled],
+            t_end_s: seg.times()[b - 1],
         });
         a = b;
     }
@@ -195,15 +196,15 @@ pub fn steady_value(p: &SteadyPoint, s: Signal) -> f64 {
 
 /// Averages each window into a steady operating point.
 pub fn average_windows(
-    seg: &Segment,
+    seg: &Recording,
     cfg: &EngineConfig,
     windows: &[SteadyWindow],
     signals: &[Signal],
 ) -> Vec<SteadyData> {
-    let (_, p_amb) = seg.ambient(cfg);
+    let (_, p_amb) = seg.ambient(cfg.ambient.temperature_k, cfg.ambient.pressure_kpa);
     let mut out = Vec::new();
     for w in windows {
-        let vals = &seg.values[w.start..w.end];
+        let vals = &seg.rows()[w.start..w.end];
         let mean = |s: Signal| finite_mean(vals.iter().map(|v| v[s.index()]));
         let (Some((fuel, _)), Some((n2, _))) = (mean(Signal::FuelFlow), mean(Signal::N2)) else {
             continue; // no fuel or PT speed: cannot state the operating point
@@ -332,7 +333,7 @@ super::impl_diagnosis_problem!(SteadyProblem);
 /// Method A on `segment`.
 pub fn diagnose_steady(
     engine: &Engine,
-    segment: &Segment,
+    segment: &Recording,
     cfg: &DiagnosisConfig,
 ) -> Result<MethodResult, DiagnosisError> {
     let start = Instant::now();

@@ -10,9 +10,10 @@ use super::objective::Objective;
 use super::{
     fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, Method, MethodResult, ParamMap,
 };
-use crate::engine::replay::{simulate_segment, DriveMode, Segment};
+use crate::engine::replay::{simulate_segment, DriveMode};
 use crate::engine::trace::Values;
 use crate::engine::Engine;
+use crate::recording::Recording;
 use crate::signals::{Phase, Signal};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
@@ -24,37 +25,42 @@ fn is_input(s: Signal, mode: DriveMode, fit_ambient: bool) -> bool {
         || (s == Signal::FuelFlow && mode == DriveMode::MeasuredFuel)
 }
 
-/// Samples whose P1 reading `Segment::ambient` takes as the ambient pressure (GG at rest).
-fn at_rest(v: &crate::engine::trace::Values) -> bool {
-    v[Signal::N1.index()].abs() < 50.0 && v[Signal::P1.index()].is_finite()
-}
-
 /// Savitzky–Golay (quadratic, 7 points) smoothing of the measured fuel flow where it is a
 /// smooth function: every sample of the 7-point window finite, positive and in the same phase.
 /// It keeps ramps exactly and takes ~60 % of the white noise off the model's input; steps
 /// (light-off, fuel off) and phase changes are left as measured.
-pub fn smooth_fuel(seg: &mut Segment) {
+pub fn smooth_fuel(seg: &mut Recording) -> Result<(), DiagnosisError> {
     const C: [f64; 7] = [-2.0, 3.0, 6.0, 7.0, 6.0, 3.0, -2.0];
-    let fi = Signal::FuelFlow.index();
-    let raw: Vec<f64> = seg.values.iter().map(|v| v[fi]).collect();
+    let raw: Vec<f64> = seg.series(Signal::FuelFlow);
     for k in 3..raw.len().saturating_sub(3) {
         let win = &raw[k - 3..=k + 3];
-        let same_phase = seg.phase[k - 3..=k + 3].iter().all(|p| *p == seg.phase[k]);
+        let ph = seg.phases();
+        let same_phase = ph[k - 3..=k + 3].iter().all(|p| *p == ph[k]);
         if same_phase && win.iter().all(|v| v.is_finite() && *v > 0.0) {
             let s: f64 = win.iter().zip(C).map(|(v, c)| v * c).sum::<f64>() / 21.0;
             if s > 0.0 {
-                seg.values[k][fi] = s;
+                seg.set(k, Signal::FuelFlow, s)?;
             }
         }
     }
+    Ok(())
 }
+
+/// Span of the residual autocorrelation taken into account, s: longer than the slowest sensor
+/// lag and the spool time constants (30 samples at 1 Hz).
+const INFLATION_WINDOW_S: f64 = 30.0;
 
 /// Method B as an optimisation problem over the free health parameters.
 pub struct TransientProblem {
     engine: Engine,
-    /// The segment that drives the model: the measured one, with the fuel flow smoothed when
+    /// The recording that drives the model: the measured one, with the fuel flow smoothed when
     /// [`DiagnosisConfig::smooth_fuel`] is set.
-    drive: Segment,
+    drive: Recording,
+    /// Samples whose P1 is the replay's ambient pressure (GG at rest): where a fitted ambient
+    /// pressure is written.
+    rest: Vec<usize>,
+    /// Largest lag of the residual autocorrelation, samples (30 s at the data's period).
+    inflation_lag: usize,
     mode: DriveMode,
     objective: Objective,
     params: ParamMap,
@@ -64,16 +70,13 @@ pub struct TransientProblem {
 
 impl TransientProblem {
     /// Builds the problem for `segment` under `cfg` (window, signals, drive mode, fixed step).
+    /// The recording must be a start-up ([`Recording::check_startup`]).
     pub fn new(
         engine: &Engine,
-        segment: &Segment,
+        segment: &Recording,
         cfg: &DiagnosisConfig,
     ) -> Result<TransientProblem, DiagnosisError> {
-        if segment.len() < 2 {
-            return Err(DiagnosisError::Data(
-                "segment has fewer than two samples".into(),
-            ));
-        }
+        segment.check_startup()?;
         let mut engine = engine.clone();
         if cfg.fixed_step_s > 0.0 {
             engine.cfg.solver.fixed_step_s = cfg.fixed_step_s;
@@ -85,14 +88,14 @@ impl TransientProblem {
             .filter(|s| !is_input(*s, cfg.drive_mode, cfg.fit_ambient_pressure))
             .collect();
         let in_window: Vec<bool> = segment
-            .t_s
+            .times()
             .iter()
-            .zip(&segment.phase)
+            .zip(segment.phases())
             .map(|(&t, &p)| cfg.window.contains(t, p))
             .collect();
         let objective = Objective::new(
-            &segment.t_s,
-            &segment.values,
+            segment.times(),
+            segment.rows(),
             &in_window,
             &signals,
             &engine.cfg.sensors,
@@ -105,7 +108,7 @@ impl TransientProblem {
                 cfg.free().len()
             )));
         }
-        if !segment.phase.iter().any(|p| {
+        if !segment.phases().iter().any(|p| {
             !matches!(
                 p,
                 Phase::Standstill | Phase::Crank | Phase::Purge | Phase::Shutdown | Phase::Trip
@@ -117,14 +120,26 @@ impl TransientProblem {
         }
         let mut drive = segment.clone();
         if cfg.smooth_fuel && cfg.drive_mode == DriveMode::MeasuredFuel {
-            smooth_fuel(&mut drive);
+            smooth_fuel(&mut drive)?;
         }
         // The replay takes the ambient pressure from P1 at rest; fitting it needs such samples.
-        let ambient0 = (cfg.fit_ambient_pressure && segment.values.iter().any(at_rest))
-            .then(|| segment.ambient(&engine.cfg).1);
+        let rest: Vec<usize> = (0..segment.len())
+            .filter(|&k| segment.at_rest_with_p1(k))
+            .collect();
+        let ambient0 = (cfg.fit_ambient_pressure && !rest.is_empty()).then(|| {
+            segment
+                .ambient(
+                    engine.cfg.ambient.temperature_k,
+                    engine.cfg.ambient.pressure_kpa,
+                )
+                .1
+        });
+        let inflation_lag = (INFLATION_WINDOW_S / segment.sample_period_s()).round() as usize;
         Ok(TransientProblem {
             engine,
             drive,
+            rest,
+            inflation_lag: inflation_lag.max(1),
             mode: cfg.drive_mode,
             objective,
             params: ParamMap::new(cfg.free(), cfg.base, ambient0)?,
@@ -142,7 +157,7 @@ impl TransientProblem {
     pub fn simulate(&self, x: &[f64]) -> Option<Vec<Values>> {
         self.runs.fetch_add(1, Ordering::Relaxed);
         let h = self.params.health(x);
-        let run = |seg: &Segment| {
+        let run = |seg: &Recording| {
             simulate_segment(&self.engine, &h, seg, self.mode)
                 .ok()
                 .map(|t| t.measured)
@@ -151,10 +166,9 @@ impl TransientProblem {
             Some(p) => {
                 // The replay reads the ambient pressure from P1 at rest: set it there.
                 let mut seg = self.drive.clone();
-                seg.values
-                    .iter_mut()
-                    .filter(|v| at_rest(v))
-                    .for_each(|v| v[Signal::P1.index()] = p);
+                for &k in &self.rest {
+                    seg.set(k, Signal::P1, p).ok()?;
+                }
                 run(&seg)
             }
             None => run(&self.drive),
@@ -166,8 +180,7 @@ impl TransientProblem {
     /// Variance inflation of the least-squares σ for correlated residuals (see
     /// [`DiagnosisProblem::sigma_inflation`]).
     fn residual_inflation(&self, r: &[f64]) -> f64 {
-        // 30 samples: longer than the slowest sensor lag and the spool time constants.
-        self.objective.correlation_inflation(r, 30)
+        self.objective.correlation_inflation(r, self.inflation_lag)
     }
 }
 
@@ -176,7 +189,7 @@ super::impl_diagnosis_problem!(TransientProblem);
 /// Method B on `segment`.
 pub fn diagnose_transient(
     engine: &Engine,
-    segment: &Segment,
+    segment: &Recording,
     cfg: &DiagnosisConfig,
 ) -> Result<MethodResult, DiagnosisError> {
     let start = Instant::now();

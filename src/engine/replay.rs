@@ -1,7 +1,7 @@
 //! Driving the model with a measured start-up: the operating inputs of the diagnosis.
 //!
-//! A [`Segment`] is a sampled start-up as the plant recorded it (phase labels, ambient, fuel flow,
-//! GG speed, power, …). [`simulate_segment`] runs a health-scaled model through it and returns
+//! A [`Recording`] is a sampled start-up as the plant recorded it (phase labels, ambient, fuel
+//! flow, GG speed, power, …). [`simulate_segment`] runs a health-scaled model through it and returns
 //! what the plant's instruments would have shown, sample by sample, so the two can be compared.
 //! The phases tell the model what the sequencer did (starter, ignition, breaker); the fuel either
 //! comes from the measured fuel flow (open loop, the default) or from the model's own PID
@@ -14,8 +14,9 @@ use super::dynamic::{Drive, Scales, State, Stations, IX_FUEL_I, IX_N2};
 use super::model::{Engine, EngineError, Model};
 use super::sensors::MeasurementOptions;
 use super::sequence::{Controller, Simulation, TruthSample};
-use super::trace::{Trace, Values};
+use super::trace::Trace;
 use crate::health::HealthParams;
+use crate::recording::Recording;
 use crate::signals::{Phase, Signal};
 use std::sync::Arc;
 
@@ -29,74 +30,6 @@ pub enum DriveMode {
     /// The model's controllers track the measured GG speed (before the breaker closes) and power
     /// (after): the fuel flow becomes an output compared with the measurement.
     Demand,
-}
-
-/// A measured start-up, sampled at a constant period.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Segment {
-    pub t_s: Vec<f64>,
-    pub phase: Vec<Phase>,
-    /// Measured values per sample (NaN where a value is missing or invalid).
-    pub values: Vec<Values>,
-}
-
-impl Segment {
-    /// The segment a simulated trace's instruments recorded.
-    pub fn from_trace(trace: &Trace) -> Segment {
-        Segment {
-            t_s: trace.t_s.clone(),
-            phase: trace.phase.clone(),
-            values: trace.measured.clone(),
-        }
-    }
-
-    pub fn len(&self) -> usize {
-        self.t_s.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.t_s.is_empty()
-    }
-
-    /// Measured series of a signal.
-    pub fn series(&self, s: Signal) -> Vec<f64> {
-        self.values.iter().map(|v| v[s.index()]).collect()
-    }
-
-    /// Median of the finite values of a signal.
-    pub fn median(&self, s: Signal) -> Option<f64> {
-        let mut v: Vec<f64> = self
-            .series(s)
-            .into_iter()
-            .filter(|x| x.is_finite())
-            .collect();
-        if v.is_empty() {
-            return None;
-        }
-        v.sort_by(f64::total_cmp);
-        Some(v[v.len() / 2])
-    }
-
-    /// Ambient temperature and pressure for the replay: median T1, and P1 while the engine was
-    /// at rest (no inlet loss then), else the maximum P1 seen.
-    pub fn ambient(&self, cfg: &EngineConfig) -> (f64, f64) {
-        let t = self.median(Signal::T1).unwrap_or(cfg.ambient.temperature_k);
-        let rest: Vec<f64> = self
-            .values
-            .iter()
-            .filter(|v| v[Signal::N1.index()].abs() < 50.0 && v[Signal::P1.index()].is_finite())
-            .map(|v| v[Signal::P1.index()])
-            .collect();
-        let p = if rest.is_empty() {
-            self.series(Signal::P1)
-                .into_iter()
-                .filter(|x| x.is_finite())
-                .reduce(f64::max)
-        } else {
-            Some(rest.iter().sum::<f64>() / rest.len() as f64)
-        };
-        (t, p.unwrap_or(cfg.ambient.pressure_kpa))
-    }
 }
 
 /// Replays the phases of a segment: starter, ignition and breaker from the labels, fuel from the
@@ -136,14 +69,14 @@ impl ReplayController {
     pub fn new(
         cfg: &EngineConfig,
         model: &Model,
-        seg: &Segment,
+        seg: &Recording,
         mode: DriveMode,
     ) -> ReplayController {
-        let t = &seg.t_s;
+        let t = seg.times();
         ReplayController {
             cfg: cfg.clone(),
-            t_s: Arc::new(t.clone()),
-            phase: Arc::new(seg.phase.clone()),
+            t_s: Arc::new(t.to_vec()),
+            phase: Arc::new(seg.phases().to_vec()),
             fuel: Arc::new(clean(t, seg.series(Signal::FuelFlow))),
             n1_sp: Arc::new(clean(t, seg.series(Signal::N1))),
             power_sp: Arc::new(clean(t, seg.series(Signal::Power))),
@@ -280,38 +213,32 @@ impl Controller for ReplayController {
 pub fn simulate_segment(
     engine: &Engine,
     health: &HealthParams,
-    seg: &Segment,
+    seg: &Recording,
     mode: DriveMode,
 ) -> Result<Trace, EngineError> {
-    if seg.len() < 2 {
-        return Err(EngineError::Simulation {
-            t_s: 0.0,
-            reason: "segment has fewer than two samples".into(),
-        });
-    }
-    let first_n1 = seg.values[0][Signal::N1.index()];
+    let first_n1 = seg.rows()[0][Signal::N1.index()];
     if first_n1.is_finite() && first_n1 > 100.0 {
         return Err(EngineError::Simulation {
-            t_s: seg.t_s[0],
+            t_s: seg.times()[0],
             reason: format!("segment must begin with the GG at rest (n1 = {first_n1:.0} rpm)"),
         });
     }
-    let (t_amb, p_amb) = seg.ambient(&engine.cfg);
+    let (t_amb, p_amb) = seg.ambient(
+        engine.cfg.ambient.temperature_k,
+        engine.cfg.ambient.pressure_kpa,
+    );
     let model = engine.model_at(health, t_amb, p_amb);
     // Work in segment-relative time so the simulation starts at 0.
-    let t0 = seg.t_s[0];
-    let rel: Vec<f64> = seg.t_s.iter().map(|t| t - t0).collect();
-    let mut rseg = seg.clone();
-    rseg.t_s = rel.clone();
+    let rseg = seg.shifted_to_zero();
     let ctl = ReplayController::new(&engine.cfg, &model, &rseg, mode);
     let mut sim = Simulation::with_controller(&engine.cfg, &model, ctl);
     let mut samples = Vec::with_capacity(seg.len());
-    for (k, &t) in rel.iter().enumerate() {
+    for (k, &t) in rseg.times().iter().enumerate() {
         sim.advance_to(t)?;
         let st = sim.stations();
         samples.push(TruthSample {
-            t_s: seg.t_s[k],
-            phase: seg.phase[k],
+            t_s: seg.times()[k],
+            phase: seg.phases()[k],
             stations: st,
         });
     }
@@ -361,7 +288,7 @@ mod tests {
             ..HealthParams::HEALTHY
         };
         let plant = startup(&engine, &h);
-        let seg = Segment::from_trace(&plant);
+        let seg = plant.to_recording().expect("a valid recording");
         let same = simulate_segment(&engine, &h, &seg, DriveMode::MeasuredFuel).expect("replays");
         let other = simulate_segment(
             &engine,
@@ -372,7 +299,7 @@ mod tests {
         .expect("replays");
         // From light-off on (the crank depends only on the starter), in the steady part:
         let from = seg
-            .phase
+            .phases()
             .iter()
             .position(|p| *p == Phase::Steady)
             .expect("reaches steady");

@@ -33,20 +33,45 @@ pub fn channel(cfg: &SensorsConfig, s: Signal) -> Option<&SensorChannel> {
     })
 }
 
+/// One step of the exact first-order-hold lag recursion: the output after `dt` seconds from
+/// output `y` with input moving linearly from `x_prev` to `x`.
+fn lag_step(y: f64, x_prev: f64, x: f64, dt: f64, tau: f64) -> f64 {
+    let a = (-dt / tau).exp();
+    let c = tau / dt * (1.0 - a);
+    a * y + (1.0 - c) * x + (c - a) * x_prev
+}
+
 /// Applies a first-order lag with time constant `tau` to samples `x` taken every `dt`
 /// (exact for a signal that is linear between samples; starts settled on the first sample).
 pub fn lag(x: &[f64], dt: f64, tau: f64) -> Vec<f64> {
     if tau <= 0.0 || x.is_empty() {
         return x.to_vec();
     }
-    let a = (-dt / tau).exp();
-    let c = tau / dt * (1.0 - a);
-    let (b0, b1) = (1.0 - c, c - a);
     let mut y = Vec::with_capacity(x.len());
     y.push(x[0]);
     for k in 1..x.len() {
         let prev = y[k - 1];
-        y.push(a * prev + b0 * x[k] + b1 * x[k - 1]);
+        y.push(lag_step(prev, x[k - 1], x[k], dt, tau));
+    }
+    y
+}
+
+/// [`lag`] for samples `x` taken at times `t_s` (any spacing; each step uses its own interval,
+/// so the lag follows the data's own sample period). `t_s` and `x` have equal lengths.
+pub fn lag_at(t_s: &[f64], x: &[f64], tau: f64) -> Vec<f64> {
+    if tau <= 0.0 || x.is_empty() {
+        return x.to_vec();
+    }
+    let mut y = Vec::with_capacity(x.len());
+    y.push(x[0]);
+    for k in 1..x.len() {
+        let prev = y[k - 1];
+        let dt = t_s.get(k).zip(t_s.get(k - 1)).map_or(0.0, |(b, a)| b - a);
+        y.push(if dt > 0.0 {
+            lag_step(prev, x[k - 1], x[k], dt, tau)
+        } else {
+            prev
+        });
     }
     y
 }
@@ -60,7 +85,7 @@ pub struct MeasurementOptions {
     pub seed: u64,
 }
 
-/// Measured series for one signal from its true series.
+/// Measured series for one signal from its true series sampled every `dt`.
 pub fn measure(
     cfg: &SensorsConfig,
     s: Signal,
@@ -68,11 +93,35 @@ pub fn measure(
     dt: f64,
     opts: &MeasurementOptions,
 ) -> Vec<f64> {
+    let lagged = |tau: f64| lag(truth, dt, tau);
+    measure_with(cfg, s, truth, opts, lagged)
+}
+
+/// Measured series for one signal from its true series sampled at times `t_s` (the lags use
+/// the data's own sample intervals).
+pub fn measure_at(
+    cfg: &SensorsConfig,
+    s: Signal,
+    t_s: &[f64],
+    truth: &[f64],
+    opts: &MeasurementOptions,
+) -> Vec<f64> {
+    let lagged = |tau: f64| lag_at(t_s, truth, tau);
+    measure_with(cfg, s, truth, opts, lagged)
+}
+
+fn measure_with(
+    cfg: &SensorsConfig,
+    s: Signal,
+    truth: &[f64],
+    opts: &MeasurementOptions,
+    lagged: impl Fn(f64) -> Vec<f64>,
+) -> Vec<f64> {
     let Some(ch) = channel(cfg, s) else {
         return truth.to_vec();
     };
     let mut y = if opts.lags {
-        lag(truth, dt, ch.tau_s)
+        lagged(ch.tau_s)
     } else {
         truth.to_vec()
     };
@@ -129,9 +178,7 @@ impl OnlineChannel {
         };
         self.y = match self.prev_x {
             Some(px) if self.opts.lags && ch.tau_s > 0.0 => {
-                let a = (-self.dt / ch.tau_s).exp();
-                let c = ch.tau_s / self.dt * (1.0 - a);
-                a * self.y + (1.0 - c) * x + (c - a) * px
+                lag_step(self.y, px, x, self.dt, ch.tau_s)
             }
             _ => x,
         };
@@ -174,6 +221,33 @@ mod tests {
         let exact = 1.0 - tau / dt * ((-(t - dt) / tau).exp() - (-t / tau).exp());
         assert!((y[12] - exact).abs() < 1e-12, "{} vs {}", y[12], exact);
         assert_eq!(lag(&x, dt, 0.0), x);
+    }
+
+    #[test]
+    fn lag_at_follows_the_data_period() {
+        // Uniform times: identical to the constant-period lag.
+        let x: Vec<f64> = (0..50).map(|k| (k as f64 / 7.0).sin()).collect();
+        let t1: Vec<f64> = (0..50).map(|k| k as f64).collect();
+        assert_eq!(lag_at(&t1, &x, 2.0), lag(&x, 1.0, 2.0));
+        // The same step input at 1 Hz and 10 Hz: the lagged value at t = 4 s agrees (exact
+        // response of a step held from t = 1 s), while a 1 s discretisation of 10 Hz data
+        // would lag ten times too slowly.
+        let step = |t: f64| if t >= 1.0 { 1.0 } else { 0.0 };
+        let t10: Vec<f64> = (0..=100).map(|k| k as f64 * 0.1).collect();
+        let x10: Vec<f64> = t10.iter().map(|&t| step(t)).collect();
+        let x1: Vec<f64> = t1.iter().take(11).map(|&t| step(t)).collect();
+        let y10 = lag_at(&t10, &x10, 2.0);
+        let y1 = lag_at(&t1[..11], &x1, 2.0);
+        // Both see the step as a ramp over their first interval; by t = 4 s the difference
+        // is the ramp's, a few percent, far below the 1 s-vs-0.1 s mistake.
+        assert!((y10[40] - y1[4]).abs() < 0.05, "{} vs {}", y10[40], y1[4]);
+        let wrong = lag(&x10, 1.0, 2.0);
+        assert!(
+            (wrong[40] - y1[4]).abs() > 0.15,
+            "{} vs {}",
+            wrong[40],
+            y1[4]
+        );
     }
 
     #[test]

@@ -8,14 +8,11 @@ use super::config::EngineConfig;
 use super::dynamic::Stations;
 use super::sensors::{self, MeasurementOptions};
 use super::sequence::TruthSample;
+use crate::recording::{Recording, RecordingError};
 use crate::signals::{Phase, Signal};
 use std::io::Write;
 
-/// Number of signals per sample.
-pub const NSIG: usize = Signal::ALL.len();
-
-/// Signal values indexed by [`Signal::index`].
-pub type Values = [f64; NSIG];
+pub use crate::signals::{Values, NSIG};
 
 /// The values of every signal in a station table.
 pub fn values_of(st: &Stations) -> Values {
@@ -66,10 +63,10 @@ impl Trace {
         let truth: Vec<Values> = samples.iter().map(|s| values_of(&s.stations)).collect();
         let mut measured = truth.clone();
         if let Some(o) = meas {
-            let dt = cfg.sequence.sample_period_s;
+            // Lags use the samples' own intervals (the data's sample period).
             for s in Signal::ALL {
                 let series: Vec<f64> = truth.iter().map(|v| v[s.index()]).collect();
-                let m = sensors::measure(&cfg.sensors, s, &series, dt, o);
+                let m = sensors::measure_at(&cfg.sensors, s, &t_s, &series, o);
                 for (row, val) in measured.iter_mut().zip(m) {
                     row[s.index()] = val;
                 }
@@ -90,6 +87,11 @@ impl Trace {
 
     pub fn is_empty(&self) -> bool {
         self.t_s.is_empty()
+    }
+
+    /// What the instruments recorded, as a checked [`Recording`] (diagnosis input).
+    pub fn to_recording(&self) -> Result<Recording, RecordingError> {
+        Recording::new(self.t_s.clone(), self.phase.clone(), self.measured.clone())
     }
 
     /// Measured series of one signal.
