@@ -68,3 +68,82 @@ fn diagnose_prints_json_and_rejects_bad_rows() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("line 6, column 'n1_rpm'"), "{err}");
 }
+
+/// Issue 12 items 6 and 8: unusable data and a zero budget give a clear error and a failing
+/// exit status, never `0.000 ± inf` (or `± 2.0 %`) with exit 0, and never a hang.
+#[test]
+fn diagnose_refuses_unusable_data_and_zero_budget() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let csv = dir.path().join("startup.csv");
+    write_startup(&csv, &HealthParams::HEALTHY);
+    let text = std::fs::read_to_string(&csv).expect("read");
+    let lines: Vec<&str> = text.lines().collect();
+    let header = lines[0];
+    let n1_col = header
+        .split(',')
+        .position(|h| h == "n1_rpm")
+        .expect("n1 column");
+    let diagnose = |path: &std::path::Path, extra: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+            .args(["diagnose", "--input"])
+            .arg(path)
+            .args(extra)
+            .output()
+            .expect("runs");
+        (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stderr).to_string(),
+        )
+    };
+    // Constant n1 (the GG never turns).
+    let flat: Vec<String> = std::iter::once(header.to_string())
+        .chain(lines[1..].iter().map(|l| {
+            let mut c: Vec<&str> = l.split(',').collect();
+            c[n1_col] = "0";
+            c.join(",")
+        }))
+        .collect();
+    let p = dir.path().join("flat.csv");
+    std::fs::write(&p, flat.join("\n")).expect("write");
+    let (ok, err) = diagnose(&p, &["--method", "transient"]);
+    assert!(
+        !ok && err.contains("not a start-up") && err.contains("never rises"),
+        "{err}"
+    );
+    // Only the steady rows (the GG turning from the first sample).
+    let steady: Vec<&str> = std::iter::once(header)
+        .chain(
+            lines[1..]
+                .iter()
+                .copied()
+                .filter(|l| l.contains(",steady,")),
+        )
+        .collect();
+    assert!(steady.len() > 10);
+    let p = dir.path().join("steady.csv");
+    std::fs::write(&p, steady.join("\n")).expect("write");
+    let (ok, err) = diagnose(&p, &["--method", "transient"]);
+    assert!(!ok && err.contains("not at rest"), "{err}");
+    // A zero budget.
+    let (ok, err) = diagnose(&csv, &["--max-runs", "0"]);
+    assert!(
+        !ok && err.contains("--max-runs") && err.contains("at least 1"),
+        "{err}"
+    );
+    // P1 = 0 on one row.
+    let p1_col = header
+        .split(',')
+        .position(|h| h == "p1_kpa")
+        .expect("p1 column");
+    let mut zero: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+    let mut c: Vec<&str> = lines[7].split(',').collect();
+    c[p1_col] = "0";
+    zero[7] = c.join(",");
+    let p = dir.path().join("p1.csv");
+    std::fs::write(&p, zero.join("\n")).expect("write");
+    let (ok, err) = diagnose(&p, &[]);
+    assert!(
+        !ok && err.contains("line 8") && err.contains("p1_kpa = 0"),
+        "{err}"
+    );
+}

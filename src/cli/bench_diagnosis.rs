@@ -48,7 +48,7 @@ fn row(name: &str, s: &MethodStats) {
 /// Runs the bench.
 pub fn run(a: &BenchDiagnosisArgs) -> anyhow::Result<ExitCode> {
     let engine = super::load_engine(a.engine.as_deref())?;
-    let cfg = a.fit.config();
+    let cfg = a.fit.config()?;
     let compare: Vec<Optimiser> = if a.compare {
         vec![
             Optimiser::Cuckoo,

@@ -44,7 +44,7 @@ fn line(
 /// Runs the bench.
 pub fn run(a: &BenchWashArgs) -> anyhow::Result<ExitCode> {
     let engine = super::load_engine(a.engine.as_deref())?;
-    let cfg = a.fit.config();
+    let cfg = a.fit.config()?;
     let rep = bench_wash(&engine, a.fit.seed, &cfg)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&rep)?);

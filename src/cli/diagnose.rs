@@ -72,8 +72,9 @@ pub struct FitArgs {
 }
 
 impl FitArgs {
-    /// The diagnosis configuration these options select.
-    pub fn config(&self) -> DiagnosisConfig {
+    /// The diagnosis configuration these options select; refuses settings that cannot give a
+    /// result (`--max-runs 0`, `--threads 0`).
+    pub fn config(&self) -> anyhow::Result<DiagnosisConfig> {
         let mut cfg = DiagnosisConfig {
             seed: self.seed,
             optimiser: self.optimiser.into(),
@@ -87,7 +88,8 @@ impl FitArgs {
         if let Some(n) = self.max_runs {
             cfg.max_model_runs = n;
         }
-        cfg
+        cfg.validate()?;
+        Ok(cfg)
     }
 }
 
@@ -128,6 +130,8 @@ pub fn result_json(r: &MethodResult) -> Value {
         "signals": r.signals.iter().map(|s| s.column()).collect::<Vec<_>>(),
         "steady_windows_s": r.windows,
         "ambient_kpa": r.ambient_kpa.map(|(p, s)| json!({ "value": p, "sigma": s })),
+        "params": r.params,
+        "failed_runs": r.failures,
     })
 }
 
@@ -145,10 +149,20 @@ fn print_text(m: Method, r: &MethodResult) {
         let s = r.sigma.get(*n).copied().unwrap_or(f64::NAN);
         println!("  {n:5} {:8.3} ± {:.3} %", h[i], s);
     }
+    for p in r.params.iter().filter(|p| p.target.engine_key().is_some()) {
+        println!("  {} {:.6} ± {:.6}", p.name, p.value, p.sigma);
+    }
+    if r.failures.count > 0 {
+        println!("  {} model runs failed:", r.failures.count);
+        for (reason, n) in &r.failures.reasons {
+            println!("    {n} × {reason}");
+        }
+    }
 }
 
 /// Runs `gtwatch diagnose`.
 pub fn run(a: &DiagnoseArgs) -> anyhow::Result<ExitCode> {
+    let cfg = a.fit.config()?;
     let engine = super::load_engine(a.engine.as_deref())?;
     let mapping = match &a.map {
         Some(m) => parse_mapping(m)?,
@@ -158,7 +172,6 @@ pub fn run(a: &DiagnoseArgs) -> anyhow::Result<ExitCode> {
         std::fs::File::open(&a.input).with_context(|| format!("opening {}", a.input.display()))?;
     let seg = read_recording(std::io::BufReader::new(file), &mapping)
         .with_context(|| format!("reading {}", a.input.display()))?;
-    let cfg = a.fit.config();
     let methods: Vec<Method> = match a.method {
         MethodArg::Transient => vec![Method::Transient],
         MethodArg::Steady => vec![Method::Steady],

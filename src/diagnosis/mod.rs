@@ -38,15 +38,21 @@ pub mod bench;
 pub mod csv_input;
 pub mod identifiability;
 pub mod objective;
+pub mod params;
 pub mod steady;
 pub mod transient;
 
+pub use params::{
+    Applied, EvalError, FailureLog, Failures, FitParam, ParamMap, ParamTarget,
+    AMBIENT_HALF_RANGE_KPA,
+};
+
 use crate::engine::replay::DriveMode;
-use crate::engine::EngineError;
-use crate::health::{HealthParams, HEALTH_BOUNDS, HEALTH_NAMES};
+use crate::engine::{Engine, EngineError};
+use crate::health::{HealthParams, HEALTH_NAMES};
 use crate::optim::{
-    self, refine, run, uncertainty, Bounds, Budget, Cancel, CmaEs, CuckooSearch,
-    DifferentialEvolution, JacobianOptions, LmOptions, OptimError, ResidualProblem,
+    self, refine, run, uncertainty, Budget, Cancel, CmaEs, CuckooSearch, DifferentialEvolution,
+    JacobianOptions, LmOptions, OptimError, ResidualProblem,
 };
 use crate::signals::{Phase, Signal};
 use rayon::ThreadPool;
@@ -65,6 +71,12 @@ pub enum DiagnosisError {
     /// The data do not allow this method (no steady window, empty window, …).
     #[error("{0}")]
     Data(String),
+    /// The settings are inconsistent (a budget of 0 runs, a parameter fitted twice, …).
+    #[error("diagnosis settings: {0}")]
+    Config(String),
+    /// Every model evaluation of the fit failed: no result.
+    #[error("every one of {runs} model evaluations failed; first reasons: {reasons}")]
+    AllEvaluationsFailed { runs: usize, reasons: String },
     /// The recording is unusable (see [`crate::recording::Recording`]).
     #[error(transparent)]
     Recording(#[from] crate::recording::RecordingError),
@@ -264,6 +276,10 @@ pub struct DiagnosisConfig {
     pub fixed: [bool; 6],
     /// Values of the fixed parameters (and the start nest of the global search).
     pub base: HealthParams,
+    /// Further fitted parameters: engine-file values or effect parameters
+    /// ([`FitParam::engine_value`], [`FitParam::effect`]), started at the engine's values and
+    /// appended after the health parameters and the ambient pressure. Empty by default.
+    pub extra_params: Vec<FitParam>,
 }
 
 impl Default for DiagnosisConfig {
@@ -299,84 +315,60 @@ impl Default for DiagnosisConfig {
             fit_ambient_pressure: true,
             fixed: [false; 6],
             base: HealthParams::HEALTHY,
+            extra_params: Vec::new(),
         }
     }
 }
 
 impl DiagnosisConfig {
-    /// Indices of the fitted parameters.
+    /// Indices of the fitted health parameters.
     pub fn free(&self) -> Vec<usize> {
         (0..6).filter(|&i| !self.fixed[i]).collect()
     }
+
+    /// Number of fitted parameters besides the ambient pressure.
+    pub fn n_fitted(&self) -> usize {
+        self.free().len() + self.extra_params.len()
+    }
+
+    /// Refuses settings that cannot give a result (issue 12 item 8: `--max-runs 0`).
+    pub fn validate(&self) -> Result<(), DiagnosisError> {
+        if self.max_model_runs == 0 {
+            return Err(DiagnosisError::Config(
+                "max_model_runs (--max-runs) must be at least 1".into(),
+            ));
+        }
+        if self.threads == Some(0) {
+            return Err(DiagnosisError::Config("threads must be at least 1".into()));
+        }
+        if !(self.fd_step.is_finite() && self.fd_step > 0.0) {
+            return Err(DiagnosisError::Config(format!(
+                "fd_step must be a positive number, not {}",
+                self.fd_step
+            )));
+        }
+        if !(self.rate_weight.is_finite() && self.rate_weight >= 0.0) {
+            return Err(DiagnosisError::Config(format!(
+                "rate_weight must be a non-negative number, not {}",
+                self.rate_weight
+            )));
+        }
+        Ok(())
+    }
 }
 
-/// Maps the optimiser's vector to a full health vector: the free health parameters first, then
-/// (optionally) the ambient pressure as a nuisance parameter.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ParamMap {
-    free: Vec<usize>,
-    base: [f64; 6],
-    /// Start value of the fitted ambient pressure, kPa (`None` = not fitted).
-    ambient0: Option<f64>,
-    bounds: Bounds,
+/// Reads an engine-file value by dotted key (through `Engine::get_param`).
+pub(crate) fn engine_param(_engine: &Engine, key: &str) -> Result<f64, String> {
+    Err(format!(
+        "engine-file parameter '{key}' cannot be read yet (Engine::get_param is not merged)"
+    ))
 }
 
-/// Half-width of the ambient-pressure search interval around its first estimate, kPa.
-pub const AMBIENT_HALF_RANGE_KPA: f64 = 1.0;
-
-impl ParamMap {
-    /// Free parameters `free`, the others at `base`; bounds [`HEALTH_BOUNDS`]. With
-    /// `ambient0 = Some(p)` the ambient pressure is fitted too, within
-    /// p ± [`AMBIENT_HALF_RANGE_KPA`].
-    pub fn new(
-        free: Vec<usize>,
-        base: HealthParams,
-        ambient0: Option<f64>,
-    ) -> Result<ParamMap, DiagnosisError> {
-        if free.is_empty() {
-            return Err(DiagnosisError::Data("no free health parameter".into()));
-        }
-        let mut lo = vec![HEALTH_BOUNDS.0; free.len()];
-        let mut hi = vec![HEALTH_BOUNDS.1; free.len()];
-        if let Some(p) = ambient0 {
-            lo.push(p - AMBIENT_HALF_RANGE_KPA);
-            hi.push(p + AMBIENT_HALF_RANGE_KPA);
-        }
-        let bounds = Bounds::new(lo, hi)?;
-        Ok(ParamMap {
-            free,
-            base: base.to_array(),
-            ambient0,
-            bounds,
-        })
-    }
-    /// The full health vector for `x`.
-    pub fn health(&self, x: &[f64]) -> HealthParams {
-        let mut a = self.base;
-        for (&i, &v) in self.free.iter().zip(x) {
-            a[i] = v;
-        }
-        HealthParams::from_array(a)
-    }
-    /// The fitted ambient pressure in `x`, kPa (`None` if not fitted).
-    pub fn ambient(&self, x: &[f64]) -> Option<f64> {
-        self.ambient0.and_then(|_| x.get(self.free.len()).copied())
-    }
-    /// The optimiser's start vector for health `h` (ambient at its first estimate).
-    pub fn project(&self, h: &HealthParams) -> Vec<f64> {
-        let a = h.to_array();
-        let mut x: Vec<f64> = self.free.iter().map(|&i| a[i]).collect();
-        x.extend(self.ambient0);
-        x
-    }
-    /// Box bounds of the optimiser's vector.
-    pub fn bounds(&self) -> &Bounds {
-        &self.bounds
-    }
-    /// Indices of the free health parameters.
-    pub fn free(&self) -> &[usize] {
-        &self.free
-    }
+/// Sets an engine-file value by dotted key (through `Engine::set_param`).
+pub(crate) fn set_engine_param(_engine: &mut Engine, key: &str, _value: f64) -> Result<(), String> {
+    Err(format!(
+        "engine-file parameter '{key}' cannot be set yet (Engine::set_param is not merged)"
+    ))
 }
 
 /// A diagnosis problem both methods provide: the optimiser's [`ResidualProblem`] plus the
@@ -392,14 +384,34 @@ pub trait DiagnosisProblem: ResidualProblem {
     fn sigma_inflation(&self, r: &[f64]) -> f64;
     /// The parameter map.
     fn params(&self) -> &ParamMap;
+    /// The failed evaluations so far, by reason.
+    fn failures(&self) -> Failures;
 }
 
 /// The optimiser-facing traits of a diagnosis problem, for a type with the fields `objective:
-/// Objective`, `params: ParamMap`, `least_squares: bool`, `runs: AtomicUsize`, a method
-/// `simulate(&self, x) -> Option<Vec<Values>>` (None = the model failed) and a method
+/// Objective`, `params: ParamMap`, `least_squares: bool`, `runs: AtomicUsize`, `failures:
+/// FailureLog`, a method `simulate(&self, x) -> Result<Vec<Values>, EvalError>` and a method
 /// `residual_inflation(&self, r) -> f64`. Method A and Method B differ only in those two methods.
+/// A failed evaluation (the model's error, or a non-finite model value where a measurement is
+/// compared) is recorded with its reason and costs `+∞` / NaN residuals for the optimiser.
 macro_rules! impl_diagnosis_problem {
     ($ty:ty) => {
+        impl $ty {
+            /// Model values at `x`, checked against the objective; failures are recorded.
+            fn evaluate(
+                &self,
+                x: &[f64],
+            ) -> Result<Vec<$crate::signals::Values>, $crate::diagnosis::EvalError> {
+                let r = self
+                    .simulate(x)
+                    .and_then(|m| self.objective.check(&m).map(|()| m));
+                if let Err(e) = &r {
+                    self.failures.record(e);
+                }
+                r
+            }
+        }
+
         impl $crate::optim::Problem for $ty {
             fn dim(&self) -> usize {
                 self.params.bounds().dim()
@@ -408,19 +420,19 @@ macro_rules! impl_diagnosis_problem {
                 self.params.bounds()
             }
             fn cost(&self, x: &[f64]) -> f64 {
-                match self.simulate(x) {
-                    Some(m) if self.least_squares => self.objective.ssr(&m),
-                    Some(m) => self.objective.eq10(&m),
-                    None => f64::INFINITY,
+                match self.evaluate(x) {
+                    Ok(m) if self.least_squares => self.objective.ssr(&m),
+                    Ok(m) => self.objective.eq10(&m),
+                    Err(_) => f64::INFINITY,
                 }
             }
         }
 
         impl $crate::optim::ResidualProblem for $ty {
             fn residuals(&self, x: &[f64], out: &mut Vec<f64>) {
-                match self.simulate(x) {
-                    Some(m) => self.objective.residuals(&m, out),
-                    None => {
+                match self.evaluate(x) {
+                    Ok(m) => self.objective.residuals(&m, out),
+                    Err(_) => {
                         out.clear();
                         out.resize(self.objective.len(), f64::NAN);
                     }
@@ -436,11 +448,14 @@ macro_rules! impl_diagnosis_problem {
                 self.runs.load(std::sync::atomic::Ordering::Relaxed)
             }
             fn eq10(&self, x: &[f64]) -> f64 {
-                self.simulate(x)
+                self.evaluate(x)
                     .map_or(f64::INFINITY, |m| self.objective.eq10(&m))
             }
             fn params(&self) -> &$crate::diagnosis::ParamMap {
                 &self.params
+            }
+            fn failures(&self) -> $crate::diagnosis::Failures {
+                self.failures.summary()
             }
             fn sigma_inflation(&self, r: &[f64]) -> f64 {
                 self.residual_inflation(r)
@@ -479,6 +494,21 @@ pub struct MethodResult {
     pub windows: Vec<(f64, f64)>,
     /// Fitted ambient pressure and its 1σ, kPa (when fitted as a nuisance parameter).
     pub ambient_kpa: Option<(f64, f64)>,
+    /// Every fitted parameter (health, ambient pressure, engine/effect values) with its 1σ,
+    /// in the optimiser's order.
+    pub params: Vec<FittedParam>,
+    /// Model evaluations that failed during the fit, by reason.
+    pub failures: Failures,
+}
+
+/// One fitted parameter as reported.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FittedParam {
+    pub name: String,
+    pub value: f64,
+    /// 1σ (inflated like the health σ).
+    pub sigma: f64,
+    pub target: ParamTarget,
 }
 
 impl MethodResult {
@@ -518,6 +548,7 @@ pub fn fit<P: DiagnosisProblem>(
     cfg: &DiagnosisConfig,
     pool: &ThreadPool,
 ) -> Result<FitOutcome, DiagnosisError> {
+    cfg.validate()?;
     let n = problem.dim();
     let x0 = problem.params().project(&cfg.base);
     let lm_budget = match cfg.optimiser {
@@ -545,6 +576,18 @@ pub fn fit<P: DiagnosisProblem>(
         }
     };
     let global_objective = global.cost;
+    if !global_objective.is_finite() {
+        let f = problem.failures();
+        return Err(DiagnosisError::AllEvaluationsFailed {
+            runs: problem.model_runs(),
+            reasons: f
+                .reasons
+                .iter()
+                .map(|(r, c)| format!("{r} (×{c})"))
+                .collect::<Vec<_>>()
+                .join("; "),
+        });
+    }
     let mut x = global.x.clone();
     problem.set_least_squares(true);
     if lm_budget >= 2 {
@@ -588,8 +631,10 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
     let pm = problem.params();
     let mut sigma: BTreeMap<String, f64> =
         HEALTH_NAMES.iter().map(|n| (n.to_string(), 0.0)).collect();
-    for (&i, &s) in pm.free().iter().zip(&fit.sigma) {
-        sigma.insert(HEALTH_NAMES[i].to_string(), s);
+    for (p, &s) in pm.params().iter().zip(&fit.sigma) {
+        if let ParamTarget::Health(i) = p.target {
+            sigma.insert(HEALTH_NAMES[i].to_string(), s);
+        }
     }
     let objective = problem.eq10(&fit.x);
     let mut r = Vec::new();
@@ -599,6 +644,22 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
     for v in sigma.values_mut() {
         *v *= inflation;
     }
+    let params = pm
+        .params()
+        .iter()
+        .zip(&fit.x)
+        .zip(&fit.sigma)
+        .map(|((p, &value), &s)| FittedParam {
+            name: p.name.clone(),
+            value,
+            sigma: s * inflation,
+            target: p.target.clone(),
+        })
+        .collect();
+    let ambient_index = pm
+        .params()
+        .iter()
+        .position(|p| p.target == ParamTarget::AmbientPressure);
     MethodResult {
         method,
         optimiser: cfg.optimiser,
@@ -615,9 +676,15 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
         ambient_kpa: pm.ambient(&fit.x).map(|p| {
             (
                 p,
-                fit.sigma.get(pm.free().len()).copied().unwrap_or(f64::NAN) * inflation,
+                ambient_index
+                    .and_then(|i| fit.sigma.get(i))
+                    .copied()
+                    .unwrap_or(f64::NAN)
+                    * inflation,
             )
         }),
+        params,
+        failures: problem.failures(),
     }
 }
 

@@ -14,6 +14,7 @@
 //! the measurement alone, so the residual vector has the same length at every parameter vector.
 //! A non-finite model value makes the whole evaluation fail (cost `+∞`). Pure: no I/O.
 
+use super::params::EvalError;
 use crate::engine::config::SensorsConfig;
 use crate::engine::sensors::noise_sigma;
 use crate::engine::trace::Values;
@@ -194,6 +195,28 @@ impl Objective {
         &self.signals
     }
 
+    /// Checks that `model` has a finite value wherever a measurement is compared.
+    pub fn check(&self, model: &[Values]) -> Result<(), EvalError> {
+        for t in &self.terms {
+            match model.get(t.k).map(|v| v[t.s]) {
+                None => {
+                    return Err(EvalError::Short {
+                        got: model.len(),
+                        want: t.k + 1,
+                    })
+                }
+                Some(m) if !m.is_finite() => {
+                    return Err(EvalError::NonFinite {
+                        signal: Signal::ALL[t.s],
+                        sample: t.k,
+                    })
+                }
+                Some(_) => {}
+            }
+        }
+        Ok(())
+    }
+
     /// Paper eq. 10 (normalised): `Σ_s mean_t |Δ| / σ`; `+∞` if a model value is not finite
     /// or `model` is too short.
     pub fn eq10(&self, model: &[Values]) -> f64 {
@@ -319,6 +342,19 @@ mod tests {
         bad[0][Signal::N1.index()] = f64::NAN;
         assert_eq!(obj.eq10(&bad), f64::INFINITY);
         assert_eq!(obj.ssr(&bad), f64::INFINITY);
+        // … and says where.
+        assert_eq!(
+            obj.check(&bad),
+            Err(EvalError::NonFinite {
+                signal: Signal::N1,
+                sample: 0
+            })
+        );
+        assert_eq!(obj.check(&model), Ok(()));
+        assert!(matches!(
+            obj.check(&model[..2]),
+            Err(EvalError::Short { .. })
+        ));
         // Outside the window nothing counts.
         let obj2 = Objective::new(
             &t,

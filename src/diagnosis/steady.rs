@@ -19,8 +19,8 @@
 
 use super::objective::Objective;
 use super::{
-    fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, Method, MethodResult, ParamMap,
-    SteadyCriteria,
+    fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, EvalError, FailureLog, Method,
+    MethodResult, ParamMap, SteadyCriteria,
 };
 use crate::engine::config::EngineConfig;
 use crate::engine::sensors::noise_sigma;
@@ -243,6 +243,7 @@ pub struct SteadyProblem {
     params: ParamMap,
     least_squares: bool,
     runs: AtomicUsize,
+    failures: FailureLog,
 }
 
 impl SteadyProblem {
@@ -268,12 +269,12 @@ impl SteadyProblem {
             None
         };
         let objective = Objective::from_points(&pts);
-        if objective.len() <= cfg.free().len() {
+        if objective.len() <= cfg.n_fitted() {
             return Err(DiagnosisError::Data(format!(
                 "Method A needs more averaged values than parameters: {} steady window(s) give {} values for {} parameters",
                 kept.len(),
                 objective.len(),
-                cfg.free().len()
+                cfg.n_fitted()
             )));
         }
         Ok(SteadyProblem {
@@ -281,9 +282,16 @@ impl SteadyProblem {
             points: kept,
             guesses,
             objective,
-            params: ParamMap::new(cfg.free(), cfg.base, ambient0)?,
+            params: ParamMap::for_diagnosis(
+                &cfg.free(),
+                cfg.base,
+                ambient0,
+                &cfg.extra_params,
+                engine,
+            )?,
             least_squares: false,
             runs: AtomicUsize::new(0),
+            failures: FailureLog::default(),
         })
     }
 
@@ -292,26 +300,39 @@ impl SteadyProblem {
         &self.points
     }
 
-    /// Model values at every point, as rows indexed like a trace (`None` if a solve failed).
-    pub fn simulate(&self, x: &[f64]) -> Option<Vec<Values>> {
+    /// Model values at every point, as rows indexed like a trace, or why a solve failed.
+    pub fn simulate(&self, x: &[f64]) -> Result<Vec<Values>, EvalError> {
         self.runs.fetch_add(1, Ordering::Relaxed);
-        let h: HealthParams = self.params.health(x);
-        let p_amb = self.params.ambient(x);
+        let applied = self.params.apply(x);
+        let modified;
+        let engine = if self.params.touches_engine() {
+            modified = self.params.engine_for(&self.engine, &applied)?;
+            &modified
+        } else {
+            &self.engine
+        };
+        let h: HealthParams = applied.health;
+        let p_amb = applied.ambient_kpa;
         let mut rows = Vec::with_capacity(self.points.len());
         for (p, g) in self.points.iter().zip(&self.guesses) {
             let inputs = SteadyInputs {
                 p_amb_kpa: p_amb.unwrap_or(p.inputs.p_amb_kpa),
                 ..p.inputs
             };
-            let m = self.engine.model_at(&h, inputs.t_amb_k, inputs.p_amb_kpa);
-            let sp = solve(&m, &inputs, Some(g)).ok()?;
+            let m = engine.model_at(&h, inputs.t_amb_k, inputs.p_amb_kpa);
+            let sp = solve(&m, &inputs, Some(g)).map_err(|e| {
+                EvalError::Model(format!(
+                    "steady point at {:.0}–{:.0} s: {e}",
+                    p.window.t_start_s, p.window.t_end_s
+                ))
+            })?;
             let mut v = [f64::NAN; NSIG];
             for s in Signal::ALL {
                 v[s.index()] = steady_value(&sp, s);
             }
             rows.push(v);
         }
-        Some(rows)
+        Ok(rows)
     }
 
     /// The prepared objective.
@@ -337,6 +358,7 @@ pub fn diagnose_steady(
     cfg: &DiagnosisConfig,
 ) -> Result<MethodResult, DiagnosisError> {
     let start = Instant::now();
+    cfg.validate()?;
     let pool = pool_for(cfg)?;
     let windows = detect_windows(segment, &engine.cfg, &cfg.steady);
     if windows.is_empty() {

@@ -8,7 +8,8 @@
 
 use super::objective::Objective;
 use super::{
-    fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, Method, MethodResult, ParamMap,
+    fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, EvalError, FailureLog, Method,
+    MethodResult, ParamMap,
 };
 use crate::engine::replay::{simulate_segment, DriveMode};
 use crate::engine::trace::Values;
@@ -66,6 +67,7 @@ pub struct TransientProblem {
     params: ParamMap,
     least_squares: bool,
     runs: AtomicUsize,
+    failures: FailureLog,
 }
 
 impl TransientProblem {
@@ -76,6 +78,7 @@ impl TransientProblem {
         segment: &Recording,
         cfg: &DiagnosisConfig,
     ) -> Result<TransientProblem, DiagnosisError> {
+        cfg.validate()?;
         segment.check_startup()?;
         let mut engine = engine.clone();
         if cfg.fixed_step_s > 0.0 {
@@ -101,11 +104,11 @@ impl TransientProblem {
             &engine.cfg.sensors,
             cfg.rate_weight,
         );
-        if objective.len() <= cfg.free().len() {
+        if objective.len() <= cfg.n_fitted() {
             return Err(DiagnosisError::Data(format!(
                 "only {} valid measured samples in the window for {} parameters",
                 objective.len(),
-                cfg.free().len()
+                cfg.n_fitted()
             )));
         }
         if !segment.phases().iter().any(|p| {
@@ -136,15 +139,22 @@ impl TransientProblem {
         });
         let inflation_lag = (INFLATION_WINDOW_S / segment.sample_period_s()).round() as usize;
         Ok(TransientProblem {
-            engine,
             drive,
             rest,
             inflation_lag: inflation_lag.max(1),
             mode: cfg.drive_mode,
             objective,
-            params: ParamMap::new(cfg.free(), cfg.base, ambient0)?,
+            params: ParamMap::for_diagnosis(
+                &cfg.free(),
+                cfg.base,
+                ambient0,
+                &cfg.extra_params,
+                &engine,
+            )?,
+            engine,
             least_squares: false,
             runs: AtomicUsize::new(0),
+            failures: FailureLog::default(),
         })
     }
 
@@ -153,21 +163,31 @@ impl TransientProblem {
         &self.objective
     }
 
-    /// The simulated instrument values for free parameters `x` (`None` if the model failed).
-    pub fn simulate(&self, x: &[f64]) -> Option<Vec<Values>> {
+    /// The simulated instrument values for parameters `x`, or why the model failed.
+    pub fn simulate(&self, x: &[f64]) -> Result<Vec<Values>, EvalError> {
         self.runs.fetch_add(1, Ordering::Relaxed);
-        let h = self.params.health(x);
-        let run = |seg: &Recording| {
-            simulate_segment(&self.engine, &h, seg, self.mode)
-                .ok()
-                .map(|t| t.measured)
+        let applied = self.params.apply(x);
+        let modified;
+        let engine = if self.params.touches_engine() {
+            modified = self.params.engine_for(&self.engine, &applied)?;
+            &modified
+        } else {
+            &self.engine
         };
-        match self.params.ambient(x) {
+        let run = |seg: &Recording| {
+            simulate_segment(engine, &applied.health, seg, self.mode)
+                .map(|t| t.measured)
+                .map_err(|e| EvalError::Model(e.to_string()))
+        };
+        match applied.ambient_kpa {
             Some(p) => {
                 // The replay reads the ambient pressure from P1 at rest: set it there.
                 let mut seg = self.drive.clone();
                 for &k in &self.rest {
-                    seg.set(k, Signal::P1, p).ok()?;
+                    seg.set(k, Signal::P1, p).map_err(|e| EvalError::Param {
+                        name: "ambient_pressure_kpa".into(),
+                        reason: e.to_string(),
+                    })?;
                 }
                 run(&seg)
             }
