@@ -840,6 +840,75 @@ mod tests {
         assert!(id.condition < 200.0, "condition {}", id.condition);
     }
 
+    /// A problem whose model always fails: the fit says why instead of returning `± inf`.
+    struct Failing {
+        objective: objective::Objective,
+        params: ParamMap,
+        least_squares: bool,
+        runs: std::sync::atomic::AtomicUsize,
+        failures: FailureLog,
+    }
+
+    impl Failing {
+        fn simulate(&self, _x: &[f64]) -> Result<Vec<crate::signals::Values>, EvalError> {
+            self.runs.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            Err(EvalError::Model(
+                "simulation failed at t = 3.00 s: boom".into(),
+            ))
+        }
+        fn residual_inflation(&self, _r: &[f64]) -> f64 {
+            1.0
+        }
+    }
+
+    impl_diagnosis_problem!(Failing);
+
+    #[test]
+    fn a_fit_whose_every_evaluation_fails_says_why() {
+        let points: Vec<Vec<(Signal, f64, f64)>> = (0..4)
+            .map(|k| {
+                vec![
+                    (Signal::N1, 9000.0 + k as f64, 5.0),
+                    (Signal::T2, 700.0, 1.0),
+                ]
+            })
+            .collect();
+        let mut p = Failing {
+            objective: objective::Objective::from_points(&points),
+            params: ParamMap::new(
+                vec![FitParam::health(0).expect("D_GC")],
+                HealthParams::HEALTHY,
+                vec![0.0],
+            )
+            .expect("map"),
+            least_squares: false,
+            runs: Default::default(),
+            failures: FailureLog::default(),
+        };
+        let cfg = DiagnosisConfig {
+            max_model_runs: 20,
+            threads: Some(1),
+            ..DiagnosisConfig::default()
+        };
+        let pool = pool_for(&cfg).expect("pool");
+        let e = fit(&mut p, &cfg, &pool).expect_err("nothing to fit");
+        let text = e.to_string();
+        assert!(
+            matches!(e, DiagnosisError::AllEvaluationsFailed { runs, .. } if runs > 0),
+            "{text}"
+        );
+        assert!(text.contains("boom"), "{text}");
+        let f = p.failures();
+        assert_eq!(f.count, p.model_runs());
+        // A zero budget is refused before any run.
+        let zero = DiagnosisConfig {
+            max_model_runs: 0,
+            ..cfg
+        };
+        let e = fit(&mut p, &zero, &pool).expect_err("zero budget");
+        assert!(matches!(e, DiagnosisError::Config(_)), "{e}");
+    }
+
     #[test]
     fn bad_data_gives_clear_errors() {
         let engine = Engine::reference().expect("engine");
