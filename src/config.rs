@@ -215,6 +215,38 @@ impl Config {
 mod tests {
     use super::*;
 
+    /// The shipped reference file claims to list the defaults: each section it sets must equal
+    /// what the code uses when the section (or key) is left out.
+    #[test]
+    fn shipped_config_lists_the_code_defaults() {
+        let text = include_str!("../config/gtwatch.toml");
+        let shipped = Config::parse(text, "config/gtwatch.toml").expect("shipped config parses");
+        assert_eq!(shipped.storage, StorageConfig::default(), "[storage]");
+        assert_eq!(shipped.replay, ReplayConfig::default(), "[replay]");
+        assert_eq!(shipped.detector, DetectorConfig::default(), "[detector]");
+        assert_eq!(shipped.acquisition, AcquisitionConfig::default(), "[acquisition]");
+        assert_eq!(shipped.daemon, DaemonConfig::default(), "[daemon]");
+        assert!(shipped.check().is_empty(), "{:?}", shipped.check());
+        // Every key of those sections is written out in the file (none left to a hidden default).
+        let table: toml::Table = toml::from_str(text).expect("toml");
+        for (section, n_keys) in [("storage", 6), ("acquisition", 7), ("daemon", 2)] {
+            let t = table
+                .get(section)
+                .and_then(|v| v.as_table())
+                .unwrap_or_else(|| panic!("[{section}] missing"));
+            assert_eq!(t.len(), n_keys, "[{section}] keys: {:?}", t.keys().collect::<Vec<_>>());
+        }
+    }
+
+    /// Leaving out `[acquisition]` gives the documented 10 Hz poll.
+    #[test]
+    fn missing_acquisition_section_polls_at_100_ms() {
+        let text = MINIMAL.replace("[acquisition]\npoll_period_ms = 100\n", "");
+        assert!(!text.contains("[acquisition]"));
+        let c = Config::parse(&text, "x.toml").expect("parse");
+        assert_eq!(c.acquisition.poll_period_ms, 100);
+    }
+
     const MINIMAL: &str = r#"
 [plant]
 name = "GT1"

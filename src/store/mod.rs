@@ -167,7 +167,7 @@ pub struct StorageConfig {
     pub batch_size: usize,
     /// ... or when the oldest buffered sample is this old, in ms. Default 1000.
     pub flush_interval_ms: u64,
-    /// SQLite page cache in MiB. Default 64.
+    /// SQLite page cache in MiB. Default 16 (keeps the daemon under 50 MB resident; bulk replays may want more).
     pub cache_mib: u32,
     /// `normal` (default) or `full`.
     pub synchronous: Synchronous,
@@ -181,7 +181,7 @@ impl Default for StorageConfig {
             path: PathBuf::from("/var/lib/gtwatch/gtwatch.db"),
             batch_size: 5000,
             flush_interval_ms: 1000,
-            cache_mib: 64,
+            cache_mib: 16,
             synchronous: Synchronous::Normal,
             busy_timeout_ms: 5000,
         }
