@@ -224,7 +224,11 @@ mod tests {
         assert_eq!(shipped.storage, StorageConfig::default(), "[storage]");
         assert_eq!(shipped.replay, ReplayConfig::default(), "[replay]");
         assert_eq!(shipped.detector, DetectorConfig::default(), "[detector]");
-        assert_eq!(shipped.acquisition, AcquisitionConfig::default(), "[acquisition]");
+        assert_eq!(
+            shipped.acquisition,
+            AcquisitionConfig::default(),
+            "[acquisition]"
+        );
         assert_eq!(shipped.daemon, DaemonConfig::default(), "[daemon]");
         assert!(shipped.check().is_empty(), "{:?}", shipped.check());
         // Every key of those sections is written out in the file (none left to a hidden default).
@@ -234,7 +238,12 @@ mod tests {
                 .get(section)
                 .and_then(|v| v.as_table())
                 .unwrap_or_else(|| panic!("[{section}] missing"));
-            assert_eq!(t.len(), n_keys, "[{section}] keys: {:?}", t.keys().collect::<Vec<_>>());
+            assert_eq!(
+                t.len(),
+                n_keys,
+                "[{section}] keys: {:?}",
+                t.keys().collect::<Vec<_>>()
+            );
         }
     }
 
