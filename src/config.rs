@@ -12,6 +12,7 @@ use crate::config_problem::ConfigProblem;
 use crate::detect::DetectorConfig;
 use crate::replay::ReplayConfig;
 use crate::store::StorageConfig;
+use crate::worker::DiagnosisSettings;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -33,6 +34,8 @@ pub struct Config {
     pub modbus: Option<ModbusConfig>,
     #[serde(default)]
     pub daemon: DaemonConfig,
+    #[serde(default)]
+    pub diagnosis: DiagnosisSettings,
 }
 
 /// `[plant]`: which machine this is and the engine model used to diagnose it.
@@ -168,6 +171,7 @@ impl Config {
         p.extend(self.replay.validate());
         p.extend(self.detector.validate());
         p.extend(self.acquisition.validate());
+        p.extend(self.diagnosis.validate());
         match (&self.modbus, self.acquisition.source) {
             (Some(m), _) => {
                 p.extend(m.check());
@@ -230,10 +234,20 @@ mod tests {
             "[acquisition]"
         );
         assert_eq!(shipped.daemon, DaemonConfig::default(), "[daemon]");
+        assert_eq!(
+            shipped.diagnosis,
+            DiagnosisSettings::default(),
+            "[diagnosis]"
+        );
         assert!(shipped.check().is_empty(), "{:?}", shipped.check());
         // Every key of those sections is written out in the file (none left to a hidden default).
         let table: toml::Table = toml::from_str(text).expect("toml");
-        for (section, n_keys) in [("storage", 6), ("acquisition", 7), ("daemon", 2)] {
+        for (section, n_keys) in [
+            ("storage", 6),
+            ("acquisition", 7),
+            ("daemon", 2),
+            ("diagnosis", 7),
+        ] {
             let t = table
                 .get(section)
                 .and_then(|v| v.as_table())

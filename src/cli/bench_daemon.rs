@@ -214,6 +214,7 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
         acquisition: Default::default(),
         modbus: Some(map),
         daemon: DaemonConfig::default(),
+        diagnosis: Default::default(),
     };
     cfg.acquisition.poll_period_ms = period_ms;
     let problems = cfg.check();

@@ -261,6 +261,10 @@ pub struct DiagnosisConfig {
     pub fixed: [bool; 6],
     /// Values of the fixed parameters (and the start nest of the global search).
     pub base: HealthParams,
+    /// Cooperative cancellation of the optimiser (the daemon ties it to its shutdown); checked
+    /// between generations of the global stage.
+    #[serde(skip)]
+    pub cancel: Cancel,
 }
 
 impl Default for DiagnosisConfig {
@@ -296,6 +300,7 @@ impl Default for DiagnosisConfig {
             fit_ambient_pressure: true,
             fixed: [false; 6],
             base: HealthParams::HEALTHY,
+            cancel: Cancel::new(),
         }
     }
 }
@@ -525,7 +530,7 @@ pub fn fit<P: DiagnosisProblem>(
     let budget = Budget::new()
         .with_max_evals(global_budget)?
         .with_stall(cfg.stall_generations.max(1), cfg.stall_tol)?;
-    let cancel = Cancel::new();
+    let cancel = cfg.cancel.clone();
     problem.set_least_squares(false);
     let global = match cfg.optimiser {
         Optimiser::Cuckoo | Optimiser::CuckooLm => {

@@ -11,8 +11,13 @@
 //! back the last few transactions (never corrupt). Set `storage.synchronous = "full"` if the
 //! host may lose power without a UPS.
 
+mod diagnoses;
 mod schema;
 mod writer;
+
+pub use diagnoses::{
+    HistoryFilter, HistoryRow, NewDiagnosis, SegmentInfo, SegmentRecording, Undiagnosable,
+};
 
 pub use writer::{spawn_writer, WriteCmd, WriterConfig, WriterStats};
 

@@ -1,0 +1,29 @@
+-- gtwatch schema, version 2: what the diagnosis worker stores (see src/worker.rs).
+
+-- Reproducibility and quality of each result.
+ALTER TABLE diagnoses ADD COLUMN residual_level  REAL;   -- objective per signal: mean |residual| in noise σ (≈0.8 at pure noise)
+ALTER TABLE diagnoses ADD COLUMN fit_quality     TEXT;   -- 'good' or 'fair' (see [diagnosis] max_residual_level)
+ALTER TABLE diagnoses ADD COLUMN config_hash     TEXT;   -- FNV-1a of engine file + diagnosis settings
+ALTER TABLE diagnoses ADD COLUMN gtwatch_version TEXT;
+
+-- Segments the worker could not diagnose, with the reason (never silently dropped).
+CREATE TABLE undiagnosable (
+    id              INTEGER PRIMARY KEY,
+    segment_id      INTEGER NOT NULL REFERENCES segments(id),
+    method          TEXT,                 -- NULL: the segment as a whole; 'A'/'B': that method
+    reason          TEXT    NOT NULL,     -- aborted, gaps, missing_signals, residual_too_high, error
+    detail          TEXT    NOT NULL DEFAULT '',
+    config_hash     TEXT,
+    gtwatch_version TEXT,
+    created_at_ms   INTEGER NOT NULL
+);
+CREATE INDEX undiagnosable_by_segment ON undiagnosable(segment_id);
+
+-- The worker's queue: closed start-ups with neither a result nor a recorded reason.
+CREATE VIEW v_diagnosis_queue AS
+SELECT g.id AS segment_id, g.start_ms, g.end_ms, g.outcome, g.has_gap
+FROM segments g
+WHERE g.kind = 'startup' AND g.status = 'closed'
+  AND NOT EXISTS (SELECT 1 FROM diagnoses d WHERE d.segment_id = g.id)
+  AND NOT EXISTS (SELECT 1 FROM undiagnosable u WHERE u.segment_id = g.id)
+ORDER BY g.start_ms;
