@@ -229,6 +229,7 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
         RunOptions {
             systemd_notify: false,
             progress: Some(Arc::clone(&progress)),
+            ..RunOptions::default()
         },
     ));
     tokio::time::sleep(Duration::from_secs(3)).await;
