@@ -260,7 +260,7 @@ pub fn diagnose_segment(
         match r {
             Ok(r) => {
                 let level = residual_level(&r);
-                if !(level <= ctx.settings.max_residual_level) {
+                if level.is_nan() || level > ctx.settings.max_residual_level {
                     failures.push(failure(
                         Some(name),
                         "residual_too_high",
