@@ -12,6 +12,7 @@ use crate::config_problem::ConfigProblem;
 use crate::detect::DetectorConfig;
 use crate::replay::ReplayConfig;
 use crate::store::StorageConfig;
+use crate::worker::DiagnosisSettings;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -33,6 +34,8 @@ pub struct Config {
     pub modbus: Option<ModbusConfig>,
     #[serde(default)]
     pub daemon: DaemonConfig,
+    #[serde(default)]
+    pub diagnosis: DiagnosisSettings,
 }
 
 /// `[plant]`: which machine this is and the engine model used to diagnose it.
@@ -168,6 +171,7 @@ impl Config {
         p.extend(self.replay.validate());
         p.extend(self.detector.validate());
         p.extend(self.acquisition.validate());
+        p.extend(self.diagnosis.validate());
         match (&self.modbus, self.acquisition.source) {
             (Some(m), _) => {
                 p.extend(m.check());
@@ -214,6 +218,57 @@ impl Config {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The shipped reference file claims to list the defaults: each section it sets must equal
+    /// what the code uses when the section (or key) is left out.
+    #[test]
+    fn shipped_config_lists_the_code_defaults() {
+        let text = include_str!("../config/gtwatch.toml");
+        let shipped = Config::parse(text, "config/gtwatch.toml").expect("shipped config parses");
+        assert_eq!(shipped.storage, StorageConfig::default(), "[storage]");
+        assert_eq!(shipped.replay, ReplayConfig::default(), "[replay]");
+        assert_eq!(shipped.detector, DetectorConfig::default(), "[detector]");
+        assert_eq!(
+            shipped.acquisition,
+            AcquisitionConfig::default(),
+            "[acquisition]"
+        );
+        assert_eq!(shipped.daemon, DaemonConfig::default(), "[daemon]");
+        assert_eq!(
+            shipped.diagnosis,
+            DiagnosisSettings::default(),
+            "[diagnosis]"
+        );
+        assert!(shipped.check().is_empty(), "{:?}", shipped.check());
+        // Every key of those sections is written out in the file (none left to a hidden default).
+        let table: toml::Table = toml::from_str(text).expect("toml");
+        for (section, n_keys) in [
+            ("storage", 6),
+            ("acquisition", 7),
+            ("daemon", 2),
+            ("diagnosis", 7),
+        ] {
+            let t = table
+                .get(section)
+                .and_then(|v| v.as_table())
+                .unwrap_or_else(|| panic!("[{section}] missing"));
+            assert_eq!(
+                t.len(),
+                n_keys,
+                "[{section}] keys: {:?}",
+                t.keys().collect::<Vec<_>>()
+            );
+        }
+    }
+
+    /// Leaving out `[acquisition]` gives the documented 10 Hz poll.
+    #[test]
+    fn missing_acquisition_section_polls_at_100_ms() {
+        let text = MINIMAL.replace("[acquisition]\npoll_period_ms = 100\n", "");
+        assert!(!text.contains("[acquisition]"));
+        let c = Config::parse(&text, "x.toml").expect("parse");
+        assert_eq!(c.acquisition.poll_period_ms, 100);
+    }
 
     const MINIMAL: &str = r#"
 [plant]

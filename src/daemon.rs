@@ -1,18 +1,22 @@
-//! `gtwatch run`: wires acquisition, the writer and the detector as tokio tasks.
+//! `gtwatch run`: wires acquisition, the writer, the detector and the diagnosis worker as
+//! tokio tasks.
 //!
 //! The shape follows mini-redis: [`run`] receives the shutdown signal as a value, so `main` maps
 //! SIGTERM/SIGINT onto it and tests trigger it directly. Tasks:
 //! - acquisition (`acquire::modbus::poll_loop`) → bounded channel → the single writer
 //!   (`store::spawn_writer`), which batches inserts into transactions;
-//! - the detector (`detect::scan`) every `daemon.detect_interval_ms` on the blocking pool, with
-//!   its own connection (SQLite WAL: readers and the writer do not block each other);
+//! - the detector ([`DetectorTask`]) every `daemon.detect_interval_ms` on the blocking pool, with
+//!   its own connection (SQLite WAL: readers and the writer do not block each other); when a
+//!   scan closes a segment it wakes the worker;
+//! - the diagnosis worker (`worker::DiagnosisTask`): drains the queue of closed segments on the
+//!   blocking pool, one at a time; shutdown cancels a running fit (nothing half-written);
 //! - systemd notification: READY=1 after the first successful poll, WATCHDOG=1 only while the
 //!   poll loop makes progress, STOPPING=1 at shutdown.
 //!
 //! Shutdown order: stop polling (an open outage is recorded as a gap), close the channel, let
 //! the writer commit its last batch, then run the detector once more over everything stored.
-//! Errors in the detector are logged and retried on the next interval; they never stop
-//! acquisition. This module holds no business logic of its own.
+//! Errors in the detector or worker are logged and retried; they never stop acquisition. This
+//! module holds no business logic of its own.
 
 use crate::acquire::modbus::{poll_loop, PollPlan, PollProgress, PollStats, SourceKind};
 use crate::config::Config;
@@ -21,11 +25,12 @@ use crate::shutdown::Shutdown;
 use crate::store::{
     spawn_writer, Store, StoreError, StoreOptions, TagId, TagInfo, WriteCmd, WriterStats,
 };
+use crate::worker::{AfterResult, DiagnosisTask, DrainReport, WorkerContext};
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::Duration;
-use tokio::sync::mpsc;
+use tokio::sync::{mpsc, Notify};
 
 /// Daemon failures that stop it (anything else is logged and survived).
 #[derive(Debug, thiserror::Error)]
@@ -39,12 +44,16 @@ pub enum DaemonError {
 }
 
 /// Options that are not configuration: how the daemon talks to its supervisor.
-#[derive(Debug, Clone, Default)]
+#[derive(Clone, Default)]
 pub struct RunOptions {
     /// Send sd_notify messages (READY, WATCHDOG, STOPPING). Off in tests.
     pub systemd_notify: bool,
     /// Shared progress counters (benchmarks and tests watch them); created if `None`.
     pub progress: Option<Arc<PollProgress>>,
+    /// The diagnosis worker's engine and settings; `None`: no diagnosis in this run.
+    pub worker: Option<Arc<WorkerContext>>,
+    /// Called after each stored diagnosis outcome (trends, washes, advice).
+    pub after_result: Option<AfterResult>,
 }
 
 /// What the daemon did, returned at shutdown.
@@ -57,6 +66,8 @@ pub struct RunReport {
     pub scans_failed: u64,
     /// The final scan at shutdown.
     pub last_scan: Option<ScanReport>,
+    /// What the diagnosis worker did.
+    pub diagnosis: DrainReport,
 }
 
 /// Tag ids for every register-map field, in map order (creating tags as needed).
@@ -96,27 +107,98 @@ pub fn detector_store_options(storage: &StoreOptions) -> StoreOptions {
     }
 }
 
-/// One detector pass on the blocking pool; hands the connection back. A missing connection
-/// (first use, or lost in a panicked pass) is reopened; a panic is reported, not propagated.
-async fn scan_once(
+/// The detector task: scans new samples every `daemon.detect_interval_ms` on the blocking pool
+/// with its own connection, and wakes the diagnosis worker when a segment closes.
+pub struct DetectorTask {
+    pub db_path: PathBuf,
+    pub store_opts: StoreOptions,
+    pub cfg: DetectorConfig,
+    pub interval: Duration,
+    /// Notified after a scan that closed a segment.
+    pub wake: Arc<Notify>,
     store: Option<Store>,
-    path: PathBuf,
-    opts: StoreOptions,
-    cfg: DetectorConfig,
-) -> (Option<Store>, Result<ScanReport, String>) {
-    let r = tokio::task::spawn_blocking(move || {
-        let mut store = match store {
-            Some(s) => s,
-            None => match Store::open_with(&path, &opts) {
-                Ok(s) => s,
-                Err(e) => return (None, Err(e.to_string())),
-            },
-        };
-        let r = detect::scan(&mut store, &cfg).map_err(|e| e.to_string());
-        (Some(store), r)
-    })
-    .await;
-    r.unwrap_or_else(|e| (None, Err(format!("detector task failed: {e}"))))
+    pub scans_ok: u64,
+    pub scans_failed: u64,
+}
+
+impl DetectorTask {
+    pub fn new(
+        db_path: PathBuf,
+        store_opts: StoreOptions,
+        cfg: DetectorConfig,
+        interval: Duration,
+        wake: Arc<Notify>,
+    ) -> DetectorTask {
+        DetectorTask {
+            db_path,
+            store_opts,
+            cfg,
+            interval,
+            wake,
+            store: None,
+            scans_ok: 0,
+            scans_failed: 0,
+        }
+    }
+
+    /// One pass on the blocking pool. A missing connection (first use, or lost in a panicked
+    /// pass) is reopened; errors are counted and logged, never propagated.
+    pub async fn scan_once(&mut self) -> Option<ScanReport> {
+        let store = self.store.take();
+        let path = self.db_path.clone();
+        let opts = self.store_opts;
+        let cfg = self.cfg.clone();
+        let r = tokio::task::spawn_blocking(move || {
+            let mut store = match store {
+                Some(s) => s,
+                None => match Store::open_with(&path, &opts) {
+                    Ok(s) => s,
+                    Err(e) => return (None, Err(e.to_string())),
+                },
+            };
+            let r = detect::scan(&mut store, &cfg).map_err(|e| e.to_string());
+            (Some(store), r)
+        })
+        .await;
+        let (store, r) = r.unwrap_or_else(|e| (None, Err(format!("detector task failed: {e}"))));
+        self.store = store;
+        match r {
+            Ok(rep) => {
+                self.scans_ok += 1;
+                if rep.segments_closed > 0 {
+                    tracing::info!(
+                        closed = rep.segments_closed,
+                        open = rep.segments_open,
+                        "start-up segments detected"
+                    );
+                    self.wake.notify_one();
+                }
+                Some(rep)
+            }
+            Err(e) => {
+                self.scans_failed += 1;
+                tracing::warn!("detector: {e}");
+                None
+            }
+        }
+    }
+
+    /// Scans every interval until shutdown; returns itself for the final scan.
+    pub async fn run(mut self, mut shutdown: Shutdown) -> DetectorTask {
+        let mut tick = tokio::time::interval(self.interval);
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        tick.tick().await;
+        loop {
+            tokio::select! {
+                biased;
+                _ = shutdown.wait() => break,
+                _ = tick.tick() => {
+                    self.scan_once().await;
+                }
+            }
+        }
+        self
+    }
 }
 
 /// Runs the daemon until `shutdown` fires. `cfg` must have passed [`Config::check`].
@@ -162,13 +244,32 @@ pub async fn run(
     };
     drop(tx); // the writer ends once the poller's sender is gone
 
-    // Detector and supervisor notifications, until shutdown.
+    // Detector and diagnosis tasks, then supervisor notifications until shutdown.
     let mut report = RunReport::default();
-    let mut det_store: Option<Store> = None;
-    let mut detect_tick =
-        tokio::time::interval(Duration::from_millis(cfg.daemon.detect_interval_ms));
-    detect_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    detect_tick.tick().await;
+    let wake = Arc::new(Notify::new());
+    let detector = tokio::spawn(
+        DetectorTask::new(
+            db_path.clone(),
+            detector_opts,
+            cfg.detector.clone(),
+            Duration::from_millis(cfg.daemon.detect_interval_ms),
+            Arc::clone(&wake),
+        )
+        .run(shutdown.clone()),
+    );
+    let worker = match (cfg.diagnosis.enabled, opts.worker.clone()) {
+        (true, Some(ctx)) => Some(tokio::spawn(
+            DiagnosisTask {
+                db_path: db_path.clone(),
+                store_opts: detector_opts,
+                ctx,
+                wake: Arc::clone(&wake),
+                after_result: opts.after_result.clone(),
+            }
+            .run(shutdown.clone()),
+        )),
+        _ => None,
+    };
     let mut watchdog_usec = 0u64;
     let watchdog = opts.systemd_notify && sd_notify::watchdog_enabled(false, &mut watchdog_usec);
     let wd_period = Duration::from_micros((watchdog_usec / 2).max(100_000));
@@ -204,29 +305,6 @@ pub async fn run(
                     tracing::warn!("acquisition made no progress; withholding watchdog ping");
                 }
             }
-            _ = detect_tick.tick() => {
-                {
-                    let (s, r) = scan_once(
-                        det_store.take(),
-                        db_path.clone(),
-                        detector_opts,
-                        cfg.detector.clone(),
-                    ).await;
-                    det_store = s;
-                    match r {
-                        Ok(rep) => {
-                            report.scans_ok += 1;
-                            if rep.segments_closed > 0 {
-                                tracing::info!(closed = rep.segments_closed, open = rep.segments_open, "start-up segments detected");
-                            }
-                        }
-                        Err(e) => {
-                            report.scans_failed += 1;
-                            tracing::warn!("detector: {e}");
-                        }
-                    }
-                }
-            }
         }
     }
     notify(opts.systemd_notify, &[sd_notify::NotifyState::Stopping]);
@@ -246,23 +324,19 @@ pub async fn run(
         gaps = report.writer.gaps,
         "last batch committed"
     );
-    {
-        let (_s, r) = scan_once(
-            det_store.take(),
-            db_path.clone(),
-            detector_opts,
-            cfg.detector.clone(),
-        )
-        .await;
-        match r {
-            Ok(rep) => {
-                report.scans_ok += 1;
-                report.last_scan = Some(rep);
-            }
-            Err(e) => {
-                report.scans_failed += 1;
-                tracing::warn!("final detector scan: {e}");
-            }
+    // Final scan over everything stored; segments it closes stay pending for the next start.
+    match detector.await {
+        Ok(mut det) => {
+            report.last_scan = det.scan_once().await;
+            report.scans_ok = det.scans_ok;
+            report.scans_failed = det.scans_failed;
+        }
+        Err(e) => tracing::error!("detector task failed: {e}"),
+    }
+    if let Some(w) = worker {
+        match w.await {
+            Ok(d) => report.diagnosis = d,
+            Err(e) => tracing::error!("diagnosis task failed: {e}"),
         }
     }
     Ok(report)

@@ -25,3 +25,4 @@ pub mod shutdown;
 pub mod signals;
 pub mod store;
 pub mod thermo;
+pub mod worker;

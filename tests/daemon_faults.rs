@@ -64,6 +64,7 @@ async fn server_stopped_and_restarted_gives_one_gap_and_reconnection() {
         RunOptions {
             systemd_notify: false,
             progress: Some(Arc::clone(&progress)),
+            ..RunOptions::default()
         },
     ));
     wait_polls(&progress, 30).await;
@@ -208,6 +209,7 @@ async fn late_replies_are_never_taken_for_the_next_answer() {
         RunOptions {
             systemd_notify: false,
             progress: Some(Arc::clone(&progress)),
+            ..RunOptions::default()
         },
     ));
     wait_polls(&progress, 40).await;
@@ -304,6 +306,7 @@ async fn garbage_and_out_of_range_values_are_flagged_never_good() {
         RunOptions {
             systemd_notify: false,
             progress: Some(Arc::clone(&progress)),
+            ..RunOptions::default()
         },
     ));
     wait_polls(&progress, 60).await;
@@ -419,6 +422,7 @@ async fn random_register_garbage_is_never_stored_as_good_implausible_data() {
         RunOptions {
             systemd_notify: false,
             progress: Some(Arc::clone(&progress)),
+            ..RunOptions::default()
         },
     ));
     wait_polls(&progress, 50).await;

@@ -67,7 +67,7 @@ pub enum SourceKind {
 }
 
 fn d_poll() -> u64 {
-    1000
+    100
 }
 fn d_connect() -> u64 {
     3000

@@ -9,6 +9,10 @@
 //!   daemon's ingest path (decode → writer channel → SQLite writer, detector scans every
 //!   simulated hour) as fast as it goes, then reports resident memory.
 //!
+//! With `--diagnose-startups N` (live mode) N simulated start-ups are stored first and the
+//! diagnosis worker fits them while the daemon polls; the report's `jitter` is the spacing of
+//! the stored n1 time stamps minus the poll period (always reported).
+//!
 //! Memory is VmRSS / VmHWM from /proc/self/status. Linux only. Must not be used as a test.
 
 use crate::acquire::modbus::{decode_request, PollPlan, PollProgress};
@@ -52,6 +56,10 @@ pub struct BenchDaemonArgs {
     /// Print JSON only.
     #[arg(long)]
     pub json: bool,
+    /// Live mode: store this many simulated start-ups first, so the diagnosis worker fits them
+    /// (one after the other) while the daemon polls; reports the poll jitter.
+    #[arg(long, default_value_t = 0)]
+    pub diagnose_startups: usize,
 }
 
 /// Process CPU time (user + system), s. /proc/self/stat fields 14 and 15, in USER_HZ (100 on
@@ -147,7 +155,117 @@ struct LiveReport {
     poll_failures: u64,
     samples: u64,
     samples_per_s: f64,
+    /// Start-ups diagnosed during the run (with `--diagnose-startups`).
+    diagnosed: u64,
+    /// Poll jitter: spacing of the stored n1 time stamps minus the poll period, ms.
+    jitter: Jitter,
     note: &'static str,
+}
+
+#[derive(Debug, Default, Serialize)]
+struct Jitter {
+    intervals: usize,
+    period_ms: u64,
+    mean_abs_ms: f64,
+    p99_abs_ms: f64,
+    max_abs_ms: f64,
+    /// Intervals longer than twice the period (a missed poll).
+    over_2x_period: usize,
+}
+
+/// Stores `n` noisy simulated start-ups (one a day, in 2023) and detects them.
+fn prefill_startups(
+    path: &std::path::Path,
+    n: usize,
+    opts: &crate::store::StoreOptions,
+) -> anyhow::Result<()> {
+    use crate::engine::sensors::MeasurementOptions;
+    use crate::engine::{Engine, Scenario, Trace};
+    use crate::store::{Quality, Sample};
+    let engine = Engine::reference()?;
+    let h = crate::health::HealthParams {
+        D_GC: 2.0,
+        D_EC: 0.7,
+        D_GT: 0.5,
+        D_ET: 0.4,
+        D_GP: 0.3,
+        D_EP: 0.3,
+    };
+    let (samples, _) = crate::engine::sequence::run_scenario(
+        &engine.cfg,
+        &engine.model(&h),
+        &Scenario::startup(&engine.cfg),
+    )?;
+    let mut store = Store::open_with(path, opts)?;
+    let ids = Signal::ALL
+        .iter()
+        .map(|s| store.ensure_tag(&TagInfo::for_signal(*s)))
+        .collect::<Result<Vec<_>, _>>()?;
+    for day in 0..n {
+        let o = MeasurementOptions {
+            lags: true,
+            noise: true,
+            bias: false,
+            seed: 100 + day as u64,
+        };
+        let t = Trace::from_truth(&engine.cfg, &samples, Some(&o));
+        let mut batch = Vec::new();
+        for k in 0..t.len() {
+            let t_ms =
+                1_700_000_000_000 + day as i64 * 86_400_000 + (t.t_s[k] * 1000.0).round() as i64;
+            for (i, sig) in Signal::ALL.iter().enumerate() {
+                let v = t.measured[k][sig.index()];
+                if v.is_finite() {
+                    batch.push(Sample {
+                        tag: ids[i],
+                        t_ms,
+                        value: v,
+                        quality: Quality::Good,
+                    });
+                }
+            }
+        }
+        store.insert_samples(&batch)?;
+    }
+    detect::scan(&mut store, &DetectorConfig::default())?;
+    Ok(())
+}
+
+/// Jitter of the stored n1 time stamps at or after `from_ms`.
+fn poll_jitter(path: &std::path::Path, from_ms: i64, period_ms: u64) -> anyhow::Result<Jitter> {
+    let c = rusqlite::Connection::open(path)?;
+    let mut st = c.prepare(
+        "SELECT s.t_ms FROM samples s JOIN tags t ON t.id = s.tag_id
+         WHERE t.name = 'n1_rpm' AND s.t_ms >= ?1 ORDER BY s.t_ms",
+    )?;
+    let ts: Vec<i64> = st
+        .query_map([from_ms], |r| r.get(0))?
+        .collect::<Result<_, _>>()?;
+    let mut dev: Vec<f64> = ts
+        .windows(2)
+        .map(|w| ((w[1] - w[0]) as f64 - period_ms as f64).abs())
+        .collect();
+    if dev.is_empty() {
+        return Ok(Jitter {
+            period_ms,
+            ..Jitter::default()
+        });
+    }
+    let over = ts
+        .windows(2)
+        .filter(|w| w[1] - w[0] > 2 * period_ms as i64)
+        .count();
+    let mean = dev.iter().sum::<f64>() / dev.len() as f64;
+    dev.sort_by(f64::total_cmp);
+    let p99 = dev[((dev.len() as f64 * 0.99) as usize).min(dev.len() - 1)];
+    Ok(Jitter {
+        intervals: dev.len(),
+        period_ms,
+        mean_abs_ms: mean,
+        p99_abs_ms: p99,
+        max_abs_ms: dev[dev.len() - 1],
+        over_2x_period: over,
+    })
 }
 
 #[derive(Debug, Serialize)]
@@ -214,12 +332,26 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
         acquisition: Default::default(),
         modbus: Some(map),
         daemon: DaemonConfig::default(),
+        diagnosis: Default::default(),
     };
     cfg.acquisition.poll_period_ms = period_ms;
     let problems = cfg.check();
     if !problems.is_empty() {
         bail!("bench config: {problems:?}");
     }
+    let worker = if args.diagnose_startups > 0 {
+        prefill_startups(
+            &cfg.storage.path,
+            args.diagnose_startups,
+            &cfg.storage.options(),
+        )?;
+        Some(Arc::new(crate::worker::WorkerContext::load(
+            None,
+            cfg.diagnosis.clone(),
+        )?))
+    } else {
+        None
+    };
     let progress = Arc::new(PollProgress::default());
     let (trigger, shutdown) = shutdown_channel();
     let task = tokio::spawn(daemon::run(
@@ -228,9 +360,12 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
         RunOptions {
             systemd_notify: false,
             progress: Some(Arc::clone(&progress)),
+            worker,
+            ..RunOptions::default()
         },
     ));
     tokio::time::sleep(Duration::from_secs(3)).await;
+    let measure_from_ms = crate::store::now_ms();
     let (c0, t0, s0) = (
         cpu_seconds()?,
         Instant::now(),
@@ -246,6 +381,7 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
     trigger.trigger();
     let report = task.await?.context("daemon")?;
     sim.stop().await?;
+    let jitter = poll_jitter(&dir.path().join("bench.db"), measure_from_ms, period_ms)?;
     Ok(LiveReport {
         mode: "live",
         tags: args.tags,
@@ -259,6 +395,8 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
         poll_failures: report.poll.failures,
         samples: s1 - s0,
         samples_per_s: (s1 - s0) as f64 / wall,
+        diagnosed: report.diagnosis.diagnosed,
+        jitter,
         note: "CPU includes the in-process plant-sim server",
     })
 }

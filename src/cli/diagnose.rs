@@ -97,8 +97,18 @@ impl FitArgs {
 #[derive(Debug, Clone, Args)]
 pub struct DiagnoseArgs {
     /// Start-up CSV (the layout `gtwatch simulate` writes, or any CSV with --map).
-    #[arg(long)]
-    pub input: PathBuf,
+    #[arg(long, required_unless_present = "segment")]
+    pub input: Option<PathBuf>,
+    /// Instead of a CSV: re-run one stored start-up segment of the database (prints JSON,
+    /// stores nothing); engine and settings from --config's [plant] and [diagnosis].
+    #[arg(long, conflicts_with = "input")]
+    pub segment: Option<i64>,
+    /// Config file (with --segment): database path, engine file, [diagnosis] settings.
+    #[arg(long, requires = "segment")]
+    pub config: Option<PathBuf>,
+    /// Database (with --segment; default: --config's [storage].path).
+    #[arg(long, requires = "segment")]
+    pub db: Option<PathBuf>,
     /// Column mapping for other CSVs: `time_s=Time,phase=State,n1_rpm=NGG,…`.
     #[arg(long)]
     pub map: Option<String>,
@@ -162,6 +172,14 @@ fn print_text(m: Method, r: &MethodResult) {
 
 /// Runs `gtwatch diagnose`.
 pub fn run(a: &DiagnoseArgs) -> anyhow::Result<ExitCode> {
+    if let Some(seg) = a.segment {
+        let db = super::common::db_path(a.db.as_ref(), a.config.as_ref())?;
+        super::diagnose_stored::run_segment(&db, a.config.as_deref(), seg)?;
+        return Ok(ExitCode::SUCCESS);
+    }
+    let Some(input) = &a.input else {
+        bail!("--input or --segment is required");
+    };
     let cfg = a.fit.config()?;
     let engine = super::load_engine(a.engine.as_deref())?;
     let mapping = match &a.map {
@@ -169,9 +187,9 @@ pub fn run(a: &DiagnoseArgs) -> anyhow::Result<ExitCode> {
         None => HashMap::new(),
     };
     let file =
-        std::fs::File::open(&a.input).with_context(|| format!("opening {}", a.input.display()))?;
+        std::fs::File::open(input).with_context(|| format!("opening {}", input.display()))?;
     let seg = read_recording(std::io::BufReader::new(file), &mapping)
-        .with_context(|| format!("reading {}", a.input.display()))?;
+        .with_context(|| format!("reading {}", input.display()))?;
     let methods: Vec<Method> = match a.method {
         MethodArg::Transient => vec![Method::Transient],
         MethodArg::Steady => vec![Method::Steady],

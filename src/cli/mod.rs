@@ -13,8 +13,10 @@ mod bench_wash;
 mod check_config;
 mod common;
 mod diagnose;
+mod diagnose_stored;
 pub(crate) mod engine_args;
 mod export;
+mod history;
 mod plant_sim;
 mod replay;
 mod run;
@@ -45,6 +47,8 @@ pub enum Command {
     Replay(replay::ReplayArgs),
     /// List detected start-ups with outcome and phase durations.
     Segments(segments::SegmentsArgs),
+    /// Stored health results per start-up (Method A/B), as a table, CSV or JSON.
+    History(history::HistoryArgs),
     /// Write stored samples as CSV.
     Export(export::ExportArgs),
     /// Run the monitoring daemon (Modbus acquisition, storage, start-up detection).
@@ -68,6 +72,7 @@ pub fn main() -> ExitCode {
         Command::Diagnose(a) => diagnose::run(&a),
         Command::Replay(a) => replay::run(a),
         Command::Segments(a) => segments::run(a),
+        Command::History(a) => history::run(a),
         Command::Export(a) => export::run(a),
         Command::Run(a) => run::run(a),
         Command::CheckConfig(a) => check_config::run(a),

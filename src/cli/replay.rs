@@ -77,6 +77,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
             "detector: {} frames, {} segments written ({} closed, {} open)",
             scan.frames, scan.segments_written, scan.segments_closed, scan.segments_open
         );
+        super::diagnose_stored::diagnose_after_replay(&mut store, &args.config, args.json)?;
     }
     Ok(if failed {
         ExitCode::FAILURE

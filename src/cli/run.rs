@@ -6,6 +6,7 @@
 use crate::config::Config;
 use crate::daemon::{self, RunOptions};
 use crate::shutdown::shutdown_channel;
+use crate::worker::WorkerContext;
 use anyhow::Context;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -31,6 +32,14 @@ async fn termination_signal() -> std::io::Result<()> {
 
 pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let cfg = Config::load_checked(&args.config)?;
+    let worker = if cfg.diagnosis.enabled {
+        Some(std::sync::Arc::new(WorkerContext::load(
+            cfg.plant.engine_model.as_deref(),
+            cfg.diagnosis.clone(),
+        )?))
+    } else {
+        None
+    };
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
@@ -51,6 +60,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
             RunOptions {
                 systemd_notify: true,
                 progress: None,
+                worker,
+                after_result: None,
             },
         )
         .await?;

@@ -179,6 +179,7 @@ impl Machine {
         if !(frame.n1.is_finite() && frame.fuel.is_finite() && frame.power.is_finite()) {
             return;
         }
+        let mut after_gap = false;
         if let Some(prev) = self.hist.last() {
             if frame.t_ms <= prev.t_ms {
                 return;
@@ -187,9 +188,21 @@ impl Machine {
             if frame.t_ms - prev.t_ms > gap_ms {
                 let from = prev.t_ms;
                 self.note_gap(from, frame.t_ms);
+                after_gap = true;
             }
         }
-        let fuel_was_on = self.hist.last().map(|f| f.fuel > self.cfg.fuel_on_kg_s);
+        if after_gap && self.active.is_none() {
+            // What the unit did during the gap is unknown: the frames before it are no context
+            // for an onset after it (a unit at load before the gap is not starting), and a fuel
+            // cut somewhere in the gap has no time (it is no fuel-off for the hot-restart rule).
+            self.hist.clear();
+            self.idle = Idle::Unknown;
+        }
+        let fuel_was_on = if after_gap {
+            None
+        } else {
+            self.hist.last().map(|f| f.fuel > self.cfg.fuel_on_kg_s)
+        };
         self.hist.push(frame);
         let fuel_on = frame.fuel > self.cfg.fuel_on_kg_s;
         if fuel_was_on == Some(true) && !fuel_on {

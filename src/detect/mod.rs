@@ -280,11 +280,7 @@ fn read_state(conn: &rusqlite::Connection) -> Result<ResumeState, DetectError> {
 }
 
 /// Where the machine must restart so that no start is seen only in part.
-fn resume_point(
-    conn: &rusqlite::Connection,
-    st: &ResumeState,
-    margin_ms: i64,
-) -> Result<Option<i64>, DetectError> {
+fn resume_point(conn: &rusqlite::Connection, st: &ResumeState) -> Result<Option<i64>, DetectError> {
     let Some(scanned) = st.scanned_to_ms else {
         return Ok(None); // never scanned: from the beginning
     };
@@ -310,7 +306,63 @@ fn resume_point(
     if let Some(s) = spanning {
         from = from.min(s);
     }
-    Ok(Some(from.saturating_sub(margin_ms)))
+    Ok(Some(from))
+}
+
+/// Where the machine restarts: `margin_ms` before the resume point, moved back to the start of
+/// any stored segment that holds it (a machine started inside a crank would see a phantom
+/// start there), with a minute of context before that start for its onset.
+fn warm_point(
+    conn: &rusqlite::Connection,
+    resume_ms: i64,
+    margin_ms: i64,
+) -> Result<i64, DetectError> {
+    let mut warm = resume_ms.saturating_sub(margin_ms);
+    for _ in 0..16 {
+        let inside: Option<i64> = conn.query_row(
+            "SELECT MIN(start_ms) FROM segments WHERE kind = 'startup'
+               AND start_ms <= ?1 AND (end_ms IS NULL OR end_ms >= ?1)",
+            params![warm],
+            |r| r.get(0),
+        )?;
+        match inside {
+            Some(s) => warm = s.saturating_sub(60_000),
+            None => break,
+        }
+    }
+    Ok(warm)
+}
+
+/// The last fuel-off (first good fuel sample at or below the threshold after one above it)
+/// within `window_ms` before `before_ms`, from the stored samples: the same answer however the
+/// data arrived and wherever earlier scans stopped.
+fn last_fuel_off_before(
+    conn: &rusqlite::Connection,
+    fuel: TagId,
+    before_ms: i64,
+    window_ms: i64,
+    threshold: f64,
+) -> Result<Option<i64>, DetectError> {
+    let on: Option<i64> = conn.query_row(
+        "SELECT MAX(t_ms) FROM samples WHERE tag_id = ?1 AND quality = 0
+           AND t_ms < ?2 AND t_ms >= ?3 AND value > ?4",
+        params![
+            fuel,
+            before_ms,
+            before_ms.saturating_sub(window_ms),
+            threshold
+        ],
+        |r| r.get(0),
+    )?;
+    let Some(on) = on else {
+        return Ok(None);
+    };
+    Ok(conn.query_row(
+        "SELECT MIN(t_ms) FROM samples WHERE tag_id = ?1 AND quality = 0
+           AND t_ms > ?2 AND t_ms < ?3",
+        params![fuel, on, before_ms],
+        |r| r.get(0),
+    )?)
 }
 
 /// Reads one tag's samples in `[from, to)`, time-ordered.
@@ -377,12 +429,19 @@ pub fn scan(store: &mut Store, cfg: &DetectorConfig) -> Result<ScanReport, Detec
     if st.rescan_from_ms.is_none() && st.scanned_to_ms.is_some_and(|s| s >= last) {
         return Ok(report); // nothing new
     }
-    let from = resume_point(conn, &st, margin_ms)?
-        .unwrap_or(first)
-        .max(first);
+    // Segments starting before `resume` are stored already and stay as they are; the machine
+    // starts earlier (at `from`) only to have context.
+    let resume = resume_point(conn, &st)?;
+    let from = match resume {
+        Some(r) => warm_point(conn, r, margin_ms)?.max(first),
+        None => first,
+    };
+    let keep_from = resume.unwrap_or(first).max(from);
     report.resumed_from_ms = Some(from);
 
-    let fuel_off_before = st.last_fuel_off_ms.filter(|&t| t <= from);
+    let hot_window_ms = (cfg.hot_restart_window_s * 1000.0) as i64;
+    let fuel_off_before =
+        last_fuel_off_before(conn, tags.fuel, from, hot_window_ms, cfg.fuel_on_kg_s)?;
     let mut machine = Machine::new(cfg.clone(), fuel_off_before);
     let mut finished = Vec::new();
     let mut carried: [Option<f64>; 3] = [None; 3];
@@ -422,7 +481,8 @@ pub fn scan(store: &mut Store, cfg: &DetectorConfig) -> Result<ScanReport, Detec
         finished.extend(machine.take_finished());
         chunk_from = chunk_to;
     }
-    let open = machine.open_segment();
+    finished.retain(|r| r.start_ms >= keep_from);
+    let open = machine.open_segment().filter(|r| r.start_ms >= keep_from);
     report.segments_closed = finished.len() as u64;
     report.segments_open = u64::from(open.is_some());
     report.scanned_to_ms = scanned_to;
@@ -442,7 +502,7 @@ pub fn scan(store: &mut Store, cfg: &DetectorConfig) -> Result<ScanReport, Detec
                AND id NOT IN (SELECT segment_id FROM diagnoses)",
         )?;
         let ids: Vec<i64> = stale
-            .query_map(params![from], |r| r.get(0))?
+            .query_map(params![keep_from], |r| r.get(0))?
             .collect::<Result<_, _>>()?;
         for id in ids.into_iter().filter(|id| !kept.contains(id)) {
             tx.execute("DELETE FROM segments WHERE id = ?1", params![id])?;

@@ -280,6 +280,10 @@ pub struct DiagnosisConfig {
     /// ([`FitParam::engine_value`], [`FitParam::effect`]), started at the engine's values and
     /// appended after the health parameters and the ambient pressure. Empty by default.
     pub extra_params: Vec<FitParam>,
+    /// Cooperative cancellation of the optimiser (the daemon ties it to its shutdown); checked
+    /// between generations of the global stage.
+    #[serde(skip)]
+    pub cancel: Cancel,
 }
 
 impl Default for DiagnosisConfig {
@@ -316,6 +320,7 @@ impl Default for DiagnosisConfig {
             fixed: [false; 6],
             base: HealthParams::HEALTHY,
             extra_params: Vec::new(),
+            cancel: Cancel::new(),
         }
     }
 }
@@ -559,7 +564,7 @@ pub fn fit<P: DiagnosisProblem>(
     let budget = Budget::new()
         .with_max_evals(global_budget)?
         .with_stall(cfg.stall_generations.max(1), cfg.stall_tol)?;
-    let cancel = Cancel::new();
+    let cancel = cfg.cancel.clone();
     problem.set_least_squares(false);
     let global = match cfg.optimiser {
         Optimiser::Cuckoo | Optimiser::CuckooLm => {

@@ -11,8 +11,13 @@
 //! back the last few transactions (never corrupt). Set `storage.synchronous = "full"` if the
 //! host may lose power without a UPS.
 
+mod diagnoses;
 mod schema;
 mod writer;
+
+pub use diagnoses::{
+    HistoryFilter, HistoryRow, NewDiagnosis, SegmentInfo, SegmentRecording, Undiagnosable,
+};
 
 pub use writer::{spawn_writer, WriteCmd, WriterConfig, WriterStats};
 
@@ -167,7 +172,7 @@ pub struct StorageConfig {
     pub batch_size: usize,
     /// ... or when the oldest buffered sample is this old, in ms. Default 1000.
     pub flush_interval_ms: u64,
-    /// SQLite page cache in MiB. Default 64.
+    /// SQLite page cache in MiB. Default 16 (keeps the daemon under 50 MB resident; bulk replays may want more).
     pub cache_mib: u32,
     /// `normal` (default) or `full`.
     pub synchronous: Synchronous,
@@ -181,7 +186,7 @@ impl Default for StorageConfig {
             path: PathBuf::from("/var/lib/gtwatch/gtwatch.db"),
             batch_size: 5000,
             flush_interval_ms: 1000,
-            cache_mib: 64,
+            cache_mib: 16,
             synchronous: Synchronous::Normal,
             busy_timeout_ms: 5000,
         }

@@ -1,0 +1,101 @@
+//! Diagnosis of stored start-ups from the command line: the worker run after `gtwatch replay`,
+//! and `gtwatch diagnose --segment ID` (re-runs one stored segment, prints, stores nothing).
+//!
+//! Reads `[plant] engine_model` and `[diagnosis]` from the config file; the work itself is
+//! `crate::worker`. Must not hold diagnosis logic.
+
+use crate::optim::Cancel;
+use crate::store::Store;
+use crate::worker::{
+    diagnose_segment, drain_pending, DiagnosisSettings, SegmentOutcome, WorkerContext,
+};
+use anyhow::{bail, Context};
+use std::path::{Path, PathBuf};
+
+/// The worker's context from a config file (`None`: built-in engine, default settings).
+pub fn worker_context(config: Option<&Path>) -> anyhow::Result<WorkerContext> {
+    let Some(path) = config else {
+        return WorkerContext::load(None, DiagnosisSettings::default());
+    };
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("reading config {}", path.display()))?;
+    let table: toml::Table =
+        toml::from_str(&text).with_context(|| format!("config {}", path.display()))?;
+    let settings: DiagnosisSettings = match table.get("diagnosis") {
+        Some(v) => v
+            .clone()
+            .try_into()
+            .with_context(|| format!("config {}: [diagnosis]", path.display()))?,
+        None => DiagnosisSettings::default(),
+    };
+    let problems = settings.validate();
+    if !problems.is_empty() {
+        let list: Vec<String> = problems.iter().map(|p| p.to_string()).collect();
+        bail!("config {}:\n  {}", path.display(), list.join("\n  "));
+    }
+    let engine: Option<PathBuf> = table
+        .get("plant")
+        .and_then(|p| p.get("engine_model"))
+        .and_then(|v| v.as_str())
+        .map(|m| {
+            let m = PathBuf::from(m);
+            match path.parent() {
+                Some(dir) if m.is_relative() => dir.join(m),
+                _ => m,
+            }
+        });
+    WorkerContext::load(engine.as_deref(), settings)
+}
+
+/// After a replay: diagnose every pending start-up (unless `[diagnosis] enabled = false`).
+/// The summary goes to stderr with `--json` (stdout holds the JSON report).
+pub fn diagnose_after_replay(store: &mut Store, config: &Path, json: bool) -> anyhow::Result<()> {
+    let ctx = worker_context(Some(config))?;
+    if !ctx.settings.enabled {
+        return Ok(());
+    }
+    let pending = store.pending_segments()?.len();
+    if pending == 0 {
+        return Ok(());
+    }
+    let t = std::time::Instant::now();
+    let rep = drain_pending(store, &ctx, &Cancel::new(), None).context("diagnosis")?;
+    let line = format!(
+        "diagnosis: {} start-ups diagnosed, {} not diagnosable, {:.1} s",
+        rep.diagnosed,
+        rep.undiagnosable,
+        t.elapsed().as_secs_f64()
+    );
+    if json {
+        eprintln!("{line}");
+    } else {
+        println!("{line}");
+    }
+    Ok(())
+}
+
+/// `gtwatch diagnose --segment ID`: re-runs one stored segment with the config's engine and
+/// settings; prints JSON of both methods' results (or the reasons). Stores nothing.
+pub fn run_segment(db: &Path, config: Option<&Path>, segment: i64) -> anyhow::Result<()> {
+    let ctx = worker_context(config)?;
+    let mut store = Store::open_with(db, &crate::store::StoreOptions::default())
+        .with_context(|| format!("opening {}", db.display()))?;
+    if store.segment(segment)?.is_none() {
+        bail!("database {} has no segment {segment}", db.display());
+    }
+    let (outcome, results) = diagnose_segment(&mut store, &ctx, segment, &Cancel::new(), false)?;
+    let failures = match &outcome {
+        SegmentOutcome::Diagnosed { failures, .. } => failures.clone(),
+        SegmentOutcome::Undiagnosable(f) => f.clone(),
+        SegmentOutcome::Cancelled => Vec::new(),
+    };
+    let doc = serde_json::json!({
+        "segment_id": segment,
+        "config_hash": ctx.config_hash,
+        "gtwatch_version": env!("CARGO_PKG_VERSION"),
+        "results": results,
+        "undiagnosable": failures,
+    });
+    println!("{}", serde_json::to_string_pretty(&doc)?);
+    Ok(())
+}

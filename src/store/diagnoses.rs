@@ -1,0 +1,361 @@
+//! Diagnosis results in the store: the worker's queue (closed start-ups without a result),
+//! the store → recording adapter (a segment's good samples on its own time axis, with the
+//! detector's phases), writing results and undiagnosable reasons, and the history query.
+//!
+//! Each write is one transaction that also marks the segment `diagnosed`, so a killed process
+//! leaves either the whole result or nothing. Must not fit models or decide what is diagnosable.
+
+use super::{Store, StoreError};
+use crate::recording::{Recording, RecordingError};
+use crate::engine::trace::{Values, NSIG};
+use crate::health::HEALTH_NAMES;
+use crate::signals::{Phase, Signal};
+use rusqlite::{params, OptionalExtension};
+use serde::Serialize;
+use std::collections::{BTreeMap, HashMap};
+
+/// A closed start-up segment.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct SegmentInfo {
+    pub id: i64,
+    pub start_ms: i64,
+    pub end_ms: Option<i64>,
+    /// `completed`, `aborted` or `in_progress`.
+    pub outcome: String,
+    pub abort_cause: Option<String>,
+    pub status: String,
+    pub has_gap: bool,
+}
+
+/// A stored segment's samples as the diagnosis reads them.
+#[derive(Debug, Clone)]
+pub struct SegmentRecording {
+    pub segment: SegmentInfo,
+    /// Time axis in s from the first sample (the data's own sample period), phases from the
+    /// detector, values NaN where a signal had no good sample at that time; the recording's
+    /// own checks (time axis, ambient readings) may refuse it, which makes it undiagnosable.
+    pub recording: Result<Recording, RecordingError>,
+    /// Unix ms of `recording.t_s[0]`.
+    pub t0_ms: i64,
+    /// Signals with no good sample at all in the segment.
+    pub missing: Vec<Signal>,
+}
+
+/// One result to store.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NewDiagnosis {
+    pub segment_id: i64,
+    /// "A" or "B".
+    pub method: String,
+    /// D_GC … D_EP, percent.
+    pub health: [f64; 6],
+    /// 1σ, percent (non-finite stored as NULL).
+    pub sigma: [f64; 6],
+    pub objective: f64,
+    pub residual_level: f64,
+    pub fit_quality: String,
+    pub model_runs: usize,
+    pub wall_s: f64,
+    pub seed: u64,
+    pub config_hash: String,
+    pub gtwatch_version: String,
+}
+
+/// Why a segment, or one method on it, gave no result.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Undiagnosable {
+    /// `None`: the segment as a whole; `Some("A")`/`Some("B")`: that method.
+    pub method: Option<String>,
+    /// `aborted`, `gaps`, `missing_signals`, `too_short`, `residual_too_high` or `error`.
+    pub reason: String,
+    pub detail: String,
+}
+
+/// One row of `gtwatch history`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct HistoryRow {
+    pub diagnosis_id: i64,
+    pub segment_id: i64,
+    pub start_ms: i64,
+    pub start_utc: String,
+    pub method: String,
+    /// Parameter name → percent.
+    pub health: BTreeMap<String, f64>,
+    /// Parameter name → 1σ percent (absent when not estimated).
+    pub sigma: BTreeMap<String, f64>,
+    pub objective: f64,
+    pub residual_level: Option<f64>,
+    pub fit_quality: Option<String>,
+    /// The last wash (operator-recorded or detected) before this start-up, if any.
+    pub wash_id_before: Option<i64>,
+}
+
+/// Filter of [`Store::history`].
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct HistoryFilter {
+    pub since_ms: Option<i64>,
+    pub until_ms: Option<i64>,
+    /// "A" or "B".
+    pub method: Option<String>,
+}
+
+/// Samples taken before the segment's start as standstill context for the model.
+const CONTEXT_BEFORE_MS: i64 = 10_000;
+
+fn segment_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<SegmentInfo> {
+    Ok(SegmentInfo {
+        id: r.get(0)?,
+        start_ms: r.get(1)?,
+        end_ms: r.get(2)?,
+        outcome: r.get(3)?,
+        abort_cause: r.get(4)?,
+        status: r.get(5)?,
+        has_gap: r.get(6)?,
+    })
+}
+
+const SEGMENT_COLS: &str = "id, start_ms, end_ms, outcome, abort_cause, status, has_gap";
+
+impl Store {
+    /// The worker's queue: closed start-ups with neither a result nor a recorded reason,
+    /// oldest first.
+    pub fn pending_segments(&self) -> Result<Vec<SegmentInfo>, StoreError> {
+        let mut st = self.conn.prepare_cached(&format!(
+            "SELECT {SEGMENT_COLS} FROM segments g WHERE kind = 'startup' AND status = 'closed'
+               AND NOT EXISTS (SELECT 1 FROM diagnoses d WHERE d.segment_id = g.id)
+               AND NOT EXISTS (SELECT 1 FROM undiagnosable u WHERE u.segment_id = g.id)
+             ORDER BY start_ms"
+        ))?;
+        let rows = st.query_map([], segment_row)?;
+        Ok(rows.collect::<Result<_, _>>()?)
+    }
+
+    /// One segment by id.
+    pub fn segment(&self, id: i64) -> Result<Option<SegmentInfo>, StoreError> {
+        Ok(self
+            .conn
+            .query_row(
+                &format!("SELECT {SEGMENT_COLS} FROM segments WHERE id = ?1"),
+                params![id],
+                segment_row,
+            )
+            .optional()?)
+    }
+
+    /// The store → recording adapter: the segment's good samples (plus 10 s of context before
+    /// it, labelled standstill) on the n1 tag's time stamps, with the detector's phases.
+    pub fn segment_recording(&self, id: i64) -> Result<Option<SegmentRecording>, StoreError> {
+        let Some(seg) = self.segment(id)? else {
+            return Ok(None);
+        };
+        let Some(end_ms) = seg.end_ms else {
+            return Err(StoreError::Corrupt(format!("segment {id} is still open")));
+        };
+        let from = seg.start_ms - CONTEXT_BEFORE_MS;
+        let mut phases: Vec<(i64, i64, Phase)> = Vec::new();
+        {
+            let mut st = self.conn.prepare_cached(
+                "SELECT phase_code, start_ms, end_ms FROM segment_phases WHERE segment_id = ?1
+                 ORDER BY start_ms, phase_code",
+            )?;
+            let rows = st.query_map(params![id], |r| {
+                Ok((
+                    r.get::<_, i64>(0)?,
+                    r.get::<_, i64>(1)?,
+                    r.get::<_, Option<i64>>(2)?,
+                ))
+            })?;
+            for row in rows {
+                let (code, s, e) = row?;
+                let phase = u16::try_from(code)
+                    .ok()
+                    .and_then(Phase::from_code)
+                    .ok_or_else(|| {
+                        StoreError::Corrupt(format!("segment {id}: phase code {code}"))
+                    })?;
+                phases.push((s, e.unwrap_or(end_ms), phase));
+            }
+        }
+        let tags = self.tags()?;
+        let tag_of = |sig: Signal| tags.iter().find(|t| t.signal == Some(sig)).map(|t| t.id);
+        let Some(n1_tag) = tag_of(Signal::N1) else {
+            return Err(StoreError::UnknownTag("n1 (no tag has signal n1)".into()));
+        };
+        let read = |tag: i64| -> Result<Vec<(i64, f64)>, StoreError> {
+            let mut st = self.conn.prepare_cached(
+                "SELECT t_ms, value FROM samples WHERE tag_id = ?1 AND t_ms >= ?2 AND t_ms <= ?3
+                   AND quality = 0 ORDER BY t_ms",
+            )?;
+            let rows = st.query_map(params![tag, from, end_ms], |r| Ok((r.get(0)?, r.get(1)?)))?;
+            Ok(rows.collect::<Result<_, _>>()?)
+        };
+        let axis: Vec<i64> = read(n1_tag)?.into_iter().map(|(t, _)| t).collect();
+        let index: HashMap<i64, usize> = axis.iter().enumerate().map(|(i, t)| (*t, i)).collect();
+        let mut values: Vec<Values> = vec![[f64::NAN; NSIG]; axis.len()];
+        let mut missing = Vec::new();
+        for sig in Signal::ALL {
+            let Some(tag) = tag_of(sig) else {
+                missing.push(sig);
+                continue;
+            };
+            let mut any = false;
+            for (t, v) in read(tag)? {
+                if let Some(&k) = index.get(&t) {
+                    values[k][sig.index()] = v;
+                    any = true;
+                }
+            }
+            if !any {
+                missing.push(sig);
+            }
+        }
+        let t0 = axis.first().copied().unwrap_or(seg.start_ms);
+        let phase_at = |t: i64| -> Phase {
+            phases
+                .iter()
+                .rev()
+                .find(|(s, e, _)| t >= *s && t <= *e)
+                .map_or(Phase::Standstill, |p| p.2)
+        };
+        let recording = Recording::new(
+            axis.iter().map(|t| (t - t0) as f64 / 1000.0).collect(),
+            axis.iter().map(|t| phase_at(*t)).collect(),
+            values,
+        );
+        Ok(Some(SegmentRecording {
+            segment: seg,
+            recording,
+            t0_ms: t0,
+            missing,
+        }))
+    }
+
+    /// Stores what the worker found for one segment — results (one per method) and reasons
+    /// for what could not be diagnosed — and marks the segment diagnosed, in one transaction:
+    /// a killed process leaves all of it or none.
+    pub fn insert_outcome(
+        &mut self,
+        segment_id: i64,
+        results: &[NewDiagnosis],
+        failures: &[Undiagnosable],
+        config_hash: &str,
+    ) -> Result<Vec<i64>, StoreError> {
+        let tx = self.conn.transaction()?;
+        let mut ids = Vec::new();
+        for d in results {
+            let s = d.sigma.map(|v| v.is_finite().then_some(v));
+            tx.execute(
+                "INSERT INTO diagnoses (segment_id, method, d_gc, d_ec, d_gt, d_et, d_gp, d_ep,
+                    sigma_gc, sigma_ec, sigma_gt, sigma_et, sigma_gp, sigma_ep, objective,
+                    model_runs, wall_s, model_version, seed, created_at_ms, residual_level,
+                    fit_quality, config_hash, gtwatch_version)
+                 VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16,
+                    ?17, ?18, ?19, ?20, ?21, ?22, ?23, ?24)",
+                params![
+                    segment_id,
+                    d.method,
+                    d.health[0],
+                    d.health[1],
+                    d.health[2],
+                    d.health[3],
+                    d.health[4],
+                    d.health[5],
+                    s[0],
+                    s[1],
+                    s[2],
+                    s[3],
+                    s[4],
+                    s[5],
+                    d.objective,
+                    d.model_runs as i64,
+                    d.wall_s,
+                    d.config_hash,
+                    d.seed as i64,
+                    super::now_ms(),
+                    d.residual_level,
+                    d.fit_quality,
+                    d.config_hash,
+                    d.gtwatch_version,
+                ],
+            )?;
+            ids.push(tx.last_insert_rowid());
+        }
+        for f in failures {
+            tx.execute(
+                "INSERT INTO undiagnosable (segment_id, method, reason, detail, config_hash,
+                                            gtwatch_version, created_at_ms)
+                 VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)",
+                params![
+                    segment_id,
+                    f.method,
+                    f.reason,
+                    f.detail,
+                    config_hash,
+                    env!("CARGO_PKG_VERSION"),
+                    super::now_ms()
+                ],
+            )?;
+        }
+        tx.execute(
+            "UPDATE segments SET status = 'diagnosed', updated_at_ms = ?2 WHERE id = ?1",
+            params![segment_id, super::now_ms()],
+        )?;
+        tx.commit()?;
+        Ok(ids)
+    }
+
+    /// Reasons recorded for a segment: (method, reason, detail).
+    pub fn undiagnosable_reasons(
+        &self,
+        segment_id: i64,
+    ) -> Result<Vec<(Option<String>, String, String)>, StoreError> {
+        let mut st = self.conn.prepare_cached(
+            "SELECT method, reason, detail FROM undiagnosable WHERE segment_id = ?1 ORDER BY id",
+        )?;
+        let rows = st.query_map(params![segment_id], |r| {
+            Ok((r.get(0)?, r.get(1)?, r.get(2)?))
+        })?;
+        Ok(rows.collect::<Result<_, _>>()?)
+    }
+
+    /// Stored results in start-up order (then method, then age).
+    pub fn history(&self, f: &HistoryFilter) -> Result<Vec<HistoryRow>, StoreError> {
+        let mut st = self.conn.prepare_cached(
+            "SELECT d.id, d.segment_id, g.start_ms,
+                    strftime('%Y-%m-%dT%H:%M:%fZ', g.start_ms / 1000.0, 'unixepoch'), d.method,
+                    d.d_gc, d.d_ec, d.d_gt, d.d_et, d.d_gp, d.d_ep,
+                    d.sigma_gc, d.sigma_ec, d.sigma_gt, d.sigma_et, d.sigma_gp, d.sigma_ep,
+                    d.objective, d.residual_level, d.fit_quality,
+                    (SELECT w.id FROM washes w WHERE w.t_ms <= g.start_ms
+                      ORDER BY w.t_ms DESC, w.id DESC LIMIT 1)
+             FROM diagnoses d JOIN segments g ON g.id = d.segment_id
+             WHERE (?1 IS NULL OR g.start_ms >= ?1) AND (?2 IS NULL OR g.start_ms <= ?2)
+               AND (?3 IS NULL OR d.method = ?3)
+             ORDER BY g.start_ms, d.method, d.created_at_ms, d.id",
+        )?;
+        let rows = st.query_map(params![f.since_ms, f.until_ms, f.method], |r| {
+            let mut health = BTreeMap::new();
+            let mut sigma = BTreeMap::new();
+            for (i, n) in HEALTH_NAMES.iter().enumerate() {
+                health.insert(n.to_string(), r.get::<_, f64>(5 + i)?);
+                if let Some(s) = r.get::<_, Option<f64>>(11 + i)? {
+                    sigma.insert(n.to_string(), s);
+                }
+            }
+            Ok(HistoryRow {
+                diagnosis_id: r.get(0)?,
+                segment_id: r.get(1)?,
+                start_ms: r.get(2)?,
+                start_utc: r.get(3)?,
+                method: r.get(4)?,
+                health,
+                sigma,
+                objective: r.get(17)?,
+                residual_level: r.get(18)?,
+                fit_quality: r.get(19)?,
+                wash_id_before: r.get(20)?,
+            })
+        })?;
+        Ok(rows.collect::<Result<_, _>>()?)
+    }
+}

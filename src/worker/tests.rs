@@ -1,0 +1,174 @@
+use super::*;
+use crate::detect::{scan, DetectorConfig};
+use crate::engine::sensors::MeasurementOptions;
+use crate::engine::sequence::run_scenario;
+use crate::engine::{Scenario, Trace};
+use crate::health::HealthParams;
+use crate::shutdown::shutdown_channel;
+use crate::store::{HistoryFilter, Quality, Sample, TagInfo};
+
+fn truth() -> HealthParams {
+    HealthParams {
+        D_GC: 3.0,
+        D_EC: 1.0,
+        D_GT: 1.5,
+        D_ET: 1.0,
+        D_GP: 0.5,
+        D_EP: 0.8,
+    }
+}
+
+/// A noisy simulated start-up of an engine with `truth()` stored at 1 Hz, detected.
+fn stored_startup(dir: &std::path::Path) -> Store {
+    let engine = Engine::reference().expect("engine");
+    let model = engine.model(&truth());
+    let (samples, _) =
+        run_scenario(&engine.cfg, &model, &Scenario::startup(&engine.cfg)).expect("runs");
+    let o = MeasurementOptions {
+        lags: true,
+        noise: true,
+        bias: false,
+        seed: 5,
+    };
+    let t = Trace::from_truth(&engine.cfg, &samples, Some(&o));
+    let mut store = Store::open(&dir.join("w.db")).expect("open");
+    let ids: Vec<i64> = Signal::ALL
+        .iter()
+        .map(|s| store.ensure_tag(&TagInfo::for_signal(*s)).expect("tag"))
+        .collect();
+    let mut batch = Vec::new();
+    for k in 0..t.len() {
+        let t_ms = 1_700_000_000_000 + (t.t_s[k] * 1000.0).round() as i64;
+        for (i, s) in Signal::ALL.iter().enumerate() {
+            let v = t.measured[k][s.index()];
+            if v.is_finite() {
+                batch.push(Sample {
+                    tag: ids[i],
+                    t_ms,
+                    value: v,
+                    quality: Quality::Good,
+                });
+            }
+        }
+    }
+    store.insert_samples(&batch).expect("insert");
+    scan(&mut store, &DetectorConfig::default()).expect("scan");
+    store
+}
+
+fn ctx() -> WorkerContext {
+    WorkerContext::load(
+        None,
+        DiagnosisSettings {
+            threads: 2,
+            max_model_runs: 300,
+            ..DiagnosisSettings::default()
+        },
+    )
+    .expect("context")
+}
+
+#[test]
+fn worker_diagnoses_a_stored_startup_and_shutdown_leaves_it_pending() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let store = stored_startup(dir.path());
+    let pending = store.pending_segments().expect("pending");
+    assert_eq!(pending.len(), 1, "{pending:?}");
+    let seg = pending[0].id;
+    drop(store);
+
+    // Shutdown while the fit runs: nothing written, the segment still pending.
+    let ctx = Arc::new(ctx());
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .expect("runtime");
+    let task = DiagnosisTask {
+        db_path: dir.path().join("w.db"),
+        store_opts: StoreOptions::default(),
+        ctx: Arc::clone(&ctx),
+        wake: Arc::new(Notify::new()),
+        after_result: None,
+    };
+    let rep = rt.block_on(async move {
+        let (trigger, shutdown) = shutdown_channel();
+        let h = tokio::spawn(task.run(shutdown));
+        tokio::time::sleep(Duration::from_millis(500)).await;
+        trigger.trigger();
+        tokio::time::timeout(Duration::from_secs(60), h)
+            .await
+            .expect("worker stops soon after shutdown")
+            .expect("join")
+    });
+    assert!(rep.cancelled, "{rep:?}");
+    assert_eq!(rep.diagnosed, 0);
+    let mut store = Store::open(&dir.path().join("w.db")).expect("reopen");
+    assert_eq!(store.pending_segments().expect("pending").len(), 1);
+    assert!(store
+        .history(&HistoryFilter::default())
+        .expect("h")
+        .is_empty());
+
+    // Restart: the pending segment is diagnosed, Method B within 0.5 points of the truth.
+    let calls = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let c2 = Arc::clone(&calls);
+    let after: AfterResult = Arc::new(move |_s, id, _o| {
+        assert_eq!(id, seg);
+        c2.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+    });
+    let rep = drain_pending(&mut store, &ctx, &Cancel::new(), Some(&after)).expect("drain");
+    assert_eq!(rep.diagnosed, 1, "{rep:?}");
+    assert_eq!(calls.load(std::sync::atomic::Ordering::SeqCst), 1);
+    assert!(store.pending_segments().expect("pending").is_empty());
+    let h = store
+        .history(&HistoryFilter {
+            method: Some("B".into()),
+            ..HistoryFilter::default()
+        })
+        .expect("history");
+    assert_eq!(h.len(), 1, "{h:?}");
+    let t = truth().to_array();
+    for (i, n) in HEALTH_NAMES.iter().enumerate() {
+        let got = h[0].health[*n];
+        assert!((got - t[i]).abs() < 0.5, "{n}: {got} vs {}", t[i]);
+        assert!(h[0].sigma.contains_key(*n));
+    }
+    assert_eq!(h[0].segment_id, seg);
+    assert!(h[0].fit_quality.is_some());
+    let status: String = store.segment(seg).expect("seg").expect("exists").status;
+    assert_eq!(status, "diagnosed");
+}
+
+#[test]
+fn aborted_segment_is_stored_as_undiagnosable_with_its_reason() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut store = stored_startup(dir.path());
+    let seg = store.pending_segments().expect("pending")[0].id;
+    store
+        .conn_mut()
+        .execute(
+            "UPDATE segments SET outcome = 'aborted', abort_cause = 'trip' WHERE id = ?1",
+            [seg],
+        )
+        .expect("update");
+    let rep = drain_pending(&mut store, &ctx(), &Cancel::new(), None).expect("drain");
+    assert_eq!(rep.undiagnosable, 1);
+    let r = store.undiagnosable_reasons(seg).expect("reasons");
+    assert_eq!(r.len(), 1);
+    assert_eq!(r[0].1, "aborted");
+    assert!(r[0].2.contains("trip"), "{r:?}");
+    assert!(store.pending_segments().expect("pending").is_empty());
+}
+
+#[test]
+fn fnv1a_known_values() {
+    // FNV-1a 64 of "a" followed by the separator byte 0xff.
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in [b'a', 0xff] {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    assert_eq!(fnv1a(&[b"a"]), h);
+    assert_ne!(fnv1a(&[b"ab"]), fnv1a(&[b"a", b"b"]));
+}

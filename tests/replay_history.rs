@@ -1,0 +1,116 @@
+//! Acceptance at small size: a log of three `simulate` start-ups with known, growing
+//! degradation, one a day, replayed with `gtwatch replay` and the shipped config → one Method B
+//! result per start-up within 0.5 points of its truth on every parameter, in
+//! `gtwatch history --format json`.
+
+use gtwatch::engine::sensors::MeasurementOptions;
+use gtwatch::engine::sequence::run_scenario;
+use gtwatch::engine::{Engine, Scenario, Trace};
+use gtwatch::health::{HealthParams, HEALTH_NAMES};
+use std::process::Command;
+
+fn truth(day: usize) -> HealthParams {
+    let d = day as f64;
+    HealthParams {
+        D_GC: 1.0 + 1.0 * d,
+        D_EC: 0.4 + 0.35 * d,
+        D_GT: 0.5 + 0.2 * d,
+        D_ET: 0.3 + 0.2 * d,
+        D_GP: 0.2 + 0.1 * d,
+        D_EP: 0.3 + 0.1 * d,
+    }
+}
+
+#[test]
+fn replayed_daily_startups_each_get_a_method_b_result_near_truth() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let engine = Engine::reference().expect("engine");
+    let days = 3;
+    let mut all: Option<Trace> = None;
+    for day in 0..days {
+        let model = engine.model(&truth(day));
+        let (samples, _) =
+            run_scenario(&engine.cfg, &model, &Scenario::startup(&engine.cfg)).expect("runs");
+        let o = MeasurementOptions {
+            lags: true,
+            noise: true,
+            bias: false,
+            seed: 40 + day as u64,
+        };
+        let mut t = Trace::from_truth(&engine.cfg, &samples, Some(&o));
+        let shift = 1.7e9 + 86_400.0 * day as f64;
+        t.t_s.iter_mut().for_each(|x| *x += shift);
+        match &mut all {
+            None => all = Some(t),
+            Some(a) => {
+                a.t_s.extend(t.t_s);
+                a.phase.extend(t.phase);
+                a.truth.extend(t.truth);
+                a.measured.extend(t.measured);
+            }
+        }
+    }
+    let csv = dir.path().join("days.csv");
+    let f = std::fs::File::create(&csv).expect("create");
+    all.expect("trace")
+        .write_csv(std::io::BufWriter::new(f))
+        .expect("write");
+    let db = dir.path().join("h.db");
+    let cfg = include_str!("../config/gtwatch.toml")
+        .replace(
+            "path = \"/var/lib/gtwatch/gtwatch.db\"",
+            &format!("path = {:?}", db.display().to_string()),
+        )
+        .replace("time_column = \"time\"", "time_column = \"time_s\"")
+        .replace("time_format = \"iso8601\"", "time_format = \"epoch_s\"")
+        .replace("threads = 1", "threads = 2");
+    let cfg_path = dir.path().join("gtwatch.toml");
+    std::fs::write(&cfg_path, cfg).expect("config");
+
+    let bin = env!("CARGO_BIN_EXE_gtwatch");
+    let out = Command::new(bin)
+        .args(["replay", "--config"])
+        .arg(&cfg_path)
+        .arg(&csv)
+        .output()
+        .expect("replay runs");
+    assert!(
+        out.status.success(),
+        "replay: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = Command::new(bin)
+        .args(["history", "--format", "json", "--method", "B", "--config"])
+        .arg(&cfg_path)
+        .output()
+        .expect("history runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
+    let rows = doc.as_array().expect("array");
+    assert_eq!(rows.len(), days, "{doc:#}");
+    for (day, row) in rows.iter().enumerate() {
+        assert_eq!(row["method"], "B");
+        let start_ms = row["start_ms"].as_i64().expect("start_ms");
+        assert_eq!(
+            start_ms,
+            1_700_000_010_000 + 86_400_000 * day as i64,
+            "{row}"
+        );
+        assert!(row["start_utc"]
+            .as_str()
+            .expect("utc")
+            .starts_with("2023-11-"));
+        assert!(row["fit_quality"].is_string());
+        assert!(row["wash_id_before"].is_null());
+        let t = truth(day).to_array();
+        for (i, n) in HEALTH_NAMES.iter().enumerate() {
+            let v = row["health"][n].as_f64().expect("value");
+            assert!((v - t[i]).abs() < 0.5, "day {day} {n}: {v} vs {}", t[i]);
+            assert!(row["sigma"][n].as_f64().is_some_and(|s| s > 0.0), "{row}");
+        }
+    }
+}

@@ -1,0 +1,146 @@
+//! Killing `gtwatch run` (SIGTERM, then kill -9) while it diagnoses a start-up leaves nothing
+//! half-written, and the restarted daemon diagnoses the pending segment.
+
+use gtwatch::detect::{scan, DetectorConfig};
+use gtwatch::engine::sensors::MeasurementOptions;
+use gtwatch::engine::sequence::run_scenario;
+use gtwatch::engine::{Engine, Scenario, Trace};
+use gtwatch::health::HealthParams;
+use gtwatch::signals::Signal;
+use gtwatch::store::{Quality, Sample, Store, TagInfo};
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+fn store_startup(db: &Path) {
+    let engine = Engine::reference().expect("engine");
+    let h = HealthParams {
+        D_GC: 2.0,
+        D_EC: 0.8,
+        D_GT: 0.6,
+        D_ET: 0.4,
+        D_GP: 0.3,
+        D_EP: 0.4,
+    };
+    let (samples, _) = run_scenario(
+        &engine.cfg,
+        &engine.model(&h),
+        &Scenario::startup(&engine.cfg),
+    )
+    .expect("runs");
+    let o = MeasurementOptions {
+        lags: true,
+        noise: true,
+        bias: false,
+        seed: 3,
+    };
+    let t = Trace::from_truth(&engine.cfg, &samples, Some(&o));
+    let mut store = Store::open(db).expect("open");
+    let ids: Vec<i64> = Signal::ALL
+        .iter()
+        .map(|s| store.ensure_tag(&TagInfo::for_signal(*s)).expect("tag"))
+        .collect();
+    let mut batch = Vec::new();
+    for k in 0..t.len() {
+        for (i, s) in Signal::ALL.iter().enumerate() {
+            let v = t.measured[k][s.index()];
+            if v.is_finite() {
+                batch.push(Sample {
+                    tag: ids[i],
+                    t_ms: 1_700_000_000_000 + (t.t_s[k] * 1000.0).round() as i64,
+                    value: v,
+                    quality: Quality::Good,
+                });
+            }
+        }
+    }
+    store.insert_samples(&batch).expect("insert");
+    scan(&mut store, &DetectorConfig::default()).expect("scan");
+}
+
+/// (diagnoses rows, undiagnosable rows, status of the one segment, integrity check)
+fn state(db: &Path) -> (i64, i64, String, String) {
+    let c = rusqlite::Connection::open(db).expect("open");
+    let n = |sql: &str| -> i64 { c.query_row(sql, [], |r| r.get(0)).expect("count") };
+    (
+        n("SELECT COUNT(*) FROM diagnoses"),
+        n("SELECT COUNT(*) FROM undiagnosable"),
+        c.query_row("SELECT status FROM segments", [], |r| r.get(0))
+            .expect("status"),
+        c.query_row("PRAGMA integrity_check", [], |r| r.get(0))
+            .expect("integrity"),
+    )
+}
+
+fn start(cfg: &Path) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(["run", "--config"])
+        .arg(cfg)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("daemon starts")
+}
+
+fn sigterm(child: &mut Child) -> std::process::ExitStatus {
+    let ok = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .expect("kill");
+    assert!(ok.success());
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        if let Some(s) = child.try_wait().expect("wait") {
+            return s;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "daemon did not stop within 30 s of SIGTERM"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+#[test]
+fn kill_during_diagnosis_leaves_nothing_half_written_and_restart_resumes() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let db = dir.path().join("k.db");
+    store_startup(&db);
+    let text = include_str!("../config/gtwatch.toml")
+        .replace(
+            "path = \"/var/lib/gtwatch/gtwatch.db\"",
+            &format!("path = {:?}", db.display().to_string()),
+        )
+        .replace("source = \"modbus\"", "source = \"none\"");
+    let cfg = dir.path().join("gtwatch.toml");
+    std::fs::write(&cfg, text).expect("config");
+
+    // kill -9 in the middle of the fit.
+    let mut d = start(&cfg);
+    std::thread::sleep(Duration::from_millis(1500));
+    d.kill().expect("kill -9");
+    d.wait().expect("reaped");
+    assert_eq!(state(&db), (0, 0, "closed".into(), "ok".into()));
+
+    // SIGTERM in the middle of the fit: clean exit, the fit cancelled, nothing stored.
+    let mut d = start(&cfg);
+    std::thread::sleep(Duration::from_millis(1500));
+    let t = Instant::now();
+    let status = sigterm(&mut d);
+    assert!(status.success(), "{status:?}");
+    assert!(t.elapsed() < Duration::from_secs(15), "{:?}", t.elapsed());
+    assert_eq!(state(&db), (0, 0, "closed".into(), "ok".into()));
+
+    // Restart: the pending start-up is diagnosed (Method A and B).
+    let mut d = start(&cfg);
+    let deadline = Instant::now() + Duration::from_secs(180);
+    while state(&db).0 == 0 {
+        assert!(Instant::now() < deadline, "no diagnosis within 180 s");
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    std::thread::sleep(Duration::from_millis(200));
+    assert!(sigterm(&mut d).success());
+    let (n, _, status, ok) = state(&db);
+    assert!(n >= 1, "{n}");
+    assert_eq!((status.as_str(), ok.as_str()), ("diagnosed", "ok"));
+}
