@@ -1,7 +1,7 @@
 //! `gtwatch replay --config FILE LOG.csv`: ingest a CSV log, then run the start-up detector.
 
 use super::common::DataSections;
-use crate::replay::{replay_file, Progress, ReplayError};
+use crate::ingest::{replay_file, Progress, ReplayError};
 use crate::store::Store;
 use anyhow::Context;
 use std::path::PathBuf;

@@ -1,4 +1,4 @@
-//! Log replay: ingest a historical CSV into the store as fast as possible.
+//! Log ingest (CSV replay): ingest a historical CSV into the store as fast as possible.
 //!
 //! One row = one time stamp; each mapped column becomes one sample of its tag. Rows are
 //! inserted in large transactions with `INSERT OR IGNORE`, so replaying the same file twice
