@@ -248,8 +248,8 @@ pub enum ReplayError {
         column: String,
         available: String,
     },
-    #[error("{path}: no data columns to replay (map some in [replay.columns], or name the CSV columns after signals such as n1_rpm)")]
-    NoColumns { path: PathBuf },
+    #[error("{path}: no data columns to replay (ignored: {ignored}; map them in [replay.columns], or name the CSV columns after signals such as n1_rpm)")]
+    NoColumns { path: PathBuf, ignored: String },
     #[error("invalid [replay] config: {0}")]
     Config(String),
     #[error("{path}: line {line}: {reason} (on_malformed = \"stop\"; {committed} samples before it are committed)")]
@@ -262,6 +262,109 @@ pub enum ReplayError {
     },
     #[error(transparent)]
     Store(#[from] StoreError),
+}
+
+/// Which CSV columns a replay reads, decided from the header alone (no database needed).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColumnPlan {
+    /// Number of header fields.
+    pub n_fields: usize,
+    /// Index of the time column.
+    pub time_index: usize,
+    /// (column index, column name, tag) for every replayed column.
+    pub mapped: Vec<(usize, String, TagInfo)>,
+    /// Header columns that are not replayed (neither the time column nor mapped).
+    pub ignored: Vec<String>,
+}
+
+impl ColumnPlan {
+    /// Whether some replayed column feeds the tag named `tag`.
+    pub fn feeds_tag(&self, tag: &str) -> bool {
+        self.mapped.iter().any(|(_, _, info)| info.name == tag)
+    }
+}
+
+/// Reads only the header of `path` and decides which columns a replay would use. Fails like
+/// [`replay_file`] would (missing file, missing time or mapped column, nothing to replay), so a
+/// caller can check every log before it creates a database.
+pub fn plan_columns(cfg: &ReplayConfig, path: &Path) -> Result<ColumnPlan, ReplayError> {
+    let file = std::fs::File::open(path).map_err(|source| ReplayError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let mut rdr = csv::ReaderBuilder::new()
+        .delimiter(cfg.delimiter_byte().unwrap_or(b','))
+        .has_headers(true)
+        .flexible(true)
+        // `\n` alone ends a record; a `\r` before it is trimmed with the field. With csv's
+        // default CRLF handling every line number of a CRLF file came out one too low.
+        .terminator(csv::Terminator::Any(b'\n'))
+        .from_reader(std::io::BufReader::new(file));
+    plan_from_reader(&mut rdr, cfg, path)
+}
+
+fn plan_from_reader<R: std::io::Read>(
+    rdr: &mut csv::Reader<R>,
+    cfg: &ReplayConfig,
+    path: &Path,
+) -> Result<ColumnPlan, ReplayError> {
+    let header = rdr
+        .byte_headers()
+        .map_err(|e| ReplayError::Header {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?
+        .clone();
+    let names: Vec<String> = header
+        .iter()
+        .map(|h| String::from_utf8_lossy(h).trim().to_string())
+        .collect();
+    let available = names.join(", ");
+    let find = |col: &str| names.iter().position(|n| n == col);
+    let time_idx = find(&cfg.time_column).ok_or_else(|| ReplayError::MissingColumn {
+        path: path.to_path_buf(),
+        column: cfg.time_column.clone(),
+        available: available.clone(),
+    })?;
+    let mut ignored = Vec::new();
+    let mut mapping: Vec<(usize, String, TagInfo)> = Vec::new();
+    if cfg.columns.is_empty() {
+        for (i, n) in names.iter().enumerate() {
+            if i == time_idx {
+                continue;
+            }
+            match n.parse::<Signal>() {
+                Ok(sig) => mapping.push((i, n.clone(), TagInfo::for_signal(sig))),
+                Err(_) => ignored.push(n.clone()),
+            }
+        }
+    } else {
+        for (col, tag) in &cfg.columns {
+            let i = find(col).ok_or_else(|| ReplayError::MissingColumn {
+                path: path.to_path_buf(),
+                column: col.clone(),
+                available: available.clone(),
+            })?;
+            mapping.push((i, col.clone(), tag_for_mapping(tag)));
+        }
+        for (i, n) in names.iter().enumerate() {
+            if i != time_idx && !mapping.iter().any(|(j, _, _)| *j == i) {
+                ignored.push(n.clone());
+            }
+        }
+    }
+    if mapping.is_empty() {
+        return Err(ReplayError::NoColumns {
+            path: path.to_path_buf(),
+            ignored: ignored.join(", "),
+        });
+    }
+    Ok(ColumnPlan {
+        n_fields: names.len(),
+        time_index: time_idx,
+        mapped: mapping,
+        ignored,
+    })
 }
 
 struct Column {
@@ -298,69 +401,26 @@ pub fn replay_file(
         .delimiter(cfg.delimiter_byte().unwrap_or(b','))
         .has_headers(true)
         .flexible(true)
+        // `\n` alone ends a record; a `\r` before it is trimmed with the field. With csv's
+        // default CRLF handling every line number of a CRLF file came out one too low.
+        .terminator(csv::Terminator::Any(b'\n'))
         .buffer_capacity(1 << 20)
         .from_reader(std::io::BufReader::with_capacity(1 << 20, file));
-    let header = rdr
-        .byte_headers()
-        .map_err(|e| ReplayError::Header {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?
-        .clone();
-    let names: Vec<String> = header
-        .iter()
-        .map(|h| String::from_utf8_lossy(h).trim().to_string())
-        .collect();
-    let available = names.join(", ");
-    let find = |col: &str| names.iter().position(|n| n == col);
-    let time_idx = find(&cfg.time_column).ok_or_else(|| ReplayError::MissingColumn {
-        path: path.to_path_buf(),
-        column: cfg.time_column.clone(),
-        available: available.clone(),
-    })?;
-
+    let plan = plan_from_reader(&mut rdr, cfg, path)?;
+    let n_fields = plan.n_fields;
+    let time_idx = plan.time_index;
     let mut report = ReplayReport {
         file: path.to_path_buf(),
+        ignored_columns: plan.ignored.clone(),
         ..ReplayReport::default()
     };
-    let mut mapping: Vec<(usize, String, TagInfo)> = Vec::new();
-    if cfg.columns.is_empty() {
-        for (i, n) in names.iter().enumerate() {
-            if i == time_idx {
-                continue;
-            }
-            match n.parse::<Signal>() {
-                Ok(sig) => mapping.push((i, n.clone(), TagInfo::for_signal(sig))),
-                Err(_) => report.ignored_columns.push(n.clone()),
-            }
-        }
-    } else {
-        for (col, tag) in &cfg.columns {
-            let i = find(col).ok_or_else(|| ReplayError::MissingColumn {
-                path: path.to_path_buf(),
-                column: col.clone(),
-                available: available.clone(),
-            })?;
-            mapping.push((i, col.clone(), tag_for_mapping(tag)));
-        }
-        for (i, n) in names.iter().enumerate() {
-            if i != time_idx && !mapping.iter().any(|(j, _, _)| *j == i) {
-                report.ignored_columns.push(n.clone());
-            }
-        }
-    }
-    if mapping.is_empty() {
-        return Err(ReplayError::NoColumns {
-            path: path.to_path_buf(),
-        });
-    }
+    let mapping = plan.mapped;
     let mut columns = Vec::with_capacity(mapping.len());
     for (index, name, info) in mapping {
         let tag = store.ensure_tag(&info)?;
         report.columns.push((name.clone(), info.name.clone()));
         columns.push(Column { index, name, tag });
     }
-    let n_fields = names.len();
     let gap_source = format!(
         "replay:{}",
         path.file_name()
