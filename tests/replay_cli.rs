@@ -115,3 +115,19 @@ fn closed_stdout_ends_quietly() {
     assert!(status.success(), "{status:?}: {err}");
     assert!(!err.contains("panicked"), "{err}");
 }
+
+#[test]
+fn rows_rejected_for_their_time_set_exit_status_3() {
+    let log = "time,n1_rpm,fuel_kg_s,power_mw\n\
+               2024-03-01T00:00:00Z,0,0,0\n\
+               3024-03-01T00:00:00Z,0,0,0\n\
+               2024-03-01T00:00:01Z,0,0,0\n";
+    let (_dir, csv, _db, cfg) = setup(log);
+    let out = gtwatch(&[Path::new("replay"), Path::new("--config"), &cfg, &csv]);
+    assert_eq!(out.status.code(), Some(3), "{out:?}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("line 3") && err.contains("implausible"),
+        "{err}"
+    );
+}

@@ -1,4 +1,7 @@
 //! `gtwatch replay --config FILE LOG.csv`: ingest a CSV log, then run the start-up detector.
+//!
+//! Exit status: 0 all rows stored; 1 an error (or `on_malformed = "stop"` hit a bad row);
+//! 3 replayed, but rows were rejected for their time stamps (see stderr / the JSON report).
 
 use super::common::DataSections;
 use crate::ingest::{plan_columns, replay_file, ColumnPlan, Progress, ReplayError, ReplayReport};
@@ -27,6 +30,10 @@ pub struct ReplayArgs {
     #[arg(required = true)]
     pub logs: Vec<PathBuf>,
 }
+
+/// Exit status when every file was replayed but rows were rejected for their time stamps
+/// (out of order, duplicate, or implausibly far in the future): never silent.
+pub const EXIT_TIME_REJECTED: u8 = 3;
 
 /// Everything `replay --json` prints: exactly one JSON document.
 #[derive(Debug, serde::Serialize)]
@@ -105,6 +112,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
     let mut failed = false;
     let mut reports: Vec<ReplayReport> = Vec::new();
     let mut stop_error: Option<String> = None;
+    let mut time_rejected = false;
     for log in &args.logs {
         match replay_file(&mut store, &cfg.replay, log, Progress::Auto) {
             Ok(report) => {
@@ -131,6 +139,15 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
                         report.elapsed_s,
                         report.samples_per_s()
                     );
+                }
+                if report.rows_out_of_order + report.rows_implausible_time > 0 {
+                    eprintln!(
+                        "{}: {} rows out of order and {} with implausible times were not stored (exit status 3)",
+                        log.display(),
+                        report.rows_out_of_order,
+                        report.rows_implausible_time
+                    );
+                    time_rejected = true;
                 }
                 reports.push(report);
             }
@@ -183,6 +200,8 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
     }
     Ok(if failed {
         ExitCode::FAILURE
+    } else if time_rejected {
+        ExitCode::from(EXIT_TIME_REJECTED)
     } else {
         ExitCode::SUCCESS
     })

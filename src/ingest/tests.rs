@@ -273,3 +273,35 @@ fn plan_names_ignored_columns_and_needs_no_database() {
     let missing = plan_columns(&ReplayConfig::default(), &dir.path().join("nope.csv"));
     assert!(matches!(missing, Err(ReplayError::Io { .. })));
 }
+
+#[test]
+fn a_row_dated_far_in_the_future_is_reported_not_stored() {
+    // Regression (issue 12 #1): one row dated +1000 years made every later row "go backwards":
+    // they were dropped, and the replay still said all was well.
+    let csv = "time,n1_rpm\n\
+               2024-03-01T00:00:00Z,1\n\
+               3024-03-01T00:00:01Z,2\n\
+               2024-03-01T00:00:02Z,3\n\
+               2024-03-01T00:00:01Z,4\n\
+               2024-03-01T00:00:03Z,5\n";
+    let (_d, mut store, path) = setup(csv);
+    let r = replay_file(
+        &mut store,
+        &ReplayConfig::default(),
+        &path,
+        Progress::Silent,
+    )
+    .expect("replay");
+    assert_eq!(r.samples_inserted, 3, "{r:#?}");
+    assert_eq!(r.rows_implausible_time, 1);
+    assert_eq!(r.rows_out_of_order, 1);
+    assert_eq!(r.rows_malformed, 2);
+    let lines: Vec<u64> = r.malformed.iter().map(|m| m.line).collect();
+    assert_eq!(lines, vec![3, 5]);
+    assert!(
+        r.malformed[0].reason.contains("implausible"),
+        "{:?}",
+        r.malformed
+    );
+    assert_eq!(r.last_t_ms, Some(1_709_251_203_000));
+}
