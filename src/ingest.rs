@@ -677,6 +677,7 @@ fn latest_plausible_ms(max_future_s: f64) -> i64 {
 }
 
 /// Parses one row into `out`; returns its time or why it is malformed.
+#[allow(clippy::too_many_arguments)]
 fn parse_row(
     rec: &csv::ByteRecord,
     n_fields: usize,
