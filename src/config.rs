@@ -10,7 +10,7 @@ use crate::acquire::modbus::{AcquisitionConfig, SourceKind};
 use crate::acquire::register_map::ModbusConfig;
 use crate::config_problem::ConfigProblem;
 use crate::detect::DetectorConfig;
-use crate::replay::ReplayConfig;
+use crate::ingest::ReplayConfig;
 use crate::store::StorageConfig;
 use crate::worker::DiagnosisSettings;
 use serde::Deserialize;

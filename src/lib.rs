@@ -1,7 +1,7 @@
 //! gtwatch: transient-based gas-path diagnosis for a two-shaft industrial gas turbine.
 //!
 //! The physics (`thermo`, `maps`, `engine`, `optim`, `diagnosis`) is pure: no I/O, no async,
-//! no globals, deterministic for a given seed. The daemon modules (`store`, `replay`, `detect`,
+//! no globals, deterministic for a given seed. The daemon modules (`store`, `ingest`, `detect`,
 //! `query`, `cli`) are a thin shell around it.
 #![deny(clippy::unwrap_used)]
 
@@ -14,13 +14,13 @@ pub mod detect;
 pub mod diagnosis;
 pub mod engine;
 pub mod health;
+pub mod ingest;
 pub mod maps;
 pub mod optim;
 pub mod plantsim;
 pub mod plot;
 pub mod query;
 pub mod recording;
-pub mod replay;
 pub mod shutdown;
 pub mod signals;
 pub mod store;

@@ -3,7 +3,7 @@
 //! Works on a read-only [`Store`] so it never disturbs the running daemon. Must not write.
 
 use crate::detect::{AbortCause, Outcome, PhaseSpan};
-use crate::replay::fmt_ms;
+use crate::ingest::fmt_ms;
 use crate::signals::Phase;
 use crate::store::{Store, StoreError};
 use rusqlite::params;

@@ -8,7 +8,7 @@ use gtwatch::engine::sensors::MeasurementOptions;
 use gtwatch::engine::sequence::run_scenario;
 use gtwatch::engine::{Engine, Scenario, Trace};
 use gtwatch::health::HealthParams;
-use gtwatch::replay::{replay_file, Progress, ReplayConfig, TimeFormat};
+use gtwatch::ingest::{replay_file, Progress, ReplayConfig, TimeFormat};
 use gtwatch::signals::Signal;
 use gtwatch::store::{Quality, Sample, Store, TagInfo};
 use std::path::Path;

@@ -147,6 +147,30 @@ pub enum ReadError {
     ShortResponse { got: usize, want: usize },
 }
 
+impl ReadError {
+    /// The text stored as a gap's reason: the same for the same fault on every run. An I/O
+    /// error's OS text is not (tokio-modbus 0.17 maps EOF through `last_os_error`, giving
+    /// `Success (os error 0)`, `Operation now in progress (os error 115)`, … for one server
+    /// death), so only its kind is kept; the full text goes to the log.
+    pub fn stable_reason(&self) -> String {
+        match self {
+            ReadError::Io(e) => {
+                let what = match e.kind() {
+                    std::io::ErrorKind::ConnectionRefused => "connection refused",
+                    std::io::ErrorKind::TimedOut => "connection timed out",
+                    std::io::ErrorKind::NotFound | std::io::ErrorKind::InvalidInput => {
+                        "address not resolved"
+                    }
+                    _ => "connection lost",
+                };
+                format!("I/O error: {what}")
+            }
+            ReadError::Protocol(_) => "protocol error".to_string(),
+            other => other.to_string(),
+        }
+    }
+}
+
 /// A Modbus TCP client that can only read (function codes 3 and 4). The tokio-modbus context
 /// is private, so no code path can reach its `Writer` methods.
 pub struct ReadOnlyClient {
@@ -478,7 +502,9 @@ pub async fn poll_loop(
                 }
                 Err(e) => {
                     let now = clock.now().t_ms;
-                    let reason = format!("connect to {} failed: {e}", plan.endpoint);
+                    tracing::debug!(endpoint = %plan.endpoint, error = %e, "connect failed");
+                    let reason =
+                        format!("connect to {} failed: {}", plan.endpoint, e.stable_reason());
                     fail(&mut outage, last_good_ms, now, reason, &progress);
                     retry_at = Some(Instant::now() + backoff.next_delay());
                     continue;
@@ -523,9 +549,14 @@ pub async fn poll_loop(
             match result {
                 Ok(words) => decode_request(req, &words, stamp.t_ms, &mut batch),
                 Err(e) => {
+                    tracing::debug!(error = %e, "read failed");
                     error = Some(format!(
-                        "read {} {}+{} from slave {}: {e}",
-                        req.kind, req.start, req.count, req.slave
+                        "read {} {}+{} from slave {}: {}",
+                        req.kind,
+                        req.start,
+                        req.count,
+                        req.slave,
+                        e.stable_reason()
                     ));
                     break;
                 }
@@ -606,6 +637,27 @@ mod tests {
     use tokio::net::TcpListener;
     use tokio_modbus::prelude::{ExceptionCode, Request, Response};
     use tokio_modbus::server::tcp::{accept_tcp_connection, Server};
+
+    #[test]
+    fn gap_reason_for_a_server_death_is_stable() {
+        // Regression (issue 12 #9): one server death was stored as `I/O error: Success (os
+        // error 0)`, `Operation now in progress (os error 115)` or `Connection reset by peer`.
+        let texts: Vec<String> = [
+            std::io::Error::from_raw_os_error(0),
+            std::io::Error::from_raw_os_error(115),
+            std::io::Error::from(std::io::ErrorKind::ConnectionReset),
+            std::io::Error::from(std::io::ErrorKind::UnexpectedEof),
+        ]
+        .into_iter()
+        .map(|e| ReadError::Io(e).stable_reason())
+        .collect();
+        assert!(
+            texts.iter().all(|t| t == "I/O error: connection lost"),
+            "{texts:?}"
+        );
+        let refused = ReadError::Io(std::io::ErrorKind::ConnectionRefused.into());
+        assert_eq!(refused.stable_reason(), "I/O error: connection refused");
+    }
 
     #[test]
     fn backoff_doubles_up_to_the_cap_and_resets() {

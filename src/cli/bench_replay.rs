@@ -4,7 +4,7 @@
 //! directory, replays it into a fresh database, then replays it again to show the idempotent
 //! pass (nothing new is added); reports samples/s for both. Run it from a release build.
 
-use crate::replay::{fmt_ms, replay_file, Progress, ReplayConfig};
+use crate::ingest::{fmt_ms, replay_file, Progress, ReplayConfig};
 use crate::signals::Signal;
 use crate::store::Store;
 use anyhow::Context;
@@ -46,7 +46,7 @@ struct BenchResult {
     integrity_check: String,
 }
 
-fn pass(r: &crate::replay::ReplayReport) -> PassResult {
+fn pass(r: &crate::ingest::ReplayReport) -> PassResult {
     PassResult {
         samples_inserted: r.samples_inserted,
         samples_present: r.samples_present,

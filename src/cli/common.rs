@@ -5,7 +5,7 @@
 //! full `Config`, which validates them); must not validate other sections.
 
 use crate::detect::DetectorConfig;
-use crate::replay::ReplayConfig;
+use crate::ingest::ReplayConfig;
 use crate::store::StorageConfig;
 use anyhow::{bail, Context};
 use serde::Deserialize;
@@ -68,10 +68,10 @@ pub fn db_path(db: Option<&PathBuf>, config: Option<&PathBuf>) -> anyhow::Result
 /// or `@SECONDS` since the Unix epoch.
 pub fn parse_cli_time(s: &str) -> anyhow::Result<i64> {
     if let Some(rest) = s.strip_prefix('@') {
-        return crate::replay::parse_time(rest.as_bytes(), crate::replay::TimeFormat::EpochS)
+        return crate::ingest::parse_time(rest.as_bytes(), crate::ingest::TimeFormat::EpochS)
             .map_err(|e| anyhow::anyhow!("'{s}': {e}"));
     }
-    crate::replay::parse_iso8601_ms(s).map_err(|e| {
+    crate::ingest::parse_iso8601_ms(s).map_err(|e| {
         anyhow::anyhow!(
             "'{s}' is not a time (use 2024-03-01, 2024-03-01T12:00:00Z or @EPOCH_S): {e}"
         )

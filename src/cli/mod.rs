@@ -64,6 +64,7 @@ pub enum Command {
 
 /// Entry point used by `src/main.rs`.
 pub fn main() -> ExitCode {
+    quiet_on_closed_stdout();
     let cli = Cli::parse();
     init_logging();
     let result = match cli.command {
@@ -84,10 +85,48 @@ pub fn main() -> ExitCode {
         // `gtwatch segments | head`: the reader went away; that is not an error.
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("gtwatch: error: {e:#}");
+            eprintln!("gtwatch: error: {}", error_chain(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes joined by `: `, leaving out a cause whose text the message before
+/// it already contains (an error that prints its source, e.g. `cannot read X: {source}`, would
+/// otherwise show the OS error twice).
+pub fn error_chain(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if text.is_empty() || out.contains(&text) {
+            continue;
+        }
+        if !out.is_empty() {
+            out.push_str(": ");
+        }
+        out.push_str(&text);
+    }
+    out
+}
+
+/// `gtwatch replay --json | head -c 100`: `println!` panics when the reader has gone away.
+/// A closed stdout is not an error: end quietly with status 0 instead of a panic message.
+/// Covers every command that prints with `print!`/`println!`; commands that write through
+/// `std::io::stdout()` get the `BrokenPipe` error, which [`main`] also treats as success.
+fn quiet_on_closed_stdout() {
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let msg = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if msg.starts_with("failed printing to stdout") && msg.contains("Broken pipe") {
+            std::process::exit(0);
+        }
+        default_hook(info);
+    }));
 }
 
 fn is_broken_pipe(e: &anyhow::Error) -> bool {

@@ -479,7 +479,26 @@ pub fn scan(store: &mut Store, cfg: &DetectorConfig) -> Result<ScanReport, Detec
         }
         carried = [fuel.value, power.value, n2.as_ref().and_then(|h| h.value)];
         finished.extend(machine.take_finished());
+        if chunk_to == i64::MAX {
+            break; // the last possible chunk (a sample stamped near i64::MAX)
+        }
         chunk_from = chunk_to;
+        // Skip empty stretches in one step instead of walking 6-hour chunks up to a far-away
+        // sample (a bogus year-3000 stamp took minutes, i64::MAX forever). Held fuel/power
+        // values are not carried across the jump.
+        let next: Option<i64> = conn.query_row(
+            "SELECT MIN(t_ms) FROM samples WHERE tag_id = ?1 AND t_ms >= ?2 AND quality = 0",
+            params![tags.n1, chunk_from],
+            |r| r.get(0),
+        )?;
+        match next {
+            None => break,
+            Some(t) if t >= chunk_from.saturating_add(CHUNK_MS) => {
+                chunk_from = t;
+                carried = [None; 3];
+            }
+            Some(_) => {}
+        }
     }
     finished.retain(|r| r.start_ms >= keep_from);
     let open = machine.open_segment().filter(|r| r.start_ms >= keep_from);

@@ -196,3 +196,28 @@ fn recorded_gap_marks_segment() {
     assert!(!got[0].hot);
     assert!(got[0].end_ms.is_some());
 }
+
+/// Regression (issue 12 #1): one far-future sample (year 3000, or i64::MAX) made the scan walk
+/// 6-hour chunks up to it (minutes, or forever). It must finish and still find the start.
+#[test]
+fn far_future_sample_does_not_stall_the_scan() {
+    let (s, _k1, _trip, k2) = hot_restart_script();
+    let end = k2.at_load as i64 + 300;
+    let all = frames(&s, end, 21, true);
+    let cfg = DetectorConfig::default();
+    let mut reference = db();
+    insert(&mut reference, &all);
+    scan(&mut reference.store, &cfg).expect("scan");
+    let want = rows(&reference.store);
+    for far in [T0_MS + 1000 * 365 * 86_400_000, i64::MAX] {
+        let mut d = db();
+        insert(&mut d, &all);
+        let last = all.last().expect("frames");
+        insert(&mut d, &[Frame { t_ms: far, ..*last }]);
+        let r = scan(&mut d.store, &cfg).expect("scan");
+        assert!(r.frames >= all.len() as u64, "far = {far}: {r:?}");
+        let got = rows(&d.store);
+        assert_eq!(got.len(), want.len(), "far = {far}");
+        assert_eq!(got[0], want[0], "far = {far}");
+    }
+}

@@ -103,7 +103,7 @@ impl GasTurbFile {
     pub fn require(&self, name: &str) -> Result<&MapTable, MapError> {
         self.table(name).ok_or_else(|| MapError::MissingTable {
             source_name: self.source.clone(),
-            table: name.to_string(),
+            table: short(name),
         })
     }
 }
@@ -139,6 +139,16 @@ fn is_name_line(line: &str) -> bool {
     any
 }
 
+/// A token or name as quoted in an error: at most 40 characters, so that a multi-megabyte
+/// garbage token does not turn into megabytes of error output.
+fn short(text: &str) -> String {
+    const MAX: usize = 40;
+    match text.char_indices().nth(MAX) {
+        None => text.to_string(),
+        Some((cut, _)) => format!("{}... ({} bytes)", &text[..cut], text.len()),
+    }
+}
+
 /// Parse GasTurb map text. `source` names the file in error messages.
 pub fn parse(text: &str, source: &str) -> Result<GasTurbFile, MapError> {
     let lines: Vec<(usize, &str)> = text
@@ -171,7 +181,7 @@ pub fn parse(text: &str, source: &str) -> Result<GasTurbFile, MapError> {
             continue;
         }
         if !is_name_line(line) {
-            let token = trimmed.split_whitespace().next().unwrap_or("").to_string();
+            let token = short(trimmed.split_whitespace().next().unwrap_or(""));
             return Err(MapError::Invalid {
                 source_name: source.to_string(),
                 table: tables
@@ -194,7 +204,10 @@ pub fn parse(text: &str, source: &str) -> Result<GasTurbFile, MapError> {
             i += 1;
         }
         let end = if i < lines.len() {
-            (lines[i].0, format!("table name {:?}", lines[i].1.trim()))
+            (
+                lines[i].0,
+                format!("table name {:?}", short(lines[i].1.trim())),
+            )
         } else {
             (
                 lines.last().map(|l| l.0).unwrap_or(line_no),
@@ -206,11 +219,11 @@ pub fn parse(text: &str, source: &str) -> Result<GasTurbFile, MapError> {
             let extra = &toks[used];
             return Err(MapError::Invalid {
                 source_name: source.to_string(),
-                table: name,
+                table: short(&name),
                 reason: format!(
                     "line {}: value {:?} beyond the {} rows x {} columns the header declares",
                     extra.line,
-                    extra.text,
+                    short(extra.text),
                     table.row_keys.len(),
                     table.col_keys.len()
                 ),
@@ -239,7 +252,7 @@ fn parse_table(
             let found = end.1.clone();
             return Err(MapError::Truncated {
                 source_name: source.to_string(),
-                table: name.to_string(),
+                table: short(name),
                 line: end_line,
                 position: what(),
                 found,
@@ -252,10 +265,10 @@ fn parse_table(
             .filter(|v| v.is_finite())
             .ok_or_else(|| MapError::NonNumeric {
                 source_name: source.to_string(),
-                table: name.to_string(),
+                table: short(name),
                 line: t.line,
                 position: what(),
-                token: t.text.to_string(),
+                token: short(t.text),
             })
     };
 
@@ -263,9 +276,9 @@ fn parse_table(
     let header = take(&mut pos, &|| "the header number".to_string())?;
     let bad_header = |reason: &str| MapError::BadHeader {
         source_name: source.to_string(),
-        table: name.to_string(),
+        table: short(name),
         line: header_line,
-        token: toks.first().map(|t| t.text.to_string()).unwrap_or_default(),
+        token: toks.first().map(|t| short(t.text)).unwrap_or_default(),
         reason: reason.to_string(),
     };
     if !(header.is_finite() && header > 0.0 && header <= 1.0e6) {
@@ -297,7 +310,7 @@ fn parse_table(
             if v <= prev {
                 return Err(MapError::NonMonotone {
                     source_name: source.to_string(),
-                    table: name.to_string(),
+                    table: short(name),
                     line,
                     position: format!("column key {} of {cols}", c + 1),
                     reason: format!("column keys must increase ({v} after {prev})"),
@@ -315,7 +328,7 @@ fn parse_table(
             if key <= prev {
                 return Err(MapError::NonMonotone {
                     source_name: source.to_string(),
-                    table: name.to_string(),
+                    table: short(name),
                     line,
                     position: format!("row {} of {rows} key", r + 1),
                     reason: format!("speed keys must increase ({key} after {prev})"),
@@ -373,6 +386,19 @@ mod tests {
             Ok(_) => panic!("expected an error for {text:?}"),
             Err(e) => e.to_string(),
         }
+    }
+
+    #[test]
+    fn huge_bad_token_is_quoted_short() {
+        // Regression (issue 12 #9): a 5 MB bad token gave 20 MB of stderr.
+        let big = "x".repeat(5_000_000);
+        let e = err_text(&format!("99 t\nMass Flow\n 3.003 0 1\n 0.5 1 {big}\n"));
+        assert!(e.len() < 400, "{} bytes", e.len());
+        assert!(e.contains("5000000 bytes"), "{e}");
+        let e = err_text(&format!(
+            "99 t\nMass Flow\n 3.003 0 1\n 0.5 1 2\n 1.0 3 4\n 9 {big}\n"
+        ));
+        assert!(e.len() < 400, "{} bytes", e.len());
     }
 
     #[test]

@@ -1,4 +1,4 @@
-//! Log replay: ingest a historical CSV into the store as fast as possible.
+//! Log ingest (CSV replay): ingest a historical CSV into the store as fast as possible.
 //!
 //! One row = one time stamp; each mapped column becomes one sample of its tag. Rows are
 //! inserted in large transactions with `INSERT OR IGNORE`, so replaying the same file twice
@@ -9,7 +9,9 @@
 //! Time stamps (`time_format`): `iso8601` — `2024-03-01T12:00:00Z`, with a UTC offset
 //! (`+01:00`), fractional seconds allowed, a space instead of `T` accepted; a time without an
 //! offset is taken as UTC. `epoch_s` — Unix seconds, fractions allowed. `epoch_ms` — Unix ms.
-//! A row whose time is not later than the previous row's is malformed (duplicate or backwards).
+//! A row whose time is not later than the previous row's is malformed (duplicate or backwards),
+//! and so is a row stamped later than the wall clock plus `max_future_s`; both kinds are
+//! counted on their own in the report (`rows_out_of_order`, `rows_implausible_time`).
 //! An empty cell means "no value": that tag gets no sample at that time; the row is fine.
 //!
 //! This module must not run the detector or know about Modbus; it only turns CSV into samples.
@@ -66,6 +68,10 @@ pub struct ReplayConfig {
     pub transaction_samples: usize,
     /// Consecutive rows further apart than this (seconds) record a gap. 0 = off. Default 10.
     pub gap_threshold_s: f64,
+    /// A row stamped more than this many seconds after the wall clock is implausible: it is
+    /// reported and not stored (one row dated +1000 years used to make every later row "go
+    /// backwards"). Default 86 400 (one day, room for a clock set a little ahead).
+    pub max_future_s: f64,
 }
 
 impl Default for ReplayConfig {
@@ -79,6 +85,7 @@ impl Default for ReplayConfig {
             max_reported: 20,
             transaction_samples: 200_000,
             gap_threshold_s: 10.0,
+            max_future_s: 86_400.0,
         }
     }
 }
@@ -112,6 +119,12 @@ impl ReplayConfig {
             p.push(ConfigProblem::new(
                 "replay.gap_threshold_s",
                 "must be a number >= 0 (0 turns gap detection off)",
+            ));
+        }
+        if !self.max_future_s.is_finite() || !(0.0..=1e10).contains(&self.max_future_s) {
+            p.push(ConfigProblem::new(
+                "replay.max_future_s",
+                "must be a number of seconds from 0 to 1e10",
             ));
         }
         for (col, tag) in &self.columns {
@@ -203,6 +216,10 @@ pub struct ReplayReport {
     /// Data rows read (excluding the header), well-formed or not.
     pub rows_read: u64,
     pub rows_malformed: u64,
+    /// Of the malformed rows: time equal to or before the previous row's (not stored).
+    pub rows_out_of_order: u64,
+    /// Of the malformed rows: time implausibly far in the future (not stored).
+    pub rows_implausible_time: u64,
     /// Samples that were new.
     pub samples_inserted: u64,
     /// Samples already in the database (an earlier replay of the same data).
@@ -248,8 +265,8 @@ pub enum ReplayError {
         column: String,
         available: String,
     },
-    #[error("{path}: no data columns to replay (map some in [replay.columns], or name the CSV columns after signals such as n1_rpm)")]
-    NoColumns { path: PathBuf },
+    #[error("{path}: no data columns to replay (ignored: {ignored}; map them in [replay.columns], or name the CSV columns after signals such as n1_rpm)")]
+    NoColumns { path: PathBuf, ignored: String },
     #[error("invalid [replay] config: {0}")]
     Config(String),
     #[error("{path}: line {line}: {reason} (on_malformed = \"stop\"; {committed} samples before it are committed)")]
@@ -262,6 +279,109 @@ pub enum ReplayError {
     },
     #[error(transparent)]
     Store(#[from] StoreError),
+}
+
+/// Which CSV columns a replay reads, decided from the header alone (no database needed).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColumnPlan {
+    /// Number of header fields.
+    pub n_fields: usize,
+    /// Index of the time column.
+    pub time_index: usize,
+    /// (column index, column name, tag) for every replayed column.
+    pub mapped: Vec<(usize, String, TagInfo)>,
+    /// Header columns that are not replayed (neither the time column nor mapped).
+    pub ignored: Vec<String>,
+}
+
+impl ColumnPlan {
+    /// Whether some replayed column feeds the tag named `tag`.
+    pub fn feeds_tag(&self, tag: &str) -> bool {
+        self.mapped.iter().any(|(_, _, info)| info.name == tag)
+    }
+}
+
+/// Reads only the header of `path` and decides which columns a replay would use. Fails like
+/// [`replay_file`] would (missing file, missing time or mapped column, nothing to replay), so a
+/// caller can check every log before it creates a database.
+pub fn plan_columns(cfg: &ReplayConfig, path: &Path) -> Result<ColumnPlan, ReplayError> {
+    let file = std::fs::File::open(path).map_err(|source| ReplayError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let mut rdr = csv::ReaderBuilder::new()
+        .delimiter(cfg.delimiter_byte().unwrap_or(b','))
+        .has_headers(true)
+        .flexible(true)
+        // `\n` alone ends a record; a `\r` before it is trimmed with the field. With csv's
+        // default CRLF handling every line number of a CRLF file came out one too low.
+        .terminator(csv::Terminator::Any(b'\n'))
+        .from_reader(std::io::BufReader::new(file));
+    plan_from_reader(&mut rdr, cfg, path)
+}
+
+fn plan_from_reader<R: std::io::Read>(
+    rdr: &mut csv::Reader<R>,
+    cfg: &ReplayConfig,
+    path: &Path,
+) -> Result<ColumnPlan, ReplayError> {
+    let header = rdr
+        .byte_headers()
+        .map_err(|e| ReplayError::Header {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?
+        .clone();
+    let names: Vec<String> = header
+        .iter()
+        .map(|h| String::from_utf8_lossy(h).trim().to_string())
+        .collect();
+    let available = names.join(", ");
+    let find = |col: &str| names.iter().position(|n| n == col);
+    let time_idx = find(&cfg.time_column).ok_or_else(|| ReplayError::MissingColumn {
+        path: path.to_path_buf(),
+        column: cfg.time_column.clone(),
+        available: available.clone(),
+    })?;
+    let mut ignored = Vec::new();
+    let mut mapping: Vec<(usize, String, TagInfo)> = Vec::new();
+    if cfg.columns.is_empty() {
+        for (i, n) in names.iter().enumerate() {
+            if i == time_idx {
+                continue;
+            }
+            match n.parse::<Signal>() {
+                Ok(sig) => mapping.push((i, n.clone(), TagInfo::for_signal(sig))),
+                Err(_) => ignored.push(n.clone()),
+            }
+        }
+    } else {
+        for (col, tag) in &cfg.columns {
+            let i = find(col).ok_or_else(|| ReplayError::MissingColumn {
+                path: path.to_path_buf(),
+                column: col.clone(),
+                available: available.clone(),
+            })?;
+            mapping.push((i, col.clone(), tag_for_mapping(tag)));
+        }
+        for (i, n) in names.iter().enumerate() {
+            if i != time_idx && !mapping.iter().any(|(j, _, _)| *j == i) {
+                ignored.push(n.clone());
+            }
+        }
+    }
+    if mapping.is_empty() {
+        return Err(ReplayError::NoColumns {
+            path: path.to_path_buf(),
+            ignored: ignored.join(", "),
+        });
+    }
+    Ok(ColumnPlan {
+        n_fields: names.len(),
+        time_index: time_idx,
+        mapped: mapping,
+        ignored,
+    })
 }
 
 struct Column {
@@ -298,69 +418,26 @@ pub fn replay_file(
         .delimiter(cfg.delimiter_byte().unwrap_or(b','))
         .has_headers(true)
         .flexible(true)
+        // `\n` alone ends a record; a `\r` before it is trimmed with the field. With csv's
+        // default CRLF handling every line number of a CRLF file came out one too low.
+        .terminator(csv::Terminator::Any(b'\n'))
         .buffer_capacity(1 << 20)
         .from_reader(std::io::BufReader::with_capacity(1 << 20, file));
-    let header = rdr
-        .byte_headers()
-        .map_err(|e| ReplayError::Header {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?
-        .clone();
-    let names: Vec<String> = header
-        .iter()
-        .map(|h| String::from_utf8_lossy(h).trim().to_string())
-        .collect();
-    let available = names.join(", ");
-    let find = |col: &str| names.iter().position(|n| n == col);
-    let time_idx = find(&cfg.time_column).ok_or_else(|| ReplayError::MissingColumn {
-        path: path.to_path_buf(),
-        column: cfg.time_column.clone(),
-        available: available.clone(),
-    })?;
-
+    let plan = plan_from_reader(&mut rdr, cfg, path)?;
+    let n_fields = plan.n_fields;
+    let time_idx = plan.time_index;
     let mut report = ReplayReport {
         file: path.to_path_buf(),
+        ignored_columns: plan.ignored.clone(),
         ..ReplayReport::default()
     };
-    let mut mapping: Vec<(usize, String, TagInfo)> = Vec::new();
-    if cfg.columns.is_empty() {
-        for (i, n) in names.iter().enumerate() {
-            if i == time_idx {
-                continue;
-            }
-            match n.parse::<Signal>() {
-                Ok(sig) => mapping.push((i, n.clone(), TagInfo::for_signal(sig))),
-                Err(_) => report.ignored_columns.push(n.clone()),
-            }
-        }
-    } else {
-        for (col, tag) in &cfg.columns {
-            let i = find(col).ok_or_else(|| ReplayError::MissingColumn {
-                path: path.to_path_buf(),
-                column: col.clone(),
-                available: available.clone(),
-            })?;
-            mapping.push((i, col.clone(), tag_for_mapping(tag)));
-        }
-        for (i, n) in names.iter().enumerate() {
-            if i != time_idx && !mapping.iter().any(|(j, _, _)| *j == i) {
-                report.ignored_columns.push(n.clone());
-            }
-        }
-    }
-    if mapping.is_empty() {
-        return Err(ReplayError::NoColumns {
-            path: path.to_path_buf(),
-        });
-    }
+    let mapping = plan.mapped;
     let mut columns = Vec::with_capacity(mapping.len());
     for (index, name, info) in mapping {
         let tag = store.ensure_tag(&info)?;
         report.columns.push((name.clone(), info.name.clone()));
         columns.push(Column { index, name, tag });
     }
-    let n_fields = names.len();
     let gap_source = format!(
         "replay:{}",
         path.file_name()
@@ -368,6 +445,7 @@ pub fn replay_file(
             .unwrap_or_default()
     );
     let gap_threshold_ms = (cfg.gap_threshold_s * 1000.0).round() as i64;
+    let latest_ok_ms = latest_plausible_ms(cfg.max_future_s);
 
     let bar = make_bar(progress, file_len);
     let log_progress =
@@ -422,6 +500,7 @@ pub fn replay_file(
             cfg.time_format,
             &columns,
             prev_t,
+            latest_ok_ms,
             &mut row_samples,
         ) {
             Ok(t) => {
@@ -445,8 +524,13 @@ pub fn replay_file(
                 report.last_t_ms = Some(t);
                 batch.append(&mut row_samples);
             }
-            Err(reason) => {
+            Err(RowProblem { kind, reason }) => {
                 row_samples.clear();
+                match kind {
+                    RowProblemKind::OutOfOrder => report.rows_out_of_order += 1,
+                    RowProblemKind::Implausible => report.rows_implausible_time += 1,
+                    RowProblemKind::Other => {}
+                }
                 malformed(
                     store,
                     cfg,
@@ -559,7 +643,41 @@ fn make_bar(progress: Progress, len: u64) -> Option<indicatif::ProgressBar> {
     Some(bar)
 }
 
+/// What kind of problem made a row malformed (for the report's counters).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum RowProblemKind {
+    OutOfOrder,
+    Implausible,
+    Other,
+}
+
+/// Why a row is malformed.
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct RowProblem {
+    kind: RowProblemKind,
+    reason: String,
+}
+
+impl RowProblem {
+    fn other(reason: String) -> RowProblem {
+        RowProblem {
+            kind: RowProblemKind::Other,
+            reason,
+        }
+    }
+}
+
+/// The latest plausible time stamp: the wall clock plus `max_future_s`, in epoch ms.
+fn latest_plausible_ms(max_future_s: f64) -> i64 {
+    let now_ms = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| i64::try_from(d.as_millis()).unwrap_or(i64::MAX))
+        .unwrap_or(0);
+    now_ms.saturating_add((max_future_s * 1000.0).round() as i64)
+}
+
 /// Parses one row into `out`; returns its time or why it is malformed.
+#[allow(clippy::too_many_arguments)]
 fn parse_row(
     rec: &csv::ByteRecord,
     n_fields: usize,
@@ -567,39 +685,54 @@ fn parse_row(
     fmt: TimeFormat,
     columns: &[Column],
     prev_t: Option<i64>,
+    latest_ok_ms: i64,
     out: &mut Vec<Sample>,
-) -> Result<i64, String> {
+) -> Result<i64, RowProblem> {
     if rec.len() != n_fields {
-        return Err(format!(
+        return Err(RowProblem::other(format!(
             "expected {n_fields} fields, found {} (truncated or extra delimiter?)",
             rec.len()
-        ));
+        )));
     }
     let t_raw = rec.get(time_idx).unwrap_or_default();
-    let t = parse_time(t_raw, fmt).map_err(|e| {
-        format!(
-            "time '{}' is not {}: {e}",
-            String::from_utf8_lossy(t_raw),
-            match fmt {
-                TimeFormat::Iso8601 => "ISO 8601",
-                TimeFormat::EpochS => "epoch seconds",
-                TimeFormat::EpochMs => "epoch milliseconds",
-            }
-        )
-    })?;
+    let t = parse_time(t_raw, fmt)
+        .map_err(|e| {
+            format!(
+                "time '{}' is not {}: {e}",
+                String::from_utf8_lossy(t_raw),
+                match fmt {
+                    TimeFormat::Iso8601 => "ISO 8601",
+                    TimeFormat::EpochS => "epoch seconds",
+                    TimeFormat::EpochMs => "epoch milliseconds",
+                }
+            )
+        })
+        .map_err(RowProblem::other)?;
+    if t > latest_ok_ms {
+        return Err(RowProblem {
+            kind: RowProblemKind::Implausible,
+            reason: format!(
+                "time {} is implausible: later than the clock now plus replay.max_future_s",
+                fmt_ms(t)
+            ),
+        });
+    }
     if let Some(p) = prev_t {
         if t == p {
-            return Err(format!(
-                "duplicate time {} (same as the previous row)",
-                fmt_ms(t)
-            ));
+            return Err(RowProblem {
+                kind: RowProblemKind::OutOfOrder,
+                reason: format!("duplicate time {} (same as the previous row)", fmt_ms(t)),
+            });
         }
         if t < p {
-            return Err(format!(
-                "time {} goes backwards (previous row {})",
-                fmt_ms(t),
-                fmt_ms(p)
-            ));
+            return Err(RowProblem {
+                kind: RowProblemKind::OutOfOrder,
+                reason: format!(
+                    "time {} goes backwards (previous row {})",
+                    fmt_ms(t),
+                    fmt_ms(p)
+                ),
+            });
         }
     }
     for c in columns {
@@ -612,14 +745,17 @@ fn parse_row(
             .ok()
             .and_then(|s| s.parse::<f64>().ok())
             .ok_or_else(|| {
-                format!(
+                RowProblem::other(format!(
                     "column '{}': '{}' is not a number",
                     c.name,
                     String::from_utf8_lossy(raw)
-                )
+                ))
             })?;
         if !v.is_finite() {
-            return Err(format!("column '{}': '{v}' is not a finite number", c.name));
+            return Err(RowProblem::other(format!(
+                "column '{}': '{v}' is not a finite number",
+                c.name
+            )));
         }
         out.push(Sample {
             tag: c.tag,

@@ -231,3 +231,77 @@ fn missing_columns_are_clear_errors() {
     .expect_err("no data columns");
     assert!(matches!(err, ReplayError::NoColumns { .. }));
 }
+
+#[test]
+fn crlf_file_reports_the_right_line() {
+    // Regression (issue 12 #9): with CRLF line ends every line number was one too low.
+    let csv = "time,n1_rpm\r\n2024-03-01T00:00:00Z,1\r\n2024-03-01T00:00:01Z,abc\r\n\
+               2024-03-01T00:00:02Z,\"3\"\r\n";
+    let (_d, mut store, path) = setup(csv);
+    let r = replay_file(
+        &mut store,
+        &ReplayConfig::default(),
+        &path,
+        Progress::Silent,
+    )
+    .expect("replay");
+    let lines: Vec<u64> = r.malformed.iter().map(|m| m.line).collect();
+    assert_eq!(lines, vec![3], "{:#?}", r.malformed);
+    assert_eq!(r.samples_inserted, 2);
+}
+
+#[test]
+fn plan_names_ignored_columns_and_needs_no_database() {
+    // Regression (issue 11): columns not named after signals were dropped without a word.
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("log.csv");
+    std::fs::write(
+        &path,
+        "time,GG speed,power_mw,Fuel\n2024-03-01T00:00:00Z,1,2,3\n",
+    )
+    .expect("write");
+    let plan = plan_columns(&ReplayConfig::default(), &path).expect("plan");
+    assert_eq!(
+        plan.ignored,
+        vec!["GG speed".to_string(), "Fuel".to_string()]
+    );
+    assert!(plan.feeds_tag("power_mw"));
+    assert!(!plan.feeds_tag("n1_rpm"));
+    std::fs::write(&path, "time,GG speed\n2024-03-01T00:00:00Z,1\n").expect("write");
+    let err = plan_columns(&ReplayConfig::default(), &path).expect_err("nothing to replay");
+    assert!(err.to_string().contains("ignored: GG speed"), "{err}");
+    let missing = plan_columns(&ReplayConfig::default(), &dir.path().join("nope.csv"));
+    assert!(matches!(missing, Err(ReplayError::Io { .. })));
+}
+
+#[test]
+fn a_row_dated_far_in_the_future_is_reported_not_stored() {
+    // Regression (issue 12 #1): one row dated +1000 years made every later row "go backwards":
+    // they were dropped, and the replay still said all was well.
+    let csv = "time,n1_rpm\n\
+               2024-03-01T00:00:00Z,1\n\
+               3024-03-01T00:00:01Z,2\n\
+               2024-03-01T00:00:02Z,3\n\
+               2024-03-01T00:00:01Z,4\n\
+               2024-03-01T00:00:03Z,5\n";
+    let (_d, mut store, path) = setup(csv);
+    let r = replay_file(
+        &mut store,
+        &ReplayConfig::default(),
+        &path,
+        Progress::Silent,
+    )
+    .expect("replay");
+    assert_eq!(r.samples_inserted, 3, "{r:#?}");
+    assert_eq!(r.rows_implausible_time, 1);
+    assert_eq!(r.rows_out_of_order, 1);
+    assert_eq!(r.rows_malformed, 2);
+    let lines: Vec<u64> = r.malformed.iter().map(|m| m.line).collect();
+    assert_eq!(lines, vec![3, 5]);
+    assert!(
+        r.malformed[0].reason.contains("implausible"),
+        "{:?}",
+        r.malformed
+    );
+    assert_eq!(r.last_t_ms, Some(1_709_251_203_000));
+}
