@@ -36,6 +36,9 @@ pub struct Config {
     pub daemon: DaemonConfig,
     #[serde(default)]
     pub diagnosis: DiagnosisSettings,
+    /// `[wash]`: prices and limits of the wash advice (see `wash::WashEconomics`).
+    #[serde(default)]
+    pub wash: crate::wash::WashEconomics,
 }
 
 /// `[plant]`: which machine this is and the engine model used to diagnose it.
@@ -172,6 +175,9 @@ impl Config {
         p.extend(self.detector.validate());
         p.extend(self.acquisition.validate());
         p.extend(self.diagnosis.validate());
+        if let Err(e) = self.wash.validate() {
+            p.push(ConfigProblem::new("wash", e));
+        }
         match (&self.modbus, self.acquisition.source) {
             (Some(m), _) => {
                 p.extend(m.check());

@@ -262,9 +262,12 @@ pub async fn run(
             DiagnosisTask {
                 db_path: db_path.clone(),
                 store_opts: detector_opts,
+                after_result: opts
+                    .after_result
+                    .clone()
+                    .or_else(|| Some(crate::advice::hook(Arc::clone(&ctx), cfg.wash))),
                 ctx,
                 wake: Arc::clone(&wake),
-                after_result: opts.after_result.clone(),
             }
             .run(shutdown.clone()),
         )),

@@ -6,6 +6,7 @@
 #![deny(clippy::unwrap_used)]
 
 pub mod acquire;
+pub mod advice;
 pub mod cli;
 pub mod config;
 pub mod config_problem;
@@ -25,4 +26,6 @@ pub mod shutdown;
 pub mod signals;
 pub mod store;
 pub mod thermo;
+pub mod trend;
+pub mod wash;
 pub mod worker;

@@ -333,6 +333,7 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
         modbus: Some(map),
         daemon: DaemonConfig::default(),
         diagnosis: Default::default(),
+        wash: Default::default(),
     };
     cfg.acquisition.poll_period_ms = period_ms;
     let problems = cfg.check();

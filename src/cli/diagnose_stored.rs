@@ -60,6 +60,19 @@ pub fn diagnose_after_replay(store: &mut Store, config: &Path, json: bool) -> an
     }
     let t = std::time::Instant::now();
     let rep = drain_pending(store, &ctx, &Cancel::new(), None).context("diagnosis")?;
+    if rep.diagnosed > 0 {
+        let econ = wash_economics(Some(config))?;
+        let r = crate::advice::refresh(
+            store,
+            &ctx.engine,
+            &econ,
+            &crate::trend::WashDetection::default(),
+        )
+        .context("wash advice")?;
+        if let Some(a) = &r.advice {
+            eprintln!("wash advice: {}", a.summary);
+        }
+    }
     let line = format!(
         "diagnosis: {} start-ups diagnosed, {} not diagnosable, {:.1} s",
         rep.diagnosed,
@@ -98,4 +111,25 @@ pub fn run_segment(db: &Path, config: Option<&Path>, segment: i64) -> anyhow::Re
     });
     println!("{}", serde_json::to_string_pretty(&doc)?);
     Ok(())
+}
+
+/// The `[wash]` section of a config file (defaults without a file or section).
+pub fn wash_economics(config: Option<&Path>) -> anyhow::Result<crate::wash::WashEconomics> {
+    let Some(path) = config else {
+        return Ok(crate::wash::WashEconomics::default());
+    };
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("reading config {}", path.display()))?;
+    let table: toml::Table =
+        toml::from_str(&text).with_context(|| format!("config {}", path.display()))?;
+    let econ: crate::wash::WashEconomics = match table.get("wash") {
+        Some(v) => v
+            .clone()
+            .try_into()
+            .with_context(|| format!("config {}: [wash]", path.display()))?,
+        None => crate::wash::WashEconomics::default(),
+    };
+    econ.validate()
+        .map_err(|e| anyhow::anyhow!("config {}: {e}", path.display()))?;
+    Ok(econ)
 }

@@ -23,6 +23,7 @@ mod run;
 mod segments;
 mod simulate;
 mod steady;
+mod wash;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -49,6 +50,8 @@ pub enum Command {
     Segments(segments::SegmentsArgs),
     /// Stored health results per start-up (Method A/B), as a table, CSV or JSON.
     History(history::HistoryArgs),
+    /// Record washes and advise the next offline wash from the degradation trend.
+    Wash(wash::WashArgs),
     /// Write stored samples as CSV.
     Export(export::ExportArgs),
     /// Run the monitoring daemon (Modbus acquisition, storage, start-up detection).
@@ -74,6 +77,7 @@ pub fn main() -> ExitCode {
         Command::Replay(a) => replay::run(a),
         Command::Segments(a) => segments::run(a),
         Command::History(a) => history::run(a),
+        Command::Wash(a) => wash::run(a),
         Command::Export(a) => export::run(a),
         Command::Run(a) => run::run(a),
         Command::CheckConfig(a) => check_config::run(a),

@@ -6,9 +6,9 @@
 //! leaves either the whole result or nothing. Must not fit models or decide what is diagnosable.
 
 use super::{Store, StoreError};
-use crate::recording::{Recording, RecordingError};
 use crate::engine::trace::{Values, NSIG};
 use crate::health::HEALTH_NAMES;
+use crate::recording::{Recording, RecordingError};
 use crate::signals::{Phase, Signal};
 use rusqlite::{params, OptionalExtension};
 use serde::Serialize;

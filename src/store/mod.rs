@@ -12,6 +12,8 @@
 //! host may lose power without a UPS.
 
 mod diagnoses;
+mod washes;
+pub use washes::{RecommendationRow, WashRow, DETECTED_PREFIX};
 mod schema;
 mod writer;
 

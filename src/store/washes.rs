@@ -1,0 +1,210 @@
+//! Washes and wash recommendations in the store: the operator's records, the washes the trend
+//! detected (pending the operator's confirmation), and the advice with its basis.
+//!
+//! SQL only; what counts as a wash and when to wash next are decided in `trend` and `wash`.
+
+use super::{Store, StoreError};
+use rusqlite::params;
+use serde::Serialize;
+
+/// One stored wash.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WashRow {
+    pub id: i64,
+    pub t_ms: i64,
+    /// "online" or "offline".
+    pub kind: String,
+    /// Free text; washes found in the trend start with [`DETECTED_PREFIX`].
+    pub note: String,
+}
+
+impl WashRow {
+    /// Whether the trend detected this wash (the operator did not record it).
+    pub fn is_detected(&self) -> bool {
+        self.note.starts_with(DETECTED_PREFIX)
+    }
+}
+
+/// Note prefix of a wash detected as a recovery step in the health trend.
+pub const DETECTED_PREFIX: &str = "detected:";
+
+/// One stored recommendation.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RecommendationRow {
+    pub id: i64,
+    pub t_ms: i64,
+    pub kind: String,
+    pub message: String,
+    /// JSON of what the advice rests on.
+    pub basis: String,
+}
+
+impl Store {
+    /// Records a wash; returns its id.
+    pub fn record_wash(&mut self, t_ms: i64, kind: &str, note: &str) -> Result<i64, StoreError> {
+        self.conn.execute(
+            "INSERT INTO washes (t_ms, kind, note) VALUES (?1, ?2, ?3)",
+            params![t_ms, kind, note],
+        )?;
+        Ok(self.conn.last_insert_rowid())
+    }
+
+    /// Removes a wash (an operator rejecting a detected one); true if it existed.
+    pub fn delete_wash(&mut self, id: i64) -> Result<bool, StoreError> {
+        Ok(self
+            .conn
+            .execute("DELETE FROM washes WHERE id = ?1", params![id])?
+            > 0)
+    }
+
+    /// Marks a detected wash as confirmed by the operator (its note loses the detected prefix).
+    pub fn confirm_wash(&mut self, id: i64) -> Result<bool, StoreError> {
+        let n = self.conn.execute(
+            "UPDATE washes SET note = 'confirmed; ' || substr(note, ?2) WHERE id = ?1
+               AND note LIKE 'detected:%'",
+            params![id, DETECTED_PREFIX.len() as i64 + 1],
+        )?;
+        Ok(n > 0)
+    }
+
+    /// All washes, oldest first.
+    pub fn washes(&self) -> Result<Vec<WashRow>, StoreError> {
+        let mut st = self
+            .conn
+            .prepare_cached("SELECT id, t_ms, kind, note FROM washes ORDER BY t_ms, id")?;
+        let rows = st.query_map([], |r| {
+            Ok(WashRow {
+                id: r.get(0)?,
+                t_ms: r.get(1)?,
+                kind: r.get(2)?,
+                note: r.get(3)?,
+            })
+        })?;
+        Ok(rows.collect::<Result<_, _>>()?)
+    }
+
+    /// Stores a recommendation; returns its id.
+    pub fn insert_recommendation(
+        &mut self,
+        t_ms: i64,
+        kind: &str,
+        message: &str,
+        basis: &str,
+    ) -> Result<i64, StoreError> {
+        self.conn.execute(
+            "INSERT INTO recommendations (t_ms, kind, message, basis) VALUES (?1, ?2, ?3, ?4)",
+            params![t_ms, kind, message, basis],
+        )?;
+        Ok(self.conn.last_insert_rowid())
+    }
+
+    /// The newest recommendation, if any.
+    pub fn latest_recommendation(&self) -> Result<Option<RecommendationRow>, StoreError> {
+        let mut st = self.conn.prepare_cached(
+            "SELECT id, t_ms, kind, message, basis FROM recommendations
+             ORDER BY t_ms DESC, id DESC LIMIT 1",
+        )?;
+        let mut rows = st.query_map([], |r| {
+            Ok(RecommendationRow {
+                id: r.get(0)?,
+                t_ms: r.get(1)?,
+                kind: r.get(2)?,
+                message: r.get(3)?,
+                basis: r.get(4)?,
+            })
+        })?;
+        Ok(rows.next().transpose()?)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::Engine;
+    use crate::store::NewDiagnosis;
+    use crate::trend::WashDetection;
+    use crate::wash::{advise, sensitivity, FoulingTrend, WashEconomics};
+
+    const DAY: i64 = 86_400_000;
+
+    /// A history of daily Method B results: D_GC grows 0.1 %/day (D_EC a third of it), an
+    /// offline wash on day 12 resets both; small alternating noise.
+    fn fill(store: &mut Store) {
+        let t0 = 1_700_000_000_000_i64;
+        for day in 0..24_i64 {
+            let start = t0 + day * DAY;
+            store
+                .conn
+                .execute(
+                    "INSERT INTO segments (kind, start_ms, end_ms, outcome, status, updated_at_ms)
+                     VALUES ('startup', ?1, ?2, 'completed', 'closed', 0)",
+                    params![start, start + 900_000],
+                )
+                .unwrap();
+            let id = store.conn.last_insert_rowid();
+            let age = if day < 12 { day } else { day - 12 } as f64;
+            let noise = if day % 2 == 0 { 0.02 } else { -0.02 };
+            let d = NewDiagnosis {
+                segment_id: id,
+                method: "B".into(),
+                health: [0.1 * age + noise, 0.1 / 3.0 * age, 0.2, 0.1, 0.0, 0.0],
+                sigma: [0.05, 0.03, 0.05, 0.05, 0.05, 0.05],
+                objective: 1.0,
+                residual_level: 0.8,
+                fit_quality: "good".into(),
+                model_runs: 300,
+                wall_s: 5.0,
+                seed: 1,
+                config_hash: "h".into(),
+                gtwatch_version: "test".into(),
+            };
+            store.insert_outcome(id, &[d], &[], "h").unwrap();
+        }
+    }
+
+    #[test]
+    fn wash_detected_on_its_day_and_advice_recomputes_from_the_stored_basis() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut store = Store::open(&dir.path().join("w.db")).unwrap();
+        fill(&mut store);
+        let engine = Engine::reference().unwrap();
+        let econ = WashEconomics::default();
+        let r =
+            crate::advice::refresh(&mut store, &engine, &econ, &WashDetection::default()).unwrap();
+        // The wash is found between day 11 and day 12, and only there.
+        let washes = store.washes().unwrap();
+        assert_eq!(washes.len(), 1, "{washes:?}");
+        assert!(washes[0].is_detected());
+        let t0 = 1_700_000_000_000_i64;
+        assert_eq!(washes[0].t_ms, t0 + 12 * DAY - 1);
+        assert_eq!(r.results_since_wash, 12);
+        // Trend since the wash: 0.1 %/day D_GC.
+        let gc = r.trends[0].fit.unwrap();
+        assert!((gc.rate_per_day - 0.1).abs() < 0.01, "{gc:?}");
+        // Recompute the advised date from the stored basis (trend and prices) and the engine.
+        let rec = store.latest_recommendation().unwrap().unwrap();
+        let basis: serde_json::Value = serde_json::from_str(&rec.basis).unwrap();
+        let tr = &basis["trend"];
+        let f = |k: &str| tr[k].as_f64().unwrap();
+        let trend = FoulingTrend {
+            age_days: f("age_days"),
+            d_gc_now: f("d_gc_now"),
+            d_ec_now: f("d_ec_now"),
+            d_gc_rate: f("d_gc_rate"),
+            d_gc_rate_sigma: f("d_gc_rate_sigma"),
+            d_ec_rate: f("d_ec_rate"),
+            d_ec_rate_sigma: f("d_ec_rate_sigma"),
+        };
+        let econ2: WashEconomics = serde_json::from_value(basis["economics"].clone()).unwrap();
+        let again = advise(&trend, &sensitivity(&engine).unwrap(), &econ2);
+        let stored_days = basis["advice"]["advised_days"].as_f64().unwrap();
+        assert_eq!(again.advised_days, Some(stored_days));
+        assert_eq!(
+            r.advised_ms,
+            Some(washes[0].t_ms + (stored_days * DAY as f64).round() as i64)
+        );
+        // A second refresh records no second wash.
+        crate::advice::refresh(&mut store, &engine, &econ, &WashDetection::default()).unwrap();
+        assert_eq!(store.washes().unwrap().len(), 1);
+    }
+}
