@@ -11,10 +11,12 @@
 //! back the last few transactions (never corrupt). Set `storage.synchronous = "full"` if the
 //! host may lose power without a UPS.
 
+mod detection;
 mod diagnoses;
 mod schema;
 mod writer;
 
+pub use detection::ResumeState;
 pub use diagnoses::{
     HistoryFilter, HistoryRow, NewDiagnosis, SegmentInfo, SegmentRecording, Undiagnosable,
 };
