@@ -15,8 +15,7 @@ pub use machine::{AbortCause, Frame, Machine, Outcome, PhaseSpan, SegmentRecord}
 
 use crate::config_problem::ConfigProblem;
 use crate::signals::Signal;
-use crate::store::{now_ms, Store, StoreError, TagId};
-use rusqlite::{params, OptionalExtension};
+use crate::store::{Store, StoreError, TagId};
 use serde::{Deserialize, Serialize};
 
 /// `[detector]` section: start-up detection thresholds (defaults from the daemon contract).
@@ -257,129 +256,6 @@ fn resolve_tags(store: &Store, cfg: &DetectorConfig) -> Result<Option<InputTags>
     })
 }
 
-/// Persistent detector progress (table `detector_state`).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-struct ResumeState {
-    scanned_to_ms: Option<i64>,
-    rescan_from_ms: Option<i64>,
-    last_fuel_off_ms: Option<i64>,
-}
-
-fn read_state(conn: &rusqlite::Connection) -> Result<ResumeState, DetectError> {
-    Ok(conn.query_row(
-        "SELECT scanned_to_ms, rescan_from_ms, last_fuel_off_ms FROM detector_state WHERE id = 1",
-        [],
-        |r| {
-            Ok(ResumeState {
-                scanned_to_ms: r.get(0)?,
-                rescan_from_ms: r.get(1)?,
-                last_fuel_off_ms: r.get(2)?,
-            })
-        },
-    )?)
-}
-
-/// Where the machine must restart so that no start is seen only in part.
-fn resume_point(conn: &rusqlite::Connection, st: &ResumeState) -> Result<Option<i64>, DetectError> {
-    let Some(scanned) = st.scanned_to_ms else {
-        return Ok(None); // never scanned: from the beginning
-    };
-    let mut from = scanned;
-    if let Some(r) = st.rescan_from_ms {
-        from = from.min(r);
-    }
-    let open: Option<i64> = conn.query_row(
-        "SELECT MIN(start_ms) FROM segments WHERE kind = 'startup' AND status = 'open'",
-        [],
-        |r| r.get(0),
-    )?;
-    if let Some(o) = open {
-        from = from.min(o);
-    }
-    // A (not yet diagnosed) segment spanning the resume point is found again from its start.
-    let spanning: Option<i64> = conn.query_row(
-        "SELECT MIN(start_ms) FROM segments WHERE kind = 'startup' AND status != 'diagnosed'
-           AND start_ms < ?1 AND (end_ms IS NULL OR end_ms >= ?1)",
-        params![from],
-        |r| r.get(0),
-    )?;
-    if let Some(s) = spanning {
-        from = from.min(s);
-    }
-    Ok(Some(from))
-}
-
-/// Where the machine restarts: `margin_ms` before the resume point, moved back to the start of
-/// any stored segment that holds it (a machine started inside a crank would see a phantom
-/// start there), with a minute of context before that start for its onset.
-fn warm_point(
-    conn: &rusqlite::Connection,
-    resume_ms: i64,
-    margin_ms: i64,
-) -> Result<i64, DetectError> {
-    let mut warm = resume_ms.saturating_sub(margin_ms);
-    for _ in 0..16 {
-        let inside: Option<i64> = conn.query_row(
-            "SELECT MIN(start_ms) FROM segments WHERE kind = 'startup'
-               AND start_ms <= ?1 AND (end_ms IS NULL OR end_ms >= ?1)",
-            params![warm],
-            |r| r.get(0),
-        )?;
-        match inside {
-            Some(s) => warm = s.saturating_sub(60_000),
-            None => break,
-        }
-    }
-    Ok(warm)
-}
-
-/// The last fuel-off (first good fuel sample at or below the threshold after one above it)
-/// within `window_ms` before `before_ms`, from the stored samples: the same answer however the
-/// data arrived and wherever earlier scans stopped.
-fn last_fuel_off_before(
-    conn: &rusqlite::Connection,
-    fuel: TagId,
-    before_ms: i64,
-    window_ms: i64,
-    threshold: f64,
-) -> Result<Option<i64>, DetectError> {
-    let on: Option<i64> = conn.query_row(
-        "SELECT MAX(t_ms) FROM samples WHERE tag_id = ?1 AND quality = 0
-           AND t_ms < ?2 AND t_ms >= ?3 AND value > ?4",
-        params![
-            fuel,
-            before_ms,
-            before_ms.saturating_sub(window_ms),
-            threshold
-        ],
-        |r| r.get(0),
-    )?;
-    let Some(on) = on else {
-        return Ok(None);
-    };
-    Ok(conn.query_row(
-        "SELECT MIN(t_ms) FROM samples WHERE tag_id = ?1 AND quality = 0
-           AND t_ms > ?2 AND t_ms < ?3",
-        params![fuel, on, before_ms],
-        |r| r.get(0),
-    )?)
-}
-
-/// Reads one tag's samples in `[from, to)`, time-ordered.
-fn read_tag(
-    conn: &rusqlite::Connection,
-    tag: TagId,
-    from: i64,
-    to: i64,
-) -> Result<Vec<(i64, f64)>, DetectError> {
-    let mut stmt = conn.prepare_cached(
-        // Only good samples: a flagged (bad or out-of-range) value must never steer the detector.
-        "SELECT t_ms, value FROM samples WHERE tag_id = ?1 AND t_ms >= ?2 AND t_ms < ?3 AND quality = 0 ORDER BY t_ms",
-    )?;
-    let rows = stmt.query_map(params![tag, from, to], |r| Ok((r.get(0)?, r.get(1)?)))?;
-    Ok(rows.collect::<Result<Vec<_>, _>>()?)
-}
-
 /// Carries the latest value of a secondary tag forward while n1 time stamps advance.
 struct Hold {
     samples: Vec<(i64, f64)>,
@@ -415,14 +291,9 @@ pub fn scan(store: &mut Store, cfg: &DetectorConfig) -> Result<ScanReport, Detec
     let Some(tags) = resolve_tags(store, cfg)? else {
         return Ok(report);
     };
-    let conn = store.conn_mut();
-    let st = read_state(conn)?;
+    let st = store.detector_state()?;
     let margin_ms = (cfg.resume_margin_s * 1000.0) as i64;
-    let (first, last): (Option<i64>, Option<i64>) = conn.query_row(
-        "SELECT MIN(t_ms), MAX(t_ms) FROM samples WHERE tag_id = ?1",
-        params![tags.n1],
-        |r| Ok((r.get(0)?, r.get(1)?)),
-    )?;
+    let (first, last) = store.tag_time_range(tags.n1)?;
     let (Some(first), Some(last)) = (first, last) else {
         return Ok(report);
     };
@@ -431,9 +302,9 @@ pub fn scan(store: &mut Store, cfg: &DetectorConfig) -> Result<ScanReport, Detec
     }
     // Segments starting before `resume` are stored already and stay as they are; the machine
     // starts earlier (at `from`) only to have context.
-    let resume = resume_point(conn, &st)?;
+    let resume = store.detector_resume_point(&st)?;
     let from = match resume {
-        Some(r) => warm_point(conn, r, margin_ms)?.max(first),
+        Some(r) => store.detector_warm_point(r, margin_ms)?.max(first),
         None => first,
     };
     let keep_from = resume.unwrap_or(first).max(from);
@@ -441,7 +312,7 @@ pub fn scan(store: &mut Store, cfg: &DetectorConfig) -> Result<ScanReport, Detec
 
     let hot_window_ms = (cfg.hot_restart_window_s * 1000.0) as i64;
     let fuel_off_before =
-        last_fuel_off_before(conn, tags.fuel, from, hot_window_ms, cfg.fuel_on_kg_s)?;
+        store.last_fuel_off_before(tags.fuel, from, hot_window_ms, cfg.fuel_on_kg_s)?;
     let mut machine = Machine::new(cfg.clone(), fuel_off_before);
     let mut finished = Vec::new();
     let mut carried: [Option<f64>; 3] = [None; 3];
@@ -449,15 +320,18 @@ pub fn scan(store: &mut Store, cfg: &DetectorConfig) -> Result<ScanReport, Detec
     let mut scanned_to = None;
     while chunk_from <= last {
         let chunk_to = chunk_from.saturating_add(CHUNK_MS);
-        let n1 = read_tag(conn, tags.n1, chunk_from, chunk_to)?;
-        let mut fuel = Hold::new(read_tag(conn, tags.fuel, chunk_from, chunk_to)?, carried[0]);
+        let n1 = store.good_samples(tags.n1, chunk_from, chunk_to)?;
+        let mut fuel = Hold::new(
+            store.good_samples(tags.fuel, chunk_from, chunk_to)?,
+            carried[0],
+        );
         let mut power = Hold::new(
-            read_tag(conn, tags.power, chunk_from, chunk_to)?,
+            store.good_samples(tags.power, chunk_from, chunk_to)?,
             carried[1],
         );
         let mut n2 = match tags.n2 {
             Some(t) => Some(Hold::new(
-                read_tag(conn, t, chunk_from, chunk_to)?,
+                store.good_samples(t, chunk_from, chunk_to)?,
                 carried[2],
             )),
             None => None,
@@ -506,116 +380,14 @@ pub fn scan(store: &mut Store, cfg: &DetectorConfig) -> Result<ScanReport, Detec
     report.segments_open = u64::from(open.is_some());
     report.scanned_to_ms = scanned_to;
 
-    let tx = conn.transaction()?;
-    let mut kept: Vec<i64> = Vec::new();
-    for rec in finished.iter().chain(open.iter()) {
-        if let Some(id) = upsert_segment(&tx, rec)? {
-            kept.push(id);
-            report.segments_written += 1;
-        }
-    }
-    // Segments from an earlier pass over this span that were not found again.
-    {
-        let mut stale = tx.prepare(
-            "SELECT id FROM segments WHERE kind = 'startup' AND start_ms >= ?1 AND status != 'diagnosed'
-               AND id NOT IN (SELECT segment_id FROM diagnoses)",
-        )?;
-        let ids: Vec<i64> = stale
-            .query_map(params![keep_from], |r| r.get(0))?
-            .collect::<Result<_, _>>()?;
-        for id in ids.into_iter().filter(|id| !kept.contains(id)) {
-            tx.execute("DELETE FROM segments WHERE id = ?1", params![id])?;
-        }
-    }
-    tx.execute(
-        "UPDATE detector_state SET scanned_to_ms = MAX(COALESCE(scanned_to_ms, ?1), ?1),
-                rescan_from_ms = NULL, last_fuel_off_ms = ?2, updated_at_ms = ?3 WHERE id = 1",
-        params![
-            scanned_to.unwrap_or(last),
-            machine.last_fuel_off_ms().or(st.last_fuel_off_ms),
-            now_ms()
-        ],
+    let records: Vec<SegmentRecord> = finished.into_iter().chain(open).collect();
+    report.segments_written = store.store_scan(
+        &records,
+        keep_from,
+        scanned_to.unwrap_or(last),
+        machine.last_fuel_off_ms().or(st.last_fuel_off_ms),
     )?;
-    tx.commit()?;
     Ok(report)
-}
-
-/// Inserts or updates a segment keyed by its start time; a diagnosed segment is left alone.
-/// Returns its id, or `None` if it was left alone.
-fn upsert_segment(
-    tx: &rusqlite::Transaction<'_>,
-    rec: &SegmentRecord,
-) -> Result<Option<i64>, DetectError> {
-    let end = rec.end_ms.unwrap_or(i64::MAX);
-    let gap_in_span: bool = tx.query_row(
-        "SELECT EXISTS(SELECT 1 FROM gaps WHERE start_ms <= ?2 AND end_ms >= ?1)",
-        params![rec.start_ms, end],
-        |r| r.get(0),
-    )?;
-    let status = if rec.is_open() { "open" } else { "closed" };
-    let existing: Option<(i64, String)> = tx
-        .query_row(
-            "SELECT id, status FROM segments WHERE kind = 'startup' AND start_ms = ?1",
-            params![rec.start_ms],
-            |r| Ok((r.get(0)?, r.get(1)?)),
-        )
-        .optional()?;
-    let id = match existing {
-        Some((_, s)) if s == "diagnosed" => return Ok(None),
-        Some((id, _)) => {
-            tx.execute(
-                "UPDATE segments SET end_ms = ?2, outcome = ?3, abort_cause = ?4, status = ?5,
-                        hot_restart = ?6, has_gap = ?7, updated_at_ms = ?8 WHERE id = ?1",
-                params![
-                    id,
-                    rec.end_ms,
-                    rec.outcome.as_str(),
-                    rec.abort_cause.map(|c| c.as_str()),
-                    status,
-                    rec.hot_restart,
-                    rec.has_gap || gap_in_span,
-                    now_ms()
-                ],
-            )?;
-            tx.execute(
-                "DELETE FROM segment_phases WHERE segment_id = ?1",
-                params![id],
-            )?;
-            id
-        }
-        None => {
-            tx.execute(
-                "INSERT INTO segments (kind, start_ms, end_ms, outcome, abort_cause, status,
-                                       hot_restart, has_gap, updated_at_ms)
-                 VALUES ('startup', ?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
-                params![
-                    rec.start_ms,
-                    rec.end_ms,
-                    rec.outcome.as_str(),
-                    rec.abort_cause.map(|c| c.as_str()),
-                    status,
-                    rec.hot_restart,
-                    rec.has_gap || gap_in_span,
-                    now_ms()
-                ],
-            )?;
-            tx.last_insert_rowid()
-        }
-    };
-    let mut ins = tx.prepare_cached(
-        "INSERT OR REPLACE INTO segment_phases (segment_id, phase, phase_code, start_ms, end_ms)
-         VALUES (?1, ?2, ?3, ?4, ?5)",
-    )?;
-    for p in &rec.phases {
-        ins.execute(params![
-            id,
-            p.phase.name(),
-            p.phase.code(),
-            p.start_ms,
-            p.end_ms
-        ])?;
-    }
-    Ok(Some(id))
 }
 
 #[cfg(test)]

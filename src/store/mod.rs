@@ -11,12 +11,14 @@
 //! back the last few transactions (never corrupt). Set `storage.synchronous = "full"` if the
 //! host may lose power without a UPS.
 
+mod detection;
 mod diagnoses;
 mod washes;
 pub use washes::{RecommendationRow, WashRow, DETECTED_PREFIX};
 mod schema;
 mod writer;
 
+pub use detection::ResumeState;
 pub use diagnoses::{
     HistoryFilter, HistoryRow, NewDiagnosis, SegmentInfo, SegmentRecording, Undiagnosable,
 };
