@@ -16,7 +16,7 @@
 //!
 //! This module must not run the detector or know about Modbus; it only turns CSV into samples.
 
-use crate::config_problem::ConfigProblem;
+use crate::config_problem::{check_range, Bounds, ConfigProblem};
 use crate::signals::Signal;
 use crate::store::{Gap, Quality, Sample, Store, StoreError, TagId, TagInfo};
 use serde::{Deserialize, Serialize};
@@ -109,12 +109,28 @@ impl ReplayConfig {
                 ),
             ));
         }
-        if self.transaction_samples == 0 {
-            p.push(ConfigProblem::new(
-                "replay.transaction_samples",
-                "must be at least 1",
-            ));
-        }
+        check_range(
+            &mut p,
+            "replay.transaction_samples",
+            self.transaction_samples as u64,
+            Bounds {
+                lo: 1,
+                hi: 5_000_000,
+                unit: "",
+                why: "samples held in memory per transaction",
+            },
+        );
+        check_range(
+            &mut p,
+            "replay.max_reported",
+            self.max_reported as u64,
+            Bounds {
+                lo: 0,
+                hi: 1_000_000,
+                unit: "",
+                why: "malformed rows kept in the report",
+            },
+        );
         if !self.gap_threshold_s.is_finite() || self.gap_threshold_s < 0.0 {
             p.push(ConfigProblem::new(
                 "replay.gap_threshold_s",

@@ -16,7 +16,7 @@ mod writer;
 
 pub use writer::{spawn_writer, WriteCmd, WriterConfig, WriterStats};
 
-use crate::config_problem::ConfigProblem;
+use crate::config_problem::{check_range, Bounds, ConfigProblem};
 use crate::signals::Signal;
 use rusqlite::{params, Connection, OpenFlags, OptionalExtension};
 use serde::Deserialize;
@@ -195,18 +195,41 @@ impl StorageConfig {
         if self.path.as_os_str().is_empty() {
             p.push(ConfigProblem::new("storage.path", "must not be empty"));
         }
-        if self.batch_size == 0 {
-            p.push(ConfigProblem::new(
-                "storage.batch_size",
-                "must be at least 1",
-            ));
-        }
-        if self.flush_interval_ms == 0 {
-            p.push(ConfigProblem::new(
-                "storage.flush_interval_ms",
-                "must be at least 1 ms",
-            ));
-        }
+        // Bounds: values past these crashed the daemon at start-up (a 1e10 batch is a 320 GB
+        // allocation; a busy timeout past i32::MAX ms panics in SQLite's binding).
+        check_range(
+            &mut p,
+            "storage.batch_size",
+            self.batch_size as u64,
+            Bounds {
+                lo: 1,
+                hi: 1_000_000,
+                unit: "",
+                why: "samples buffered before a commit; each takes memory",
+            },
+        );
+        check_range(
+            &mut p,
+            "storage.flush_interval_ms",
+            self.flush_interval_ms,
+            Bounds {
+                lo: 1,
+                hi: 3_600_000,
+                unit: " ms",
+                why: "1 ms … 1 h",
+            },
+        );
+        check_range(
+            &mut p,
+            "storage.busy_timeout_ms",
+            self.busy_timeout_ms,
+            Bounds {
+                lo: 0,
+                hi: 600_000,
+                unit: " ms",
+                why: "at most 10 minutes of waiting for a lock",
+            },
+        );
         if self.cache_mib == 0 || self.cache_mib > 16 * 1024 {
             p.push(ConfigProblem::new(
                 "storage.cache_mib",
