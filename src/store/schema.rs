@@ -50,7 +50,6 @@ pub(super) fn migrate(conn: &mut Connection, path: &Path) -> Result<(), StoreErr
     if found == latest_version() {
         return Ok(());
     }
-    if std::env::var("OLDMIG").is_ok() { return MIGRATIONS.to_latest(conn).map_err(|source| StoreError::Migration{path: path.to_path_buf(), source}); }
     let mig_err = |query: String, err: rusqlite::Error| StoreError::Migration {
         path: path.to_path_buf(),
         source: rusqlite_migration::Error::RusqliteError { query, err },
@@ -124,9 +123,13 @@ mod tests {
         let dir = tempfile::tempdir().expect("tempdir");
         let path = dir.path().join("new.db");
         let conn = Connection::open(&path).expect("open");
-        conn.pragma_update(None, "user_version", 99_i64).expect("pragma");
+        conn.pragma_update(None, "user_version", 99_i64)
+            .expect("pragma");
         drop(conn);
         let err = crate::store::Store::open(&path).expect_err("too new");
-        assert!(matches!(err, StoreError::SchemaTooNew { found: 99, .. }), "{err}");
+        assert!(
+            matches!(err, StoreError::SchemaTooNew { found: 99, .. }),
+            "{err}"
+        );
     }
 }
