@@ -308,9 +308,21 @@ impl Store {
         let mut conn = Connection::open(path).map_err(open_err)?;
         conn.busy_timeout(Duration::from_millis(opts.busy_timeout_ms))
             .map_err(open_err)?;
-        let mode: String = conn
-            .query_row("PRAGMA journal_mode=WAL", [], |r| r.get(0))
-            .map_err(open_err)?;
+        // Switching a fresh file to WAL takes an exclusive lock and does not wait on the busy
+        // handler: retry while another opener holds it (issue 12 #7, "database is locked").
+        let wal_deadline =
+            std::time::Instant::now() + Duration::from_millis(opts.busy_timeout_ms.max(1000));
+        let mode: String = loop {
+            match conn.query_row("PRAGMA journal_mode=WAL", [], |r| r.get(0)) {
+                Err(rusqlite::Error::SqliteFailure(e, _))
+                    if e.code == rusqlite::ErrorCode::DatabaseBusy
+                        && std::time::Instant::now() < wal_deadline =>
+                {
+                    std::thread::sleep(Duration::from_millis(10));
+                }
+                r => break r.map_err(open_err)?,
+            }
+        };
         if !mode.eq_ignore_ascii_case("wal") {
             tracing::warn!(path = %path.display(), mode, "could not switch the database to WAL mode");
         }

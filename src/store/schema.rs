@@ -5,6 +5,7 @@
 
 use super::StoreError;
 use rusqlite::{Connection, TransactionBehavior};
+#[cfg(test)]
 use rusqlite_migration::{Migrations, M};
 use std::path::Path;
 
@@ -14,9 +15,11 @@ const MIGRATION_SQL: &[(&str, &str)] = &[(
     include_str!("../../migrations/0001_initial.sql"),
 )];
 
+#[cfg(test)]
 const MIGRATION_LIST: &[M<'static>] = &[M::up(MIGRATION_SQL[0].1)];
 
-/// All migrations in order.
+/// All migrations in order (for `rusqlite_migration`'s validation in tests).
+#[cfg(test)]
 pub const MIGRATIONS: Migrations<'static> = Migrations::from_slice(MIGRATION_LIST);
 
 /// Schema version this build writes.
