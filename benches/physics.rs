@@ -1,5 +1,6 @@
 //! Per-call cost of the hot physics: gas properties and map look-ups.
 //! Run: `cargo bench --bench physics`.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use gtwatch::maps::{self, ScaledCompressor, ScaledTurbine};

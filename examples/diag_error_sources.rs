@@ -1,6 +1,7 @@
 //! Error sources of the diagnosis: the wash bench's after-wash start-up (noise seed 14) diagnosed
 //! with the noise of one channel at a time removed. Showed that the rest-sample ambient pressure
 //! (P1 noise) dominated both methods' error before the ambient pressure was fitted.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 use gtwatch::diagnosis::bench::wash_truth;
 use gtwatch::diagnosis::steady::diagnose_steady;
 use gtwatch::diagnosis::transient::diagnose_transient;

@@ -1,6 +1,7 @@
 //! Identifiability evidence: Cramér–Rao 1σ (default instrument noise, unit-variance residuals)
 //! of the six health parameters from one noise-free start-up, for Method B (whole start-up) and
 //! Method A (its steady windows), and the condition number of the scaled sensitivity matrix.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 use gtwatch::diagnosis::identifiability::identifiability;
 use gtwatch::diagnosis::steady::{average_windows, detect_windows, SteadyProblem};
 use gtwatch::diagnosis::transient::TransientProblem;

@@ -8,7 +8,7 @@
 
 use crate::acquire::modbus::{AcquisitionConfig, SourceKind};
 use crate::acquire::register_map::ModbusConfig;
-use crate::config_problem::ConfigProblem;
+use crate::config_problem::{check_range, Bounds, ConfigProblem};
 use crate::detect::DetectorConfig;
 use crate::ingest::ReplayConfig;
 use crate::store::StorageConfig;
@@ -205,18 +205,28 @@ impl Config {
             )),
             (None, SourceKind::None) => {}
         }
-        if self.daemon.detect_interval_ms < 100 {
-            p.push(ConfigProblem::new(
-                "daemon.detect_interval_ms",
-                "must be at least 100 ms",
-            ));
-        }
-        if self.daemon.queue_capacity == 0 {
-            p.push(ConfigProblem::new(
-                "daemon.queue_capacity",
-                "must be at least 1",
-            ));
-        }
+        check_range(
+            &mut p,
+            "daemon.detect_interval_ms",
+            self.daemon.detect_interval_ms,
+            Bounds {
+                lo: 100,
+                hi: 86_400_000,
+                unit: " ms",
+                why: "100 ms … 1 day",
+            },
+        );
+        check_range(
+            &mut p,
+            "daemon.queue_capacity",
+            self.daemon.queue_capacity as u64,
+            Bounds {
+                lo: 1,
+                hi: 1_000_000,
+                unit: "",
+                why: "messages between acquisition and the writer; each takes memory",
+            },
+        );
         p
     }
 }
@@ -339,6 +349,35 @@ signal = "n1"
         c.modbus = None;
         let keys: Vec<String> = c.check().into_iter().map(|p| p.key).collect();
         assert!(keys.contains(&"modbus".to_string()));
+    }
+
+    #[test]
+    fn values_that_crashed_the_daemon_are_rejected_with_their_key() {
+        // Regression (issue 12 #4): check-config accepted these; the daemon then panicked or
+        // aborted at start-up (a restart loop under systemd).
+        let mut c = Config::parse(MINIMAL, "x.toml").expect("parse");
+        c.storage.busy_timeout_ms = 2_147_483_648;
+        c.daemon.queue_capacity = usize::MAX;
+        c.storage.batch_size = 10_000_000_000;
+        c.replay.transaction_samples = 10_000_000_000;
+        let problems = c.check();
+        let keys: Vec<&str> = problems.iter().map(|p| p.key.as_str()).collect();
+        for k in [
+            "storage.batch_size",
+            "storage.busy_timeout_ms",
+            "replay.transaction_samples",
+            "daemon.queue_capacity",
+        ] {
+            assert!(keys.contains(&k), "{k} missing from {problems:?}");
+        }
+        let busy = problems
+            .iter()
+            .find(|p| p.key == "storage.busy_timeout_ms")
+            .expect("busy");
+        assert!(
+            busy.message.contains("2147483648 ms is above the maximum"),
+            "{busy}"
+        );
     }
 
     #[test]

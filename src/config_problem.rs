@@ -28,3 +28,55 @@ impl fmt::Display for ConfigProblem {
         write!(f, "{}: {}", self.key, self.message)
     }
 }
+
+/// A numeric key's allowed range: `lo..=hi` in `unit` (`""` or e.g. `" ms"`), and why the
+/// upper bound exists (what a larger value would break).
+#[derive(Debug, Clone, Copy)]
+pub struct Bounds<'a> {
+    pub lo: u64,
+    pub hi: u64,
+    pub unit: &'a str,
+    pub why: &'a str,
+}
+
+/// Adds a problem if `value` is outside `b`, naming the key, the value and the bound.
+pub fn check_range(problems: &mut Vec<ConfigProblem>, key: &str, value: u64, b: Bounds<'_>) {
+    let Bounds { lo, hi, unit, why } = b;
+    if value < lo {
+        problems.push(ConfigProblem::new(
+            key,
+            format!("must be at least {lo}{unit}"),
+        ));
+    } else if value > hi {
+        problems.push(ConfigProblem::new(
+            key,
+            format!("{value}{unit} is above the maximum {hi}{unit} ({why})"),
+        ));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn check_range_names_key_value_and_bounds() {
+        let mut p = Vec::new();
+        let b = Bounds {
+            lo: 1,
+            hi: 10,
+            unit: " ms",
+            why: "why",
+        };
+        check_range(&mut p, "a.b", 5, b);
+        assert!(p.is_empty());
+        check_range(&mut p, "a.b", 0, b);
+        check_range(&mut p, "a.c", u64::MAX, b);
+        assert_eq!(p.len(), 2);
+        assert_eq!(p[0].to_string(), "a.b: must be at least 1 ms");
+        assert_eq!(
+            p[1].to_string(),
+            "a.c: 18446744073709551615 ms is above the maximum 10 ms (why)"
+        );
+    }
+}

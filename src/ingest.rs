@@ -16,7 +16,7 @@
 //!
 //! This module must not run the detector or know about Modbus; it only turns CSV into samples.
 
-use crate::config_problem::ConfigProblem;
+use crate::config_problem::{check_range, Bounds, ConfigProblem};
 use crate::signals::Signal;
 use crate::store::{Gap, Quality, Sample, Store, StoreError, TagId, TagInfo};
 use serde::{Deserialize, Serialize};
@@ -109,12 +109,28 @@ impl ReplayConfig {
                 ),
             ));
         }
-        if self.transaction_samples == 0 {
-            p.push(ConfigProblem::new(
-                "replay.transaction_samples",
-                "must be at least 1",
-            ));
-        }
+        check_range(
+            &mut p,
+            "replay.transaction_samples",
+            self.transaction_samples as u64,
+            Bounds {
+                lo: 1,
+                hi: 5_000_000,
+                unit: "",
+                why: "samples held in memory per transaction",
+            },
+        );
+        check_range(
+            &mut p,
+            "replay.max_reported",
+            self.max_reported as u64,
+            Bounds {
+                lo: 0,
+                hi: 1_000_000,
+                unit: "",
+                why: "malformed rows kept in the report",
+            },
+        );
         if !self.gap_threshold_s.is_finite() || self.gap_threshold_s < 0.0 {
             p.push(ConfigProblem::new(
                 "replay.gap_threshold_s",
@@ -844,7 +860,27 @@ pub fn parse_iso8601_ms(s: &str) -> Result<i64, String> {
     }
     match time::Date::parse(s, &Iso8601::DEFAULT) {
         Ok(d) => Ok(to_ms(d.midnight().assume_utc())),
-        Err(e) => Err(e.to_string()),
+        Err(e) => Err(date_problem(s).unwrap_or_else(|| e.to_string())),
+    }
+}
+
+/// For a `YYYY-MM-DD…` text whose date part is out of range, says which part (the `time`
+/// parser only says "unexpected trailing characters" for `2024-13-01`).
+fn date_problem(s: &str) -> Option<String> {
+    let b = s.as_bytes();
+    if b.len() < 10 || b[4] != b'-' || b[7] != b'-' {
+        return None;
+    }
+    let year: i32 = s.get(0..4)?.parse().ok()?;
+    let month: u8 = s.get(5..7)?.parse().ok()?;
+    let day: u8 = s.get(8..10)?.parse().ok()?;
+    let month = match time::Month::try_from(month) {
+        Ok(m) => m,
+        Err(_) => return Some(format!("month {month} is not 1 … 12")),
+    };
+    match time::Date::from_calendar_date(year, month, day) {
+        Ok(_) => None,
+        Err(_) => Some(format!("day {day} does not exist in {month} {year}")),
     }
 }
 

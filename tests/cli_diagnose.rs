@@ -1,4 +1,5 @@
 //! End-to-end: `gtwatch diagnose` on a CSV written in the `gtwatch simulate` layout.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use gtwatch::engine::sensors::MeasurementOptions;
 use gtwatch::engine::{sequence, Engine, Scenario, Trace};

@@ -10,6 +10,7 @@
 //! on ramps compressed 100× (2.8 MW per sample) those distort the detector's noise estimate
 //! enough to move the steady-load boundary by many samples — an artefact of the compression,
 //! not of the daemon. The fault tests use the free-running (speedup) mode.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 mod common;
 

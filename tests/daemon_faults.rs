@@ -1,6 +1,7 @@
 //! Fault tests for the daemon's acquisition: the Modbus server going away and coming back, a
 //! server answering later than the timeout, and garbage / out-of-range register values.
 //! Each test runs real servers on 127.0.0.1 and the real `daemon::run`, for about a second.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 mod common;
 

@@ -1,6 +1,7 @@
 //! The `gtwatch run` process as systemd sees it: READY=1 only after the first successful poll,
 //! WATCHDOG=1 pings while polling progresses, and on SIGTERM STOPPING=1, the last batch
 //! committed and exit status 0. The test plays systemd's notify socket.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 mod common;
 

@@ -2,6 +2,7 @@
 //! stop, a start tripped during acceleration, a hot restart) simulated with default sensor noise
 //! at 1 Hz, fed to the detector's state machine; every start found, each phase boundary within 2
 //! samples of the simulator's truth.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use gtwatch::detect::{DetectorConfig, Frame, Machine, Outcome, SegmentRecord};
 use gtwatch::engine::sensors::MeasurementOptions;

@@ -1,5 +1,6 @@
 //! End-to-end: `gtwatch replay` command-line hygiene (issue 12 #8/#9, issue 11's ignored
 //! columns). Each test runs the real binary on a tiny log.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use std::io::Read;
 use std::path::{Path, PathBuf};

@@ -2,6 +2,7 @@
 //! degradation, one a day, replayed with `gtwatch replay` and the shipped config → one Method B
 //! result per start-up within 0.5 points of its truth on every parameter, in
 //! `gtwatch history --format json`.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use gtwatch::engine::sensors::MeasurementOptions;
 use gtwatch::engine::sequence::run_scenario;

@@ -1,5 +1,6 @@
 //! Killing `gtwatch run` (SIGTERM, then kill -9) while it diagnoses a start-up leaves nothing
 //! half-written, and the restarted daemon diagnoses the pending segment.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use gtwatch::detect::{scan, DetectorConfig};
 use gtwatch::engine::sensors::MeasurementOptions;

@@ -15,7 +15,7 @@ use crate::acquire::clock::SampleClock;
 use crate::acquire::register_map::{
     decode_field, FieldSpec, ModbusConfig, ReadingStatus, RegisterKind,
 };
-use crate::config_problem::ConfigProblem;
+use crate::config_problem::{check_range, Bounds, ConfigProblem};
 use crate::shutdown::Shutdown;
 use crate::store::{Gap, Quality, Sample, TagId, WriteCmd};
 use serde::{Deserialize, Serialize};
@@ -117,8 +117,31 @@ impl AcquisitionConfig {
         ] {
             if v == 0 {
                 p.push(ConfigProblem::new(k(name), "must be greater than 0"));
+            } else {
+                check_range(
+                    &mut p,
+                    &k(name),
+                    v,
+                    Bounds {
+                        lo: 1,
+                        hi: 86_400_000,
+                        unit: " ms",
+                        why: "at most one day",
+                    },
+                );
             }
         }
+        check_range(
+            &mut p,
+            &k("backoff_max_ms"),
+            self.backoff_max_ms,
+            Bounds {
+                lo: 0,
+                hi: 86_400_000,
+                unit: " ms",
+                why: "at most one day",
+            },
+        );
         if self.backoff_max_ms < self.backoff_initial_ms {
             p.push(ConfigProblem::new(
                 k("backoff_max_ms"),

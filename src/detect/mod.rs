@@ -360,11 +360,7 @@ pub fn scan(store: &mut Store, cfg: &DetectorConfig) -> Result<ScanReport, Detec
         // Skip empty stretches in one step instead of walking 6-hour chunks up to a far-away
         // sample (a bogus year-3000 stamp took minutes, i64::MAX forever). Held fuel/power
         // values are not carried across the jump.
-        let next: Option<i64> = conn.query_row(
-            "SELECT MIN(t_ms) FROM samples WHERE tag_id = ?1 AND t_ms >= ?2 AND quality = 0",
-            params![tags.n1, chunk_from],
-            |r| r.get(0),
-        )?;
+        let next = store.next_good_sample_ms(tags.n1, chunk_from)?;
         match next {
             None => break,
             Some(t) if t >= chunk_from.saturating_add(CHUNK_MS) => {

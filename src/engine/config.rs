@@ -234,6 +234,7 @@ pub struct EngineConfig {
 
 impl EngineConfig {
     /// The built-in reference engine.
+    #[allow(clippy::expect_used)] // embedded file, validated by a unit test
     pub fn reference() -> EngineConfig {
         // The embedded file is validated by a unit test, so this cannot fail at run time.
         Self::from_toml_str(REFERENCE_ENGINE_TOML, "<embedded config/engine.toml>")

@@ -305,3 +305,14 @@ fn a_row_dated_far_in_the_future_is_reported_not_stored() {
     );
     assert_eq!(r.last_t_ms, Some(1_709_251_203_000));
 }
+
+#[test]
+fn out_of_range_dates_say_which_part() {
+    // Regression (issue 12 #9): `segments --since 2024-13-01` said only "unexpected trailing
+    // characters".
+    let e = parse_iso8601_ms("2024-13-01").expect_err("month 13");
+    assert!(e.contains("month 13"), "{e}");
+    let e = parse_iso8601_ms("2023-02-29").expect_err("no leap day");
+    assert!(e.contains("day 29"), "{e}");
+    assert!(parse_iso8601_ms("2024-02-29").is_ok());
+}

@@ -207,6 +207,7 @@ impl Solver for CmaEs {
         Ok(())
     }
 
+    #[allow(clippy::expect_used)] // the Solver trait calls init before step
     fn step<P: Problem + ?Sized>(&mut self, eval: &mut Evaluator<'_, P>) -> StepOutcome {
         let (tol_x, restarts, sigma0) = (self.tol_x, self.restarts, self.sigma0);
         let st = self

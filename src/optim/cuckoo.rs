@@ -57,6 +57,7 @@ struct State {
 
 impl CuckooSearch {
     /// Defaults: 25 nests, pa = 0.25, α = 0.01, β = 1.5, random initial nests.
+    #[allow(clippy::expect_used)] // Levy::new(1.5) is a constant valid index
     pub fn new(seed: u64) -> Self {
         Self {
             seed,
@@ -112,6 +113,7 @@ impl CuckooSearch {
         Ok(self)
     }
 
+    #[allow(clippy::expect_used)] // the Solver trait calls init before step
     fn state_mut(&mut self) -> &mut State {
         self.state
             .as_mut()

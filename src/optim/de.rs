@@ -140,6 +140,7 @@ impl Solver for DifferentialEvolution {
         Ok(())
     }
 
+    #[allow(clippy::expect_used)] // the Solver trait calls init before step
     fn step<P: Problem + ?Sized>(&mut self, eval: &mut Evaluator<'_, P>) -> StepOutcome {
         let (f, cr, strategy) = (self.f, self.cr, self.strategy);
         let st = self

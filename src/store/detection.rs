@@ -246,6 +246,16 @@ impl super::Store {
         read_tag(&self.conn, tag, from, to)
     }
 
+    /// Time of the first good sample of a tag at or after `from` (the detector jumps over empty
+    /// stretches with it instead of walking fixed chunks up to a far-away stamp).
+    pub fn next_good_sample_ms(&self, tag: TagId, from: i64) -> Result<Option<i64>, StoreError> {
+        Ok(self.conn.query_row(
+            "SELECT MIN(t_ms) FROM samples WHERE tag_id = ?1 AND t_ms >= ?2 AND quality = 0",
+            params![tag, from],
+            |r| r.get(0),
+        )?)
+    }
+
     /// First and last sample time of a tag (any quality).
     pub fn tag_time_range(&self, tag: TagId) -> Result<(Option<i64>, Option<i64>), StoreError> {
         Ok(self.conn.query_row(

@@ -25,7 +25,7 @@ pub use diagnoses::{
 
 pub use writer::{spawn_writer, WriteCmd, WriterConfig, WriterStats};
 
-use crate::config_problem::ConfigProblem;
+use crate::config_problem::{check_range, Bounds, ConfigProblem};
 use crate::signals::Signal;
 use rusqlite::{params, Connection, OpenFlags, OptionalExtension};
 use serde::Deserialize;
@@ -204,18 +204,41 @@ impl StorageConfig {
         if self.path.as_os_str().is_empty() {
             p.push(ConfigProblem::new("storage.path", "must not be empty"));
         }
-        if self.batch_size == 0 {
-            p.push(ConfigProblem::new(
-                "storage.batch_size",
-                "must be at least 1",
-            ));
-        }
-        if self.flush_interval_ms == 0 {
-            p.push(ConfigProblem::new(
-                "storage.flush_interval_ms",
-                "must be at least 1 ms",
-            ));
-        }
+        // Bounds: values past these crashed the daemon at start-up (a 1e10 batch is a 320 GB
+        // allocation; a busy timeout past i32::MAX ms panics in SQLite's binding).
+        check_range(
+            &mut p,
+            "storage.batch_size",
+            self.batch_size as u64,
+            Bounds {
+                lo: 1,
+                hi: 1_000_000,
+                unit: "",
+                why: "samples buffered before a commit; each takes memory",
+            },
+        );
+        check_range(
+            &mut p,
+            "storage.flush_interval_ms",
+            self.flush_interval_ms,
+            Bounds {
+                lo: 1,
+                hi: 3_600_000,
+                unit: " ms",
+                why: "1 ms … 1 h",
+            },
+        );
+        check_range(
+            &mut p,
+            "storage.busy_timeout_ms",
+            self.busy_timeout_ms,
+            Bounds {
+                lo: 0,
+                hi: 600_000,
+                unit: " ms",
+                why: "at most 10 minutes of waiting for a lock",
+            },
+        );
         if self.cache_mib == 0 || self.cache_mib > 16 * 1024 {
             p.push(ConfigProblem::new(
                 "storage.cache_mib",
@@ -294,9 +317,21 @@ impl Store {
         let mut conn = Connection::open(path).map_err(open_err)?;
         conn.busy_timeout(Duration::from_millis(opts.busy_timeout_ms))
             .map_err(open_err)?;
-        let mode: String = conn
-            .query_row("PRAGMA journal_mode=WAL", [], |r| r.get(0))
-            .map_err(open_err)?;
+        // Switching a fresh file to WAL takes an exclusive lock and does not wait on the busy
+        // handler: retry while another opener holds it (issue 12 #7, "database is locked").
+        let wal_deadline =
+            std::time::Instant::now() + Duration::from_millis(opts.busy_timeout_ms.max(1000));
+        let mode: String = loop {
+            match conn.query_row("PRAGMA journal_mode=WAL", [], |r| r.get(0)) {
+                Err(rusqlite::Error::SqliteFailure(e, _))
+                    if e.code == rusqlite::ErrorCode::DatabaseBusy
+                        && std::time::Instant::now() < wal_deadline =>
+                {
+                    std::thread::sleep(Duration::from_millis(10));
+                }
+                r => break r.map_err(open_err)?,
+            }
+        };
         if !mode.eq_ignore_ascii_case("wal") {
             tracing::warn!(path = %path.display(), mode, "could not switch the database to WAL mode");
         }
