@@ -54,9 +54,9 @@ pub fn synthetic_startup(
     noise: bool,
 ) -> Result<Segment, DiagnosisError> {
     let model = engine.model(truth);
-    let (samples, _) = run_scenario(&engine.cfg, &model, &Scenario::startup(&engine.cfg))?;
+    let (samples, _) = run_scenario(engine.cfg(), &model, &Scenario::startup(engine.cfg()))?;
     let trace = Trace::from_truth(
-        &engine.cfg,
+        engine.cfg(),
         &samples,
         Some(&MeasurementOptions {
             lags: true,

@@ -709,7 +709,7 @@ mod tests {
         let engine = Engine::reference().expect("engine");
         let t = truth();
         let clean = synthetic_startup(&engine, &t, 0, false).expect("start-up");
-        let w = detect_windows(&clean, &engine.cfg, &SteadyCriteria::default());
+        let w = detect_windows(&clean, engine.cfg(), &SteadyCriteria::default());
         // The 4-min warm-up at minimum load and the base-load hold, never the load ramp.
         assert!(w.len() >= 2, "{w:?}");
         for win in &w {

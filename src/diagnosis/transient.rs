@@ -76,7 +76,7 @@ impl TransientProblem {
         }
         let mut engine = engine.clone();
         if cfg.fixed_step_s > 0.0 {
-            engine.cfg.solver.fixed_step_s = cfg.fixed_step_s;
+            engine.set_param("solver.fixed_step_s", cfg.fixed_step_s)?;
         }
         let signals: Vec<Signal> = cfg
             .signals
@@ -95,7 +95,7 @@ impl TransientProblem {
             &segment.values,
             &in_window,
             &signals,
-            &engine.cfg.sensors,
+            &engine.cfg().sensors,
             cfg.rate_weight,
         );
         if objective.len() <= cfg.free().len() {
@@ -121,7 +121,7 @@ impl TransientProblem {
         }
         // The replay takes the ambient pressure from P1 at rest; fitting it needs such samples.
         let ambient0 = (cfg.fit_ambient_pressure && segment.values.iter().any(at_rest))
-            .then(|| segment.ambient(&engine.cfg).1);
+            .then(|| segment.ambient(engine.cfg()).1);
         Ok(TransientProblem {
             engine,
             drive,

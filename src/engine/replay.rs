@@ -296,15 +296,15 @@ pub fn simulate_segment(
             reason: format!("segment must begin with the GG at rest (n1 = {first_n1:.0} rpm)"),
         });
     }
-    let (t_amb, p_amb) = seg.ambient(&engine.cfg);
+    let (t_amb, p_amb) = seg.ambient(engine.cfg());
     let model = engine.model_at(health, t_amb, p_amb);
     // Work in segment-relative time so the simulation starts at 0.
     let t0 = seg.t_s[0];
     let rel: Vec<f64> = seg.t_s.iter().map(|t| t - t0).collect();
     let mut rseg = seg.clone();
     rseg.t_s = rel.clone();
-    let ctl = ReplayController::new(&engine.cfg, &model, &rseg, mode);
-    let mut sim = Simulation::with_controller(&engine.cfg, &model, ctl);
+    let ctl = ReplayController::new(engine.cfg(), &model, &rseg, mode);
+    let mut sim = Simulation::with_controller(engine.cfg(), &model, ctl);
     let mut samples = Vec::with_capacity(seg.len());
     for (k, &t) in rel.iter().enumerate() {
         sim.advance_to(t)?;
@@ -321,7 +321,7 @@ pub fn simulate_segment(
         bias: false,
         seed: 0,
     };
-    Ok(Trace::from_truth(&engine.cfg, &samples, Some(&opts)))
+    Ok(Trace::from_truth(engine.cfg(), &samples, Some(&opts)))
 }
 
 #[cfg(test)]
@@ -332,14 +332,15 @@ mod tests {
 
     fn startup(engine: &Engine, h: &HealthParams) -> Trace {
         let m = engine.model(h);
-        let (s, _) = run_scenario(&engine.cfg, &m, &Scenario::startup(&engine.cfg)).expect("runs");
+        let (s, _) =
+            run_scenario(engine.cfg(), &m, &Scenario::startup(engine.cfg())).expect("runs");
         let opts = MeasurementOptions {
             lags: true,
             noise: false,
             bias: false,
             seed: 0,
         };
-        Trace::from_truth(&engine.cfg, &s, Some(&opts))
+        Trace::from_truth(engine.cfg(), &s, Some(&opts))
     }
 
     fn max_rel_dev(a: &Trace, b: &Trace, s: Signal, from: usize) -> f64 {
