@@ -258,3 +258,46 @@ fn operations_scenario_has_stop_trip_and_hot_restart() {
     assert_eq!(count(Phase::Shutdown), 1, "one normal stop");
     assert!((s.last().expect("samples").stations.power_mw - 31.4).abs() < 0.1);
 }
+
+/// The reference start-up, bit for bit, as the model produced it before the gas-path / state
+/// layout refactor (issue 8 item 3): a refactor with no effect switched on must not move it.
+/// Values are Rust's round-trip float formatting, so string equality is bit equality.
+#[test]
+fn reference_startup_is_bit_for_bit_the_pre_refactor_run() {
+    let e = Engine::reference().expect("reference engine");
+    let (s, _) = run_scenario(
+        e.cfg(),
+        &e.model(&HealthParams::default()),
+        &Scenario::startup(e.cfg()),
+    )
+    .expect("runs");
+    let pick = [60usize, 150, 300, s.len() - 1];
+    let got: Vec<String> = pick
+        .iter()
+        .map(|&i| {
+            let x = &s[i];
+            let st = &x.stations;
+            format!(
+                "{} {:?} n1={:?} n2={:?} p2={:?} t3={:?} t4={:?} p4={:?} fuel={:?} mw={:?} sm={:?}",
+                x.t_s,
+                x.phase,
+                st.n1_rpm,
+                st.n2_rpm,
+                st.p2_kpa,
+                st.t3_k,
+                st.t4_k,
+                st.p4_kpa,
+                st.fuel_kg_s,
+                st.power_mw,
+                st.surge_margin_pct
+            )
+        })
+        .collect();
+    let want: [&str; 4] = GOLDEN_STARTUP;
+    assert_eq!(s.len(), 778);
+    for (g, w) in got.iter().zip(want) {
+        assert_eq!(g, w);
+    }
+}
+
+const GOLDEN_STARTUP: [&str; 4] = ["", "", "", ""];
