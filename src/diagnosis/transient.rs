@@ -82,7 +82,7 @@ impl TransientProblem {
         segment.check_startup()?;
         let mut engine = engine.clone();
         if cfg.fixed_step_s > 0.0 {
-            engine.cfg.solver.fixed_step_s = cfg.fixed_step_s;
+            engine.set_param("solver.fixed_step_s", cfg.fixed_step_s)?;
         }
         let signals: Vec<Signal> = cfg
             .signals
@@ -101,7 +101,7 @@ impl TransientProblem {
             segment.rows(),
             &in_window,
             &signals,
-            &engine.cfg.sensors,
+            &engine.cfg().sensors,
             cfg.rate_weight,
         );
         if objective.len() <= cfg.n_fitted() {
@@ -132,8 +132,8 @@ impl TransientProblem {
         let ambient0 = (cfg.fit_ambient_pressure && !rest.is_empty()).then(|| {
             segment
                 .ambient(
-                    engine.cfg.ambient.temperature_k,
-                    engine.cfg.ambient.pressure_kpa,
+                    engine.cfg().ambient.temperature_k,
+                    engine.cfg().ambient.pressure_kpa,
                 )
                 .1
         });
@@ -247,7 +247,8 @@ mod tests {
     fn same_start_up_at_1_hz_and_10_hz_gives_the_same_health() {
         let engine = Engine::reference().expect("engine");
         let mut fast = engine.clone();
-        fast.cfg.sequence.sample_period_s = 0.1;
+        fast.set_param("sequence.sample_period_s", 0.1)
+            .expect("settable");
         let truth = HealthParams {
             D_GC: 3.0,
             D_EC: 1.0,
