@@ -13,9 +13,9 @@ fn main() {
     let e = Engine::reference().expect("engine");
     let (_, a) = wash_truth();
     let (s, _) =
-        sequence::run_scenario(&e.cfg, &e.model(&a), &Scenario::startup(&e.cfg)).expect("runs");
+        sequence::run_scenario(e.cfg(), &e.model(&a), &Scenario::startup(e.cfg())).expect("runs");
     let tr = Trace::from_truth(
-        &e.cfg,
+        e.cfg(),
         &s,
         Some(&MeasurementOptions {
             lags: true,
@@ -25,7 +25,7 @@ fn main() {
         }),
     );
     let clean = Trace::from_truth(
-        &e.cfg,
+        e.cfg(),
         &s,
         Some(&MeasurementOptions {
             lags: true,

@@ -25,13 +25,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let pool = thread_pool(None)?;
     let mut x = t.to_array().to_vec();
     x.push(
-        seg.ambient(e.cfg.ambient.temperature_k, e.cfg.ambient.pressure_kpa)
+        seg.ambient(e.cfg().ambient.temperature_k, e.cfg().ambient.pressure_kpa)
             .1,
     );
     let b = TransientProblem::new(&e, &seg, &cfg)?;
     let ib = identifiability(&b, &x, cfg.fd_step, &pool)?;
-    let w = detect_windows(&seg, &e.cfg, &cfg.steady);
-    let a = SteadyProblem::new(&e, average_windows(&seg, &e.cfg, &w, &cfg.signals), &cfg)?;
+    let w = detect_windows(&seg, e.cfg(), &cfg.steady);
+    let a = SteadyProblem::new(&e, average_windows(&seg, e.cfg(), &w, &cfg.signals), &cfg)?;
     let ia = identifiability(&a, &x, cfg.fd_step, &pool)?;
     println!(
         "{:6} {:>10} {:>10} {:>10} {:>10}",

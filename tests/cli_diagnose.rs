@@ -8,7 +8,7 @@ use std::process::Command;
 
 fn write_startup(path: &std::path::Path, h: &HealthParams) {
     let e = Engine::reference().expect("engine");
-    let (s, _) = sequence::run_scenario(&e.cfg, &e.model(h), &Scenario::startup(&e.cfg))
+    let (s, _) = sequence::run_scenario(e.cfg(), &e.model(h), &Scenario::startup(e.cfg()))
         .expect("start-up runs");
     let opts = MeasurementOptions {
         lags: true,
@@ -16,7 +16,7 @@ fn write_startup(path: &std::path::Path, h: &HealthParams) {
         bias: false,
         seed: 4,
     };
-    let tr = Trace::from_truth(&e.cfg, &s, Some(&opts));
+    let tr = Trace::from_truth(e.cfg(), &s, Some(&opts));
     let f = std::fs::File::create(path).expect("create csv");
     tr.write_csv(std::io::BufWriter::new(f)).expect("write csv");
 }

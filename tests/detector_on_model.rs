@@ -43,7 +43,7 @@ fn detector_finds_every_start_of_the_engine_model() {
     let engine = Engine::reference().expect("engine");
     let model = engine.model(&HealthParams::HEALTHY);
     let (samples, _) =
-        run_scenario(&engine.cfg, &model, &Scenario::operations(&engine.cfg)).expect("runs");
+        run_scenario(engine.cfg(), &model, &Scenario::operations(engine.cfg())).expect("runs");
     for seed in 11..17 {
         let o = MeasurementOptions {
             lags: true,
@@ -51,7 +51,7 @@ fn detector_finds_every_start_of_the_engine_model() {
             bias: false,
             seed,
         };
-        let trace = Trace::from_truth(&engine.cfg, &samples, Some(&o));
+        let trace = Trace::from_truth(engine.cfg(), &samples, Some(&o));
         for with_n2 in [true, false] {
             let segs = detect(&trace, with_n2);
             let cranks = truth_starts(&trace, Phase::Crank);

@@ -47,17 +47,17 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<ExitCode> {
     let health = a.engine.health()?;
     let model = engine.model(&health);
     let scenario = match a.scenario {
-        ScenarioKind::Startup => Scenario::startup(&engine.cfg),
-        ScenarioKind::Operations => Scenario::operations(&engine.cfg),
+        ScenarioKind::Startup => Scenario::startup(engine.cfg()),
+        ScenarioKind::Operations => Scenario::operations(engine.cfg()),
     };
-    let (samples, stats) = run_scenario(&engine.cfg, &model, &scenario)?;
+    let (samples, stats) = run_scenario(engine.cfg(), &model, &scenario)?;
     let meas = (!a.no_lags || a.noise || a.bias).then_some(MeasurementOptions {
         lags: !a.no_lags,
         noise: a.noise,
         bias: a.bias,
         seed: a.seed,
     });
-    let trace = Trace::from_truth(&engine.cfg, &samples, meas.as_ref());
+    let trace = Trace::from_truth(engine.cfg(), &samples, meas.as_ref());
     if a.out == "-" {
         let stdout = std::io::stdout();
         trace.write_csv(stdout.lock())?;
@@ -86,7 +86,7 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<ExitCode> {
         } else {
             degraded.join(", ")
         };
-        let title = format!("{} — {:?}, {health_text}", engine.cfg.name, a.scenario);
+        let title = format!("{} — {:?}, {health_text}", engine.cfg().name, a.scenario);
         let svg = crate::plot::startup_svg(&trace, &title).map_err(anyhow::Error::msg)?;
         std::fs::write(&path, svg).with_context(|| format!("writing {}", path.display()))?;
     }

@@ -35,7 +35,7 @@ pub struct SteadyArgs {
 pub fn run(a: SteadyArgs) -> anyhow::Result<ExitCode> {
     let engine = a.engine.engine()?;
     let health = a.engine.health()?;
-    let cfg = &engine.cfg;
+    let cfg = engine.cfg();
     let demand = match (a.power_mw, a.fuel_kg_s, a.n1_rpm) {
         (Some(p), _, _) => Demand::PowerMw(p),
         (_, Some(f), _) => Demand::FuelKgS(f),

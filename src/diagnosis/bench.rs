@@ -55,9 +55,9 @@ pub fn synthetic_startup(
     noise: bool,
 ) -> Result<Recording, DiagnosisError> {
     let model = engine.model(truth);
-    let (samples, _) = run_scenario(&engine.cfg, &model, &Scenario::startup(&engine.cfg))?;
+    let (samples, _) = run_scenario(engine.cfg(), &model, &Scenario::startup(engine.cfg()))?;
     let trace = Trace::from_truth(
-        &engine.cfg,
+        engine.cfg(),
         &samples,
         Some(&MeasurementOptions {
             lags: true,

@@ -363,17 +363,13 @@ impl DiagnosisConfig {
 }
 
 /// Reads an engine-file value by dotted key (through `Engine::get_param`).
-pub(crate) fn engine_param(_engine: &Engine, key: &str) -> Result<f64, String> {
-    Err(format!(
-        "engine-file parameter '{key}' cannot be read yet (Engine::get_param is not merged)"
-    ))
+pub(crate) fn engine_param(engine: &Engine, key: &str) -> Result<f64, String> {
+    engine.get_param(key).map_err(|e| e.to_string())
 }
 
 /// Sets an engine-file value by dotted key (through `Engine::set_param`).
-pub(crate) fn set_engine_param(_engine: &mut Engine, key: &str, _value: f64) -> Result<(), String> {
-    Err(format!(
-        "engine-file parameter '{key}' cannot be set yet (Engine::set_param is not merged)"
-    ))
+pub(crate) fn set_engine_param(engine: &mut Engine, key: &str, value: f64) -> Result<(), String> {
+    engine.set_param(key, value).map_err(|e| e.to_string())
 }
 
 /// A diagnosis problem both methods provide: the optimiser's [`ResidualProblem`] plus the
@@ -784,7 +780,7 @@ mod tests {
         let engine = Engine::reference().expect("engine");
         let t = truth();
         let clean = synthetic_startup(&engine, &t, 0, false).expect("start-up");
-        let w = detect_windows(&clean, &engine.cfg, &SteadyCriteria::default());
+        let w = detect_windows(&clean, engine.cfg(), &SteadyCriteria::default());
         // The 4-min warm-up at minimum load and the base-load hold, never the load ramp.
         assert!(w.len() >= 2, "{w:?}");
         for win in &w {

@@ -360,13 +360,13 @@ pub fn diagnose_steady(
     let start = Instant::now();
     cfg.validate()?;
     let pool = pool_for(cfg)?;
-    let windows = detect_windows(segment, &engine.cfg, &cfg.steady);
+    let windows = detect_windows(segment, engine.cfg(), &cfg.steady);
     if windows.is_empty() {
         return Err(DiagnosisError::Data(
             "no steady window found (see SteadyCriteria)".into(),
         ));
     }
-    let points = average_windows(segment, &engine.cfg, &windows, &cfg.signals);
+    let points = average_windows(segment, engine.cfg(), &windows, &cfg.signals);
     let mut problem = SteadyProblem::new(engine, points, cfg)?;
     let out = fit(&mut problem, cfg, &pool)?;
     let signals = problem.objective().signals().to_vec();

@@ -82,7 +82,7 @@ impl TransientProblem {
         segment.check_startup()?;
         let mut engine = engine.clone();
         if cfg.fixed_step_s > 0.0 {
-            engine.cfg.solver.fixed_step_s = cfg.fixed_step_s;
+            engine.set_param("solver.fixed_step_s", cfg.fixed_step_s)?;
         }
         let signals: Vec<Signal> = cfg
             .signals
@@ -101,7 +101,7 @@ impl TransientProblem {
             segment.rows(),
             &in_window,
             &signals,
-            &engine.cfg.sensors,
+            &engine.cfg().sensors,
             cfg.rate_weight,
         );
         if objective.len() <= cfg.n_fitted() {
@@ -132,8 +132,8 @@ impl TransientProblem {
         let ambient0 = (cfg.fit_ambient_pressure && !rest.is_empty()).then(|| {
             segment
                 .ambient(
-                    engine.cfg.ambient.temperature_k,
-                    engine.cfg.ambient.pressure_kpa,
+                    engine.cfg().ambient.temperature_k,
+                    engine.cfg().ambient.pressure_kpa,
                 )
                 .1
         });
@@ -237,6 +237,7 @@ pub fn diagnose_transient(
 mod tests {
     use super::*;
     use crate::diagnosis::bench::synthetic_startup;
+    use crate::diagnosis::FitParam;
     use crate::health::HealthParams;
 
     /// The same start-up recorded at 1 Hz and at 10 Hz (the same noise per sample) gives the
@@ -247,7 +248,8 @@ mod tests {
     fn same_start_up_at_1_hz_and_10_hz_gives_the_same_health() {
         let engine = Engine::reference().expect("engine");
         let mut fast = engine.clone();
-        fast.cfg.sequence.sample_period_s = 0.1;
+        fast.set_param("sequence.sample_period_s", 0.1)
+            .expect("settable");
         let truth = HealthParams {
             D_GC: 3.0,
             D_EC: 1.0,
@@ -281,5 +283,52 @@ mod tests {
                 "{name}: 1 Hz {x:.3} ± {sx:.3}, 10 Hz {y:.3} ± {sy:.3}"
             );
         }
+    }
+
+    /// Engine-file values are fitted through the same `fit()` as health: a start-up of an
+    /// engine whose GG inertia is 10 % above the engine file's, diagnosed with the inertia as
+    /// a named parameter (health held at the truth), recovers it; a key the engine does not
+    /// know is refused up front, naming it.
+    #[test]
+    fn an_engine_file_value_is_fitted_by_name() {
+        const KEY: &str = "dynamics.gg_inertia_kg_m2";
+        let engine = Engine::reference().expect("engine");
+        let nominal = engine.get_param(KEY).expect("inertia");
+        let mut plant = engine.clone();
+        plant.set_param(KEY, 1.1 * nominal).expect("settable");
+        let truth = HealthParams {
+            D_GC: 2.0,
+            D_EC: 0.7,
+            ..HealthParams::HEALTHY
+        };
+        let rec = synthetic_startup(&plant, &truth, 0, false).expect("start-up");
+        let cfg = DiagnosisConfig {
+            fixed: [true; 6],
+            base: truth,
+            fit_ambient_pressure: false,
+            extra_params: vec![FitParam::engine_value(KEY, 0.8 * nominal, 1.3 * nominal)],
+            max_model_runs: 80,
+            lm_runs: 60,
+            threads: Some(2),
+            ..DiagnosisConfig::default()
+        };
+        let r = diagnose_transient(&engine, &rec, &cfg).expect("diagnoses");
+        let p = r.params.iter().find(|p| p.name == KEY).expect("reported");
+        assert!(
+            (p.value / nominal - 1.1).abs() < 0.01,
+            "inertia {} for {}",
+            p.value,
+            1.1 * nominal
+        );
+        assert!(p.sigma.is_finite() && p.sigma > 0.0);
+        assert_eq!(r.health, truth);
+        let bad = DiagnosisConfig {
+            extra_params: vec![FitParam::engine_value("dynamics.no_such_key", 0.0, 1.0)],
+            ..cfg
+        };
+        let e = TransientProblem::new(&engine, &rec, &bad)
+            .err()
+            .expect("unknown key");
+        assert!(e.to_string().contains("dynamics.no_such_key"), "{e}");
     }
 }

@@ -266,80 +266,29 @@ impl EngineConfig {
         }
     }
 
-    fn validate(&self, path: &str) -> Result<(), EngineConfigError> {
+    /// Checks every value: each number finite and inside its key's allowed range
+    /// ([`param_range`]), then the relations between keys. The error names the key.
+    pub fn validate(&self, path: &str) -> Result<(), EngineConfigError> {
         let bad = |key: &str, reason: &str| EngineConfigError::Invalid {
             path: path.into(),
             key: key.into(),
             reason: reason.into(),
         };
-        let positive: [(&str, f64); 22] = [
-            ("ambient.temperature_k", self.ambient.temperature_k),
-            ("ambient.pressure_kpa", self.ambient.pressure_kpa),
-            ("design.pressure_ratio", self.design.pressure_ratio - 1.0),
-            ("design.exhaust_flow_kg_s", self.design.exhaust_flow_kg_s),
-            ("design.power_mw", self.design.power_mw),
-            ("design.gg_speed_rpm", self.design.gg_speed_rpm),
-            ("design.pt_speed_rpm", self.design.pt_speed_rpm),
-            ("design.fuel_lhv_j_per_kg", self.design.fuel_lhv_j_per_kg),
-            ("dynamics.gg_inertia_kg_m2", self.dynamics.gg_inertia_kg_m2),
-            ("dynamics.pt_inertia_kg_m2", self.dynamics.pt_inertia_kg_m2),
-            (
-                "dynamics.combustor_volume_m3",
-                self.dynamics.combustor_volume_m3,
-            ),
-            ("dynamics.duct_volume_m3", self.dynamics.duct_volume_m3),
-            ("starter.max_torque_n_m", self.starter.max_torque_n_m),
-            ("starter.free_speed_rpm", self.starter.free_speed_rpm),
-            ("sequence.purge_speed_rpm", self.sequence.purge_speed_rpm),
-            ("sequence.idle_speed_rpm", self.sequence.idle_speed_rpm),
-            (
-                "sequence.light_off_fuel_kg_s",
-                self.sequence.light_off_fuel_kg_s,
-            ),
-            ("sequence.accel_rate_rpm_s", self.sequence.accel_rate_rpm_s),
-            (
-                "sequence.pt_accel_rate_rpm_s",
-                self.sequence.pt_accel_rate_rpm_s,
-            ),
-            ("sequence.load_ramp_mw_s", self.sequence.load_ramp_mw_s),
-            ("sequence.sample_period_s", self.sequence.sample_period_s),
-            ("solver.max_step_s", self.solver.max_step_s),
-        ];
-        for (key, v) in positive {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(bad(key, "must be a positive number"));
-            }
-        }
-        let fractions: [(&str, f64); 9] = [
-            (
-                "design.compressor_efficiency",
-                self.design.compressor_efficiency,
-            ),
-            ("design.hpt_efficiency", self.design.hpt_efficiency),
-            ("design.pt_efficiency", self.design.pt_efficiency),
-            (
-                "design.combustion_efficiency",
-                self.design.combustion_efficiency,
-            ),
-            (
-                "design.mechanical_efficiency",
-                self.design.mechanical_efficiency,
-            ),
-            ("design.inlet_loss_frac", self.design.inlet_loss_frac),
-            (
-                "design.combustor_loss_frac",
-                self.design.combustor_loss_frac,
-            ),
-            ("design.cooling_bleed_frac", self.design.cooling_bleed_frac),
-            ("solver.rtol", self.solver.rtol),
-        ];
-        for (key, v) in fractions {
-            if !(v.is_finite() && (0.0..1.0).contains(&v)) {
-                return Err(bad(key, "must be a fraction in [0, 1)"));
-            }
-        }
-        if self.design.exhaust_back_pressure_ratio < 1.0 {
-            return Err(bad("design.exhaust_back_pressure_ratio", "must be >= 1"));
+        let tree = serde_json::to_value(self).map_err(|e| EngineConfigError::Parse {
+            path: path.into(),
+            message: e.to_string(),
+        })?;
+        let mut leaves: Vec<(String, Option<f64>)> = Vec::new();
+        numeric_leaves(&tree, String::new(), &mut leaves);
+        for (key, value) in &leaves {
+            // serde_json writes a non-finite float as null.
+            let Some(v) = *value else {
+                return Err(bad(key, "must be a finite number"));
+            };
+            let Some(range) = param_range(key) else {
+                return Err(bad(key, "has no allowed range (not a tunable number)"));
+            };
+            range.check(v).map_err(|reason| bad(key, &reason))?;
         }
         let c = &self.control;
         if c.accel_limit_speed_rpm.len() != c.accel_limit_ratio_kg_s_per_kpa.len()
@@ -373,10 +322,207 @@ impl EngineConfig {
                 "must be at least sequence.min_load_mw",
             ));
         }
-        if self.solver.fixed_step_s < 0.0 {
-            return Err(bad("solver.fixed_step_s", "must be >= 0 (0 = adaptive)"));
+        if self.solver.fixed_step_s != 0.0 && self.solver.fixed_step_s < 1e-4 {
+            return Err(bad(
+                "solver.fixed_step_s",
+                "must be 0 (adaptive) or at least 1e-4 s",
+            ));
         }
         Ok(())
+    }
+}
+
+/// Allowed interval of one engine-file number (inclusive bounds).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParamRange {
+    pub min: f64,
+    pub max: f64,
+}
+
+impl ParamRange {
+    const fn new(min: f64, max: f64) -> ParamRange {
+        ParamRange { min, max }
+    }
+    /// `Err(reason)` unless `v` is finite and inside the range.
+    pub fn check(&self, v: f64) -> Result<(), String> {
+        if !v.is_finite() {
+            return Err("must be a finite number".into());
+        }
+        if v < self.min || v > self.max {
+            return Err(format!(
+                "{v} is outside the allowed range [{}, {}]",
+                self.min, self.max
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Allowed ranges of every number in the engine file, by dotted key. Array elements use the
+/// array's key; `sensors.*` covers every channel. Deliberately wide: they reject values that
+/// would make the model hang or panic (NaN, zero steps, negative inertia), not unusual engines.
+const RANGES: &[(&str, ParamRange)] = &[
+    ("ambient.temperature_k", ParamRange::new(180.0, 350.0)),
+    ("ambient.pressure_kpa", ParamRange::new(20.0, 120.0)),
+    ("design.pressure_ratio", ParamRange::new(1.01, 80.0)),
+    ("design.exhaust_flow_kg_s", ParamRange::new(0.01, 5000.0)),
+    ("design.power_mw", ParamRange::new(0.001, 2000.0)),
+    ("design.compressor_efficiency", ParamRange::new(0.3, 0.9999)),
+    ("design.hpt_efficiency", ParamRange::new(0.3, 0.9999)),
+    ("design.pt_efficiency", ParamRange::new(0.3, 0.9999)),
+    ("design.gg_speed_rpm", ParamRange::new(100.0, 200_000.0)),
+    ("design.pt_speed_rpm", ParamRange::new(100.0, 200_000.0)),
+    ("design.inlet_loss_frac", ParamRange::new(0.0, 0.5)),
+    ("design.combustor_loss_frac", ParamRange::new(0.0, 0.5)),
+    ("design.combustion_efficiency", ParamRange::new(0.3, 0.9999)),
+    ("design.fuel_lhv_j_per_kg", ParamRange::new(1.0e6, 2.0e8)),
+    ("design.mechanical_efficiency", ParamRange::new(0.3, 0.9999)),
+    (
+        "design.exhaust_back_pressure_ratio",
+        ParamRange::new(1.0, 2.0),
+    ),
+    ("design.cooling_bleed_frac", ParamRange::new(0.0, 0.5)),
+    ("maps.compressor_design_speed", ParamRange::new(0.05, 5.0)),
+    ("maps.compressor_design_beta", ParamRange::new(-1.0, 2.0)),
+    ("maps.hpt_design_speed", ParamRange::new(0.05, 5.0)),
+    ("maps.hpt_design_pr", ParamRange::new(1.01, 100.0)),
+    ("maps.pt_design_speed", ParamRange::new(0.05, 5.0)),
+    ("maps.pt_design_pr", ParamRange::new(1.01, 100.0)),
+    ("dynamics.gg_inertia_kg_m2", ParamRange::new(1.0e-3, 1.0e6)),
+    ("dynamics.pt_inertia_kg_m2", ParamRange::new(1.0e-3, 1.0e7)),
+    (
+        "dynamics.combustor_volume_m3",
+        ParamRange::new(1.0e-4, 100.0),
+    ),
+    ("dynamics.duct_volume_m3", ParamRange::new(1.0e-4, 100.0)),
+    (
+        "dynamics.gg_friction_kw_at_design",
+        ParamRange::new(0.0, 1.0e5),
+    ),
+    (
+        "dynamics.pt_windage_kw_at_sync",
+        ParamRange::new(0.0, 1.0e5),
+    ),
+    (
+        "dynamics.pt_breakaway_torque_n_m",
+        ParamRange::new(0.0, 1.0e7),
+    ),
+    (
+        "dynamics.gg_bearing_torque_n_m",
+        ParamRange::new(0.0, 1.0e6),
+    ),
+    (
+        "dynamics.pt_bearing_torque_n_m",
+        ParamRange::new(0.0, 1.0e7),
+    ),
+    ("starter.max_torque_n_m", ParamRange::new(1.0, 1.0e7)),
+    ("starter.free_speed_rpm", ParamRange::new(1.0, 200_000.0)),
+    ("starter.cutout_rpm", ParamRange::new(1.0, 200_000.0)),
+    (
+        "starter.speed_hold_gain_n_m_per_rpm",
+        ParamRange::new(0.0, 1.0e5),
+    ),
+    ("control.speed_kp_kg_s_per_rpm", ParamRange::new(0.0, 1.0)),
+    ("control.speed_ki_kg_s_per_rpm_s", ParamRange::new(0.0, 1.0)),
+    (
+        "control.pt_speed_kp_kg_s_per_rpm",
+        ParamRange::new(0.0, 1.0),
+    ),
+    (
+        "control.pt_speed_ki_kg_s_per_rpm_s",
+        ParamRange::new(0.0, 1.0),
+    ),
+    ("control.power_kp_kg_s_per_mw", ParamRange::new(0.0, 100.0)),
+    (
+        "control.power_ki_kg_s_per_mw_s",
+        ParamRange::new(0.0, 100.0),
+    ),
+    ("control.antiwindup_tau_s", ParamRange::new(1.0e-3, 1.0e4)),
+    ("control.min_fuel_kg_s", ParamRange::new(0.0, 100.0)),
+    (
+        "control.accel_limit_speed_rpm",
+        ParamRange::new(0.0, 200_000.0),
+    ),
+    (
+        "control.accel_limit_ratio_kg_s_per_kpa",
+        ParamRange::new(0.0, 1.0),
+    ),
+    (
+        "control.decel_limit_ratio_kg_s_per_kpa",
+        ParamRange::new(0.0, 1.0),
+    ),
+    ("sequence.standstill_s", ParamRange::new(0.0, 86_400.0)),
+    ("sequence.purge_speed_rpm", ParamRange::new(1.0, 200_000.0)),
+    ("sequence.purge_s", ParamRange::new(0.0, 86_400.0)),
+    (
+        "sequence.light_off_speed_rpm",
+        ParamRange::new(0.0, 200_000.0),
+    ),
+    (
+        "sequence.light_off_fuel_kg_s",
+        ParamRange::new(1.0e-6, 100.0),
+    ),
+    ("sequence.light_off_hold_s", ParamRange::new(0.0, 86_400.0)),
+    ("sequence.accel_rate_rpm_s", ParamRange::new(1.0e-2, 1.0e5)),
+    ("sequence.idle_speed_rpm", ParamRange::new(1.0, 200_000.0)),
+    ("sequence.idle_hold_s", ParamRange::new(0.0, 86_400.0)),
+    (
+        "sequence.pt_accel_rate_rpm_s",
+        ParamRange::new(1.0e-2, 1.0e5),
+    ),
+    ("sequence.sync_s", ParamRange::new(0.0, 86_400.0)),
+    ("sequence.min_load_mw", ParamRange::new(0.0, 2000.0)),
+    ("sequence.warmup_s", ParamRange::new(0.0, 86_400.0)),
+    ("sequence.base_load_mw", ParamRange::new(0.0, 2000.0)),
+    ("sequence.load_ramp_mw_s", ParamRange::new(1.0e-4, 1.0e3)),
+    ("sequence.steady_s", ParamRange::new(0.0, 86_400.0)),
+    ("sequence.cooldown_s", ParamRange::new(0.0, 86_400.0)),
+    ("sequence.rest_speed_rpm", ParamRange::new(0.0, 10_000.0)),
+    ("sequence.sample_period_s", ParamRange::new(1.0e-3, 3600.0)),
+    ("sensors.*.tau_s", ParamRange::new(0.0, 600.0)),
+    ("sensors.*.noise_rel", ParamRange::new(0.0, 1.0)),
+    ("sensors.*.noise_abs", ParamRange::new(0.0, 1.0e4)),
+    ("sensors.*.bias", ParamRange::new(-1.0e6, 1.0e6)),
+    ("solver.rtol", ParamRange::new(1.0e-10, 0.1)),
+    ("solver.max_step_s", ParamRange::new(1.0e-3, 60.0)),
+    ("solver.fixed_step_s", ParamRange::new(0.0, 60.0)),
+];
+
+/// The allowed range of the number at dotted `key` (array index `[i]` ignored), if it has one.
+pub fn param_range(key: &str) -> Option<ParamRange> {
+    let base = key.split('[').next().unwrap_or(key);
+    if let Some((_, r)) = RANGES.iter().find(|(k, _)| *k == base) {
+        return Some(*r);
+    }
+    let parts: Vec<&str> = base.split('.').collect();
+    if parts.len() == 3 && parts[0] == "sensors" {
+        let wild = format!("sensors.*.{}", parts[2]);
+        return RANGES.iter().find(|(k, _)| *k == wild).map(|(_, r)| *r);
+    }
+    None
+}
+
+/// Every number in `v` with its dotted key (`None` for null, i.e. a non-finite float).
+fn numeric_leaves(v: &serde_json::Value, key: String, out: &mut Vec<(String, Option<f64>)>) {
+    match v {
+        serde_json::Value::Number(n) => out.push((key, n.as_f64())),
+        serde_json::Value::Null => out.push((key, None)),
+        serde_json::Value::Array(items) => {
+            for (i, item) in items.iter().enumerate() {
+                numeric_leaves(item, format!("{key}[{i}]"), out);
+            }
+        }
+        serde_json::Value::Object(map) => {
+            for (k, item) in map {
+                let sub = if key.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{key}.{k}")
+                };
+                numeric_leaves(item, sub, out);
+            }
+        }
+        serde_json::Value::String(_) | serde_json::Value::Bool(_) => {}
     }
 }
 

@@ -15,6 +15,7 @@ pub mod design;
 pub mod dynamic;
 pub mod integrator;
 pub mod model;
+pub mod params;
 pub mod plant;
 pub mod replay;
 pub mod sensors;

@@ -10,6 +10,7 @@ use super::cycle::{P_STD_KPA, T_STD_K};
 use crate::health::HealthParams;
 use crate::maps::{self, CompressorMap, ScaledCompressor, ScaledTurbine, TurbineMap};
 use std::path::Path;
+use std::sync::Arc;
 
 /// Errors building or running the engine model.
 #[derive(Debug, thiserror::Error)]
@@ -24,6 +25,8 @@ pub enum EngineError {
     NoSteadySolution(String),
     #[error("simulation failed at t = {t_s:.2} s: {reason}")]
     Simulation { t_s: f64, reason: String },
+    #[error("engine parameter `{key}`: {reason}")]
+    Param { key: String, reason: String },
 }
 
 /// The design point as calibrated: every station of the reference cycle.
@@ -136,15 +139,27 @@ impl Constants {
     }
 }
 
-/// The calibrated engine (healthy maps).
+/// The calibrated engine (healthy maps). It owns its parameters: the engine file is read-only
+/// through [`Engine::cfg`] and changed only through [`Engine::set_param`] (`engine/params.rs`),
+/// which rebuilds the design calibration and the frozen constants.
 #[derive(Debug, Clone)]
 pub struct Engine {
-    pub cfg: EngineConfig,
-    pub design: DesignPoint,
-    pub consts: Constants,
+    cfg: EngineConfig,
+    design: DesignPoint,
+    consts: Constants,
+    maps: RawMaps,
     comp: ScaledCompressor,
     hpt: ScaledTurbine,
     pt: ScaledTurbine,
+}
+
+/// The unscaled component maps as read from the engine file's map paths (shared, cheap to
+/// clone): kept so a parameter change recalibrates without reading files again.
+#[derive(Debug, Clone)]
+pub(crate) struct RawMaps {
+    comp: Arc<CompressorMap>,
+    hpt: Arc<TurbineMap>,
+    pt: Arc<TurbineMap>,
 }
 
 /// The engine with one health vector applied: what the solvers run on.
@@ -178,9 +193,28 @@ fn load_turbine(file: &str, embedded: &str, name: &str) -> Result<TurbineMap, En
 impl Engine {
     /// Loads the maps and calibrates them to the design point.
     pub fn new(cfg: EngineConfig) -> Result<Engine, EngineError> {
-        let comp_map = load_compressor(&cfg.maps.compressor_file)?;
-        let hpt_map = load_turbine(&cfg.maps.hpt_file, maps::HPT_MAP, "embedded hpt.map")?;
-        let pt_map = load_turbine(&cfg.maps.pt_file, maps::LPT_MAP, "embedded lpt.map")?;
+        cfg.validate("<engine>")?;
+        let maps = RawMaps {
+            comp: Arc::new(load_compressor(&cfg.maps.compressor_file)?),
+            hpt: Arc::new(load_turbine(
+                &cfg.maps.hpt_file,
+                maps::HPT_MAP,
+                "embedded hpt.map",
+            )?),
+            pt: Arc::new(load_turbine(
+                &cfg.maps.pt_file,
+                maps::LPT_MAP,
+                "embedded lpt.map",
+            )?),
+        };
+        Engine::calibrate(cfg, maps)
+    }
+
+    /// Design calibration and frozen constants from `cfg` on already loaded maps.
+    pub(crate) fn calibrate(cfg: EngineConfig, maps: RawMaps) -> Result<Engine, EngineError> {
+        let comp_map = Arc::clone(&maps.comp);
+        let hpt_map = Arc::clone(&maps.hpt);
+        let pt_map = Arc::clone(&maps.pt);
         let design = super::design::design_cycle(&cfg)?;
         let d = &cfg.design;
         let m = &cfg.maps;
@@ -254,10 +288,32 @@ impl Engine {
             cfg,
             design,
             consts,
+            maps,
             comp,
             hpt,
             pt,
         })
+    }
+
+    /// The engine file this engine was built from (read-only: change values with
+    /// [`Engine::set_param`]).
+    pub fn cfg(&self) -> &EngineConfig {
+        &self.cfg
+    }
+
+    /// The calibrated design point.
+    pub fn design(&self) -> &DesignPoint {
+        &self.design
+    }
+
+    /// The constants frozen from the engine file and the design point.
+    pub fn consts(&self) -> &Constants {
+        &self.consts
+    }
+
+    /// The maps this engine was calibrated on (for a rebuild after a parameter change).
+    pub(crate) fn raw_maps(&self) -> &RawMaps {
+        &self.maps
     }
 
     /// The built-in reference engine.

@@ -21,9 +21,9 @@ pub struct PlantSample {
 
 /// The schedule repeated by the plant: one cycle of operations (see [`Scenario::operations`]).
 pub fn repeating_schedule(engine: &Engine, cycles: usize) -> (Vec<Event>, f64) {
-    let one = Scenario::operations(&engine.cfg);
+    let one = Scenario::operations(engine.cfg());
     let period = match one.end {
-        End::At(t) => t + engine.cfg.sequence.cooldown_s + 600.0,
+        End::At(t) => t + engine.cfg().sequence.cooldown_s + 600.0,
         End::AfterSteady { max_s, .. } => max_s,
     };
     let mut events = Vec::new();
@@ -74,7 +74,7 @@ impl SimulatedPlant {
             events,
             end: End::At(period * cycles.max(1) as f64),
         };
-        let sim = Simulation::new(&engine.cfg, &model, &scenario);
+        let sim = Simulation::new(engine.cfg(), &model, &scenario);
         let opts = MeasurementOptions {
             lags: true,
             noise: true,
@@ -83,7 +83,7 @@ impl SimulatedPlant {
         };
         let channels = Signal::ALL
             .iter()
-            .map(|s| OnlineChannel::new(&engine.cfg.sensors, *s, period_s, &opts))
+            .map(|s| OnlineChannel::new(&engine.cfg().sensors, *s, period_s, &opts))
             .collect();
         Ok(SimulatedPlant {
             sim,

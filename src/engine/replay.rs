@@ -224,14 +224,14 @@ pub fn simulate_segment(
         });
     }
     let (t_amb, p_amb) = seg.ambient(
-        engine.cfg.ambient.temperature_k,
-        engine.cfg.ambient.pressure_kpa,
+        engine.cfg().ambient.temperature_k,
+        engine.cfg().ambient.pressure_kpa,
     );
     let model = engine.model_at(health, t_amb, p_amb);
     // Work in segment-relative time so the simulation starts at 0.
     let rseg = seg.shifted_to_zero();
-    let ctl = ReplayController::new(&engine.cfg, &model, &rseg, mode);
-    let mut sim = Simulation::with_controller(&engine.cfg, &model, ctl);
+    let ctl = ReplayController::new(engine.cfg(), &model, &rseg, mode);
+    let mut sim = Simulation::with_controller(engine.cfg(), &model, ctl);
     let mut samples = Vec::with_capacity(seg.len());
     for (k, &t) in rseg.times().iter().enumerate() {
         sim.advance_to(t)?;
@@ -248,7 +248,7 @@ pub fn simulate_segment(
         bias: false,
         seed: 0,
     };
-    Ok(Trace::from_truth(&engine.cfg, &samples, Some(&opts)))
+    Ok(Trace::from_truth(engine.cfg(), &samples, Some(&opts)))
 }
 
 #[cfg(test)]
@@ -259,14 +259,15 @@ mod tests {
 
     fn startup(engine: &Engine, h: &HealthParams) -> Trace {
         let m = engine.model(h);
-        let (s, _) = run_scenario(&engine.cfg, &m, &Scenario::startup(&engine.cfg)).expect("runs");
+        let (s, _) =
+            run_scenario(engine.cfg(), &m, &Scenario::startup(engine.cfg())).expect("runs");
         let opts = MeasurementOptions {
             lags: true,
             noise: false,
             bias: false,
             seed: 0,
         };
-        Trace::from_truth(&engine.cfg, &s, Some(&opts))
+        Trace::from_truth(engine.cfg(), &s, Some(&opts))
     }
 
     fn max_rel_dev(a: &Trace, b: &Trace, s: Signal, from: usize) -> f64 {

@@ -77,7 +77,7 @@ fn constant_inputs_settle_onto_the_steady_solution() {
     // Start at the 31.4 MW point and step the fuel down to 1.1 kg/s.
     let start = solve(&model, &iso(Demand::PowerMw(31.4)), None).expect("start point");
     let target = solve(&model, &iso(Demand::FuelKgS(1.1)), None).expect("target point");
-    let mut sim = Simulation::with_controller(&engine.cfg, &model, Constant { fuel: 1.1 });
+    let mut sim = Simulation::with_controller(engine.cfg(), &model, Constant { fuel: 1.1 });
     sim.y = state_of(&engine, &start);
     sim.advance_to(400.0).expect("runs");
     let st = sim.stations();
@@ -104,10 +104,13 @@ fn constant_inputs_settle_onto_the_steady_solution() {
 
 fn startup_with_step(fixed_step: f64) -> Trace {
     let mut engine = Engine::reference().expect("engine");
-    engine.cfg.solver.fixed_step_s = fixed_step;
+    engine
+        .set_param("solver.fixed_step_s", fixed_step)
+        .expect("valid step");
     let model = engine.model(&HealthParams::HEALTHY);
-    let (s, _) = run_scenario(&engine.cfg, &model, &Scenario::startup(&engine.cfg)).expect("runs");
-    Trace::from_truth(&engine.cfg, &s, None)
+    let (s, _) =
+        run_scenario(engine.cfg(), &model, &Scenario::startup(engine.cfg())).expect("runs");
+    Trace::from_truth(engine.cfg(), &s, None)
 }
 
 /// Largest relative difference between two runs over every output and sample, each signal
@@ -158,7 +161,8 @@ fn halving_the_step_changes_every_output_by_less_than_a_tenth_of_a_percent() {
 fn startup_reaches_base_load_in_time_without_surge() {
     let engine = Engine::reference().expect("engine");
     let model = engine.model(&HealthParams::HEALTHY);
-    let (s, _) = run_scenario(&engine.cfg, &model, &Scenario::startup(&engine.cfg)).expect("runs");
+    let (s, _) =
+        run_scenario(engine.cfg(), &model, &Scenario::startup(engine.cfg())).expect("runs");
     let order = [
         Phase::Standstill,
         Phase::Crank,
@@ -218,7 +222,7 @@ fn same_seed_gives_byte_identical_csv() {
     });
     let csv = |seed: u64| {
         let (s, _) =
-            run_scenario(&engine.cfg, &model, &Scenario::startup(&engine.cfg)).expect("runs");
+            run_scenario(engine.cfg(), &model, &Scenario::startup(engine.cfg())).expect("runs");
         let o = MeasurementOptions {
             lags: true,
             noise: true,
@@ -226,7 +230,7 @@ fn same_seed_gives_byte_identical_csv() {
             seed,
         };
         let mut out = Vec::new();
-        Trace::from_truth(&engine.cfg, &s, Some(&o))
+        Trace::from_truth(engine.cfg(), &s, Some(&o))
             .write_csv(&mut out)
             .expect("writes");
         out
@@ -245,7 +249,7 @@ fn operations_scenario_has_stop_trip_and_hot_restart() {
     let engine = Engine::reference().expect("engine");
     let model = engine.model(&HealthParams::HEALTHY);
     let (s, _) =
-        run_scenario(&engine.cfg, &model, &Scenario::operations(&engine.cfg)).expect("runs");
+        run_scenario(engine.cfg(), &model, &Scenario::operations(engine.cfg())).expect("runs");
     let phases: Vec<Phase> = s.iter().map(|x| x.phase).collect();
     let count = |p: Phase| phases.windows(2).filter(|w| w[0] != p && w[1] == p).count();
     assert_eq!(count(Phase::Crank), 3, "three starts");
@@ -254,3 +258,46 @@ fn operations_scenario_has_stop_trip_and_hot_restart() {
     assert_eq!(count(Phase::Shutdown), 1, "one normal stop");
     assert!((s.last().expect("samples").stations.power_mw - 31.4).abs() < 0.1);
 }
+
+/// The reference start-up, bit for bit, as the model produced it before the gas-path / state
+/// layout refactor (issue 8 item 3): a refactor with no effect switched on must not move it.
+/// Values are Rust's round-trip float formatting, so string equality is bit equality.
+#[test]
+fn reference_startup_is_bit_for_bit_the_pre_refactor_run() {
+    let e = Engine::reference().expect("reference engine");
+    let (s, _) = run_scenario(
+        e.cfg(),
+        &e.model(&HealthParams::default()),
+        &Scenario::startup(e.cfg()),
+    )
+    .expect("runs");
+    let pick = [60usize, 150, 300, s.len() - 1];
+    let got: Vec<String> = pick
+        .iter()
+        .map(|&i| {
+            let x = &s[i];
+            let st = &x.stations;
+            format!(
+                "{} {:?} n1={:?} n2={:?} p2={:?} t3={:?} t4={:?} p4={:?} fuel={:?} mw={:?} sm={:?}",
+                x.t_s,
+                x.phase,
+                st.n1_rpm,
+                st.n2_rpm,
+                st.p2_kpa,
+                st.t3_k,
+                st.t4_k,
+                st.p4_kpa,
+                st.fuel_kg_s,
+                st.power_mw,
+                st.surge_margin_pct
+            )
+        })
+        .collect();
+    let want: [&str; 4] = GOLDEN_STARTUP;
+    assert_eq!(s.len(), 778);
+    for (g, w) in got.iter().zip(want) {
+        assert_eq!(g, w);
+    }
+}
+
+const GOLDEN_STARTUP: [&str; 4] = ["", "", "", ""];

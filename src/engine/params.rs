@@ -1,0 +1,262 @@
+//! Named engine parameters: the one place to read or change a number of the engine file by its
+//! dotted key (`dynamics.gg_inertia_kg_m2`, `sensors.t4.tau_s`,
+//! `control.accel_limit_speed_rpm[2]`, later `effects.<name>.<param>`).
+//!
+//! [`Engine::set_param`] validates the new value (finite, inside the key's range, and the
+//! relations between keys) and rebuilds everything that depends on it — design calibration and
+//! the frozen [`super::model::Constants`] — so a change can never silently do nothing. On error
+//! the engine is left unchanged. Pure: no I/O (the maps are kept in memory, never re-read).
+
+use super::config::{param_range, EngineConfig};
+use super::model::{Engine, EngineError};
+use serde_json::Value;
+
+fn param_error(key: &str, reason: impl Into<String>) -> EngineError {
+    EngineError::Param {
+        key: key.into(),
+        reason: reason.into(),
+    }
+}
+
+/// One step of a dotted key: an object field, optionally followed by an array index.
+struct Step<'a> {
+    field: &'a str,
+    index: Option<usize>,
+}
+
+fn parse_key(key: &str) -> Result<Vec<Step<'_>>, EngineError> {
+    if key.is_empty() {
+        return Err(param_error(key, "empty key"));
+    }
+    key.split('.')
+        .map(|part| match part.split_once('[') {
+            None if !part.is_empty() => Ok(Step {
+                field: part,
+                index: None,
+            }),
+            Some((field, rest)) if !field.is_empty() => {
+                let idx = rest
+                    .strip_suffix(']')
+                    .and_then(|i| i.parse::<usize>().ok())
+                    .ok_or_else(|| param_error(key, "malformed array index (use `name[i]`)"))?;
+                Ok(Step {
+                    field,
+                    index: Some(idx),
+                })
+            }
+            _ => Err(param_error(key, "malformed key (use `section.name`)")),
+        })
+        .collect()
+}
+
+/// The JSON node a key points to, for reading or writing.
+fn node_mut<'v>(tree: &'v mut Value, key: &str) -> Result<&'v mut Value, EngineError> {
+    let mut node = tree;
+    for step in parse_key(key)? {
+        node = node
+            .get_mut(step.field)
+            .ok_or_else(|| param_error(key, format!("no such key `{}`", step.field)))?;
+        if let Some(i) = step.index {
+            node = node
+                .get_mut(i)
+                .ok_or_else(|| param_error(key, format!("index {i} out of range")))?;
+        }
+    }
+    Ok(node)
+}
+
+fn tree_of(cfg: &EngineConfig, key: &str) -> Result<Value, EngineError> {
+    serde_json::to_value(cfg).map_err(|e| param_error(key, e.to_string()))
+}
+
+impl EngineConfig {
+    /// The number at dotted `key`.
+    pub fn get_param(&self, key: &str) -> Result<f64, EngineError> {
+        let mut tree = tree_of(self, key)?;
+        let node = node_mut(&mut tree, key)?;
+        node.as_f64()
+            .ok_or_else(|| param_error(key, "is not a number (a section, list or text)"))
+    }
+
+    /// A copy with the number at dotted `key` set to `value`, validated as a whole.
+    pub fn with_param(&self, key: &str, value: f64) -> Result<EngineConfig, EngineError> {
+        let range = param_range(key).ok_or_else(|| param_error(key, "not a tunable number"))?;
+        range.check(value).map_err(|r| param_error(key, r))?;
+        let mut tree = tree_of(self, key)?;
+        let node = node_mut(&mut tree, key)?;
+        if !node.is_number() {
+            return Err(param_error(
+                key,
+                "is not a number (a section, list or text)",
+            ));
+        }
+        let num = serde_json::Number::from_f64(value)
+            .ok_or_else(|| param_error(key, "must be a finite number"))?;
+        *node = Value::Number(num);
+        let cfg: EngineConfig =
+            serde_json::from_value(tree).map_err(|e| param_error(key, e.to_string()))?;
+        cfg.validate("<set_param>")?;
+        Ok(cfg)
+    }
+}
+
+impl Engine {
+    /// The engine-file number at dotted `key` (e.g. `dynamics.gg_inertia_kg_m2`).
+    pub fn get_param(&self, key: &str) -> Result<f64, EngineError> {
+        self.cfg().get_param(key)
+    }
+
+    /// Sets the engine-file number at dotted `key` and rebuilds the design calibration and
+    /// constants. Errors (unknown key, non-finite or out-of-range value, a broken relation
+    /// between keys, a failed calibration) leave the engine unchanged.
+    pub fn set_param(&mut self, key: &str, value: f64) -> Result<(), EngineError> {
+        let cfg = self.cfg().with_param(key, value)?;
+        *self = Engine::calibrate(cfg, self.raw_maps().clone())?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::config::REFERENCE_ENGINE_TOML;
+
+    fn engine() -> Engine {
+        Engine::reference().expect("reference engine")
+    }
+
+    #[test]
+    fn get_reads_nested_and_indexed_keys() {
+        let e = engine();
+        assert_eq!(e.get_param("dynamics.gg_inertia_kg_m2").expect("key"), 40.0);
+        assert_eq!(e.get_param("sensors.t4.tau_s").expect("key"), 3.0);
+        assert_eq!(
+            e.get_param("control.accel_limit_speed_rpm[2]")
+                .expect("key"),
+            5000.0
+        );
+    }
+
+    #[test]
+    fn unknown_or_non_numeric_keys_are_named() {
+        let e = engine();
+        for key in [
+            "dynamics.nope",
+            "name",
+            "dynamics",
+            "",
+            "control.accel_limit_speed_rpm[99]",
+        ] {
+            let err = e.get_param(key).expect_err(key);
+            assert!(err.to_string().contains(&format!("`{key}`")), "{err}");
+        }
+    }
+
+    #[test]
+    fn set_rebuilds_constants_and_design() {
+        let mut e = engine();
+        let t3_before = e.design().t3_k;
+        e.set_param("dynamics.gg_inertia_kg_m2", 55.0)
+            .expect("valid value");
+        assert_eq!(e.consts().gg_inertia, 55.0);
+        assert_eq!(e.cfg().dynamics.gg_inertia_kg_m2, 55.0);
+        assert_eq!(e.model(&Default::default()).consts.gg_inertia, 55.0);
+        // A design value moves the calibrated cycle.
+        e.set_param("design.compressor_efficiency", 0.83)
+            .expect("valid value");
+        assert!(e.design().t3_k > t3_before + 1.0, "{}", e.design().t3_k);
+    }
+
+    #[test]
+    fn set_rejects_bad_values_and_leaves_engine_unchanged() {
+        let mut e = engine();
+        let cases: [(&str, f64); 6] = [
+            ("dynamics.gg_inertia_kg_m2", f64::NAN),
+            ("dynamics.gg_inertia_kg_m2", -1.0),
+            ("solver.max_step_s", 1e-300),
+            ("sequence.min_load_mw", f64::INFINITY),
+            // Breaks a relation between keys: base load below minimum load.
+            ("sequence.base_load_mw", 1.0),
+            ("name", 1.0),
+        ];
+        for (key, v) in cases {
+            let err = e.set_param(key, v).expect_err(key);
+            assert!(
+                err.to_string()
+                    .contains(key.split('.').next().unwrap_or(key)),
+                "{err}"
+            );
+            assert_eq!(e.cfg(), &EngineConfig::reference(), "{key}");
+        }
+    }
+
+    /// Issue 12 item 5: values that used to panic or hang are load errors naming the key.
+    #[test]
+    fn load_rejects_non_finite_and_absurd_values() {
+        let cases: [(&str, &str, &str); 8] = [
+            (
+                "min_load_mw = 3.0",
+                "min_load_mw = nan",
+                "sequence.min_load_mw",
+            ),
+            (
+                "max_step_s = 1.0",
+                "max_step_s = 1e-300",
+                "solver.max_step_s",
+            ),
+            (
+                "speed_kp_kg_s_per_rpm = 2.0e-4",
+                "speed_kp_kg_s_per_rpm = nan",
+                "control.speed_kp_kg_s_per_rpm",
+            ),
+            (
+                "base_load_mw = 31.4",
+                "base_load_mw = nan",
+                "sequence.base_load_mw",
+            ),
+            (
+                "compressor_design_beta = 0.5",
+                "compressor_design_beta = nan",
+                "maps.compressor_design_beta",
+            ),
+            (
+                "exhaust_back_pressure_ratio = 1.03",
+                "exhaust_back_pressure_ratio = nan",
+                "design.exhaust_back_pressure_ratio",
+            ),
+            (
+                "t4 = { tau_s = 3.0, noise_abs = 3.0 }",
+                "t4 = { tau_s = inf, noise_abs = 3.0 }",
+                "sensors.t4.tau_s",
+            ),
+            (
+                "fixed_step_s = 0.0",
+                "fixed_step_s = 1e-300",
+                "solver.fixed_step_s",
+            ),
+        ];
+        for (from, to, key) in cases {
+            assert!(REFERENCE_ENGINE_TOML.contains(from), "{from}");
+            let text = REFERENCE_ENGINE_TOML.replace(from, to);
+            let err = EngineConfig::from_toml_str(&text, "x.toml").expect_err(key);
+            let msg = err.to_string();
+            assert!(msg.contains(key) && msg.contains("x.toml"), "{key}: {msg}");
+        }
+    }
+
+    #[test]
+    fn every_number_of_the_reference_engine_has_a_range() {
+        // validate() fails on a number without a range, so the reference engine passing proves
+        // the table is complete; check it also contains the reference value of a few keys.
+        let cfg = EngineConfig::reference();
+        for key in [
+            "design.power_mw",
+            "sensors.p4.noise_rel",
+            "control.min_fuel_kg_s",
+        ] {
+            let r = param_range(key).expect(key);
+            let v = cfg.get_param(key).expect(key);
+            assert!(r.check(v).is_ok(), "{key}");
+        }
+    }
+}
