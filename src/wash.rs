@@ -139,7 +139,7 @@ const SENS_STEP: f64 = 1.0;
 
 /// Computes the [`Sensitivity`] of `engine` at its base-load fuel flow on its reference day.
 pub fn sensitivity(engine: &Engine) -> Result<Sensitivity, crate::engine::EngineError> {
-    let cfg = &engine.cfg;
+    let cfg = engine.cfg();
     let inputs = |demand| SteadyInputs {
         t_amb_k: cfg.ambient.temperature_k,
         p_amb_kpa: cfg.ambient.pressure_kpa,

@@ -30,14 +30,14 @@ fn replay_cfg() -> ReplayConfig {
 fn trace(scenario: fn(&gtwatch::engine::EngineConfig) -> Scenario, seed: u64) -> Trace {
     let engine = Engine::reference().expect("engine");
     let model = engine.model(&HealthParams::HEALTHY);
-    let (samples, _) = run_scenario(&engine.cfg, &model, &scenario(&engine.cfg)).expect("runs");
+    let (samples, _) = run_scenario(engine.cfg(), &model, &scenario(engine.cfg())).expect("runs");
     let o = MeasurementOptions {
         lags: true,
         noise: true,
         bias: false,
         seed,
     };
-    Trace::from_truth(&engine.cfg, &samples, Some(&o))
+    Trace::from_truth(engine.cfg(), &samples, Some(&o))
 }
 
 /// Rows `[from, to)` of a trace as CSV, times shifted by `shift_s`.

@@ -31,14 +31,14 @@ fn replayed_daily_startups_each_get_a_method_b_result_near_truth() {
     for day in 0..days {
         let model = engine.model(&truth(day));
         let (samples, _) =
-            run_scenario(&engine.cfg, &model, &Scenario::startup(&engine.cfg)).expect("runs");
+            run_scenario(engine.cfg(), &model, &Scenario::startup(engine.cfg())).expect("runs");
         let o = MeasurementOptions {
             lags: true,
             noise: true,
             bias: false,
             seed: 40 + day as u64,
         };
-        let mut t = Trace::from_truth(&engine.cfg, &samples, Some(&o));
+        let mut t = Trace::from_truth(engine.cfg(), &samples, Some(&o));
         let shift = 1.7e9 + 86_400.0 * day as f64;
         t.t_s.iter_mut().for_each(|x| *x += shift);
         match &mut all {

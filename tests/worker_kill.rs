@@ -24,9 +24,9 @@ fn store_startup(db: &Path) {
         D_EP: 0.4,
     };
     let (samples, _) = run_scenario(
-        &engine.cfg,
+        engine.cfg(),
         &engine.model(&h),
-        &Scenario::startup(&engine.cfg),
+        &Scenario::startup(engine.cfg()),
     )
     .expect("runs");
     let o = MeasurementOptions {
@@ -35,7 +35,7 @@ fn store_startup(db: &Path) {
         bias: false,
         seed: 3,
     };
-    let t = Trace::from_truth(&engine.cfg, &samples, Some(&o));
+    let t = Trace::from_truth(engine.cfg(), &samples, Some(&o));
     let mut store = Store::open(db).expect("open");
     let ids: Vec<i64> = Signal::ALL
         .iter()

@@ -192,9 +192,9 @@ fn prefill_startups(
         D_EP: 0.3,
     };
     let (samples, _) = crate::engine::sequence::run_scenario(
-        &engine.cfg,
+        engine.cfg(),
         &engine.model(&h),
-        &Scenario::startup(&engine.cfg),
+        &Scenario::startup(engine.cfg()),
     )?;
     let mut store = Store::open_with(path, opts)?;
     let ids = Signal::ALL
@@ -208,7 +208,7 @@ fn prefill_startups(
             bias: false,
             seed: 100 + day as u64,
         };
-        let t = Trace::from_truth(&engine.cfg, &samples, Some(&o));
+        let t = Trace::from_truth(engine.cfg(), &samples, Some(&o));
         let mut batch = Vec::new();
         for k in 0..t.len() {
             let t_ms =

@@ -23,14 +23,14 @@ fn stored_startup(dir: &std::path::Path) -> Store {
     let engine = Engine::reference().expect("engine");
     let model = engine.model(&truth());
     let (samples, _) =
-        run_scenario(&engine.cfg, &model, &Scenario::startup(&engine.cfg)).expect("runs");
+        run_scenario(engine.cfg(), &model, &Scenario::startup(engine.cfg())).expect("runs");
     let o = MeasurementOptions {
         lags: true,
         noise: true,
         bias: false,
         seed: 5,
     };
-    let t = Trace::from_truth(&engine.cfg, &samples, Some(&o));
+    let t = Trace::from_truth(engine.cfg(), &samples, Some(&o));
     let mut store = Store::open(&dir.join("w.db")).expect("open");
     let ids: Vec<i64> = Signal::ALL
         .iter()
