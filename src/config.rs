@@ -255,6 +255,11 @@ mod tests {
             DiagnosisSettings::default(),
             "[diagnosis]"
         );
+        assert_eq!(
+            shipped.wash,
+            crate::wash::WashEconomics::default(),
+            "[wash]"
+        );
         assert!(shipped.check().is_empty(), "{:?}", shipped.check());
         // Every key of those sections is written out in the file (none left to a hidden default).
         let table: toml::Table = toml::from_str(text).expect("toml");
@@ -263,6 +268,7 @@ mod tests {
             ("acquisition", 7),
             ("daemon", 2),
             ("diagnosis", 7),
+            ("wash", 7),
         ] {
             let t = table
                 .get(section)
