@@ -50,6 +50,8 @@ pub struct AdviceReport {
     pub advised_ms: Option<i64>,
     /// Unix ms the trend is evaluated at (the newest result's start).
     pub as_of_ms: Option<i64>,
+    /// Unix ms of day 0 of the trends: the last wash, else the first result since.
+    pub origin_ms: Option<i64>,
 }
 
 fn value(r: &HistoryRow, p: &str) -> f64 {
@@ -174,6 +176,7 @@ pub fn refresh(
         advice,
         advised_ms,
         as_of_ms,
+        origin_ms,
     })
 }
 

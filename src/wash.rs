@@ -320,11 +320,11 @@ pub fn advise(trend: &FoulingTrend, sens: &Sensitivity, econ: &WashEconomics) ->
                 format!("in {:.0} days", d - trend.age_days)
             };
             let sigma = advised_sigma_days
-                .map(|s| format!(" (± {s:.0} days from the fouling rate's uncertainty)"))
+                .map(|s| format!(" (± {s:.1} days from the fouling rate's uncertainty)"))
                 .unwrap_or_default();
             format!(
                 "The compressor fouls at D_GC {:+.3} ± {:.3} and D_EC {:+.3} ± {:.3} percent points per \
-                 day; {:.0} days after the last wash it costs {:.2} MW ({:.2} % heat rate), {:.0} per \
+                 day; {:.1} days into the trend (since the last wash, or the first result) it costs {:.2} MW ({:.2} % heat rate), {:.0} per \
                  operating hour. One offline wash costs {:.0} including the lost margin. \
                  Decided by the {} rule: wash {:.0} days after the last wash, {when}{sigma}.",
                 trend.d_gc_rate,

@@ -146,7 +146,7 @@ pub fn run(a: WashArgs) -> anyhow::Result<ExitCode> {
                             Some(f) => {
                                 let age = r
                                     .as_of_ms
-                                    .zip(r.last_wash_ms.or(r.as_of_ms))
+                                    .zip(r.origin_ms)
                                     .map_or(f.t_ref_days, |(n, o)| (n - o) as f64 / 86_400_000.0);
                                 println!(
                                     "{:<6} {:>12.4} {:>12.4} {:>10.2}",
