@@ -105,7 +105,19 @@ pub enum HealthParseError {
     UnknownName(String),
     #[error("value of {name} is not a number: '{value}'")]
     NotANumber { name: String, value: String },
+    #[error("{name} = {value} % is not a plausible degradation (allowed {lo} … {hi} %)")]
+    OutOfRange {
+        name: String,
+        value: f64,
+        lo: f64,
+        hi: f64,
+    },
 }
+
+/// Plausible range of a health parameter given on the command line or in a file, percent: far
+/// wider than the diagnosis's search bounds (−3 … +10), yet excluding values no engine can have
+/// (a map scaled by 1 − D/100 with D = −50 or +60 runs a start-up into nonsense).
+pub const PLAUSIBLE_RANGE: (f64, f64) = (-10.0, 30.0);
 
 impl FromStr for HealthParams {
     type Err = HealthParseError;
@@ -128,6 +140,15 @@ impl FromStr for HealthParams {
                     name: name.into(),
                     value: value.trim().into(),
                 })?;
+            let (lo, hi) = PLAUSIBLE_RANGE;
+            if !(lo..=hi).contains(&a[idx]) {
+                return Err(HealthParseError::OutOfRange {
+                    name: HEALTH_NAMES[idx].into(),
+                    value: a[idx],
+                    lo,
+                    hi,
+                });
+            }
         }
         Ok(Self::from_array(a))
     }
@@ -136,6 +157,18 @@ impl FromStr for HealthParams {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn implausible_health_is_refused_with_its_name() {
+        // Issue 12 #8: `simulate --health D_GC=-50` ran an hour in crank and exited 0.
+        for s in ["D_GC=-50", "d_ec=60", "D_GT=nan", "D_EP=inf"] {
+            let e = s.parse::<HealthParams>().unwrap_err();
+            assert!(matches!(e, HealthParseError::OutOfRange { .. }), "{s}: {e}");
+        }
+        let e = "D_GC=-50".parse::<HealthParams>().unwrap_err().to_string();
+        assert!(e.contains("D_GC = -50"), "{e}");
+        assert!("D_GC=-10,D_EC=30".parse::<HealthParams>().is_ok());
+    }
 
     #[test]
     fn parse_and_display() {

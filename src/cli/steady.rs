@@ -32,10 +32,33 @@ pub struct SteadyArgs {
     pub json: bool,
 }
 
+/// Highest GG speed a steady demand may ask for, as a fraction of design speed (overspeed trip
+/// settings are typically 105–110 %).
+const MAX_SPEED_FRACTION: f64 = 1.1;
+/// Highest power demand, as a fraction of design power (cold-day output can exceed ISO rating).
+const MAX_POWER_FRACTION: f64 = 1.5;
+
 pub fn run(a: SteadyArgs) -> anyhow::Result<ExitCode> {
     let engine = a.engine.engine()?;
     let health = a.engine.health()?;
     let cfg = engine.cfg();
+    // Issue 12 #8: a demand outside what the engine can run (e.g. 210 % GG speed) gave a
+    // "solution" from the extrapolated maps; refuse it instead.
+    let max_n1 = MAX_SPEED_FRACTION * cfg.design.gg_speed_rpm;
+    let max_mw = MAX_POWER_FRACTION * cfg.design.power_mw;
+    for (flag, v, lo, hi) in [
+        ("--n1-rpm", a.n1_rpm, 0.0, max_n1),
+        ("--power-mw", a.power_mw, 0.0, max_mw),
+        ("--fuel-kg-s", a.fuel_kg_s, 0.0, f64::MAX),
+    ] {
+        if let Some(v) = v {
+            if !v.is_finite() || v <= lo || v > hi {
+                anyhow::bail!(
+                    "{flag} {v} is outside what the engine can run ({lo} < value ≤ {hi:.1})"
+                );
+            }
+        }
+    }
     let demand = match (a.power_mw, a.fuel_kg_s, a.n1_rpm) {
         (Some(p), _, _) => Demand::PowerMw(p),
         (_, Some(f), _) => Demand::FuelKgS(f),
