@@ -18,6 +18,7 @@ pub mod health;
 pub mod ingest;
 pub mod maps;
 pub mod optim;
+pub mod permissions;
 pub mod plantsim;
 pub mod plot;
 pub mod query;

@@ -28,7 +28,30 @@ pub fn report(file: &std::path::Path) -> (bool, String) {
         }
         return (false, out);
     }
+    let findings = crate::permissions::check_daemon_paths(
+        file,
+        cfg.plant.engine_model.as_deref(),
+        &cfg.storage.path,
+        crate::permissions::current_uid(),
+    );
+    let refused: Vec<_> = findings
+        .iter()
+        .filter(|f| f.severity == crate::permissions::Severity::Refuse)
+        .collect();
+    if !refused.is_empty() {
+        let mut out = format!(
+            "{shown}: {} permission problem(s); `gtwatch run` refuses to start\n",
+            refused.len()
+        );
+        for f in refused {
+            out.push_str(&format!("  {f}\n"));
+        }
+        return (false, out);
+    }
     let mut out = format!("{shown}: OK — plant '{}'\n", cfg.plant.name);
+    for f in &findings {
+        out.push_str(&format!("  warning: {f}\n"));
+    }
     out.push_str(&format!("  storage: {}\n", cfg.storage.path.display()));
     match &cfg.modbus {
         Some(m) => {

@@ -30,8 +30,35 @@ async fn termination_signal() -> std::io::Result<()> {
     Ok(())
 }
 
+/// Refuses paths other users could write (see `crate::permissions`); warns on group-writable.
+fn refuse_unsafe_permissions(config: &std::path::Path, cfg: &Config) -> anyhow::Result<()> {
+    use crate::permissions::{check_daemon_paths, current_uid, Severity};
+    let findings = check_daemon_paths(
+        config,
+        cfg.plant.engine_model.as_deref(),
+        &cfg.storage.path,
+        current_uid(),
+    );
+    let mut refused = Vec::new();
+    for f in findings {
+        match f.severity {
+            Severity::Warning => tracing::warn!("{f}"),
+            Severity::Refuse => refused.push(f.to_string()),
+        }
+    }
+    if refused.is_empty() {
+        Ok(())
+    } else {
+        anyhow::bail!(
+            "refusing to start: {} (the daemon trusts these paths; another user able to write them could redirect acquisition or rewrite the history)",
+            refused.join("; ")
+        )
+    }
+}
+
 pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let cfg = Config::load_checked(&args.config)?;
+    refuse_unsafe_permissions(&args.config, &cfg)?;
     let worker = if cfg.diagnosis.enabled {
         Some(std::sync::Arc::new(WorkerContext::load(
             cfg.plant.engine_model.as_deref(),
