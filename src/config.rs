@@ -198,6 +198,19 @@ impl Config {
                         }
                     }
                 }
+                if let Some(t) = &self.acquisition.timestamp_field {
+                    match m.fields().find(|(_, f)| &f.name == t) {
+                        None => p.push(ConfigProblem::new(
+                            "acquisition.timestamp_field",
+                            format!("'{t}' is not a field of the register map"),
+                        )),
+                        Some((_, f)) if f.signal.is_some() => p.push(ConfigProblem::new(
+                            "acquisition.timestamp_field",
+                            format!("'{t}' feeds an engine signal; the clock needs its own field"),
+                        )),
+                        Some(_) => {}
+                    }
+                }
             }
             (None, SourceKind::Modbus) => p.push(ConfigProblem::new(
                 "modbus",

@@ -52,7 +52,7 @@ tests/data/config_bad_sections.toml: 6 problem(s)
   plant.name: must not be empty
   storage.batch_size: must be at least 1
   detector.light_off_speed_rpm: must be below purge_speed_rpm
-  acquisition.poll_period_ms: 5 ms is outside 10 ms … 1 h
+  acquisition.poll_period_ms: 0 ms is outside 1 ms … 1 h
   acquisition.backoff_max_ms: cap 100 ms is below backoff_initial_ms 1000 ms
   daemon.detect_interval_ms: must be at least 100 ms
 ";

@@ -55,6 +55,13 @@ pub struct AcquisitionConfig {
     /// Wall-clock jump that re-anchors the sample clock, ms (see `acquire::clock`).
     #[serde(default = "d_rejump")]
     pub clock_jump_threshold_ms: u64,
+    /// Name of a register-map field that carries the plant's own clock (Unix epoch ms, e.g.
+    /// `plant_time_ms` served by `gtwatch plant-sim`). Set: every poll's samples are stamped
+    /// with that value instead of the local clock, so a plant simulated faster than real time
+    /// keeps its real durations; a poll whose clock value is invalid is a failed poll (a gap),
+    /// and one whose clock did not advance is not stored. Absent (default): local clock.
+    #[serde(default)]
+    pub timestamp_field: Option<String>,
 }
 
 /// Where live samples come from.
@@ -95,6 +102,7 @@ impl Default for AcquisitionConfig {
             backoff_initial_ms: d_backoff0(),
             backoff_max_ms: d_backoff_max(),
             clock_jump_threshold_ms: d_rejump(),
+            timestamp_field: None,
         }
     }
 }
@@ -103,10 +111,10 @@ impl AcquisitionConfig {
     pub fn validate(&self) -> Vec<ConfigProblem> {
         let mut p = Vec::new();
         let k = |s: &str| format!("acquisition.{s}");
-        if !(10..=3_600_000).contains(&self.poll_period_ms) {
+        if !(1..=3_600_000).contains(&self.poll_period_ms) {
             p.push(ConfigProblem::new(
                 k("poll_period_ms"),
-                format!("{} ms is outside 10 ms … 1 h", self.poll_period_ms),
+                format!("{} ms is outside 1 ms … 1 h", self.poll_period_ms),
             ));
         }
         for (name, v) in [
@@ -342,6 +350,8 @@ pub struct PollProgress {
     pub connects: AtomicU64,
     /// Loop iterations completed (a poll, a recorded failure or a backoff wait): liveness.
     pub cycles: AtomicU64,
+    /// Polls not stored because the plant clock (`timestamp_field`) had not advanced.
+    pub clock_stalls: AtomicU64,
 }
 
 /// Final tallies when the loop ends.
@@ -415,6 +425,21 @@ fn quality(status: ReadingStatus) -> Quality {
     }
 }
 
+/// The plant clock of one poll: the value of `tag` among the decoded samples, as epoch ms.
+fn plant_clock(batch: &[Sample], tag: TagId) -> Result<i64, String> {
+    let Some(s) = batch.iter().find(|s| s.tag == tag) else {
+        return Err("plant clock field missing from the poll".into());
+    };
+    // Between 1970 and 2262 (i64 nanoseconds elsewhere); anything else is not a clock.
+    if s.quality != Quality::Good || !(s.value.is_finite() && (0.0..9.2e15).contains(&s.value)) {
+        return Err(format!(
+            "plant clock field holds an invalid time ({} ms)",
+            s.value
+        ));
+    }
+    Ok(s.value.round() as i64)
+}
+
 /// Decodes one request's registers into samples (pure; flagged values keep their quality).
 pub fn decode_request(req: &PlannedRequest, words: &[u16], t_ms: i64, out: &mut Vec<Sample>) {
     for (tag, f) in &req.fields {
@@ -473,6 +498,15 @@ pub async fn poll_loop(
     let mut outage: Option<Outage> = None;
     let mut last_good_ms: Option<i64> = None;
     let mut batch: Vec<Sample> = Vec::with_capacity(plan.tag_count());
+    // The tag whose value is the plant clock, when samples are stamped in plant time.
+    let time_tag: Option<TagId> = cfg.timestamp_field.as_deref().and_then(|name| {
+        plan.requests
+            .iter()
+            .flat_map(|r| r.fields.iter())
+            .find(|(_, f)| f.name == name)
+            .map(|(tag, _)| *tag)
+    });
+    let mut last_plant_ms: Option<i64> = None;
 
     let fail = |outage: &mut Option<Outage>,
                 last_good: Option<i64>,
@@ -588,19 +622,39 @@ pub async fn poll_loop(
         if shutdown.is_triggered() && error.is_some() {
             break;
         }
+        let mut stamp_ms = stamp.t_ms;
+        if let (Some(tag), None) = (time_tag, &error) {
+            match plant_clock(&batch, tag) {
+                Ok(t) if last_plant_ms.is_some_and(|last| t <= last) => {
+                    // The plant has not produced a new frame since the last poll: storing it
+                    // again would duplicate (or reorder) samples.
+                    progress.clock_stalls.fetch_add(1, Ordering::Relaxed);
+                    progress.polls_ok.fetch_add(1, Ordering::Relaxed);
+                    continue;
+                }
+                Ok(t) => {
+                    for s in batch.iter_mut() {
+                        s.t_ms = t;
+                    }
+                    stamp_ms = t;
+                    last_plant_ms = Some(t);
+                }
+                Err(why) => error = Some(why),
+            }
+        }
         // Whatever was decoded before a failure is a valid reading at this instant: keep it.
         let n = batch.len() as u64;
         let flagged = batch.iter().filter(|s| s.quality != Quality::Good).count() as u64;
         if let Some(reason) = error {
             // Drop the connection: a late reply must never be matched to the next request.
             client = None;
-            fail(&mut outage, last_good_ms, stamp.t_ms, reason, &progress);
+            fail(&mut outage, last_good_ms, stamp_ms, reason, &progress);
             retry_at = Some(Instant::now() + backoff.next_delay());
         } else {
             if let Some(o) = outage.take() {
                 let gap = Gap {
                     start_ms: o.start_ms,
-                    end_ms: stamp.t_ms,
+                    end_ms: stamp_ms,
                     source: GAP_SOURCE.to_string(),
                     reason: gap_reason(&o),
                 };
@@ -616,7 +670,7 @@ pub async fn poll_loop(
             }
             backoff.reset();
             retry_at = None;
-            last_good_ms = Some(stamp.t_ms);
+            last_good_ms = Some(stamp_ms);
             progress.polls_ok.fetch_add(1, Ordering::Relaxed);
         }
         if n > 0 {

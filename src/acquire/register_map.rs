@@ -43,6 +43,12 @@ pub const REQUIRED_SIGNALS: [Signal; 6] = [
 /// Name of the extra field through which the plant simulator publishes its true phase code.
 pub const PHASE_TRUTH_FIELD: &str = "phase_truth";
 
+/// Name of the extra field through which the plant simulator publishes its own clock (Unix epoch
+/// milliseconds of the frame; use type `f64`, which holds every such millisecond exactly). A
+/// daemon with `acquisition.timestamp_field` naming it stamps samples in plant time, which a
+/// simulated plant running faster than real time needs (see `acquire::modbus::poll_loop`).
+pub const PLANT_TIME_FIELD: &str = "plant_time_ms";
+
 /// Which Modbus table a request reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
