@@ -11,6 +11,7 @@ pub mod cli;
 pub mod config;
 pub mod config_problem;
 pub mod daemon;
+pub mod demo;
 pub mod detect;
 pub mod diagnosis;
 pub mod engine;

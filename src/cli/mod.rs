@@ -12,6 +12,7 @@ mod bench_sim;
 mod bench_wash;
 mod check_config;
 mod common;
+mod demo;
 mod diagnose;
 mod diagnose_stored;
 pub(crate) mod engine_args;
@@ -38,6 +39,9 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// The whole product on a built-in simulated plant: fouling, daily start-ups, diagnosis,
+    /// trend and wash advice, in a couple of minutes.
+    Demo(demo::DemoArgs),
     /// Simulate a start-up on the engine model and write it as CSV (and SVG).
     Simulate(simulate::SimulateArgs),
     /// Solve one steady operating point and print the station table.
@@ -69,8 +73,15 @@ pub enum Command {
 pub fn main() -> ExitCode {
     quiet_on_closed_stdout();
     let cli = Cli::parse();
-    init_logging();
+    // The demo's own progress lines are the story; the daemon inside it logs warnings only
+    // (RUST_LOG still overrides).
+    init_logging(if matches!(cli.command, Command::Demo(_)) {
+        "warn"
+    } else {
+        "info"
+    });
     let result = match cli.command {
+        Command::Demo(a) => demo::run(a),
         Command::Simulate(a) => simulate::run(a),
         Command::Steady(a) => steady::run(a),
         Command::Diagnose(a) => diagnose::run(&a),
@@ -149,10 +160,10 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
 /// Logs to stderr; `RUST_LOG` overrides the default `info` level. When stderr is not a
 /// terminal (systemd/journald, pipes) lines are plain: no colours and no timestamps, because
 /// journald stamps every line itself.
-pub fn init_logging() {
+pub fn init_logging(default_level: &str) {
     use std::io::IsTerminal;
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default_level));
     let builder = tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr);

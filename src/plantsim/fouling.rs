@@ -15,6 +15,8 @@ use crate::engine::trace::{values_of, Values, NSIG};
 use crate::engine::{Engine, EngineError};
 use crate::health::HealthParams;
 use crate::signals::{Phase, Signal};
+use std::sync::atomic::{AtomicI64, Ordering};
+use std::sync::Arc;
 
 /// Seconds in a plant day.
 pub const DAY_S: f64 = 86_400.0;
@@ -40,17 +42,19 @@ pub struct FoulingSchedule {
 }
 
 impl FoulingSchedule {
-    /// The demo's schedule over `days` days: D_GC from 0.2 rising 0.25 points a day, D_EC a
-    /// third of it, slight HP-turbine wear, and an offline wash before the middle day.
+    /// The demo's schedule over `days` days: D_GC from 0.2 rising 0.25 points a day (faster in
+    /// a short demo, so about 1.25 points have built up before the wash), D_EC a third of it,
+    /// slight HP-turbine wear, and an offline wash before the middle day.
     pub fn demo(days: usize) -> FoulingSchedule {
+        let wash_day = (days >= 3).then_some(days / 2);
         FoulingSchedule {
             days,
             initial_gc: 0.2,
-            gc_per_day: 0.25,
+            gc_per_day: wash_day.map_or(0.25, |w| (1.25 / w as f64).max(0.25)),
             ec_ratio: 1.0 / 3.0,
             gt_per_day: 0.03,
             et_per_day: 0.02,
-            wash_day: (days >= 3).then_some(days / 2),
+            wash_day,
             wash_recovery: 0.9,
         }
     }
@@ -124,6 +128,8 @@ pub struct FoulingPlant {
     idle_truth: Values,
     idle_channels: Vec<OnlineChannel>,
     failed: bool,
+    /// Plant time of the last frame, Unix ms, for whoever watches progress.
+    clock: Arc<AtomicI64>,
 }
 
 impl FoulingPlant {
@@ -150,6 +156,7 @@ impl FoulingPlant {
             idle_truth: [0.0; NSIG],
             idle_channels,
             failed: false,
+            clock: Arc::new(AtomicI64::new(epoch_ms)),
         };
         plant.running = Some(plant.start_day(0)?);
         if let Some(d) = &plant.running {
@@ -160,6 +167,11 @@ impl FoulingPlant {
 
     pub fn schedule(&self) -> &FoulingSchedule {
         &self.schedule
+    }
+
+    /// The plant clock (Unix ms of the last frame produced), shared for progress displays.
+    pub fn clock(&self) -> Arc<AtomicI64> {
+        Arc::clone(&self.clock)
     }
 
     pub fn times(&self) -> DayTimes {
@@ -227,6 +239,25 @@ fn channels(engine: &Engine, period_s: f64, seed: u64) -> Vec<OnlineChannel> {
 
 impl PlantModel for FoulingPlant {
     fn step(&mut self) -> PlantFrame {
+        let f = self.next_frame();
+        self.clock.store(
+            self.epoch_ms + (f.t_s * 1000.0).round() as i64,
+            Ordering::Relaxed,
+        );
+        f
+    }
+
+    fn period_s(&self) -> f64 {
+        self.period_s
+    }
+
+    fn epoch_ms(&self) -> Option<i64> {
+        Some(self.epoch_ms)
+    }
+}
+
+impl FoulingPlant {
+    fn next_frame(&mut self) -> PlantFrame {
         let day_start = self.day as f64 * DAY_S;
         if let Some(day) = self.running.as_mut().filter(|_| !self.failed) {
             day.k += 1;
@@ -263,7 +294,7 @@ impl PlantModel for FoulingPlant {
             match self.start_day(self.day) {
                 Ok(d) => {
                     self.running = Some(d);
-                    return self.step();
+                    return self.next_frame();
                 }
                 Err(e) => {
                     tracing::error!(day = self.day, "fouling plant cannot start the day: {e}");
@@ -276,14 +307,6 @@ impl PlantModel for FoulingPlant {
             .max(self.t_s + self.period_s);
         let t = self.t_s;
         self.idle_frame(t)
-    }
-
-    fn period_s(&self) -> f64 {
-        self.period_s
-    }
-
-    fn epoch_ms(&self) -> Option<i64> {
-        Some(self.epoch_ms)
     }
 }
 

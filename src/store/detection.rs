@@ -276,7 +276,12 @@ impl super::Store {
         scanned_to: i64,
         last_fuel_off_ms: Option<i64>,
     ) -> Result<u64, StoreError> {
-        let tx = self.conn.transaction()?;
+        // IMMEDIATE: the write lock up front, waiting up to the busy timeout. A deferred
+        // transaction that reads first fails at once (SQLITE_BUSY) when another connection
+        // wrote meanwhile: the detector saw "database is locked" beside a busy writer.
+        let tx = self
+            .conn
+            .transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)?;
         let mut kept: Vec<i64> = Vec::new();
         for rec in records {
             if let Some(id) = upsert_segment(&tx, rec)? {

@@ -240,7 +240,12 @@ impl Store {
         failures: &[Undiagnosable],
         config_hash: &str,
     ) -> Result<Vec<i64>, StoreError> {
-        let tx = self.conn.transaction()?;
+        // IMMEDIATE: the write lock up front, waiting up to the busy timeout. A deferred
+        // transaction that reads first fails at once (SQLITE_BUSY) when another connection
+        // wrote meanwhile: the detector saw "database is locked" beside a busy writer.
+        let tx = self
+            .conn
+            .transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)?;
         let mut ids = Vec::new();
         for d in results {
             let s = d.sigma.map(|v| v.is_finite().then_some(v));
