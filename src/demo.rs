@@ -135,6 +135,8 @@ pub struct DemoReport {
     pub wall_s: f64,
     /// False if the timeout ended the run before every day was diagnosed.
     pub complete: bool,
+    /// The HTML report written at the end.
+    pub report_path: PathBuf,
 }
 
 /// A wash as stored, with the day it falls before.
@@ -305,6 +307,7 @@ pub async fn run_demo(
     }
 
     let engine = Engine::reference()?;
+    let plant_name = cfg.plant.name.clone();
     let schedule = FoulingSchedule::demo(opts.days);
     let plant = FoulingPlant::new(&engine, schedule.clone(), opts.seed, opts.epoch_ms)?;
     let clock = plant.clock();
@@ -417,6 +420,14 @@ pub async fn run_demo(
                 .map(|d| d.day),
         })
         .collect();
+    let report = crate::report::write_report(
+        &store,
+        &engine,
+        crate::report::header_now(&plant_name, &db_path),
+        &opts.out_dir,
+        None,
+        None,
+    )?;
     let advice = store
         .latest_recommendation()?
         .map(|r: RecommendationRow| DemoAdvice {
@@ -434,6 +445,7 @@ pub async fn run_demo(
         poll: run_report.poll,
         wall_s: started.elapsed().as_secs_f64(),
         complete,
+        report_path: report.path,
     })
 }
 

@@ -24,6 +24,7 @@ pub mod plantsim;
 pub mod plot;
 pub mod query;
 pub mod recording;
+pub mod report;
 pub mod shutdown;
 pub mod signals;
 pub mod store;

@@ -54,6 +54,30 @@ async fn demo_diagnoses_every_day_detects_the_wash_and_advises_reproducibly() {
     assert_eq!(detected.len(), 1, "{:#?}", report.washes);
     assert_eq!(detected[0].before_day, Some(2), "{:#?}", report.washes);
 
+    // The report: one page, nothing fetched from anywhere, with the trend, the wash and the advice.
+    let html = std::fs::read_to_string(&report.report_path).unwrap();
+    for bad in [
+        "http:", "https:", "src=", "href=", "@import", "url(", "<script", "<img", "<link",
+    ] {
+        assert!(
+            !html.contains(bad),
+            "report has an external reference: '{bad}'"
+        );
+    }
+    for title in [
+        "D_GC compressor flow capacity",
+        "D_EP power-turbine efficiency",
+        "wash (detected)",
+        "Latest diagnosed start-up",
+        "residual, RMS",
+    ] {
+        assert!(html.contains(title), "report lacks '{title}'");
+    }
+    assert!(
+        html.matches("<svg").count() >= 6 + 2 * 8,
+        "six parameter charts and 8 trace/residual pairs"
+    );
+
     // Recompute the advice from what is stored, independently of `advice::refresh`.
     let cfg = Config::load(&report.config_path).unwrap();
     let store = Store::open_readonly(&report.db_path).unwrap();

@@ -625,12 +625,22 @@ pub async fn poll_loop(
         let mut stamp_ms = stamp.t_ms;
         if let (Some(tag), None) = (time_tag, &error) {
             match plant_clock(&batch, tag) {
-                Ok(t) if last_plant_ms.is_some_and(|last| t <= last) => {
+                Ok(t) if last_plant_ms == Some(t) => {
                     // The plant has not produced a new frame since the last poll: storing it
-                    // again would duplicate (or reorder) samples.
+                    // again would duplicate samples.
                     progress.clock_stalls.fetch_add(1, Ordering::Relaxed);
                     progress.polls_ok.fetch_add(1, Ordering::Relaxed);
                     continue;
+                }
+                Ok(t) if last_plant_ms.is_some_and(|last| t < last) => {
+                    // A plant clock that steps back (a restarted simulator, a PLC clock set
+                    // back) would interleave new readings with stored ones: an outage until
+                    // it passes the last stored time, recorded as a gap.
+                    error = Some(format!(
+                        "plant clock went backwards from {} to {}",
+                        crate::ingest::fmt_ms(last_plant_ms.unwrap_or(t)),
+                        crate::ingest::fmt_ms(t)
+                    ));
                 }
                 Ok(t) => {
                     for s in batch.iter_mut() {
@@ -641,6 +651,12 @@ pub async fn poll_loop(
                 }
                 Err(why) => error = Some(why),
             }
+        }
+        if time_tag.is_some() && error.is_some() {
+            // In plant time, a reading without a valid plant clock has no true time stamp:
+            // never store it under the local clock's.
+            batch.clear();
+            stamp_ms = last_plant_ms.unwrap_or(stamp_ms);
         }
         // Whatever was decoded before a failure is a valid reading at this instant: keep it.
         let n = batch.len() as u64;
@@ -653,7 +669,9 @@ pub async fn poll_loop(
         } else {
             if let Some(o) = outage.take() {
                 let gap = Gap {
-                    start_ms: o.start_ms,
+                    // An outage before the first good poll started on the local clock; in
+                    // plant time its start is unknown, so the gap is marked where it ended.
+                    start_ms: o.start_ms.min(stamp_ms),
                     end_ms: stamp_ms,
                     source: GAP_SOURCE.to_string(),
                     reason: gap_reason(&o),
@@ -685,9 +703,16 @@ pub async fn poll_loop(
     }
     // An outage still open at shutdown is recorded up to now, so the data shows it.
     if let Some(o) = outage.take() {
+        // In plant time "now" is unknown once the plant stopped answering: the gap is marked
+        // from the last good reading.
+        let end_ms = if time_tag.is_some() {
+            o.start_ms
+        } else {
+            clock.now().t_ms
+        };
         let gap = Gap {
-            start_ms: o.start_ms,
-            end_ms: clock.now().t_ms,
+            start_ms: o.start_ms.min(end_ms),
+            end_ms,
             source: GAP_SOURCE.to_string(),
             reason: format!("{} (still down at shutdown)", gap_reason(&o)),
         };

@@ -157,12 +157,13 @@ fn render(r: &DemoReport) -> String {
         None => s.push_str("  none stored\n"),
     }
     s.push_str(&format!(
-        "\n{} in {:.0} s ({} polls, {} failed). Database: {}\nTry: gtwatch history --config {}\n     gtwatch wash advise --config {}\n",
+        "\n{} in {:.0} s ({} polls, {} failed). Database: {}\nReport: {}\nTry: gtwatch history --config {}\n     gtwatch wash advise --config {}\n",
         if r.complete { "Done" } else { "Stopped before every day was diagnosed" },
         r.wall_s,
         r.poll.polls_ok,
         r.poll.failures,
         r.db_path.display(),
+        r.report_path.display(),
         r.config_path.display(),
         r.config_path.display(),
     ));

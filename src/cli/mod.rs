@@ -20,6 +20,7 @@ mod export;
 mod history;
 mod plant_sim;
 mod replay;
+mod report;
 mod run;
 mod segments;
 mod simulate;
@@ -56,6 +57,8 @@ pub enum Command {
     History(history::HistoryArgs),
     /// Record washes and advise the next offline wash from the degradation trend.
     Wash(wash::WashArgs),
+    /// Write one self-contained HTML report: health trend, washes, latest start-up, gaps, advice.
+    Report(report::ReportArgs),
     /// Write stored samples as CSV.
     Export(export::ExportArgs),
     /// Run the monitoring daemon (Modbus acquisition, storage, start-up detection).
@@ -89,6 +92,7 @@ pub fn main() -> ExitCode {
         Command::Segments(a) => segments::run(a),
         Command::History(a) => history::run(a),
         Command::Wash(a) => wash::run(a),
+        Command::Report(a) => report::run(a),
         Command::Export(a) => export::run(a),
         Command::Run(a) => run::run(a),
         Command::CheckConfig(a) => check_config::run(a),

@@ -70,7 +70,7 @@ pub struct Sample {
 }
 
 /// A period without data (Modbus outage, hole in a replayed log).
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
 pub struct Gap {
     pub start_ms: i64,
     pub end_ms: i64,
