@@ -12,6 +12,8 @@ pub enum BenchCmd {
     Diagnosis(super::bench_diagnosis::BenchDiagnosisArgs),
     /// The paper's Table 3 (before/after a compressor wash) on synthetic truth.
     Wash(super::bench_wash::BenchWashArgs),
+    /// A month of 1 Hz plant data replayed: ingest, detection and diagnosis times, accuracy.
+    Month(super::bench_month::BenchMonthArgs),
     /// Daemon CPU (live polling of a simulated plant) or memory after a simulated day (--day).
     Daemon(super::bench_daemon::BenchDaemonArgs),
 }
@@ -23,5 +25,6 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
         BenchCmd::Diagnosis(a) => super::bench_diagnosis::run(&a),
         BenchCmd::Wash(a) => super::bench_wash::run(&a),
         BenchCmd::Daemon(a) => super::bench_daemon::run(a),
+        BenchCmd::Month(a) => super::bench_month::run(a),
     }
 }

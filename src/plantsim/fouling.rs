@@ -169,6 +169,14 @@ impl FoulingPlant {
         &self.schedule
     }
 
+    /// Samples the idle hours every `step_s` (default 120 s; 1 s gives a plain 1 Hz log).
+    pub fn with_idle_step(mut self, step_s: f64) -> FoulingPlant {
+        if step_s.is_finite() && step_s >= self.period_s {
+            self.idle_step_s = step_s;
+        }
+        self
+    }
+
     /// The plant clock (Unix ms of the last frame produced), shared for progress displays.
     pub fn clock(&self) -> Arc<AtomicI64> {
         Arc::clone(&self.clock)
