@@ -104,7 +104,9 @@ fn replay_survives_kill_9_and_rerun_completes_exactly() {
     let store = Store::open_readonly(&db).expect("open after rerun");
     assert_eq!(store.integrity_check().expect("check"), "ok");
     assert_eq!(store.sample_count().expect("count"), total);
-    let conn = store.conn();
+    let conn =
+        rusqlite::Connection::open_with_flags(&db, rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY)
+            .expect("open");
     let dups: i64 = conn
         .query_row(
             "SELECT COUNT(*) FROM (SELECT tag_id, t_ms FROM samples GROUP BY tag_id, t_ms HAVING COUNT(*) > 1)",

@@ -591,7 +591,9 @@ pub fn fit<P: DiagnosisProblem>(
     }
     let mut x = global.x.clone();
     problem.set_least_squares(true);
-    if lm_budget >= 2 {
+    // After a cancel (daemon shutdown) the refinement and the uncertainty (up to a few hundred
+    // model runs more) are skipped: the caller discards a cancelled fit anyway.
+    if lm_budget >= 2 && !cancel.is_cancelled() {
         let opts = LmOptions::default()
             .with_jacobian(unit_step_jacobian(cfg)?)?
             .with_max_evals(lm_budget)?
@@ -604,12 +606,16 @@ pub fn fit<P: DiagnosisProblem>(
             Err(e) => return Err(e.into()),
         }
     }
-    let sigma = match uncertainty(&*problem, &x, &unit_step_jacobian(cfg)?, pool) {
-        Ok(u) => u.sigma,
-        Err(OptimError::NonFiniteResiduals) | Err(OptimError::TooFewResiduals { .. }) => {
-            vec![f64::INFINITY; n]
+    let sigma = if cancel.is_cancelled() {
+        vec![f64::INFINITY; n]
+    } else {
+        match uncertainty(&*problem, &x, &unit_step_jacobian(cfg)?, pool) {
+            Ok(u) => u.sigma,
+            Err(OptimError::NonFiniteResiduals) | Err(OptimError::TooFewResiduals { .. }) => {
+                vec![f64::INFINITY; n]
+            }
+            Err(e) => return Err(e.into()),
         }
-        Err(e) => return Err(e.into()),
     };
     problem.set_least_squares(false);
     Ok(FitOutcome {

@@ -294,6 +294,20 @@ pub fn now_ms() -> i64 {
     (now.unix_timestamp_nanos() / 1_000_000) as i64
 }
 
+/// Read-only access to a store: opened `SQLITE_OPEN_READ_ONLY` by [`Store::open_readonly`],
+/// it never migrates or writes, and as a type it offers only the store's `&self` methods (the
+/// queries): every write takes `&mut Store`, which a `ReadStore` cannot lend. Readers (`history`,
+/// `segments`, `export`, `report`, the demo's monitor) use it beside a running daemon.
+#[derive(Debug)]
+pub struct ReadStore(Store);
+
+impl std::ops::Deref for ReadStore {
+    type Target = Store;
+    fn deref(&self) -> &Store {
+        &self.0
+    }
+}
+
 impl Store {
     /// Opens (creating if needed) a writable store with default options.
     pub fn open(path: &Path) -> Result<Store, StoreError> {
@@ -357,7 +371,7 @@ impl Store {
 
     /// Opens an existing store read-only (for `segments`, `export`, … while the daemon runs).
     /// Fails if the file does not exist or has no schema; never writes.
-    pub fn open_readonly(path: &Path) -> Result<Store, StoreError> {
+    pub fn open_readonly(path: &Path) -> Result<ReadStore, StoreError> {
         let open_err = |source| StoreError::Open {
             path: path.to_path_buf(),
             source,
@@ -370,11 +384,11 @@ impl Store {
         conn.busy_timeout(Duration::from_millis(5000))
             .map_err(open_err)?;
         schema::check_readonly(&conn, path)?;
-        Ok(Store {
+        Ok(ReadStore(Store {
             conn,
             path: path.to_path_buf(),
             read_only: true,
-        })
+        }))
     }
 
     pub fn path(&self) -> &Path {
@@ -385,13 +399,14 @@ impl Store {
         self.read_only
     }
 
-    /// The underlying connection, for the detector, queries and the diagnosis tables.
-    pub fn conn(&self) -> &Connection {
+    /// The underlying connection: only for SQL inside this crate (the store's modules,
+    /// `query`); never handed to callers outside it.
+    pub(crate) fn conn(&self) -> &Connection {
         &self.conn
     }
 
-    /// Mutable connection access (transactions).
-    pub fn conn_mut(&mut self) -> &mut Connection {
+    /// Mutable connection access (transactions), inside the crate only.
+    pub(crate) fn conn_mut(&mut self) -> &mut Connection {
         &mut self.conn
     }
 

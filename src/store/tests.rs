@@ -184,3 +184,44 @@ async fn writer_flushes_on_interval() {
     let stats = h.await.expect("join").expect("writer");
     assert_eq!(stats.transactions, 1);
 }
+
+#[test]
+fn read_store_never_creates_a_file_and_reads_beside_an_open_write_transaction() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let p = dir.path().join("r.db");
+    assert!(Store::open_readonly(&p).is_err(), "no database to read");
+    assert!(!p.exists(), "a reader created the file");
+    let mut w = Store::open(&p).expect("open");
+    let tag = w
+        .ensure_tag(&TagInfo {
+            name: "n1_rpm".into(),
+            unit: "rpm".into(),
+            signal: None,
+        })
+        .expect("tag");
+    let s = |t_ms| Sample {
+        tag,
+        t_ms,
+        value: 1.0,
+        quality: Quality::Good,
+    };
+    w.insert_samples(&[s(1), s(2)]).expect("insert");
+    // The writer now holds the write lock with uncommitted rows.
+    let tx = w
+        .conn_mut()
+        .transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)
+        .expect("begin");
+    tx.execute(
+        "INSERT INTO samples (tag_id, t_ms, value, quality) VALUES (?1, 3, 1.0, 0)",
+        [tag],
+    )
+    .expect("uncommitted insert");
+    let r = Store::open_readonly(&p).expect("reader opens while the writer holds the lock");
+    assert_eq!(
+        r.sample_count().expect("count"),
+        2,
+        "sees committed rows only"
+    );
+    tx.commit().expect("commit");
+    assert_eq!(r.sample_count().expect("count"), 3);
+}
