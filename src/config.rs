@@ -25,6 +25,9 @@ pub struct Config {
     pub storage: StorageConfig,
     #[serde(default)]
     pub replay: ReplayConfig,
+    /// `[quality]`: the bad-value policy (ranges, stuck, spikes, diagnosis threshold).
+    #[serde(default)]
+    pub quality: crate::quality::QualityConfig,
     #[serde(default)]
     pub detector: DetectorConfig,
     #[serde(default)]
@@ -172,6 +175,7 @@ impl Config {
         }
         p.extend(self.storage.validate());
         p.extend(self.replay.validate());
+        p.extend(self.quality.validate());
         p.extend(self.detector.validate());
         p.extend(self.acquisition.validate());
         p.extend(self.diagnosis.validate());

@@ -20,6 +20,7 @@ pub mod maps;
 pub mod optim;
 pub mod plantsim;
 pub mod plot;
+pub mod quality;
 pub mod query;
 pub mod recording;
 pub mod shutdown;
