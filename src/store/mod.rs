@@ -274,6 +274,9 @@ impl StorageConfig {
         WriterConfig {
             batch_size: self.batch_size.max(1),
             flush_interval: Duration::from_millis(self.flush_interval_ms.max(1)),
+            max_buffered: 0,
+            retry_initial: Duration::from_millis(250),
+            close_retry: Duration::from_secs(5),
         }
     }
 
