@@ -90,9 +90,6 @@ pub struct QualityConfig {
     /// "The engine moves": n1 changed by more than this (rpm) since the freeze began.
     /// Default 500.
     pub stuck_reference_rpm: f64,
-    /// A diagnosis needs at least this fraction of good samples for each required signal
-    /// over the segment; below it the segment is stored undiagnosable. Default 0.9.
-    pub min_good_fraction: f64,
     /// Tag (or replay column / signal) name → limit overrides, e.g.
     /// `[quality.limits.power_mw] hi = 45.0`.
     pub limits: BTreeMap<String, LimitOverride>,
@@ -103,7 +100,6 @@ impl Default for QualityConfig {
         QualityConfig {
             stuck_after_s: 120.0,
             stuck_reference_rpm: 500.0,
-            min_good_fraction: 0.9,
             limits: BTreeMap::new(),
         }
     }
@@ -123,12 +119,6 @@ impl QualityConfig {
             p.push(ConfigProblem::new(
                 "quality.stuck_reference_rpm",
                 "must be a positive number of rpm",
-            ));
-        }
-        if !self.min_good_fraction.is_finite() || !(0.0..=1.0).contains(&self.min_good_fraction) {
-            p.push(ConfigProblem::new(
-                "quality.min_good_fraction",
-                "must be between 0 and 1",
             ));
         }
         for (name, o) in &self.limits {

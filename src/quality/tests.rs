@@ -46,12 +46,12 @@ fn overrides_apply_and_are_validated() {
             max_rate_per_s: Some(f64::NAN),
         },
     );
-    cfg.min_good_fraction = 2.0;
+    cfg.stuck_after_s = -1.0;
     let keys: Vec<String> = cfg.validate().iter().map(|p| p.to_string()).collect();
     let all = keys.join("\n");
     assert!(all.contains("quality.limits.vib.hi"), "{all}");
     assert!(all.contains("quality.limits.vib.max_rate_per_s"), "{all}");
-    assert!(all.contains("quality.min_good_fraction"), "{all}");
+    assert!(all.contains("quality.stuck_after_s"), "{all}");
 }
 
 #[test]

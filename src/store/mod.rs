@@ -20,7 +20,8 @@ mod writer;
 
 pub use detection::ResumeState;
 pub use diagnoses::{
-    HistoryFilter, HistoryRow, NewDiagnosis, SegmentInfo, SegmentRecording, Undiagnosable,
+    HistoryFilter, HistoryRow, NewDiagnosis, SegmentInfo, SegmentRecording, SignalQuality,
+    Undiagnosable,
 };
 
 pub use writer::{spawn_writer, WriteCmd, WriterConfig, WriterStats};
