@@ -402,3 +402,77 @@ fn quality_overrides_from_config_apply_to_replay() {
     .expect("replay");
     assert_eq!((r.quality.good, r.quality.out_of_range), (1, 1));
 }
+
+/// A simulated, noisy start-up written as a replay log (epoch seconds), with `corrupt` applied
+/// to the measured values first; replayed and scanned. Returns (outcome, start_ms, end_ms) of
+/// every segment, and the replay report.
+fn replay_startup(
+    corrupt: impl Fn(&mut crate::engine::Trace),
+) -> (Vec<(String, i64, Option<i64>)>, ReplayReport) {
+    use crate::engine::sensors::MeasurementOptions;
+    use crate::engine::sequence::run_scenario;
+    use crate::engine::{Engine, Scenario, Trace};
+    let engine = Engine::reference().expect("engine");
+    let model = engine.model(&crate::health::HealthParams::default());
+    let (samples, _) =
+        run_scenario(engine.cfg(), &model, &Scenario::startup(engine.cfg())).expect("runs");
+    let o = MeasurementOptions {
+        lags: true,
+        noise: true,
+        bias: false,
+        seed: 7,
+    };
+    let mut t = Trace::from_truth(engine.cfg(), &samples, Some(&o));
+    t.t_s.iter_mut().for_each(|x| *x += 1.7e9);
+    corrupt(&mut t);
+    let mut csv = Vec::new();
+    t.write_csv(&mut csv).expect("csv");
+    let (_d, mut store, path) = setup(&String::from_utf8(csv).expect("utf8"));
+    let cfg = ReplayConfig {
+        time_column: "time_s".into(),
+        time_format: TimeFormat::EpochS,
+        ..ReplayConfig::default()
+    };
+    let r = replay_file(&mut store, &cfg, &path, Progress::Silent).expect("replay");
+    crate::detect::scan(&mut store, &crate::detect::DetectorConfig::default()).expect("scan");
+    let mut st = store
+        .conn()
+        .prepare("SELECT outcome, start_ms, end_ms FROM segments ORDER BY start_ms")
+        .expect("prep");
+    let segs = st
+        .query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))
+        .expect("q")
+        .collect::<Result<Vec<_>, _>>()
+        .expect("rows");
+    (segs, r)
+}
+
+/// Issue 12 #3 regression, the original inputs: n1 = −500 rpm, T2 = 1e9 K, a single 1e9 rpm
+/// spike and a −100 kg/s fuel value in a replayed log used to be stored as good and turn a
+/// completed start into "flame_out" or "trip". Flagged now, the start is still completed, with
+/// the same boundaries as the clean log.
+#[test]
+fn implausible_values_in_a_replayed_start_do_not_change_its_outcome() {
+    let (clean, _) = replay_startup(|_| {});
+    assert_eq!(clean.len(), 1, "{clean:?}");
+    assert_eq!(clean[0].0, "completed");
+    let n1 = Signal::N1.index();
+    let (dirty, r) = replay_startup(|t| {
+        let len = t.len();
+        for (frac, sig, v) in [
+            (0.15, n1, -500.0),
+            (0.25, Signal::T2.index(), 1e9),
+            (0.35, n1, 1e9),
+            (0.45, Signal::FuelFlow.index(), -100.0),
+            (0.55, Signal::FuelFlow.index(), -100.0),
+            (0.65, n1, -500.0),
+        ] {
+            let k = ((len as f64 * frac) as usize).min(len - 1);
+            t.measured[k][sig] = v;
+        }
+    });
+    assert!(r.quality.out_of_range >= 6, "{:?}", r.quality);
+    assert_eq!(dirty.len(), 1, "{dirty:?}");
+    assert_eq!(dirty[0].0, "completed", "{dirty:?}");
+    assert_eq!(dirty[0].1, clean[0].1, "same start");
+}
