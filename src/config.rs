@@ -25,7 +25,7 @@ pub struct Config {
     pub storage: StorageConfig,
     #[serde(default)]
     pub replay: ReplayConfig,
-    /// `[quality]`: the bad-value policy (ranges, stuck, spikes, diagnosis threshold).
+    /// `[quality]`: the bad-value policy (ranges, stuck sensors, spikes).
     #[serde(default)]
     pub quality: crate::quality::QualityConfig,
     #[serde(default)]
@@ -249,6 +249,11 @@ mod tests {
         assert_eq!(shipped.replay, ReplayConfig::default(), "[replay]");
         assert_eq!(shipped.detector, DetectorConfig::default(), "[detector]");
         assert_eq!(
+            shipped.quality,
+            crate::quality::QualityConfig::default(),
+            "[quality]"
+        );
+        assert_eq!(
             shipped.acquisition,
             AcquisitionConfig::default(),
             "[acquisition]"
@@ -271,7 +276,8 @@ mod tests {
             ("storage", 6),
             ("acquisition", 7),
             ("daemon", 2),
-            ("diagnosis", 7),
+            ("diagnosis", 8),
+            ("quality", 2),
             ("wash", 7),
         ] {
             let t = table
