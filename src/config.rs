@@ -25,6 +25,9 @@ pub struct Config {
     pub storage: StorageConfig,
     #[serde(default)]
     pub replay: ReplayConfig,
+    /// `[quality]`: the bad-value policy (ranges, stuck sensors, spikes).
+    #[serde(default)]
+    pub quality: crate::quality::QualityConfig,
     #[serde(default)]
     pub detector: DetectorConfig,
     #[serde(default)]
@@ -172,6 +175,7 @@ impl Config {
         }
         p.extend(self.storage.validate());
         p.extend(self.replay.validate());
+        p.extend(self.quality.validate());
         p.extend(self.detector.validate());
         p.extend(self.acquisition.validate());
         p.extend(self.diagnosis.validate());
@@ -258,6 +262,11 @@ mod tests {
         assert_eq!(shipped.replay, ReplayConfig::default(), "[replay]");
         assert_eq!(shipped.detector, DetectorConfig::default(), "[detector]");
         assert_eq!(
+            shipped.quality,
+            crate::quality::QualityConfig::default(),
+            "[quality]"
+        );
+        assert_eq!(
             shipped.acquisition,
             AcquisitionConfig::default(),
             "[acquisition]"
@@ -280,7 +289,8 @@ mod tests {
             ("storage", 6),
             ("acquisition", 7),
             ("daemon", 2),
-            ("diagnosis", 7),
+            ("diagnosis", 8),
+            ("quality", 2),
             ("wash", 7),
         ] {
             let t = table

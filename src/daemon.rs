@@ -23,7 +23,7 @@ use crate::config::Config;
 use crate::detect::{self, DetectorConfig, ScanReport};
 use crate::shutdown::Shutdown;
 use crate::store::{
-    spawn_writer, Store, StoreError, StoreOptions, TagId, TagInfo, WriteCmd, WriterStats,
+    spawn_writer, Gap, Store, StoreError, StoreOptions, TagId, TagInfo, WriteCmd, WriterStats,
 };
 use crate::worker::{AfterResult, DiagnosisTask, DrainReport, WorkerContext};
 use std::path::PathBuf;
@@ -68,6 +68,19 @@ pub struct RunReport {
     pub last_scan: Option<ScanReport>,
     /// What the diagnosis worker did.
     pub diagnosis: DrainReport,
+}
+
+/// The latest stored sample (any quality) of the acquisition tags, if any.
+fn last_sample_ms(store: &Store, tags: &[TagId]) -> Result<Option<i64>, StoreError> {
+    let mut last: Option<i64> = None;
+    let mut stmt = store
+        .conn()
+        .prepare_cached("SELECT MAX(t_ms) FROM samples WHERE tag_id = ?1")?;
+    for t in tags {
+        let m: Option<i64> = stmt.query_row([t], |r| r.get(0))?;
+        last = last.max(m);
+    }
+    Ok(last)
 }
 
 /// Tag ids for every register-map field, in map order (creating tags as needed).
@@ -217,6 +230,7 @@ pub async fn run(
             .map_err(|e| DaemonError::Writer(e.to_string()))??
     };
     let tags = ensure_tags(&mut store, &cfg)?;
+    let last_stored_ms = last_sample_ms(&store, &tags)?;
     tracing::info!(
         plant = %cfg.plant.name,
         db = %db_path.display(),
@@ -226,6 +240,18 @@ pub async fn run(
 
     let (tx, rx) = mpsc::channel::<WriteCmd>(cfg.daemon.queue_capacity.max(1));
     let writer = spawn_writer(store, rx, cfg.storage.writer());
+    if let (Some(last), Some(_)) = (last_stored_ms, &cfg.modbus) {
+        // Whatever stopped the previous run (SIGTERM, kill -9, a crash, a reboot), the time
+        // between its last stored sample and this run's first one had no acquisition.
+        let _ = tx
+            .send(WriteCmd::GapUntilNextSample(Gap {
+                start_ms: last,
+                end_ms: last,
+                source: "daemon".to_string(),
+                reason: "daemon_restart".to_string(),
+            }))
+            .await;
+    }
     let progress = opts.progress.clone().unwrap_or_default();
 
     // Acquisition.
@@ -325,6 +351,8 @@ pub async fn run(
     tracing::info!(
         inserted = report.writer.samples_inserted,
         gaps = report.writer.gaps,
+        write_errors = report.writer.write_errors,
+        samples_dropped = report.writer.samples_dropped,
         "last batch committed"
     );
     // Final scan over everything stored; segments it closes stay pending for the next start.

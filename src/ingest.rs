@@ -17,6 +17,7 @@
 //! This module must not run the detector or know about Modbus; it only turns CSV into samples.
 
 use crate::config_problem::{check_range, Bounds, ConfigProblem};
+use crate::quality::{Point, QualityConfig, QualityCounts, SpikeFilter, ValueChecker};
 use crate::signals::Signal;
 use crate::store::{Gap, Quality, Sample, Store, StoreError, TagId, TagInfo};
 use serde::{Deserialize, Serialize};
@@ -242,6 +243,11 @@ pub struct ReplayReport {
     pub samples_present: u64,
     /// The first `max_reported` malformed rows.
     pub malformed: Vec<MalformedRow>,
+    /// Cells that are not a finite number (text, NaN, ±inf): stored with quality `bad`, the
+    /// row's other cells kept. Counted in `quality.bad`; the first `max_reported` listed.
+    pub bad_cells: Vec<MalformedRow>,
+    /// Stored samples per quality code (see `crate::quality`).
+    pub quality: QualityCounts,
     pub gaps_recorded: u64,
     /// Column → tag actually used.
     pub columns: Vec<(String, String)>,
@@ -404,16 +410,46 @@ struct Column {
     index: usize,
     name: String,
     tag: TagId,
+    signal: Option<Signal>,
 }
 
-/// Replays one CSV file into `store`. See the module comment for formats and policy.
+/// The bad-value policy's state for one column.
+struct ColumnQuality {
+    checker: ValueChecker,
+    spikes: SpikeFilter,
+}
+
+/// A parsed cell: which column, and its sample (quality `Good`, or `Bad` if not a number).
+#[derive(Debug, Clone, PartialEq)]
+struct Cell {
+    column: usize,
+    sample: Sample,
+    /// Why the cell is bad (not a finite number).
+    problem: Option<String>,
+}
+
+/// Replays one CSV file into `store` with the default bad-value policy
+/// (`QualityConfig::default()`); see [`replay_file_checked`].
 pub fn replay_file(
     store: &mut Store,
     cfg: &ReplayConfig,
     path: &Path,
     progress: Progress,
 ) -> Result<ReplayReport, ReplayError> {
-    let problems = cfg.validate();
+    replay_file_checked(store, cfg, &QualityConfig::default(), path, progress)
+}
+
+/// Replays one CSV file into `store`. See the module comment for formats and policy; every
+/// value is classified by `quality` (`crate::quality`) and stored with its code.
+pub fn replay_file_checked(
+    store: &mut Store,
+    cfg: &ReplayConfig,
+    quality: &QualityConfig,
+    path: &Path,
+    progress: Progress,
+) -> Result<ReplayReport, ReplayError> {
+    let mut problems = cfg.validate();
+    problems.extend(quality.validate());
     if !problems.is_empty() {
         return Err(ReplayError::Config(
             problems
@@ -449,11 +485,23 @@ pub fn replay_file(
     };
     let mapping = plan.mapped;
     let mut columns = Vec::with_capacity(mapping.len());
+    let mut col_quality = Vec::with_capacity(mapping.len());
     for (index, name, info) in mapping {
         let tag = store.ensure_tag(&info)?;
         report.columns.push((name.clone(), info.name.clone()));
-        columns.push(Column { index, name, tag });
+        let checker = quality.checker(&[info.name.as_str(), name.as_str()], info.signal);
+        col_quality.push(ColumnQuality {
+            spikes: SpikeFilter::new(checker.limits()),
+            checker,
+        });
+        columns.push(Column {
+            index,
+            name,
+            tag,
+            signal: info.signal,
+        });
     }
+    let n1_column = columns.iter().position(|c| c.signal == Some(Signal::N1));
     let gap_source = format!(
         "replay:{}",
         path.file_name()
@@ -472,7 +520,7 @@ pub fn replay_file(
     let mut gaps: Vec<Gap> = Vec::new();
     let mut prev_t: Option<i64> = None;
     let mut record = csv::ByteRecord::new();
-    let mut row_samples: Vec<Sample> = Vec::with_capacity(columns.len());
+    let mut row_samples: Vec<Cell> = Vec::with_capacity(columns.len());
 
     loop {
         let line_hint = record.position().map(|p| p.line()).unwrap_or(1) + 1;
@@ -483,6 +531,7 @@ pub fn replay_file(
                 // structural CSV error. Report it as a malformed row at its line.
                 let line = e.position().map(|p| p.line()).unwrap_or(line_hint);
                 if let csv::ErrorKind::Io(_) = e.kind() {
+                    drain_held(&columns, &mut col_quality, &mut batch, &mut report);
                     flush(store, &mut batch, &mut gaps, &mut report)?;
                     return Err(ReplayError::Io {
                         path: path.to_path_buf(),
@@ -491,6 +540,9 @@ pub fn replay_file(
                 }
                 report.rows_read += 1;
                 let reason = format!("CSV error: {e}");
+                if cfg.on_malformed == OnMalformed::Stop {
+                    drain_held(&columns, &mut col_quality, &mut batch, &mut report);
+                }
                 malformed(
                     store,
                     cfg,
@@ -538,7 +590,54 @@ pub fn replay_file(
                 prev_t = Some(t);
                 report.first_t_ms.get_or_insert(t);
                 report.last_t_ms = Some(t);
-                batch.append(&mut row_samples);
+                let n1 = n1_column.and_then(|i| {
+                    row_samples
+                        .iter()
+                        .find(|c| c.column == i && c.sample.quality == Quality::Good)
+                        .map(|c| c.sample.value)
+                        .filter(|v| {
+                            crate::quality::classify_value(
+                                *v,
+                                col_quality[i].checker.limits().as_ref(),
+                            ) == Quality::Good
+                        })
+                });
+                for cell in row_samples.drain(..) {
+                    let cq = &mut col_quality[cell.column];
+                    let mut s = cell.sample;
+                    if let Some(reason) = cell.problem {
+                        if report.bad_cells.len() < cfg.max_reported {
+                            report.bad_cells.push(MalformedRow { line, reason });
+                        }
+                    } else {
+                        s.quality = cq.checker.check(t, s.value, n1);
+                        if s.quality == Quality::OutOfRange
+                            && report.bad_cells.len() < cfg.max_reported
+                        {
+                            report.bad_cells.push(MalformedRow {
+                                line,
+                                reason: format!(
+                                    "column '{}': {} is outside the plausible range",
+                                    columns[cell.column].name, s.value
+                                ),
+                            });
+                        }
+                    }
+                    let p = Point {
+                        t_ms: s.t_ms,
+                        value: s.value,
+                        quality: s.quality,
+                    };
+                    if let Some(out) = cq.spikes.push(p) {
+                        report.quality.add(out.quality);
+                        batch.push(Sample {
+                            tag: s.tag,
+                            t_ms: out.t_ms,
+                            value: out.value,
+                            quality: out.quality,
+                        });
+                    }
+                }
             }
             Err(RowProblem { kind, reason }) => {
                 row_samples.clear();
@@ -546,6 +645,9 @@ pub fn replay_file(
                     RowProblemKind::OutOfOrder => report.rows_out_of_order += 1,
                     RowProblemKind::Implausible => report.rows_implausible_time += 1,
                     RowProblemKind::Other => {}
+                }
+                if cfg.on_malformed == OnMalformed::Stop {
+                    drain_held(&columns, &mut col_quality, &mut batch, &mut report);
                 }
                 malformed(
                     store,
@@ -579,12 +681,33 @@ pub fn replay_file(
             }
         }
     }
+    drain_held(&columns, &mut col_quality, &mut batch, &mut report);
     flush(store, &mut batch, &mut gaps, &mut report)?;
     if let Some(b) = bar {
         b.finish_and_clear();
     }
     report.elapsed_s = started.elapsed().as_secs_f64();
     Ok(report)
+}
+
+/// Moves the sample each spike filter holds back into `batch` (end of file, or a stop).
+fn drain_held(
+    columns: &[Column],
+    col_quality: &mut [ColumnQuality],
+    batch: &mut Vec<Sample>,
+    report: &mut ReplayReport,
+) {
+    for (c, cq) in columns.iter().zip(col_quality.iter_mut()) {
+        if let Some(out) = cq.spikes.finish() {
+            report.quality.add(out.quality);
+            batch.push(Sample {
+                tag: c.tag,
+                t_ms: out.t_ms,
+                value: out.value,
+                quality: out.quality,
+            });
+        }
+    }
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -702,7 +825,7 @@ fn parse_row(
     columns: &[Column],
     prev_t: Option<i64>,
     latest_ok_ms: i64,
-    out: &mut Vec<Sample>,
+    out: &mut Vec<Cell>,
 ) -> Result<i64, RowProblem> {
     if rec.len() != n_fields {
         return Err(RowProblem::other(format!(
@@ -751,34 +874,51 @@ fn parse_row(
             });
         }
     }
-    for c in columns {
+    // A bad cell (text, NaN, ±inf) is stored flagged `bad` with value 0 (SQLite cannot hold
+    // NaN); it never discards the good cells of its row. A row with no good cell at all is
+    // malformed (reported, nothing stored).
+    let first = out.len();
+    let mut any_good = false;
+    for (column, c) in columns.iter().enumerate() {
         let raw = rec.get(c.index).unwrap_or_default();
         let s = trim_ascii(raw);
         if s.is_empty() {
             continue;
         }
-        let v = std::str::from_utf8(s)
+        let parsed = std::str::from_utf8(s)
             .ok()
-            .and_then(|s| s.parse::<f64>().ok())
-            .ok_or_else(|| {
-                RowProblem::other(format!(
-                    "column '{}': '{}' is not a number",
-                    c.name,
-                    String::from_utf8_lossy(raw)
-                ))
-            })?;
-        if !v.is_finite() {
-            return Err(RowProblem::other(format!(
-                "column '{}': '{v}' is not a finite number",
-                c.name
-            )));
-        }
-        out.push(Sample {
-            tag: c.tag,
-            t_ms: t,
-            value: v,
-            quality: Quality::Good,
+            .and_then(|s| s.parse::<f64>().ok());
+        let problem = match parsed {
+            None => Some(format!(
+                "column '{}': '{}' is not a number",
+                c.name,
+                String::from_utf8_lossy(&raw[..raw.len().min(80)])
+            )),
+            Some(v) if !v.is_finite() => {
+                Some(format!("column '{}': '{v}' is not a finite number", c.name))
+            }
+            Some(_) => None,
+        };
+        any_good |= problem.is_none();
+        let (value, quality) = match (parsed, &problem) {
+            (Some(v), None) => (v, Quality::Good),
+            _ => (0.0, Quality::Bad),
+        };
+        out.push(Cell {
+            column,
+            sample: Sample {
+                tag: c.tag,
+                t_ms: t,
+                value,
+                quality,
+            },
+            problem,
         });
+    }
+    if !any_good && out.len() > first {
+        let reason = out[first].problem.clone().unwrap_or_default();
+        out.truncate(first);
+        return Err(RowProblem::other(reason));
     }
     Ok(t)
 }

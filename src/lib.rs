@@ -22,6 +22,7 @@ pub mod optim;
 pub mod permissions;
 pub mod plantsim;
 pub mod plot;
+pub mod quality;
 pub mod query;
 pub mod recording;
 pub mod report;

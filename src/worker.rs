@@ -47,6 +47,10 @@ pub struct DiagnosisSettings {
     pub good_residual_level: f64,
     /// Look for pending segments at least this often even without a wake-up, ms. Default 60 000.
     pub poll_interval_ms: u64,
+    /// Data-quality threshold: each required signal (n1, fuel flow, power, T1) needs at least
+    /// this fraction of good samples (quality 0) among all its samples in the segment, else
+    /// the segment is stored undiagnosable (`low_quality`). Default 0.9.
+    pub min_good_fraction: f64,
 }
 
 impl Default for DiagnosisSettings {
@@ -59,6 +63,7 @@ impl Default for DiagnosisSettings {
             max_residual_level: 5.0,
             good_residual_level: 2.0,
             poll_interval_ms: 60_000,
+            min_good_fraction: 0.9,
         }
     }
 }
@@ -91,6 +96,12 @@ impl DiagnosisSettings {
             p.push(ConfigProblem::new(
                 "diagnosis.max_residual_level",
                 "must be a number >= good_residual_level",
+            ));
+        }
+        if !(self.min_good_fraction.is_finite() && (0.0..=1.0).contains(&self.min_good_fraction)) {
+            p.push(ConfigProblem::new(
+                "diagnosis.min_good_fraction",
+                "must be a number between 0 and 1",
             ));
         }
         if self.poll_interval_ms < 100 {
@@ -228,12 +239,22 @@ pub fn diagnose_segment(
             .filter(|s| REQUIRED.contains(s))
             .map(|s| s.column())
             .collect();
+        let quality: Vec<(Signal, u64, u64)> = rec
+            .quality
+            .iter()
+            .filter(|q| REQUIRED.contains(&q.signal))
+            .map(|q| (q.signal, q.good, q.total))
+            .collect();
         if !missing.is_empty() {
             failures.push(failure(
                 None,
                 "missing_signals",
                 format!("no good samples of {}", missing.join(", ")),
             ));
+        } else if let Some(why) =
+            crate::quality::insufficient_quality(&quality, ctx.settings.min_good_fraction)
+        {
+            failures.push(failure(None, "low_quality", why));
         } else {
             match &rec.recording {
                 Err(e) => failures.push(failure(None, "bad_recording", e.to_string())),

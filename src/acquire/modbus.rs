@@ -440,6 +440,16 @@ fn plant_clock(batch: &[Sample], tag: TagId) -> Result<i64, String> {
     Ok(s.value.round() as i64)
 }
 
+/// The bad-value policy's range check (`crate::quality`) for a field: the register map's own
+/// `min`/`max` when it sets either (the per-tag override), else the signal's default range.
+fn policy_quality(f: &crate::acquire::register_map::FieldSpec, value: f64, q: Quality) -> Quality {
+    if q != Quality::Good || f.min.is_some() || f.max.is_some() {
+        return q;
+    }
+    let limits = f.signal.map(crate::quality::default_limits);
+    crate::quality::classify_value(value, limits.as_ref())
+}
+
 /// Decodes one request's registers into samples (pure; flagged values keep their quality).
 pub fn decode_request(req: &PlannedRequest, words: &[u16], t_ms: i64, out: &mut Vec<Sample>) {
     for (tag, f) in &req.fields {
@@ -449,8 +459,8 @@ pub fn decode_request(req: &PlannedRequest, words: &[u16], t_ms: i64, out: &mut 
                 t_ms,
                 // SQLite cannot store NaN (it becomes NULL); a Bad sample keeps 0 as value and
                 // its quality says the number is meaningless.
-                value: if r.value.is_nan() { 0.0 } else { r.value },
-                quality: quality(r.status),
+                value: if r.value.is_finite() { r.value } else { 0.0 },
+                quality: policy_quality(f, r.value, quality(r.status)),
             },
             Err(_) => Sample {
                 tag: *tag,
@@ -759,6 +769,41 @@ mod tests {
         );
         let refused = ReadError::Io(std::io::ErrorKind::ConnectionRefused.into());
         assert_eq!(refused.stable_reason(), "I/O error: connection refused");
+    }
+
+    /// Issue 12 #3: the bad-value policy's default ranges apply to Modbus fields of a signal
+    /// when the register map sets no range of its own.
+    #[test]
+    fn default_signal_ranges_flag_modbus_values() {
+        use crate::acquire::register_map::{encode_field, ByteOrder, DataType, FieldSpec};
+        let f = FieldSpec {
+            name: "n1_rpm".into(),
+            address: 0,
+            data_type: DataType::F32,
+            byte_order: ByteOrder::ABCD,
+            scale: 1.0,
+            offset: 0.0,
+            unit: "rpm".into(),
+            signal: Some(crate::signals::Signal::N1),
+            min: None,
+            max: None,
+        };
+        let req = PlannedRequest {
+            slave: 1,
+            kind: crate::acquire::register_map::RegisterKind::Holding,
+            start: 0,
+            count: 2,
+            fields: vec![(7, f.clone())],
+        };
+        let q = |v: f64| {
+            let mut out = Vec::new();
+            decode_request(&req, &encode_field(&f, v), 0, &mut out);
+            out[0].quality
+        };
+        assert_eq!(q(7600.0), Quality::Good);
+        assert_eq!(q(-500.0), Quality::OutOfRange);
+        assert_eq!(q(1e9), Quality::OutOfRange);
+        assert_eq!(q(f64::INFINITY), Quality::Bad);
     }
 
     #[test]

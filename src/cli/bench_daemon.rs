@@ -328,6 +328,7 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
             ..StorageConfig::default()
         },
         replay: Default::default(),
+        quality: Default::default(),
         detector: DetectorConfig::default(),
         acquisition: Default::default(),
         modbus: Some(map),

@@ -20,6 +20,8 @@ pub struct DataSections {
     pub replay: ReplayConfig,
     #[serde(default)]
     pub detector: DetectorConfig,
+    #[serde(default)]
+    pub quality: crate::quality::QualityConfig,
 }
 
 impl DataSections {
@@ -30,7 +32,7 @@ impl DataSections {
         let value: toml::Table =
             toml::from_str(&text).with_context(|| format!("config {}", path.display()))?;
         let mut pick = toml::Table::new();
-        for key in ["storage", "replay", "detector"] {
+        for key in ["storage", "replay", "detector", "quality"] {
             if let Some(v) = value.get(key) {
                 pick.insert(key.to_string(), v.clone());
             }
@@ -41,6 +43,7 @@ impl DataSections {
         let mut problems = sections.storage.validate();
         problems.extend(sections.replay.validate());
         problems.extend(sections.detector.validate());
+        problems.extend(sections.quality.validate());
         if !problems.is_empty() {
             let list: Vec<String> = problems.iter().map(|p| p.to_string()).collect();
             bail!("config {}:\n  {}", path.display(), list.join("\n  "));

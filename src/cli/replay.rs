@@ -4,7 +4,9 @@
 //! 3 replayed, but rows were rejected for their time stamps (see stderr / the JSON report).
 
 use super::common::DataSections;
-use crate::ingest::{plan_columns, replay_file, ColumnPlan, Progress, ReplayError, ReplayReport};
+use crate::ingest::{
+    plan_columns, replay_file_checked, ColumnPlan, Progress, ReplayError, ReplayReport,
+};
 use crate::signals::Signal;
 use crate::store::Store;
 use anyhow::Context;
@@ -114,7 +116,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
     let mut stop_error: Option<String> = None;
     let mut time_rejected = false;
     for log in &args.logs {
-        match replay_file(&mut store, &cfg.replay, log, Progress::Auto) {
+        match replay_file_checked(&mut store, &cfg.replay, &cfg.quality, log, Progress::Auto) {
             Ok(report) => {
                 for m in &report.malformed {
                     eprintln!("{}: {m}", log.display());

@@ -112,19 +112,38 @@ fn malformed_rows_are_reported_by_line_and_skipped() {
         Progress::Silent,
     )
     .expect("replay");
+    // Issue 12 #3 changed this test: a bad cell ('abc' on line 4, 'inf' on line 9) no longer
+    // discards its row. The cell is stored with quality `bad`, the row's good cell is kept,
+    // and the cell is listed in `bad_cells` (it used to be a malformed row).
     let lines: Vec<u64> = r.malformed.iter().map(|m| m.line).collect();
-    assert_eq!(lines, vec![3, 4, 5, 7, 8, 9, 11], "{:#?}", r.malformed);
+    assert_eq!(lines, vec![3, 5, 7, 8, 11], "{:#?}", r.malformed);
     assert!(r.malformed[0].reason.contains("expected 3 fields, found 2"));
-    assert!(r.malformed[1].reason.contains("'abc' is not a number"));
-    assert!(r.malformed[2].reason.contains("not-a-time"));
-    assert!(r.malformed[3].reason.contains("duplicate time"));
-    assert!(r.malformed[4].reason.contains("goes backwards"));
-    assert!(r.malformed[5].reason.contains("finite"));
+    assert!(r.malformed[1].reason.contains("not-a-time"));
+    assert!(r.malformed[2].reason.contains("duplicate time"));
+    assert!(r.malformed[3].reason.contains("goes backwards"));
     // The truncated last line (no newline, missing field) is malformed too.
-    assert!(r.malformed[6].reason.contains("expected 3 fields"));
+    assert!(r.malformed[4].reason.contains("expected 3 fields"));
+    let bad: Vec<u64> = r.bad_cells.iter().map(|m| m.line).collect();
+    assert_eq!(bad, vec![4, 9], "{:#?}", r.bad_cells);
+    assert!(r.bad_cells[0].reason.contains("'abc' is not a number"));
+    assert!(r.bad_cells[1].reason.contains("finite"));
     assert_eq!(r.rows_read, 10);
-    assert_eq!(r.rows_malformed, 7);
-    assert_eq!(r.samples_inserted, 6, "rows on lines 2, 6 and 10");
+    assert_eq!(r.rows_malformed, 5);
+    assert_eq!(
+        r.samples_inserted, 10,
+        "both cells of lines 2, 4, 6, 9 and 10"
+    );
+    assert_eq!((r.quality.good, r.quality.bad), (8, 2));
+    let n1 = store.tag_for_signal(Signal::N1).expect("q").expect("n1");
+    let q: i64 = store
+        .conn()
+        .query_row(
+            "SELECT quality FROM samples WHERE tag_id = ?1 AND t_ms = ?2",
+            rusqlite::params![n1.id, 1_709_251_202_000_i64],
+            |r| r.get(0),
+        )
+        .expect("abc cell stored");
+    assert_eq!(q, Quality::Bad.code() as i64);
 }
 
 #[test]
@@ -315,4 +334,145 @@ fn out_of_range_dates_say_which_part() {
     let e = parse_iso8601_ms("2023-02-29").expect_err("no leap day");
     assert!(e.contains("day 29"), "{e}");
     assert!(parse_iso8601_ms("2024-02-29").is_ok());
+}
+
+/// Issue 12 #3: implausible values are stored flagged, never as good, and counted.
+#[test]
+fn implausible_values_are_flagged_not_good() {
+    let csv = "time,n1_rpm,t2_k,fuel_kg_s,power_mw\n\
+               2024-03-01T00:00:00Z,7600,600,2.0,31\n\
+               2024-03-01T00:00:01Z,-500,1e9,-100,31\n\
+               2024-03-01T00:00:02Z,7600,600,2.0,31\n\
+               2024-03-01T00:00:03Z,11000,600,2.0,31\n\
+               2024-03-01T00:00:04Z,7600,nan,2.0,31\n\
+               2024-03-01T00:00:05Z,7600,600,2.0,31\n";
+    let (_d, mut store, path) = setup(csv);
+    let r = replay_file(
+        &mut store,
+        &ReplayConfig::default(),
+        &path,
+        Progress::Silent,
+    )
+    .expect("replay");
+    assert_eq!(r.rows_malformed, 0, "{:#?}", r.malformed);
+    assert_eq!(r.samples_inserted, 24);
+    assert_eq!(r.quality.out_of_range, 3, "{:?}", r.quality);
+    assert_eq!(r.quality.spike, 1, "{:?}", r.quality);
+    assert_eq!(r.quality.bad, 1, "{:?}", r.quality);
+    assert_eq!(r.quality.good, 19, "{:?}", r.quality);
+    let q = |col: &str, t: i64| -> i64 {
+        store
+            .conn()
+            .query_row(
+                "SELECT s.quality FROM samples s JOIN tags t ON t.id = s.tag_id
+                 WHERE t.name = ?1 AND s.t_ms = ?2",
+                rusqlite::params![col, 1_709_251_200_000_i64 + 1000 * t],
+                |r| r.get(0),
+            )
+            .expect("sample")
+    };
+    assert_eq!(q("n1_rpm", 1), Quality::OutOfRange.code() as i64);
+    assert_eq!(q("t2_k", 1), Quality::OutOfRange.code() as i64);
+    assert_eq!(q("fuel_kg_s", 1), Quality::OutOfRange.code() as i64);
+    assert_eq!(q("power_mw", 1), 0, "the good cell of the bad row is kept");
+    assert_eq!(q("n1_rpm", 3), Quality::Spike.code() as i64);
+    assert_eq!(q("t2_k", 4), Quality::Bad.code() as i64);
+    assert_eq!(q("n1_rpm", 4), 0);
+}
+
+#[test]
+fn quality_overrides_from_config_apply_to_replay() {
+    let csv = "time,power_mw\n2024-03-01T00:00:00Z,40\n2024-03-01T00:00:01Z,50\n";
+    let (_d, mut store, path) = setup(csv);
+    let mut quality = crate::quality::QualityConfig::default();
+    quality.limits.insert(
+        "power_mw".into(),
+        crate::quality::LimitOverride {
+            hi: Some(45.0),
+            ..Default::default()
+        },
+    );
+    let r = replay_file_checked(
+        &mut store,
+        &ReplayConfig::default(),
+        &quality,
+        &path,
+        Progress::Silent,
+    )
+    .expect("replay");
+    assert_eq!((r.quality.good, r.quality.out_of_range), (1, 1));
+}
+
+/// A simulated, noisy start-up written as a replay log (epoch seconds), with `corrupt` applied
+/// to the measured values first; replayed and scanned. Returns (outcome, start_ms, end_ms) of
+/// every segment, and the replay report.
+fn replay_startup(
+    corrupt: impl Fn(&mut crate::engine::Trace),
+) -> (Vec<(String, i64, Option<i64>)>, ReplayReport) {
+    use crate::engine::sensors::MeasurementOptions;
+    use crate::engine::sequence::run_scenario;
+    use crate::engine::{Engine, Scenario, Trace};
+    let engine = Engine::reference().expect("engine");
+    let model = engine.model(&crate::health::HealthParams::default());
+    let (samples, _) =
+        run_scenario(engine.cfg(), &model, &Scenario::startup(engine.cfg())).expect("runs");
+    let o = MeasurementOptions {
+        lags: true,
+        noise: true,
+        bias: false,
+        seed: 7,
+    };
+    let mut t = Trace::from_truth(engine.cfg(), &samples, Some(&o));
+    t.t_s.iter_mut().for_each(|x| *x += 1.7e9);
+    corrupt(&mut t);
+    let mut csv = Vec::new();
+    t.write_csv(&mut csv).expect("csv");
+    let (_d, mut store, path) = setup(&String::from_utf8(csv).expect("utf8"));
+    let cfg = ReplayConfig {
+        time_column: "time_s".into(),
+        time_format: TimeFormat::EpochS,
+        ..ReplayConfig::default()
+    };
+    let r = replay_file(&mut store, &cfg, &path, Progress::Silent).expect("replay");
+    crate::detect::scan(&mut store, &crate::detect::DetectorConfig::default()).expect("scan");
+    let mut st = store
+        .conn()
+        .prepare("SELECT outcome, start_ms, end_ms FROM segments ORDER BY start_ms")
+        .expect("prep");
+    let segs = st
+        .query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))
+        .expect("q")
+        .collect::<Result<Vec<_>, _>>()
+        .expect("rows");
+    (segs, r)
+}
+
+/// Issue 12 #3 regression, the original inputs: n1 = −500 rpm, T2 = 1e9 K, a single 1e9 rpm
+/// spike and a −100 kg/s fuel value in a replayed log used to be stored as good and turn a
+/// completed start into "flame_out" or "trip". Flagged now, the start is still completed, with
+/// the same boundaries as the clean log.
+#[test]
+fn implausible_values_in_a_replayed_start_do_not_change_its_outcome() {
+    let (clean, _) = replay_startup(|_| {});
+    assert_eq!(clean.len(), 1, "{clean:?}");
+    assert_eq!(clean[0].0, "completed");
+    let n1 = Signal::N1.index();
+    let (dirty, r) = replay_startup(|t| {
+        let len = t.len();
+        for (frac, sig, v) in [
+            (0.15, n1, -500.0),
+            (0.25, Signal::T2.index(), 1e9),
+            (0.35, n1, 1e9),
+            (0.45, Signal::FuelFlow.index(), -100.0),
+            (0.55, Signal::FuelFlow.index(), -100.0),
+            (0.65, n1, -500.0),
+        ] {
+            let k = ((len as f64 * frac) as usize).min(len - 1);
+            t.measured[k][sig] = v;
+        }
+    });
+    assert!(r.quality.out_of_range >= 6, "{:?}", r.quality);
+    assert_eq!(dirty.len(), 1, "{dirty:?}");
+    assert_eq!(dirty[0].0, "completed", "{dirty:?}");
+    assert_eq!(dirty[0].1, clean[0].1, "same start");
 }

@@ -39,6 +39,16 @@ pub struct SegmentRecording {
     pub t0_ms: i64,
     /// Signals with no good sample at all in the segment.
     pub missing: Vec<Signal>,
+    /// Good and total sample counts per stored signal over the segment (data-quality gate).
+    pub quality: Vec<SignalQuality>,
+}
+
+/// How many of a signal's samples in a segment are good.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SignalQuality {
+    pub signal: Signal,
+    pub good: u64,
+    pub total: u64,
 }
 
 /// One result to store.
@@ -193,11 +203,26 @@ impl Store {
         let index: HashMap<i64, usize> = axis.iter().enumerate().map(|(i, t)| (*t, i)).collect();
         let mut values: Vec<Values> = vec![[f64::NAN; NSIG]; axis.len()];
         let mut missing = Vec::new();
+        let mut quality = Vec::new();
         for sig in Signal::ALL {
             let Some(tag) = tag_of(sig) else {
                 missing.push(sig);
                 continue;
             };
+            let (total, good): (i64, i64) = self
+                .conn
+                .prepare_cached(
+                    "SELECT COUNT(*), COALESCE(SUM(quality = 0), 0) FROM samples
+                 WHERE tag_id = ?1 AND t_ms >= ?2 AND t_ms <= ?3",
+                )?
+                .query_row(params![tag, seg.start_ms, end_ms], |r| {
+                    Ok((r.get(0)?, r.get(1)?))
+                })?;
+            quality.push(SignalQuality {
+                signal: sig,
+                good: good.max(0) as u64,
+                total: total.max(0) as u64,
+            });
             let mut any = false;
             for (t, v) in read(tag)? {
                 if let Some(&k) = index.get(&t) {
@@ -227,6 +252,7 @@ impl Store {
             recording,
             t0_ms: t0,
             missing,
+            quality,
         }))
     }
 

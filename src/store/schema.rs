@@ -19,10 +19,18 @@ const MIGRATION_SQL: &[(&str, &str)] = &[
         "0002_diagnosis_results.sql",
         include_str!("../../migrations/0002_diagnosis_results.sql"),
     ),
+    (
+        "0003_quality_codes.sql",
+        include_str!("../../migrations/0003_quality_codes.sql"),
+    ),
 ];
 
 #[cfg(test)]
-const MIGRATION_LIST: &[M<'static>] = &[M::up(MIGRATION_SQL[0].1), M::up(MIGRATION_SQL[1].1)];
+const MIGRATION_LIST: &[M<'static>] = &[
+    M::up(MIGRATION_SQL[0].1),
+    M::up(MIGRATION_SQL[1].1),
+    M::up(MIGRATION_SQL[2].1),
+];
 
 /// All migrations in order (for `rusqlite_migration`'s validation in tests).
 #[cfg(test)]

@@ -104,6 +104,7 @@ async fn writer_batches_and_flushes_on_close() {
     let cfg = WriterConfig {
         batch_size: 250,
         flush_interval: Duration::from_secs(3600),
+        ..WriterConfig::default()
     };
     let h = spawn_writer(store, rx, cfg);
     for k in 0..10 {
@@ -160,6 +161,7 @@ async fn writer_flushes_on_interval() {
     let cfg = WriterConfig {
         batch_size: 1_000_000,
         flush_interval: Duration::from_millis(20),
+        ..WriterConfig::default()
     };
     let h = spawn_writer(store, rx, cfg);
     tx.send(WriteCmd::Samples(vec![Sample {
@@ -224,4 +226,192 @@ fn read_store_never_creates_a_file_and_reads_beside_an_open_write_transaction() 
     );
     tx.commit().expect("commit");
     assert_eq!(r.sample_count().expect("count"), 3);
+}
+
+fn samples(tag: i64, from: i64, n: i64) -> Vec<Sample> {
+    (from..from + n)
+        .map(|i| Sample {
+            tag,
+            t_ms: i * 1000,
+            value: i as f64,
+            quality: Quality::Good,
+        })
+        .collect()
+}
+
+/// Issue 12 #2: the disk fills (SQLITE_FULL via `PRAGMA max_page_count` on the writer's
+/// connection, with the room taken by a filler table). The writer must stay alive, keep the
+/// failed batches, and commit them once space is freed (the filler deleted by another
+/// connection): no sample lost, none duplicated.
+#[tokio::test]
+async fn writer_survives_disk_full_and_recovers_without_loss() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("full.db");
+    let mut store = Store::open(&path).expect("open");
+    let tag = store
+        .ensure_tag(&TagInfo::for_signal(Signal::N1))
+        .expect("tag");
+    store
+        .conn()
+        .execute_batch(
+            "CREATE TABLE filler (b BLOB);
+             WITH RECURSIVE c(i) AS (SELECT 1 UNION ALL SELECT i + 1 FROM c WHERE i < 200)
+             INSERT INTO filler SELECT zeroblob(4000) FROM c;",
+        )
+        .expect("filler");
+    // Some samples committed before the disk fills.
+    store.insert_samples(&samples(tag, 0, 100)).expect("before");
+    let pages: i64 = store
+        .conn()
+        .query_row("PRAGMA page_count", [], |r| r.get(0))
+        .expect("page_count");
+    let _: i64 = store
+        .conn()
+        .query_row(&format!("PRAGMA max_page_count = {pages}"), [], |r| {
+            r.get(0)
+        })
+        .expect("max_page_count");
+    let (tx, rx) = tokio::sync::mpsc::channel(64);
+    let cfg = WriterConfig {
+        batch_size: 500,
+        flush_interval: Duration::from_millis(10),
+        retry_initial: Duration::from_millis(20),
+        ..WriterConfig::default()
+    };
+    let h = spawn_writer(store, rx, cfg);
+    // 20 000 samples cannot fit in the pages left.
+    for k in 0..40 {
+        tx.send(WriteCmd::Samples(samples(tag, 100 + k * 500, 500)))
+            .await
+            .expect("writer alive while the disk is full");
+    }
+    let (ack_tx, mut ack_rx) = tokio::sync::oneshot::channel();
+    tx.send(WriteCmd::Flush(ack_tx)).await.expect("send");
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    assert!(
+        ack_rx.try_recv().is_err(),
+        "a flush must not be acknowledged while its data is not committed"
+    );
+    assert!(!h.is_finished(), "the writer died on SQLITE_FULL");
+    // Free space: another connection drops the filler.
+    {
+        let other = rusqlite::Connection::open(&path).expect("other");
+        other.busy_timeout(Duration::from_secs(5)).expect("busy");
+        other
+            .execute_batch("DELETE FROM filler;")
+            .expect("free space");
+    }
+    tokio::time::timeout(Duration::from_secs(10), ack_rx)
+        .await
+        .expect("recovered within 10 s")
+        .expect("ack");
+    drop(tx);
+    let stats = h.await.expect("join").expect("writer");
+    assert!(stats.write_errors >= 1, "{stats:?}");
+    assert_eq!(stats.write_error_episodes, 1, "{stats:?}");
+    assert_eq!(stats.samples_dropped, 0);
+    assert_eq!(stats.samples_inserted, 20_000);
+    assert_eq!(stats.samples_duplicate, 0);
+    let ro = Store::open_readonly(&path).expect("ro");
+    assert_eq!(ro.sample_count().expect("count"), 20_100);
+    let distinct: i64 = ro
+        .conn()
+        .query_row(
+            "SELECT COUNT(DISTINCT t_ms) FROM samples WHERE tag_id = ?1",
+            [tag],
+            |r| r.get(0),
+        )
+        .expect("distinct");
+    assert_eq!(distinct, 20_100);
+    assert_eq!(ro.integrity_check().expect("check"), "ok");
+}
+
+/// When the buffer overflows during an episode the excess is dropped and its span recorded
+/// as a gap once writing resumes.
+#[tokio::test]
+async fn writer_overflow_records_a_gap() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("over.db");
+    let mut store = Store::open(&path).expect("open");
+    let tag = store
+        .ensure_tag(&TagInfo::for_signal(Signal::N1))
+        .expect("tag");
+    store
+        .conn()
+        .execute_batch(
+            "CREATE TABLE filler (b BLOB);
+             WITH RECURSIVE c(i) AS (SELECT 1 UNION ALL SELECT i + 1 FROM c WHERE i < 100)
+             INSERT INTO filler SELECT zeroblob(4000) FROM c;",
+        )
+        .expect("filler");
+    let pages: i64 = store
+        .conn()
+        .query_row("PRAGMA page_count", [], |r| r.get(0))
+        .expect("page_count");
+    let _: i64 = store
+        .conn()
+        .query_row(&format!("PRAGMA max_page_count = {pages}"), [], |r| {
+            r.get(0)
+        })
+        .expect("max_page_count");
+    let (tx, rx) = tokio::sync::mpsc::channel(64);
+    let cfg = WriterConfig {
+        batch_size: 1000,
+        flush_interval: Duration::from_millis(5),
+        retry_initial: Duration::from_millis(20),
+        max_buffered: 3000,
+        ..WriterConfig::default()
+    };
+    let h = spawn_writer(store, rx, cfg);
+    for k in 0..10 {
+        tx.send(WriteCmd::Samples(samples(tag, k * 1000, 1000)))
+            .await
+            .expect("send");
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    {
+        let other = rusqlite::Connection::open(&path).expect("other");
+        other.busy_timeout(Duration::from_secs(5)).expect("busy");
+        other
+            .execute_batch("DELETE FROM filler;")
+            .expect("free space");
+    }
+    let (ack_tx, ack_rx) = tokio::sync::oneshot::channel();
+    tx.send(WriteCmd::Flush(ack_tx)).await.expect("send");
+    tokio::time::timeout(Duration::from_secs(10), ack_rx)
+        .await
+        .expect("recovered")
+        .expect("ack");
+    drop(tx);
+    let stats = h.await.expect("join").expect("writer");
+    assert_eq!(
+        stats.samples_inserted + stats.samples_dropped,
+        10_000,
+        "{stats:?}"
+    );
+    assert!(stats.samples_dropped > 0, "{stats:?}");
+    let ro = Store::open_readonly(&path).expect("ro");
+    let gaps = ro.gaps_between(0, i64::MAX).expect("gaps");
+    // One gap per retry that found new drops; together they cover every dropped sample.
+    assert!(!gaps.is_empty());
+    for g in &gaps {
+        assert_eq!(g.source, "writer");
+        assert!(g.reason.starts_with("writer_buffer_full"), "{gaps:?}");
+    }
+    let stored: Vec<i64> = {
+        let mut st = ro
+            .conn()
+            .prepare("SELECT t_ms FROM samples WHERE tag_id = ?1")
+            .expect("prep");
+        let rows = st.query_map([tag], |r| r.get(0)).expect("q");
+        rows.collect::<Result<_, _>>().expect("rows")
+    };
+    for k in 0..10_000_i64 {
+        let t = k * 1000;
+        let covered = gaps.iter().any(|g| g.start_ms <= t && t <= g.end_ms);
+        assert!(
+            stored.binary_search(&t).is_ok() || covered,
+            "sample {t} lost without a gap"
+        );
+    }
 }

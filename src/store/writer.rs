@@ -4,6 +4,17 @@
 //! waited `flush_interval`; on `Flush` it commits and acknowledges; when the channel closes it
 //! commits what it holds and returns its statistics. SQLite work runs on the blocking pool so
 //! the async acquisition is never stalled by a commit. Must not decide what to store.
+//!
+//! Write failures (disk full `SQLITE_FULL`, a read-only file or directory, I/O errors) do not
+//! stop the writer (issue 12 #2): the failed batch stays in memory (a transaction commits all or
+//! nothing, so nothing is half-written) and is retried with exponential backoff (0.25 s doubling
+//! to 30 s); the cause is logged at error level once per episode and the recovery once.
+//! Commands keep being received, so acquisition keeps polling. The buffer is bounded
+//! (`max_buffered`, default 200 × `batch_size`): samples arriving while it is full are
+//! dropped and their time span recorded as a gap (`source = "writer"`, reason
+//! `writer_buffer_full: <cause>`), written once the database accepts writes again. `Flush`
+//! requests are answered once their data is committed. When the channel closes during an
+//! episode the writer retries for `close_retry` more (default 5 s), then returns the error.
 
 use super::{insert_samples_in, record_gap_in, Gap, Sample, Store, StoreError};
 use std::time::Duration;
@@ -17,6 +28,10 @@ pub enum WriteCmd {
     Gap(Gap),
     /// Commit everything received so far, then answer.
     Flush(oneshot::Sender<()>),
+    /// The daemon (re)started after data up to `start_ms` was stored: when the first new
+    /// samples arrive, record a gap from `start_ms` to the earliest of them (`end_ms` of the
+    /// template is ignored). Used for the `daemon_restart` gap, also after kill -9.
+    GapUntilNextSample(Gap),
 }
 
 /// Writer batching settings (from `[storage]`, see `StorageConfig::writer`).
@@ -24,11 +39,28 @@ pub enum WriteCmd {
 pub struct WriterConfig {
     pub batch_size: usize,
     pub flush_interval: Duration,
+    /// Samples held while the database refuses writes; beyond this they are dropped and a
+    /// gap is recorded. `0` = 200 × `batch_size`.
+    pub max_buffered: usize,
+    /// First retry delay after a failed commit (doubles up to 30 s).
+    pub retry_initial: Duration,
+    /// How long the writer keeps retrying after the channel closed.
+    pub close_retry: Duration,
 }
 
 impl Default for WriterConfig {
     fn default() -> Self {
         super::StorageConfig::default().writer()
+    }
+}
+
+impl WriterConfig {
+    fn buffer_limit(&self) -> usize {
+        if self.max_buffered == 0 {
+            self.batch_size.saturating_mul(200).max(1)
+        } else {
+            self.max_buffered
+        }
     }
 }
 
@@ -44,12 +76,20 @@ pub struct WriterStats {
     pub gaps: u64,
     /// Committed transactions.
     pub transactions: u64,
+    /// Failed commit attempts (each is retried).
+    pub write_errors: u64,
+    /// Episodes of failing writes (first failure to recovery).
+    pub write_error_episodes: u64,
+    /// Samples dropped because the buffer was full during a write-error episode (each span is
+    /// recorded as a gap).
+    pub samples_dropped: u64,
 }
 
 struct Pending {
     samples: Vec<Sample>,
     gaps: Vec<Gap>,
     since: Option<Instant>,
+    acks: Vec<oneshot::Sender<()>>,
 }
 
 impl Pending {
@@ -58,8 +98,20 @@ impl Pending {
     }
 }
 
+/// The state of a write-error episode.
+struct Failing {
+    cause: String,
+    next_try: Instant,
+    delay: Duration,
+    /// Span of the samples dropped since the buffer filled (recorded as one gap).
+    dropped: Option<(i64, i64)>,
+}
+
+const RETRY_MAX: Duration = Duration::from_secs(30);
+
 /// Starts the writer on the current tokio runtime. It ends when every sender is dropped,
-/// after a final commit, returning its statistics (or the first database error).
+/// after a final commit, returning its statistics (or the database error that persisted
+/// through the final retries).
 pub fn spawn_writer(
     store: Store,
     rx: mpsc::Receiver<WriteCmd>,
@@ -68,24 +120,167 @@ pub fn spawn_writer(
     tokio::spawn(run_writer(store, rx, cfg))
 }
 
+struct Writer {
+    store: Option<Store>,
+    cfg: WriterConfig,
+    stats: WriterStats,
+    pending: Pending,
+    failing: Option<Failing>,
+    open_gap: Option<Gap>,
+}
+
+impl Writer {
+    /// Tries to commit everything pending; on failure keeps it and enters/extends an episode.
+    async fn flush(&mut self) -> Result<(), StoreError> {
+        self.pending.since = None;
+        if let Some(f) = self.failing.as_mut() {
+            if let Some((a, b)) = f.dropped.take() {
+                self.pending.gaps.push(Gap {
+                    start_ms: a,
+                    end_ms: b,
+                    source: "writer".to_string(),
+                    reason: format!("writer_buffer_full: {}", f.cause),
+                });
+            }
+        }
+        if self.pending.is_empty() {
+            for a in self.pending.acks.drain(..) {
+                let _ = a.send(());
+            }
+            return Ok(());
+        }
+        let samples = std::mem::take(&mut self.pending.samples);
+        let gaps = std::mem::take(&mut self.pending.gaps);
+        let store = self
+            .store
+            .take()
+            .ok_or_else(|| StoreError::Writer("store lost".to_string()))?;
+        let (store, samples, gaps, result) = tokio::task::spawn_blocking(move || {
+            let mut store = store;
+            let r = commit(&mut store, &samples, &gaps);
+            (store, samples, gaps, r)
+        })
+        .await
+        .map_err(|e| StoreError::Writer(e.to_string()))?;
+        self.store = Some(store);
+        match result {
+            Ok(inserted) => {
+                let inserted = inserted as u64;
+                self.stats.samples_inserted += inserted;
+                self.stats.samples_duplicate += samples.len() as u64 - inserted;
+                self.stats.gaps += gaps.len() as u64;
+                self.stats.transactions += 1;
+                if let Some(f) = self.failing.take() {
+                    tracing::warn!(
+                        cause = %f.cause,
+                        samples = samples.len(),
+                        dropped = self.stats.samples_dropped,
+                        "database writes work again; buffered samples committed"
+                    );
+                }
+                for a in self.pending.acks.drain(..) {
+                    let _ = a.send(());
+                }
+                Ok(())
+            }
+            Err(e) => {
+                self.stats.write_errors += 1;
+                // Put the batch back in front of anything that arrived meanwhile.
+                let mut s = samples;
+                s.append(&mut self.pending.samples);
+                self.pending.samples = s;
+                let mut g = gaps;
+                g.append(&mut self.pending.gaps);
+                self.pending.gaps = g;
+                let cause = error_chain(&e);
+                match self.failing.as_mut() {
+                    Some(f) => {
+                        f.delay = (f.delay * 2).min(RETRY_MAX);
+                        f.next_try = Instant::now() + f.delay;
+                        f.cause = cause;
+                    }
+                    None => {
+                        self.stats.write_error_episodes += 1;
+                        tracing::error!(
+                            path = %self.store.as_ref().map(|s| s.path().display().to_string()).unwrap_or_default(),
+                            cause = %cause,
+                            buffered = self.pending.samples.len(),
+                            "database write failed; keeping the batch and retrying with backoff"
+                        );
+                        self.failing = Some(Failing {
+                            cause,
+                            next_try: Instant::now() + self.cfg.retry_initial,
+                            delay: self.cfg.retry_initial,
+                            dropped: None,
+                        });
+                    }
+                }
+                Err(e)
+            }
+        }
+    }
+
+    fn accept_samples(&mut self, batch: Vec<Sample>) {
+        self.stats.samples_received += batch.len() as u64;
+        if let Some(first) = batch.iter().map(|s| s.t_ms).min() {
+            if let Some(g) = self.open_gap.take() {
+                if first > g.start_ms {
+                    self.pending.gaps.push(Gap { end_ms: first, ..g });
+                }
+            }
+        }
+        let room = self
+            .cfg
+            .buffer_limit()
+            .saturating_sub(self.pending.samples.len());
+        if let (Some(f), true) = (self.failing.as_mut(), batch.len() > room) {
+            let mut batch = batch;
+            let over = batch.split_off(room);
+            for s in &over {
+                f.dropped = Some(match f.dropped {
+                    Some((a, b)) => (a.min(s.t_ms), b.max(s.t_ms)),
+                    None => (s.t_ms, s.t_ms),
+                });
+            }
+            self.stats.samples_dropped += over.len() as u64;
+            self.pending.samples.extend(batch);
+        } else {
+            self.pending.samples.extend(batch);
+        }
+        self.pending.since.get_or_insert_with(Instant::now);
+    }
+}
+
 async fn run_writer(
-    mut store: Store,
+    store: Store,
     mut rx: mpsc::Receiver<WriteCmd>,
     cfg: WriterConfig,
 ) -> Result<WriterStats, StoreError> {
-    let mut stats = WriterStats::default();
-    let mut pending = Pending {
-        samples: Vec::with_capacity(cfg.batch_size),
-        gaps: Vec::new(),
-        since: None,
+    let mut w = Writer {
+        store: Some(store),
+        cfg,
+        stats: WriterStats::default(),
+        pending: Pending {
+            samples: Vec::with_capacity(cfg.batch_size.min(1 << 16)),
+            gaps: Vec::new(),
+            since: None,
+            acks: Vec::new(),
+        },
+        failing: None,
+        open_gap: None,
     };
     loop {
-        let deadline = pending.since.map(|t| t + cfg.flush_interval);
+        // While failing, the next attempt is at the backoff time; otherwise at the flush
+        // interval after the oldest buffered sample.
+        let deadline = match &w.failing {
+            Some(f) => Some(f.next_try),
+            None => w.pending.since.map(|t| t + cfg.flush_interval),
+        };
         let cmd = match deadline {
             Some(d) => match tokio::time::timeout_at(d, rx.recv()).await {
                 Ok(c) => c,
                 Err(_elapsed) => {
-                    store = flush(store, &mut pending, &mut stats).await?;
+                    let _ = w.flush().await;
                     continue;
                 }
             },
@@ -93,58 +288,60 @@ async fn run_writer(
         };
         match cmd {
             None => {
-                store = flush(store, &mut pending, &mut stats).await?;
-                drop(store);
-                return Ok(stats);
-            }
-            Some(WriteCmd::Samples(batch)) => {
-                stats.samples_received += batch.len() as u64;
-                pending.samples.extend(batch);
-                pending.since.get_or_insert_with(Instant::now);
-                if pending.samples.len() >= cfg.batch_size {
-                    store = flush(store, &mut pending, &mut stats).await?;
+                let give_up = Instant::now() + cfg.close_retry;
+                loop {
+                    match w.flush().await {
+                        Ok(()) => return Ok(w.stats),
+                        Err(e) => {
+                            let next = w.failing.as_ref().map_or(give_up, |f| f.next_try);
+                            if next >= give_up {
+                                tracing::error!(
+                                    lost = w.pending.samples.len(),
+                                    cause = %error_chain(&e),
+                                    "writer stopping with samples it could not commit"
+                                );
+                                return Err(e);
+                            }
+                            tokio::time::sleep_until(next).await;
+                        }
+                    }
                 }
             }
+            Some(WriteCmd::Samples(batch)) => {
+                w.accept_samples(batch);
+                if w.failing.is_none() && w.pending.samples.len() >= cfg.batch_size {
+                    let _ = w.flush().await;
+                }
+            }
+            Some(WriteCmd::GapUntilNextSample(g)) => w.open_gap = Some(g),
             Some(WriteCmd::Gap(g)) => {
-                pending.gaps.push(g);
-                pending.since.get_or_insert_with(Instant::now);
+                w.pending.gaps.push(g);
+                w.pending.since.get_or_insert_with(Instant::now);
             }
             Some(WriteCmd::Flush(ack)) => {
-                store = flush(store, &mut pending, &mut stats).await?;
-                // The requester may have given up waiting; nothing to do then.
-                let _ = ack.send(());
+                // Answered once the data is committed (at once unless writes are failing).
+                w.pending.acks.push(ack);
+                if w.failing.is_none() {
+                    let _ = w.flush().await;
+                }
             }
         }
     }
 }
 
-/// Commits the pending samples and gaps in one transaction on the blocking pool.
-async fn flush(
-    store: Store,
-    pending: &mut Pending,
-    stats: &mut WriterStats,
-) -> Result<Store, StoreError> {
-    pending.since = None;
-    if pending.is_empty() {
-        return Ok(store);
+/// The error and its sources, once each.
+fn error_chain(e: &StoreError) -> String {
+    let mut out = e.to_string();
+    let mut src = std::error::Error::source(e);
+    while let Some(s) = src {
+        let t = s.to_string();
+        if !out.contains(&t) {
+            out.push_str(": ");
+            out.push_str(&t);
+        }
+        src = s.source();
     }
-    let samples = std::mem::take(&mut pending.samples);
-    let gaps = std::mem::take(&mut pending.gaps);
-    let n_gaps = gaps.len() as u64;
-    let n_samples = samples.len() as u64;
-    let (store, result) = tokio::task::spawn_blocking(move || {
-        let mut store = store;
-        let r = commit(&mut store, &samples, &gaps);
-        (store, r)
-    })
-    .await
-    .map_err(|e| StoreError::Writer(e.to_string()))?;
-    let inserted = result? as u64;
-    stats.samples_inserted += inserted;
-    stats.samples_duplicate += n_samples - inserted;
-    stats.gaps += n_gaps;
-    stats.transactions += 1;
-    Ok(store)
+    out
 }
 
 fn commit(store: &mut Store, samples: &[Sample], gaps: &[Gap]) -> Result<usize, StoreError> {

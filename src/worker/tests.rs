@@ -172,3 +172,27 @@ fn fnv1a_known_values() {
     assert_eq!(fnv1a(&[b"a"]), h);
     assert_ne!(fnv1a(&[b"ab"]), fnv1a(&[b"a", b"b"]));
 }
+
+/// Issue 12 #3: a segment whose required signals are mostly flagged is never diagnosed; it is
+/// stored undiagnosable with the `low_quality` reason naming the signal.
+#[test]
+fn low_quality_segment_is_stored_undiagnosable() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut store = stored_startup(dir.path());
+    let seg = store.pending_segments().expect("pending")[0].id;
+    // Flag every third fuel sample as out of range (33 % bad < 90 % good).
+    store
+        .conn_mut()
+        .execute(
+            "UPDATE samples SET quality = 1 WHERE (t_ms / 1000) % 3 = 0 AND tag_id =
+               (SELECT id FROM tags WHERE signal = 'fuel_kg_s')",
+            [],
+        )
+        .expect("flag");
+    let rep = drain_pending(&mut store, &ctx(), &Cancel::new(), None).expect("drain");
+    assert_eq!(rep.undiagnosable, 1);
+    let r = store.undiagnosable_reasons(seg).expect("reasons");
+    assert_eq!(r.len(), 1, "{r:?}");
+    assert_eq!(r[0].1, "low_quality");
+    assert!(r[0].2.contains("fuel_kg_s"), "{r:?}");
+}
