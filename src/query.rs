@@ -1,12 +1,12 @@
 //! Read-side queries for the `segments` and `export` commands.
 //!
-//! Works on a read-only [`Store`] so it never disturbs the running daemon. Must not write.
+//! Works on a read-only store (`ReadStore`) so it never disturbs the running daemon; the SQL is
+//! the store's (`store/segments.rs`), this module only shapes and formats. Must not write.
 
 use crate::detect::{AbortCause, Outcome, PhaseSpan};
 use crate::ingest::fmt_ms;
 use crate::signals::Phase;
 use crate::store::{Store, StoreError};
-use rusqlite::params;
 use serde::Serialize;
 use std::io::Write;
 
@@ -65,59 +65,41 @@ pub fn list_segments(
     store: &Store,
     since_ms: Option<i64>,
 ) -> Result<Vec<SegmentSummary>, QueryError> {
-    let conn = store.conn();
-    let mut stmt = conn.prepare_cached(
-        "SELECT id, start_ms, end_ms, outcome, abort_cause, status, hot_restart, has_gap
-         FROM segments WHERE kind = 'startup' AND start_ms >= ?1 ORDER BY start_ms",
-    )?;
-    let rows = stmt.query_map([since_ms.unwrap_or(i64::MIN)], |r| {
-        Ok((
-            r.get::<_, i64>(0)?,
-            r.get::<_, i64>(1)?,
-            r.get::<_, Option<i64>>(2)?,
-            r.get::<_, String>(3)?,
-            r.get::<_, Option<String>>(4)?,
-            r.get::<_, String>(5)?,
-            r.get::<_, bool>(6)?,
-            r.get::<_, bool>(7)?,
-        ))
-    })?;
-    let mut phases = conn.prepare_cached(
-        "SELECT phase, start_ms, end_ms FROM segment_phases WHERE segment_id = ?1
-         ORDER BY start_ms, phase_code",
-    )?;
     let mut out = Vec::new();
-    for row in rows {
-        let (id, start_ms, end_ms, outcome, cause, status, hot_restart, has_gap) = row?;
-        let outcome = Outcome::parse(&outcome)
-            .ok_or_else(|| QueryError::Corrupt(format!("segment {id}: outcome '{outcome}'")))?;
-        let abort_cause = match cause {
+    for row in store.startup_rows(since_ms)? {
+        let id = row.id;
+        let outcome = Outcome::parse(&row.outcome).ok_or_else(|| {
+            QueryError::Corrupt(format!("segment {id}: outcome '{}'", row.outcome))
+        })?;
+        let abort_cause = match &row.abort_cause {
             Some(c) => Some(
-                AbortCause::parse(&c)
+                AbortCause::parse(c)
                     .ok_or_else(|| QueryError::Corrupt(format!("segment {id}: cause '{c}'")))?,
             ),
             None => None,
         };
-        let spans = phases
-            .query_map([id], |r| {
-                Ok((
-                    r.get::<_, String>(0)?,
-                    r.get::<_, i64>(1)?,
-                    r.get::<_, Option<i64>>(2)?,
-                ))
-            })?
+        let spans = store
+            .phase_rows(id)?
+            .into_iter()
             .map(|p| {
-                let (name, start_ms, end_ms) = p?;
-                let phase = name
+                let phase = p
+                    .phase
                     .parse::<Phase>()
                     .map_err(|e| QueryError::Corrupt(format!("segment {id}: {e}")))?;
                 Ok(PhaseSpan {
                     phase,
-                    start_ms,
-                    end_ms,
+                    start_ms: p.start_ms,
+                    end_ms: p.end_ms,
                 })
             })
             .collect::<Result<Vec<_>, QueryError>>()?;
+        let (start_ms, end_ms, status, hot_restart, has_gap) = (
+            row.start_ms,
+            row.end_ms,
+            row.status,
+            row.hot_restart,
+            row.has_gap,
+        );
         out.push(SegmentSummary {
             id,
             start_ms,
@@ -251,10 +233,6 @@ pub fn export_csv(
         .iter()
         .map(|t| store.tag_by_name(t.trim()).map(|r| r.id))
         .collect::<Result<Vec<_>, _>>()?;
-    let conn = store.conn();
-    let mut stmt = conn.prepare_cached(
-        "SELECT t_ms, value, quality FROM samples WHERE tag_id = ?1 AND t_ms BETWEEN ?2 AND ?3 ORDER BY t_ms",
-    )?;
     let mut w = csv::Writer::from_writer(out);
     let mut rows = 0u64;
     match layout {
@@ -263,16 +241,8 @@ pub fn export_csv(
             // Merge by time so the output is time-ordered across tags.
             let mut all: Vec<(i64, usize, f64, i64)> = Vec::new();
             for (k, id) in ids.iter().enumerate() {
-                let it = stmt.query_map(params![id, from_ms, to_ms], |r| {
-                    Ok((
-                        r.get::<_, i64>(0)?,
-                        k,
-                        r.get::<_, f64>(1)?,
-                        r.get::<_, i64>(2)?,
-                    ))
-                })?;
-                for s in it {
-                    all.push(s?);
+                for s in store.tag_samples_between(*id, from_ms, to_ms)? {
+                    all.push((s.t_ms, k, s.value, s.quality));
                 }
             }
             all.sort_by_key(|s| (s.0, s.1));
@@ -290,10 +260,13 @@ pub fn export_csv(
         ExportLayout::Wide => {
             let mut cols: Vec<Vec<(i64, f64)>> = Vec::with_capacity(ids.len());
             for id in &ids {
-                let it = stmt.query_map(params![id, from_ms, to_ms], |r| {
-                    Ok((r.get::<_, i64>(0)?, r.get::<_, f64>(1)?))
-                })?;
-                cols.push(it.collect::<Result<Vec<_>, _>>()?);
+                cols.push(
+                    store
+                        .tag_samples_between(*id, from_ms, to_ms)?
+                        .into_iter()
+                        .map(|s| (s.t_ms, s.value))
+                        .collect(),
+                );
             }
             let mut head = vec!["time".to_string(), "t_ms".to_string()];
             head.extend(tags.iter().map(|t| t.trim().to_string()));

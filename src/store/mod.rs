@@ -13,7 +13,9 @@
 
 mod detection;
 mod diagnoses;
+mod segments;
 mod washes;
+pub use segments::{PhaseRow, SampleRow, StartupRow};
 pub use washes::{RecommendationRow, WashRow, DETECTED_PREFIX};
 mod schema;
 mod writer;

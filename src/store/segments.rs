@@ -1,0 +1,94 @@
+//! Read queries of the start-up list and of raw samples, for `segments`, `export`, the report
+//! and the demo (`crate::query` formats them). The store owns the SQL; nothing here writes.
+
+use super::{Store, StoreError};
+use rusqlite::params;
+
+/// One row of the `segments` table (kind `startup`), as stored.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StartupRow {
+    pub id: i64,
+    pub start_ms: i64,
+    pub end_ms: Option<i64>,
+    pub outcome: String,
+    pub abort_cause: Option<String>,
+    pub status: String,
+    pub hot_restart: bool,
+    pub has_gap: bool,
+}
+
+/// One phase of a segment, as stored.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PhaseRow {
+    pub phase: String,
+    pub start_ms: i64,
+    pub end_ms: Option<i64>,
+}
+
+/// One stored sample of a tag.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SampleRow {
+    pub t_ms: i64,
+    pub value: f64,
+    pub quality: i64,
+}
+
+impl Store {
+    /// Start-ups beginning at or after `since_ms` (all if `None`), oldest first.
+    pub fn startup_rows(&self, since_ms: Option<i64>) -> Result<Vec<StartupRow>, StoreError> {
+        let mut st = self.conn.prepare_cached(
+            "SELECT id, start_ms, end_ms, outcome, abort_cause, status, hot_restart, has_gap
+             FROM segments WHERE kind = 'startup' AND start_ms >= ?1 ORDER BY start_ms",
+        )?;
+        let rows = st.query_map([since_ms.unwrap_or(i64::MIN)], |r| {
+            Ok(StartupRow {
+                id: r.get(0)?,
+                start_ms: r.get(1)?,
+                end_ms: r.get(2)?,
+                outcome: r.get(3)?,
+                abort_cause: r.get(4)?,
+                status: r.get(5)?,
+                hot_restart: r.get(6)?,
+                has_gap: r.get(7)?,
+            })
+        })?;
+        Ok(rows.collect::<Result<_, _>>()?)
+    }
+
+    /// The phases of one segment in time order.
+    pub fn phase_rows(&self, segment_id: i64) -> Result<Vec<PhaseRow>, StoreError> {
+        let mut st = self.conn.prepare_cached(
+            "SELECT phase, start_ms, end_ms FROM segment_phases WHERE segment_id = ?1
+             ORDER BY start_ms, phase_code",
+        )?;
+        let rows = st.query_map([segment_id], |r| {
+            Ok(PhaseRow {
+                phase: r.get(0)?,
+                start_ms: r.get(1)?,
+                end_ms: r.get(2)?,
+            })
+        })?;
+        Ok(rows.collect::<Result<_, _>>()?)
+    }
+
+    /// Every stored sample of `tag_id` with `from_ms ≤ t ≤ to_ms`, in time order (any quality).
+    pub fn tag_samples_between(
+        &self,
+        tag_id: i64,
+        from_ms: i64,
+        to_ms: i64,
+    ) -> Result<Vec<SampleRow>, StoreError> {
+        let mut st = self.conn.prepare_cached(
+            "SELECT t_ms, value, quality FROM samples WHERE tag_id = ?1 AND t_ms BETWEEN ?2 AND ?3
+             ORDER BY t_ms",
+        )?;
+        let rows = st.query_map(params![tag_id, from_ms, to_ms], |r| {
+            Ok(SampleRow {
+                t_ms: r.get(0)?,
+                value: r.get(1)?,
+                quality: r.get(2)?,
+            })
+        })?;
+        Ok(rows.collect::<Result<_, _>>()?)
+    }
+}
