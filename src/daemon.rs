@@ -70,19 +70,6 @@ pub struct RunReport {
     pub diagnosis: DrainReport,
 }
 
-/// The latest stored sample (any quality) of the acquisition tags, if any.
-fn last_sample_ms(store: &Store, tags: &[TagId]) -> Result<Option<i64>, StoreError> {
-    let mut last: Option<i64> = None;
-    let mut stmt = store
-        .conn()
-        .prepare_cached("SELECT MAX(t_ms) FROM samples WHERE tag_id = ?1")?;
-    for t in tags {
-        let m: Option<i64> = stmt.query_row([t], |r| r.get(0))?;
-        last = last.max(m);
-    }
-    Ok(last)
-}
-
 /// Tag ids for every register-map field, in map order (creating tags as needed).
 fn ensure_tags(store: &mut Store, cfg: &Config) -> Result<Vec<TagId>, StoreError> {
     let Some(map) = &cfg.modbus else {
@@ -230,7 +217,7 @@ pub async fn run(
             .map_err(|e| DaemonError::Writer(e.to_string()))??
     };
     let tags = ensure_tags(&mut store, &cfg)?;
-    let last_stored_ms = last_sample_ms(&store, &tags)?;
+    let last_stored_ms = store.last_sample_ms(&tags)?;
     tracing::info!(
         plant = %cfg.plant.name,
         db = %db_path.display(),

@@ -233,14 +233,13 @@ fn prefill_startups(
 
 /// Jitter of the stored n1 time stamps at or after `from_ms`.
 fn poll_jitter(path: &std::path::Path, from_ms: i64, period_ms: u64) -> anyhow::Result<Jitter> {
-    let c = rusqlite::Connection::open(path)?;
-    let mut st = c.prepare(
-        "SELECT s.t_ms FROM samples s JOIN tags t ON t.id = s.tag_id
-         WHERE t.name = 'n1_rpm' AND s.t_ms >= ?1 ORDER BY s.t_ms",
-    )?;
-    let ts: Vec<i64> = st
-        .query_map([from_ms], |r| r.get(0))?
-        .collect::<Result<_, _>>()?;
+    let store = crate::store::Store::open_readonly(path)?;
+    let tag = store.tag_by_name("n1_rpm")?.id;
+    let ts: Vec<i64> = store
+        .tag_samples_between(tag, from_ms, i64::MAX)?
+        .into_iter()
+        .map(|s| s.t_ms)
+        .collect();
     let mut dev: Vec<f64> = ts
         .windows(2)
         .map(|w| ((w[1] - w[0]) as f64 - period_ms as f64).abs())

@@ -426,8 +426,8 @@ impl Store {
         self.read_only
     }
 
-    /// The underlying connection: only for SQL inside this crate (the store's modules,
-    /// `query`); never handed to callers outside it.
+    /// The underlying connection, for the crate's unit tests only: all SQL lives in `store/`.
+    #[cfg(test)]
     pub(crate) fn conn(&self) -> &Connection {
         &self.conn
     }

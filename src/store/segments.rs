@@ -71,6 +71,19 @@ impl Store {
         Ok(rows.collect::<Result<_, _>>()?)
     }
 
+    /// The latest stored sample time (any quality) over `tags`, if any.
+    pub fn last_sample_ms(&self, tags: &[i64]) -> Result<Option<i64>, StoreError> {
+        let mut st = self
+            .conn
+            .prepare_cached("SELECT MAX(t_ms) FROM samples WHERE tag_id = ?1")?;
+        let mut last: Option<i64> = None;
+        for t in tags {
+            let m: Option<i64> = st.query_row([t], |r| r.get(0))?;
+            last = last.max(m);
+        }
+        Ok(last)
+    }
+
     /// Every stored sample of `tag_id` with `from_ms ≤ t ≤ to_ms`, in time order (any quality).
     pub fn tag_samples_between(
         &self,
