@@ -14,7 +14,7 @@
 //! usual commands (`history`, `wash advise`, `segments`) work on the result afterwards.
 
 use crate::acquire::modbus::PollStats;
-use crate::acquire::register_map::{DataType, FieldSpec, PLANT_TIME_FIELD};
+use crate::acquire::register_map::PLANT_TIME_FIELD;
 use crate::config::Config;
 use crate::daemon::{self, RunOptions};
 use crate::engine::Engine;
@@ -181,7 +181,7 @@ pub enum DemoEvent {
 pub fn demo_config_text(endpoint: &str, poll_period_ms: u64) -> anyhow::Result<String> {
     let shipped = include_str!("../config/gtwatch.toml");
     let mut text = format!("{MARKER}\n{shipped}");
-    let subs: [(&str, String); 5] = [
+    let subs: [(&str, String); 6] = [
         (
             "path = \"/var/lib/gtwatch/gtwatch.db\"",
             "path = \"gtwatch.db\"".into(),
@@ -200,6 +200,17 @@ pub fn demo_config_text(endpoint: &str, poll_period_ms: u64) -> anyhow::Result<S
             "detect_interval_ms = 1000".into(),
         ),
         ("poll_interval_ms = 60000", "poll_interval_ms = 1000".into()),
+        // The plant clock: a field after `phase_truth` (address 18, one register) in request 0,
+        // so the written file is complete and `check-config` accepts it.
+        (
+            "name = \"phase_truth\"\naddress = 18\ntype = \"u16\"\n",
+            format!(
+                "name = \"phase_truth\"\naddress = 18\ntype = \"u16\"\n\n\
+                 # The simulator's clock, Unix epoch ms (gtwatch demo stamps samples with it).\n\
+                 [[modbus.request.field]]\nname = \"{PLANT_TIME_FIELD}\"\naddress = 19\n\
+                 type = \"f64\"\nunit = \"ms\"\n"
+            ),
+        ),
     ];
     for (from, to) in subs {
         if !text.contains(from) {
@@ -208,37 +219,6 @@ pub fn demo_config_text(endpoint: &str, poll_period_ms: u64) -> anyhow::Result<S
         text = text.replacen(from, &to, 1);
     }
     Ok(text)
-}
-
-/// Adds the plant-clock field to the first request of the map (after its last register).
-fn add_plant_clock_field(cfg: &mut Config) -> anyhow::Result<()> {
-    let map = cfg
-        .modbus
-        .as_mut()
-        .context("demo configuration has no [modbus]")?;
-    let req = map
-        .requests
-        .first_mut()
-        .context("demo configuration has no Modbus request")?;
-    let next = req
-        .fields
-        .iter()
-        .map(|f| f.address + f.data_type.words())
-        .max()
-        .unwrap_or(req.start_address);
-    req.fields.push(FieldSpec {
-        name: PLANT_TIME_FIELD.into(),
-        address: next,
-        data_type: DataType::F64,
-        byte_order: Default::default(),
-        scale: 1.0,
-        offset: 0.0,
-        unit: "ms".into(),
-        signal: None,
-        min: None,
-        max: None,
-    });
-    Ok(())
 }
 
 /// Prepares the output folder: refuses one with a database the demo did not make.
@@ -289,9 +269,6 @@ pub async fn run_demo(
     std::fs::write(&config_path, &text)
         .with_context(|| format!("writing {}", config_path.display()))?;
     let mut cfg = Config::load(&config_path)?;
-    // The plant clock field lives in the in-process map (the written file leaves it out, so
-    // `check-config` on it shows the plain reference map plus the demo's changes).
-    add_plant_clock_field(&mut cfg)?;
     cfg.storage.path = db_path.clone();
     cfg.diagnosis.seed = opts.seed;
     let problems = cfg.check();

@@ -80,6 +80,8 @@ async fn demo_diagnoses_every_day_detects_the_wash_and_advises_reproducibly() {
 
     // Recompute the advice from what is stored, independently of `advice::refresh`.
     let cfg = Config::load(&report.config_path).unwrap();
+    // The configuration the demo leaves behind is complete: `check-config` accepts it.
+    assert_eq!(cfg.check(), vec![], "demo config {:?}", report.config_path);
     let store = Store::open_readonly(&report.db_path).unwrap();
     let stored = store
         .latest_recommendation()
