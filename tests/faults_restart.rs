@@ -68,6 +68,10 @@ async fn one_run(db: &Path, polls: u64, abort: bool) {
         tokio::time::sleep(Duration::from_millis(150)).await;
         daemon.abort();
         let _ = daemon.await;
+        // Aborting the daemon's own task leaves the tasks it spawned (poller, writer) running
+        // in this test's runtime; stop them so they do not keep writing beside the next run.
+        trigger.trigger();
+        tokio::time::sleep(Duration::from_millis(200)).await;
     } else {
         trigger.trigger();
         daemon.await.expect("join").expect("daemon ran");
@@ -86,10 +90,11 @@ async fn restart_records_a_gap(abort: bool) {
     let dir = tempfile::tempdir().expect("tempdir");
     let db_path = dir.path().join("restart.db");
     one_run(&db_path, 20, abort).await;
+    // Read what the first run left only once nothing of it can still be committing.
+    tokio::time::sleep(Duration::from_millis(300)).await;
     let before = sample_times(&common::open_db(&db_path));
     assert!(!before.is_empty(), "first run stored nothing");
     let last_before = *before.last().expect("last");
-    tokio::time::sleep(Duration::from_millis(300)).await;
     one_run(&db_path, 20, false).await;
 
     let db = common::open_db(&db_path);
