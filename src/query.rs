@@ -67,6 +67,8 @@ pub fn list_segments(
 ) -> Result<Vec<SegmentSummary>, QueryError> {
     let mut out = Vec::new();
     for row in store.startup_rows(since_ms)? {
+        let hot_restart = row.hot_restart;
+        let row = row.info;
         let id = row.id;
         let outcome = Outcome::parse(&row.outcome).ok_or_else(|| {
             QueryError::Corrupt(format!("segment {id}: outcome '{}'", row.outcome))
@@ -93,13 +95,8 @@ pub fn list_segments(
                 })
             })
             .collect::<Result<Vec<_>, QueryError>>()?;
-        let (start_ms, end_ms, status, hot_restart, has_gap) = (
-            row.start_ms,
-            row.end_ms,
-            row.status,
-            row.hot_restart,
-            row.has_gap,
-        );
+        let (start_ms, end_ms, status, has_gap) =
+            (row.start_ms, row.end_ms, row.status, row.has_gap);
         out.push(SegmentSummary {
             id,
             start_ms,

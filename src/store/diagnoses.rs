@@ -112,7 +112,7 @@ pub struct HistoryFilter {
 /// Samples taken before the segment's start as standstill context for the model.
 const CONTEXT_BEFORE_MS: i64 = 10_000;
 
-fn segment_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<SegmentInfo> {
+pub(super) fn segment_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<SegmentInfo> {
     Ok(SegmentInfo {
         id: r.get(0)?,
         start_ms: r.get(1)?,
@@ -124,7 +124,7 @@ fn segment_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<SegmentInfo> {
     })
 }
 
-const SEGMENT_COLS: &str = "id, start_ms, end_ms, outcome, abort_cause, status, has_gap";
+pub(super) const SEGMENT_COLS: &str = "id, start_ms, end_ms, outcome, abort_cause, status, has_gap";
 
 impl Store {
     /// The worker's queue: closed start-ups with neither a result nor a recorded reason,

@@ -1,20 +1,16 @@
 //! Read queries of the start-up list and of raw samples, for `segments`, `export`, the report
 //! and the demo (`crate::query` formats them). The store owns the SQL; nothing here writes.
 
-use super::{Store, StoreError};
+use super::diagnoses::{segment_row, SEGMENT_COLS};
+use super::{SegmentInfo, Store, StoreError};
 use rusqlite::params;
 
-/// One row of the `segments` table (kind `startup`), as stored.
+/// One start-up as stored: the segment (the worker's [`SegmentInfo`]) and whether it was a
+/// hot restart.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StartupRow {
-    pub id: i64,
-    pub start_ms: i64,
-    pub end_ms: Option<i64>,
-    pub outcome: String,
-    pub abort_cause: Option<String>,
-    pub status: String,
+    pub info: SegmentInfo,
     pub hot_restart: bool,
-    pub has_gap: bool,
 }
 
 /// One phase of a segment, as stored.
@@ -36,20 +32,15 @@ pub struct SampleRow {
 impl Store {
     /// Start-ups beginning at or after `since_ms` (all if `None`), oldest first.
     pub fn startup_rows(&self, since_ms: Option<i64>) -> Result<Vec<StartupRow>, StoreError> {
-        let mut st = self.conn.prepare_cached(
-            "SELECT id, start_ms, end_ms, outcome, abort_cause, status, hot_restart, has_gap
-             FROM segments WHERE kind = 'startup' AND start_ms >= ?1 ORDER BY start_ms",
-        )?;
+        // Same columns as the worker's queries (SEGMENT_COLS), then hot_restart.
+        let mut st = self.conn.prepare_cached(&format!(
+            "SELECT {SEGMENT_COLS}, hot_restart FROM segments
+             WHERE kind = 'startup' AND start_ms >= ?1 ORDER BY start_ms"
+        ))?;
         let rows = st.query_map([since_ms.unwrap_or(i64::MIN)], |r| {
             Ok(StartupRow {
-                id: r.get(0)?,
-                start_ms: r.get(1)?,
-                end_ms: r.get(2)?,
-                outcome: r.get(3)?,
-                abort_cause: r.get(4)?,
-                status: r.get(5)?,
-                hot_restart: r.get(6)?,
-                has_gap: r.get(7)?,
+                info: segment_row(r)?,
+                hot_restart: r.get(7)?,
             })
         })?;
         Ok(rows.collect::<Result<_, _>>()?)
