@@ -20,7 +20,7 @@ use crate::daemon::{self, RunOptions};
 use crate::engine::Engine;
 use crate::health::{HealthParams, HEALTH_NAMES};
 use crate::ingest::fmt_ms;
-use crate::plantsim::fouling::DAY_S;
+use crate::plantsim::fouling::{day_of, DAY_S};
 use crate::plantsim::{spawn_plant_sim, FoulingPlant, FoulingSchedule, SimOptions};
 use crate::query::list_segments;
 use crate::shutdown::shutdown_channel;
@@ -244,12 +244,6 @@ fn prepare_out_dir(dir: &Path) -> anyhow::Result<(PathBuf, PathBuf)> {
         }
     }
     Ok((db, cfg))
-}
-
-/// Which day a plant time falls on.
-fn day_of(t_ms: i64, epoch_ms: i64) -> Option<usize> {
-    let d = (t_ms - epoch_ms) as f64 / (DAY_S * 1000.0);
-    (d >= 0.0).then(|| d.floor() as usize)
 }
 
 /// Runs the demo. `on_event` is called from the monitoring loop as things happen.

@@ -12,7 +12,7 @@ use crate::detect::scan;
 use crate::engine::Engine;
 use crate::health::HEALTH_NAMES;
 use crate::ingest::{fmt_ms, replay_file, Progress, ReplayConfig};
-use crate::plantsim::fouling::DAY_S;
+use crate::plantsim::fouling::{day_of, DAY_S};
 use crate::plantsim::{FoulingPlant, FoulingSchedule, PlantModel};
 use crate::signals::Signal;
 use crate::store::{HistoryFilter, Store};
@@ -147,7 +147,9 @@ pub fn run(a: BenchMonthArgs) -> anyhow::Result<ExitCode> {
     })?;
     let mut per_day = Vec::new();
     for h in &history {
-        let day = ((h.start_ms - epoch_ms) as f64 / (DAY_S * 1000.0)).floor() as usize;
+        let Some(day) = day_of(h.start_ms, epoch_ms) else {
+            continue;
+        };
         let truth = schedule.health_on(day).to_array();
         let err = HEALTH_NAMES
             .iter()

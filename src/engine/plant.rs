@@ -44,6 +44,21 @@ pub fn repeating_schedule(engine: &Engine, cycles: usize) -> (Vec<Event>, f64) {
     (events, period)
 }
 
+/// One live instrument channel per signal (lags and default noise seeded by `seed`, no bias),
+/// sampled every `period_s`: what a simulated plant's readings pass through.
+pub fn live_channels(engine: &Engine, period_s: f64, seed: u64) -> Vec<OnlineChannel> {
+    let opts = MeasurementOptions {
+        lags: true,
+        noise: true,
+        bias: false,
+        seed,
+    };
+    Signal::ALL
+        .iter()
+        .map(|s| OnlineChannel::new(&engine.cfg().sensors, *s, period_s, &opts))
+        .collect()
+}
+
 /// The engine model running as a plant.
 pub struct SimulatedPlant {
     sim: Simulation,
@@ -75,19 +90,9 @@ impl SimulatedPlant {
             end: End::At(period * cycles.max(1) as f64),
         };
         let sim = Simulation::new(engine.cfg(), &model, &scenario);
-        let opts = MeasurementOptions {
-            lags: true,
-            noise: true,
-            bias: false,
-            seed,
-        };
-        let channels = Signal::ALL
-            .iter()
-            .map(|s| OnlineChannel::new(&engine.cfg().sensors, *s, period_s, &opts))
-            .collect();
         Ok(SimulatedPlant {
             sim,
-            channels,
+            channels: live_channels(engine, period_s, seed),
             period_s,
             k: 0,
         })

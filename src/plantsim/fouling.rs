@@ -9,17 +9,25 @@
 //! sample is still a true reading at its plant time. Pure: no I/O, no clock.
 
 use super::{PlantFrame, PlantModel};
-use crate::engine::sensors::{MeasurementOptions, OnlineChannel};
+use crate::engine::plant::live_channels;
+use crate::engine::sensors::OnlineChannel;
 use crate::engine::sequence::{Command, End, Event, Scenario, Simulation};
 use crate::engine::trace::{values_of, Values, NSIG};
 use crate::engine::{Engine, EngineError};
 use crate::health::HealthParams;
-use crate::signals::{Phase, Signal};
+use crate::signals::Phase;
 use std::sync::atomic::{AtomicI64, Ordering};
 use std::sync::Arc;
 
 /// Seconds in a plant day.
 pub const DAY_S: f64 = 86_400.0;
+
+/// The plant day (0-based) a time falls on, for a plant whose day 0 starts at `epoch_ms`;
+/// `None` before it.
+pub fn day_of(t_ms: i64, epoch_ms: i64) -> Option<usize> {
+    let d = (t_ms - epoch_ms) as f64 / (DAY_S * 1000.0);
+    (d >= 0.0).then(|| d.floor() as usize)
+}
 
 /// How the engine's health develops over the days of the demo.
 #[derive(Debug, Clone, PartialEq)]
@@ -141,7 +149,7 @@ impl FoulingPlant {
         epoch_ms: i64,
     ) -> Result<FoulingPlant, EngineError> {
         let period_s = 1.0;
-        let idle_channels = channels(engine, period_s, seed ^ 0x1d1e);
+        let idle_channels = live_channels(engine, period_s, seed ^ 0x1d1e);
         let mut plant = FoulingPlant {
             engine: engine.clone(),
             schedule,
@@ -210,7 +218,7 @@ impl FoulingPlant {
         let sim = Simulation::new(self.engine.cfg(), &model, &scenario);
         Ok(Day {
             sim,
-            channels: channels(
+            channels: live_channels(
                 &self.engine,
                 self.period_s,
                 self.seed.wrapping_add(day as u64),
@@ -230,19 +238,6 @@ impl FoulingPlant {
             phase: Phase::Standstill,
         }
     }
-}
-
-fn channels(engine: &Engine, period_s: f64, seed: u64) -> Vec<OnlineChannel> {
-    let opts = MeasurementOptions {
-        lags: true,
-        noise: true,
-        bias: false,
-        seed,
-    };
-    Signal::ALL
-        .iter()
-        .map(|s| OnlineChannel::new(&engine.cfg().sensors, *s, period_s, &opts))
-        .collect()
 }
 
 impl PlantModel for FoulingPlant {

@@ -17,7 +17,9 @@ use crate::health::{HealthParams, HEALTH_NAMES};
 use crate::ingest::fmt_ms;
 use crate::query::{list_segments, QueryError};
 use crate::signals::Signal;
-use crate::store::{Gap, HistoryFilter, HistoryRow, RecommendationRow, Store, StoreError, WashRow};
+use crate::store::{
+    signal_unit, Gap, HistoryFilter, HistoryRow, RecommendationRow, Store, StoreError, WashRow,
+};
 use crate::trend::{fit_rate, TrendPoint};
 use serde::Serialize;
 use std::fmt::Write;
@@ -245,18 +247,6 @@ fn trend_lines(history: &[HistoryRow], washes: &[WashRow]) -> Vec<TrendLine> {
     out
 }
 
-/// Engineering unit of a signal's column.
-fn unit(s: Signal) -> &'static str {
-    match s {
-        Signal::N1 | Signal::N2 => "rpm",
-        Signal::T1 | Signal::T2 | Signal::T3 | Signal::T34 | Signal::T4 => "K",
-        Signal::P1 | Signal::P2 | Signal::P3 | Signal::P34 | Signal::P4 => "kPa",
-        Signal::FuelFlow => "kg/s",
-        Signal::Power => "MW",
-        Signal::SurgeMargin => "-",
-    }
-}
-
 fn health_of(row: &HistoryRow) -> HealthParams {
     let g = |n: &str| row.health.get(n).copied().unwrap_or(0.0);
     HealthParams {
@@ -329,7 +319,7 @@ fn latest_startup(
         }
         out.traces.push(SignalTrace {
             signal: s.column().to_string(),
-            unit: unit(s).to_string(),
+            unit: signal_unit(s).to_string(),
             t_s: rec.times().to_vec(),
             measured,
             model,
