@@ -7,15 +7,19 @@ use gtwatch::diagnosis::steady::diagnose_steady;
 use gtwatch::diagnosis::transient::diagnose_transient;
 use gtwatch::diagnosis::DiagnosisConfig;
 use gtwatch::engine::sensors::MeasurementOptions;
-use gtwatch::engine::{sequence, Engine, Scenario, Trace};
+use gtwatch::engine::{Engine, Scenario, Trace};
 use gtwatch::signals::Signal;
 fn main() {
     let e = Engine::reference().expect("engine");
     let (_, a) = wash_truth();
-    let (s, _) =
-        sequence::run_scenario(e.cfg(), &e.model(&a), &Scenario::startup(e.cfg())).expect("runs");
-    let tr = Trace::from_truth(
+    let (s, _) = gtwatch::engine::simulation::run_scenario(
         e.cfg(),
+        &e.model(&a),
+        &Scenario::startup(e.cfg()),
+    )
+    .expect("runs");
+    let tr = Trace::from_truth(
+        &e,
         &s,
         Some(&MeasurementOptions {
             lags: true,
@@ -25,7 +29,7 @@ fn main() {
         }),
     );
     let clean = Trace::from_truth(
-        e.cfg(),
+        &e,
         &s,
         Some(&MeasurementOptions {
             lags: true,

@@ -2,21 +2,25 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use gtwatch::engine::sensors::MeasurementOptions;
-use gtwatch::engine::{sequence, Engine, Scenario, Trace};
+use gtwatch::engine::{Engine, Scenario, Trace};
 use gtwatch::health::HealthParams;
 use std::process::Command;
 
 fn write_startup(path: &std::path::Path, h: &HealthParams) {
     let e = Engine::reference().expect("engine");
-    let (s, _) = sequence::run_scenario(e.cfg(), &e.model(h), &Scenario::startup(e.cfg()))
-        .expect("start-up runs");
+    let (s, _) = gtwatch::engine::simulation::run_scenario(
+        e.cfg(),
+        &e.model(h),
+        &Scenario::startup(e.cfg()),
+    )
+    .expect("start-up runs");
     let opts = MeasurementOptions {
         lags: true,
         noise: true,
         bias: false,
         seed: 4,
     };
-    let tr = Trace::from_truth(e.cfg(), &s, Some(&opts));
+    let tr = Trace::from_truth(&e, &s, Some(&opts));
     let f = std::fs::File::create(path).expect("create csv");
     tr.write_csv(std::io::BufWriter::new(f)).expect("write csv");
 }

@@ -6,7 +6,7 @@
 use gtwatch::config::Config;
 use gtwatch::detect::{scan, DetectorConfig};
 use gtwatch::engine::sensors::MeasurementOptions;
-use gtwatch::engine::sequence::run_scenario;
+use gtwatch::engine::simulation::run_scenario;
 use gtwatch::engine::{Engine, Scenario, Trace};
 use gtwatch::health::HealthParams;
 use gtwatch::ingest::{replay_file, Progress, ReplayConfig, TimeFormat};
@@ -37,7 +37,7 @@ fn trace(scenario: fn(&gtwatch::engine::EngineConfig) -> Scenario, seed: u64) ->
         bias: false,
         seed,
     };
-    Trace::from_truth(engine.cfg(), &samples, Some(&o))
+    Trace::from_truth(&engine, &samples, Some(&o))
 }
 
 /// Rows `[from, to)` of a trace as CSV, times shifted by `shift_s`.

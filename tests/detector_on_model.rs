@@ -6,7 +6,7 @@
 
 use gtwatch::detect::{DetectorConfig, Frame, Machine, Outcome, SegmentRecord};
 use gtwatch::engine::sensors::MeasurementOptions;
-use gtwatch::engine::sequence::run_scenario;
+use gtwatch::engine::simulation::run_scenario;
 use gtwatch::engine::{Engine, Scenario, Trace};
 use gtwatch::health::HealthParams;
 use gtwatch::signals::{Phase, Signal};
@@ -51,7 +51,7 @@ fn detector_finds_every_start_of_the_engine_model() {
             bias: false,
             seed,
         };
-        let trace = Trace::from_truth(engine.cfg(), &samples, Some(&o));
+        let trace = Trace::from_truth(&engine, &samples, Some(&o));
         for with_n2 in [true, false] {
             let segs = detect(&trace, with_n2);
             let cranks = truth_starts(&trace, Phase::Crank);

@@ -5,7 +5,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use gtwatch::engine::sensors::MeasurementOptions;
-use gtwatch::engine::sequence::run_scenario;
+use gtwatch::engine::simulation::run_scenario;
 use gtwatch::engine::{Engine, Scenario, Trace};
 use gtwatch::health::{HealthParams, HEALTH_NAMES};
 use std::process::Command;
@@ -38,7 +38,7 @@ fn replayed_daily_startups_each_get_a_method_b_result_near_truth() {
             bias: false,
             seed: 40 + day as u64,
         };
-        let mut t = Trace::from_truth(engine.cfg(), &samples, Some(&o));
+        let mut t = Trace::from_truth(&engine, &samples, Some(&o));
         let shift = 1.7e9 + 86_400.0 * day as f64;
         t.t_s.iter_mut().for_each(|x| *x += shift);
         match &mut all {

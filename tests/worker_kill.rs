@@ -4,7 +4,7 @@
 
 use gtwatch::detect::{scan, DetectorConfig};
 use gtwatch::engine::sensors::MeasurementOptions;
-use gtwatch::engine::sequence::run_scenario;
+use gtwatch::engine::simulation::run_scenario;
 use gtwatch::engine::{Engine, Scenario, Trace};
 use gtwatch::health::HealthParams;
 use gtwatch::signals::Signal;
@@ -35,7 +35,7 @@ fn store_startup(db: &Path) {
         bias: false,
         seed: 3,
     };
-    let t = Trace::from_truth(engine.cfg(), &samples, Some(&o));
+    let t = Trace::from_truth(&engine, &samples, Some(&o));
     let mut store = Store::open(db).expect("open");
     let ids: Vec<i64> = Signal::ALL
         .iter()

@@ -191,7 +191,7 @@ fn prefill_startups(
         D_GP: 0.3,
         D_EP: 0.3,
     };
-    let (samples, _) = crate::engine::sequence::run_scenario(
+    let (samples, _) = crate::engine::simulation::run_scenario(
         engine.cfg(),
         &engine.model(&h),
         &Scenario::startup(engine.cfg()),
@@ -208,7 +208,7 @@ fn prefill_startups(
             bias: false,
             seed: 100 + day as u64,
         };
-        let t = Trace::from_truth(engine.cfg(), &samples, Some(&o));
+        let t = Trace::from_truth(&engine, &samples, Some(&o));
         let mut batch = Vec::new();
         for k in 0..t.len() {
             let t_ms =

@@ -1,7 +1,7 @@
 //! `gtwatch bench sim`: wall time of one complete start-up simulation (median of repeats).
 
 use super::engine_args::EngineArgs;
-use crate::engine::sequence::run_scenario;
+use crate::engine::simulation::run_scenario;
 use crate::engine::Scenario;
 use std::process::ExitCode;
 use std::time::Instant;

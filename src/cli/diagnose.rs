@@ -5,7 +5,7 @@ use crate::diagnosis::csv_input::{parse_mapping, read_recording};
 use crate::diagnosis::steady::diagnose_steady;
 use crate::diagnosis::transient::diagnose_transient;
 use crate::diagnosis::{DiagnosisConfig, Method, MethodResult, Optimiser};
-use crate::engine::replay::DriveMode;
+use crate::engine::measured_drive::DriveMode;
 use crate::health::HEALTH_NAMES;
 use anyhow::{bail, Context};
 use clap::{Args, ValueEnum};

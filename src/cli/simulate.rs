@@ -2,7 +2,7 @@
 
 use super::engine_args::EngineArgs;
 use crate::engine::sensors::MeasurementOptions;
-use crate::engine::sequence::run_scenario;
+use crate::engine::simulation::run_scenario;
 use crate::engine::{Scenario, Trace};
 use anyhow::Context;
 use std::io::Write;
@@ -57,7 +57,7 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<ExitCode> {
         bias: a.bias,
         seed: a.seed,
     });
-    let trace = Trace::from_truth(engine.cfg(), &samples, meas.as_ref());
+    let trace = Trace::from_truth(&engine, &samples, meas.as_ref());
     if a.out == "-" {
         let stdout = std::io::stdout();
         trace.write_csv(stdout.lock())?;

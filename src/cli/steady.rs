@@ -100,7 +100,7 @@ pub fn run(a: SteadyArgs) -> anyhow::Result<ExitCode> {
         println!("n1 {:.0} rpm, n2 {:.0} rpm", p.n1_rpm, p.n2_rpm);
         println!(
             "air {:.2} kg/s, fuel {:.4} kg/s, exhaust {:.2} kg/s, power {:.2} MW, heat rate {:.0} kJ/kWh",
-            p.air_flow_kg_s, p.fuel_kg_s, p.exhaust_flow_kg_s, p.power_mw, p.heat_rate_kj_kwh
+            p.air_flow_kg_s, p.fuel_kg_s, p.pt_flow_kg_s, p.power_mw, p.heat_rate_kj_kwh
         );
         println!(
             "PR {:.3}, efficiencies: compressor {:.4}, HPT {:.4}, PT {:.4}; surge margin {:.1} %",

@@ -15,7 +15,7 @@ use super::steady::diagnose_steady;
 use super::transient::diagnose_transient;
 use super::{health_map, DiagnosisConfig, DiagnosisError, Method, MethodResult, Optimiser};
 use crate::engine::sensors::MeasurementOptions;
-use crate::engine::sequence::run_scenario;
+use crate::engine::simulation::run_scenario;
 use crate::engine::{Engine, Scenario, Trace};
 use crate::health::{HealthParams, HEALTH_NAMES};
 use crate::recording::Recording;
@@ -57,7 +57,7 @@ pub fn synthetic_startup(
     let model = engine.model(truth);
     let (samples, _) = run_scenario(engine.cfg(), &model, &Scenario::startup(engine.cfg()))?;
     let trace = Trace::from_truth(
-        engine.cfg(),
+        engine,
         &samples,
         Some(&MeasurementOptions {
             lags: true,

@@ -47,7 +47,7 @@ pub use params::{
     AMBIENT_HALF_RANGE_KPA,
 };
 
-use crate::engine::replay::DriveMode;
+use crate::engine::measured_drive::DriveMode;
 use crate::engine::{Engine, EngineError};
 use crate::health::{HealthParams, HEALTH_NAMES};
 use crate::optim::{

@@ -173,25 +173,9 @@ pub struct SteadyData {
     pub outputs: Vec<(Signal, f64, f64)>,
 }
 
-/// The model's value of a signal at a steady point.
+/// The model's value of a signal at a steady point (the engine's one station → signal mapping).
 pub fn steady_value(p: &SteadyPoint, s: Signal) -> f64 {
-    match s {
-        Signal::N1 => p.n1_rpm,
-        Signal::N2 => p.n2_rpm,
-        Signal::T1 => p.t1_k,
-        Signal::P1 => p.p1_kpa,
-        Signal::T2 => p.t2_k,
-        Signal::P2 => p.p2_kpa,
-        Signal::T3 => p.t3_k,
-        Signal::P3 => p.p3_kpa,
-        Signal::T34 => p.t34_k,
-        Signal::P34 => p.p34_kpa,
-        Signal::T4 => p.t4_k,
-        Signal::P4 => p.p4_kpa,
-        Signal::FuelFlow => p.fuel_kg_s,
-        Signal::Power => p.power_mw,
-        Signal::SurgeMargin => p.surge_margin_pct,
-    }
+    crate::engine::gas_path::signal_value(&p.stations, s)
 }
 
 /// Averages each window into a steady operating point.

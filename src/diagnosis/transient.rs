@@ -11,7 +11,7 @@ use super::{
     fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, EvalError, FailureLog, Method,
     MethodResult, ParamMap,
 };
-use crate::engine::replay::{simulate_segment, DriveMode};
+use crate::engine::measured_drive::{simulate_segment, DriveMode};
 use crate::engine::trace::Values;
 use crate::engine::Engine;
 use crate::recording::Recording;

@@ -6,6 +6,7 @@
 //! This module only parses and validates numbers; it does no physics.
 
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::path::Path;
 
 /// The built-in reference engine, embedded so `gtwatch simulate` works with no files at all.
@@ -230,6 +231,11 @@ pub struct EngineConfig {
     pub sequence: SequenceConfig,
     pub sensors: SensorsConfig,
     pub solver: SolverConfig,
+    /// Optional model effects, each a table `[effects.<name>]` of its parameters (see
+    /// `engine/effects`); absent = the core model alone. Parameters not given take the
+    /// effect's defaults (filled in at load, so each is a named parameter).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub effects: BTreeMap<String, BTreeMap<String, f64>>,
 }
 
 impl EngineConfig {
@@ -242,11 +248,17 @@ impl EngineConfig {
     }
 
     pub fn from_toml_str(text: &str, path: &str) -> Result<EngineConfig, EngineConfigError> {
-        let cfg: EngineConfig = toml::from_str(text).map_err(|e| EngineConfigError::Parse {
+        let mut cfg: EngineConfig = toml::from_str(text).map_err(|e| EngineConfigError::Parse {
             path: path.into(),
             message: e.to_string(),
         })?;
         cfg.validate(path)?;
+        cfg.effects =
+            super::effects::complete(&cfg.effects).map_err(|e| EngineConfigError::Invalid {
+                path: path.into(),
+                key: "effects".into(),
+                reason: e.to_string(),
+            })?;
         Ok(cfg)
     }
 
@@ -274,6 +286,7 @@ impl EngineConfig {
             key: key.into(),
             reason: reason.into(),
         };
+        super::effects::check(&self.effects).map_err(|e| bad("effects", &e.to_string()))?;
         let tree = serde_json::to_value(self).map_err(|e| EngineConfigError::Parse {
             path: path.into(),
             message: e.to_string(),
@@ -491,6 +504,11 @@ const RANGES: &[(&str, ParamRange)] = &[
 /// The allowed range of the number at dotted `key` (array index `[i]` ignored), if it has one.
 pub fn param_range(key: &str) -> Option<ParamRange> {
     let base = key.split('[').next().unwrap_or(key);
+    if let Some(rest) = base.strip_prefix("effects.") {
+        let (effect, param) = rest.split_once('.')?;
+        let p = super::effects::param_spec(effect, param)?;
+        return Some(ParamRange::new(p.min, p.max));
+    }
     if let Some((_, r)) = RANGES.iter().find(|(k, _)| *k == base) {
         return Some(*r);
     }

@@ -46,13 +46,26 @@ impl Ramp {
     }
 }
 
-/// Quantities the fuel controller may measure.
+/// What the fuel controller's loops feed back on: the model's own (true) values of compressor
+/// delivery pressure, shaft speeds and PT shaft power.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Measured {
+pub struct Feedback {
     pub p2_kpa: f64,
     pub n1_rpm: f64,
     pub n2_rpm: f64,
     pub power_mw: f64,
+}
+
+impl Feedback {
+    /// The feedback values of a station table.
+    pub fn of(st: &super::gas_path::Stations) -> Feedback {
+        Feedback {
+            p2_kpa: st.p2_kpa,
+            n1_rpm: st.n1_rpm,
+            n2_rpm: st.n2_rpm,
+            power_mw: st.pt_shaft_mw,
+        }
+    }
 }
 
 /// Fuel-flow limits: acceleration and deceleration schedules in ratio units (fuel / P2).
@@ -190,7 +203,7 @@ impl FuelCommand {
     }
 
     /// Controller error at this instant (0 for open-loop commands).
-    pub fn error(&self, t: f64, m: &Measured) -> f64 {
+    pub fn error(&self, t: f64, m: &Feedback) -> f64 {
         match self {
             FuelCommand::Pid {
                 loop_kind,
@@ -209,7 +222,7 @@ impl FuelCommand {
     }
 
     /// Fuel flow and integrator rate given the integrator value (kg/s).
-    pub fn evaluate(&self, t: f64, integ: f64, m: &Measured) -> FuelOut {
+    pub fn evaluate(&self, t: f64, integ: f64, m: &Feedback) -> FuelOut {
         match self {
             FuelCommand::Off => FuelOut {
                 fuel_kg_s: 0.0,
@@ -245,7 +258,7 @@ impl FuelCommand {
     }
 
     /// Integrator value that makes a switch to this command bumpless at fuel `current`.
-    pub fn bumpless_integrator(&self, t: f64, current: f64, m: &Measured) -> f64 {
+    pub fn bumpless_integrator(&self, t: f64, current: f64, m: &Feedback) -> f64 {
         match self {
             FuelCommand::Pid { kp, .. } => current - kp * self.error(t, m),
             _ => current,
@@ -370,7 +383,7 @@ mod tests {
             aw_tau: 1.0,
             limits,
         };
-        let m = Measured {
+        let m = Feedback {
             p2_kpa: 1000.0,
             n1_rpm: 5000.0,
             n2_rpm: 0.0,

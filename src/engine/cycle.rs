@@ -7,6 +7,57 @@
 use crate::maps::{ScaledCompressor, ScaledTurbine};
 use crate::thermo::Gas;
 
+/// Shaft losses outside the mechanical efficiency: GG bearings and windage ∝ n², PT and
+/// generator windage ∝ n³, and a smooth Coulomb bearing torque on each shaft. One law for the
+/// design cycle, the steady solver and the dynamic model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShaftLosses {
+    pub gg_friction_w: f64,
+    pub pt_windage_w: f64,
+    pub gg_bearing_nm: f64,
+    pub pt_bearing_nm: f64,
+    pub n1_design: f64,
+    pub n2_design: f64,
+}
+
+impl ShaftLosses {
+    /// The losses an engine file states.
+    pub fn from_config(cfg: &super::config::EngineConfig) -> ShaftLosses {
+        let dy = &cfg.dynamics;
+        ShaftLosses {
+            gg_friction_w: dy.gg_friction_kw_at_design * 1e3,
+            pt_windage_w: dy.pt_windage_kw_at_sync * 1e3,
+            gg_bearing_nm: dy.gg_bearing_torque_n_m,
+            pt_bearing_nm: dy.pt_bearing_torque_n_m,
+            n1_design: cfg.design.gg_speed_rpm,
+            n2_design: cfg.design.pt_speed_rpm,
+        }
+    }
+    /// Smooth Coulomb bearing torque (N·m): full value above ~50 rpm, zero at rest.
+    #[inline]
+    fn bearing_torque(torque: f64, n: f64) -> f64 {
+        torque * (n / 20.0).tanh()
+    }
+    /// All GG shaft losses outside the mechanical efficiency, W.
+    #[inline]
+    pub fn gg_w(&self, n1: f64) -> f64 {
+        let r = n1 / self.n1_design;
+        self.gg_friction_w * r * r
+            + Self::bearing_torque(self.gg_bearing_nm, n1) * n1 * std::f64::consts::PI / 30.0
+    }
+    /// All PT + generator losses outside the mechanical efficiency, W.
+    #[inline]
+    pub fn pt_w(&self, n2: f64) -> f64 {
+        let r = n2.max(0.0) / self.n2_design;
+        self.pt_windage_w * r * r * r
+            + Self::bearing_torque(self.pt_bearing_nm, n2) * n2 * std::f64::consts::PI / 30.0
+    }
+}
+
+/// Highest fuel-air ratio the combustor gas may have (the engine's rich limit; the gas tables
+/// reach further, see `thermo::FAR_MAX`).
+pub const MAX_FAR: f64 = 0.065;
+
 /// ISO reference temperature and pressure for corrected quantities.
 pub const T_STD_K: f64 = 288.15;
 pub const P_STD_KPA: f64 = 101.325;
@@ -161,7 +212,7 @@ pub fn combustor_exit_temperature(
     lhv: f64,
 ) -> (f64, Gas) {
     let far = if w_air > 0.0 {
-        (w_fuel / w_air).clamp(0.0, 0.065)
+        (w_fuel / w_air).clamp(0.0, MAX_FAR)
     } else {
         0.0
     };

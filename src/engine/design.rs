@@ -7,7 +7,9 @@
 //! this cycle in [`super::model::Engine::new`]. Pure arithmetic, no I/O.
 
 use super::config::EngineConfig;
-use super::model::{DesignPoint, EngineError};
+use super::cycle::ShaftLosses;
+use super::error::EngineError;
+use super::gas_path::Stations;
 use crate::thermo::Gas;
 
 /// Fuel flow for a given T3 at fixed total exhaust flow (fixed point, converges in a few steps).
@@ -30,8 +32,10 @@ fn fuel_for_t3(cfg: &EngineConfig, w_total: f64, h2: f64, t3: f64) -> (f64, f64,
     (wf, w_comb_air, gas)
 }
 
-/// Computes the design cycle; fails if no T3 in 900–2400 K meets the power.
-pub fn design_cycle(cfg: &EngineConfig) -> Result<DesignPoint, EngineError> {
+/// Computes the design cycle; fails if no T3 in 900–2400 K meets the power. The compressor's
+/// map coordinates (β, surge margin) are left at 0: the map is scaled from this cycle, so the
+/// caller fills them in afterwards.
+pub fn design_cycle(cfg: &EngineConfig) -> Result<Stations, EngineError> {
     let d = &cfg.design;
     let air = Gas::air();
     let t1 = cfg.ambient.temperature_k;
@@ -45,19 +49,16 @@ pub fn design_cycle(cfg: &EngineConfig) -> Result<DesignPoint, EngineError> {
     let p4 = cfg.ambient.pressure_kpa * d.exhaust_back_pressure_ratio;
     let w_total = d.exhaust_flow_kg_s;
     let eta_m = d.mechanical_efficiency;
-    // Shaft losses at design speed, as `Constants::gg_loss_w` / `pt_loss_w` compute them
-    // (the bearing torque's tanh factor is 1 at these speeds).
-    let dy = &cfg.dynamics;
-    let rad = std::f64::consts::PI / 30.0;
-    let gg_friction = dy.gg_friction_kw_at_design * 1e3
-        + dy.gg_bearing_torque_n_m * (d.gg_speed_rpm / 20.0).tanh() * d.gg_speed_rpm * rad;
-    let pt_windage = dy.pt_windage_kw_at_sync * 1e3
-        + dy.pt_bearing_torque_n_m * (d.pt_speed_rpm / 20.0).tanh() * d.pt_speed_rpm * rad;
+    // Shaft losses at design speed: the same law the steady and dynamic models use.
+    let losses = ShaftLosses::from_config(cfg);
+    let gg_friction = losses.gg_w(d.gg_speed_rpm);
+    let pt_windage = losses.pt_w(d.pt_speed_rpm);
 
     // Everything that follows from a T3 guess.
-    let eval = |t3: f64| -> Result<DesignPoint, EngineError> {
+    let eval = |t3: f64| -> Result<Stations, EngineError> {
         let (wf, w_comb_air, gas) = fuel_for_t3(cfg, w_total, h2, t3);
         // Bleed leaves the compressor overboard: the compressor passes more than the combustor gets.
+        // (`gas_path::combustor_air` is the forward rule: w_comb_air = w_comp (1 − bleed).)
         let w_comp = w_comb_air / (1.0 - d.cooling_bleed_frac);
         let p_comp = w_comp * (h2 - h1);
         let p_hpt = (p_comp + gg_friction) / eta_m;
@@ -79,7 +80,9 @@ pub fn design_cycle(cfg: &EngineConfig) -> Result<DesignPoint, EngineError> {
         let t4 = gas.t_from_h(h4);
         let p_pt = w_total * (h34 - h4);
         let power = eta_m * p_pt - pt_windage;
-        Ok(DesignPoint {
+        Ok(Stations {
+            n1_rpm: d.gg_speed_rpm,
+            n2_rpm: d.pt_speed_rpm,
             t1_k: t1,
             p1_kpa: p1,
             t2_k: t2,
@@ -90,15 +93,26 @@ pub fn design_cycle(cfg: &EngineConfig) -> Result<DesignPoint, EngineError> {
             p34_kpa: p34,
             t4_k: t4,
             p4_kpa: p4,
-            air_kg_s: w_comp,
+            air_flow_kg_s: w_comp,
             fuel_kg_s: wf,
-            exhaust_kg_s: w_total,
-            compressor_power_w: p_comp,
-            hpt_power_w: p_hpt,
-            pt_power_w: p_pt,
+            fuel_burnt_kg_s: wf,
+            fuel_air_ratio: gas.far(),
+            hpt_flow_kg_s: w_total,
+            pt_flow_kg_s: w_total,
             power_mw: power / 1e6,
-            hpt_pr,
-            pt_pr,
+            pt_shaft_mw: power / 1e6,
+            compressor_power_mw: p_comp / 1e6,
+            hpt_power_mw: p_hpt / 1e6,
+            pt_power_mw: p_pt / 1e6,
+            pressure_ratio: d.pressure_ratio,
+            hpt_pressure_ratio: hpt_pr,
+            pt_pressure_ratio: pt_pr,
+            compressor_efficiency: d.compressor_efficiency,
+            hpt_efficiency: d.hpt_efficiency,
+            pt_efficiency: d.pt_efficiency,
+            compressor_beta: 0.0,
+            surge_margin_pct: 0.0,
+            starter_torque_n_m: 0.0,
         })
     };
 

@@ -12,33 +12,16 @@
 //! between the plenum and the HPT. The exhaust back-pressure and inlet loss follow the flow.
 //! Pure functions of (time, state, drive): no I/O, no hidden state.
 
-use super::control::{FuelCommand, Measured, StarterCommand};
-use super::cycle;
+use super::control::{Feedback, FuelCommand, StarterCommand};
+use super::effects::{Context, CoreView};
+pub use super::gas_path::Stations;
+use super::gas_path::{self, Adjust, CompressorSetting, HotSection, Inputs};
 use super::model::Model;
-use crate::thermo::Gas;
+pub use super::state::{
+    Scales, State, FAR_SCALE, IX_FAR, IX_FUEL_I, IX_N1, IX_N2, IX_P2, IX_P34, IX_T3, NX_CORE,
+};
 use std::f64::consts::PI;
 
-/// Number of states.
-pub const NX: usize = 7;
-/// State indices.
-pub const IX_P2: usize = 0;
-pub const IX_T3: usize = 1;
-pub const IX_P34: usize = 2;
-pub const IX_N1: usize = 3;
-pub const IX_N2: usize = 4;
-pub const IX_FUEL_I: usize = 5;
-pub const IX_FAR: usize = 6;
-/// Scale of the fuel-air-ratio state.
-pub const FAR_SCALE: f64 = 0.02;
-
-/// State vector (normalised).
-pub type State = [f64; NX];
-
-/// Below this fraction of design GG speed the compressor's flow and work fade linearly to zero:
-/// the maps' speed lines degenerate at standstill, and a machine at rest moves no air.
-const STANDSTILL_FADE: f64 = 0.02;
-/// PT speed fraction below which its gas torque is held at the value there (stall torque).
-const PT_STALL_FRACTION: f64 = 0.1;
 /// Speed below which torques are computed from power at this speed (rad/s), avoiding 1/ω.
 const OMEGA_MIN: f64 = 2.0;
 
@@ -55,47 +38,6 @@ pub struct Drive {
     pub flame: bool,
 }
 
-/// All algebraic quantities at one instant: the station table of the running engine.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Stations {
-    pub n1_rpm: f64,
-    pub n2_rpm: f64,
-    pub t1_k: f64,
-    pub p1_kpa: f64,
-    pub t2_k: f64,
-    pub p2_kpa: f64,
-    pub t3_k: f64,
-    pub p3_kpa: f64,
-    pub t34_k: f64,
-    pub p34_kpa: f64,
-    pub t4_k: f64,
-    pub p4_kpa: f64,
-    pub air_kg_s: f64,
-    pub fuel_kg_s: f64,
-    pub hpt_flow_kg_s: f64,
-    pub pt_flow_kg_s: f64,
-    /// Electrical power delivered to the grid (0 while the breaker is open), MW.
-    pub power_mw: f64,
-    /// Power the PT delivers at its coupling, MW (net of windage).
-    pub pt_shaft_mw: f64,
-    pub surge_margin_pct: f64,
-    pub compressor_eff: f64,
-    pub hpt_eff: f64,
-    pub pt_eff: f64,
-    pub starter_torque_n_m: f64,
-}
-
-/// Normalisation of the states.
-#[derive(Debug, Clone, Copy)]
-pub struct Scales {
-    pub p2: f64,
-    pub t3: f64,
-    pub p34: f64,
-    pub n1: f64,
-    pub n2: f64,
-    pub fuel: f64,
-}
-
 impl Scales {
     pub fn of(model: &Model) -> Scales {
         let c = &model.consts;
@@ -110,13 +52,43 @@ impl Scales {
     }
 }
 
-/// The state of an engine at rest in ambient air.
+/// The core states in physical units, as the effects' hooks see them.
+fn core_view(model: &Model, t: f64, y: &State, drive: &Drive) -> CoreView {
+    let c = &model.consts;
+    let s = Scales::of(model);
+    CoreView {
+        t_s: t,
+        n1_rpm: y[IX_N1] * s.n1,
+        n2_rpm: y[IX_N2] * s.n2,
+        p2_kpa: y[IX_P2] * s.p2,
+        t3_k: (y[IX_T3] * s.t3).max(150.0),
+        p34_kpa: y[IX_P34] * s.p34,
+        t_amb_k: drive.t_amb_k,
+        p_amb_kpa: drive.p_amb_kpa,
+        n1_design_rpm: c.n1_design,
+        fuel_design_kg_s: c.fuel_design,
+    }
+}
+
+/// The state of an engine at rest in ambient air (the model's layout: core and effect states).
 pub fn standstill_state(model: &Model, t_amb_k: f64, p_amb_kpa: f64) -> State {
     let s = Scales::of(model);
-    let mut y = [0.0; NX];
+    let mut y = model.effects.layout().zeros();
     y[IX_P2] = p_amb_kpa / s.p2;
     y[IX_T3] = t_amb_k / s.t3;
     y[IX_P34] = p_amb_kpa / s.p34;
+    if !model.effects.is_empty() {
+        let rest = Drive {
+            t_amb_k,
+            p_amb_kpa,
+            fuel: FuelCommand::Off,
+            starter: StarterCommand::Off,
+            pt_locked: false,
+            flame: false,
+        };
+        let core = core_view(model, 0.0, &y, &rest);
+        model.effects.rest_states(&core, &mut y);
+    }
     y
 }
 
@@ -129,49 +101,54 @@ pub fn evaluate(model: &Model, t: f64, y: &State, drive: &Drive) -> (State, Stat
     let p34 = y[IX_P34] * s.p34;
     let n1 = y[IX_N1] * s.n1;
     let n2 = y[IX_N2] * s.n2;
-    let t1 = drive.t_amb_k;
-    let p_amb = drive.p_amb_kpa;
+    let effects = &model.effects;
+    // With no effect on, every hook is skipped: the arithmetic is the core model's alone.
+    let core = (!effects.is_empty()).then(|| core_view(model, t, y, drive));
+    let adjust = match &core {
+        Some(cv) => Adjust {
+            extra_bleed: effects.bleed_fraction(cv, y),
+            deltas: effects.component_deltas(cv, y),
+        },
+        None => Adjust::NONE,
+    };
 
-    // Compressor: PR is set by the plenum; the inlet loss depends on the flow it gives. The
-    // coupling is weak (1 % loss at design), so the map is read once at the PR of a speed-based
-    // inlet-loss guess and the loss then follows from that flow: the PR used differs from
-    // P2/P1 by ~1e-4 relative at design and the resulting flow error is ~1e-5.
-    let n1_map = n1.max(STANDSTILL_FADE * c.n1_design);
-    let fade = (n1.max(0.0) / (STANDSTILL_FADE * c.n1_design)).min(1.0);
-    let nc1 = cycle::corrected_speed(n1_map, t1);
-    let p1_guess = p_amb * (1.0 - c.inlet_loss_frac * (n1 / c.n1_design).powi(2));
-    let op = model.comp.at_pr(nc1, p2 / p1_guess);
-    let p1 = c.p1(p_amb, op.wc_kg_s * fade);
-    let comp = cycle::compressor_from_op(t1, p1, p2 / p1, &op);
-    let w2 = comp.w_kg_s * fade;
-    let p_comp = comp.power_w * fade;
-    let w_air = w2 * (1.0 - c.bleed);
+    // The gas path from the states: compressor into the plenum at P2, turbines on the
+    // plenum's gas (temperature and composition are states).
+    let gp = gas_path::evaluate(
+        model,
+        &Inputs {
+            t_amb_k: drive.t_amb_k,
+            p_amb_kpa: drive.p_amb_kpa,
+            n1_rpm: n1,
+            n2_rpm: n2,
+            p34_kpa: p34,
+            compressor: CompressorSetting::Plenum { p2_kpa: p2 },
+            hot: HotSection::Plenum {
+                t3_k: t3,
+                fuel_air_ratio: y[IX_FAR] * FAR_SCALE,
+            },
+        },
+        &adjust,
+    );
+    let gas = gp.gas;
+    let w_air = gp.w_combustor_air_kg_s;
+    let w3 = gp.hpt.w_kg_s;
+    let w4 = gp.pt.w_kg_s;
+    let pt_gas_torque = gp.pt_gas_torque_n_m;
 
-    // Combustor gas (composition is a state) and turbines, from states only.
-    let far = (y[IX_FAR] * FAR_SCALE).clamp(0.0, 0.065);
-    let gas = Gas::products(far);
-    let p3 = c.p3(p2, w2.max(0.0), comp.t_out_k);
-    let hpt = cycle::turbine(&model.hpt, &gas, t3, p3, n1.max(0.0), p3 / p34);
-    let w3 = hpt.w_kg_s;
-    let p4 = c.p4(p_amb, w3, hpt.t_out_k);
-    // The PT's gas torque is largest at stall; the map's efficiency (and so P/ω) is meaningless
-    // there, so the torque is evaluated at no less than PT_STALL_FRACTION of design speed and
-    // held constant below it (a turbine's torque-speed line is nearly flat near stall).
-    let n2_eval = n2.max(PT_STALL_FRACTION * c.n2_design);
-    let pt = cycle::turbine(&model.pt, &gas, hpt.t_out_k, p34, n2_eval, p34 / p4);
-    let w4 = pt.w_kg_s;
-    let pt_gas_torque = c.eta_m * pt.power_w / (n2_eval * PI / 30.0);
-    let pt_net = pt_gas_torque * n2.max(0.0) * PI / 30.0 - c.pt_loss_w(n2.max(0.0));
-
-    // Fuel control, now that every measured quantity it may look at is known.
-    let meas = Measured {
+    // Fuel control, now that every quantity it may look at is known.
+    let feedback = Feedback {
         p2_kpa: p2,
         n1_rpm: n1,
         n2_rpm: n2,
-        power_mw: pt_net / 1e6,
+        power_mw: gp.pt_net_w / 1e6,
     };
-    let cmd = drive.fuel.evaluate(t, y[IX_FUEL_I] * s.fuel, &meas);
-    let wf = if drive.flame { cmd.fuel_kg_s } else { 0.0 };
+    let cmd = drive.fuel.evaluate(t, y[IX_FUEL_I] * s.fuel, &feedback);
+    let wf_metered = if drive.flame { cmd.fuel_kg_s } else { 0.0 };
+    let wf = match (&core, drive.flame) {
+        (Some(cv), true) => effects.fuel_delivered(wf_metered, cv, y).max(0.0),
+        _ => wf_metered,
+    };
 
     // Combustor volume: mass, energy and species balance (paper eq. 4–5 in full form).
     let r = gas.r();
@@ -179,21 +156,24 @@ pub fn evaluate(model: &Model, t: f64, y: &State, drive: &Drive) -> (State, Stat
     let dm = w_air + wf - w3;
     let h3 = gas.h(t3);
     let u3 = h3 - r * t3;
-    let d_energy = w_air * comp.h_out + wf * c.eta_b * c.lhv - w3 * h3 - u3 * dm;
+    let mut d_energy = w_air * gp.compressor.h_out + wf * c.eta_b * c.lhv - w3 * h3 - u3 * dm;
+    if let Some(cv) = &core {
+        d_energy -= effects.heat_to_metal_w(cv, y);
+    }
     let dt3 = d_energy / (m * gas.cv(t3));
     let dp2 = p2 * (dm / m + dt3 / t3);
     // Burnt-fuel mass fraction b = far/(1+far): m db/dt = wf − b (w_air + wf).
+    let far = (y[IX_FAR] * FAR_SCALE).clamp(0.0, gas_path::MAX_FAR);
     let b = far / (1.0 + far);
     let db = (wf - b * (w_air + wf)) / m;
     let dfar = db * (1.0 + far) * (1.0 + far);
     // Duct: isothermal filling (paper eq. 4 form) at the HPT exit temperature.
-    let dp34 = r * hpt.t_out_k * (w3 - w4) / (c.v_duct * 1e3);
+    let dp34 = r * gp.hpt.t_out_k * (w3 - w4) / (c.v_duct * 1e3);
 
     // GG shaft: torque balance (eq. 6 is the same written with power and n).
     let w1 = n1 * PI / 30.0;
     let starter_tq = drive.starter.torque(n1);
-    let aero = c.eta_m * hpt.power_w - p_comp - c.gg_loss_w(n1);
-    let tq1 = aero / w1.max(OMEGA_MIN) + starter_tq;
+    let tq1 = gp.gg_net_w / w1.max(OMEGA_MIN) + starter_tq;
     let mut dn1 = tq1 / c.gg_inertia * 30.0 / PI;
     if n1 <= 0.0 && dn1 < 0.0 {
         dn1 = 0.0;
@@ -214,7 +194,7 @@ pub fn evaluate(model: &Model, t: f64, y: &State, drive: &Drive) -> (State, Stat
 
     let dfi = cmd.integrator_rate;
 
-    let mut dy = [0.0; NX];
+    let mut dy = effects.layout().zeros();
     dy[IX_P2] = dp2 / s.p2;
     dy[IX_T3] = dt3 / s.t3;
     dy[IX_P34] = dp34 / s.p34;
@@ -223,30 +203,20 @@ pub fn evaluate(model: &Model, t: f64, y: &State, drive: &Drive) -> (State, Stat
     dy[IX_FUEL_I] = dfi / s.fuel;
     dy[IX_FAR] = dfar / FAR_SCALE;
 
-    let st = Stations {
-        n1_rpm: n1,
-        n2_rpm: n2,
-        t1_k: t1,
-        p1_kpa: p1,
-        t2_k: comp.t_out_k,
-        p2_kpa: p2,
-        t3_k: t3,
-        p3_kpa: p3,
-        t34_k: hpt.t_out_k,
-        p34_kpa: p34,
-        t4_k: pt.t_out_k,
-        p4_kpa: p4,
-        air_kg_s: w2,
-        fuel_kg_s: wf,
-        hpt_flow_kg_s: w3,
-        pt_flow_kg_s: w4,
-        power_mw: if drive.pt_locked { pt_net / 1e6 } else { 0.0 },
-        pt_shaft_mw: pt_net / 1e6,
-        surge_margin_pct: comp.surge_margin_pct,
-        compressor_eff: comp.eff,
-        hpt_eff: hpt.eff,
-        pt_eff: pt.eff,
-        starter_torque_n_m: starter_tq,
-    };
+    let mut st = gp.stations;
+    st.fuel_kg_s = wf_metered;
+    st.fuel_burnt_kg_s = wf;
+    if !drive.pt_locked {
+        st.power_mw = 0.0;
+    }
+    st.starter_torque_n_m = starter_tq;
+    if let Some(cv) = &core {
+        let ctx = Context {
+            core: cv,
+            stations: &st,
+            metered_fuel_kg_s: wf_metered,
+        };
+        effects.derivatives(&ctx, y, &mut dy);
+    }
     (dy, st)
 }

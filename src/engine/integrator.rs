@@ -13,71 +13,77 @@
 // Dense small-matrix code reads as the textbook formulas with explicit indices.
 #![allow(clippy::needless_range_loop)]
 
+use std::ops::{Deref, DerefMut};
+
 /// γ = 1 + 1/√2 (L-stability).
 const GAMMA: f64 = 1.0 + std::f64::consts::FRAC_1_SQRT_2;
 
-/// LU factorisation with partial pivoting of a small dense matrix (row-major).
-#[derive(Debug, Clone, Copy)]
-struct Lu<const N: usize> {
-    a: [[f64; N]; N],
-    piv: [usize; N],
+/// LU factorisation with partial pivoting of a small dense n×n matrix, in place (row-major,
+/// flat storage). The arithmetic is that of the textbook loop, in that order.
+fn lu_factor(a: &mut [f64], piv: &mut [usize], n: usize) -> bool {
+    for k in 0..n {
+        let Some(p) = (k..n).max_by(|&i, &j| a[i * n + k].abs().total_cmp(&a[j * n + k].abs()))
+        else {
+            return false;
+        };
+        if a[p * n + k] == 0.0 || !a[p * n + k].is_finite() {
+            return false;
+        }
+        if p != k {
+            for j in 0..n {
+                a.swap(k * n + j, p * n + j);
+            }
+        }
+        piv[k] = p;
+        for i in k + 1..n {
+            let f = a[i * n + k] / a[k * n + k];
+            a[i * n + k] = f;
+            for j in k + 1..n {
+                a[i * n + j] -= f * a[k * n + j];
+            }
+        }
+    }
+    true
 }
 
-impl<const N: usize> Lu<N> {
-    fn factor(mut a: [[f64; N]; N]) -> Option<Self> {
-        let mut piv = [0usize; N];
-        for k in 0..N {
-            let p = (k..N).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs()))?;
-            if a[p][k] == 0.0 || !a[p][k].is_finite() {
-                return None;
-            }
-            a.swap(k, p);
-            piv[k] = p;
-            for i in k + 1..N {
-                let f = a[i][k] / a[k][k];
-                a[i][k] = f;
-                for j in k + 1..N {
-                    a[i][j] -= f * a[k][j];
-                }
-            }
-        }
-        Some(Lu { a, piv })
+/// Solves with a factorisation from [`lu_factor`]; `x` holds the right-hand side on entry.
+fn lu_solve(a: &[f64], piv: &[usize], n: usize, x: &mut [f64]) {
+    for k in 0..n {
+        x.swap(k, piv[k]);
     }
-
-    fn solve(&self, b: &[f64; N]) -> [f64; N] {
-        let mut x = *b;
-        for k in 0..N {
-            x.swap(k, self.piv[k]);
+    for i in 0..n {
+        for j in 0..i {
+            x[i] -= a[i * n + j] * x[j];
         }
-        for i in 0..N {
-            for j in 0..i {
-                x[i] -= self.a[i][j] * x[j];
-            }
+    }
+    for i in (0..n).rev() {
+        for j in i + 1..n {
+            x[i] -= a[i * n + j] * x[j];
         }
-        for i in (0..N).rev() {
-            for j in i + 1..N {
-                x[i] -= self.a[i][j] * x[j];
-            }
-            x[i] /= self.a[i][i];
-        }
-        x
+        x[i] /= a[i * n + i];
     }
 }
 
 /// Result of one attempted step.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct StepResult<const N: usize> {
-    pub y: [f64; N],
+pub struct StepResult<V> {
+    pub y: V,
     /// Weighted RMS local error estimate; ≤ 1 means the step meets the tolerance.
     pub err: f64,
 }
 
-/// Integrator state: the reusable Jacobian and counters.
+/// Integrator state: the reusable Jacobian and counters. The state vector is any copyable
+/// vector of `f64` (`V` derefs to a slice); its length is fixed by the first step.
 #[derive(Debug, Clone)]
-pub struct Ros2<const N: usize> {
-    jac: [[f64; N]; N],
+pub struct Ros2 {
+    n: usize,
+    /// Row-major n×n Jacobian.
+    jac: Vec<f64>,
     /// ∂f/∂t, refreshed with the Jacobian (the autonomised system's extra Jacobian column).
-    ft: [f64; N],
+    ft: Vec<f64>,
+    /// Scratch: W = I − γhJ and its factorisation.
+    w: Vec<f64>,
+    piv: Vec<usize>,
     jac_valid: bool,
     steps_since_jac: usize,
     /// Refresh the Jacobian after this many steps.
@@ -89,11 +95,14 @@ pub struct Ros2<const N: usize> {
     pub jac_evals: usize,
 }
 
-impl<const N: usize> Ros2<N> {
+impl Ros2 {
     pub fn new(rtol: f64, atol: f64) -> Self {
         Ros2 {
-            jac: [[0.0; N]; N],
-            ft: [0.0; N],
+            n: 0,
+            jac: Vec::new(),
+            ft: Vec::new(),
+            w: Vec::new(),
+            piv: Vec::new(),
             jac_valid: false,
             steps_since_jac: 0,
             jac_every: 8,
@@ -109,83 +118,96 @@ impl<const N: usize> Ros2<N> {
         self.jac_valid = false;
     }
 
-    fn refresh_jacobian<F: FnMut(f64, &[f64; N]) -> [f64; N]>(
-        &mut self,
-        f: &mut F,
-        t: f64,
-        y: &[f64; N],
-        f0: &[f64; N],
-    ) {
-        for j in 0..N {
+    /// Sizes the work arrays for `n` states (a new size invalidates the Jacobian).
+    fn resize(&mut self, n: usize) {
+        if self.n != n {
+            self.n = n;
+            self.jac = vec![0.0; n * n];
+            self.ft = vec![0.0; n];
+            self.w = vec![0.0; n * n];
+            self.piv = vec![0; n];
+            self.jac_valid = false;
+        }
+    }
+
+    fn refresh_jacobian<V, F>(&mut self, f: &mut F, t: f64, y: &V, f0: &V)
+    where
+        V: Clone + Deref<Target = [f64]> + DerefMut,
+        F: FnMut(f64, &V) -> V,
+    {
+        let n = self.n;
+        for j in 0..n {
             let h = 1e-7 * y[j].abs().max(1e-2);
-            let mut yp = *y;
+            let mut yp = y.clone();
             yp[j] += h;
             let fp = f(t, &yp);
-            for i in 0..N {
-                self.jac[i][j] = (fp[i] - f0[i]) / h;
+            for i in 0..n {
+                self.jac[i * n + j] = (fp[i] - f0[i]) / h;
             }
         }
         let dt = 1e-6 * t.abs().max(1.0);
         let ft = f(t + dt, y);
-        for i in 0..N {
+        for i in 0..n {
             self.ft[i] = (ft[i] - f0[i]) / dt;
         }
-        self.rhs_evals += N + 1;
+        self.rhs_evals += n + 1;
         self.jac_evals += 1;
         self.jac_valid = true;
         self.steps_since_jac = 0;
     }
 
     /// One ROS2 step of size `h` from (t, y). Does not decide acceptance.
-    pub fn step<F: FnMut(f64, &[f64; N]) -> [f64; N]>(
-        &mut self,
-        f: &mut F,
-        t: f64,
-        y: &[f64; N],
-        h: f64,
-    ) -> Option<StepResult<N>> {
+    pub fn step<V, F>(&mut self, f: &mut F, t: f64, y: &V, h: f64) -> Option<StepResult<V>>
+    where
+        V: Clone + Deref<Target = [f64]> + DerefMut,
+        F: FnMut(f64, &V) -> V,
+    {
+        let n = y.len();
+        self.resize(n);
         let f0 = f(t, y);
         self.rhs_evals += 1;
         if !self.jac_valid || self.steps_since_jac >= self.jac_every {
             self.refresh_jacobian(f, t, y, &f0);
         }
         self.steps_since_jac += 1;
-        let mut w = [[0.0; N]; N];
-        for i in 0..N {
-            for j in 0..N {
-                w[i][j] = if i == j { 1.0 } else { 0.0 } - GAMMA * h * self.jac[i][j];
+        for i in 0..n {
+            for j in 0..n {
+                self.w[i * n + j] =
+                    if i == j { 1.0 } else { 0.0 } - GAMMA * h * self.jac[i * n + j];
             }
         }
-        let lu = Lu::factor(w)?;
+        if !lu_factor(&mut self.w, &mut self.piv, n) {
+            return None;
+        }
         // Non-autonomous terms (t treated as a state with t' = 1): +γh f_t in stage 1, −γh f_t
         // in stage 2. Without them, stiff states driven by explicit time dependence (a set-point
         // ramp) lose the method's order and its error estimate, and steps collapse.
-        let mut rhs1 = f0;
-        for i in 0..N {
-            rhs1[i] += GAMMA * h * self.ft[i];
+        let mut k1 = f0;
+        for i in 0..n {
+            k1[i] += GAMMA * h * self.ft[i];
         }
-        let k1 = lu.solve(&rhs1);
-        let mut y1 = *y;
-        for i in 0..N {
+        lu_solve(&self.w, &self.piv, n, &mut k1);
+        let mut y1 = y.clone();
+        for i in 0..n {
             y1[i] += h * k1[i];
         }
         let f1 = f(t + h, &y1);
         self.rhs_evals += 1;
-        let mut rhs2 = f1;
-        for i in 0..N {
-            rhs2[i] -= 2.0 * k1[i] + GAMMA * h * self.ft[i];
+        let mut k2 = f1;
+        for i in 0..n {
+            k2[i] -= 2.0 * k1[i] + GAMMA * h * self.ft[i];
         }
-        let k2 = lu.solve(&rhs2);
-        let mut out = *y;
+        lu_solve(&self.w, &self.piv, n, &mut k2);
+        let mut out = y.clone();
         let mut acc = 0.0;
-        for i in 0..N {
+        for i in 0..n {
             out[i] += h * (1.5 * k1[i] + 0.5 * k2[i]);
             // Embedded first-order solution y + h k1: difference h (k1 + k2)/2.
             let est = 0.5 * h * (k1[i] + k2[i]);
             let sc = self.atol + self.rtol * y[i].abs().max(out[i].abs());
             acc += (est / sc) * (est / sc);
         }
-        let err = (acc / N as f64).sqrt();
+        let err = (acc / n as f64).sqrt();
         if out.iter().all(|v| v.is_finite()) && err.is_finite() {
             Some(StepResult { y: out, err })
         } else {
@@ -210,10 +232,10 @@ mod tests {
     #[test]
     fn stiff_problem_second_order_and_stable() {
         let run_with = |h: f64, jac_every: usize| {
-            let mut ros = Ros2::<2>::new(1e-6, 1e-9);
+            let mut ros = Ros2::new(1e-6, 1e-9);
             ros.jac_every = jac_every;
-            let mut f = |t: f64, y: &[f64; 2]| [-1000.0 * (y[0] - t.cos()), -y[1]];
-            let mut y = [1.0, 1.0];
+            let mut f = |t: f64, y: &Vec<f64>| vec![-1000.0 * (y[0] - t.cos()), -y[1]];
+            let mut y = vec![1.0, 1.0];
             let mut t = 0.0;
             while t < 1.0 - 1e-12 {
                 y = ros.step(&mut f, t, &y, h).expect("finite").y;

@@ -6,52 +6,16 @@
 //! Pure: map files are read only by [`Engine::new`] when the config names a file path.
 
 use super::config::EngineConfig;
-use super::cycle::{P_STD_KPA, T_STD_K};
+use super::cycle::{ShaftLosses, P_STD_KPA, T_STD_K};
+use super::effects::EffectSet;
 use crate::health::HealthParams;
 use crate::maps::{self, CompressorMap, ScaledCompressor, ScaledTurbine, TurbineMap};
 use std::path::Path;
 use std::sync::Arc;
 
-/// Errors building or running the engine model.
-#[derive(Debug, thiserror::Error)]
-pub enum EngineError {
-    #[error(transparent)]
-    Config(#[from] super::config::EngineConfigError),
-    #[error("map: {0}")]
-    Map(#[from] maps::MapError),
-    #[error("design-point calibration failed: {0}")]
-    Calibration(String),
-    #[error("steady-state solver: {0}")]
-    NoSteadySolution(String),
-    #[error("simulation failed at t = {t_s:.2} s: {reason}")]
-    Simulation { t_s: f64, reason: String },
-    #[error("engine parameter `{key}`: {reason}")]
-    Param { key: String, reason: String },
-}
-
-/// The design point as calibrated: every station of the reference cycle.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
-pub struct DesignPoint {
-    pub t1_k: f64,
-    pub p1_kpa: f64,
-    pub t2_k: f64,
-    pub p2_kpa: f64,
-    pub t3_k: f64,
-    pub p3_kpa: f64,
-    pub t34_k: f64,
-    pub p34_kpa: f64,
-    pub t4_k: f64,
-    pub p4_kpa: f64,
-    pub air_kg_s: f64,
-    pub fuel_kg_s: f64,
-    pub exhaust_kg_s: f64,
-    pub compressor_power_w: f64,
-    pub hpt_power_w: f64,
-    pub pt_power_w: f64,
-    pub power_mw: f64,
-    pub hpt_pr: f64,
-    pub pt_pr: f64,
-}
+pub use super::error::EngineError;
+/// The design point as calibrated: the station table of the reference cycle.
+pub type DesignPoint = super::gas_path::Stations;
 
 /// Constants of the model, derived from the config and the design point (SI units, kPa).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -74,11 +38,8 @@ pub struct Constants {
     pub pt_inertia: f64,
     pub v_comb: f64,
     pub v_duct: f64,
-    pub gg_friction_w: f64,
-    pub pt_windage_w: f64,
+    pub shaft: ShaftLosses,
     pub pt_breakaway_nm: f64,
-    pub gg_bearing_nm: f64,
-    pub pt_bearing_nm: f64,
     pub n1_design: f64,
     pub n2_design: f64,
     pub power_design_w: f64,
@@ -108,34 +69,15 @@ impl Constants {
         let r = w.max(0.0) * t34.sqrt() / p_amb / self.q4_design;
         p_amb * (1.0 + self.exhaust_excess_ratio * r * r)
     }
-    /// GG bearing and windage loss power ∝ n².
-    #[inline]
-    fn gg_friction(&self, n1: f64) -> f64 {
-        let r = n1 / self.n1_design;
-        self.gg_friction_w * r * r
-    }
-    /// Smooth Coulomb bearing torque (N·m): full value above ~50 rpm, zero at rest.
-    #[inline]
-    fn bearing_torque(torque: f64, n: f64) -> f64 {
-        torque * (n / 20.0).tanh()
-    }
     /// All GG shaft losses outside the mechanical efficiency, W.
     #[inline]
     pub fn gg_loss_w(&self, n1: f64) -> f64 {
-        self.gg_friction(n1)
-            + Self::bearing_torque(self.gg_bearing_nm, n1) * n1 * std::f64::consts::PI / 30.0
+        self.shaft.gg_w(n1)
     }
     /// All PT + generator losses outside the mechanical efficiency, W.
     #[inline]
     pub fn pt_loss_w(&self, n2: f64) -> f64 {
-        self.pt_windage(n2)
-            + Self::bearing_torque(self.pt_bearing_nm, n2) * n2 * std::f64::consts::PI / 30.0
-    }
-    /// PT and generator windage ∝ n³.
-    #[inline]
-    fn pt_windage(&self, n2: f64) -> f64 {
-        let r = n2.max(0.0) / self.n2_design;
-        self.pt_windage_w * r * r * r
+        self.shaft.pt_w(n2)
     }
 }
 
@@ -151,6 +93,7 @@ pub struct Engine {
     comp: ScaledCompressor,
     hpt: ScaledTurbine,
     pt: ScaledTurbine,
+    effects: Arc<EffectSet>,
 }
 
 /// The unscaled component maps as read from the engine file's map paths (shared, cheap to
@@ -170,6 +113,8 @@ pub struct Model {
     pub pt: ScaledTurbine,
     pub consts: Constants,
     pub health: HealthParams,
+    /// The enabled effects and the state layout they need.
+    pub effects: Arc<EffectSet>,
 }
 
 fn load_compressor(file: &str) -> Result<CompressorMap, EngineError> {
@@ -215,12 +160,13 @@ impl Engine {
         let comp_map = Arc::clone(&maps.comp);
         let hpt_map = Arc::clone(&maps.hpt);
         let pt_map = Arc::clone(&maps.pt);
-        let design = super::design::design_cycle(&cfg)?;
+        let effects = Arc::new(Engine::build_effects(&cfg)?);
+        let mut design = super::design::design_cycle(&cfg)?;
         let d = &cfg.design;
         let m = &cfg.maps;
         let theta1 = design.t1_k / T_STD_K;
         let delta1 = design.p1_kpa / P_STD_KPA;
-        let wc1 = design.air_kg_s * theta1.sqrt() / delta1;
+        let wc1 = design.air_flow_kg_s * theta1.sqrt() / delta1;
         let comp = ScaledCompressor::calibrate(
             comp_map,
             m.compressor_design_speed,
@@ -231,25 +177,25 @@ impl Engine {
             d.compressor_efficiency,
         );
         let theta3 = design.t3_k / T_STD_K;
-        let wc3 = design.exhaust_kg_s * theta3.sqrt() / (design.p3_kpa / P_STD_KPA);
+        let wc3 = design.hpt_flow_kg_s * theta3.sqrt() / (design.p3_kpa / P_STD_KPA);
         let hpt = ScaledTurbine::calibrate(
             hpt_map,
             m.hpt_design_speed,
             m.hpt_design_pr,
             d.gg_speed_rpm / theta3.sqrt(),
             wc3,
-            design.hpt_pr,
+            design.hpt_pressure_ratio,
             d.hpt_efficiency,
         );
         let theta34 = design.t34_k / T_STD_K;
-        let wc34 = design.exhaust_kg_s * theta34.sqrt() / (design.p34_kpa / P_STD_KPA);
+        let wc34 = design.pt_flow_kg_s * theta34.sqrt() / (design.p34_kpa / P_STD_KPA);
         let pt = ScaledTurbine::calibrate(
             pt_map,
             m.pt_design_speed,
             m.pt_design_pr,
             d.pt_speed_rpm / theta34.sqrt(),
             wc34,
-            design.pt_pr,
+            design.pt_pressure_ratio,
             d.pt_efficiency,
         );
         let dy = &cfg.dynamics;
@@ -259,9 +205,9 @@ impl Engine {
             inlet_loss_frac: d.inlet_loss_frac,
             wc1_design: wc1,
             combustor_loss_frac: d.combustor_loss_frac,
-            q2_design: design.air_kg_s * design.t2_k.sqrt() / design.p2_kpa,
+            q2_design: design.air_flow_kg_s * design.t2_k.sqrt() / design.p2_kpa,
             exhaust_excess_ratio: d.exhaust_back_pressure_ratio - 1.0,
-            q4_design: design.exhaust_kg_s * design.t34_k.sqrt() / cfg.ambient.pressure_kpa,
+            q4_design: design.pt_flow_kg_s * design.t34_k.sqrt() / cfg.ambient.pressure_kpa,
             eta_b: d.combustion_efficiency,
             lhv: d.fuel_lhv_j_per_kg,
             eta_m: d.mechanical_efficiency,
@@ -270,20 +216,27 @@ impl Engine {
             pt_inertia: dy.pt_inertia_kg_m2,
             v_comb: dy.combustor_volume_m3,
             v_duct: dy.duct_volume_m3,
-            gg_friction_w: dy.gg_friction_kw_at_design * 1e3,
-            pt_windage_w: dy.pt_windage_kw_at_sync * 1e3,
+            shaft: ShaftLosses::from_config(&cfg),
             pt_breakaway_nm: dy.pt_breakaway_torque_n_m,
-            gg_bearing_nm: dy.gg_bearing_torque_n_m,
-            pt_bearing_nm: dy.pt_bearing_torque_n_m,
             n1_design: d.gg_speed_rpm,
             n2_design: d.pt_speed_rpm,
             power_design_w: d.power_mw * 1e6,
             fuel_design: design.fuel_kg_s,
-            flow_design: design.exhaust_kg_s,
+            flow_design: design.pt_flow_kg_s,
             p2_design_kpa: design.p2_kpa,
             t3_design_k: design.t3_k,
             p34_design_kpa: design.p34_kpa,
         };
+        // The design point's β and surge margin come from the scaled map.
+        let at_design = super::cycle::compressor_at_beta(
+            &comp,
+            design.t1_k,
+            design.p1_kpa,
+            design.n1_rpm,
+            m.compressor_design_beta,
+        );
+        design.compressor_beta = at_design.beta;
+        design.surge_margin_pct = at_design.surge_margin_pct;
         Ok(Engine {
             cfg,
             design,
@@ -292,7 +245,28 @@ impl Engine {
             comp,
             hpt,
             pt,
+            effects,
         })
+    }
+
+    fn build_effects(cfg: &EngineConfig) -> Result<EffectSet, EngineError> {
+        EffectSet::from_section(&cfg.effects).map_err(|reason| EngineError::Param {
+            key: "effects".into(),
+            reason,
+        })
+    }
+
+    /// Replaces the engine file's `[effects]` section (already validated) and rebuilds only the
+    /// effects: they never change the design calibration.
+    pub(crate) fn replace_effects(&mut self, cfg: EngineConfig) -> Result<(), EngineError> {
+        self.effects = Arc::new(Engine::build_effects(&cfg)?);
+        self.cfg = cfg;
+        Ok(())
+    }
+
+    /// The enabled effects.
+    pub fn effects(&self) -> &EffectSet {
+        &self.effects
     }
 
     /// The engine file this engine was built from (read-only: change values with
@@ -336,6 +310,7 @@ impl Engine {
                 .with_health(health.pt_flow_factor(), health.pt_eff_factor()),
             consts: self.consts,
             health: *health,
+            effects: Arc::clone(&self.effects),
         }
     }
 

@@ -1,6 +1,10 @@
 //! Named engine parameters: the one place to read or change a number of the engine file by its
 //! dotted key (`dynamics.gg_inertia_kg_m2`, `sensors.t4.tau_s`,
-//! `control.accel_limit_speed_rpm[2]`, later `effects.<name>.<param>`).
+//! `control.accel_limit_speed_rpm[2]`, `effects.fuel_system.lag_s`).
+//!
+//! Setting a parameter of an effect the file does not enable enables that effect, with its
+//! defaults for the other parameters; effect parameters never touch the design calibration, so
+//! changing one only rebuilds the effects.
 //!
 //! [`Engine::set_param`] validates the new value (finite, inside the key's range, and the
 //! relations between keys) and rebuilds everything that depends on it — design calibration and
@@ -82,7 +86,15 @@ impl EngineConfig {
     pub fn with_param(&self, key: &str, value: f64) -> Result<EngineConfig, EngineError> {
         let range = param_range(key).ok_or_else(|| param_error(key, "not a tunable number"))?;
         range.check(value).map_err(|r| param_error(key, r))?;
-        let mut tree = tree_of(self, key)?;
+        let mut base = self.clone();
+        if let Some((effect, _)) = key.strip_prefix("effects.").and_then(|r| r.split_once('.')) {
+            if !base.effects.contains_key(effect) {
+                base.effects.insert(effect.to_string(), Default::default());
+                base.effects = super::effects::complete(&base.effects)
+                    .map_err(|e| param_error(key, e.to_string()))?;
+            }
+        }
+        let mut tree = tree_of(&base, key)?;
         let node = node_mut(&mut tree, key)?;
         if !node.is_number() {
             return Err(param_error(
@@ -111,6 +123,10 @@ impl Engine {
     /// between keys, a failed calibration) leave the engine unchanged.
     pub fn set_param(&mut self, key: &str, value: f64) -> Result<(), EngineError> {
         let cfg = self.cfg().with_param(key, value)?;
+        if key.starts_with("effects.") {
+            // Effects never change the design calibration: rebuild them alone.
+            return self.replace_effects(cfg);
+        }
         *self = Engine::calibrate(cfg, self.raw_maps().clone())?;
         Ok(())
     }

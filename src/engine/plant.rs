@@ -4,8 +4,11 @@
 //! Modbus for tests and commissioning. Pure: time is simulated, nothing here sleeps or does I/O.
 
 use super::sensors::{MeasurementOptions, OnlineChannel};
-use super::sequence::{Command, End, Event, Scenario, Simulation};
 use super::trace::{values_of, Values, NSIG};
+use super::{
+    sequence::{Command, End, Event, Scenario},
+    simulation::Simulation,
+};
 use super::{Engine, EngineError};
 use crate::health::HealthParams;
 use crate::signals::{Phase, Signal};

@@ -7,7 +7,8 @@
 //! with a finite-difference Jacobian and backtracking; far off-design demands are reached by
 //! continuation from the design point. Pure: no I/O.
 
-use super::cycle::{self, CompressorStation, TurbineStation};
+use super::effects::CoreView;
+use super::gas_path::{self, Adjust, CompressorSetting, HotSection, Inputs, Stations};
 use super::model::{EngineError, Model};
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
@@ -32,37 +33,12 @@ pub struct SteadyInputs {
     pub demand: Demand,
 }
 
-/// The full station table of a steady operating point.
+/// A steady operating point: the station table ([`Stations`], also reachable through `Deref`)
+/// with the cycle figures and the solver's closure errors.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct SteadyPoint {
-    pub n1_rpm: f64,
-    pub n2_rpm: f64,
-    pub t1_k: f64,
-    pub p1_kpa: f64,
-    pub t2_k: f64,
-    pub p2_kpa: f64,
-    pub t3_k: f64,
-    pub p3_kpa: f64,
-    pub t34_k: f64,
-    pub p34_kpa: f64,
-    pub t4_k: f64,
-    pub p4_kpa: f64,
-    pub air_flow_kg_s: f64,
-    pub fuel_kg_s: f64,
-    pub exhaust_flow_kg_s: f64,
-    pub fuel_air_ratio: f64,
-    pub power_mw: f64,
-    pub pressure_ratio: f64,
-    pub hpt_pressure_ratio: f64,
-    pub pt_pressure_ratio: f64,
-    pub compressor_efficiency: f64,
-    pub hpt_efficiency: f64,
-    pub pt_efficiency: f64,
-    pub compressor_beta: f64,
-    pub surge_margin_pct: f64,
-    pub compressor_power_mw: f64,
-    pub hpt_power_mw: f64,
-    pub pt_power_mw: f64,
+    #[serde(flatten)]
+    pub stations: Stations,
     pub heat_rate_kj_kwh: f64,
     pub thermal_efficiency: f64,
     /// HPT map flow minus combustor exit flow, kg/s (mass closure; ~0 when solved).
@@ -71,6 +47,13 @@ pub struct SteadyPoint {
     pub pt_flow_error_kg_s: f64,
     /// HPT shaft power minus compressor power and losses, W (energy closure).
     pub gg_power_error_w: f64,
+}
+
+impl std::ops::Deref for SteadyPoint {
+    type Target = Stations;
+    fn deref(&self) -> &Stations {
+        &self.stations
+    }
 }
 
 /// Unknown vector layout: [n1, beta, p34, wf], each normalised.
@@ -82,28 +65,53 @@ struct Evaluated {
     residuals: [f64; 4],
 }
 
+/// The gas-path adjustments of the enabled effects at a steady point: their hooks see the
+/// point as the core model computes it, with each effect's states at equilibrium.
+fn effect_adjust(model: &Model, inp: &Inputs) -> Adjust {
+    let effects = &model.effects;
+    if effects.is_empty() {
+        return Adjust::NONE;
+    }
+    let base = gas_path::evaluate(model, inp, &Adjust::NONE).stations;
+    let c = &model.consts;
+    let core = CoreView {
+        t_s: 0.0,
+        n1_rpm: base.n1_rpm,
+        n2_rpm: base.n2_rpm,
+        p2_kpa: base.p2_kpa,
+        t3_k: base.t3_k,
+        p34_kpa: base.p34_kpa,
+        t_amb_k: inp.t_amb_k,
+        p_amb_kpa: inp.p_amb_kpa,
+        n1_design_rpm: c.n1_design,
+        fuel_design_kg_s: c.fuel_design,
+    };
+    let mut y = effects.layout().zeros();
+    effects.steady_states(&core, &base, &mut y);
+    Adjust {
+        extra_bleed: effects.bleed_fraction(&core, &y),
+        deltas: effects.component_deltas(&core, &y),
+    }
+}
+
 fn evaluate(model: &Model, inp: &SteadyInputs, x: &Unknowns) -> Evaluated {
     let c = &model.consts;
     let n1 = x.0[0] * c.n1_design;
-    let beta = x.0[1];
-    let p34 = x.0[2] * c.p34_design_kpa;
     let wf = x.0[3] * c.fuel_design;
-    let t1 = inp.t_amb_k;
-    // The inlet loss depends on the compressor's corrected flow, which β fixes directly.
-    let probe = cycle::compressor_at_beta(&model.comp, t1, inp.p_amb_kpa, n1, beta);
-    let p1 = c.p1(inp.p_amb_kpa, probe.wc_kg_s);
-    let comp: CompressorStation = cycle::compressor_at_beta(&model.comp, t1, p1, n1, beta);
-    let p2 = p1 * comp.pr;
-    let w_air = comp.w_kg_s * (1.0 - c.bleed);
-    let p3 = c.p3(p2, comp.w_kg_s, comp.t_out_k);
-    let (t3, gas) = cycle::combustor_exit_temperature(w_air, comp.h_out, wf, c.eta_b, c.lhv);
-    let w3 = w_air + wf;
-    let hpt: TurbineStation = cycle::turbine(&model.hpt, &gas, t3, p3, n1, p3 / p34);
-    let p4 = c.p4(inp.p_amb_kpa, w3, hpt.t_out_k);
-    let pt: TurbineStation =
-        cycle::turbine(&model.pt, &gas, hpt.t_out_k, p34, inp.n2_rpm, p34 / p4);
-    let power_w = c.eta_m * pt.power_w - c.pt_loss_w(inp.n2_rpm);
-    let gg_err = c.eta_m * hpt.power_w - comp.power_w - c.gg_loss_w(n1);
+    let gp_inputs = Inputs {
+        t_amb_k: inp.t_amb_k,
+        p_amb_kpa: inp.p_amb_kpa,
+        n1_rpm: n1,
+        n2_rpm: inp.n2_rpm,
+        p34_kpa: x.0[2] * c.p34_design_kpa,
+        compressor: CompressorSetting::Beta(x.0[1]),
+        hot: HotSection::Burn { fuel_kg_s: wf },
+    };
+    let adjust = effect_adjust(model, &gp_inputs);
+    let gp = gas_path::evaluate(model, &gp_inputs, &adjust);
+    let w3 = gp.w_combustor_out_kg_s;
+    let power_w = gp.pt_net_w;
+    let gg_err = gp.gg_net_w;
     let wd = c.flow_design;
     let pd = c.power_design_w;
     let target_power = match inp.demand {
@@ -111,49 +119,25 @@ fn evaluate(model: &Model, inp: &SteadyInputs, x: &Unknowns) -> Evaluated {
         _ => power_w,
     };
     let residuals = [
-        (hpt.w_kg_s - w3) / wd,
-        (pt.w_kg_s - w3) / wd,
+        (gp.hpt.w_kg_s - w3) / wd,
+        (gp.pt.w_kg_s - w3) / wd,
         gg_err / pd,
         (power_w - target_power) / pd,
     ];
     let heat = wf * c.lhv;
+    let mut stations = gp.stations;
+    stations.fuel_kg_s = wf;
+    stations.fuel_burnt_kg_s = wf;
     let point = SteadyPoint {
-        n1_rpm: n1,
-        n2_rpm: inp.n2_rpm,
-        t1_k: t1,
-        p1_kpa: p1,
-        t2_k: comp.t_out_k,
-        p2_kpa: p2,
-        t3_k: t3,
-        p3_kpa: p3,
-        t34_k: hpt.t_out_k,
-        p34_kpa: p34,
-        t4_k: pt.t_out_k,
-        p4_kpa: p4,
-        air_flow_kg_s: comp.w_kg_s,
-        fuel_kg_s: wf,
-        exhaust_flow_kg_s: w3,
-        fuel_air_ratio: gas.far(),
-        power_mw: power_w / 1e6,
-        pressure_ratio: comp.pr,
-        hpt_pressure_ratio: p3 / p34,
-        pt_pressure_ratio: p34 / p4,
-        compressor_efficiency: comp.eff,
-        hpt_efficiency: hpt.eff,
-        pt_efficiency: pt.eff,
-        compressor_beta: comp.beta,
-        surge_margin_pct: comp.surge_margin_pct,
-        compressor_power_mw: comp.power_w / 1e6,
-        hpt_power_mw: hpt.power_w / 1e6,
-        pt_power_mw: pt.power_w / 1e6,
+        stations,
         heat_rate_kj_kwh: if power_w > 0.0 {
             heat / power_w * 3600.0
         } else {
             f64::INFINITY
         },
         thermal_efficiency: if heat > 0.0 { power_w / heat } else { 0.0 },
-        hpt_flow_error_kg_s: hpt.w_kg_s - w3,
-        pt_flow_error_kg_s: pt.w_kg_s - w3,
+        hpt_flow_error_kg_s: gp.hpt.w_kg_s - w3,
+        pt_flow_error_kg_s: gp.pt.w_kg_s - w3,
         gg_power_error_w: gg_err,
     };
     Evaluated { point, residuals }
@@ -366,9 +350,9 @@ mod tests {
             p.pressure_ratio
         );
         assert!(
-            (p.exhaust_flow_kg_s / 84.31 - 1.0).abs() < 0.005,
+            (p.pt_flow_kg_s / 84.31 - 1.0).abs() < 0.005,
             "W {}",
-            p.exhaust_flow_kg_s
+            p.pt_flow_kg_s
         );
         assert!((p.power_mw / 31.4 - 1.0).abs() < 0.005, "P {}", p.power_mw);
         assert!(
@@ -396,11 +380,11 @@ mod tests {
         ] {
             let p = solve(&m, &iso(demand), None).expect("solves");
             assert!(
-                p.hpt_flow_error_kg_s.abs() / p.exhaust_flow_kg_s < 1e-6,
+                p.hpt_flow_error_kg_s.abs() / p.pt_flow_kg_s < 1e-6,
                 "{demand:?} {p:?}"
             );
             assert!(
-                p.pt_flow_error_kg_s.abs() / p.exhaust_flow_kg_s < 1e-6,
+                p.pt_flow_error_kg_s.abs() / p.pt_flow_kg_s < 1e-6,
                 "{demand:?}"
             );
             assert!(
@@ -413,7 +397,7 @@ mod tests {
             let air = crate::thermo::Gas::air();
             let c = &m.consts;
             let heat_in = p.fuel_kg_s * c.eta_b * c.lhv;
-            let exhaust = p.exhaust_flow_kg_s * gas.h(p.t4_k) - p.air_flow_kg_s * air.h(p.t1_k);
+            let exhaust = p.pt_flow_kg_s * gas.h(p.t4_k) - p.air_flow_kg_s * air.h(p.t1_k);
             let shafts = (p.pt_power_mw + p.hpt_power_mw - p.compressor_power_mw) * 1e6;
             assert!(
                 ((exhaust + shafts) - heat_in).abs() / heat_in < 1e-6,

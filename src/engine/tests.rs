@@ -5,7 +5,8 @@ use super::dynamic::{
     self, Drive, Scales, State, Stations, IX_FAR, IX_FUEL_I, IX_N1, IX_N2, IX_P2, IX_P34, IX_T3,
 };
 use super::sensors::MeasurementOptions;
-use super::sequence::{run_scenario, Controller, Simulation};
+use super::simulation::{run_scenario, Controller, Simulation, Watch};
+use super::state::{Actuator, StateLayout};
 use super::steady::{solve, Demand, SteadyInputs, SteadyPoint};
 use super::trace::{values_of, Trace};
 use super::{Engine, Scenario};
@@ -31,10 +32,10 @@ impl Controller for Constant {
     fn next_time_event(&self, _t: f64) -> Option<f64> {
         None
     }
-    fn first_crossing(&self, _y0: &State, _y1: &State) -> Option<f64> {
-        None
+    fn watches(&self) -> Vec<Watch> {
+        Vec::new()
     }
-    fn update(&mut self, _t: f64, _y: &mut State, _st: &Stations) -> bool {
+    fn update(&mut self, _t: f64, _act: &mut Actuator<'_>, _st: &Stations) -> bool {
         false
     }
     fn polls(&self, _t: f64) -> bool {
@@ -47,7 +48,7 @@ impl Controller for Constant {
 
 fn state_of(engine: &Engine, p: &SteadyPoint) -> State {
     let s = Scales::of(&engine.model(&HealthParams::HEALTHY));
-    let mut y = [0.0; dynamic::NX];
+    let mut y = StateLayout::core().zeros();
     y[IX_P2] = p.p2_kpa / s.p2;
     y[IX_T3] = p.t3_k / s.t3;
     y[IX_P34] = p.p34_kpa / s.p34;
@@ -90,7 +91,7 @@ fn constant_inputs_settle_onto_the_steady_solution() {
         ("T34", st.t34_k, target.t34_k),
         ("P34", st.p34_kpa, target.p34_kpa),
         ("T4", st.t4_k, target.t4_k),
-        ("air", st.air_kg_s, target.air_flow_kg_s),
+        ("air", st.air_flow_kg_s, target.air_flow_kg_s),
         ("power", st.power_mw, target.power_mw),
     ];
     for (name, dynamic, steady) in pairs {
@@ -110,7 +111,7 @@ fn startup_with_step(fixed_step: f64) -> Trace {
     let model = engine.model(&HealthParams::HEALTHY);
     let (s, _) =
         run_scenario(engine.cfg(), &model, &Scenario::startup(engine.cfg())).expect("runs");
-    Trace::from_truth(engine.cfg(), &s, None)
+    Trace::from_truth(&engine, &s, None)
 }
 
 /// Largest relative difference between two runs over every output and sample, each signal
@@ -202,7 +203,7 @@ fn startup_reaches_base_load_in_time_without_surge() {
         "n1 {}",
         last[Signal::N1.index()]
     );
-    let running: Vec<&super::sequence::TruthSample> =
+    let running: Vec<&super::simulation::TruthSample> =
         s.iter().filter(|x| x.stations.n1_rpm > 500.0).collect();
     let min_sm = running
         .iter()
@@ -230,7 +231,7 @@ fn same_seed_gives_byte_identical_csv() {
             seed,
         };
         let mut out = Vec::new();
-        Trace::from_truth(engine.cfg(), &s, Some(&o))
+        Trace::from_truth(&engine, &s, Some(&o))
             .write_csv(&mut out)
             .expect("writes");
         out
@@ -320,7 +321,7 @@ const STARTUP_BASELINE_BITS: &[(usize, [u64; 6])] = &[
     ),
 ];
 
-fn startup_bits(idx: usize, s: &[super::sequence::TruthSample]) -> [u64; 6] {
+fn startup_bits(idx: usize, s: &[super::simulation::TruthSample]) -> [u64; 6] {
     let st = &s[idx].stations;
     [
         st.t3_k.to_bits(),

@@ -4,40 +4,15 @@
 //! Column order follows [`Signal::ALL`]. Writing is to any `io::Write`; this module does not
 //! open files.
 
-use super::config::EngineConfig;
-use super::dynamic::Stations;
+pub use super::gas_path::values_of;
+use super::model::Engine;
 use super::sensors::{self, MeasurementOptions};
-use super::sequence::TruthSample;
+use super::simulation::TruthSample;
 use crate::recording::{Recording, RecordingError};
 use crate::signals::{Phase, Signal};
 use std::io::Write;
 
 pub use crate::signals::{Values, NSIG};
-
-/// The values of every signal in a station table.
-pub fn values_of(st: &Stations) -> Values {
-    let mut v = [0.0; NSIG];
-    for s in Signal::ALL {
-        v[s.index()] = match s {
-            Signal::N1 => st.n1_rpm,
-            Signal::N2 => st.n2_rpm,
-            Signal::T1 => st.t1_k,
-            Signal::P1 => st.p1_kpa,
-            Signal::T2 => st.t2_k,
-            Signal::P2 => st.p2_kpa,
-            Signal::T3 => st.t3_k,
-            Signal::P3 => st.p3_kpa,
-            Signal::T34 => st.t34_k,
-            Signal::P34 => st.p34_kpa,
-            Signal::T4 => st.t4_k,
-            Signal::P4 => st.p4_kpa,
-            Signal::FuelFlow => st.fuel_kg_s,
-            Signal::Power => st.power_mw,
-            Signal::SurgeMargin => st.surge_margin_pct,
-        };
-    }
-    v
-}
 
 /// A sampled run.
 #[derive(Debug, Clone, PartialEq)]
@@ -53,11 +28,14 @@ pub struct Trace {
 
 impl Trace {
     /// Builds a trace from true samples, applying the measurement model if asked.
+    /// With a measurement model, each signal passes through the enabled effects' instrument
+    /// path (`effects`), then the engine file's sensor lags, noise and bias.
     pub fn from_truth(
-        cfg: &EngineConfig,
+        engine: &Engine,
         samples: &[TruthSample],
         meas: Option<&MeasurementOptions>,
     ) -> Trace {
+        let cfg = engine.cfg();
         let t_s: Vec<f64> = samples.iter().map(|s| s.t_s).collect();
         let phase = samples.iter().map(|s| s.phase).collect();
         let truth: Vec<Values> = samples.iter().map(|s| values_of(&s.stations)).collect();
@@ -65,7 +43,8 @@ impl Trace {
         if let Some(o) = meas {
             // Lags use the samples' own intervals (the data's sample period).
             for s in Signal::ALL {
-                let series: Vec<f64> = truth.iter().map(|v| v[s.index()]).collect();
+                let mut series: Vec<f64> = truth.iter().map(|v| v[s.index()]).collect();
+                engine.effects().instrument(s, &t_s, &mut series);
                 let m = sensors::measure_at(&cfg.sensors, s, &t_s, &series, o);
                 for (row, val) in measured.iter_mut().zip(m) {
                     row[s.index()] = val;

@@ -410,7 +410,7 @@ fn replay_startup(
     corrupt: impl Fn(&mut crate::engine::Trace),
 ) -> (Vec<(String, i64, Option<i64>)>, ReplayReport) {
     use crate::engine::sensors::MeasurementOptions;
-    use crate::engine::sequence::run_scenario;
+    use crate::engine::simulation::run_scenario;
     use crate::engine::{Engine, Scenario, Trace};
     let engine = Engine::reference().expect("engine");
     let model = engine.model(&crate::health::HealthParams::default());
@@ -422,7 +422,7 @@ fn replay_startup(
         bias: false,
         seed: 7,
     };
-    let mut t = Trace::from_truth(engine.cfg(), &samples, Some(&o));
+    let mut t = Trace::from_truth(&engine, &samples, Some(&o));
     t.t_s.iter_mut().for_each(|x| *x += 1.7e9);
     corrupt(&mut t);
     let mut csv = Vec::new();

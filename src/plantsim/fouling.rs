@@ -11,8 +11,11 @@
 use super::{PlantFrame, PlantModel};
 use crate::engine::plant::live_channels;
 use crate::engine::sensors::OnlineChannel;
-use crate::engine::sequence::{Command, End, Event, Scenario, Simulation};
 use crate::engine::trace::{values_of, Values, NSIG};
+use crate::engine::{
+    sequence::{Command, End, Event, Scenario},
+    simulation::Simulation,
+};
 use crate::engine::{Engine, EngineError};
 use crate::health::HealthParams;
 use crate::signals::Phase;

@@ -11,7 +11,7 @@
 pub mod svg;
 
 use crate::diagnosis::transient::smooth_fuel;
-use crate::engine::replay::{simulate_segment, DriveMode};
+use crate::engine::measured_drive::{simulate_segment, DriveMode};
 use crate::engine::Engine;
 use crate::health::{HealthParams, HEALTH_NAMES};
 use crate::ingest::fmt_ms;

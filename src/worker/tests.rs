@@ -1,7 +1,7 @@
 use super::*;
 use crate::detect::{scan, DetectorConfig};
 use crate::engine::sensors::MeasurementOptions;
-use crate::engine::sequence::run_scenario;
+use crate::engine::simulation::run_scenario;
 use crate::engine::{Scenario, Trace};
 use crate::health::HealthParams;
 use crate::shutdown::shutdown_channel;
@@ -30,7 +30,7 @@ fn stored_startup(dir: &std::path::Path) -> Store {
         bias: false,
         seed: 5,
     };
-    let t = Trace::from_truth(engine.cfg(), &samples, Some(&o));
+    let t = Trace::from_truth(&engine, &samples, Some(&o));
     let mut store = Store::open(&dir.join("w.db")).expect("open");
     let ids: Vec<i64> = Signal::ALL
         .iter()

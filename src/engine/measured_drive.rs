@@ -1,4 +1,4 @@
-//! Driving the model with a measured start-up: the operating inputs of the diagnosis.
+//! The measured drive: the model run through a recorded start-up, as the diagnosis needs it.
 //!
 //! A [`Recording`] is a sampled start-up as the plant recorded it (phase labels, ambient, fuel
 //! flow, GG speed, power, …). [`simulate_segment`] runs a health-scaled model through it and returns
@@ -9,11 +9,12 @@
 //! Pure: no I/O.
 
 use super::config::EngineConfig;
-use super::control::{FuelCommand, FuelLimits, Loop, Measured, Series, Setpoint, StarterCommand};
-use super::dynamic::{Drive, Scales, State, Stations, IX_FUEL_I, IX_N2};
-use super::model::{Engine, EngineError, Model};
+use super::control::{Feedback, FuelCommand, FuelLimits, Loop, Series, Setpoint, StarterCommand};
+use super::dynamic::{Drive, Stations};
+use super::model::{Engine, EngineError};
 use super::sensors::MeasurementOptions;
-use super::sequence::{Controller, Simulation, TruthSample};
+use super::simulation::{Controller, Simulation, TruthSample, Watch};
+use super::state::{Actuator, Shaft};
 use super::trace::Trace;
 use crate::health::HealthParams;
 use crate::recording::Recording;
@@ -35,7 +36,7 @@ pub enum DriveMode {
 /// Replays the phases of a segment: starter, ignition and breaker from the labels, fuel from the
 /// measurement or from PID loops following the measured speed and power.
 #[derive(Debug, Clone)]
-pub struct ReplayController {
+pub struct MeasuredDrive {
     cfg: EngineConfig,
     t_s: Arc<Vec<f64>>,
     phase: Arc<Vec<Phase>>,
@@ -44,8 +45,6 @@ pub struct ReplayController {
     power_sp: Arc<Series>,
     mode: DriveMode,
     limits: Arc<FuelLimits>,
-    /// Normalisation of the fuel integrator state.
-    fuel_scale: f64,
     k: usize,
     fuel_cmd: FuelCommand,
     pt_locked: bool,
@@ -64,16 +63,11 @@ fn clean(t: &[f64], v: Vec<f64>) -> Series {
     Series { t_s: ts, value: vs }
 }
 
-impl ReplayController {
+impl MeasuredDrive {
     /// A controller replaying `seg` (its times must start at the simulation's time 0).
-    pub fn new(
-        cfg: &EngineConfig,
-        model: &Model,
-        seg: &Recording,
-        mode: DriveMode,
-    ) -> ReplayController {
+    pub fn new(cfg: &EngineConfig, seg: &Recording, mode: DriveMode) -> MeasuredDrive {
         let t = seg.times();
-        ReplayController {
+        MeasuredDrive {
             cfg: cfg.clone(),
             t_s: Arc::new(t.to_vec()),
             phase: Arc::new(seg.phases().to_vec()),
@@ -82,7 +76,6 @@ impl ReplayController {
             power_sp: Arc::new(clean(t, seg.series(Signal::Power))),
             mode,
             limits: Arc::new(FuelLimits::from_config(&cfg.control)),
-            fuel_scale: Scales::of(model).fuel,
             k: 0,
             fuel_cmd: FuelCommand::Off,
             pt_locked: false,
@@ -95,7 +88,7 @@ impl ReplayController {
         self.fuel.value(self.t_s[k]).max(0.0)
     }
 
-    fn configure(&mut self, t: f64, y: &mut State, st: &Stations) {
+    fn configure(&mut self, t: f64, act: &mut Actuator<'_>, st: &Stations) {
         let k = self.k;
         let ph = self.phase[k];
         let next_fuel = if k + 1 < self.t_s.len() {
@@ -120,7 +113,7 @@ impl ReplayController {
         let locked = matches!(ph, Phase::Loading | Phase::Steady | Phase::Unloading);
         if locked && !self.pt_locked {
             // The breaker closed: the grid holds the PT at synchronous speed from here on.
-            y[IX_N2] = 1.0;
+            act.set_speed_rpm(Shaft::Pt, self.cfg.design.pt_speed_rpm);
         }
         self.pt_locked = locked;
         self.flame = fuel_here > 0.0;
@@ -150,19 +143,17 @@ impl ReplayController {
             _ => true,
         };
         if changed {
-            let m = Measured {
-                p2_kpa: st.p2_kpa,
-                n1_rpm: st.n1_rpm,
-                n2_rpm: st.n2_rpm,
-                power_mw: st.pt_shaft_mw,
-            };
-            y[IX_FUEL_I] = new_cmd.bumpless_integrator(t, st.fuel_kg_s, &m) / self.fuel_scale;
+            act.set_fuel_integrator_kg_s(new_cmd.bumpless_integrator(
+                t,
+                st.fuel_kg_s,
+                &Feedback::of(st),
+            ));
             self.fuel_cmd = new_cmd;
         }
     }
 }
 
-impl Controller for ReplayController {
+impl Controller for MeasuredDrive {
     fn drive(&self, t_amb_k: f64, p_amb_kpa: f64) -> Drive {
         Drive {
             t_amb_k,
@@ -179,11 +170,11 @@ impl Controller for ReplayController {
         self.t_s.get(i).copied()
     }
 
-    fn first_crossing(&self, _y0: &State, _y1: &State) -> Option<f64> {
-        None
+    fn watches(&self) -> Vec<Watch> {
+        Vec::new()
     }
 
-    fn update(&mut self, t: f64, y: &mut State, st: &Stations) -> bool {
+    fn update(&mut self, t: f64, act: &mut Actuator<'_>, st: &Stations) -> bool {
         let i = self.t_s.partition_point(|&x| x <= t + 1e-9);
         if i == 0 {
             return false;
@@ -194,7 +185,7 @@ impl Controller for ReplayController {
             return false;
         }
         self.k = k;
-        self.configure(t, y, st);
+        self.configure(t, act, st);
         true
     }
 
@@ -230,7 +221,7 @@ pub fn simulate_segment(
     let model = engine.model_at(health, t_amb, p_amb);
     // Work in segment-relative time so the simulation starts at 0.
     let rseg = seg.shifted_to_zero();
-    let ctl = ReplayController::new(engine.cfg(), &model, &rseg, mode);
+    let ctl = MeasuredDrive::new(engine.cfg(), &rseg, mode);
     let mut sim = Simulation::with_controller(engine.cfg(), &model, ctl);
     let mut samples = Vec::with_capacity(seg.len());
     for (k, &t) in rseg.times().iter().enumerate() {
@@ -248,13 +239,13 @@ pub fn simulate_segment(
         bias: false,
         seed: 0,
     };
-    Ok(Trace::from_truth(engine.cfg(), &samples, Some(&opts)))
+    Ok(Trace::from_truth(engine, &samples, Some(&opts)))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::engine::sequence::run_scenario;
+    use crate::engine::simulation::run_scenario;
     use crate::engine::Scenario;
 
     fn startup(engine: &Engine, h: &HealthParams) -> Trace {
@@ -267,7 +258,7 @@ mod tests {
             bias: false,
             seed: 0,
         };
-        Trace::from_truth(engine.cfg(), &s, Some(&opts))
+        Trace::from_truth(engine, &s, Some(&opts))
     }
 
     fn max_rel_dev(a: &Trace, b: &Trace, s: Signal, from: usize) -> f64 {

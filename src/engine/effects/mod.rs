@@ -1,0 +1,416 @@
+//! Optional model effects: the seam where plant behaviour the core model leaves out (fuel-system
+//! lag, heat soak, bleed schedules, instrument errors, …) plugs in without editing the core.
+//!
+//! An effect is one file in this folder implementing [`Effect`] plus one line in [`REGISTRY`].
+//! It is switched on and parameterised by the engine file's `[effects.<name>]` table (e.g.
+//! `[effects.fuel_system]` with `lag_s = 0.5`); each parameter is an ordinary named engine
+//! parameter (`effects.fuel_system.lag_s`), so the diagnosis can fit it like any other.
+//!
+//! The core model calls the effects at named hook points, in the order they are listed:
+//! - **states**: an effect may own a block of extra states ([`Effect::n_states`],
+//!   [`Effect::rest_states`], [`Effect::derivatives`]), placed after the core states by
+//!   [`super::state::StateLayout`];
+//! - **fuel delivery** ([`Effect::fuel_delivered`]): metered fuel → fuel burnt;
+//! - **bleed / flow schedule** ([`Effect::bleed_fraction`]): extra compressor bleed;
+//! - **component deltas** ([`Effect::component_deltas`]): flow and efficiency multipliers;
+//! - **heat exchange** ([`Effect::heat_to_metal_w`]): heat the combustor gas gives to metal;
+//! - **instrument path** ([`Effect::instrument`]): what a channel's instrument makes of the
+//!   signal it measures.
+//!
+//! With no effect on, the core skips every hook, so its results are bit for bit those of the
+//! model without this seam. Effects are pure: no I/O, no globals, deterministic.
+
+/// Declares the effect modules and the registry from one list: adding an effect is one file in
+/// this folder and its name here.
+macro_rules! registry {
+    ($($effect:ident),* $(,)?) => {
+        $(pub mod $effect;)*
+        /// Every effect gtwatch knows, in registry order.
+        pub static REGISTRY: &[EffectSpec] = &[$($effect::SPEC),*];
+    };
+}
+
+registry!();
+
+use super::gas_path::Stations;
+use crate::signals::Signal;
+use std::collections::BTreeMap;
+use std::fmt::Debug;
+use std::sync::Arc;
+
+/// A bounded parameter of an effect.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct ParamSpec {
+    pub name: &'static str,
+    pub unit: &'static str,
+    pub default: f64,
+    pub min: f64,
+    pub max: f64,
+    pub doc: &'static str,
+}
+
+/// A registry entry: what the effect is called, what it does, its parameters and how to build it.
+#[derive(Debug, Clone, Copy)]
+pub struct EffectSpec {
+    pub name: &'static str,
+    /// One line: what the effect models.
+    pub summary: &'static str,
+    /// Where the effect shows in the data (its signature), for the gap analysis and the user.
+    pub signature: &'static str,
+    pub params: &'static [ParamSpec],
+    /// Builds the effect from a complete, validated parameter set (in `params` order).
+    pub build: fn(&[f64]) -> Arc<dyn Effect>,
+}
+
+/// The registry entry named `name`.
+pub fn spec(name: &str) -> Option<&'static EffectSpec> {
+    REGISTRY.iter().find(|s| s.name == name)
+}
+
+/// Flow and efficiency multipliers on the three components (1 = no change).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ComponentDeltas {
+    pub compressor_flow: f64,
+    pub compressor_eff: f64,
+    pub hpt_flow: f64,
+    pub hpt_eff: f64,
+    pub pt_flow: f64,
+    pub pt_eff: f64,
+}
+
+impl ComponentDeltas {
+    pub const NONE: ComponentDeltas = ComponentDeltas {
+        compressor_flow: 1.0,
+        compressor_eff: 1.0,
+        hpt_flow: 1.0,
+        hpt_eff: 1.0,
+        pt_flow: 1.0,
+        pt_eff: 1.0,
+    };
+}
+
+/// What the hooks evaluated before the gas path may look at: the core states in physical units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CoreView {
+    pub t_s: f64,
+    pub n1_rpm: f64,
+    pub n2_rpm: f64,
+    pub p2_kpa: f64,
+    pub t3_k: f64,
+    pub p34_kpa: f64,
+    pub t_amb_k: f64,
+    pub p_amb_kpa: f64,
+    /// Design GG speed, rpm (for schedules in fractions of design speed).
+    pub n1_design_rpm: f64,
+    /// Design fuel flow, kg/s (the natural scale of fuel states).
+    pub fuel_design_kg_s: f64,
+}
+
+/// What [`Effect::derivatives`] may look at: the core view, the finished station table and the
+/// fuel flow the controller metered.
+#[derive(Debug, Clone, Copy)]
+pub struct Context<'a> {
+    pub core: &'a CoreView,
+    pub stations: &'a Stations,
+    pub metered_fuel_kg_s: f64,
+}
+
+/// A switchable extension of the engine model. Every hook has a neutral default, so an effect
+/// implements only the hooks it uses.
+pub trait Effect: Debug + Send + Sync {
+    /// Registry name (`snake_case`).
+    fn name(&self) -> &'static str;
+    /// Number of states the effect owns.
+    fn n_states(&self) -> usize {
+        0
+    }
+    /// The effect's states with the engine at rest.
+    fn rest_states(&self, _core: &CoreView, _x: &mut [f64]) {}
+    /// The effect's states in equilibrium at a steady point (`stations` as the core model
+    /// computes it). The default is the rest state: override it when a gas-path hook depends
+    /// on the states.
+    fn steady_states(&self, core: &CoreView, _stations: &Stations, x: &mut [f64]) {
+        self.rest_states(core, x)
+    }
+    /// Time derivatives of the effect's states (per second).
+    fn derivatives(&self, _ctx: &Context<'_>, _x: &[f64], _dx: &mut [f64]) {}
+    /// Fuel delivery: the fuel that burns, given the fuel `upstream` of this effect (the metered
+    /// flow, or what earlier effects delivered), kg/s.
+    fn fuel_delivered(&self, upstream_kg_s: f64, _core: &CoreView, _x: &[f64]) -> f64 {
+        upstream_kg_s
+    }
+    /// Bleed / flow schedule: extra fraction of compressor flow bled overboard.
+    fn bleed_fraction(&self, _core: &CoreView, _x: &[f64]) -> f64 {
+        0.0
+    }
+    /// Component deltas: multiply `d` by this effect's flow/efficiency changes.
+    fn component_deltas(&self, _core: &CoreView, _x: &[f64], _d: &mut ComponentDeltas) {}
+    /// Heat exchange: heat flow from the combustor gas into metal, W (negative: metal heats gas).
+    fn heat_to_metal_w(&self, _core: &CoreView, _x: &[f64]) -> f64 {
+        0.0
+    }
+    /// Instrument path: what the instrument of `signal` records, given the series it would record
+    /// without this effect (sample times `t_s`). Whole series, so lags and delays are possible.
+    fn instrument(&self, _signal: Signal, _t_s: &[f64], _series: &mut [f64]) {}
+}
+
+/// Parameter values of one effect as the engine file states them.
+pub type EffectParams = BTreeMap<String, f64>;
+
+/// Errors building an effect from the engine file.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum EffectError {
+    #[error("unknown effect `{name}` (known: {known})")]
+    Unknown { name: String, known: String },
+    #[error("effect `{effect}` has no parameter `{param}` (it has: {known})")]
+    UnknownParam {
+        effect: String,
+        param: String,
+        known: String,
+    },
+}
+
+/// The range of `effects.<effect>.<param>`, if both exist.
+pub fn param_spec(effect: &str, param: &str) -> Option<&'static ParamSpec> {
+    spec(effect)?.params.iter().find(|p| p.name == param)
+}
+
+/// The complete parameter vector of `spec` from the file's values (defaults for the rest).
+fn values_for(spec: &EffectSpec, given: &EffectParams) -> Result<Vec<f64>, EffectError> {
+    if let Some(bad) = given
+        .keys()
+        .find(|k| !spec.params.iter().any(|p| p.name == k.as_str()))
+    {
+        return Err(EffectError::UnknownParam {
+            effect: spec.name.into(),
+            param: bad.clone(),
+            known: spec
+                .params
+                .iter()
+                .map(|p| p.name)
+                .collect::<Vec<_>>()
+                .join(", "),
+        });
+    }
+    Ok(spec
+        .params
+        .iter()
+        .map(|p| given.get(p.name).copied().unwrap_or(p.default))
+        .collect())
+}
+
+/// Checks the names in an `[effects]` section (values are range-checked with every other
+/// engine-file number).
+pub fn check(section: &BTreeMap<String, EffectParams>) -> Result<(), EffectError> {
+    for (name, given) in section {
+        let s = spec(name).ok_or_else(|| EffectError::Unknown {
+            name: name.clone(),
+            known: REGISTRY
+                .iter()
+                .map(|s| s.name)
+                .collect::<Vec<_>>()
+                .join(", "),
+        })?;
+        values_for(s, given)?;
+    }
+    Ok(())
+}
+
+/// The `[effects]` section with every enabled effect's parameters complete (defaults filled
+/// in), so each is addressable as a named parameter.
+pub fn complete(
+    section: &BTreeMap<String, EffectParams>,
+) -> Result<BTreeMap<String, EffectParams>, EffectError> {
+    check(section)?;
+    let mut out = BTreeMap::new();
+    for (name, given) in section {
+        if let Some(s) = spec(name) {
+            let vals = values_for(s, given)?;
+            out.insert(
+                name.clone(),
+                s.params
+                    .iter()
+                    .zip(vals)
+                    .map(|(p, v)| (p.name.to_string(), v))
+                    .collect(),
+            );
+        }
+    }
+    Ok(out)
+}
+
+/// The enabled effects of a model, in order, with the state block each owns.
+#[derive(Debug, Clone, Default)]
+pub struct EffectSet {
+    effects: Vec<Arc<dyn Effect>>,
+    layout: super::state::StateLayout,
+}
+
+impl EffectSet {
+    /// No effects: the core model alone.
+    pub fn none() -> EffectSet {
+        EffectSet {
+            effects: Vec::new(),
+            layout: super::state::StateLayout::core(),
+        }
+    }
+
+    /// The effects of an `[effects]` section (in name order).
+    pub fn from_section(section: &BTreeMap<String, EffectParams>) -> Result<EffectSet, String> {
+        check(section).map_err(|e| e.to_string())?;
+        let mut effects = Vec::new();
+        for (name, given) in section {
+            if let Some(s) = spec(name) {
+                let vals = values_for(s, given).map_err(|e| e.to_string())?;
+                effects.push((s.build)(&vals));
+            }
+        }
+        let sizes: Vec<usize> = effects.iter().map(|e| e.n_states()).collect();
+        let layout = super::state::StateLayout::with_blocks(&sizes).map_err(|e| e.to_string())?;
+        Ok(EffectSet { effects, layout })
+    }
+
+    /// Whether no effect is on.
+    pub fn is_empty(&self) -> bool {
+        self.effects.is_empty()
+    }
+
+    /// The state layout (core plus each effect's block).
+    pub fn layout(&self) -> &super::state::StateLayout {
+        &self.layout
+    }
+
+    /// Names of the enabled effects, in order.
+    pub fn names(&self) -> Vec<&'static str> {
+        self.effects.iter().map(|e| e.name()).collect()
+    }
+
+    fn each<'s>(&'s self, y: &'s [f64]) -> impl Iterator<Item = (&'s dyn Effect, &'s [f64])> {
+        self.effects
+            .iter()
+            .enumerate()
+            .map(move |(i, e)| (e.as_ref(), &y[self.layout.block(i)]))
+    }
+
+    /// Fills every effect's rest states into `y`.
+    pub fn rest_states(&self, core: &CoreView, y: &mut [f64]) {
+        for (i, e) in self.effects.iter().enumerate() {
+            e.rest_states(core, &mut y[self.layout.block(i)]);
+        }
+    }
+
+    /// Fills every effect's steady-state (equilibrium) states into `y`.
+    pub fn steady_states(&self, core: &CoreView, stations: &Stations, y: &mut [f64]) {
+        for (i, e) in self.effects.iter().enumerate() {
+            e.steady_states(core, stations, &mut y[self.layout.block(i)]);
+        }
+    }
+
+    /// Fuel burnt for a metered flow (the effects in order).
+    pub fn fuel_delivered(&self, metered_kg_s: f64, core: &CoreView, y: &[f64]) -> f64 {
+        self.each(y)
+            .fold(metered_kg_s, |wf, (e, x)| e.fuel_delivered(wf, core, x))
+    }
+
+    /// Total extra bleed fraction.
+    pub fn bleed_fraction(&self, core: &CoreView, y: &[f64]) -> f64 {
+        self.each(y).map(|(e, x)| e.bleed_fraction(core, x)).sum()
+    }
+
+    /// Combined component deltas.
+    pub fn component_deltas(&self, core: &CoreView, y: &[f64]) -> ComponentDeltas {
+        let mut d = ComponentDeltas::NONE;
+        for (e, x) in self.each(y) {
+            e.component_deltas(core, x, &mut d);
+        }
+        d
+    }
+
+    /// Total heat from the combustor gas to metal, W.
+    pub fn heat_to_metal_w(&self, core: &CoreView, y: &[f64]) -> f64 {
+        self.each(y).map(|(e, x)| e.heat_to_metal_w(core, x)).sum()
+    }
+
+    /// Every effect's state derivatives into `dy`.
+    pub fn derivatives(&self, ctx: &Context<'_>, y: &[f64], dy: &mut [f64]) {
+        for (i, e) in self.effects.iter().enumerate() {
+            let r = self.layout.block(i);
+            e.derivatives(ctx, &y[r.clone()], &mut dy[r]);
+        }
+    }
+
+    /// The instrument path of every effect applied to one recorded series.
+    pub fn instrument(&self, signal: Signal, t_s: &[f64], series: &mut [f64]) {
+        for e in &self.effects {
+            e.instrument(signal, t_s, series);
+        }
+    }
+}
+
+/// First-order lag derivative dx/dt = (u − x)/τ, with τ below `TAU_MIN_S` treated as
+/// `TAU_MIN_S` (a pass-through as fast as the integrator's tolerance allows). Shared by effects.
+pub fn lag_rate(u: f64, x: f64, tau_s: f64) -> f64 {
+    (u - x) / tau_s.max(TAU_MIN_S)
+}
+
+/// Shortest time constant an effect state is given, s.
+pub const TAU_MIN_S: f64 = 1e-3;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn registry_names_are_unique_snake_case_and_defaults_in_range() {
+        for (i, s) in REGISTRY.iter().enumerate() {
+            assert!(
+                s.name
+                    .chars()
+                    .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_'),
+                "{}",
+                s.name
+            );
+            assert!(REGISTRY[..i].iter().all(|o| o.name != s.name));
+            for p in s.params {
+                assert!(
+                    p.min <= p.default && p.default <= p.max,
+                    "{}.{}",
+                    s.name,
+                    p.name
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn unknown_effect_and_parameter_are_named() {
+        let mut sec = BTreeMap::new();
+        sec.insert("warp_drive".to_string(), EffectParams::new());
+        let e = check(&sec).expect_err("unknown").to_string();
+        assert!(e.contains("warp_drive"), "{e}");
+        for s in REGISTRY {
+            assert!(e.contains(s.name), "{e} lists {}", s.name);
+            let mut sec = BTreeMap::new();
+            let mut p = EffectParams::new();
+            p.insert("no_such_param".into(), 1.0);
+            sec.insert(s.name.to_string(), p);
+            let e = check(&sec).expect_err("unknown param").to_string();
+            assert!(e.contains("no_such_param"), "{e}");
+        }
+    }
+
+    #[test]
+    fn every_effect_completes_with_defaults_and_lays_out_its_states() {
+        assert!(EffectSet::none().layout().is_core_only());
+        for s in REGISTRY {
+            let mut sec = BTreeMap::new();
+            sec.insert(s.name.to_string(), EffectParams::new());
+            let full = complete(&sec).expect("complete");
+            assert_eq!(full[s.name].len(), s.params.len());
+            let set = EffectSet::from_section(&full).expect("builds");
+            assert_eq!(set.names(), vec![s.name]);
+            let n = (s.build)(&s.params.iter().map(|p| p.default).collect::<Vec<_>>()).n_states();
+            assert_eq!(set.layout().len(), super::super::state::NX_CORE + n);
+        }
+    }
+}

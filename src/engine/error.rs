@@ -1,0 +1,21 @@
+//! The engine's error type: what can go wrong building or running the model.
+//! Plain data, no logic; every engine module returns it.
+
+use crate::maps;
+
+/// Errors building or running the engine model.
+#[derive(Debug, thiserror::Error)]
+pub enum EngineError {
+    #[error(transparent)]
+    Config(#[from] super::config::EngineConfigError),
+    #[error("map: {0}")]
+    Map(#[from] maps::MapError),
+    #[error("design-point calibration failed: {0}")]
+    Calibration(String),
+    #[error("steady-state solver: {0}")]
+    NoSteadySolution(String),
+    #[error("simulation failed at t = {t_s:.2} s: {reason}")]
+    Simulation { t_s: f64, reason: String },
+    #[error("engine parameter `{key}`: {reason}")]
+    Param { key: String, reason: String },
+}

@@ -1,0 +1,336 @@
+//! The gas path, once: inlet loss → compressor → bleed → combustor → HPT → duct → PT → exhaust,
+//! computed into one station table ([`Stations`]) that the design point, a steady operating
+//! point and an instant of a transient all share, and the one mapping from that table to the
+//! measured signals ([`signal_value`]).
+//!
+//! The steady solver and the dynamic model differ only in what fixes the compressor's operating
+//! point (its map β, or the plenum pressure P2 a volume state holds) and the hot section (an
+//! adiabatic burn of a given fuel flow, or the plenum's temperature and composition states);
+//! everything downstream — loss laws, bleed, turbine maps, the PT stall-torque rule, shaft
+//! losses — is this file. The design calibration uses the same laws and constants
+//! ([`MAX_FAR`], [`combustor_air`]) and reports its cycle in the same table.
+//! Pure: no I/O, no state.
+
+use super::cycle::{self, CompressorStation, TurbineStation};
+use super::effects::ComponentDeltas;
+use super::model::Model;
+use crate::signals::{Signal, Values, NSIG};
+use crate::thermo::Gas;
+use std::f64::consts::PI;
+
+pub use super::cycle::MAX_FAR;
+/// Below this fraction of design GG speed the compressor's flow and work fade linearly to zero:
+/// the maps' speed lines degenerate at standstill, and a machine at rest moves no air.
+pub const STANDSTILL_FADE: f64 = 0.02;
+/// PT speed fraction below which its gas torque is held at the value there (stall torque).
+pub const PT_STALL_FRACTION: f64 = 0.1;
+
+/// The station table: every station and component quantity of the engine at one operating
+/// point, whether the design point, a steady point or an instant of a transient.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct Stations {
+    pub n1_rpm: f64,
+    pub n2_rpm: f64,
+    pub t1_k: f64,
+    pub p1_kpa: f64,
+    pub t2_k: f64,
+    pub p2_kpa: f64,
+    pub t3_k: f64,
+    pub p3_kpa: f64,
+    pub t34_k: f64,
+    pub p34_kpa: f64,
+    pub t4_k: f64,
+    pub p4_kpa: f64,
+    /// Compressor inlet air flow, kg/s.
+    pub air_flow_kg_s: f64,
+    /// Fuel flow as metered (what the controller commands and the flowmeter reads), kg/s.
+    pub fuel_kg_s: f64,
+    /// Fuel flow burning in the combustor, kg/s (the metered flow unless an effect delays it).
+    pub fuel_burnt_kg_s: f64,
+    pub fuel_air_ratio: f64,
+    /// Gas flow through the HPT, kg/s.
+    pub hpt_flow_kg_s: f64,
+    /// Gas flow through the PT (the exhaust flow), kg/s.
+    pub pt_flow_kg_s: f64,
+    /// Electrical power delivered to the grid (0 while the breaker is open), MW.
+    pub power_mw: f64,
+    /// Power the PT delivers at its coupling, net of windage and bearings, MW.
+    pub pt_shaft_mw: f64,
+    pub compressor_power_mw: f64,
+    pub hpt_power_mw: f64,
+    /// Gas power of the PT (before mechanical losses), MW.
+    pub pt_power_mw: f64,
+    pub pressure_ratio: f64,
+    pub hpt_pressure_ratio: f64,
+    pub pt_pressure_ratio: f64,
+    pub compressor_efficiency: f64,
+    pub hpt_efficiency: f64,
+    pub pt_efficiency: f64,
+    pub compressor_beta: f64,
+    pub surge_margin_pct: f64,
+    pub starter_torque_n_m: f64,
+}
+
+/// The one station → signal mapping: the value a signal's instrument reads from a station table.
+pub fn signal_value(st: &Stations, s: Signal) -> f64 {
+    match s {
+        Signal::N1 => st.n1_rpm,
+        Signal::N2 => st.n2_rpm,
+        Signal::T1 => st.t1_k,
+        Signal::P1 => st.p1_kpa,
+        Signal::T2 => st.t2_k,
+        Signal::P2 => st.p2_kpa,
+        Signal::T3 => st.t3_k,
+        Signal::P3 => st.p3_kpa,
+        Signal::T34 => st.t34_k,
+        Signal::P34 => st.p34_kpa,
+        Signal::T4 => st.t4_k,
+        Signal::P4 => st.p4_kpa,
+        Signal::FuelFlow => st.fuel_kg_s,
+        Signal::Power => st.power_mw,
+        Signal::SurgeMargin => st.surge_margin_pct,
+    }
+}
+
+/// Every signal's value in a station table.
+pub fn values_of(st: &Stations) -> Values {
+    let mut v = [0.0; NSIG];
+    for s in Signal::ALL {
+        v[s.index()] = signal_value(st, s);
+    }
+    v
+}
+
+/// The air reaching the combustor when `w_compressor_kg_s` leaves the compressor and the
+/// fraction `bleed` is bled overboard.
+#[inline]
+pub fn combustor_air(w_compressor_kg_s: f64, bleed: f64) -> f64 {
+    w_compressor_kg_s * (1.0 - bleed)
+}
+
+/// What fixes the compressor's operating point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CompressorSetting {
+    /// The map's β line (steady matching: β is an unknown of the solver).
+    Beta(f64),
+    /// The delivery pressure a plenum holds, kPa (dynamic model: P2 is a state).
+    Plenum { p2_kpa: f64 },
+}
+
+/// What fixes the hot section.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum HotSection {
+    /// An adiabatic burn of this fuel flow in the compressor's air (steady state).
+    Burn { fuel_kg_s: f64 },
+    /// The combustor plenum's gas temperature and fuel-air ratio (dynamic model states).
+    Plenum { t3_k: f64, fuel_air_ratio: f64 },
+}
+
+/// The operating inputs of one gas-path evaluation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Inputs {
+    pub t_amb_k: f64,
+    pub p_amb_kpa: f64,
+    pub n1_rpm: f64,
+    pub n2_rpm: f64,
+    pub p34_kpa: f64,
+    pub compressor: CompressorSetting,
+    pub hot: HotSection,
+}
+
+/// What enabled effects change in the gas path (see `effects`): extra bleed and component
+/// flow/efficiency multipliers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Adjust {
+    pub extra_bleed: f64,
+    pub deltas: ComponentDeltas,
+}
+
+impl Adjust {
+    /// No change (the core model).
+    pub const NONE: Adjust = Adjust {
+        extra_bleed: 0.0,
+        deltas: ComponentDeltas::NONE,
+    };
+}
+
+/// One evaluation of the gas path: the station table and the intermediate quantities the
+/// dynamic model's balances and the steady solver's residuals need.
+#[derive(Debug, Clone, Copy)]
+pub struct GasPath {
+    /// The station table (fuel and starter fields are the caller's to fill).
+    pub stations: Stations,
+    /// Combustor gas.
+    pub gas: Gas,
+    /// Compressor exit state.
+    pub compressor: CompressorStation,
+    pub hpt: TurbineStation,
+    pub pt: TurbineStation,
+    /// Air the compressor delivers (after the standstill fade), kg/s.
+    pub w_compressor_kg_s: f64,
+    /// Air reaching the combustor (after bleed), kg/s.
+    pub w_combustor_air_kg_s: f64,
+    /// Gas leaving the combustor toward the HPT, kg/s: the burn's air plus fuel (steady), or
+    /// the HPT map's flow (dynamic).
+    pub w_combustor_out_kg_s: f64,
+    /// Compressor shaft power (after the standstill fade), W.
+    pub compressor_power_w: f64,
+    /// PT gas torque at the evaluated PT speed, N·m.
+    pub pt_gas_torque_n_m: f64,
+    /// PT power at the coupling, net of windage and bearings, W.
+    pub pt_net_w: f64,
+    /// GG shaft power balance without the starter: HPT less compressor and losses, W.
+    pub gg_net_w: f64,
+}
+
+/// Evaluates the gas path on `model` (health applied) with `adjust` from the enabled effects.
+pub fn evaluate(model: &Model, inp: &Inputs, adjust: &Adjust) -> GasPath {
+    let c = &model.consts;
+    let (n1, n2, t1, p_amb) = (inp.n1_rpm, inp.n2_rpm, inp.t_amb_k, inp.p_amb_kpa);
+    let adjusted;
+    let (comp_map, hpt_map, pt_map) = if adjust.deltas == ComponentDeltas::NONE {
+        (&model.comp, &model.hpt, &model.pt)
+    } else {
+        adjusted = adjusted_maps(model, &adjust.deltas);
+        (&adjusted.0, &adjusted.1, &adjusted.2)
+    };
+
+    // Compressor: below STANDSTILL_FADE of design speed its flow and work fade to zero.
+    let n1_map = n1.max(STANDSTILL_FADE * c.n1_design);
+    let fade = (n1.max(0.0) / (STANDSTILL_FADE * c.n1_design)).min(1.0);
+    let (p1, comp) = match inp.compressor {
+        CompressorSetting::Beta(beta) => {
+            // The inlet loss depends on the corrected flow, which β fixes directly.
+            let probe = cycle::compressor_at_beta(comp_map, t1, p_amb, n1_map, beta);
+            let p1 = c.p1(p_amb, probe.wc_kg_s * fade);
+            (
+                p1,
+                cycle::compressor_at_beta(comp_map, t1, p1, n1_map, beta),
+            )
+        }
+        CompressorSetting::Plenum { p2_kpa: p2 } => {
+            // PR is set by the plenum; the inlet loss depends on the flow it gives. The
+            // coupling is weak (1 % loss at design), so the map is read once at the PR of a
+            // speed-based inlet-loss guess and the loss then follows from that flow: the PR used
+            // differs from P2/P1 by ~1e-4 relative at design, the flow error is ~1e-5.
+            let nc1 = cycle::corrected_speed(n1_map, t1);
+            let p1_guess = p_amb * (1.0 - c.inlet_loss_frac * (n1 / c.n1_design).powi(2));
+            let op = comp_map.at_pr(nc1, p2 / p1_guess);
+            let p1 = c.p1(p_amb, op.wc_kg_s * fade);
+            (p1, cycle::compressor_from_op(t1, p1, p2 / p1, &op))
+        }
+    };
+    let p2 = match inp.compressor {
+        CompressorSetting::Beta(_) => p1 * comp.pr,
+        CompressorSetting::Plenum { p2_kpa } => p2_kpa,
+    };
+    let w2 = comp.w_kg_s * fade;
+    let p_comp = comp.power_w * fade;
+    let bleed = if adjust.extra_bleed == 0.0 {
+        c.bleed
+    } else {
+        (c.bleed + adjust.extra_bleed).clamp(0.0, 0.5)
+    };
+    let w_air = combustor_air(w2, bleed);
+
+    // Combustor and HPT.
+    let p3 = c.p3(p2, w2.max(0.0), comp.t_out_k);
+    let (t3, gas, w_burn) = match inp.hot {
+        HotSection::Burn { fuel_kg_s } => {
+            let (t3, gas) =
+                cycle::combustor_exit_temperature(w_air, comp.h_out, fuel_kg_s, c.eta_b, c.lhv);
+            (t3, gas, Some(w_air + fuel_kg_s))
+        }
+        HotSection::Plenum {
+            t3_k,
+            fuel_air_ratio,
+        } => (
+            t3_k,
+            Gas::products(fuel_air_ratio.clamp(0.0, MAX_FAR)),
+            None,
+        ),
+    };
+    let hpt = cycle::turbine(hpt_map, &gas, t3, p3, n1.max(0.0), p3 / inp.p34_kpa);
+    let w3 = w_burn.unwrap_or(hpt.w_kg_s);
+    let p4 = c.p4(p_amb, w3, hpt.t_out_k);
+
+    // PT. Its gas torque is largest at stall; the map's efficiency (and so P/ω) is meaningless
+    // there, so the torque is evaluated at no less than PT_STALL_FRACTION of design speed and
+    // held constant below it (a turbine's torque-speed line is nearly flat near stall).
+    let n2_eval = n2.max(PT_STALL_FRACTION * c.n2_design);
+    let p34 = inp.p34_kpa;
+    let pt = cycle::turbine(pt_map, &gas, hpt.t_out_k, p34, n2_eval, p34 / p4);
+    let pt_gas_torque = c.eta_m * pt.power_w / (n2_eval * PI / 30.0);
+    let pt_net = pt_gas_torque * n2.max(0.0) * PI / 30.0 - c.pt_loss_w(n2.max(0.0));
+    let gg_net = c.eta_m * hpt.power_w - p_comp - c.gg_loss_w(n1);
+
+    let stations = Stations {
+        n1_rpm: n1,
+        n2_rpm: n2,
+        t1_k: t1,
+        p1_kpa: p1,
+        t2_k: comp.t_out_k,
+        p2_kpa: p2,
+        t3_k: t3,
+        p3_kpa: p3,
+        t34_k: hpt.t_out_k,
+        p34_kpa: p34,
+        t4_k: pt.t_out_k,
+        p4_kpa: p4,
+        air_flow_kg_s: w2,
+        fuel_kg_s: 0.0,
+        fuel_burnt_kg_s: 0.0,
+        fuel_air_ratio: gas.far(),
+        hpt_flow_kg_s: hpt.w_kg_s,
+        pt_flow_kg_s: pt.w_kg_s,
+        power_mw: pt_net / 1e6,
+        pt_shaft_mw: pt_net / 1e6,
+        compressor_power_mw: p_comp / 1e6,
+        hpt_power_mw: hpt.power_w / 1e6,
+        pt_power_mw: pt.power_w / 1e6,
+        pressure_ratio: comp.pr,
+        hpt_pressure_ratio: p3 / p34,
+        pt_pressure_ratio: p34 / p4,
+        compressor_efficiency: comp.eff,
+        hpt_efficiency: hpt.eff,
+        pt_efficiency: pt.eff,
+        compressor_beta: comp.beta,
+        surge_margin_pct: comp.surge_margin_pct,
+        starter_torque_n_m: 0.0,
+    };
+    GasPath {
+        stations,
+        gas,
+        compressor: comp,
+        hpt,
+        pt,
+        w_compressor_kg_s: w2,
+        w_combustor_air_kg_s: w_air,
+        w_combustor_out_kg_s: w3,
+        compressor_power_w: p_comp,
+        pt_gas_torque_n_m: pt_gas_torque,
+        pt_net_w: pt_net,
+        gg_net_w: gg_net,
+    }
+}
+
+/// The model's maps with effect deltas multiplied onto their health factors.
+fn adjusted_maps(
+    model: &Model,
+    d: &ComponentDeltas,
+) -> (
+    crate::maps::ScaledCompressor,
+    crate::maps::ScaledTurbine,
+    crate::maps::ScaledTurbine,
+) {
+    let (cf, ce) = model.comp.health();
+    let (hf, he) = model.hpt.health();
+    let (pf, pe) = model.pt.health();
+    (
+        model
+            .comp
+            .with_health(cf * d.compressor_flow, ce * d.compressor_eff),
+        model.hpt.with_health(hf * d.hpt_flow, he * d.hpt_eff),
+        model.pt.with_health(pf * d.pt_flow, pe * d.pt_eff),
+    )
+}

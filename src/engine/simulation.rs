@@ -1,0 +1,271 @@
+//! The simulation loop: the dynamic model integrated under a [`Controller`] (the start-up
+//! sequencer, or a drive from measured data), landing exactly on timed events and output
+//! samples and locating speed-threshold crossings by step refinement.
+//!
+//! The loop owns the state vector; a controller sees the engine through the station table and
+//! acts on it only through an [`Actuator`] at its transitions. Pure and deterministic: no I/O,
+//! no randomness.
+
+use super::config::EngineConfig;
+use super::dynamic::{self, Drive, Scales, State, Stations};
+use super::integrator::{step_factor, Ros2};
+use super::model::{EngineError, Model};
+use super::sequence::{End, Scenario, Sequencer};
+use super::state::{Actuator, Shaft, IX_P2, IX_P34, IX_T3};
+use crate::signals::Phase;
+
+/// A speed threshold whose crossing is an event of the controller.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Watch {
+    pub shaft: Shaft,
+    pub rpm: f64,
+    /// Crossing upward (else downward).
+    pub rising: bool,
+}
+
+/// The discrete part of whatever drives the model: the start-up sequencer, or a drive from a
+/// measured start-up. The simulation loop asks it for the drive of each step, integrates, and
+/// lets it react at its events.
+pub trait Controller {
+    /// Drive for the next step.
+    fn drive(&self, t_amb_k: f64, p_amb_kpa: f64) -> Drive;
+    /// Earliest timed event strictly after `t`.
+    fn next_time_event(&self, t: f64) -> Option<f64>;
+    /// Speed thresholds whose crossing is an event in the current mode.
+    fn watches(&self) -> Vec<Watch>;
+    /// Applies the transitions due at `t` (station table `st`); acts on the engine through
+    /// `act` (bumpless switches, grid lock). Returns whether anything changed.
+    fn update(&mut self, t: f64, act: &mut Actuator<'_>, st: &Stations) -> bool;
+    /// Whether `update` must run after every step.
+    fn polls(&self, t: f64) -> bool;
+    /// Reported phase.
+    fn phase(&self) -> Phase;
+}
+
+/// Error level at which even fixed-step mode subdivides a step.
+const FIXED_STEP_EMERGENCY_ERR: f64 = 50.0;
+
+/// States within their physical range (normalised): positive pressures and temperature.
+fn plausible(y: &State) -> bool {
+    y[IX_P2] > 0.01 && y[IX_T3] > 0.1 && y[IX_P34] > 0.01 && y[IX_T3] < 2.0
+}
+
+/// One output sample: the true station table and the phase.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TruthSample {
+    pub t_s: f64,
+    pub phase: Phase,
+    pub stations: Stations,
+}
+
+/// Integration statistics (performance accounting).
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct RunStats {
+    pub steps: usize,
+    pub rejected: usize,
+    pub rhs_evals: usize,
+    pub jacobians: usize,
+}
+
+/// The engine model running under a controller (the sequencer by default). It owns a clone of
+/// its model (the maps are shared behind `Arc`s, so this is cheap).
+pub struct Simulation<C: Controller = Sequencer> {
+    model: Model,
+    pub seq: C,
+    scales: Scales,
+    ros: Ros2,
+    fixed_step: Option<f64>,
+    max_step: f64,
+    h: f64,
+    pub t: f64,
+    pub y: State,
+    t_amb_k: f64,
+    p_amb_kpa: f64,
+    pub stats: RunStats,
+}
+
+impl Simulation<Sequencer> {
+    /// Starts at standstill at time 0 in the model's ambient, under the start-up sequencer.
+    pub fn new(cfg: &EngineConfig, model: &Model, scenario: &Scenario) -> Simulation<Sequencer> {
+        Simulation::with_controller(cfg, model, Sequencer::new(cfg, model, scenario))
+    }
+}
+
+impl<C: Controller> Simulation<C> {
+    /// Starts at standstill at time 0 in the model's ambient under `controller`.
+    pub fn with_controller(cfg: &EngineConfig, model: &Model, controller: C) -> Simulation<C> {
+        let c = &model.consts;
+        let y = dynamic::standstill_state(model, c.t_amb_k, c.p_amb_kpa);
+        let fixed = (cfg.solver.fixed_step_s > 0.0).then_some(cfg.solver.fixed_step_s);
+        Simulation {
+            model: model.clone(),
+            scales: Scales::of(model),
+            seq: controller,
+            ros: Ros2::new(cfg.solver.rtol, cfg.solver.rtol * 0.1),
+            fixed_step: fixed,
+            max_step: cfg.solver.max_step_s,
+            h: fixed.unwrap_or(0.05),
+            t: 0.0,
+            y,
+            t_amb_k: c.t_amb_k,
+            p_amb_kpa: c.p_amb_kpa,
+            stats: RunStats::default(),
+        }
+    }
+
+    /// Station table at the current time.
+    pub fn stations(&self) -> Stations {
+        let drive = self.seq.drive(self.t_amb_k, self.p_amb_kpa);
+        dynamic::evaluate(&self.model, self.t, &self.y, &drive).1
+    }
+
+    fn sequencer_update(&mut self) {
+        let st = self.stations();
+        let mut act = Actuator::new(&mut self.y, &self.scales);
+        if self.seq.update(self.t, &mut act, &st) {
+            self.ros.invalidate();
+        }
+    }
+
+    /// Fraction of the step (y0 → y1) at which the first watched threshold is crossed.
+    fn first_crossing(&self, y0: &State, y1: &State) -> Option<f64> {
+        self.seq
+            .watches()
+            .iter()
+            .filter_map(|w| {
+                let (i, level) = (w.shaft.index(), w.rpm / w.shaft.scale(&self.scales));
+                let (a, b) = (y0[i] - level, y1[i] - level);
+                let crossed = if w.rising {
+                    a < 0.0 && b >= 0.0
+                } else {
+                    a > 0.0 && b <= 0.0
+                };
+                crossed.then(|| (a / (a - b)).clamp(0.0, 1.0))
+            })
+            .reduce(f64::min)
+    }
+
+    /// Integrates to exactly `t_target`, applying every sequencer event on the way.
+    pub fn advance_to(&mut self, t_target: f64) -> Result<(), EngineError> {
+        if self.t == 0.0 && self.stats.steps == 0 {
+            self.sequencer_update();
+        }
+        while self.t < t_target - 1e-9 {
+            let h_prop = match self.fixed_step {
+                Some(fixed) => fixed.min(self.h),
+                None => self.h,
+            }
+            .min(self.max_step);
+            let mut h = h_prop.min(t_target - self.t);
+            if let Some(te) = self.seq.next_time_event(self.t) {
+                h = h.min(te - self.t);
+            }
+            // A step cut short by an output sample or an event says nothing about the step the
+            // error allows: keep the proposal so the next step is not needlessly small.
+            let limited = h < h_prop * 0.999;
+            let drive = self.seq.drive(self.t_amb_k, self.p_amb_kpa);
+            let model = &self.model;
+            let mut f = |tt: f64, yy: &State| dynamic::evaluate(model, tt, yy, &drive).0;
+            let Some(mut res) = self.ros.step(&mut f, self.t, &self.y, h) else {
+                self.reject(h)?;
+                continue;
+            };
+            // Adaptive mode rejects any step over the tolerance. Fixed-step mode keeps its step
+            // unless the step is wildly wrong (ignition dumps ~2 MW into 0.2 kg of gas): then it
+            // subdivides, so a fixed step can never run the states out of their physical range.
+            let limit = if self.fixed_step.is_some() {
+                FIXED_STEP_EMERGENCY_ERR
+            } else {
+                1.0
+            };
+            if res.err > limit || !plausible(&res.y) {
+                self.reject(h * step_factor(res.err).min(0.25))?;
+                continue;
+            }
+            // Locate a speed-threshold crossing inside the step and shorten the step to it.
+            let mut crossed = false;
+            if let Some(theta) = self.first_crossing(&self.y, &res.y) {
+                crossed = true;
+                let h_ev = (h * theta * 1.000_001).max(1e-6);
+                if h_ev < h * 0.999 {
+                    if let Some(r2) = self.ros.step(&mut f, self.t, &self.y, h_ev) {
+                        res = r2;
+                        h = h_ev;
+                    }
+                }
+            }
+            self.t += h;
+            self.y = res.y;
+            self.stats.steps += 1;
+            if self.fixed_step.is_none() {
+                let grown = h * step_factor(res.err);
+                let next = if limited && !crossed {
+                    grown.max(h_prop)
+                } else {
+                    grown
+                };
+                self.h = next.clamp(1e-4, self.max_step);
+            }
+            let timed = self
+                .seq
+                .next_time_event(self.t - h)
+                .is_some_and(|te| te <= self.t + 1e-9);
+            if crossed || timed || self.seq.polls(self.t) {
+                self.sequencer_update();
+            }
+        }
+        self.t = t_target;
+        self.stats.rhs_evals = self.ros.rhs_evals;
+        self.stats.jacobians = self.ros.jac_evals;
+        Ok(())
+    }
+
+    fn reject(&mut self, h_new: f64) -> Result<(), EngineError> {
+        self.stats.rejected += 1;
+        self.ros.invalidate();
+        self.h = h_new;
+        if h_new < 1e-7 {
+            return Err(EngineError::Simulation {
+                t_s: self.t,
+                reason: format!("step size underflow in phase {}", self.seq.phase()),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Runs a scenario, sampling every `sample_period_s`; returns the true trajectory.
+pub fn run_scenario(
+    cfg: &EngineConfig,
+    model: &Model,
+    scenario: &Scenario,
+) -> Result<(Vec<TruthSample>, RunStats), EngineError> {
+    let dt = cfg.sequence.sample_period_s;
+    let mut sim = Simulation::new(cfg, model, scenario);
+    let mut out = Vec::new();
+    let mut k: u64 = 0;
+    loop {
+        let t = k as f64 * dt;
+        sim.advance_to(t)?;
+        let st = sim.stations();
+        out.push(TruthSample {
+            t_s: t,
+            phase: sim.seq.phase(),
+            stations: st,
+        });
+        let done = match scenario.end {
+            End::At(te) => t >= te - 1e-9,
+            End::AfterSteady { hold_s, max_s } => {
+                sim.seq
+                    .steady_since
+                    .is_some_and(|ts| t >= ts + hold_s - 1e-9)
+                    || t >= max_s
+            }
+        };
+        if done {
+            break;
+        }
+        k += 1;
+    }
+    Ok((out, sim.stats))
+}
