@@ -2,6 +2,7 @@
 //! parameters with 1σ, the objective, model runs and wall time (text or JSON).
 
 use crate::diagnosis::csv_input::{parse_mapping, read_recording};
+use crate::diagnosis::params::FitParam;
 use crate::diagnosis::steady::diagnose_steady;
 use crate::diagnosis::transient::diagnose_transient;
 use crate::diagnosis::{DiagnosisConfig, Method, MethodResult, Optimiser};
@@ -69,6 +70,31 @@ pub struct FitArgs {
     /// Method B drive mode.
     #[arg(long, value_enum, default_value = "measured-fuel")]
     pub drive: DriveArg,
+    /// Also fit an engine-file or effect value within bounds, `KEY=LOW:HIGH` (repeatable), e.g.
+    /// `effects.fuel_system.delay_s=0:4` (fitting an effect's parameter enables the effect).
+    #[arg(long = "fit-param", value_name = "KEY=LOW:HIGH")]
+    pub fit_params: Vec<String>,
+}
+
+/// Parses `KEY=LOW:HIGH` into a named fit parameter.
+pub fn parse_fit_param(text: &str) -> anyhow::Result<FitParam> {
+    let bad = |why: &str| anyhow::anyhow!("--fit-param `{text}`: {why} (expected KEY=LOW:HIGH)");
+    let (key, range) = text.split_once('=').ok_or_else(|| bad("no `=`"))?;
+    let (lo, hi) = range
+        .split_once(':')
+        .ok_or_else(|| bad("no `:` in the range"))?;
+    let lo: f64 = lo.trim().parse().map_err(|_| bad("LOW is not a number"))?;
+    let hi: f64 = hi.trim().parse().map_err(|_| bad("HIGH is not a number"))?;
+    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+        return Err(bad("needs finite LOW < HIGH"));
+    }
+    let key = key.trim();
+    Ok(
+        match key.strip_prefix("effects.").and_then(|r| r.split_once('.')) {
+            Some((effect, param)) => FitParam::effect(effect, param, lo, hi),
+            None => FitParam::engine_value(key, lo, hi),
+        },
+    )
 }
 
 impl FitArgs {
@@ -87,6 +113,9 @@ impl FitArgs {
         };
         if let Some(n) = self.max_runs {
             cfg.max_model_runs = n;
+        }
+        for p in &self.fit_params {
+            cfg.extra_params.push(parse_fit_param(p)?);
         }
         cfg.validate()?;
         Ok(cfg)

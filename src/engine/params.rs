@@ -74,8 +74,17 @@ fn tree_of(cfg: &EngineConfig, key: &str) -> Result<Value, EngineError> {
 }
 
 impl EngineConfig {
-    /// The number at dotted `key`.
+    /// The number at dotted `key`. A parameter of an effect the file does not enable reads as
+    /// that effect's default (the value it takes once enabled).
     pub fn get_param(&self, key: &str) -> Result<f64, EngineError> {
+        if let Some((effect, param)) = key.strip_prefix("effects.").and_then(|r| r.split_once('.'))
+        {
+            if !self.effects.contains_key(effect) {
+                return super::effects::param_spec(effect, param)
+                    .map(|p| p.default)
+                    .ok_or_else(|| param_error(key, "no such effect parameter"));
+            }
+        }
         let mut tree = tree_of(self, key)?;
         let node = node_mut(&mut tree, key)?;
         node.as_f64()
