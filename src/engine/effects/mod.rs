@@ -30,7 +30,7 @@ macro_rules! registry {
     };
 }
 
-registry!();
+registry!(fuel_system);
 
 use super::gas_path::Stations;
 use crate::signals::Signal;
