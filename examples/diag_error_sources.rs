@@ -12,12 +12,9 @@ use gtwatch::signals::Signal;
 fn main() {
     let e = Engine::reference().expect("engine");
     let (_, a) = wash_truth();
-    let (s, _) = gtwatch::engine::simulation::run_scenario(
-        e.cfg(),
-        &e.model(&a),
-        &Scenario::startup(e.cfg()),
-    )
-    .expect("runs");
+    let (s, _) =
+        gtwatch::engine::simulation::run_scenario(&e.model(&a), &Scenario::startup(e.cfg()))
+            .expect("runs");
     let tr = Trace::from_truth(
         &e,
         &s,

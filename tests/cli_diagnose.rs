@@ -8,12 +8,9 @@ use std::process::Command;
 
 fn write_startup(path: &std::path::Path, h: &HealthParams) {
     let e = Engine::reference().expect("engine");
-    let (s, _) = gtwatch::engine::simulation::run_scenario(
-        e.cfg(),
-        &e.model(h),
-        &Scenario::startup(e.cfg()),
-    )
-    .expect("start-up runs");
+    let (s, _) =
+        gtwatch::engine::simulation::run_scenario(&e.model(h), &Scenario::startup(e.cfg()))
+            .expect("start-up runs");
     let opts = MeasurementOptions {
         lags: true,
         noise: true,

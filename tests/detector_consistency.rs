@@ -30,7 +30,7 @@ fn replay_cfg() -> ReplayConfig {
 fn trace(scenario: fn(&gtwatch::engine::EngineConfig) -> Scenario, seed: u64) -> Trace {
     let engine = Engine::reference().expect("engine");
     let model = engine.model(&HealthParams::HEALTHY);
-    let (samples, _) = run_scenario(engine.cfg(), &model, &scenario(engine.cfg())).expect("runs");
+    let (samples, _) = run_scenario(&model, &scenario(engine.cfg())).expect("runs");
     let o = MeasurementOptions {
         lags: true,
         noise: true,

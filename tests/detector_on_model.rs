@@ -42,8 +42,7 @@ fn truth_starts(trace: &Trace, phase: Phase) -> Vec<i64> {
 fn detector_finds_every_start_of_the_engine_model() {
     let engine = Engine::reference().expect("engine");
     let model = engine.model(&HealthParams::HEALTHY);
-    let (samples, _) =
-        run_scenario(engine.cfg(), &model, &Scenario::operations(engine.cfg())).expect("runs");
+    let (samples, _) = run_scenario(&model, &Scenario::operations(engine.cfg())).expect("runs");
     for seed in 11..17 {
         let o = MeasurementOptions {
             lags: true,

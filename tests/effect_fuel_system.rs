@@ -43,8 +43,8 @@ fn plant() -> Engine {
 
 fn recorded_startup() -> Recording {
     let e = plant();
-    let (s, _) = run_scenario(e.cfg(), &e.model(&truth()), &Scenario::startup(e.cfg()))
-        .expect("plant start-up runs");
+    let (s, _) =
+        run_scenario(&e.model(&truth()), &Scenario::startup(e.cfg())).expect("plant start-up runs");
     let opts = MeasurementOptions {
         lags: true,
         noise: true,

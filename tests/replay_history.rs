@@ -30,8 +30,7 @@ fn replayed_daily_startups_each_get_a_method_b_result_near_truth() {
     let mut all: Option<Trace> = None;
     for day in 0..days {
         let model = engine.model(&truth(day));
-        let (samples, _) =
-            run_scenario(engine.cfg(), &model, &Scenario::startup(engine.cfg())).expect("runs");
+        let (samples, _) = run_scenario(&model, &Scenario::startup(engine.cfg())).expect("runs");
         let o = MeasurementOptions {
             lags: true,
             noise: true,

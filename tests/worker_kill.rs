@@ -23,12 +23,8 @@ fn store_startup(db: &Path) {
         D_GP: 0.3,
         D_EP: 0.4,
     };
-    let (samples, _) = run_scenario(
-        engine.cfg(),
-        &engine.model(&h),
-        &Scenario::startup(engine.cfg()),
-    )
-    .expect("runs");
+    let (samples, _) =
+        run_scenario(&engine.model(&h), &Scenario::startup(engine.cfg())).expect("runs");
     let o = MeasurementOptions {
         lags: true,
         noise: true,

@@ -192,7 +192,6 @@ fn prefill_startups(
         D_EP: 0.3,
     };
     let (samples, _) = crate::engine::simulation::run_scenario(
-        engine.cfg(),
         &engine.model(&h),
         &Scenario::startup(engine.cfg()),
     )?;

@@ -22,13 +22,13 @@ pub fn run(a: BenchSimArgs) -> anyhow::Result<ExitCode> {
     let engine = a.engine.engine()?;
     let model = engine.model(&a.engine.health()?);
     let scenario = Scenario::startup(engine.cfg());
-    let (warm, _) = run_scenario(engine.cfg(), &model, &scenario)?;
+    let (warm, _) = run_scenario(&model, &scenario)?;
     let simulated_s = warm.last().map(|s| s.t_s).unwrap_or(0.0);
     let mut times = Vec::with_capacity(a.runs);
     let mut stats = None;
     for _ in 0..a.runs.max(1) {
         let t0 = Instant::now();
-        let (s, st) = run_scenario(engine.cfg(), &model, &scenario)?;
+        let (s, st) = run_scenario(&model, &scenario)?;
         times.push(t0.elapsed().as_secs_f64());
         std::hint::black_box(&s);
         stats = Some(st);

@@ -50,7 +50,7 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<ExitCode> {
         ScenarioKind::Startup => Scenario::startup(engine.cfg()),
         ScenarioKind::Operations => Scenario::operations(engine.cfg()),
     };
-    let (samples, stats) = run_scenario(engine.cfg(), &model, &scenario)?;
+    let (samples, stats) = run_scenario(&model, &scenario)?;
     let meas = (!a.no_lags || a.noise || a.bias).then_some(MeasurementOptions {
         lags: !a.no_lags,
         noise: a.noise,

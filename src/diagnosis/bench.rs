@@ -55,7 +55,7 @@ pub fn synthetic_startup(
     noise: bool,
 ) -> Result<Recording, DiagnosisError> {
     let model = engine.model(truth);
-    let (samples, _) = run_scenario(engine.cfg(), &model, &Scenario::startup(engine.cfg()))?;
+    let (samples, _) = run_scenario(&model, &Scenario::startup(engine.cfg()))?;
     let trace = Trace::from_truth(
         engine,
         &samples,

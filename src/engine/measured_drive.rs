@@ -11,7 +11,7 @@
 use super::config::EngineConfig;
 use super::control::{Feedback, FuelCommand, FuelLimits, Loop, Series, Setpoint, StarterCommand};
 use super::dynamic::{Drive, Stations};
-use super::model::{Engine, EngineError};
+use super::model::{Engine, EngineError, Model};
 use super::sensors::MeasurementOptions;
 use super::simulation::{Controller, Simulation, TruthSample, Watch};
 use super::state::{Actuator, Shaft};
@@ -65,7 +65,8 @@ fn clean(t: &[f64], v: Vec<f64>) -> Series {
 
 impl MeasuredDrive {
     /// A controller replaying `seg` (its times must start at the simulation's time 0).
-    pub fn new(cfg: &EngineConfig, seg: &Recording, mode: DriveMode) -> MeasuredDrive {
+    pub fn new(model: &Model, seg: &Recording, mode: DriveMode) -> MeasuredDrive {
+        let cfg = model.cfg();
         let t = seg.times();
         MeasuredDrive {
             cfg: cfg.clone(),
@@ -221,8 +222,8 @@ pub fn simulate_segment(
     let model = engine.model_at(health, t_amb, p_amb);
     // Work in segment-relative time so the simulation starts at 0.
     let rseg = seg.shifted_to_zero();
-    let ctl = MeasuredDrive::new(engine.cfg(), &rseg, mode);
-    let mut sim = Simulation::with_controller(engine.cfg(), &model, ctl);
+    let ctl = MeasuredDrive::new(&model, &rseg, mode);
+    let mut sim = Simulation::with_controller(&model, ctl);
     let mut samples = Vec::with_capacity(seg.len());
     for (k, &t) in rseg.times().iter().enumerate() {
         sim.advance_to(t)?;
@@ -250,8 +251,7 @@ mod tests {
 
     fn startup(engine: &Engine, h: &HealthParams) -> Trace {
         let m = engine.model(h);
-        let (s, _) =
-            run_scenario(engine.cfg(), &m, &Scenario::startup(engine.cfg())).expect("runs");
+        let (s, _) = run_scenario(&m, &Scenario::startup(engine.cfg())).expect("runs");
         let opts = MeasurementOptions {
             lags: true,
             noise: false,

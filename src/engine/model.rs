@@ -86,7 +86,7 @@ impl Constants {
 /// which rebuilds the design calibration and the frozen constants.
 #[derive(Debug, Clone)]
 pub struct Engine {
-    cfg: EngineConfig,
+    cfg: Arc<EngineConfig>,
     design: DesignPoint,
     consts: Constants,
     maps: RawMaps,
@@ -115,6 +115,15 @@ pub struct Model {
     pub health: HealthParams,
     /// The enabled effects and the state layout they need.
     pub effects: Arc<EffectSet>,
+    /// The engine file the model was built from (control, sequence, sensors, solver settings).
+    cfg: Arc<EngineConfig>,
+}
+
+impl Model {
+    /// The engine file this model was built from.
+    pub fn cfg(&self) -> &EngineConfig {
+        &self.cfg
+    }
 }
 
 fn load_compressor(file: &str) -> Result<CompressorMap, EngineError> {
@@ -238,7 +247,7 @@ impl Engine {
         design.compressor_beta = at_design.beta;
         design.surge_margin_pct = at_design.surge_margin_pct;
         Ok(Engine {
-            cfg,
+            cfg: Arc::new(cfg),
             design,
             consts,
             maps,
@@ -260,7 +269,7 @@ impl Engine {
     /// effects: they never change the design calibration.
     pub(crate) fn replace_effects(&mut self, cfg: EngineConfig) -> Result<(), EngineError> {
         self.effects = Arc::new(Engine::build_effects(&cfg)?);
-        self.cfg = cfg;
+        self.cfg = Arc::new(cfg);
         Ok(())
     }
 
@@ -311,6 +320,7 @@ impl Engine {
             consts: self.consts,
             health: *health,
             effects: Arc::clone(&self.effects),
+            cfg: Arc::clone(&self.cfg),
         }
     }
 

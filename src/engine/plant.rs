@@ -92,7 +92,7 @@ impl SimulatedPlant {
             events,
             end: End::At(period * cycles.max(1) as f64),
         };
-        let sim = Simulation::new(engine.cfg(), &model, &scenario);
+        let sim = Simulation::new(&model, &scenario);
         Ok(SimulatedPlant {
             sim,
             channels: live_channels(engine, period_s, seed),

@@ -145,7 +145,8 @@ pub struct Sequencer {
 }
 
 impl Sequencer {
-    pub fn new(cfg: &EngineConfig, _model: &Model, scenario: &Scenario) -> Sequencer {
+    pub fn new(model: &Model, scenario: &Scenario) -> Sequencer {
+        let cfg = model.cfg();
         let mut events = scenario.events.clone();
         events.sort_by(|a, b| a.t_s.total_cmp(&b.t_s));
         Sequencer {

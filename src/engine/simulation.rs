@@ -6,7 +6,6 @@
 //! acts on it only through an [`Actuator`] at its transitions. Pure and deterministic: no I/O,
 //! no randomness.
 
-use super::config::EngineConfig;
 use super::dynamic::{self, Drive, Scales, State, Stations};
 use super::integrator::{step_factor, Ros2};
 use super::model::{EngineError, Model};
@@ -86,14 +85,15 @@ pub struct Simulation<C: Controller = Sequencer> {
 
 impl Simulation<Sequencer> {
     /// Starts at standstill at time 0 in the model's ambient, under the start-up sequencer.
-    pub fn new(cfg: &EngineConfig, model: &Model, scenario: &Scenario) -> Simulation<Sequencer> {
-        Simulation::with_controller(cfg, model, Sequencer::new(cfg, model, scenario))
+    pub fn new(model: &Model, scenario: &Scenario) -> Simulation<Sequencer> {
+        Simulation::with_controller(model, Sequencer::new(model, scenario))
     }
 }
 
 impl<C: Controller> Simulation<C> {
     /// Starts at standstill at time 0 in the model's ambient under `controller`.
-    pub fn with_controller(cfg: &EngineConfig, model: &Model, controller: C) -> Simulation<C> {
+    pub fn with_controller(model: &Model, controller: C) -> Simulation<C> {
+        let cfg = model.cfg();
         let c = &model.consts;
         let y = dynamic::standstill_state(model, c.t_amb_k, c.p_amb_kpa);
         let fixed = (cfg.solver.fixed_step_s > 0.0).then_some(cfg.solver.fixed_step_s);
@@ -236,12 +236,11 @@ impl<C: Controller> Simulation<C> {
 
 /// Runs a scenario, sampling every `sample_period_s`; returns the true trajectory.
 pub fn run_scenario(
-    cfg: &EngineConfig,
     model: &Model,
     scenario: &Scenario,
 ) -> Result<(Vec<TruthSample>, RunStats), EngineError> {
-    let dt = cfg.sequence.sample_period_s;
-    let mut sim = Simulation::new(cfg, model, scenario);
+    let dt = model.cfg().sequence.sample_period_s;
+    let mut sim = Simulation::new(model, scenario);
     let mut out = Vec::new();
     let mut k: u64 = 0;
     loop {

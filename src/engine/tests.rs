@@ -78,7 +78,7 @@ fn constant_inputs_settle_onto_the_steady_solution() {
     // Start at the 31.4 MW point and step the fuel down to 1.1 kg/s.
     let start = solve(&model, &iso(Demand::PowerMw(31.4)), None).expect("start point");
     let target = solve(&model, &iso(Demand::FuelKgS(1.1)), None).expect("target point");
-    let mut sim = Simulation::with_controller(engine.cfg(), &model, Constant { fuel: 1.1 });
+    let mut sim = Simulation::with_controller(&model, Constant { fuel: 1.1 });
     sim.y = state_of(&engine, &start);
     sim.advance_to(400.0).expect("runs");
     let st = sim.stations();
@@ -109,8 +109,7 @@ fn startup_with_step(fixed_step: f64) -> Trace {
         .set_param("solver.fixed_step_s", fixed_step)
         .expect("valid step");
     let model = engine.model(&HealthParams::HEALTHY);
-    let (s, _) =
-        run_scenario(engine.cfg(), &model, &Scenario::startup(engine.cfg())).expect("runs");
+    let (s, _) = run_scenario(&model, &Scenario::startup(engine.cfg())).expect("runs");
     Trace::from_truth(&engine, &s, None)
 }
 
@@ -162,8 +161,7 @@ fn halving_the_step_changes_every_output_by_less_than_a_tenth_of_a_percent() {
 fn startup_reaches_base_load_in_time_without_surge() {
     let engine = Engine::reference().expect("engine");
     let model = engine.model(&HealthParams::HEALTHY);
-    let (s, _) =
-        run_scenario(engine.cfg(), &model, &Scenario::startup(engine.cfg())).expect("runs");
+    let (s, _) = run_scenario(&model, &Scenario::startup(engine.cfg())).expect("runs");
     let order = [
         Phase::Standstill,
         Phase::Crank,
@@ -222,8 +220,7 @@ fn same_seed_gives_byte_identical_csv() {
         ..HealthParams::HEALTHY
     });
     let csv = |seed: u64| {
-        let (s, _) =
-            run_scenario(engine.cfg(), &model, &Scenario::startup(engine.cfg())).expect("runs");
+        let (s, _) = run_scenario(&model, &Scenario::startup(engine.cfg())).expect("runs");
         let o = MeasurementOptions {
             lags: true,
             noise: true,
@@ -249,8 +246,7 @@ fn same_seed_gives_byte_identical_csv() {
 fn operations_scenario_has_stop_trip_and_hot_restart() {
     let engine = Engine::reference().expect("engine");
     let model = engine.model(&HealthParams::HEALTHY);
-    let (s, _) =
-        run_scenario(engine.cfg(), &model, &Scenario::operations(engine.cfg())).expect("runs");
+    let (s, _) = run_scenario(&model, &Scenario::operations(engine.cfg())).expect("runs");
     let phases: Vec<Phase> = s.iter().map(|x| x.phase).collect();
     let count = |p: Phase| phases.windows(2).filter(|w| w[0] != p && w[1] == p).count();
     assert_eq!(count(Phase::Crank), 3, "three starts");
@@ -337,8 +333,7 @@ fn startup_bits(idx: usize, s: &[super::simulation::TruthSample]) -> [u64; 6] {
 fn startup_is_bit_for_bit_the_pre_refactor_model() {
     let engine = Engine::reference().expect("engine");
     let model = engine.model(&HealthParams::HEALTHY);
-    let (s, _) =
-        run_scenario(engine.cfg(), &model, &Scenario::startup(engine.cfg())).expect("runs");
+    let (s, _) = run_scenario(&model, &Scenario::startup(engine.cfg())).expect("runs");
     assert_eq!(s.len(), 778);
     for (idx, bits) in STARTUP_BASELINE_BITS {
         assert_eq!(&startup_bits(*idx, &s), bits, "sample {idx}");

@@ -414,8 +414,7 @@ fn replay_startup(
     use crate::engine::{Engine, Scenario, Trace};
     let engine = Engine::reference().expect("engine");
     let model = engine.model(&crate::health::HealthParams::default());
-    let (samples, _) =
-        run_scenario(engine.cfg(), &model, &Scenario::startup(engine.cfg())).expect("runs");
+    let (samples, _) = run_scenario(&model, &Scenario::startup(engine.cfg())).expect("runs");
     let o = MeasurementOptions {
         lags: true,
         noise: true,

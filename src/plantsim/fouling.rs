@@ -218,7 +218,7 @@ impl FoulingPlant {
             ],
             end: End::At(self.times.active_end_s),
         };
-        let sim = Simulation::new(self.engine.cfg(), &model, &scenario);
+        let sim = Simulation::new(&model, &scenario);
         Ok(Day {
             sim,
             channels: live_channels(

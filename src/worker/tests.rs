@@ -22,8 +22,7 @@ fn truth() -> HealthParams {
 fn stored_startup(dir: &std::path::Path) -> Store {
     let engine = Engine::reference().expect("engine");
     let model = engine.model(&truth());
-    let (samples, _) =
-        run_scenario(engine.cfg(), &model, &Scenario::startup(engine.cfg())).expect("runs");
+    let (samples, _) = run_scenario(&model, &Scenario::startup(engine.cfg())).expect("runs");
     let o = MeasurementOptions {
         lags: true,
         noise: true,

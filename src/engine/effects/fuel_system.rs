@@ -95,7 +95,6 @@ impl Effect for FuelSystem {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use crate::engine::simulation::run_scenario;
     use crate::engine::{Engine, EngineConfig, Scenario};
     use crate::health::HealthParams;
@@ -141,7 +140,7 @@ mod tests {
         e.set_param("control.power_ki_kg_s_per_mw_s", 0.015)
             .expect("ki");
         let m = e.model(&HealthParams::HEALTHY);
-        let (s, _) = run_scenario(e.cfg(), &m, &Scenario::startup(e.cfg())).expect("runs");
+        let (s, _) = run_scenario(&m, &Scenario::startup(e.cfg())).expect("runs");
         assert!(
             s.iter()
                 .any(|x| x.phase == crate::signals::Phase::Steady),
@@ -172,9 +171,7 @@ mod tests {
         assert!((last.fuel_burnt_kg_s / last.fuel_kg_s - 1.0).abs() < 0.01);
         // Without the effect, burnt = metered.
         let core = Engine::reference().expect("engine");
-        let (c, _) = run_scenario(
-            core.cfg(),
-            &core.model(&HealthParams::HEALTHY),
+        let (c, _) = run_scenario(&core.model(&HealthParams::HEALTHY),
             &Scenario::startup(core.cfg()),
         )
         .expect("runs");
