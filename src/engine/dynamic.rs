@@ -94,6 +94,17 @@ pub fn standstill_state(model: &Model, t_amb_k: f64, p_amb_kpa: f64) -> State {
 
 /// Evaluates the model: state derivatives (per second) and the station table.
 pub fn evaluate(model: &Model, t: f64, y: &State, drive: &Drive) -> (State, Stations) {
+    evaluate_inline(model, t, y, drive)
+}
+
+/// The state derivatives alone (per second): what the integrator calls. The same code as
+/// [`evaluate`], compiled separately so the station table it does not need is never built.
+pub fn derivatives(model: &Model, t: f64, y: &State, drive: &Drive) -> State {
+    evaluate_inline(model, t, y, drive).0
+}
+
+#[inline(always)]
+fn evaluate_inline(model: &Model, t: f64, y: &State, drive: &Drive) -> (State, Stations) {
     let c = &model.consts;
     let s = Scales::of(model);
     let p2 = y[IX_P2] * s.p2;
@@ -130,7 +141,7 @@ pub fn evaluate(model: &Model, t: f64, y: &State, drive: &Drive) -> (State, Stat
         },
         &adjust,
     );
-    let gas = gp.gas;
+    let gas = &gp.gas;
     let w_air = gp.w_combustor_air_kg_s;
     let w3 = gp.hpt.w_kg_s;
     let w4 = gp.pt.w_kg_s;

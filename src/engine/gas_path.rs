@@ -184,6 +184,7 @@ pub struct GasPath {
 }
 
 /// Evaluates the gas path on `model` (health applied) with `adjust` from the enabled effects.
+#[inline(always)]
 pub fn evaluate(model: &Model, inp: &Inputs, adjust: &Adjust) -> GasPath {
     let c = &model.consts;
     let (n1, n2, t1, p_amb) = (inp.n1_rpm, inp.n2_rpm, inp.t_amb_k, inp.p_amb_kpa);

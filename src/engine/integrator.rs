@@ -18,28 +18,29 @@ use std::ops::{Deref, DerefMut};
 /// γ = 1 + 1/√2 (L-stability).
 const GAMMA: f64 = 1.0 + std::f64::consts::FRAC_1_SQRT_2;
 
-/// LU factorisation with partial pivoting of a small dense n×n matrix, in place (row-major,
-/// flat storage). The arithmetic is that of the textbook loop, in that order.
-fn lu_factor(a: &mut [f64], piv: &mut [usize], n: usize) -> bool {
+/// Largest system the integrator solves (the work arrays are fixed-size, so a step never
+/// allocates and the loops' bounds are known to the compiler).
+pub const MAX_DIM: usize = 16;
+
+type Mat = [[f64; MAX_DIM]; MAX_DIM];
+
+/// LU factorisation with partial pivoting of the leading n×n block of `a`, in place.
+fn lu_factor(a: &mut Mat, piv: &mut [usize; MAX_DIM], n: usize) -> bool {
+    let n = n.min(MAX_DIM);
     for k in 0..n {
-        let Some(p) = (k..n).max_by(|&i, &j| a[i * n + k].abs().total_cmp(&a[j * n + k].abs()))
-        else {
+        let Some(p) = (k..n).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs())) else {
             return false;
         };
-        if a[p * n + k] == 0.0 || !a[p * n + k].is_finite() {
+        if a[p][k] == 0.0 || !a[p][k].is_finite() {
             return false;
         }
-        if p != k {
-            for j in 0..n {
-                a.swap(k * n + j, p * n + j);
-            }
-        }
+        a.swap(k, p);
         piv[k] = p;
         for i in k + 1..n {
-            let f = a[i * n + k] / a[k * n + k];
-            a[i * n + k] = f;
+            let f = a[i][k] / a[k][k];
+            a[i][k] = f;
             for j in k + 1..n {
-                a[i * n + j] -= f * a[k * n + j];
+                a[i][j] -= f * a[k][j];
             }
         }
     }
@@ -47,20 +48,25 @@ fn lu_factor(a: &mut [f64], piv: &mut [usize], n: usize) -> bool {
 }
 
 /// Solves with a factorisation from [`lu_factor`]; `x` holds the right-hand side on entry.
-fn lu_solve(a: &[f64], piv: &[usize], n: usize, x: &mut [f64]) {
+fn lu_solve(a: &Mat, piv: &[usize; MAX_DIM], n: usize, x: &mut [f64; MAX_DIM]) {
+    let n = n.min(MAX_DIM);
     for k in 0..n {
         x.swap(k, piv[k]);
     }
+    // Accumulators in registers (same operation order as `x[i] -= …` in place).
     for i in 0..n {
+        let mut acc = x[i];
         for j in 0..i {
-            x[i] -= a[i * n + j] * x[j];
+            acc -= a[i][j] * x[j];
         }
+        x[i] = acc;
     }
     for i in (0..n).rev() {
+        let mut acc = x[i];
         for j in i + 1..n {
-            x[i] -= a[i * n + j] * x[j];
+            acc -= a[i][j] * x[j];
         }
-        x[i] /= a[i * n + i];
+        x[i] = acc / a[i][i];
     }
 }
 
@@ -72,18 +78,17 @@ pub struct StepResult<V> {
     pub err: f64,
 }
 
-/// Integrator state: the reusable Jacobian and counters. The state vector is any copyable
-/// vector of `f64` (`V` derefs to a slice); its length is fixed by the first step.
+/// Integrator state: the reusable Jacobian and counters. The state vector is any vector of
+/// `f64` (`V` derefs to a slice) of at most [`MAX_DIM`] entries.
 #[derive(Debug, Clone)]
 pub struct Ros2 {
     n: usize,
-    /// Row-major n×n Jacobian.
-    jac: Vec<f64>,
+    /// Jacobian (leading n×n block).
+    jac: Box<Mat>,
     /// ∂f/∂t, refreshed with the Jacobian (the autonomised system's extra Jacobian column).
-    ft: Vec<f64>,
-    /// Scratch: W = I − γhJ and its factorisation.
-    w: Vec<f64>,
-    piv: Vec<usize>,
+    ft: [f64; MAX_DIM],
+    /// Scratch for W = I − γhJ and its factorisation (kept to avoid clearing 2 KB per step).
+    w: Box<Mat>,
     jac_valid: bool,
     steps_since_jac: usize,
     /// Refresh the Jacobian after this many steps.
@@ -99,10 +104,9 @@ impl Ros2 {
     pub fn new(rtol: f64, atol: f64) -> Self {
         Ros2 {
             n: 0,
-            jac: Vec::new(),
-            ft: Vec::new(),
-            w: Vec::new(),
-            piv: Vec::new(),
+            jac: Box::new([[0.0; MAX_DIM]; MAX_DIM]),
+            ft: [0.0; MAX_DIM],
+            w: Box::new([[0.0; MAX_DIM]; MAX_DIM]),
             jac_valid: false,
             steps_since_jac: 0,
             jac_every: 8,
@@ -118,18 +122,6 @@ impl Ros2 {
         self.jac_valid = false;
     }
 
-    /// Sizes the work arrays for `n` states (a new size invalidates the Jacobian).
-    fn resize(&mut self, n: usize) {
-        if self.n != n {
-            self.n = n;
-            self.jac = vec![0.0; n * n];
-            self.ft = vec![0.0; n];
-            self.w = vec![0.0; n * n];
-            self.piv = vec![0; n];
-            self.jac_valid = false;
-        }
-    }
-
     fn refresh_jacobian<V, F>(&mut self, f: &mut F, t: f64, y: &V, f0: &V)
     where
         V: Clone + Deref<Target = [f64]> + DerefMut,
@@ -142,7 +134,7 @@ impl Ros2 {
             yp[j] += h;
             let fp = f(t, &yp);
             for i in 0..n {
-                self.jac[i * n + j] = (fp[i] - f0[i]) / h;
+                self.jac[i][j] = (fp[i] - f0[i]) / h;
             }
         }
         let dt = 1e-6 * t.abs().max(1.0);
@@ -156,48 +148,56 @@ impl Ros2 {
         self.steps_since_jac = 0;
     }
 
-    /// One ROS2 step of size `h` from (t, y). Does not decide acceptance.
+    /// One ROS2 step of size `h` from (t, y). Does not decide acceptance. `None` when the
+    /// step fails (singular W, non-finite result, or more than [`MAX_DIM`] states).
     pub fn step<V, F>(&mut self, f: &mut F, t: f64, y: &V, h: f64) -> Option<StepResult<V>>
     where
         V: Clone + Deref<Target = [f64]> + DerefMut,
         F: FnMut(f64, &V) -> V,
     {
         let n = y.len();
-        self.resize(n);
+        if n > MAX_DIM {
+            return None;
+        }
+        if n != self.n {
+            self.n = n;
+            self.jac_valid = false;
+        }
         let f0 = f(t, y);
         self.rhs_evals += 1;
         if !self.jac_valid || self.steps_since_jac >= self.jac_every {
             self.refresh_jacobian(f, t, y, &f0);
         }
         self.steps_since_jac += 1;
+        let w = &mut *self.w;
         for i in 0..n {
             for j in 0..n {
-                self.w[i * n + j] =
-                    if i == j { 1.0 } else { 0.0 } - GAMMA * h * self.jac[i * n + j];
+                w[i][j] = if i == j { 1.0 } else { 0.0 } - GAMMA * h * self.jac[i][j];
             }
         }
-        if !lu_factor(&mut self.w, &mut self.piv, n) {
+        let mut piv = [0usize; MAX_DIM];
+        if !lu_factor(w, &mut piv, n) {
             return None;
         }
         // Non-autonomous terms (t treated as a state with t' = 1): +γh f_t in stage 1, −γh f_t
         // in stage 2. Without them, stiff states driven by explicit time dependence (a set-point
         // ramp) lose the method's order and its error estimate, and steps collapse.
-        let mut k1 = f0;
+        let mut k1 = [0.0; MAX_DIM];
         for i in 0..n {
-            k1[i] += GAMMA * h * self.ft[i];
+            k1[i] = f0[i] + GAMMA * h * self.ft[i];
         }
-        lu_solve(&self.w, &self.piv, n, &mut k1);
+        lu_solve(&self.w, &piv, n, &mut k1);
         let mut y1 = y.clone();
         for i in 0..n {
             y1[i] += h * k1[i];
         }
         let f1 = f(t + h, &y1);
         self.rhs_evals += 1;
-        let mut k2 = f1;
+        let mut k2 = [0.0; MAX_DIM];
         for i in 0..n {
-            k2[i] -= 2.0 * k1[i] + GAMMA * h * self.ft[i];
+            k2[i] = f1[i] - (2.0 * k1[i] + GAMMA * h * self.ft[i]);
         }
-        lu_solve(&self.w, &self.piv, n, &mut k2);
+        lu_solve(&self.w, &piv, n, &mut k2);
         let mut out = y.clone();
         let mut acc = 0.0;
         for i in 0..n {

@@ -165,7 +165,7 @@ impl<C: Controller> Simulation<C> {
             let limited = h < h_prop * 0.999;
             let drive = self.seq.drive(self.t_amb_k, self.p_amb_kpa);
             let model = &self.model;
-            let mut f = |tt: f64, yy: &State| dynamic::evaluate(model, tt, yy, &drive).0;
+            let mut f = |tt: f64, yy: &State| dynamic::derivatives(model, tt, yy, &drive);
             let Some(mut res) = self.ros.step(&mut f, self.t, &self.y, h) else {
                 self.reject(h)?;
                 continue;

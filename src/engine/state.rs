@@ -22,8 +22,8 @@ pub const IX_FUEL_I: usize = 5;
 pub const IX_FAR: usize = 6;
 /// Scale of the fuel-air-ratio state.
 pub const FAR_SCALE: f64 = 0.02;
-/// Most states a model may have (core plus every effect's block).
-pub const MAX_STATES: usize = 32;
+/// Most states a model may have (core plus every effect's block): the integrator's limit.
+pub const MAX_STATES: usize = super::integrator::MAX_DIM;
 
 /// The state vector (normalised): a fixed-capacity vector whose length is the layout's.
 #[derive(Clone, Copy, PartialEq)]
