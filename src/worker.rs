@@ -43,7 +43,10 @@ pub struct DiagnosisSettings {
     /// A fit whose residual level (objective per signal, mean |residual| in noise σ; ≈ 0.8 at
     /// pure noise) is above this is stored as undiagnosable. Default 5.
     pub max_residual_level: f64,
-    /// Up to this level the fit quality is "good", above it "fair". Default 2.
+    /// Normalised residual (residual sum of squares per compared sample, in noise units; ≈ 0.7
+    /// for a model that fits) up to which the stored `fit_quality` is "good"; above it
+    /// "suspect", and above the larger of 2.5 and this "poor" (`diagnosis::fit_quality`).
+    /// Default 0.9.
     pub good_residual_level: f64,
     /// Look for pending segments at least this often even without a wake-up, ms. Default 60 000.
     pub poll_interval_ms: u64,
@@ -61,7 +64,7 @@ impl Default for DiagnosisSettings {
             seed: 1,
             max_model_runs: 400,
             max_residual_level: 5.0,
-            good_residual_level: 2.0,
+            good_residual_level: 0.9,
             poll_interval_ms: 60_000,
             min_good_fraction: 0.9,
         }
@@ -90,12 +93,10 @@ impl DiagnosisSettings {
                 "must be a number > 0",
             ));
         }
-        if !(self.max_residual_level.is_finite()
-            && self.max_residual_level >= self.good_residual_level)
-        {
+        if !(self.max_residual_level.is_finite() && self.max_residual_level > 0.0) {
             p.push(ConfigProblem::new(
                 "diagnosis.max_residual_level",
-                "must be a number >= good_residual_level",
+                "must be a number > 0",
             ));
         }
         if !(self.min_good_fraction.is_finite() && (0.0..=1.0).contains(&self.min_good_fraction)) {
@@ -120,6 +121,11 @@ impl DiagnosisSettings {
             max_model_runs: self.max_model_runs,
             threads: Some(self.threads.max(1)),
             cancel: cancel.clone(),
+            quality: crate::diagnosis::fit_quality::Thresholds {
+                good_level: self.good_residual_level,
+                poor_level: self.good_residual_level.max(2.5),
+                ..Default::default()
+            },
             ..DiagnosisConfig::default()
         }
     }
@@ -305,11 +311,7 @@ pub fn diagnose_segment(
                     sigma,
                     objective: r.objective,
                     residual_level: level,
-                    fit_quality: if level <= ctx.settings.good_residual_level {
-                        "good".into()
-                    } else {
-                        "fair".into()
-                    },
+                    fit_quality: r.fit_quality.verdict.as_str().into(),
                     model_runs: r.model_runs,
                     wall_s: r.wall_s,
                     seed: ctx.settings.seed,

@@ -52,6 +52,17 @@ fn diagnose_prints_json_and_rejects_bad_rows() {
     assert!(st["model_runs"].as_u64().expect("runs") > 0);
     assert!(st["objective"].as_f64().is_some() && st["wall_s"].as_f64().is_some());
     assert!(v["methods"].get("transient").is_none());
+    assert_eq!(
+        st["fit_quality"]["verdict"], "good",
+        "{}",
+        st["fit_quality"]
+    );
+    assert!(
+        st["fit_quality"]["normalised_residual"]
+            .as_f64()
+            .expect("number")
+            < 0.9
+    );
 
     // A malformed cell is reported with its line and column.
     let text = std::fs::read_to_string(&csv).expect("read");

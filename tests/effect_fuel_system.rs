@@ -5,6 +5,7 @@
 //! parameters near their true values.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
+use gtwatch::diagnosis::fit_quality::Verdict;
 use gtwatch::diagnosis::transient::diagnose_transient;
 use gtwatch::diagnosis::{DiagnosisConfig, FitParam};
 use gtwatch::engine::sensors::MeasurementOptions;
@@ -78,6 +79,12 @@ fn fitting_the_fuel_system_effect_recovers_health_where_the_core_model_cannot() 
     eprintln!(
         "core model: {:?}, worst error {err_without:.3} ({which}), ssr {:.1}",
         without.health, without.ssr
+    );
+    assert_ne!(
+        without.fit_quality.verdict,
+        Verdict::Good,
+        "the core model's misfit is flagged: {:?}",
+        without.fit_quality
     );
     assert!(
         err_without > 0.1,

@@ -171,6 +171,8 @@ pub fn result_json(r: &MethodResult) -> Value {
         "ambient_kpa": r.ambient_kpa.map(|(p, s)| json!({ "value": p, "sigma": s })),
         "params": r.params,
         "failed_runs": r.failures,
+        "fit_quality": r.fit_quality,
+        "localisation": r.localisation,
     })
 }
 
@@ -183,6 +185,21 @@ fn print_text(m: Method, r: &MethodResult) {
         r.model_runs,
         r.wall_s
     );
+    let q = &r.fit_quality;
+    println!(
+        "  fit quality: {} (normalised residual {:.2}; good up to {:.2}){}",
+        q.verdict.as_str(),
+        q.normalised_residual,
+        q.thresholds.good_level,
+        if q.summary.is_empty() {
+            String::new()
+        } else {
+            format!("\n  where the model and the data disagree: {}", q.summary)
+        }
+    );
+    if q.verdict != crate::diagnosis::fit_quality::Verdict::Good {
+        println!("  the model does not fit this start-up: the health below absorbs the mismatch");
+    }
     let h = r.health.to_array();
     for (i, n) in HEALTH_NAMES.iter().enumerate() {
         let s = r.sigma.get(*n).copied().unwrap_or(f64::NAN);

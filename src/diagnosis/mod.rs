@@ -36,6 +36,7 @@
 
 pub mod bench;
 pub mod csv_input;
+pub mod fit_quality;
 pub mod identifiability;
 pub mod objective;
 pub mod params;
@@ -280,6 +281,9 @@ pub struct DiagnosisConfig {
     /// ([`FitParam::engine_value`], [`FitParam::effect`]), started at the engine's values and
     /// appended after the health parameters and the ambient pressure. Empty by default.
     pub extra_params: Vec<FitParam>,
+    /// Thresholds of the `fit_quality` verdict.
+    #[serde(default)]
+    pub quality: fit_quality::Thresholds,
     /// Cooperative cancellation of the optimiser (the daemon ties it to its shutdown); checked
     /// between generations of the global stage.
     #[serde(skip)]
@@ -320,6 +324,7 @@ impl Default for DiagnosisConfig {
             fixed: [false; 6],
             base: HealthParams::HEALTHY,
             extra_params: Vec::new(),
+            quality: fit_quality::Thresholds::default(),
             cancel: Cancel::new(),
         }
     }
@@ -500,6 +505,11 @@ pub struct MethodResult {
     pub params: Vec<FittedParam>,
     /// Model evaluations that failed during the fit, by reason.
     pub failures: Failures,
+    /// Whether the fitted model reproduces the data (`good` / `suspect` / `poor`) and the
+    /// numbers behind it: a health estimate from a model that does not fit is not clean.
+    pub fit_quality: fit_quality::FitQuality,
+    /// Residual map, signals × phases (Method B; empty for Method A).
+    pub localisation: Vec<fit_quality::ResidualCell>,
 }
 
 /// One fitted parameter as reported.
@@ -692,6 +702,8 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
         }),
         params,
         failures: problem.failures(),
+        fit_quality: fit_quality::assess(ssr / residuals.max(1) as f64, &[], &cfg.quality),
+        localisation: Vec::new(),
     }
 }
 

@@ -229,6 +229,24 @@ pub fn diagnose_transient(
         n_res,
         Vec::new(),
     );
+    // The residual map at the result: one more model run.
+    if let Ok(model) = problem.simulate(&out.x) {
+        let sigs = r.signals.clone();
+        r.localisation = super::fit_quality::localise(
+            segment.times(),
+            segment.phases(),
+            segment.rows(),
+            &model,
+            &sigs,
+            &engine.cfg().sensors,
+        );
+        r.fit_quality = super::fit_quality::assess(
+            r.fit_quality.normalised_residual,
+            &r.localisation,
+            &r.fit_quality.thresholds,
+        );
+        r.model_runs += 1;
+    }
     r.wall_s = start.elapsed().as_secs_f64();
     Ok(r)
 }
