@@ -15,6 +15,7 @@ pub mod demo;
 pub mod detect;
 pub mod diagnosis;
 pub mod engine;
+pub mod gap;
 pub mod health;
 pub mod ingest;
 pub mod maps;

@@ -18,6 +18,7 @@ mod diagnose;
 mod diagnose_stored;
 pub(crate) mod engine_args;
 mod export;
+mod gap;
 mod history;
 mod plant_sim;
 mod replay;
@@ -50,6 +51,9 @@ pub enum Command {
     Steady(steady::SteadyArgs),
     /// Diagnose the six health parameters from a start-up CSV (Method B and/or Method A).
     Diagnose(diagnose::DiagnoseArgs),
+    /// Sim-to-real gap: where the model and a start-up disagree, which effect of the library
+    /// explains it, and the health once it is added (`--list-effects` lists the library).
+    Gap(gap::GapArgs),
     /// Ingest a historical CSV log into the database (idempotent), then detect start-ups.
     Replay(replay::ReplayArgs),
     /// List detected start-ups with outcome and phase durations.
@@ -89,6 +93,7 @@ pub fn main() -> ExitCode {
         Command::Simulate(a) => simulate::run(a),
         Command::Steady(a) => steady::run(a),
         Command::Diagnose(a) => diagnose::run(&a),
+        Command::Gap(a) => gap::run(&a),
         Command::Replay(a) => replay::run(a),
         Command::Segments(a) => segments::run(a),
         Command::History(a) => history::run(a),

@@ -24,6 +24,7 @@ const STAGES: usize = 3;
 /// Registry entry.
 pub static SPEC: EffectSpec = EffectSpec {
     name: "fuel_system",
+    channels: super::Channels::Engine,
     summary: "fuel-system transport delay and manifold lag between metered and burnt fuel",
     signature: "recorded fuel flow leads the gas-path response (T3, T34, P2, speeds, power) \
                 by about delay_s + lag_s at every fuel change; steady points unaffected",
@@ -48,7 +49,7 @@ pub static SPEC: EffectSpec = EffectSpec {
     build,
 };
 
-fn build(p: &[f64]) -> Arc<dyn Effect> {
+fn build(p: &[f64], _channel: Option<crate::signals::Signal>) -> Arc<dyn Effect> {
     Arc::new(FuelSystem {
         lag_s: p.first().copied().unwrap_or(0.5),
         delay_s: p.get(1).copied().unwrap_or(1.0),
@@ -118,7 +119,7 @@ mod tests {
         assert_eq!(cfg.effects["fuel_system"]["lag_s"], 0.8);
         assert_eq!(cfg.effects["fuel_system"]["delay_s"], 1.0);
         let e = Engine::new(cfg).expect("builds");
-        assert_eq!(e.effects().names(), vec!["fuel_system"]);
+        assert_eq!(e.effects().names(), ["fuel_system".to_string()]);
         assert_eq!(e.get_param("effects.fuel_system.lag_s").expect("key"), 0.8);
         let bad = format!(
             "{}\n[effects.fuel_system]\ndelay_s = -1\n",

@@ -30,7 +30,15 @@ macro_rules! registry {
     };
 }
 
-registry!(fuel_system);
+registry!(
+    fuel_system,
+    sensor_lag,
+    sensor_bias,
+    heat_soak,
+    bleed_schedule,
+    vigv_schedule,
+    tip_clearance,
+);
 
 use super::gas_path::Stations;
 use crate::signals::Signal;
@@ -49,22 +57,97 @@ pub struct ParamSpec {
     pub doc: &'static str,
 }
 
+/// Which instances of an effect exist: one for the engine, or one per measured channel
+/// (named `name:column`, e.g. `sensor_lag:t34_k`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Channels {
+    /// One instance, named by the effect's name.
+    Engine,
+    /// One per temperature channel the plant measures (T1, T2, T34, T4).
+    Temperatures,
+    /// One per measured channel (everything but T3 and P3, which plants do not measure).
+    Measured,
+}
+
+impl Channels {
+    /// The signals an instance may address.
+    pub fn signals(self) -> Vec<Signal> {
+        match self {
+            Channels::Engine => Vec::new(),
+            Channels::Temperatures => vec![Signal::T1, Signal::T2, Signal::T34, Signal::T4],
+            Channels::Measured => Signal::ALL
+                .iter()
+                .copied()
+                .filter(|s| !matches!(s, Signal::T3 | Signal::P3))
+                .collect(),
+        }
+    }
+}
+
 /// A registry entry: what the effect is called, what it does, its parameters and how to build it.
 #[derive(Debug, Clone, Copy)]
 pub struct EffectSpec {
     pub name: &'static str,
+    /// One instance, or one per channel.
+    pub channels: Channels,
     /// One line: what the effect models.
     pub summary: &'static str,
     /// Where the effect shows in the data (its signature), for the gap analysis and the user.
     pub signature: &'static str,
     pub params: &'static [ParamSpec],
-    /// Builds the effect from a complete, validated parameter set (in `params` order).
-    pub build: fn(&[f64]) -> Arc<dyn Effect>,
+    /// Builds the effect from a complete, validated parameter set (in `params` order) and, for
+    /// per-channel effects, its channel.
+    pub build: fn(&[f64], Option<Signal>) -> Arc<dyn Effect>,
 }
 
-/// The registry entry named `name`.
-pub fn spec(name: &str) -> Option<&'static EffectSpec> {
-    REGISTRY.iter().find(|s| s.name == name)
+/// An effect instance name split into the registry entry and its channel.
+fn resolve(instance: &str) -> Result<(&'static EffectSpec, Option<Signal>), EffectError> {
+    let (base, column) = match instance.split_once(':') {
+        Some((b, c)) => (b, Some(c)),
+        None => (instance, None),
+    };
+    let unknown = || EffectError::Unknown {
+        name: instance.into(),
+        known: instance_names().join(", "),
+    };
+    let spec = REGISTRY
+        .iter()
+        .find(|s| s.name == base)
+        .ok_or_else(unknown)?;
+    match (spec.channels, column) {
+        (Channels::Engine, None) => Ok((spec, None)),
+        (Channels::Engine, Some(_)) | (_, None) => Err(unknown()),
+        (ch, Some(c)) => {
+            let sig: Signal = c.parse().map_err(|_| unknown())?;
+            if ch.signals().contains(&sig) && sig.column() == c {
+                Ok((spec, Some(sig)))
+            } else {
+                Err(unknown())
+            }
+        }
+    }
+}
+
+/// Every instance name the registry offers (`fuel_system`, `sensor_lag:t34_k`, …).
+pub fn instance_names() -> Vec<String> {
+    let mut out = Vec::new();
+    for s in REGISTRY {
+        match s.channels {
+            Channels::Engine => out.push(s.name.to_string()),
+            ch => out.extend(
+                ch.signals()
+                    .into_iter()
+                    .map(|sig| format!("{}:{}", s.name, sig.column())),
+            ),
+        }
+    }
+    out
+}
+
+/// The registry entry of an instance name (`fuel_system`, `sensor_lag:t34_k`).
+pub fn spec(instance: &str) -> Option<&'static EffectSpec> {
+    resolve(instance).ok().map(|(s, _)| s)
 }
 
 /// Flow and efficiency multipliers on the three components (1 = no change).
@@ -203,14 +286,7 @@ fn values_for(spec: &EffectSpec, given: &EffectParams) -> Result<Vec<f64>, Effec
 /// engine-file number).
 pub fn check(section: &BTreeMap<String, EffectParams>) -> Result<(), EffectError> {
     for (name, given) in section {
-        let s = spec(name).ok_or_else(|| EffectError::Unknown {
-            name: name.clone(),
-            known: REGISTRY
-                .iter()
-                .map(|s| s.name)
-                .collect::<Vec<_>>()
-                .join(", "),
-        })?;
+        let (s, _) = resolve(name)?;
         values_for(s, given)?;
     }
     Ok(())
@@ -224,7 +300,7 @@ pub fn complete(
     check(section)?;
     let mut out = BTreeMap::new();
     for (name, given) in section {
-        if let Some(s) = spec(name) {
+        if let Ok((s, _)) = resolve(name) {
             let vals = values_for(s, given)?;
             out.insert(
                 name.clone(),
@@ -243,6 +319,8 @@ pub fn complete(
 #[derive(Debug, Clone, Default)]
 pub struct EffectSet {
     effects: Vec<Arc<dyn Effect>>,
+    /// Instance names, in effect order.
+    names: Vec<String>,
     layout: super::state::StateLayout,
 }
 
@@ -251,6 +329,7 @@ impl EffectSet {
     pub fn none() -> EffectSet {
         EffectSet {
             effects: Vec::new(),
+            names: Vec::new(),
             layout: super::state::StateLayout::core(),
         }
     }
@@ -259,15 +338,20 @@ impl EffectSet {
     pub fn from_section(section: &BTreeMap<String, EffectParams>) -> Result<EffectSet, String> {
         check(section).map_err(|e| e.to_string())?;
         let mut effects = Vec::new();
+        let mut names = Vec::new();
         for (name, given) in section {
-            if let Some(s) = spec(name) {
-                let vals = values_for(s, given).map_err(|e| e.to_string())?;
-                effects.push((s.build)(&vals));
-            }
+            let (s, channel) = resolve(name).map_err(|e| e.to_string())?;
+            let vals = values_for(s, given).map_err(|e| e.to_string())?;
+            effects.push((s.build)(&vals, channel));
+            names.push(name.clone());
         }
         let sizes: Vec<usize> = effects.iter().map(|e| e.n_states()).collect();
         let layout = super::state::StateLayout::with_blocks(&sizes).map_err(|e| e.to_string())?;
-        Ok(EffectSet { effects, layout })
+        Ok(EffectSet {
+            effects,
+            names,
+            layout,
+        })
     }
 
     /// Whether no effect is on.
@@ -280,9 +364,9 @@ impl EffectSet {
         &self.layout
     }
 
-    /// Names of the enabled effects, in order.
-    pub fn names(&self) -> Vec<&'static str> {
-        self.effects.iter().map(|e| e.name()).collect()
+    /// Instance names of the enabled effects, in order.
+    pub fn names(&self) -> &[String] {
+        &self.names
     }
 
     fn each<'s>(&'s self, y: &'s [f64]) -> impl Iterator<Item = (&'s dyn Effect, &'s [f64])> {
@@ -388,12 +472,12 @@ mod tests {
         sec.insert("warp_drive".to_string(), EffectParams::new());
         let e = check(&sec).expect_err("unknown").to_string();
         assert!(e.contains("warp_drive"), "{e}");
-        for s in REGISTRY {
-            assert!(e.contains(s.name), "{e} lists {}", s.name);
+        for name in instance_names() {
+            assert!(e.contains(&name), "{e} lists {name}");
             let mut sec = BTreeMap::new();
             let mut p = EffectParams::new();
             p.insert("no_such_param".into(), 1.0);
-            sec.insert(s.name.to_string(), p);
+            sec.insert(name.clone(), p);
             let e = check(&sec).expect_err("unknown param").to_string();
             assert!(e.contains("no_such_param"), "{e}");
         }
@@ -402,15 +486,56 @@ mod tests {
     #[test]
     fn every_effect_completes_with_defaults_and_lays_out_its_states() {
         assert!(EffectSet::none().layout().is_core_only());
-        for s in REGISTRY {
+        for name in instance_names() {
+            let (s, ch) = resolve(&name).expect("resolves");
             let mut sec = BTreeMap::new();
-            sec.insert(s.name.to_string(), EffectParams::new());
+            sec.insert(name.clone(), EffectParams::new());
             let full = complete(&sec).expect("complete");
-            assert_eq!(full[s.name].len(), s.params.len());
+            assert_eq!(full[&name].len(), s.params.len());
             let set = EffectSet::from_section(&full).expect("builds");
-            assert_eq!(set.names(), vec![s.name]);
-            let n = (s.build)(&s.params.iter().map(|p| p.default).collect::<Vec<_>>()).n_states();
+            assert_eq!(set.names(), [name.clone()]);
+            let defaults: Vec<f64> = s.params.iter().map(|p| p.default).collect();
+            let n = (s.build)(&defaults, ch).n_states();
             assert_eq!(set.layout().len(), super::super::state::NX_CORE + n);
+        }
+        // A per-channel effect needs a channel it covers; an engine effect takes none.
+        for s in REGISTRY {
+            let bad = match s.channels {
+                Channels::Engine => format!("{}:t34_k", s.name),
+                _ => s.name.to_string(),
+            };
+            assert!(resolve(&bad).is_err(), "{bad}");
+        }
+    }
+
+    /// Every effect at its defaults: the start-up still reaches steady load, at the core
+    /// model's steady power (each effect changes transients or instruments, not the rating).
+    #[test]
+    fn every_effect_at_defaults_runs_a_start_to_the_same_load() {
+        use crate::engine::simulation::run_scenario;
+        use crate::engine::{Engine, Scenario};
+        use crate::health::HealthParams;
+        let h = HealthParams::HEALTHY;
+        let core = Engine::reference().expect("engine");
+        let end = |e: &Engine| {
+            let (s, _) = run_scenario(&e.model(&h), &Scenario::startup(e.cfg())).expect("runs");
+            let last = s.last().expect("samples");
+            assert_eq!(last.phase, crate::signals::Phase::Steady);
+            last.stations.power_mw
+        };
+        let p0 = end(&core);
+        for spec in REGISTRY {
+            let name = match spec.channels {
+                Channels::Engine => spec.name.to_string(),
+                ch => format!("{}:{}", spec.name, ch.signals()[0].column()),
+            };
+            let mut e = core.clone();
+            let first = spec.params[0];
+            e.set_param(&format!("effects.{name}.{}", first.name), first.default)
+                .expect("enables");
+            assert_eq!(e.effects().names(), [name.clone()]);
+            let p = end(&e);
+            assert!((p / p0 - 1.0).abs() < 0.01, "{name}: {p} MW vs {p0} MW");
         }
     }
 }

@@ -1,0 +1,123 @@
+//! `gtwatch gap`: where the model and this start-up disagree, which effect of the library
+//! explains it, and how far the gap shrinks with it (`src/gap`); `--list-effects` lists the
+//! library. Reads the CSV like `gtwatch diagnose`; prints text or one JSON document.
+
+use super::diagnose::FitArgs;
+use crate::diagnosis::csv_input::{parse_mapping, read_recording};
+use crate::recording::Recording;
+use anyhow::{bail, Context};
+use clap::Args;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// `gtwatch gap`
+#[derive(Debug, Clone, Args)]
+pub struct GapArgs {
+    /// List the effects library (names, instances, parameters, signatures) and exit.
+    #[arg(long)]
+    pub list_effects: bool,
+    /// Start-up CSV (the layout `gtwatch simulate` writes, or any CSV with --map).
+    #[arg(long, required_unless_present = "list_effects")]
+    pub input: Option<PathBuf>,
+    /// A second start-up of the same unit: candidates are scored on it (held out).
+    #[arg(long)]
+    pub holdout: Option<PathBuf>,
+    /// Candidate effects: `all` or a comma-separated list of instance names.
+    #[arg(long, default_value = "all")]
+    pub effects: String,
+    /// Column mapping for other CSVs: `time_s=Time,phase=State,n1_rpm=NGG,…`.
+    #[arg(long)]
+    pub map: Option<String>,
+    /// Engine TOML (default: the built-in reference engine).
+    #[arg(long)]
+    pub engine: Option<PathBuf>,
+    #[command(flatten)]
+    pub fit: FitArgs,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn read(path: &Path, map: &Option<String>) -> anyhow::Result<Recording> {
+    let mapping = match map {
+        Some(m) => parse_mapping(m)?,
+        None => HashMap::new(),
+    };
+    let file = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
+    read_recording(std::io::BufReader::new(file), &mapping)
+        .with_context(|| format!("reading {}", path.display()))
+}
+
+pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
+    if a.list_effects {
+        let list = crate::gap::list_effects();
+        if a.json {
+            println!("{}", serde_json::to_string_pretty(&list)?);
+        } else {
+            for e in crate::engine::effects::REGISTRY {
+                println!("{:16} {}", e.name, e.summary);
+                for p in e.params {
+                    println!(
+                        "  {:18} {} [{}, {}] default {}: {}",
+                        p.name, p.unit, p.min, p.max, p.default, p.doc
+                    );
+                }
+                println!("  signature: {}", e.signature);
+            }
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
+    let Some(input) = &a.input else {
+        bail!("--input is required (or --list-effects)");
+    };
+    let candidates = crate::gap::select(&a.effects).map_err(anyhow::Error::msg)?;
+    let cfg = a.fit.config()?;
+    let engine = super::load_engine(a.engine.as_deref())?;
+    let rec = read(input, &a.map)?;
+    let holdout = match &a.holdout {
+        Some(p) => Some(read(p, &a.map)?),
+        None => None,
+    };
+    let start = std::time::Instant::now();
+    let report = crate::gap::analyse(&engine, &rec, holdout.as_ref(), &candidates, &cfg)?;
+    let wall_s = start.elapsed().as_secs_f64();
+    if a.json {
+        let mut v = serde_json::to_value(&report)?;
+        v["wall_s"] = serde_json::json!(wall_s);
+        println!("{}", serde_json::to_string_pretty(&v)?);
+        return Ok(ExitCode::SUCCESS);
+    }
+    println!(
+        "baseline fit: {} (normalised residual {:.2})",
+        report.baseline_fit_quality.as_str(),
+        report.baseline_normalised_residual
+    );
+    if !report.summary.is_empty() {
+        println!("where: {}", report.summary);
+    }
+    for c in &report.candidates {
+        println!(
+            "  {:24} score {:+.2} (train {:+.2}{}) BIC gain {:.0} → {}",
+            c.effect,
+            c.score,
+            c.train_shrinkage,
+            c.heldout_shrinkage
+                .map_or(String::new(), |h| format!(", held out {h:+.2}")),
+            c.bic_gain,
+            c.fit_quality.as_str()
+        );
+    }
+    let v = &report.verdict;
+    println!(
+        "verdict: {} (shrinkage {:.0} %, confidence {:.2}) in {wall_s:.0} s",
+        v.effect,
+        100.0 * v.shrinkage,
+        v.confidence
+    );
+    let (b, f) = (v.health_before.to_array(), v.health_after.to_array());
+    for (i, n) in crate::health::HEALTH_NAMES.iter().enumerate() {
+        println!("  {n:5} {:8.3} → {:8.3} %", b[i], f[i]);
+    }
+    Ok(ExitCode::SUCCESS)
+}
