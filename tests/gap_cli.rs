@@ -1,0 +1,111 @@
+//! End-to-end: `gtwatch gap` on a start-up written by `gtwatch simulate --noise` and then
+//! altered by another program (here: this test) with a two-path thermocouple on T34 (junction
+//! 3 s + shield 15 s) — structurally unlike the library's first-order `sensor_lag`. The gap is
+//! flagged, located on T34, and attributed to the T34 instrument, not to a T34 bias; and the
+//! library lists itself as one JSON document.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
+
+use std::process::Command;
+
+fn gtwatch() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+}
+
+#[test]
+fn a_slow_t34_thermocouple_is_found_and_named() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let clean = dir.path().join("clean.csv");
+    let out = gtwatch()
+        .args([
+            "simulate",
+            "--health",
+            "D_GC=2,D_EC=1,D_GT=0.5",
+            "--noise",
+            "--seed",
+            "3",
+            "--out",
+        ])
+        .arg(&clean)
+        .output()
+        .expect("simulate runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    // Two-path thermocouple on T34, written back as text like any other tool would.
+    let text = std::fs::read_to_string(&clean).expect("read");
+    let mut lines = text.lines();
+    let header = lines.next().expect("header");
+    let cols: Vec<&str> = header.split(',').collect();
+    let it = cols.iter().position(|c| *c == "time_s").expect("time");
+    let ix = cols.iter().position(|c| *c == "t34_k").expect("t34");
+    let (mut y1, mut y2, mut prev) = (f64::NAN, f64::NAN, 0.0);
+    let mut altered = String::from(header);
+    altered.push('\n');
+    for line in lines {
+        let mut f: Vec<String> = line.split(',').map(str::to_string).collect();
+        let (t, x): (f64, f64) = (f[it].parse().expect("t"), f[ix].parse().expect("x"));
+        if y1.is_nan() {
+            (y1, y2) = (x, x);
+        } else {
+            let (a1, a2) = ((-(t - prev) / 3.0).exp(), (-(t - prev) / 15.0).exp());
+            y1 = a1 * y1 + (1.0 - a1) * x;
+            y2 = a2 * y2 + (1.0 - a2) * x;
+        }
+        prev = t;
+        f[ix] = format!("{:.3}", 0.6 * y1 + 0.4 * y2);
+        altered.push_str(&f.join(","));
+        altered.push('\n');
+    }
+    let plant = dir.path().join("plant.csv");
+    std::fs::write(&plant, altered).expect("write");
+
+    let out = gtwatch()
+        .args(["gap", "--input"])
+        .arg(&plant)
+        .args(["--effects", "sensor_lag:t34_k,sensor_bias:t34_k", "--json"])
+        .output()
+        .expect("gap runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
+    assert_ne!(v["baseline_fit_quality"], "good", "{}", v["summary"]);
+    let worst = v["localisation"]
+        .as_array()
+        .expect("map")
+        .iter()
+        .max_by(|a, b| {
+            a["norm_error"]
+                .as_f64()
+                .expect("n")
+                .total_cmp(&b["norm_error"].as_f64().expect("n"))
+        })
+        .expect("cells");
+    assert_eq!(worst["signal"], "t34_k", "{worst}");
+    assert_eq!(
+        v["verdict"]["effect"], "sensor_lag:t34_k",
+        "{}",
+        v["candidates"]
+    );
+    assert!(v["verdict"]["shrinkage"].as_f64().expect("shrinkage") > 0.3);
+    let gc_after = v["verdict"]["health_after"]["D_GC"].as_f64().expect("D_GC");
+    let gc_before = v["verdict"]["health_before"]["D_GC"]
+        .as_f64()
+        .expect("D_GC");
+    assert!(
+        (gc_after - 2.0).abs() < (gc_before - 2.0).abs(),
+        "{gc_before} -> {gc_after}"
+    );
+
+    let out = gtwatch()
+        .args(["gap", "--list-effects", "--json"])
+        .output()
+        .expect("runs");
+    let list: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    assert!(list["effects"].as_array().expect("array").len() >= 7);
+}
