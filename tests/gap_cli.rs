@@ -62,10 +62,17 @@ fn a_slow_t34_thermocouple_is_found_and_named() {
     let plant = dir.path().join("plant.csv");
     std::fs::write(&plant, altered).expect("write");
 
+    let unit = dir.path().join("unit.toml");
     let out = gtwatch()
         .args(["gap", "--input"])
         .arg(&plant)
-        .args(["--effects", "sensor_lag:t34_k,sensor_bias:t34_k", "--json"])
+        .args([
+            "--effects",
+            "sensor_lag:t34_k,sensor_bias:t34_k",
+            "--json",
+            "--adopt",
+        ])
+        .arg(&unit)
         .output()
         .expect("gap runs");
     assert!(

@@ -14,6 +14,8 @@ pub enum BenchCmd {
     Wash(super::bench_wash::BenchWashArgs),
     /// A month of 1 Hz plant data replayed: ingest, detection and diagnosis times, accuracy.
     Month(super::bench_month::BenchMonthArgs),
+    /// Blind proof of the gap analysis: hidden effects unlike the library's forms.
+    Gap(super::bench_gap::BenchGapArgs),
     /// Daemon CPU (live polling of a simulated plant) or memory after a simulated day (--day).
     Daemon(super::bench_daemon::BenchDaemonArgs),
 }
@@ -26,5 +28,6 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
         BenchCmd::Wash(a) => super::bench_wash::run(&a),
         BenchCmd::Daemon(a) => super::bench_daemon::run(a),
         BenchCmd::Month(a) => super::bench_month::run(a),
+        BenchCmd::Gap(a) => super::bench_gap::run(a),
     }
 }

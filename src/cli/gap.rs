@@ -34,9 +34,46 @@ pub struct GapArgs {
     pub engine: Option<PathBuf>,
     #[command(flatten)]
     pub fit: FitArgs,
+    /// Write the engine file with the identified effect adopted (an `[effects]` table with its
+    /// fitted parameters) to this path; later diagnoses with `--engine` that file use the
+    /// augmented model. Refuses to overwrite an existing file.
+    #[arg(long, value_name = "ENGINE.toml")]
+    pub adopt: Option<PathBuf>,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
+}
+
+/// Writes the adopted engine file (validated by loading it first).
+fn adopt(a: &GapArgs, report: &crate::gap::GapReport, out: &Path) -> anyhow::Result<String> {
+    if out.exists() {
+        bail!("{} exists: --adopt writes a new engine file", out.display());
+    }
+    let base = match &a.engine {
+        Some(p) => {
+            std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?
+        }
+        None => crate::engine::config::REFERENCE_ENGINE_TOML.to_string(),
+    };
+    let source = a
+        .input
+        .as_ref()
+        .map_or_else(String::new, |p| p.display().to_string());
+    let Some(text) = crate::gap::adopted_engine_text(&base, report, &source) else {
+        return Ok(format!(
+            "nothing to adopt: the verdict is `{}`",
+            report.verdict.effect
+        ));
+    };
+    crate::engine::EngineConfig::from_toml_str(&text, &out.display().to_string())
+        .context("the adopted engine file does not load")?;
+    std::fs::write(out, text).with_context(|| format!("writing {}", out.display()))?;
+    Ok(format!(
+        "adopted {} into {} (diagnose with --engine {})",
+        report.verdict.effect,
+        out.display(),
+        out.display()
+    ))
 }
 
 fn read(path: &Path, map: &Option<String>) -> anyhow::Result<Recording> {
@@ -82,9 +119,16 @@ pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
     let start = std::time::Instant::now();
     let report = crate::gap::analyse(&engine, &rec, holdout.as_ref(), &candidates, &cfg)?;
     let wall_s = start.elapsed().as_secs_f64();
+    let adopted = match &a.adopt {
+        Some(out) => Some(adopt(a, &report, out)?),
+        None => None,
+    };
     if a.json {
         let mut v = serde_json::to_value(&report)?;
         v["wall_s"] = serde_json::json!(wall_s);
+        if let Some(msg) = &adopted {
+            v["adopted"] = serde_json::json!(msg);
+        }
         println!("{}", serde_json::to_string_pretty(&v)?);
         return Ok(ExitCode::SUCCESS);
     }
@@ -118,6 +162,9 @@ pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
     let (b, f) = (v.health_before.to_array(), v.health_after.to_array());
     for (i, n) in crate::health::HEALTH_NAMES.iter().enumerate() {
         println!("  {n:5} {:8.3} → {:8.3} %", b[i], f[i]);
+    }
+    if let Some(msg) = adopted {
+        println!("{msg}");
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -18,6 +18,8 @@
 //! channels the residual map points at; engine effects always. Pure orchestration of the
 //! diagnosis: no I/O. Candidates run one after another, each fit using the configured threads.
 
+pub mod bench;
+
 use crate::diagnosis::fit_quality::{ResidualCell, Verdict};
 use crate::diagnosis::transient::diagnose_transient;
 use crate::diagnosis::{DiagnosisConfig, DiagnosisError, FitParam, MethodResult};
@@ -254,6 +256,30 @@ pub fn analyse(
         candidates: out,
         verdict,
     })
+}
+
+/// The engine-file text with the verdict's effect adopted: `base` (an engine file's text) plus
+/// an `[effects."<name>"]` table holding the fitted parameters, headed by a comment saying
+/// where they came from. `None` when the verdict names no effect. The caller validates the
+/// result by loading it before writing it anywhere.
+pub fn adopted_engine_text(base: &str, report: &GapReport, source: &str) -> Option<String> {
+    let winner = report
+        .candidates
+        .iter()
+        .find(|c| c.effect == report.verdict.effect)?;
+    let mut out = base.trim_end().to_string();
+    out.push_str(&format!(
+        "\n\n# Adopted by `gtwatch gap` from {source}: {} shrank the gap by {:.0} %.\n[effects.\"{}\"]\n",
+        winner.effect,
+        100.0 * report.verdict.shrinkage,
+        winner.effect
+    ));
+    let prefix = format!("effects.{}.", winner.effect);
+    for (key, (value, sigma)) in &winner.params {
+        let name = key.strip_prefix(&prefix).unwrap_or(key);
+        out.push_str(&format!("{name} = {value:.6}   # ± {sigma:.3} (1σ)\n"));
+    }
+    Some(out)
 }
 
 /// The registry as a list (for `gtwatch gap --list-effects`).
