@@ -493,7 +493,7 @@ mod tests {
             let full = complete(&sec).expect("complete");
             assert_eq!(full[&name].len(), s.params.len());
             let set = EffectSet::from_section(&full).expect("builds");
-            assert_eq!(set.names(), [name.clone()]);
+            assert_eq!(set.names(), std::slice::from_ref(&name));
             let defaults: Vec<f64> = s.params.iter().map(|p| p.default).collect();
             let n = (s.build)(&defaults, ch).n_states();
             assert_eq!(set.layout().len(), super::super::state::NX_CORE + n);
@@ -533,7 +533,7 @@ mod tests {
             let first = spec.params[0];
             e.set_param(&format!("effects.{name}.{}", first.name), first.default)
                 .expect("enables");
-            assert_eq!(e.effects().names(), [name.clone()]);
+            assert_eq!(e.effects().names(), std::slice::from_ref(&name));
             let p = end(&e);
             assert!((p / p0 - 1.0).abs() < 0.01, "{name}: {p} MW vs {p0} MW");
         }
