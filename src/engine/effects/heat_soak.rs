@@ -11,13 +11,10 @@
 //! at steady load no residual. Without it a cold start reads as turbine degradation.
 //! Pure: no I/O.
 
-use super::{Channels, Context, CoreView, Effect, EffectSpec, ParamSpec};
+use super::{Channels, MetalNode, Context, CoreView, Effect, EffectSpec, ParamSpec};
 use crate::engine::gas_path::Stations;
 use crate::signals::Signal;
 use std::sync::Arc;
-
-/// Normalisation of the metal temperature state, K.
-const T_SCALE_K: f64 = 1000.0;
 
 /// Registry entry.
 pub static SPEC: EffectSpec = EffectSpec {
@@ -50,14 +47,16 @@ pub static SPEC: EffectSpec = EffectSpec {
 fn build(p: &[f64], _channel: Option<Signal>) -> Arc<dyn Effect> {
     Arc::new(HeatSoak {
         ua_w_per_k: p.first().copied().unwrap_or(0.5) * 1e3,
-        tau_s: p.get(1).copied().unwrap_or(300.0),
+        node: MetalNode {
+            tau_s: p.get(1).copied().unwrap_or(300.0),
+        },
     })
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct HeatSoak {
     ua_w_per_k: f64,
-    tau_s: f64,
+    node: MetalNode,
 }
 
 impl Effect for HeatSoak {
@@ -70,19 +69,19 @@ impl Effect for HeatSoak {
     }
 
     fn rest_states(&self, core: &CoreView, x: &mut [f64]) {
-        x[0] = core.t_amb_k / T_SCALE_K;
+        x[0] = MetalNode::rest(core);
     }
 
     fn steady_states(&self, _core: &CoreView, stations: &Stations, x: &mut [f64]) {
-        x[0] = stations.t3_k / T_SCALE_K;
+        x[0] = MetalNode::steady(stations);
     }
 
     fn heat_to_metal_w(&self, core: &CoreView, x: &[f64]) -> f64 {
-        self.ua_w_per_k * (core.t3_k - x[0] * T_SCALE_K)
+        self.ua_w_per_k * (core.t3_k - MetalNode::temperature_k(x[0]))
     }
 
     fn derivatives(&self, ctx: &Context<'_>, x: &[f64], dx: &mut [f64]) {
-        dx[0] = super::lag_rate(ctx.core.t3_k / T_SCALE_K, x[0], self.tau_s);
+        dx[0] = self.node.rate(ctx.core, x[0]);
     }
 }
 

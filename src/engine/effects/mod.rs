@@ -437,6 +437,35 @@ pub fn lag_rate(u: f64, x: f64, tau_s: f64) -> f64 {
     (u - x) / tau_s.max(TAU_MIN_S)
 }
 
+/// A lumped metal temperature node (normalised by 1000 K) following the combustor gas (T3) with a
+/// time constant: at ambient with the engine at rest, at T3 in steady operation. Shared by the
+/// effects whose metal lags the gas (`heat_soak`, `tip_clearance`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MetalNode {
+    pub tau_s: f64,
+}
+
+impl MetalNode {
+    /// Normalisation of the node's state, K.
+    pub const T_SCALE_K: f64 = 1000.0;
+    /// The node's temperature, K, from its state.
+    pub fn temperature_k(x: f64) -> f64 {
+        x * Self::T_SCALE_K
+    }
+    /// State at rest (ambient).
+    pub fn rest(core: &CoreView) -> f64 {
+        core.t_amb_k / Self::T_SCALE_K
+    }
+    /// State in steady operation (at the gas temperature).
+    pub fn steady(stations: &Stations) -> f64 {
+        stations.t3_k / Self::T_SCALE_K
+    }
+    /// d(state)/dt.
+    pub fn rate(&self, core: &CoreView, x: f64) -> f64 {
+        lag_rate(core.t3_k / Self::T_SCALE_K, x, self.tau_s)
+    }
+}
+
 /// Shortest time constant an effect state is given, s.
 pub const TAU_MIN_S: f64 = 1e-3;
 

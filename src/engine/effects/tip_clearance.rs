@@ -9,13 +9,10 @@
 //! T34 and the GG speed for the fuel given deviate in proportion to how far the gas is ahead of
 //! the casing, fading with the casing's time constant. Pure: no I/O.
 
-use super::{Channels, ComponentDeltas, Context, CoreView, Effect, EffectSpec, ParamSpec};
+use super::{Channels, MetalNode, ComponentDeltas, Context, CoreView, Effect, EffectSpec, ParamSpec};
 use crate::engine::gas_path::Stations;
 use crate::signals::Signal;
 use std::sync::Arc;
-
-/// Normalisation of the casing temperature state, K.
-const T_SCALE_K: f64 = 1000.0;
 
 /// Registry entry.
 pub static SPEC: EffectSpec = EffectSpec {
@@ -48,14 +45,16 @@ pub static SPEC: EffectSpec = EffectSpec {
 fn build(p: &[f64], _channel: Option<Signal>) -> Arc<dyn Effect> {
     Arc::new(TipClearance {
         per_k: p.first().copied().unwrap_or(-0.5) / 100.0 / 100.0,
-        tau_s: p.get(1).copied().unwrap_or(200.0),
+        node: MetalNode {
+            tau_s: p.get(1).copied().unwrap_or(200.0),
+        },
     })
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct TipClearance {
     per_k: f64,
-    tau_s: f64,
+    node: MetalNode,
 }
 
 impl Effect for TipClearance {
@@ -68,19 +67,19 @@ impl Effect for TipClearance {
     }
 
     fn rest_states(&self, core: &CoreView, x: &mut [f64]) {
-        x[0] = core.t_amb_k / T_SCALE_K;
+        x[0] = MetalNode::rest(core);
     }
 
     fn steady_states(&self, _core: &CoreView, stations: &Stations, x: &mut [f64]) {
-        x[0] = stations.t3_k / T_SCALE_K;
+        x[0] = MetalNode::steady(stations);
     }
 
     fn component_deltas(&self, core: &CoreView, x: &[f64], d: &mut ComponentDeltas) {
-        let lead_k = core.t3_k - x[0] * T_SCALE_K;
+        let lead_k = core.t3_k - MetalNode::temperature_k(x[0]);
         d.hpt_eff *= (1.0 + self.per_k * lead_k).clamp(0.5, 1.5);
     }
 
     fn derivatives(&self, ctx: &Context<'_>, x: &[f64], dx: &mut [f64]) {
-        dx[0] = super::lag_rate(ctx.core.t3_k / T_SCALE_K, x[0], self.tau_s);
+        dx[0] = self.node.rate(ctx.core, x[0]);
     }
 }
