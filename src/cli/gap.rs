@@ -18,8 +18,21 @@ pub struct GapArgs {
     #[arg(long)]
     pub list_effects: bool,
     /// Start-up CSV (the layout `gtwatch simulate` writes, or any CSV with --map).
-    #[arg(long, required_unless_present = "list_effects")]
+    #[arg(long, required_unless_present_any = ["list_effects", "segment"], conflicts_with = "segment")]
     pub input: Option<PathBuf>,
+    /// Instead of a CSV: a stored start-up (engine from --config's [plant]); the result is
+    /// stored in the database's `gap_analyses` table.
+    #[arg(long)]
+    pub segment: Option<i64>,
+    /// With --segment: a second stored start-up of the unit to score candidates on.
+    #[arg(long, requires = "segment")]
+    pub holdout_segment: Option<i64>,
+    /// Config file (with --segment): database path, engine file.
+    #[arg(long, requires = "segment")]
+    pub config: Option<PathBuf>,
+    /// Database (with --segment; default: --config's [storage].path).
+    #[arg(long, requires = "segment")]
+    pub db: Option<PathBuf>,
     /// A second start-up of the same unit: candidates are scored on it (held out).
     #[arg(long)]
     pub holdout: Option<PathBuf>,
@@ -105,20 +118,62 @@ pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
         }
         return Ok(ExitCode::SUCCESS);
     }
-    let Some(input) = &a.input else {
-        bail!("--input is required (or --list-effects)");
-    };
     let candidates = crate::gap::select(&a.effects).map_err(anyhow::Error::msg)?;
     let cfg = a.fit.config()?;
-    let engine = super::load_engine(a.engine.as_deref())?;
-    let rec = read(input, &a.map)?;
-    let holdout = match &a.holdout {
-        Some(p) => Some(read(p, &a.map)?),
-        None => None,
+    let mut store = None;
+    let (engine, rec, holdout) = match (&a.input, a.segment) {
+        (Some(input), _) => {
+            let holdout = match &a.holdout {
+                Some(p) => Some(read(p, &a.map)?),
+                None => None,
+            };
+            (
+                super::load_engine(a.engine.as_deref())?,
+                read(input, &a.map)?,
+                holdout,
+            )
+        }
+        (None, Some(id)) => {
+            let db = super::common::db_path(a.db.as_ref(), a.config.as_ref())?;
+            let s = crate::store::Store::open(&db)
+                .with_context(|| format!("opening {}", db.display()))?;
+            let stored = |seg: i64| -> anyhow::Result<Recording> {
+                let r = s
+                    .segment_recording(seg)?
+                    .with_context(|| format!("no segment {seg} in {}", db.display()))?;
+                r.recording
+                    .with_context(|| format!("segment {seg} cannot be analysed"))
+            };
+            let rec = stored(id)?;
+            let holdout = match a.holdout_segment {
+                Some(h) => Some(stored(h)?),
+                None => None,
+            };
+            let engine = match &a.engine {
+                Some(p) => super::load_engine(Some(p))?,
+                None => super::diagnose_stored::worker_context(a.config.as_deref())?.engine,
+            };
+            store = Some(s);
+            (engine, rec, holdout)
+        }
+        (None, None) => bail!("--input or --segment is required (or --list-effects)"),
     };
     let start = std::time::Instant::now();
     let report = crate::gap::analyse(&engine, &rec, holdout.as_ref(), &candidates, &cfg)?;
     let wall_s = start.elapsed().as_secs_f64();
+    if let (Some(s), Some(id)) = (store.as_mut(), a.segment) {
+        s.insert_gap_analysis(&crate::store::NewGapAnalysis {
+            segment_id: id,
+            holdout_segment_id: a.holdout_segment,
+            effect: report.verdict.effect.clone(),
+            shrinkage: report.verdict.shrinkage,
+            confidence: report.verdict.confidence,
+            baseline_fit_quality: report.baseline_fit_quality.as_str().into(),
+            normalised_residual: report.baseline_normalised_residual,
+            report_json: serde_json::to_string(&report)?,
+        })
+        .context("storing the gap analysis")?;
+    }
     let adopted = match &a.adopt {
         Some(out) => Some(adopt(a, &report, out)?),
         None => None,

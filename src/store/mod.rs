@@ -13,6 +13,8 @@
 
 mod detection;
 mod diagnoses;
+mod gap;
+pub use gap::{GapAnalysisRow, NewGapAnalysis};
 mod segments;
 mod washes;
 pub use segments::{PhaseRow, SampleRow, StartupRow};

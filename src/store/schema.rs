@@ -23,6 +23,10 @@ const MIGRATION_SQL: &[(&str, &str)] = &[
         "0003_quality_codes.sql",
         include_str!("../../migrations/0003_quality_codes.sql"),
     ),
+    (
+        "0004_gap_analyses.sql",
+        include_str!("../../migrations/0004_gap_analyses.sql"),
+    ),
 ];
 
 #[cfg(test)]
@@ -30,6 +34,7 @@ const MIGRATION_LIST: &[M<'static>] = &[
     M::up(MIGRATION_SQL[0].1),
     M::up(MIGRATION_SQL[1].1),
     M::up(MIGRATION_SQL[2].1),
+    M::up(MIGRATION_SQL[3].1),
 ];
 
 /// All migrations in order (for `rusqlite_migration`'s validation in tests).

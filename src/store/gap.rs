@@ -1,0 +1,126 @@
+//! Stored gap analyses (`gap_analyses`, migration 0004): one row per `gtwatch gap --segment`
+//! run, the verdict's numbers as columns and the whole report as JSON. Knows nothing of how the
+//! analysis is made (`crate::gap`); only stores and reads what it is given.
+
+use super::{now_ms, Store, StoreError};
+use rusqlite::params;
+
+/// A gap analysis to store.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NewGapAnalysis {
+    pub segment_id: i64,
+    pub holdout_segment_id: Option<i64>,
+    pub effect: String,
+    pub shrinkage: f64,
+    pub confidence: f64,
+    pub baseline_fit_quality: String,
+    pub normalised_residual: f64,
+    pub report_json: String,
+}
+
+/// A stored gap analysis (the columns, without the JSON report).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct GapAnalysisRow {
+    pub id: i64,
+    pub segment_id: i64,
+    pub holdout_segment_id: Option<i64>,
+    pub effect: String,
+    pub shrinkage: f64,
+    pub confidence: f64,
+    pub baseline_fit_quality: String,
+    pub normalised_residual: f64,
+    pub created_at_ms: i64,
+}
+
+impl Store {
+    /// Stores one analysis; returns its id.
+    pub fn insert_gap_analysis(&mut self, g: &NewGapAnalysis) -> Result<i64, StoreError> {
+        self.conn.execute(
+            "INSERT INTO gap_analyses (segment_id, holdout_segment_id, effect, shrinkage,
+                confidence, baseline_fit_quality, normalised_residual, report_json,
+                gtwatch_version, created_at_ms)
+             VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)",
+            params![
+                g.segment_id,
+                g.holdout_segment_id,
+                g.effect,
+                g.shrinkage,
+                g.confidence,
+                g.baseline_fit_quality,
+                g.normalised_residual,
+                g.report_json,
+                env!("CARGO_PKG_VERSION"),
+                now_ms(),
+            ],
+        )?;
+        Ok(self.conn.last_insert_rowid())
+    }
+
+    /// The analyses of a segment, newest first.
+    pub fn gap_analyses(&self, segment_id: i64) -> Result<Vec<GapAnalysisRow>, StoreError> {
+        let mut st = self.conn.prepare_cached(
+            "SELECT id, segment_id, holdout_segment_id, effect, shrinkage, confidence,
+                    baseline_fit_quality, normalised_residual, created_at_ms
+             FROM gap_analyses WHERE segment_id = ?1 ORDER BY id DESC",
+        )?;
+        let rows = st.query_map(params![segment_id], |r| {
+            Ok(GapAnalysisRow {
+                id: r.get(0)?,
+                segment_id: r.get(1)?,
+                holdout_segment_id: r.get(2)?,
+                effect: r.get(3)?,
+                shrinkage: r.get(4)?,
+                confidence: r.get(5)?,
+                baseline_fit_quality: r.get(6)?,
+                normalised_residual: r.get(7)?,
+                created_at_ms: r.get(8)?,
+            })
+        })?;
+        Ok(rows.collect::<Result<_, _>>()?)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_analysis_is_stored_and_read_back_by_segment() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let mut store = Store::open(&dir.path().join("g.db")).expect("open");
+        store
+            .conn
+            .execute(
+                "INSERT INTO segments (kind, start_ms, end_ms, outcome, status, updated_at_ms)
+                 VALUES ('startup', 1000, 2000, 'completed', 'closed', 0)",
+                [],
+            )
+            .expect("segment");
+        let seg = store.conn.last_insert_rowid();
+        let g = NewGapAnalysis {
+            segment_id: seg,
+            holdout_segment_id: None,
+            effect: "sensor_lag:t34_k".into(),
+            shrinkage: 0.6,
+            confidence: 0.5,
+            baseline_fit_quality: "suspect".into(),
+            normalised_residual: 1.3,
+            report_json: "{}".into(),
+        };
+        let id = store.insert_gap_analysis(&g).expect("insert");
+        let rows = store.gap_analyses(seg).expect("read");
+        assert_eq!(rows.len(), 1);
+        assert_eq!(
+            (rows[0].id, rows[0].effect.as_str()),
+            (id, "sensor_lag:t34_k")
+        );
+        assert_eq!(rows[0].shrinkage, 0.6);
+        assert!(store.gap_analyses(seg + 1).expect("read").is_empty());
+        // A row must name a real segment.
+        let bad = NewGapAnalysis {
+            segment_id: seg + 99,
+            ..g
+        };
+        assert!(store.insert_gap_analysis(&bad).is_err());
+    }
+}
