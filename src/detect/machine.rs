@@ -210,12 +210,29 @@ impl Machine {
         }
         if self.active.is_some() {
             self.step_active(frame, fuel_was_on == Some(true) && !fuel_on);
+            self.close_if_overdue(frame);
         } else {
             self.step_idle(frame);
         }
         if self.active.is_none() && self.hist.len() > 2 * CONTEXT_FRAMES {
             let cut = self.hist.len() - CONTEXT_FRAMES;
             self.hist.drain(..cut);
+        }
+    }
+
+    /// Closes a start-up still open `max_startup_s` after it began (aborted, cause `unknown`):
+    /// a signal that froze mid-start (power stuck below the steady band) must not hold it open
+    /// — and its history in memory — for ever.
+    fn close_if_overdue(&mut self, f: Frame) {
+        let max_ms = (self.cfg.max_startup_s * 1000.0) as i64;
+        let overdue = self
+            .active
+            .as_ref()
+            .is_some_and(|a| f.t_ms - a.rec.start_ms > max_ms);
+        if overdue {
+            if let Some(a) = self.active.take() {
+                self.finish_abort(a, AbortCause::Unknown, f.t_ms, f);
+            }
         }
     }
 

@@ -371,3 +371,39 @@ fn open_segment_while_start_is_running() {
     assert_eq!(open.phases.last().map(|p| p.phase), Some(Phase::Idle));
     assert_eq!(open.phases.last().and_then(|p| p.end_ms), None);
 }
+
+/// A power transmitter that freezes at 4 MW during loading (the engine goes on to base load):
+/// the start is closed as aborted (`unknown`) after `max_startup_s` instead of staying in
+/// progress for ever, and the next start, with the transmitter repaired, is found and completed.
+#[test]
+fn frozen_power_signal_closes_the_start_after_the_limit() {
+    let mut s = empty_script();
+    let k1 = push_start(&mut s, 30.0, 0.0);
+    let freeze = k1.ramp_start + 30.0;
+    let stop = k1.at_load + 4000.0;
+    s.n1.0.extend([(stop, 7600.0), (stop + 100.0, 0.0)]);
+    s.fuel.0.extend([(stop - 1.0, 2.1), (stop, 0.0)]);
+    s.n2.0.extend([(stop, 3600.0), (stop + 100.0, 0.0)]);
+    let restart = stop + 3000.0;
+    let k2 = push_start(&mut s, restart, 0.0);
+    let mut fr = frames(&s, k2.at_load as i64 + 120, 21, true);
+    for f in fr.iter_mut() {
+        let t = (f.t_ms - T0_MS) as f64 / 1000.0;
+        if t >= freeze && t < restart - 100.0 {
+            f.power = 4.0;
+        }
+        if t >= stop && t < restart - 100.0 {
+            f.power = 4.0; // still frozen while the unit stops
+        }
+    }
+    let (done, open) = run(&fr);
+    assert!(open.is_none(), "{open:?}");
+    assert_eq!(done.len(), 2, "{done:?}");
+    assert_eq!(done[0].outcome, Outcome::Aborted);
+    assert_eq!(done[0].abort_cause, Some(AbortCause::Unknown));
+    let limit = DetectorConfig::default().max_startup_s;
+    let length_s = (done[0].end_ms.expect("closed") - done[0].start_ms) as f64 / 1000.0;
+    assert!((limit..limit + 5.0).contains(&length_s), "{length_s} s");
+    assert_eq!(done[1].outcome, Outcome::Completed);
+    assert!(done[1].start_ms as f64 >= T0_MS as f64 + 1000.0 * (restart - 1.0));
+}

@@ -71,6 +71,11 @@ pub struct DetectorConfig {
     pub max_sample_gap_s: f64,
     /// On resume, restart the machine this long before the resume point, s. Default 600.
     pub resume_margin_s: f64,
+    /// A start-up that has not reached steady load this long after it began is closed as
+    /// aborted (cause `unknown`) and not diagnosed, s: a frozen power or speed signal would
+    /// otherwise leave it in progress forever. Default 3600 (a normal start takes ~15 min).
+    #[serde(default = "default_max_startup_s")]
+    pub max_startup_s: f64,
     /// Tag names of the inputs; default: the first tag of signal n1 / fuel_flow / power / n2.
     pub n1_tag: Option<String>,
     pub fuel_tag: Option<String>,
@@ -80,6 +85,10 @@ pub struct DetectorConfig {
 
 fn default_light_off_flame_out_drop_rpm() -> f64 {
     300.0
+}
+
+fn default_max_startup_s() -> f64 {
+    3600.0
 }
 
 impl Default for DetectorConfig {
@@ -107,6 +116,7 @@ impl Default for DetectorConfig {
             hot_restart_window_s: 1800.0,
             max_sample_gap_s: 10.0,
             resume_margin_s: 600.0,
+            max_startup_s: default_max_startup_s(),
             n1_tag: None,
             fuel_tag: None,
             power_tag: None,
@@ -137,6 +147,7 @@ impl DetectorConfig {
                 self.light_off_flame_out_drop_rpm,
             ),
             ("max_sample_gap_s", self.max_sample_gap_s),
+            ("max_startup_s", self.max_startup_s),
         ];
         for (k, v) in positive {
             if !(v.is_finite() && v > 0.0) {
