@@ -52,6 +52,9 @@ pub struct GapArgs {
     /// augmented model. Refuses to overwrite an existing file.
     #[arg(long, value_name = "ENGINE.toml")]
     pub adopt: Option<PathBuf>,
+    /// Write the residual map (signals × phases) as an SVG heat-map.
+    #[arg(long, value_name = "FILE.svg")]
+    pub svg: Option<PathBuf>,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -173,6 +176,19 @@ pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
             report_json: serde_json::to_string(&report)?,
         })
         .context("storing the gap analysis")?;
+    }
+    if let Some(path) = &a.svg {
+        let title = format!(
+            "gtwatch gap: baseline fit {} (normalised residual {:.2}), verdict {}",
+            report.baseline_fit_quality.as_str(),
+            report.baseline_normalised_residual,
+            report.verdict.effect
+        );
+        std::fs::write(
+            path,
+            crate::gap::svg::heat_map(&report.localisation, &title),
+        )
+        .with_context(|| format!("writing {}", path.display()))?;
     }
     let adopted = match &a.adopt {
         Some(out) => Some(adopt(a, &report, out)?),

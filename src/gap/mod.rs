@@ -19,6 +19,7 @@
 //! diagnosis: no I/O. Candidates run one after another, each fit using the configured threads.
 
 pub mod bench;
+pub mod svg;
 
 use crate::diagnosis::fit_quality::{ResidualCell, Verdict};
 use crate::diagnosis::transient::diagnose_transient;
