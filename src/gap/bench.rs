@@ -9,7 +9,8 @@
 //! - `p2_bias` / `t34_bias`: 0.8–1.5 % of full scale (2500 kPa, 1200 K);
 //! - `fuel_lead`: the recorded fuel flow leads the fuel burnt by a pure delay of 0.8–3 s —
 //!   against the library's Erlang-chain-plus-lag `fuel_system`;
-//! - `p34_ripple`: a 0.2 Hz ripple on P34 (not in the library: expect `unexplained`);
+//! - `p34_ripple`: a 0.2 Hz ripple of 1.5–3 % on P34 (not in the library: expect
+//!   `unexplained`);
 //! - `none`: the data as simulated (expect `none`).
 //!
 //! Library, thresholds and seeds are fixed before the cases are drawn. Pure: no I/O.
@@ -138,7 +139,8 @@ pub fn alter(rec: &mut Recording, kind: &str, rng: &mut impl Rng) -> Result<f64,
             d
         }
         "p34_ripple" => {
-            let a = rng.random_range(0.004..0.008);
+            // 1.5–3 % of the reading: a signature of at least 3× the P34 noise.
+            let a = rng.random_range(0.015..0.03);
             let t = rec.times().to_vec();
             for (k, &tt) in t.iter().enumerate() {
                 if let Some(v) = rec.value(k, Signal::P34) {

@@ -10,9 +10,9 @@
 //!    effect's parameters fitted on the first are kept, health refitted), else on the same
 //!    data — with the Bayesian information criterion (n ln(SSR/n) + k ln n) as the tie-breaker
 //!    and the penalty for extra parameters.
-//! 3. Verdict: `none` when the baseline fits within noise; the best candidate when it shrinks
-//!    the gap by at least [`MIN_SHRINKAGE`] and lowers the BIC and its refit fits (`good`);
-//!    else `unexplained`.
+//! 3. Verdict: `none` when the baseline fits within noise; the best candidate when it lowers
+//!    the BIC and either shrinks the gap by at least [`MIN_SHRINKAGE`] or brings the fit to
+//!    `good` (the same yardstick as the baseline's); else `unexplained`.
 //!
 //! Instrument candidates (`sensor_lag:<column>`, `sensor_bias:<column>`) are tried only on
 //! channels the residual map points at; engine effects always. Pure orchestration of the
@@ -230,16 +230,21 @@ pub fn analyse(
         }
     } else {
         match out.first() {
-            Some(best) if best.score >= MIN_SHRINKAGE && best.bic_gain > 0.0 => GapVerdict {
-                effect: best.effect.clone(),
-                confidence: out
-                    .get(1)
-                    .map_or(best.score, |second| best.score - second.score.max(0.0))
-                    .clamp(0.0, 1.0),
-                shrinkage: best.score,
-                health_before: base.health,
-                health_after: best.health,
-            },
+            Some(best)
+                if best.bic_gain > 0.0
+                    && (best.score >= MIN_SHRINKAGE || best.fit_quality == Verdict::Good) =>
+            {
+                GapVerdict {
+                    effect: best.effect.clone(),
+                    confidence: out
+                        .get(1)
+                        .map_or(best.score, |second| best.score - second.score.max(0.0))
+                        .clamp(0.0, 1.0),
+                    shrinkage: best.score,
+                    health_before: base.health,
+                    health_after: best.health,
+                }
+            }
             _ => GapVerdict {
                 effect: "unexplained".into(),
                 confidence: 0.0,
