@@ -244,7 +244,8 @@ pub async fn run(
     // Acquisition.
     let poller = match (&cfg.modbus, cfg.acquisition.source) {
         (Some(map), SourceKind::Modbus) => {
-            let plan = PollPlan::new(map, &tags).map_err(DaemonError::Plan)?;
+            let mut plan = PollPlan::new(map, &tags).map_err(DaemonError::Plan)?;
+            plan.quality = cfg.quality.clone();
             let acq = cfg.acquisition.clone();
             let p = Arc::clone(&progress);
             let sd = shutdown.clone();

@@ -297,6 +297,8 @@ pub struct PlannedRequest {
 pub struct PollPlan {
     pub endpoint: String,
     pub requests: Vec<PlannedRequest>,
+    /// The bad-value policy applied to every polled value (`[quality]`).
+    pub quality: crate::quality::QualityConfig,
 }
 
 impl PollPlan {
@@ -328,6 +330,7 @@ impl PollPlan {
         Ok(PollPlan {
             endpoint: map.endpoint.clone(),
             requests,
+            quality: crate::quality::QualityConfig::default(),
         })
     }
 
@@ -344,8 +347,11 @@ pub struct PollProgress {
     /// Polls or connection attempts that failed.
     pub failures: AtomicU64,
     pub samples: AtomicU64,
-    /// Samples flagged OutOfRange or Bad.
+    /// Samples stored flagged (any code but good).
     pub flagged: AtomicU64,
+    /// ... of which flagged stuck (code 3) and spike (code 4).
+    pub stuck: AtomicU64,
+    pub spike: AtomicU64,
     pub gaps: AtomicU64,
     pub connects: AtomicU64,
     /// Loop iterations completed (a poll, a recorded failure or a backoff wait): liveness.
@@ -361,6 +367,8 @@ pub struct PollStats {
     pub failures: u64,
     pub samples: u64,
     pub flagged: u64,
+    pub stuck: u64,
+    pub spike: u64,
     pub gaps: u64,
     pub connects: u64,
 }
@@ -372,6 +380,8 @@ impl PollProgress {
             failures: self.failures.load(Ordering::Relaxed),
             samples: self.samples.load(Ordering::Relaxed),
             flagged: self.flagged.load(Ordering::Relaxed),
+            stuck: self.stuck.load(Ordering::Relaxed),
+            spike: self.spike.load(Ordering::Relaxed),
             gaps: self.gaps.load(Ordering::Relaxed),
             connects: self.connects.load(Ordering::Relaxed),
         }
@@ -517,6 +527,19 @@ pub async fn poll_loop(
             .map(|(tag, _)| *tag)
     });
     let mut last_plant_ms: Option<i64> = None;
+    let mut gate = super::gate::Gate::new(plan, &plan.quality);
+    let count = |released: &[Sample], progress: &PollProgress| {
+        let mut c = crate::quality::QualityCounts::default();
+        for s in released {
+            c.add(s.quality);
+        }
+        progress
+            .samples
+            .fetch_add(released.len() as u64, Ordering::Relaxed);
+        progress.flagged.fetch_add(c.flagged(), Ordering::Relaxed);
+        progress.stuck.fetch_add(c.stuck, Ordering::Relaxed);
+        progress.spike.fetch_add(c.spike, Ordering::Relaxed);
+    };
 
     let fail = |outage: &mut Option<Outage>,
                 last_good: Option<i64>,
@@ -669,8 +692,7 @@ pub async fn poll_loop(
             stamp_ms = last_plant_ms.unwrap_or(stamp_ms);
         }
         // Whatever was decoded before a failure is a valid reading at this instant: keep it.
-        let n = batch.len() as u64;
-        let flagged = batch.iter().filter(|s| s.quality != Quality::Good).count() as u64;
+        let released = gate.apply(&batch);
         if let Some(reason) = error {
             // Drop the connection: a late reply must never be matched to the next request.
             client = None;
@@ -701,15 +723,19 @@ pub async fn poll_loop(
             last_good_ms = Some(stamp_ms);
             progress.polls_ok.fetch_add(1, Ordering::Relaxed);
         }
-        if n > 0 {
-            progress.samples.fetch_add(n, Ordering::Relaxed);
-            progress.flagged.fetch_add(flagged, Ordering::Relaxed);
-            let out = std::mem::replace(&mut batch, Vec::with_capacity(plan.tag_count()));
-            if tx.send(WriteCmd::Samples(out)).await.is_err() {
+        if !released.is_empty() {
+            count(&released, &progress);
+            if tx.send(WriteCmd::Samples(released)).await.is_err() {
                 tracing::error!("writer has stopped; ending acquisition");
                 break;
             }
         }
+    }
+    // The readings the spike rule still holds are valid: store them.
+    let rest = gate.finish();
+    if !rest.is_empty() {
+        count(&rest, &progress);
+        let _ = tx.send(WriteCmd::Samples(rest)).await;
     }
     // An outage still open at shutdown is recorded up to now, so the data shows it.
     if let Some(o) = outage.take() {
@@ -932,6 +958,7 @@ mod tests {
         let addr = l.local_addr().expect("addr");
         drop(l);
         let plan = PollPlan {
+            quality: crate::quality::QualityConfig::default(),
             endpoint: addr.to_string(),
             requests: vec![],
         };
