@@ -1,7 +1,7 @@
 //! `gtwatch diagnose`: read a start-up CSV, run Method B and/or Method A, print the health
 //! parameters with 1σ, the objective, model runs and wall time (text or JSON).
 
-use crate::diagnosis::csv_input::{parse_mapping, read_recording};
+use crate::diagnosis::csv_input::{parse_mapping, read_recording_checked};
 use crate::diagnosis::params::FitParam;
 use crate::diagnosis::steady::diagnose_steady;
 use crate::diagnosis::transient::diagnose_transient;
@@ -234,8 +234,22 @@ pub fn run(a: &DiagnoseArgs) -> anyhow::Result<ExitCode> {
     };
     let file =
         std::fs::File::open(input).with_context(|| format!("opening {}", input.display()))?;
-    let seg = read_recording(std::io::BufReader::new(file), &mapping)
-        .with_context(|| format!("reading {}", input.display()))?;
+    let (seg, flagged) = read_recording_checked(
+        std::io::BufReader::new(file),
+        &mapping,
+        &crate::quality::QualityConfig::default(),
+    )
+    .with_context(|| format!("reading {}", input.display()))?;
+    for (signal, c) in &flagged.flagged {
+        tracing::warn!(
+            file = %input.display(),
+            signal = signal.column(),
+            out_of_range = c.out_of_range,
+            stuck = c.stuck,
+            spike = c.spike,
+            "cells flagged by the bad-value policy are treated as missing"
+        );
+    }
     let methods: Vec<Method> = match a.method {
         MethodArg::Transient => vec![Method::Transient],
         MethodArg::Steady => vec![Method::Steady],

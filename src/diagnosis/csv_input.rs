@@ -4,10 +4,14 @@
 //! the file). Signal columns are matched by canonical column name or short name
 //! (case-insensitive). Empty cells and `nan`/`NA` are missing samples (NaN, excluded from the
 //! objective, never zero); any other unparseable cell, an unknown phase or a time that does not
-//! increase is an error naming the line and column. Reads from any `io::Read`; opens no files.
+//! increase is an error naming the line and column. Cells the bad-value policy (`[quality]`,
+//! the same rules as replay and acquisition) flags as stuck or a spike become missing too
+//! (out-of-range values stay errors naming the line), and are counted ([`CsvQuality`]). Reads from any `io::Read`; opens no files.
 
+use crate::quality::{Point, QualityConfig, QualityCounts, SpikeFilter};
 use crate::recording::{Recording, RecordingError};
 use crate::signals::{Phase, Signal, Values, NSIG};
+use crate::store::Quality;
 use std::collections::HashMap;
 use std::io::Read;
 
@@ -83,13 +87,92 @@ fn parse_value(s: &str) -> Result<f64, String> {
     }
 }
 
-/// Reads a recording. `mapping` maps canonical names to the file's headers (empty = the
-/// `gtwatch simulate` layout). The rows must also pass [`Recording::new`]'s checks; an error
-/// there names the file line of the offending sample.
+/// Reads a recording with the default bad-value policy; see [`read_recording_checked`].
 pub fn read_recording<R: Read>(
     reader: R,
     mapping: &HashMap<String, String>,
 ) -> Result<Recording, CsvError> {
+    read_recording_checked(reader, mapping, &QualityConfig::default()).map(|(r, _)| r)
+}
+
+/// Cells the bad-value policy flagged, per signal column (only columns with any flagged).
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct CsvQuality {
+    pub flagged: Vec<(Signal, QualityCounts)>,
+}
+
+impl CsvQuality {
+    /// All flagged cells.
+    pub fn total(&self) -> u64 {
+        self.flagged.iter().map(|(_, c)| c.flagged()).sum()
+    }
+}
+
+/// Applies `crate::quality`'s stateful rules (stuck, spike: the same as replay and acquisition)
+/// to every signal column; a flagged cell becomes missing (NaN) and is counted.
+fn apply_policy(
+    quality: &QualityConfig,
+    sig_cols: &[(Signal, usize)],
+    t_s: &[f64],
+    rows: &mut [Values],
+) -> CsvQuality {
+    let mut report = CsvQuality::default();
+    let n1 = Signal::N1.index();
+    let n1_ref: Vec<Option<f64>> = rows
+        .iter()
+        .map(|r| Some(r[n1]).filter(|v| v.is_finite()))
+        .collect();
+    for &(s, _) in sig_cols {
+        let k = s.index();
+        let mut checker = quality.checker(&[s.column(), s.short()], Some(s));
+        let mut spikes = SpikeFilter::new(checker.limits());
+        let mut counts = QualityCounts::default();
+        let mut held: Option<usize> = None;
+        let mut verdicts: Vec<(usize, Quality)> = Vec::new();
+        for (i, row) in rows.iter().enumerate() {
+            let v = row[k];
+            if v.is_nan() {
+                continue; // missing already
+            }
+            let t_ms = (t_s[i] * 1000.0).round() as i64;
+            let q = checker.check(t_ms, v, n1_ref[i]);
+            if let Some(p) = spikes.push(Point {
+                t_ms,
+                value: v,
+                quality: q,
+            }) {
+                if let Some(j) = held {
+                    verdicts.push((j, p.quality));
+                }
+            }
+            held = Some(i);
+        }
+        if let (Some(p), Some(j)) = (spikes.finish(), held) {
+            verdicts.push((j, p.quality));
+        }
+        for (j, q) in verdicts {
+            // Out-of-range values are left to `Recording::new`, which refuses them naming the
+            // line (an unusable file, not a flaky sensor).
+            if matches!(q, Quality::Stuck | Quality::Spike) {
+                counts.add(q);
+                rows[j][k] = f64::NAN;
+            }
+        }
+        if counts.flagged() > 0 {
+            report.flagged.push((s, counts));
+        }
+    }
+    report
+}
+
+/// Reads a recording. `mapping` maps canonical names to the file's headers (empty = the
+/// `gtwatch simulate` layout). The rows must also pass [`Recording::new`]'s checks; an error
+/// there names the file line of the offending sample.
+pub fn read_recording_checked<R: Read>(
+    reader: R,
+    mapping: &HashMap<String, String>,
+    quality: &QualityConfig,
+) -> Result<(Recording, CsvQuality), CsvError> {
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(true)
         .trim(csv::Trim::All)
@@ -177,10 +260,12 @@ pub fn read_recording<R: Read>(
     if t_s.is_empty() {
         return Err(CsvError::Empty);
     }
-    Recording::new(t_s, phases, rows).map_err(|source| CsvError::Recording {
+    let report = apply_policy(quality, &sig_cols, &t_s, &mut rows);
+    let rec = Recording::new(t_s, phases, rows).map_err(|source| CsvError::Recording {
         line: source.index().and_then(|i| lines.get(i).copied()),
         source,
-    })
+    })?;
+    Ok((rec, report))
 }
 
 #[cfg(test)]
@@ -240,5 +325,41 @@ mod tests {
                 .expect_err(want);
             assert!(e.to_string().starts_with(want), "{e} (want {want})");
         }
+    }
+
+    #[test]
+    fn flagged_cells_become_missing_and_are_counted() {
+        // n1 ramps 3000 → 5900 rpm; T34 has one spike (row 5) and is frozen from row 10 on.
+        let mut csv = String::from("time_s,phase,n1_rpm,t34_k\n");
+        for i in 0..30 {
+            let t34 = match i {
+                5 => 1400.0,
+                i if i >= 10 => 800.0,
+                i => 780.0 + 2.0 * i as f64,
+            };
+            csv.push_str(&format!("{i},acceleration,{},{t34}\n", 3000 + 100 * i));
+        }
+        let q = QualityConfig {
+            stuck_after_s: 5.0,
+            ..QualityConfig::default()
+        };
+        let (rec, report) =
+            read_recording_checked(csv.as_bytes(), &HashMap::new(), &q).expect("reads");
+        let k = Signal::T34.index();
+        let t34: Vec<f64> = rec.rows().iter().map(|r| r[k]).collect();
+        assert!(t34[5].is_nan(), "spike kept: {t34:?}");
+        assert!(t34[4].is_finite() && t34[6].is_finite());
+        // Frozen since t = 10 s; stuck once older than 5 s and n1 moved > 500 rpm (t > 15).
+        assert!(t34[..15]
+            .iter()
+            .enumerate()
+            .all(|(i, v)| i == 5 || v.is_finite()));
+        assert!(t34[16..].iter().all(|v| v.is_nan()), "{t34:?}");
+        assert_eq!(report.flagged.len(), 1);
+        let (sig, c) = report.flagged[0];
+        assert_eq!(sig, Signal::T34);
+        assert_eq!(c.spike, 1);
+        assert_eq!(c.stuck, 14);
+        assert_eq!(report.total(), 15);
     }
 }
