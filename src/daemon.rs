@@ -343,6 +343,17 @@ pub async fn run(
         samples_dropped = report.writer.samples_dropped,
         "last batch committed"
     );
+    tracing::info!(
+        polled = report.poll.samples,
+        flagged = report.poll.flagged,
+        stuck = report.poll.stuck,
+        spike = report.poll.spike,
+        out_of_range_or_bad = report
+            .poll
+            .flagged
+            .saturating_sub(report.poll.stuck + report.poll.spike),
+        "polled samples by quality code"
+    );
     // Final scan over everything stored; segments it closes stay pending for the next start.
     match detector.await {
         Ok(mut det) => {
