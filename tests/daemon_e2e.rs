@@ -2,14 +2,16 @@
 //!
 //! The scripted plant publishes its true phase in the register `phase_truth`, which the daemon
 //! stores like any other tag; the detector's segments and phase boundaries are compared with
-//! that truth, sample by sample. Time is compressed 100× (one plant second per 10 ms poll), so
-//! the detector's time thresholds are divided by 100 too.
+//! that truth, sample by sample. The plant runs 100× faster than real time (one plant second
+//! per 10 ms poll) and publishes its own clock, which the daemon stamps the samples with
+//! (`acquisition.timestamp_field`), so the detector works in plant seconds with its own
+//! thresholds.
 //!
 //! The plant runs in lock-step with the poller (one frame per poll of the first request): with
-//! a free-running plant clock the poller sees repeated and skipped frames under CPU load, and
-//! on ramps compressed 100× (2.8 MW per sample) those distort the detector's noise estimate
-//! enough to move the steady-load boundary by many samples — an artefact of the compression,
-//! not of the daemon. The fault tests use the free-running (speedup) mode.
+//! a free-running plant the poller sees repeated and skipped frames under CPU load. Stamping
+//! in plant time matters as much: with wall-clock stamps a scheduling stall of half a second on
+//! a loaded CI machine was 50 plant seconds — a data gap to the detector, which then missed
+//! the start-up it fell into. The fault tests use the free-running (speedup) mode.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 mod common;
@@ -164,10 +166,13 @@ async fn detector_finds_every_simulated_start_within_two_samples() {
     let plant = ScriptedPlant::new(&schedule(), &timing(), ScriptLevels::default(), 1.0, false);
     let total_frames = plant.duration_s().ceil() as u64 + 1;
     let listener = TcpListener::bind("127.0.0.1:0").await.expect("bind");
+    let endpoint = listener.local_addr().expect("addr").to_string();
+    let mut cfg =
+        common::with_plant_clock(common::fast_config(&endpoint, db_path.clone(), POLL_MS));
     let mut sim = spawn_plant_sim(
         listener,
-        common::reference_config().modbus.expect("map"),
-        Box::new(plant),
+        cfg.modbus.clone().expect("map"),
+        Box::new(common::Clocked(plant)),
         SimOptions {
             speedup: SPEEDUP,
             tick: Some(Duration::from_millis(POLL_MS)),
@@ -177,14 +182,13 @@ async fn detector_finds_every_simulated_start_within_two_samples() {
     )
     .expect("plant-sim");
 
-    let mut cfg = common::fast_config(&sim.local_addr.to_string(), db_path.clone(), POLL_MS);
-    // Plant time runs 100× faster than the wall clock the samples are stamped with.
+    // Samples are stamped in plant seconds (one per frame); the script's phases are short.
     let d = &mut cfg.detector;
-    d.steady_hold_s = 6.0 / SPEEDUP;
-    d.trip_fuel_cut_s = 3.0 / SPEEDUP;
-    d.hot_restart_window_s = 40.0 / SPEEDUP;
-    d.max_sample_gap_s = 0.5;
-    d.resume_margin_s = 60.0 / SPEEDUP;
+    d.steady_hold_s = 6.0;
+    d.trip_fuel_cut_s = 3.0;
+    d.hot_restart_window_s = 40.0;
+    d.max_sample_gap_s = 5.0;
+    d.resume_margin_s = 60.0;
     assert_eq!(cfg.check(), vec![]);
 
     let (trigger, shutdown) = shutdown_channel();

@@ -6,8 +6,6 @@
 
 mod common;
 
-use gtwatch::acquire::register_map::{DataType, FieldSpec, PLANT_TIME_FIELD};
-use gtwatch::config::Config;
 use gtwatch::daemon::{self, RunOptions};
 use gtwatch::plantsim::{
     spawn_plant_sim, PlantFrame, PlantModel, ScriptLevels, ScriptStep, ScriptTiming, ScriptedPlant,
@@ -18,55 +16,13 @@ use gtwatch::signals::Phase;
 use std::time::Duration;
 use tokio::net::TcpListener;
 
-const EPOCH_MS: i64 = 1_767_571_200_000;
-
-fn with_plant_clock(mut c: Config) -> Config {
-    let req = &mut c.modbus.as_mut().unwrap().requests[0];
-    let next = req
-        .fields
-        .iter()
-        .map(|f| f.address + f.data_type.words())
-        .max()
-        .unwrap();
-    req.fields.push(FieldSpec {
-        name: PLANT_TIME_FIELD.into(),
-        address: next,
-        data_type: DataType::F64,
-        byte_order: Default::default(),
-        scale: 1.0,
-        offset: 0.0,
-        unit: "ms".into(),
-        signal: None,
-        min: None,
-        max: None,
-    });
-    c.acquisition.timestamp_field = Some(PLANT_TIME_FIELD.into());
-    assert_eq!(c.check(), vec![]);
-    c
-}
-
-/// A scripted plant with a fixed plant epoch.
-struct Clocked(ScriptedPlant);
-
-impl PlantModel for Clocked {
-    fn step(&mut self) -> PlantFrame {
-        self.0.step()
-    }
-    fn period_s(&self) -> f64 {
-        self.0.period_s()
-    }
-    fn epoch_ms(&self) -> Option<i64> {
-        Some(EPOCH_MS)
-    }
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn free_running_plant_at_speedup_completes_a_start_in_plant_time() {
     let dir = tempfile::tempdir().unwrap();
     let db = dir.path().join("clock.db");
     let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
     let endpoint = listener.local_addr().unwrap().to_string();
-    let mut cfg = with_plant_clock(common::fast_config(&endpoint, db.clone(), 10));
+    let mut cfg = common::with_plant_clock(common::fast_config(&endpoint, db.clone(), 10));
     cfg.diagnosis.enabled = false;
     let schedule = vec![
         ScriptStep::Standstill { duration_s: 30.0 },
@@ -86,7 +42,7 @@ async fn free_running_plant_at_speedup_completes_a_start_in_plant_time() {
     let sim = spawn_plant_sim(
         listener,
         cfg.modbus.clone().unwrap(),
-        Box::new(Clocked(plant)),
+        Box::new(common::Clocked(plant)),
         // Free-running: 50 plant seconds per wall second, whatever the poller does.
         SimOptions {
             speedup: 50.0,
@@ -111,7 +67,10 @@ async fn free_running_plant_at_speedup_completes_a_start_in_plant_time() {
     let n1 = common::tag_samples(&conn, "n1_rpm");
     // Stamped in plant time: from the plant's epoch, one plant second apart (the poller sees
     // some frames twice at 10 ms polls against 20 ms frames; those are not stored twice).
-    assert!(n1.first().unwrap().0 >= EPOCH_MS && n1.last().unwrap().0 < EPOCH_MS + 3_600_000);
+    assert!(
+        n1.first().unwrap().0 >= common::EPOCH_MS
+            && n1.last().unwrap().0 < common::EPOCH_MS + 3_600_000
+    );
     assert!(
         n1.windows(2).all(|w| w[1].0 > w[0].0),
         "strictly increasing times"
@@ -132,7 +91,7 @@ async fn free_running_plant_at_speedup_completes_a_start_in_plant_time() {
         .expect("a start-up segment");
     assert_eq!(outcome, "completed");
     assert!(
-        start_ms >= EPOCH_MS + 25_000,
+        start_ms >= common::EPOCH_MS + 25_000,
         "start in plant time: {start_ms}"
     );
 }
@@ -157,7 +116,7 @@ impl PlantModel for Backwards {
         1.0
     }
     fn epoch_ms(&self) -> Option<i64> {
-        Some(EPOCH_MS)
+        Some(common::EPOCH_MS)
     }
 }
 
@@ -167,7 +126,7 @@ async fn plant_clock_stepping_back_is_a_gap_and_nothing_is_stored_twice() {
     let db = dir.path().join("back.db");
     let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
     let endpoint = listener.local_addr().unwrap().to_string();
-    let mut cfg = with_plant_clock(common::fast_config(&endpoint, db.clone(), 10));
+    let mut cfg = common::with_plant_clock(common::fast_config(&endpoint, db.clone(), 10));
     cfg.diagnosis.enabled = false;
     let times = vec![
         1.0, 2.0, 3.0, 4.0, 5.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0,
@@ -198,7 +157,7 @@ async fn plant_clock_stepping_back_is_a_gap_and_nothing_is_stored_twice() {
     let conn = common::open_db(&db);
     let t: Vec<i64> = common::tag_samples(&conn, "n1_rpm")
         .into_iter()
-        .map(|s| (s.0 - EPOCH_MS) / 1000)
+        .map(|s| (s.0 - common::EPOCH_MS) / 1000)
         .collect();
     // Frame 1 is published before the first connection and each poll advances one frame
     // first, so the first stored reading is the plant's second 2.
@@ -210,7 +169,7 @@ async fn plant_clock_stepping_back_is_a_gap_and_nothing_is_stored_twice() {
     let gaps = common::gaps(&conn);
     assert!(
         gaps.iter()
-            .any(|g| g.3.contains("backwards") && g.0 >= EPOCH_MS),
+            .any(|g| g.3.contains("backwards") && g.0 >= common::EPOCH_MS),
         "the backwards step is a recorded gap in plant time: {gaps:?}"
     );
 }

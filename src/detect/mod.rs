@@ -381,8 +381,21 @@ pub fn scan(store: &mut Store, cfg: &DetectorConfig) -> Result<ScanReport, Detec
             Some(_) => {}
         }
     }
-    finished.retain(|r| r.start_ms >= keep_from);
-    let open = machine.open_segment().filter(|r| r.start_ms >= keep_from);
+    // A start's onset is placed back in time once the rise is seen (the knee of n1, the
+    // coast-down minimum), so a scan that stopped between the onset and the rise left that
+    // start undetected before the resume point. It is kept when it begins after every stored
+    // segment there; one that overlaps a stored segment is that segment, found again.
+    let stored_end = store.last_segment_end_before(keep_from)?;
+    let is_new = |r: &SegmentRecord| {
+        r.start_ms >= keep_from || stored_end.is_none_or(|end| r.start_ms > end)
+    };
+    finished.retain(is_new);
+    let open = machine.open_segment().filter(is_new);
+    let keep_from = finished
+        .iter()
+        .chain(&open)
+        .map(|r| r.start_ms)
+        .fold(keep_from, i64::min);
     report.segments_closed = finished.len() as u64;
     report.segments_open = u64::from(open.is_some());
     report.scanned_to_ms = scanned_to;

@@ -220,6 +220,18 @@ impl super::Store {
         resume_point(&self.conn, st)
     }
 
+    /// The latest end (or start, if still open) of the start-up segments stored with a start
+    /// before `before_ms`: a segment the detector finds before its resume point is new only
+    /// if it starts after this.
+    pub fn last_segment_end_before(&self, before_ms: i64) -> Result<Option<i64>, StoreError> {
+        Ok(self.conn.query_row(
+            "SELECT MAX(COALESCE(end_ms, start_ms)) FROM segments
+               WHERE kind = 'startup' AND start_ms < ?1",
+            params![before_ms],
+            |r| r.get(0),
+        )?)
+    }
+
     /// `margin_ms` before `resume_ms`, moved out of any stored segment (see `warm_point`).
     pub fn detector_warm_point(&self, resume_ms: i64, margin_ms: i64) -> Result<i64, StoreError> {
         warm_point(&self.conn, resume_ms, margin_ms)

@@ -1,7 +1,9 @@
 //! Helpers shared by the daemon's end-to-end and fault tests.
 #![allow(dead_code)]
 
+use gtwatch::acquire::register_map::{DataType, FieldSpec, PLANT_TIME_FIELD};
 use gtwatch::config::Config;
+use gtwatch::plantsim::{PlantFrame, PlantModel, ScriptedPlant};
 use std::path::{Path, PathBuf};
 
 /// The reference configuration shipped in `config/gtwatch.toml`.
@@ -56,4 +58,50 @@ pub fn gaps(db: &rusqlite::Connection) -> Vec<(i64, i64, String, String)> {
         .expect("query")
         .collect::<Result<Vec<_>, _>>()
         .expect("rows")
+}
+
+/// Plant clock at model time 0 of [`Clocked`] plants (2026-01-05 00:00 UTC).
+pub const EPOCH_MS: i64 = 1_767_571_200_000;
+
+/// `c` with the plant clock field `plant_time_ms` appended to the first request and named
+/// as `acquisition.timestamp_field`: samples are stamped in plant time, so a plant run faster
+/// than real time (and a loaded machine's scheduling stalls) leave the stored spacing exact.
+pub fn with_plant_clock(mut c: Config) -> Config {
+    let req = &mut c.modbus.as_mut().expect("modbus section").requests[0];
+    let next = req
+        .fields
+        .iter()
+        .map(|f| f.address + f.data_type.words())
+        .max()
+        .expect("the first request has fields");
+    req.fields.push(FieldSpec {
+        name: PLANT_TIME_FIELD.into(),
+        address: next,
+        data_type: DataType::F64,
+        byte_order: Default::default(),
+        scale: 1.0,
+        offset: 0.0,
+        unit: "ms".into(),
+        signal: None,
+        min: None,
+        max: None,
+    });
+    c.acquisition.timestamp_field = Some(PLANT_TIME_FIELD.into());
+    assert_eq!(c.check(), vec![]);
+    c
+}
+
+/// A scripted plant with a fixed plant epoch ([`EPOCH_MS`]).
+pub struct Clocked(pub ScriptedPlant);
+
+impl PlantModel for Clocked {
+    fn step(&mut self) -> PlantFrame {
+        self.0.step()
+    }
+    fn period_s(&self) -> f64 {
+        self.0.period_s()
+    }
+    fn epoch_ms(&self) -> Option<i64> {
+        Some(EPOCH_MS)
+    }
 }
