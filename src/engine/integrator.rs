@@ -24,9 +24,37 @@ pub const MAX_DIM: usize = 16;
 
 type Mat = [[f64; MAX_DIM]; MAX_DIM];
 
+/// The system size as the loops see it: [`Fixed`] for the common sizes, so the compiler knows
+/// the bounds (unrolls and vectorises as it did for the former `[f64; 7]` state), [`Dyn`]
+/// otherwise. Both run the same operations in the same order: results are identical.
+trait Dim: Copy {
+    fn n(self) -> usize;
+}
+
+#[derive(Clone, Copy)]
+struct Fixed<const N: usize>;
+
+impl<const N: usize> Dim for Fixed<N> {
+    #[inline(always)]
+    fn n(self) -> usize {
+        N
+    }
+}
+
+#[derive(Clone, Copy)]
+struct Dyn(usize);
+
+impl Dim for Dyn {
+    #[inline(always)]
+    fn n(self) -> usize {
+        self.0
+    }
+}
+
 /// LU factorisation with partial pivoting of the leading n×n block of `a`, in place.
-fn lu_factor(a: &mut Mat, piv: &mut [usize; MAX_DIM], n: usize) -> bool {
-    let n = n.min(MAX_DIM);
+#[inline(always)]
+fn lu_factor(a: &mut Mat, piv: &mut [usize; MAX_DIM], d: impl Dim) -> bool {
+    let n = d.n().min(MAX_DIM);
     for k in 0..n {
         let Some(p) = (k..n).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs())) else {
             return false;
@@ -48,8 +76,9 @@ fn lu_factor(a: &mut Mat, piv: &mut [usize; MAX_DIM], n: usize) -> bool {
 }
 
 /// Solves with a factorisation from [`lu_factor`]; `x` holds the right-hand side on entry.
-fn lu_solve(a: &Mat, piv: &[usize; MAX_DIM], n: usize, x: &mut [f64; MAX_DIM]) {
-    let n = n.min(MAX_DIM);
+#[inline(always)]
+fn lu_solve(a: &Mat, piv: &[usize; MAX_DIM], d: impl Dim, x: &mut [f64; MAX_DIM]) {
+    let n = d.n().min(MAX_DIM);
     for k in 0..n {
         x.swap(k, piv[k]);
     }
@@ -122,12 +151,13 @@ impl Ros2 {
         self.jac_valid = false;
     }
 
-    fn refresh_jacobian<V, F>(&mut self, f: &mut F, t: f64, y: &V, f0: &V)
+    #[inline(always)]
+    fn refresh_jacobian<V, F>(&mut self, d: impl Dim, f: &mut F, t: f64, y: &V, f0: &V)
     where
         V: Clone + Deref<Target = [f64]> + DerefMut,
         F: FnMut(f64, &V) -> V,
     {
-        let n = self.n;
+        let n = d.n();
         for j in 0..n {
             let h = 1e-7 * y[j].abs().max(1e-2);
             let mut yp = y.clone();
@@ -163,10 +193,30 @@ impl Ros2 {
             self.n = n;
             self.jac_valid = false;
         }
+        match n {
+            7 => self.step_in(Fixed::<7>, f, t, y, h),
+            _ => self.step_in(Dyn(n), f, t, y, h),
+        }
+    }
+
+    #[inline(always)]
+    fn step_in<V, F>(
+        &mut self,
+        d: impl Dim,
+        f: &mut F,
+        t: f64,
+        y: &V,
+        h: f64,
+    ) -> Option<StepResult<V>>
+    where
+        V: Clone + Deref<Target = [f64]> + DerefMut,
+        F: FnMut(f64, &V) -> V,
+    {
+        let n = d.n();
         let f0 = f(t, y);
         self.rhs_evals += 1;
         if !self.jac_valid || self.steps_since_jac >= self.jac_every {
-            self.refresh_jacobian(f, t, y, &f0);
+            self.refresh_jacobian(d, f, t, y, &f0);
         }
         self.steps_since_jac += 1;
         let w = &mut *self.w;
@@ -176,7 +226,7 @@ impl Ros2 {
             }
         }
         let mut piv = [0usize; MAX_DIM];
-        if !lu_factor(w, &mut piv, n) {
+        if !lu_factor(w, &mut piv, d) {
             return None;
         }
         // Non-autonomous terms (t treated as a state with t' = 1): +γh f_t in stage 1, −γh f_t
@@ -186,7 +236,7 @@ impl Ros2 {
         for i in 0..n {
             k1[i] = f0[i] + GAMMA * h * self.ft[i];
         }
-        lu_solve(&self.w, &piv, n, &mut k1);
+        lu_solve(&self.w, &piv, d, &mut k1);
         let mut y1 = y.clone();
         for i in 0..n {
             y1[i] += h * k1[i];
@@ -197,7 +247,7 @@ impl Ros2 {
         for i in 0..n {
             k2[i] = f1[i] - (2.0 * k1[i] + GAMMA * h * self.ft[i]);
         }
-        lu_solve(&self.w, &piv, n, &mut k2);
+        lu_solve(&self.w, &piv, d, &mut k2);
         let mut out = y.clone();
         let mut acc = 0.0;
         for i in 0..n {
