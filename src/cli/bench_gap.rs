@@ -12,6 +12,9 @@ pub struct BenchGapArgs {
     /// P2 bias, fuel lead, T2 two-path, T34 bias, P34 ripple).
     #[arg(long, default_value_t = 14)]
     pub cases: usize,
+    /// Only these hidden truths, comma-separated (e.g. `none,p34_ripple`); default all.
+    #[arg(long, value_delimiter = ',')]
+    pub kinds: Vec<String>,
     /// Seed of the case draw (health vectors, magnitudes, noise).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -30,7 +33,7 @@ pub fn run(a: BenchGapArgs) -> anyhow::Result<ExitCode> {
         ..Default::default()
     };
     let start = std::time::Instant::now();
-    let cases = crate::gap::bench::run_cases(&engine, a.cases, a.seed, &cfg, |c| {
+    let cases = crate::gap::bench::run_cases(&engine, a.cases, a.seed, &a.kinds, &cfg, |c| {
         eprintln!(
             "case {:3} {:13} → {:20} {} (shrinkage {:.0} %, max health error {:.2} → {:.2})",
             c.index,

@@ -211,6 +211,12 @@ pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
     if !report.summary.is_empty() {
         println!("where: {}", report.summary);
     }
+    if report.optimiser_spread > 0.0 {
+        println!(
+            "optimiser spread (baseline refitted with other seeds): {:.0} % of the residual",
+            100.0 * report.optimiser_spread
+        );
+    }
     for c in &report.candidates {
         println!(
             "  {:24} score {:+.2} (train {:+.2}{}) BIC gain {:.0} → {}",

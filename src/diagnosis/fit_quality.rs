@@ -15,7 +15,8 @@
 //!   of the residual variance it explains.
 //!
 //! Each sample is normalised like the objective does: σ² = σ_noise² + (ΔZ)², ΔZ the larger
-//! change to a neighbouring sample (timing uncertainty), so a fast edge is not a "gap".
+//! change to a neighbouring sample (timing uncertainty), so a fast edge is not a "gap" — here
+//! the smaller of the measured and the model's change, so a ripple the model lacks still is.
 //!
 //! The verdict (`good` / `suspect` / `poor`) rests on the result's normalised residual (the
 //! residual sum of squares per compared sample, in noise units: ≈ 0.7 for the exact model on
@@ -23,6 +24,7 @@
 //! 13–23 with a 1 % P2 bias — `examples/fit_quality_calibration.rs`) and on the worst cell.
 //! Pure arithmetic on given series: no I/O, no model runs.
 
+use super::periodic::Periodicity;
 use crate::engine::config::SensorsConfig;
 use crate::engine::sensors::noise_sigma;
 use crate::engine::trace::Values;
@@ -108,6 +110,9 @@ pub struct FitQuality {
     /// The worst cell's `norm_error` (0 without a residual map).
     pub worst_cell_error: f64,
     pub thresholds: Thresholds,
+    /// Oscillations in the residual the model does not have (see [`super::periodic`]); any
+    /// makes a `good` fit `suspect`.
+    pub periodic: Vec<Periodicity>,
     /// Where the gap lies, in plain words (empty for a good fit).
     pub summary: String,
 }
@@ -186,16 +191,21 @@ fn cell(
     let m = idx.len() as f64;
     // σ² = σ_noise² + ΔZ² (timing uncertainty: the larger change to a neighbour), as the
     // objective normalises.
-    let step = |k: usize| -> f64 {
-        let z = measured[k][i];
+    //
+    // The change counts only as far as the model moves too (the smaller of the measured and
+    // the model's change): an oscillation or spikes the model does not have are a gap, not
+    // timing — with the measured change alone a 0.2 Hz ripple normalised itself away.
+    let step_in = |src: &[Values], k: usize| -> f64 {
+        let z = src[k][i];
         let d = |j: Option<usize>| {
-            j.and_then(|j| measured.get(j))
+            j.and_then(|j| src.get(j))
                 .map(|v| (v[i] - z).abs())
                 .filter(|d| d.is_finite())
                 .unwrap_or(0.0)
         };
         d(k.checked_sub(1)).max(d(Some(k + 1)))
     };
+    let step = |k: usize| step_in(measured, k).min(step_in(model, k));
     let sig = |k: usize| {
         let n = noise_sigma(sensors, s, measured[k][i]).max(floor);
         (n * n + step(k).powi(2)).sqrt()
@@ -317,8 +327,14 @@ fn best_shift(t_s: &[f64], idx: &[usize], dz: &[f64], dm: &[f64]) -> Option<f64>
     Some(shift * dt)
 }
 
-/// The verdict for a result with normalised residual `level` and residual map `cells`.
-pub fn assess(level: f64, cells: &[ResidualCell], th: &Thresholds) -> FitQuality {
+/// The verdict for a result with normalised residual `level`, residual map `cells` and the
+/// oscillations found in its residual.
+pub fn assess(
+    level: f64,
+    cells: &[ResidualCell],
+    periodic: &[Periodicity],
+    th: &Thresholds,
+) -> FitQuality {
     let worst = cells
         .iter()
         .filter(|c| c.norm_error.is_finite())
@@ -326,7 +342,7 @@ pub fn assess(level: f64, cells: &[ResidualCell], th: &Thresholds) -> FitQuality
     let worst_cell_error = worst.map_or(0.0, |c| c.norm_error);
     let verdict = if !level.is_finite() || level > th.poor_level {
         Verdict::Poor
-    } else if level > th.good_level || worst_cell_error > th.suspect_cell {
+    } else if level > th.good_level || worst_cell_error > th.suspect_cell || !periodic.is_empty() {
         Verdict::Suspect
     } else {
         Verdict::Good
@@ -334,13 +350,25 @@ pub fn assess(level: f64, cells: &[ResidualCell], th: &Thresholds) -> FitQuality
     let summary = if verdict == Verdict::Good {
         String::new()
     } else {
-        describe(level, cells)
+        let mut text = describe(level, cells);
+        for p in periodic {
+            text.push_str(&format!(
+                "; {} oscillates at {:.3} Hz ({:.1} s period), amplitude {:.3} ({:.1} σ), not in the model",
+                p.signal.column(),
+                p.frequency_hz,
+                p.period_s,
+                p.amplitude,
+                p.amplitude_sigma
+            ));
+        }
+        text
     };
     FitQuality {
         verdict,
         normalised_residual: level,
         worst_cell_error,
         thresholds: *th,
+        periodic: periodic.to_vec(),
         summary,
     }
 }
@@ -439,21 +467,37 @@ mod tests {
         assert!(character(&off).starts_with("offset"), "{}", character(&off));
 
         let th = Thresholds::default();
-        assert_eq!(assess(0.7, &[exact], &th).verdict, Verdict::Good);
+        assert_eq!(assess(0.7, &[exact], &[], &th).verdict, Verdict::Good);
         // A clean overall residual with one cell far beyond noise is suspect.
         let bad_cell = ResidualCell {
             norm_error: 6.0,
             ..lag.clone()
         };
-        let q = assess(0.8, std::slice::from_ref(&bad_cell), &th);
+        let q = assess(0.8, std::slice::from_ref(&bad_cell), &[], &th);
         assert_eq!(q.verdict, Verdict::Suspect, "one bad cell");
         assert!(
             q.summary.contains("t34_k during acceleration: lag-like"),
             "{}",
             q.summary
         );
-        assert_eq!(assess(1.3, &[], &th).verdict, Verdict::Suspect);
-        assert_eq!(assess(3.0, &[], &th).verdict, Verdict::Poor);
-        assert_eq!(assess(f64::NAN, &[], &th).verdict, Verdict::Poor);
+        // A ripple the model lacks makes a fit suspect, however small its residual.
+        let ripple = Periodicity {
+            signal: Signal::P34,
+            frequency_hz: 0.2,
+            period_s: 5.0,
+            amplitude: 2.0,
+            amplitude_sigma: 1.0,
+            p_value: 1e-12,
+        };
+        let q = assess(0.7, &[], std::slice::from_ref(&ripple), &th);
+        assert_eq!(q.verdict, Verdict::Suspect);
+        assert!(
+            q.summary.contains("p34_kpa oscillates at 0.200 Hz"),
+            "{}",
+            q.summary
+        );
+        assert_eq!(assess(1.3, &[], &[], &th).verdict, Verdict::Suspect);
+        assert_eq!(assess(3.0, &[], &[], &th).verdict, Verdict::Poor);
+        assert_eq!(assess(f64::NAN, &[], &[], &th).verdict, Verdict::Poor);
     }
 }

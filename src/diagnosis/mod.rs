@@ -41,6 +41,7 @@ pub mod fit_quality;
 pub mod identifiability;
 pub mod objective;
 pub mod params;
+pub mod periodic;
 pub mod steady;
 pub mod transient;
 
@@ -419,7 +420,7 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
         }),
         params,
         failures: problem.failures(),
-        fit_quality: fit_quality::assess(ssr / residuals.max(1) as f64, &[], &cfg.quality),
+        fit_quality: fit_quality::assess(ssr / residuals.max(1) as f64, &[], &[], &cfg.quality),
         localisation: Vec::new(),
     }
 }

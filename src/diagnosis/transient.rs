@@ -240,9 +240,17 @@ pub fn diagnose_transient(
             &sigs,
             &engine.cfg().sensors,
         );
+        let periodic = super::periodic::find(
+            segment.times(),
+            segment.rows(),
+            &model,
+            &sigs,
+            &engine.cfg().sensors,
+        );
         r.fit_quality = super::fit_quality::assess(
             r.fit_quality.normalised_residual,
             &r.localisation,
+            &periodic,
             &r.fit_quality.thresholds,
         );
         r.model_runs += 1;

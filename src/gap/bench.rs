@@ -159,19 +159,32 @@ fn max_error(h: &HealthParams, truth: &HealthParams) -> f64 {
     (0..6).map(|i| (a[i] - b[i]).abs()).fold(0.0, f64::max)
 }
 
-/// Runs `cases` cases (cycling through [`KINDS`]) with all candidates.
+/// Runs `cases` cases (cycling through [`KINDS`], or through `only` when not empty) with all
+/// candidates.
 pub fn run_cases(
     engine: &Engine,
     cases: usize,
     seed: u64,
+    only: &[String],
     cfg: &DiagnosisConfig,
     mut progress: impl FnMut(&Case),
 ) -> Result<Vec<Case>, DiagnosisError> {
+    if let Some(k) = only.iter().find(|k| !KINDS.contains(&k.as_str())) {
+        return Err(DiagnosisError::Config(format!(
+            "unknown hidden truth {k:?}; known: {}",
+            KINDS.join(", ")
+        )));
+    }
+    let kinds: Vec<&str> = if only.is_empty() {
+        KINDS.to_vec()
+    } else {
+        only.iter().map(String::as_str).collect()
+    };
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
     let candidates = crate::engine::effects::instance_names();
     let mut out = Vec::new();
     for index in 0..cases {
-        let kind = KINDS[index % KINDS.len()];
+        let kind = kinds[index % kinds.len()];
         let truth = HealthParams::from_array(std::array::from_fn(|_| rng.random_range(0.0..3.0)));
         let mut rec = synthetic_startup(engine, &truth, 1000 + index as u64, true)?;
         let magnitude = alter(&mut rec, kind, &mut rng)?;

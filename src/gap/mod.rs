@@ -11,8 +11,9 @@
 //!    data — with the Bayesian information criterion (n ln(SSR/n) + k ln n) as the tie-breaker
 //!    and the penalty for extra parameters.
 //! 3. Verdict: `none` when the baseline fits within noise; the best candidate when it lowers
-//!    the BIC and either shrinks the gap by at least [`MIN_SHRINKAGE`] or brings the fit to
-//!    `good` (the same yardstick as the baseline's); else `unexplained`.
+//!    the BIC, shrinks the gap by more than the optimiser's own spread (the baseline refitted
+//!    with [`SEED_REFITS`] other seeds) and either by at least [`MIN_SHRINKAGE`] or so far
+//!    that the fit becomes `good` (the same yardstick as the baseline's); else `unexplained`.
 //!
 //! Instrument candidates (`sensor_lag:<column>`, `sensor_bias:<column>`) are tried only on
 //! channels the residual map points at; engine effects always. Pure orchestration of the
@@ -34,6 +35,8 @@ use std::collections::BTreeMap;
 
 /// Least shrinkage of the gap (fraction of the baseline SSR) a candidate must reach to be named.
 pub const MIN_SHRINKAGE: f64 = 0.3;
+/// Extra baseline fits with other optimiser seeds that measure the optimiser's own spread.
+pub const SEED_REFITS: u64 = 2;
 /// Bounds of a fitted sensor bias: this fraction of the channel's largest reading, either way.
 const BIAS_BOUND_FRACTION: f64 = 0.05;
 
@@ -75,6 +78,10 @@ pub struct GapReport {
     pub baseline_normalised_residual: f64,
     pub summary: String,
     pub localisation: Vec<ResidualCell>,
+    /// How far the baseline's residual moves between fits with different optimiser seeds
+    /// ((max − min)/min of the SSR over [`SEED_REFITS`] + 1 fits): a candidate must shrink
+    /// the gap by more than this to be named (0 when the baseline fits).
+    pub optimiser_spread: f64,
     pub candidates: Vec<Candidate>,
     pub verdict: GapVerdict,
 }
@@ -165,7 +172,23 @@ pub fn analyse(
     };
     let k_base = 6 + usize::from(cfg.fit_ambient_pressure);
     let mut out = Vec::new();
+    let mut optimiser_spread = 0.0;
     if base.fit_quality.verdict != Verdict::Good {
+        // What optimiser and noise variation alone do to the residual: refit the baseline with
+        // other seeds. A candidate's shrinkage must exceed it.
+        let mut ssrs = vec![base.ssr];
+        for k in 1..=SEED_REFITS {
+            let seeded = DiagnosisConfig {
+                seed: cfg.seed.wrapping_add(k),
+                ..cfg.clone()
+            };
+            if let Ok(r) = diagnose_transient(engine, rec, &seeded) {
+                ssrs.push(r.ssr);
+            }
+        }
+        let lo = ssrs.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = ssrs.iter().copied().fold(0.0, f64::max);
+        optimiser_spread = ((hi - lo) / lo.max(1e-300)).clamp(0.0, 1.0);
         for name in candidates
             .iter()
             .filter(|c| worth_trying(c, &base.localisation))
@@ -232,6 +255,7 @@ pub fn analyse(
         match out.first() {
             Some(best)
                 if best.bic_gain > 0.0
+                    && best.score > optimiser_spread
                     && (best.score >= MIN_SHRINKAGE || best.fit_quality == Verdict::Good) =>
             {
                 GapVerdict {
@@ -259,6 +283,7 @@ pub fn analyse(
         baseline_normalised_residual: base.fit_quality.normalised_residual,
         summary: base.fit_quality.summary.clone(),
         localisation: base.localisation,
+        optimiser_spread,
         candidates: out,
         verdict,
     })
