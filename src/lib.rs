@@ -7,6 +7,7 @@
 
 pub mod acquire;
 pub mod advice;
+pub mod chart;
 pub mod cli;
 pub mod config;
 pub mod config_problem;

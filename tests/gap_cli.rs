@@ -63,6 +63,7 @@ fn a_slow_t34_thermocouple_is_found_and_named() {
     std::fs::write(&plant, altered).expect("write");
 
     let unit = dir.path().join("unit.toml");
+    let svg = dir.path().join("gap.svg");
     let out = gtwatch()
         .args(["gap", "--input"])
         .arg(&plant)
@@ -73,6 +74,8 @@ fn a_slow_t34_thermocouple_is_found_and_named() {
             "--adopt",
         ])
         .arg(&unit)
+        .arg("--svg")
+        .arg(&svg)
         .output()
         .expect("gap runs");
     assert!(
@@ -100,6 +103,16 @@ fn a_slow_t34_thermocouple_is_found_and_named() {
         v["candidates"]
     );
     assert!(v["verdict"]["shrinkage"].as_f64().expect("shrinkage") > 0.3);
+    // The SVG: the heat-map, then T34 measured against the model before and after the lag.
+    let svg = std::fs::read_to_string(&svg).expect("svg written");
+    assert!(svg.starts_with("<svg xmlns") && svg.contains(">t34_k<"));
+    assert!(svg.contains("t34_k: measured against the model"));
+    assert!(svg.contains("model with sensor_lag:t34_k"));
+    assert_eq!(
+        svg.matches("<polyline").count(),
+        3,
+        "measured, before, after"
+    );
     let gc_after = v["verdict"]["health_after"]["D_GC"].as_f64().expect("D_GC");
     let gc_before = v["verdict"]["health_before"]["D_GC"]
         .as_f64()

@@ -184,11 +184,8 @@ pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
             report.baseline_normalised_residual,
             report.verdict.effect
         );
-        std::fs::write(
-            path,
-            crate::gap::svg::heat_map(&report.localisation, &title),
-        )
-        .with_context(|| format!("writing {}", path.display()))?;
+        std::fs::write(path, crate::gap::svg::document(&report, &title))
+            .with_context(|| format!("writing {}", path.display()))?;
     }
     let adopted = match &a.adopt {
         Some(out) => Some(adopt(a, &report, out)?),

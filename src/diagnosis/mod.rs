@@ -228,6 +228,10 @@ pub struct MethodResult {
     pub fit_quality: fit_quality::FitQuality,
     /// Residual map, signals × phases (Method B; empty for Method A).
     pub localisation: Vec<fit_quality::ResidualCell>,
+    /// The fitted model's instrument values, rows like the data's (Method B; empty for Method
+    /// A). For plots (before/after traces); not serialised.
+    #[serde(skip)]
+    pub model_values: Vec<crate::engine::trace::Values>,
 }
 
 /// One fitted parameter as reported.
@@ -422,6 +426,7 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
         failures: problem.failures(),
         fit_quality: fit_quality::assess(ssr / residuals.max(1) as f64, &[], &[], &cfg.quality),
         localisation: Vec::new(),
+        model_values: Vec::new(),
     }
 }
 

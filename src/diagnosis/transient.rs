@@ -253,6 +253,7 @@ pub fn diagnose_transient(
             &periodic,
             &r.fit_quality.thresholds,
         );
+        r.model_values = model;
         r.model_runs += 1;
     }
     r.wall_s = start.elapsed().as_secs_f64();

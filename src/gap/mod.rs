@@ -26,6 +26,7 @@ use crate::diagnosis::fit_quality::{ResidualCell, Verdict};
 use crate::diagnosis::transient::diagnose_transient;
 use crate::diagnosis::{DiagnosisConfig, DiagnosisError, FitParam, MethodResult};
 use crate::engine::effects::{self, Channels};
+use crate::engine::trace::Values;
 use crate::engine::Engine;
 use crate::health::HealthParams;
 use crate::recording::Recording;
@@ -84,6 +85,22 @@ pub struct GapReport {
     pub optimiser_spread: f64,
     pub candidates: Vec<Candidate>,
     pub verdict: GapVerdict,
+    /// The worst signal of the baseline's residual map: measured, modelled before and after
+    /// the winning effect (for the SVG; not serialised).
+    #[serde(skip)]
+    pub worst_signal: Option<SignalTraces>,
+}
+
+/// One signal over the start-up: measured, the baseline model, and the model with the winning
+/// effect (when one is named).
+#[derive(Debug, Clone)]
+pub struct SignalTraces {
+    pub signal: Signal,
+    pub t_s: Vec<f64>,
+    pub measured: Vec<f64>,
+    pub before: Vec<f64>,
+    /// The winner's model and its name.
+    pub after: Option<(String, Vec<f64>)>,
 }
 
 /// The instance names `selection` asks for: `all`, or a comma-separated list.
@@ -172,6 +189,7 @@ pub fn analyse(
     };
     let k_base = 6 + usize::from(cfg.fit_ambient_pressure);
     let mut out = Vec::new();
+    let mut models: BTreeMap<String, Vec<Values>> = BTreeMap::new();
     let mut optimiser_spread = 0.0;
     if base.fit_quality.verdict != Verdict::Good {
         // What optimiser and noise variation alone do to the residual: refit the baseline with
@@ -225,6 +243,7 @@ pub fn analyse(
                 _ => None,
             };
             let train = 1.0 - r.ssr / base.ssr.max(1e-300);
+            models.insert(name.clone(), r.model_values.clone());
             out.push(Candidate {
                 effect: name.clone(),
                 bic_gain: bic(&base, k_base) - bic(&r, k_base + extra.len()),
@@ -278,6 +297,26 @@ pub fn analyse(
             },
         }
     };
+    let worst_signal = base
+        .localisation
+        .iter()
+        .filter(|c| c.norm_error.is_finite())
+        .max_by(|a, b| a.norm_error.total_cmp(&b.norm_error))
+        .filter(|_| !base.model_values.is_empty())
+        .map(|c| {
+            let i = c.signal.index();
+            let column = |rows: &[Values]| rows.iter().map(|v| v[i]).collect::<Vec<f64>>();
+            SignalTraces {
+                signal: c.signal,
+                t_s: rec.times().to_vec(),
+                measured: column(rec.rows()),
+                before: column(&base.model_values),
+                after: models
+                    .get(&verdict.effect)
+                    .filter(|m| !m.is_empty())
+                    .map(|m| (verdict.effect.clone(), column(m))),
+            }
+        });
     Ok(GapReport {
         baseline_fit_quality: base.fit_quality.verdict,
         baseline_normalised_residual: base.fit_quality.normalised_residual,
@@ -286,6 +325,7 @@ pub fn analyse(
         optimiser_spread,
         candidates: out,
         verdict,
+        worst_signal,
     })
 }
 

@@ -1,7 +1,11 @@
-//! The residual map as an SVG heat-map: one row per signal, one column per start-up phase, each
-//! cell coloured by its normalised error (white ≤ 1 σ, through yellow, to red ≥ 10 σ) and
-//! labelled with the error and its character (bias in σ or lag-like τ). Pure string building.
+//! The gap analysis as an SVG document: the residual map as a heat-map (one row per signal, one
+//! column per start-up phase, each cell coloured by its normalised error — white ≤ 1 σ, through
+//! yellow, to red ≥ 10 σ — and labelled with the error and its character, bias in σ or
+//! lag-like τ), and below it the worst signal measured against the model before and after the
+//! winning effect. Pure string building.
 
+use super::{GapReport, SignalTraces};
+use crate::chart::{Chart, Series, XAxis, BLUE, GREY, ORANGE};
 use crate::diagnosis::fit_quality::ResidualCell;
 use crate::signals::{Phase, Signal};
 use std::fmt::Write;
@@ -102,6 +106,76 @@ pub fn heat_map(cells: &[ResidualCell], title: &str) -> String {
     s
 }
 
+/// Width and height an `<svg width="…" height="…"` element declares.
+fn size_of(svg: &str) -> (f64, f64) {
+    let attr = |name: &str| {
+        let key = format!("{name}=\"");
+        svg.find(&key)
+            .and_then(|i| {
+                let rest = &svg[i + key.len()..];
+                rest.find('"').and_then(|j| rest[..j].parse::<f64>().ok())
+            })
+            .unwrap_or(0.0)
+    };
+    (attr("width"), attr("height"))
+}
+
+/// The worst signal measured, modelled before and after the winning effect.
+pub fn traces_chart(tr: &SignalTraces) -> String {
+    let t0 = tr.t_s.first().copied().unwrap_or(0.0);
+    let line = |label: String, color, dashed, ys: &[f64]| Series::Line {
+        label,
+        color,
+        dashed,
+        points: tr
+            .t_s
+            .iter()
+            .zip(ys)
+            .filter(|(_, y)| y.is_finite())
+            .map(|(t, y)| (t - t0, *y))
+            .collect(),
+    };
+    let mut series = vec![
+        line("measured".into(), GREY, false, &tr.measured),
+        line("model before".into(), ORANGE, true, &tr.before),
+    ];
+    if let Some((name, after)) = &tr.after {
+        series.push(line(format!("model with {name}"), BLUE, false, after));
+    }
+    Chart {
+        title: format!("{}: measured against the model", tr.signal.column()),
+        y_label: tr.signal.column().to_string(),
+        x_label: "time since the segment start, s".into(),
+        x_axis: XAxis::Seconds,
+        width: 900.0,
+        height: 320.0,
+        series,
+        markers: Vec::new(),
+    }
+    .render()
+}
+
+/// The whole document: heat-map, then the worst signal's traces (when the report has them).
+pub fn document(report: &GapReport, title: &str) -> String {
+    let map = heat_map(&report.localisation, title);
+    let (mw, mh) = size_of(&map);
+    let chart = report.worst_signal.as_ref().map(traces_chart);
+    let (cw, ch) = chart.as_deref().map_or((0.0, 0.0), size_of);
+    let (w, h) = (mw.max(cw), mh + ch);
+    let mut s = String::new();
+    let _ = write!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w:.0}" height="{h:.0}"><style>{}</style>"#,
+        crate::chart::STYLE
+    );
+    s.push_str(map.trim_end());
+    if let Some(c) = chart {
+        let _ = write!(s, r#"<g transform="translate(0,{mh:.0})">{c}</g>"#);
+    }
+    s.push_str("</svg>\n");
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -136,5 +210,44 @@ mod tests {
         assert_eq!(colour(100.0), "rgb(255,0,0)");
         // P2 has no loading cell: a grey placeholder.
         assert!(svg.contains("#eee"));
+    }
+
+    #[test]
+    fn the_document_stacks_the_map_and_the_worst_signal() {
+        let t_s: Vec<f64> = (0..50).map(f64::from).collect();
+        let tr = SignalTraces {
+            signal: Signal::T34,
+            measured: t_s.iter().map(|t| 300.0 + 5.0 * t).collect(),
+            before: t_s.iter().map(|t| 300.0 + 5.5 * t).collect(),
+            after: Some((
+                "sensor_lag:t34_k".into(),
+                t_s.iter().map(|t| 300.0 + 5.05 * t).collect(),
+            )),
+            t_s,
+        };
+        let chart = traces_chart(&tr);
+        assert_eq!(size_of(&chart), (900.0, 320.0));
+        assert!(chart.contains("model with sensor_lag:t34_k") && chart.contains("model before"));
+        assert_eq!(chart.matches("<polyline").count(), 3, "three lines drawn");
+        let report = GapReport {
+            baseline_fit_quality: crate::diagnosis::fit_quality::Verdict::Suspect,
+            baseline_normalised_residual: 1.4,
+            summary: String::new(),
+            localisation: Vec::new(),
+            optimiser_spread: 0.0,
+            candidates: Vec::new(),
+            verdict: crate::gap::GapVerdict {
+                effect: "sensor_lag:t34_k".into(),
+                confidence: 0.5,
+                shrinkage: 0.6,
+                health_before: Default::default(),
+                health_after: Default::default(),
+            },
+            worst_signal: Some(tr),
+        };
+        let doc = document(&report, "t");
+        assert!(doc.starts_with("<svg xmlns") && doc.trim_end().ends_with("</svg>"));
+        assert!(doc.contains("<style>") && doc.contains("translate(0,"));
+        assert_eq!(doc.matches("<svg").count(), 3, "outer, map, chart");
     }
 }

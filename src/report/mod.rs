@@ -8,9 +8,10 @@
 //! inline SVG only: no script, no image, font or style sheet fetched from anywhere. Must not
 //! write to the database (it never records washes or advice, unlike `wash advise`).
 
-pub mod svg;
-
+use crate::chart::{esc, Chart, Marker, Point, Series, XAxis, BLUE, GREEN, GREY, ORANGE, RED};
 use crate::diagnosis::transient::smooth_fuel;
+mod gap_section;
+
 use crate::engine::measured_drive::{simulate_segment, DriveMode};
 use crate::engine::Engine;
 use crate::health::{HealthParams, HEALTH_NAMES};
@@ -18,13 +19,13 @@ use crate::ingest::fmt_ms;
 use crate::query::{list_segments, QueryError};
 use crate::signals::Signal;
 use crate::store::{
-    signal_unit, Gap, HistoryFilter, HistoryRow, RecommendationRow, Store, StoreError, WashRow,
+    signal_unit, Gap, GapAnalysisRow, HistoryFilter, HistoryRow, RecommendationRow, Store,
+    StoreError, WashRow,
 };
 use crate::trend::{fit_rate, TrendPoint};
 use serde::Serialize;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
-use svg::{esc, Chart, Marker, Point, Series, XAxis, BLUE, GREEN, GREY, ORANGE, RED};
 
 const MS_PER_DAY: f64 = 86_400_000.0;
 
@@ -118,6 +119,8 @@ pub struct ReportData {
     pub latest: Option<LatestStartup>,
     pub gaps: Vec<Gap>,
     pub undiagnosed: Vec<Undiagnosed>,
+    /// Stored gap analyses of the period's start-ups, newest first.
+    pub gap_analyses: Vec<GapAnalysisRow>,
     pub startups: usize,
     pub advice: Option<RecommendationRow>,
 }
@@ -187,6 +190,7 @@ pub fn gather(
         .unwrap_or(0);
     let hi = until_ms.unwrap_or(i64::MAX);
     let gaps = store.gaps_between(lo, hi)?;
+    let gap_analyses = store.gap_analyses_between(lo, hi, gap_section::MAX_ROWS)?;
     let trends = trend_lines(&history, &washes);
     let latest = history
         .iter()
@@ -203,6 +207,7 @@ pub fn gather(
         latest,
         gaps,
         undiagnosed,
+        gap_analyses,
         startups: segments.len(),
         advice,
     })
@@ -341,10 +346,6 @@ h1{font-size:22px;margin:0 0 4px}h2{font-size:18px;margin:28px 0 8px;border-bott
 .grid2{display:flex;flex-wrap:wrap;gap:8px}.stack{display:flex;flex-direction:column}
 table{border-collapse:collapse;font-size:13px}td,th{border:1px solid #ddd;padding:3px 8px;text-align:right}th{background:#f4f4f4}
 td.l,th.l{text-align:left}
-svg text{font-family:inherit}svg .title{font-size:14px;font-weight:600}svg .tick{font-size:11px;fill:#444}
-svg .axis{font-size:12px;fill:#333}svg .legend{font-size:12px;fill:#333}svg .marker{font-size:11px}
-svg .grid{stroke:#e6e6e6}svg .frame{fill:none;stroke:#999}svg .zero{stroke:#999;stroke-dasharray:2 2}
-svg .empty{font-size:14px;fill:#888}
 "#;
 
 const PARAM_TITLES: [&str; 6] = [
@@ -361,8 +362,9 @@ pub fn render(d: &ReportData) -> String {
     let mut h = String::new();
     let _ = write!(
         h,
-        "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>gtwatch report: {}</title><style>{CSS}</style></head><body>",
-        esc(&d.header.plant)
+        "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>gtwatch report: {}</title><style>{CSS}{}svg text{{font-family:inherit}}</style></head><body>",
+        esc(&d.header.plant),
+        crate::chart::STYLE
     );
     let span = match (d.history.first(), d.history.last()) {
         (Some(a), Some(b)) => format!("{} to {}", date(a.start_ms), date(b.start_ms)),
@@ -480,6 +482,7 @@ pub fn render(d: &ReportData) -> String {
         }
         h.push_str("</table>");
     }
+    h.push_str(&gap_section::render(&d.gap_analyses));
     h.push_str("<h2>Data gaps</h2>");
     if d.gaps.is_empty() {
         h.push_str("<p class=\"meta\">None recorded in this period.</p>");

@@ -30,6 +30,27 @@ pub struct GapAnalysisRow {
     pub baseline_fit_quality: String,
     pub normalised_residual: f64,
     pub created_at_ms: i64,
+    /// Start of the analysed segment (Unix ms).
+    pub segment_start_ms: i64,
+}
+
+const ROW_COLUMNS: &str = "g.id, g.segment_id, g.holdout_segment_id, g.effect, g.shrinkage,
+    g.confidence, g.baseline_fit_quality, g.normalised_residual, g.created_at_ms, s.start_ms
+    FROM gap_analyses g JOIN segments s ON s.id = g.segment_id";
+
+fn row(r: &rusqlite::Row<'_>) -> rusqlite::Result<GapAnalysisRow> {
+    Ok(GapAnalysisRow {
+        id: r.get(0)?,
+        segment_id: r.get(1)?,
+        holdout_segment_id: r.get(2)?,
+        effect: r.get(3)?,
+        shrinkage: r.get(4)?,
+        confidence: r.get(5)?,
+        baseline_fit_quality: r.get(6)?,
+        normalised_residual: r.get(7)?,
+        created_at_ms: r.get(8)?,
+        segment_start_ms: r.get(9)?,
+    })
 }
 
 impl Store {
@@ -58,24 +79,29 @@ impl Store {
 
     /// The analyses of a segment, newest first.
     pub fn gap_analyses(&self, segment_id: i64) -> Result<Vec<GapAnalysisRow>, StoreError> {
-        let mut st = self.conn.prepare_cached(
-            "SELECT id, segment_id, holdout_segment_id, effect, shrinkage, confidence,
-                    baseline_fit_quality, normalised_residual, created_at_ms
-             FROM gap_analyses WHERE segment_id = ?1 ORDER BY id DESC",
+        let mut st = self.conn.prepare_cached(&format!(
+            "SELECT {ROW_COLUMNS} WHERE g.segment_id = ?1 ORDER BY g.id DESC"
+        ))?;
+        let rows = st.query_map(params![segment_id], row)?;
+        Ok(rows.collect::<Result<_, _>>()?)
+    }
+
+    /// The analyses of segments starting in `[from_ms, to_ms]`, newest segment first, at most
+    /// `limit`.
+    pub fn gap_analyses_between(
+        &self,
+        from_ms: i64,
+        to_ms: i64,
+        limit: usize,
+    ) -> Result<Vec<GapAnalysisRow>, StoreError> {
+        let mut st = self.conn.prepare_cached(&format!(
+            "SELECT {ROW_COLUMNS} WHERE s.start_ms BETWEEN ?1 AND ?2
+             ORDER BY s.start_ms DESC, g.id DESC LIMIT ?3"
+        ))?;
+        let rows = st.query_map(
+            params![from_ms, to_ms, i64::try_from(limit).unwrap_or(i64::MAX)],
+            row,
         )?;
-        let rows = st.query_map(params![segment_id], |r| {
-            Ok(GapAnalysisRow {
-                id: r.get(0)?,
-                segment_id: r.get(1)?,
-                holdout_segment_id: r.get(2)?,
-                effect: r.get(3)?,
-                shrinkage: r.get(4)?,
-                confidence: r.get(5)?,
-                baseline_fit_quality: r.get(6)?,
-                normalised_residual: r.get(7)?,
-                created_at_ms: r.get(8)?,
-            })
-        })?;
         Ok(rows.collect::<Result<_, _>>()?)
     }
 }
@@ -115,7 +141,16 @@ mod tests {
             (id, "sensor_lag:t34_k")
         );
         assert_eq!(rows[0].shrinkage, 0.6);
+        assert_eq!(rows[0].segment_start_ms, 1000);
         assert!(store.gap_analyses(seg + 1).expect("read").is_empty());
+        assert_eq!(
+            store.gap_analyses_between(0, 5000, 10).expect("between"),
+            rows
+        );
+        assert!(store
+            .gap_analyses_between(1001, 5000, 10)
+            .expect("between")
+            .is_empty());
         // A row must name a real segment.
         let bad = NewGapAnalysis {
             segment_id: seg + 99,

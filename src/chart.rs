@@ -1,10 +1,20 @@
-//! A small SVG line-chart writer for the HTML report: axes with ticks and units, lines, points
-//! with ±σ bars, vertical event markers, a legend. Output is a self-contained `<svg>` string
+//! A small SVG line-chart writer (the HTML report's charts, the gap analysis's before/after
+//! traces): axes with ticks and units, lines, points with ±σ bars, vertical event markers, a
+//! legend. Output is a self-contained `<svg>` string
 //! (no scripts, no external references), escaped where it carries text.
 //!
 //! Pure string building: no I/O.
 
 use std::fmt::Write;
+
+/// The style rules the charts' classes need, for a page (inside `<style>`) or a standalone
+/// SVG document (inside `<svg><style>`).
+pub const STYLE: &str =
+    "svg text{font-family:sans-serif}svg .title{font-size:14px;font-weight:600}\
+svg .tick{font-size:11px;fill:#444}svg .axis{font-size:12px;fill:#333}\
+svg .legend{font-size:12px;fill:#333}svg .marker{font-size:11px}svg .grid{stroke:#e6e6e6}\
+svg .frame{fill:none;stroke:#999}svg .zero{stroke:#999;stroke-dasharray:2 2}\
+svg .empty{font-size:14px;fill:#888}";
 
 /// Colours used consistently across charts.
 pub const BLUE: &str = "#1f5fa8";

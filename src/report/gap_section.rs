@@ -1,0 +1,84 @@
+//! The report's "Model–plant gap" section: the stored gap analyses (`gtwatch gap --segment`)
+//! of the period — which start-ups the model did not fit, what the analysis named as the
+//! cause, how far adding it shrank the gap. Pure HTML building from stored rows.
+
+use crate::chart::esc;
+use crate::ingest::fmt_ms;
+use crate::store::GapAnalysisRow;
+use std::fmt::Write;
+
+/// Rows shown at most.
+pub const MAX_ROWS: usize = 50;
+
+/// The section's HTML.
+pub fn render(rows: &[GapAnalysisRow]) -> String {
+    let mut h = String::from("<h2>Model–plant gap</h2>");
+    if rows.is_empty() {
+        h.push_str(
+            "<p class=\"meta\">No gap analysis stored for this period \
+             (<code>gtwatch gap --segment ID</code> runs one on a stored start-up).</p>",
+        );
+        return h;
+    }
+    let named = rows
+        .iter()
+        .filter(|r| !matches!(r.effect.as_str(), "none" | "unexplained"))
+        .count();
+    let unexplained = rows.iter().filter(|r| r.effect == "unexplained").count();
+    let _ = write!(
+        h,
+        "<p class=\"meta\">{} analysis(es): {named} named an unmodelled effect, {unexplained} \
+         found a gap no library effect explains. An effect adopted into the engine file \
+         (<code>gtwatch gap --adopt</code>) is used by every later diagnosis.</p>\
+         <table><tr><th class=\"l\">start-up (UTC)</th><th>segment</th><th class=\"l\">baseline fit</th>\
+         <th>normalised residual</th><th class=\"l\">verdict</th><th>shrinkage</th><th>confidence</th></tr>",
+        rows.len()
+    );
+    for r in rows {
+        let _ = write!(
+            h,
+            "<tr><td class=\"l\">{}</td><td>{}</td><td class=\"l\">{}</td><td>{:.2}</td>\
+             <td class=\"l\">{}</td><td>{:.0} %</td><td>{:.2}</td></tr>",
+            esc(&fmt_ms(r.segment_start_ms)),
+            r.segment_id,
+            esc(&r.baseline_fit_quality),
+            r.normalised_residual,
+            esc(&r.effect),
+            100.0 * r.shrinkage,
+            r.confidence
+        );
+    }
+    h.push_str("</table>");
+    h
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_section_lists_each_analysis_and_counts_the_verdicts() {
+        let row = |id, effect: &str| GapAnalysisRow {
+            id,
+            segment_id: 10 + id,
+            holdout_segment_id: None,
+            effect: effect.into(),
+            shrinkage: 0.62,
+            confidence: 0.4,
+            baseline_fit_quality: "suspect".into(),
+            normalised_residual: 1.35,
+            created_at_ms: 0,
+            segment_start_ms: 1_767_571_200_000,
+        };
+        let h = render(&[
+            row(1, "sensor_lag:t34_k"),
+            row(2, "unexplained"),
+            row(3, "none"),
+        ]);
+        assert!(h.contains("3 analysis(es): 1 named an unmodelled effect, 1 found a gap"));
+        assert_eq!(h.matches("<tr>").count(), 4, "header and three rows");
+        assert!(h.contains("sensor_lag:t34_k") && h.contains("62 %"));
+        assert!(h.contains("2026-01-05"));
+        assert!(render(&[]).contains("No gap analysis stored"));
+    }
+}
