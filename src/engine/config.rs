@@ -64,7 +64,8 @@ pub struct DesignConfig {
     pub cooling_bleed_frac: f64,
 }
 
-/// Component maps: `""` selects the embedded map, otherwise a GasTurb file path.
+/// Component maps: `""` selects the embedded map, otherwise a GasTurb file path; a relative
+/// path is relative to the engine file's directory (see [`EngineConfig::load`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MapsConfig {
@@ -77,6 +78,23 @@ pub struct MapsConfig {
     pub pt_file: String,
     pub pt_design_speed: f64,
     pub pt_design_pr: f64,
+}
+
+impl MapsConfig {
+    /// Rewrites every non-empty, relative map path as `dir/path` (absolute paths and `""`, the
+    /// embedded map, are unchanged). [`EngineConfig::load`] calls this with the engine file's
+    /// directory.
+    pub fn resolve_relative_to(&mut self, dir: &Path) {
+        for file in [
+            &mut self.compressor_file,
+            &mut self.hpt_file,
+            &mut self.pt_file,
+        ] {
+            if !file.is_empty() && Path::new(file.as_str()).is_relative() {
+                *file = dir.join(file.as_str()).display().to_string();
+            }
+        }
+    }
 }
 
 /// Shafts, volumes and losses.
@@ -262,12 +280,18 @@ impl EngineConfig {
         Ok(cfg)
     }
 
+    /// Reads and validates an engine file. Relative map paths in `[maps]` are resolved against
+    /// the engine file's directory (absolute paths are kept), so a file and its maps can be
+    /// moved together and used from any working directory.
     pub fn load(path: &Path) -> Result<EngineConfig, EngineConfigError> {
         let text = std::fs::read_to_string(path).map_err(|source| EngineConfigError::Io {
             path: path.display().to_string(),
             source,
         })?;
-        Self::from_toml_str(&text, &path.display().to_string())
+        let mut cfg = Self::from_toml_str(&text, &path.display().to_string())?;
+        let dir = path.parent().unwrap_or_else(|| Path::new(""));
+        cfg.maps.resolve_relative_to(dir);
+        Ok(cfg)
     }
 
     /// Loads `path`, or the reference engine when `None`.
@@ -573,5 +597,59 @@ mod tests {
             err.to_string().contains("design.compressor_efficiency"),
             "{err}"
         );
+    }
+
+    /// Map paths in `[maps]` are relative to the engine file, not the working directory; a
+    /// missing map is named once, with its key.
+    #[test]
+    fn map_paths_resolve_against_the_engine_file() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let sub = dir.path().join("maps_here");
+        std::fs::create_dir(&sub).expect("mkdir");
+        std::fs::write(sub.join("hpc.map"), crate::maps::HPC_MAP).expect("write map");
+        let text = REFERENCE_ENGINE_TOML.replace(
+            "compressor_file = \"\"",
+            "compressor_file = \"maps_here/hpc.map\"",
+        );
+        let file = dir.path().join("engine.toml");
+        std::fs::write(&file, &text).expect("write engine");
+        // The test runs in the crate root, where `maps_here/hpc.map` does not exist.
+        assert!(!Path::new("maps_here/hpc.map").exists());
+        let cfg = EngineConfig::load(&file).expect("loads");
+        assert_eq!(
+            Path::new(&cfg.maps.compressor_file),
+            sub.join("hpc.map").as_path()
+        );
+        // Same map as the embedded one: the same calibrated engine.
+        let e = crate::engine::Engine::new(cfg).expect("engine");
+        let r = crate::engine::Engine::reference().expect("reference");
+        assert_eq!(e.design(), r.design());
+        // Absolute paths are kept as they are.
+        let abs = sub.join("hpc.map").display().to_string();
+        let text = REFERENCE_ENGINE_TOML.replace(
+            "compressor_file = \"\"",
+            &format!("compressor_file = {abs:?}"),
+        );
+        let other = tempfile::tempdir().expect("tempdir");
+        let file2 = other.path().join("engine.toml");
+        std::fs::write(&file2, text).expect("write engine");
+        let cfg = EngineConfig::load(&file2).expect("loads");
+        assert_eq!(cfg.maps.compressor_file, abs);
+        // A missing map: one mention of the file, and the key.
+        let text = REFERENCE_ENGINE_TOML.replace("hpt_file = \"\"", "hpt_file = \"nope.map\"");
+        std::fs::write(&file, text).expect("write engine");
+        let cfg = EngineConfig::load(&file).expect("loads");
+        let err = crate::engine::Engine::new(cfg)
+            .expect_err("missing map")
+            .to_string();
+        assert_eq!(err.matches("nope.map").count(), 1, "{err}");
+        assert!(
+            err.contains("maps.hpt_file") && err.contains("cannot read map file"),
+            "{err}"
+        );
+        // Not chained as a source either, so an error-chain printer cannot repeat it.
+        let e = crate::engine::Engine::new(EngineConfig::load(&file).expect("loads"))
+            .expect_err("missing map");
+        assert!(std::error::Error::source(&e).is_none());
     }
 }

@@ -126,22 +126,37 @@ impl Model {
     }
 }
 
-fn load_compressor(file: &str) -> Result<CompressorMap, EngineError> {
-    let parsed = if file.is_empty() {
-        maps::gasturb::parse(maps::HPC_MAP, "embedded hpc.map")?
-    } else {
-        maps::gasturb::read_file(Path::new(file))?
-    };
-    Ok(CompressorMap::from_gasturb(&parsed)?)
+fn map_error(key: &str) -> impl Fn(maps::MapError) -> EngineError + '_ {
+    move |error| EngineError::MapFile {
+        key: key.into(),
+        error,
+    }
 }
 
-fn load_turbine(file: &str, embedded: &str, name: &str) -> Result<TurbineMap, EngineError> {
+fn load_compressor(file: &str) -> Result<CompressorMap, EngineError> {
+    let key = "maps.compressor_file";
     let parsed = if file.is_empty() {
-        maps::gasturb::parse(embedded, name)?
+        maps::gasturb::parse(maps::HPC_MAP, "embedded hpc.map")
     } else {
-        maps::gasturb::read_file(Path::new(file))?
-    };
-    Ok(TurbineMap::from_gasturb(&parsed)?)
+        maps::gasturb::read_file(Path::new(file))
+    }
+    .map_err(map_error(key))?;
+    CompressorMap::from_gasturb(&parsed).map_err(map_error(key))
+}
+
+fn load_turbine(
+    key: &str,
+    file: &str,
+    embedded: &str,
+    name: &str,
+) -> Result<TurbineMap, EngineError> {
+    let parsed = if file.is_empty() {
+        maps::gasturb::parse(embedded, name)
+    } else {
+        maps::gasturb::read_file(Path::new(file))
+    }
+    .map_err(map_error(key))?;
+    TurbineMap::from_gasturb(&parsed).map_err(map_error(key))
 }
 
 impl Engine {
@@ -151,11 +166,13 @@ impl Engine {
         let maps = RawMaps {
             comp: Arc::new(load_compressor(&cfg.maps.compressor_file)?),
             hpt: Arc::new(load_turbine(
+                "maps.hpt_file",
                 &cfg.maps.hpt_file,
                 maps::HPT_MAP,
                 "embedded hpt.map",
             )?),
             pt: Arc::new(load_turbine(
+                "maps.pt_file",
                 &cfg.maps.pt_file,
                 maps::LPT_MAP,
                 "embedded lpt.map",
