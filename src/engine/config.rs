@@ -54,10 +54,16 @@ pub struct DesignConfig {
     pub inlet_loss_frac: f64,
     /// Combustor total-pressure loss at design, fraction of P2.
     pub combustor_loss_frac: f64,
+    /// Combustion efficiency, (0, 1].
     pub combustion_efficiency: f64,
     pub fuel_lhv_j_per_kg: f64,
-    /// Mechanical efficiency of each shaft.
-    pub mechanical_efficiency: f64,
+    /// Mechanical efficiency of the gas-generator shaft, (0, 1]: the HPT delivers its gas power
+    /// times this to the compressor (GasTurb/GSP convention). The engine file may give the
+    /// legacy `mechanical_efficiency` instead, which sets both shafts.
+    pub gg_mechanical_efficiency: f64,
+    /// Mechanical efficiency of the power-turbine shaft, (0, 1]: the PT delivers its gas power
+    /// times this at its coupling, before windage and bearing losses.
+    pub pt_mechanical_efficiency: f64,
     /// Exhaust static back-pressure at design flow, multiple of ambient pressure.
     pub exhaust_back_pressure_ratio: f64,
     /// Compressor air bled overboard (cooling/leakage), fraction of compressor flow.
@@ -266,10 +272,16 @@ impl EngineConfig {
     }
 
     pub fn from_toml_str(text: &str, path: &str) -> Result<EngineConfig, EngineConfigError> {
-        let mut cfg: EngineConfig = toml::from_str(text).map_err(|e| EngineConfigError::Parse {
+        let parse_error = |e: toml::de::Error| EngineConfigError::Parse {
             path: path.into(),
             message: e.to_string(),
-        })?;
+        };
+        let table: toml::Table = toml::from_str(text).map_err(parse_error)?;
+        let mut cfg: EngineConfig = match legacy_mechanical_efficiency(table, path)? {
+            // Deserialise from the text when nothing was rewritten: errors keep their line.
+            None => toml::from_str(text).map_err(parse_error)?,
+            Some(table) => table.try_into().map_err(parse_error)?,
+        };
         cfg.validate(path)?;
         cfg.effects =
             super::effects::complete(&cfg.effects).map_err(|e| EngineConfigError::Invalid {
@@ -369,25 +381,73 @@ impl EngineConfig {
     }
 }
 
-/// Allowed interval of one engine-file number (inclusive bounds).
+/// The legacy `design.mechanical_efficiency` (one value for both shafts): rewritten as
+/// `gg_mechanical_efficiency` and `pt_mechanical_efficiency`. `None` when the file does not use
+/// it; an error when it is combined with the per-shaft keys.
+fn legacy_mechanical_efficiency(
+    mut table: toml::Table,
+    path: &str,
+) -> Result<Option<toml::Table>, EngineConfigError> {
+    let Some(design) = table.get_mut("design").and_then(|d| d.as_table_mut()) else {
+        return Ok(None);
+    };
+    let Some(value) = design.remove("mechanical_efficiency") else {
+        return Ok(None);
+    };
+    for key in ["gg_mechanical_efficiency", "pt_mechanical_efficiency"] {
+        if design.contains_key(key) {
+            return Err(EngineConfigError::Invalid {
+                path: path.into(),
+                key: "design.mechanical_efficiency".into(),
+                reason: format!("give either it (both shafts) or design.{key}, not both"),
+            });
+        }
+        design.insert(key.into(), value.clone());
+    }
+    Ok(Some(table))
+}
+
+/// Allowed interval of one engine-file number: `[min, max]`, or `(min, max]` when
+/// `min_exclusive`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ParamRange {
     pub min: f64,
     pub max: f64,
+    /// The lower bound itself is not allowed.
+    pub min_exclusive: bool,
 }
 
 impl ParamRange {
     const fn new(min: f64, max: f64) -> ParamRange {
-        ParamRange { min, max }
+        ParamRange {
+            min,
+            max,
+            min_exclusive: false,
+        }
+    }
+    /// An efficiency: (0, 1]. 1.0 (ideal combustion, lossless shaft, as peers' examples use)
+    /// is allowed.
+    const fn efficiency() -> ParamRange {
+        ParamRange {
+            min: 0.0,
+            max: 1.0,
+            min_exclusive: true,
+        }
     }
     /// `Err(reason)` unless `v` is finite and inside the range.
     pub fn check(&self, v: f64) -> Result<(), String> {
         if !v.is_finite() {
             return Err("must be a finite number".into());
         }
-        if v < self.min || v > self.max {
+        let below = if self.min_exclusive {
+            v <= self.min
+        } else {
+            v < self.min
+        };
+        if below || v > self.max {
+            let open = if self.min_exclusive { '(' } else { '[' };
             return Err(format!(
-                "{v} is outside the allowed range [{}, {}]",
+                "{v} is outside the allowed range {open}{}, {}]",
                 self.min, self.max
             ));
         }
@@ -404,16 +464,17 @@ const RANGES: &[(&str, ParamRange)] = &[
     ("design.pressure_ratio", ParamRange::new(1.01, 80.0)),
     ("design.exhaust_flow_kg_s", ParamRange::new(0.01, 5000.0)),
     ("design.power_mw", ParamRange::new(0.001, 2000.0)),
-    ("design.compressor_efficiency", ParamRange::new(0.3, 0.9999)),
-    ("design.hpt_efficiency", ParamRange::new(0.3, 0.9999)),
-    ("design.pt_efficiency", ParamRange::new(0.3, 0.9999)),
+    ("design.compressor_efficiency", ParamRange::efficiency()),
+    ("design.hpt_efficiency", ParamRange::efficiency()),
+    ("design.pt_efficiency", ParamRange::efficiency()),
     ("design.gg_speed_rpm", ParamRange::new(100.0, 200_000.0)),
     ("design.pt_speed_rpm", ParamRange::new(100.0, 200_000.0)),
     ("design.inlet_loss_frac", ParamRange::new(0.0, 0.5)),
     ("design.combustor_loss_frac", ParamRange::new(0.0, 0.5)),
-    ("design.combustion_efficiency", ParamRange::new(0.3, 0.9999)),
+    ("design.combustion_efficiency", ParamRange::efficiency()),
     ("design.fuel_lhv_j_per_kg", ParamRange::new(1.0e6, 2.0e8)),
-    ("design.mechanical_efficiency", ParamRange::new(0.3, 0.9999)),
+    ("design.gg_mechanical_efficiency", ParamRange::efficiency()),
+    ("design.pt_mechanical_efficiency", ParamRange::efficiency()),
     (
         "design.exhaust_back_pressure_ratio",
         ParamRange::new(1.0, 2.0),
@@ -651,5 +712,84 @@ mod tests {
         let e = crate::engine::Engine::new(EngineConfig::load(&file).expect("loads"))
             .expect_err("missing map");
         assert!(std::error::Error::source(&e).is_none());
+    }
+
+    /// Efficiencies are in (0, 1]: exactly 1 is accepted (ideal combustion, lossless shafts),
+    /// 0, above 1 and non-finite values are refused with the key named.
+    #[test]
+    fn efficiencies_accept_one_and_refuse_zero_and_nan() {
+        let keys = [
+            (
+                "compressor_efficiency = 0.85",
+                "design.compressor_efficiency",
+            ),
+            (
+                "combustion_efficiency = 0.995",
+                "design.combustion_efficiency",
+            ),
+            (
+                "gg_mechanical_efficiency = 0.99",
+                "design.gg_mechanical_efficiency",
+            ),
+            (
+                "pt_mechanical_efficiency = 0.99",
+                "design.pt_mechanical_efficiency",
+            ),
+            ("hpt_efficiency = 0.88", "design.hpt_efficiency"),
+        ];
+        for (from, key) in keys {
+            assert!(REFERENCE_ENGINE_TOML.contains(from), "{from}");
+            let name = from.split(' ').next().unwrap_or(from);
+            let ok = REFERENCE_ENGINE_TOML.replace(from, &format!("{name} = 1.0"));
+            let cfg = EngineConfig::from_toml_str(&ok, "x.toml").expect(key);
+            let leaf = key.split('.').nth(1).unwrap_or(key);
+            let v = serde_json::to_value(&cfg.design).expect("json")[leaf].as_f64();
+            assert_eq!(v, Some(1.0), "{key}");
+            for bad in ["0.0", "1.0001", "nan", "inf", "-0.5"] {
+                let text = REFERENCE_ENGINE_TOML.replace(from, &format!("{name} = {bad}"));
+                let err = EngineConfig::from_toml_str(&text, "x.toml").expect_err(bad);
+                assert!(err.to_string().contains(key), "{key} = {bad}: {err}");
+            }
+        }
+        // Ideal combustion and lossless shafts calibrate.
+        let text = REFERENCE_ENGINE_TOML
+            .replace(
+                "combustion_efficiency = 0.995",
+                "combustion_efficiency = 1.0",
+            )
+            .replace(
+                "gg_mechanical_efficiency = 0.99",
+                "gg_mechanical_efficiency = 1.0",
+            )
+            .replace(
+                "pt_mechanical_efficiency = 0.99",
+                "pt_mechanical_efficiency = 1.0",
+            );
+        let cfg = EngineConfig::from_toml_str(&text, "x.toml").expect("ideal");
+        crate::engine::Engine::new(cfg).expect("calibrates");
+    }
+
+    /// The legacy `mechanical_efficiency` sets both shafts; with a per-shaft key it is an error.
+    #[test]
+    fn legacy_mechanical_efficiency_sets_both_shafts() {
+        let per_shaft = "gg_mechanical_efficiency = 0.99  # gas-generator shaft: HPT gas power x this drives the compressor\npt_mechanical_efficiency = 0.99";
+        let text = REFERENCE_ENGINE_TOML.replace(per_shaft, "mechanical_efficiency = 0.97");
+        assert_ne!(text, REFERENCE_ENGINE_TOML);
+        let cfg = EngineConfig::from_toml_str(&text, "x.toml").expect("legacy");
+        assert_eq!(cfg.design.gg_mechanical_efficiency, 0.97);
+        assert_eq!(cfg.design.pt_mechanical_efficiency, 0.97);
+        let text = REFERENCE_ENGINE_TOML.replace(
+            "pt_mechanical_efficiency = 0.99",
+            "mechanical_efficiency = 0.97",
+        );
+        let err = EngineConfig::from_toml_str(&text, "x.toml").expect_err("both");
+        assert!(
+            err.to_string().contains("design.mechanical_efficiency"),
+            "{err}"
+        );
+        // The legacy key still gets a bad value named.
+        let text = REFERENCE_ENGINE_TOML.replace(per_shaft, "mechanical_efficiency = nan");
+        let err = EngineConfig::from_toml_str(&text, "x.toml").expect_err("nan");
+        assert!(err.to_string().contains("mechanical_efficiency"), "{err}");
     }
 }

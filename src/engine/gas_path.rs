@@ -261,9 +261,9 @@ pub fn evaluate(model: &Model, inp: &Inputs, adjust: &Adjust) -> GasPath {
     let n2_eval = n2.max(PT_STALL_FRACTION * c.n2_design);
     let p34 = inp.p34_kpa;
     let pt = cycle::turbine(pt_map, &gas, hpt.t_out_k, p34, n2_eval, p34 / p4);
-    let pt_gas_torque = c.eta_m * pt.power_w / (n2_eval * PI / 30.0);
+    let pt_gas_torque = c.shaft.pt_shaft(pt.power_w) / (n2_eval * PI / 30.0);
     let pt_net = pt_gas_torque * n2.max(0.0) * PI / 30.0 - c.pt_loss_w(n2.max(0.0));
-    let gg_net = c.eta_m * hpt.power_w - p_comp - c.gg_loss_w(n1);
+    let gg_net = c.shaft.gg_shaft_w(hpt.power_w) - p_comp - c.gg_loss_w(n1);
 
     let stations = Stations {
         n1_rpm: n1,
