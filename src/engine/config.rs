@@ -38,6 +38,22 @@ pub struct AmbientConfig {
     pub pressure_kpa: f64,
 }
 
+/// How a duct's total-pressure loss varies away from the design point. At the design point
+/// both laws give the engine file's value.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PressureLossLaw {
+    /// The loss scales with the square of the duct's corrected flow (inlet: W√T1/P_amb;
+    /// combustor: W2√T2/P2; exhaust: the back-pressure excess with W√T34/P_amb) — a fixed
+    /// loss coefficient times dynamic head. gtwatch's default.
+    #[default]
+    FlowSquared,
+    /// A constant pressure ratio at every operating point (GSP/GSPy's duct and combustor
+    /// default): inlet P1 = (1 − frac)·P_amb, combustor P3 = (1 − frac)·P2, exhaust
+    /// P4 = ratio·P_amb.
+    Constant,
+}
+
 /// Design-point table and the cycle assumptions of REFERENCE §1.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -52,8 +68,14 @@ pub struct DesignConfig {
     pub pt_speed_rpm: f64,
     /// Inlet total-pressure loss at design flow, fraction of ambient pressure.
     pub inlet_loss_frac: f64,
+    /// How the inlet loss varies off design (default: with corrected flow squared).
+    #[serde(default)]
+    pub inlet_loss_law: PressureLossLaw,
     /// Combustor total-pressure loss at design, fraction of P2.
     pub combustor_loss_frac: f64,
+    /// How the combustor loss varies off design (default: with corrected flow squared).
+    #[serde(default)]
+    pub combustor_loss_law: PressureLossLaw,
     /// Combustion efficiency, (0, 1].
     pub combustion_efficiency: f64,
     pub fuel_lhv_j_per_kg: f64,
@@ -66,6 +88,9 @@ pub struct DesignConfig {
     pub pt_mechanical_efficiency: f64,
     /// Exhaust static back-pressure at design flow, multiple of ambient pressure.
     pub exhaust_back_pressure_ratio: f64,
+    /// How the exhaust back-pressure excess varies off design (default: with flow squared).
+    #[serde(default)]
+    pub exhaust_loss_law: PressureLossLaw,
     /// Compressor air bled overboard (cooling/leakage), fraction of compressor flow.
     pub cooling_bleed_frac: f64,
 }

@@ -215,7 +215,7 @@ pub fn evaluate(model: &Model, inp: &Inputs, adjust: &Adjust) -> GasPath {
             // speed-based inlet-loss guess and the loss then follows from that flow: the PR used
             // differs from P2/P1 by ~1e-4 relative at design, the flow error is ~1e-5.
             let nc1 = cycle::corrected_speed(n1_map, t1);
-            let p1_guess = p_amb * (1.0 - c.inlet_loss_frac * (n1 / c.n1_design).powi(2));
+            let p1_guess = c.p1_guess(p_amb, n1);
             let op = comp_map.at_pr(nc1, p2 / p1_guess);
             let p1 = c.p1(p_amb, op.wc_kg_s * fade);
             (p1, cycle::compressor_from_op(t1, p1, p2 / p1, &op))

@@ -5,7 +5,7 @@
 //! health vector applied; the steady solver and the dynamic model both run on a `Model`.
 //! Pure: map files are read only by [`Engine::new`] when the config names a file path.
 
-use super::config::EngineConfig;
+use super::config::{EngineConfig, PressureLossLaw};
 use super::cycle::{ShaftLosses, P_STD_KPA, T_STD_K};
 use super::effects::EffectSet;
 use crate::health::HealthParams;
@@ -23,11 +23,14 @@ pub struct Constants {
     pub t_amb_k: f64,
     pub p_amb_kpa: f64,
     pub inlet_loss_frac: f64,
+    pub inlet_loss_law: PressureLossLaw,
     pub wc1_design: f64,
     pub combustor_loss_frac: f64,
+    pub combustor_loss_law: PressureLossLaw,
     /// W2·√T2/P2 at design, for the combustor loss law.
     pub q2_design: f64,
     pub exhaust_excess_ratio: f64,
+    pub exhaust_loss_law: PressureLossLaw,
     /// W·√T34/P_amb at design, for the exhaust back-pressure law.
     pub q4_design: f64,
     pub eta_b: f64,
@@ -50,23 +53,49 @@ pub struct Constants {
 }
 
 impl Constants {
-    /// Compressor inlet pressure: ambient less an inlet loss ∝ (corrected flow)².
+    /// Compressor inlet pressure: ambient less an inlet loss ∝ (corrected flow)², or a
+    /// constant fraction ([`PressureLossLaw`]).
     #[inline]
     pub fn p1(&self, p_amb: f64, wc1: f64) -> f64 {
-        let r = wc1 / self.wc1_design;
-        p_amb * (1.0 - self.inlet_loss_frac * r * r)
+        match self.inlet_loss_law {
+            PressureLossLaw::FlowSquared => {
+                let r = wc1 / self.wc1_design;
+                p_amb * (1.0 - self.inlet_loss_frac * r * r)
+            }
+            PressureLossLaw::Constant => p_amb * (1.0 - self.inlet_loss_frac),
+        }
     }
-    /// Combustor exit pressure: P2 less a loss ∝ (W√T2/P2)².
+    /// A first guess of P1 from the GG speed alone (flow ∝ speed), exact for a constant loss.
+    #[inline]
+    pub fn p1_guess(&self, p_amb: f64, n1: f64) -> f64 {
+        match self.inlet_loss_law {
+            PressureLossLaw::FlowSquared => {
+                p_amb * (1.0 - self.inlet_loss_frac * (n1 / self.n1_design).powi(2))
+            }
+            PressureLossLaw::Constant => p_amb * (1.0 - self.inlet_loss_frac),
+        }
+    }
+    /// Combustor exit pressure: P2 less a loss ∝ (W√T2/P2)², or a constant fraction.
     #[inline]
     pub fn p3(&self, p2: f64, w2: f64, t2: f64) -> f64 {
-        let r = w2 * t2.sqrt() / p2 / self.q2_design;
-        p2 * (1.0 - (self.combustor_loss_frac * r * r).min(0.5))
+        match self.combustor_loss_law {
+            PressureLossLaw::FlowSquared => {
+                let r = w2 * t2.sqrt() / p2 / self.q2_design;
+                p2 * (1.0 - (self.combustor_loss_frac * r * r).min(0.5))
+            }
+            PressureLossLaw::Constant => p2 * (1.0 - self.combustor_loss_frac),
+        }
     }
-    /// Exhaust back-pressure: ambient plus an excess ∝ (W√T34/P_amb)².
+    /// Exhaust back-pressure: ambient plus an excess ∝ (W√T34/P_amb)², or a constant ratio.
     #[inline]
     pub fn p4(&self, p_amb: f64, w: f64, t34: f64) -> f64 {
-        let r = w.max(0.0) * t34.sqrt() / p_amb / self.q4_design;
-        p_amb * (1.0 + self.exhaust_excess_ratio * r * r)
+        match self.exhaust_loss_law {
+            PressureLossLaw::FlowSquared => {
+                let r = w.max(0.0) * t34.sqrt() / p_amb / self.q4_design;
+                p_amb * (1.0 + self.exhaust_excess_ratio * r * r)
+            }
+            PressureLossLaw::Constant => p_amb * (1.0 + self.exhaust_excess_ratio),
+        }
     }
     /// All GG shaft losses outside the mechanical efficiency, W.
     #[inline]
@@ -228,10 +257,13 @@ impl Engine {
             t_amb_k: cfg.ambient.temperature_k,
             p_amb_kpa: cfg.ambient.pressure_kpa,
             inlet_loss_frac: d.inlet_loss_frac,
+            inlet_loss_law: d.inlet_loss_law,
             wc1_design: wc1,
             combustor_loss_frac: d.combustor_loss_frac,
+            combustor_loss_law: d.combustor_loss_law,
             q2_design: design.air_flow_kg_s * design.t2_k.sqrt() / design.p2_kpa,
             exhaust_excess_ratio: d.exhaust_back_pressure_ratio - 1.0,
+            exhaust_loss_law: d.exhaust_loss_law,
             q4_design: design.pt_flow_kg_s * design.t34_k.sqrt() / cfg.ambient.pressure_kpa,
             eta_b: d.combustion_efficiency,
             lhv: d.fuel_lhv_j_per_kg,
@@ -345,5 +377,42 @@ impl Engine {
         m.consts.t_amb_k = t_amb_k;
         m.consts.p_amb_kpa = p_amb_kpa;
         m
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::steady::{solve, Demand, SteadyInputs};
+
+    /// Constant-ratio loss laws hold their design ratios at part load; the default flow law does
+    /// not, and both give the same design point.
+    #[test]
+    fn pressure_loss_laws() {
+        let reference = Engine::reference().expect("reference");
+        let mut cfg = EngineConfig::reference();
+        cfg.design.inlet_loss_law = PressureLossLaw::Constant;
+        cfg.design.combustor_loss_law = PressureLossLaw::Constant;
+        cfg.design.exhaust_loss_law = PressureLossLaw::Constant;
+        let constant = Engine::new(cfg).expect("constant laws");
+        assert_eq!(constant.design(), reference.design());
+        let inp = SteadyInputs {
+            t_amb_k: 288.15,
+            p_amb_kpa: 101.325,
+            n2_rpm: 3600.0,
+            demand: Demand::PowerMw(15.0),
+        };
+        let healthy = HealthParams::HEALTHY;
+        let c = solve(&constant.model(&healthy), &inp, None).expect("constant");
+        let f = solve(&reference.model(&healthy), &inp, None).expect("flow");
+        let rel = |a: f64, b: f64| (a / b - 1.0).abs();
+        assert!(rel(c.p1_kpa, 101.325 * 0.99) < 1e-14, "{}", c.p1_kpa);
+        assert!(rel(c.p3_kpa, c.p2_kpa * 0.96) < 1e-14);
+        assert!(rel(c.p4_kpa, 101.325 * 1.03) < 1e-14);
+        // Flow squared: the losses follow the corrected flows (the inlet's falls at part load,
+        // the combustor's W2·√T2/P2 rises).
+        assert!(f.p1_kpa > 101.325 * 0.99 + 0.1, "{}", f.p1_kpa);
+        assert!(f.p3_kpa / f.p2_kpa < 0.959, "{}", f.p3_kpa / f.p2_kpa);
+        assert!(f.p4_kpa < 101.325 * 1.03 - 0.5, "{}", f.p4_kpa);
     }
 }
