@@ -101,10 +101,15 @@ pub struct DesignConfig {
 #[serde(deny_unknown_fields)]
 pub struct MapsConfig {
     pub compressor_file: String,
+    /// Relative corrected speed of the design point on the compressor map.
     pub compressor_design_speed: f64,
+    /// β of the design point **as the map file states it** (its column keys, as GasTurb and
+    /// GSP/GSPy read the file), whichever way the file's PR runs with β; see `maps::compressor`.
     pub compressor_design_beta: f64,
     pub hpt_file: String,
     pub hpt_design_speed: f64,
+    /// Map pressure ratio of the HPT design point (GasTurb/GSP turbine β converts as
+    /// `PR = PRmin + β (PRmax − PRmin)` at the design speed).
     pub hpt_design_pr: f64,
     pub pt_file: String,
     pub pt_design_speed: f64,

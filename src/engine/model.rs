@@ -50,6 +50,8 @@ pub struct Constants {
     pub p2_design_kpa: f64,
     pub t3_design_k: f64,
     pub p34_design_kpa: f64,
+    /// Compressor design β in gtwatch's internal convention (surge end low).
+    pub beta_design: f64,
 }
 
 impl Constants {
@@ -221,10 +223,13 @@ impl Engine {
         let theta1 = design.t1_k / T_STD_K;
         let delta1 = design.p1_kpa / P_STD_KPA;
         let wc1 = design.air_flow_kg_s * theta1.sqrt() / delta1;
+        // The engine file states the design β as the map file does; the map works internally
+        // with the surge end at low β (`maps::compressor` docs).
+        let beta_design = comp_map.beta_from_file(m.compressor_design_beta);
         let comp = ScaledCompressor::calibrate(
             comp_map,
             m.compressor_design_speed,
-            m.compressor_design_beta,
+            beta_design,
             d.gg_speed_rpm / theta1.sqrt(),
             wc1,
             d.pressure_ratio,
@@ -282,6 +287,7 @@ impl Engine {
             p2_design_kpa: design.p2_kpa,
             t3_design_k: design.t3_k,
             p34_design_kpa: design.p34_kpa,
+            beta_design,
         };
         // The design point's β and surge margin come from the scaled map.
         let at_design = super::cycle::compressor_at_beta(
@@ -289,7 +295,7 @@ impl Engine {
             design.t1_k,
             design.p1_kpa,
             design.n1_rpm,
-            m.compressor_design_beta,
+            beta_design,
         );
         design.compressor_beta = at_design.beta;
         design.surge_margin_pct = at_design.surge_margin_pct;

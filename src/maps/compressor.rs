@@ -10,8 +10,17 @@
 //!
 //! `nc` is relative corrected speed (1.0 = map design), `beta` the auxiliary coordinate along a
 //! speed line, 0 at the surge end and 1 at the choke end, so PR falls with beta. A file whose PR
-//! *rises* with beta (e.g. the GSPy sample map) is flipped on reading: `beta = b_min + b_max −
-//! beta_file`.
+//! *rises* with beta (e.g. the GSPy sample map, GasTurb's own convention with β = 1 on the
+//! surge side) is flipped on reading: `beta = b_min + b_max − beta_file`.
+//!
+//! Two β conventions therefore exist, and every API says which it takes:
+//! * **the file's β** — the column keys of the map file, as GasTurb and GSP/GSPy read them. The
+//!   engine file's `maps.compressor_design_beta` is in this convention (so a peer's design β is
+//!   entered as the peer states it); [`CompressorMap::beta_from_file`] converts it.
+//! * **gtwatch's internal β** (surge end low) — what [`CompressorMap::point`],
+//!   [`CompressorMap::beta_for_pr`], the steady solver's unknown and the station table's
+//!   `compressor_beta` use. For a map whose PR already falls with β (the embedded JT9D HPC map)
+//!   both conventions are the same number.
 //!
 //! # Interpolation
 //!
@@ -237,6 +246,21 @@ impl CompressorMap {
     /// Whether the file's beta direction was reversed on reading.
     pub fn flipped(&self) -> bool {
         self.flipped
+    }
+    /// gtwatch's internal β for a β stated in the map file's convention (identity unless the
+    /// file was flipped; see the module docs).
+    pub fn beta_from_file(&self, beta_file: f64) -> f64 {
+        if self.flipped {
+            let m = self.betas.len();
+            self.betas[0] + self.betas[m - 1] - beta_file
+        } else {
+            beta_file
+        }
+    }
+    /// The map file's β for an internal β (the inverse of [`CompressorMap::beta_from_file`]).
+    pub fn beta_to_file(&self, beta: f64) -> f64 {
+        // The flip is its own inverse.
+        self.beta_from_file(beta)
     }
     /// Surge-line points (corrected flow, PR).
     pub fn surge_points(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
@@ -538,6 +562,42 @@ mod tests {
         // Where its data are monotone the inverse works too.
         let b = m.beta_for_pr(0.9, 4.5);
         assert!((m.point(0.9, b).pr - 4.5).abs() < 1e-9);
+    }
+
+    /// The engine file's design β is the map file's β on both map families: GSPy's sample map
+    /// (PR rises with the file's β, flipped) at GSPy's design β 0.79 lands between the file's
+    /// columns 0.75 and 0.875 (bilinear: 32 % of the way), next to the point GSPy prints
+    /// (turboshaft_2spool: PR map 6.7543, Eta map 0.8667, Wc map 19.857, from its cubic
+    /// interpolation); the JT9D HPC map (not flipped) is unchanged.
+    #[test]
+    fn design_beta_in_the_map_files_convention() {
+        for dir in ["config/maps", "../shared/maps"] {
+            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join(dir)
+                .join("gspy_compmap.map");
+            let m = CompressorMap::from_gasturb(&crate::maps::read_file(&path).expect("read"))
+                .expect("build");
+            assert!(m.flipped());
+            let b = m.beta_from_file(0.79);
+            assert!((b - 0.21).abs() < 1e-12, "{b}");
+            assert!((m.beta_to_file(b) - 0.79).abs() < 1e-12);
+            let p = m.point(1.0, b);
+            let lin = |a: f64, c: f64| a + 0.32 * (c - a);
+            assert!((p.pr - lin(6.62920, 7.06568)).abs() < 1e-9, "{dir}: {p:?}");
+            assert!((p.eff - lin(0.87, 0.85)).abs() < 1e-9, "{dir}: {p:?}");
+            assert!((p.wc - lin(19.87, 19.82)).abs() < 1e-9, "{dir}: {p:?}");
+            // GSPy's printed point, within the bilinear-vs-cubic difference.
+            assert!((p.pr / 6.7543 - 1.0).abs() < 0.005, "{dir}: {p:?}");
+            assert!((p.eff / 0.8667 - 1.0).abs() < 0.005, "{dir}: {p:?}");
+            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join(dir)
+                .join("hpc.map");
+            let h = CompressorMap::from_gasturb(&crate::maps::read_file(&path).expect("read"))
+                .expect("build");
+            assert!(!h.flipped());
+            assert_eq!(h.beta_from_file(0.5), 0.5);
+            assert!((h.point(1.0, h.beta_from_file(0.5)).pr - 22.9999).abs() < 1e-9);
+        }
     }
 
     proptest! {
