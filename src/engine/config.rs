@@ -114,6 +114,21 @@ pub struct MapsConfig {
     pub pt_file: String,
     pub pt_design_speed: f64,
     pub pt_design_pr: f64,
+    /// How all three maps are interpolated inside their grids (default bilinear).
+    #[serde(default)]
+    pub interpolation: MapInterpolation,
+}
+
+/// Map interpolation inside the grid (`maps::compressor`, `maps::turbine`, `maps::spline`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MapInterpolation {
+    /// Bilinear in (speed, β): gtwatch's default.
+    #[default]
+    Linear,
+    /// Not-a-knot tensor-product cubic splines (SciPy's `RegularGridInterpolator` "cubic", as
+    /// GSPy uses): smoother, for agreement with peers that interpolate so.
+    Cubic,
 }
 
 impl MapsConfig {

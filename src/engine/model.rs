@@ -5,7 +5,7 @@
 //! health vector applied; the steady solver and the dynamic model both run on a `Model`.
 //! Pure: map files are read only by [`Engine::new`] when the config names a file path.
 
-use super::config::{EngineConfig, PressureLossLaw};
+use super::config::{EngineConfig, MapInterpolation, PressureLossLaw};
 use super::cycle::{ShaftLosses, P_STD_KPA, T_STD_K};
 use super::effects::EffectSet;
 use crate::health::HealthParams;
@@ -163,7 +163,7 @@ fn map_error(key: &str) -> impl Fn(maps::MapError) -> EngineError + '_ {
     }
 }
 
-fn load_compressor(file: &str) -> Result<CompressorMap, EngineError> {
+fn load_compressor(file: &str, interp: MapInterpolation) -> Result<CompressorMap, EngineError> {
     let key = "maps.compressor_file";
     let parsed = if file.is_empty() {
         maps::gasturb::parse(maps::HPC_MAP, "embedded hpc.map")
@@ -171,7 +171,11 @@ fn load_compressor(file: &str) -> Result<CompressorMap, EngineError> {
         maps::gasturb::read_file(Path::new(file))
     }
     .map_err(map_error(key))?;
-    CompressorMap::from_gasturb(&parsed).map_err(map_error(key))
+    let map = CompressorMap::from_gasturb(&parsed).map_err(map_error(key))?;
+    match interp {
+        MapInterpolation::Linear => Ok(map),
+        MapInterpolation::Cubic => map.with_cubic_interpolation().map_err(map_error(key)),
+    }
 }
 
 fn load_turbine(
@@ -179,6 +183,7 @@ fn load_turbine(
     file: &str,
     embedded: &str,
     name: &str,
+    interp: MapInterpolation,
 ) -> Result<TurbineMap, EngineError> {
     let parsed = if file.is_empty() {
         maps::gasturb::parse(embedded, name)
@@ -186,7 +191,11 @@ fn load_turbine(
         maps::gasturb::read_file(Path::new(file))
     }
     .map_err(map_error(key))?;
-    TurbineMap::from_gasturb(&parsed).map_err(map_error(key))
+    let map = TurbineMap::from_gasturb(&parsed).map_err(map_error(key))?;
+    match interp {
+        MapInterpolation::Linear => Ok(map),
+        MapInterpolation::Cubic => map.with_cubic_interpolation().map_err(map_error(key)),
+    }
 }
 
 impl Engine {
@@ -194,18 +203,23 @@ impl Engine {
     pub fn new(cfg: EngineConfig) -> Result<Engine, EngineError> {
         cfg.validate("<engine>")?;
         let maps = RawMaps {
-            comp: Arc::new(load_compressor(&cfg.maps.compressor_file)?),
+            comp: Arc::new(load_compressor(
+                &cfg.maps.compressor_file,
+                cfg.maps.interpolation,
+            )?),
             hpt: Arc::new(load_turbine(
                 "maps.hpt_file",
                 &cfg.maps.hpt_file,
                 maps::HPT_MAP,
                 "embedded hpt.map",
+                cfg.maps.interpolation,
             )?),
             pt: Arc::new(load_turbine(
                 "maps.pt_file",
                 &cfg.maps.pt_file,
                 maps::LPT_MAP,
                 "embedded lpt.map",
+                cfg.maps.interpolation,
             )?),
         };
         Engine::calibrate(cfg, maps)

@@ -27,6 +27,14 @@
 //! Bilinear in (nc, beta): linear along each speed line between beta keys, linear between the
 //! two neighbouring speed lines. Continuous everywhere, monotone where the data are.
 //!
+//! Optionally ([`CompressorMap::with_cubic_interpolation`], engine file
+//! `maps.interpolation = "cubic"`): the not-a-knot tensor-product cubic spline of
+//! [`super::spline`] (SciPy's `RegularGridInterpolator(method="cubic")`, as GSPy uses) inside
+//! the grid. Outside the grid the extrapolation rules below apply to the bilinear values plus
+//! the cubic-minus-bilinear difference at the nearest grid point, so the map stays continuous
+//! at the grid edge. [`CompressorMap::beta_for_pr`] then refines the bilinear inverse by Newton
+//! steps.
+//!
 //! # Extrapolation (continuous everywhere)
 //!
 //! * **beta outside the keys**: PR and efficiency continue linearly with the end-segment slope;
@@ -49,6 +57,7 @@
 //!   `PR − 1 ∝ wc²`; above its highest point it continues linearly.
 
 use super::gasturb::{GasTurbFile, MapError, MapTable};
+use super::spline::CubicGrid;
 
 /// Lower bound of nc used internally (see module docs).
 pub const NC_MIN: f64 = 0.02;
@@ -86,6 +95,8 @@ pub struct CompressorMap {
     surge_wc: Vec<f64>,
     surge_pr: Vec<f64>,
     flipped: bool,
+    /// The cubic interpolant, when selected.
+    cubic: Option<CubicGrid>,
 }
 
 /// How a corrected speed maps onto the stored speed lines: `value = c0·line[j] + c1·line[j+1]`,
@@ -228,7 +239,59 @@ impl CompressorMap {
             surge_wc,
             surge_pr,
             flipped,
+            cubic: None,
         })
+    }
+
+    /// The same map interpolated with not-a-knot cubic splines inside its grid (module docs).
+    /// Needs 4 to 64 speed lines and β values.
+    pub fn with_cubic_interpolation(mut self) -> Result<Self, MapError> {
+        let grid = CubicGrid::new(&self.speeds, &self.betas).ok_or_else(|| MapError::Invalid {
+            source_name: self.title.clone(),
+            table: "Mass Flow".into(),
+            reason: "cubic interpolation needs 4 to 64 speed lines and beta values".into(),
+        })?;
+        self.cubic = Some(grid);
+        Ok(self)
+    }
+
+    /// Whether the cubic interpolation is selected.
+    pub fn is_cubic(&self) -> bool {
+        self.cubic.is_some()
+    }
+
+    /// Cubic minus bilinear value of (wc, PR, eff) at the grid point nearest (`nc`, `beta`);
+    /// zeros for the bilinear map.
+    #[inline]
+    fn cubic_correction(&self, nc: f64, beta: f64) -> [f64; 3] {
+        let Some(grid) = &self.cubic else {
+            return [0.0; 3];
+        };
+        let (s, b) = (&self.speeds, &self.betas);
+        let ncc = if nc.is_nan() {
+            s[0]
+        } else {
+            nc.clamp(s[0], s[s.len() - 1])
+        };
+        let bc = if beta.is_nan() {
+            b[0]
+        } else {
+            beta.clamp(b[0], b[b.len() - 1])
+        };
+        let bl = self.blend(ncc);
+        let (k, f) = self.beta_pos(bc);
+        let mut out = [0.0; 3];
+        for (q, slot) in out.iter_mut().enumerate() {
+            let lin = bl.c0 * self.line_value(q, bl.j, bc, k, f)
+                + bl.c1 * self.line_value(q, bl.j + 1, bc, k, f);
+            let values = match q {
+                0 => &self.wc,
+                1 => &self.pr,
+                _ => &self.eff,
+            };
+            *slot = grid.eval(values, ncc, bc) - lin;
+        }
+        out
     }
 
     /// Title of the source file.
@@ -358,9 +421,11 @@ impl CompressorMap {
     pub fn point(&self, nc: f64, beta: f64) -> CompressorPoint {
         let bl = self.blend(nc);
         let (k, f) = self.beta_pos(beta);
+        let corr = self.cubic_correction(nc, beta);
         let mix = |q: usize| {
             bl.c0 * self.line_value(q, bl.j, beta, k, f)
                 + bl.c1 * self.line_value(q, bl.j + 1, beta, k, f)
+                + corr[q]
         };
         let wc = (mix(0) * bl.wc_f).max(0.0);
         let pr = 1.0 + bl.pr_f * (mix(1) - 1.0);
@@ -372,8 +437,31 @@ impl CompressorMap {
     /// inverse of `point(nc, beta).pr`: the line is piecewise linear in beta with the same
     /// breakpoints, so one scan over the beta keys and one linear solve. Defined for every `pr`
     /// (extrapolated beyond the keys). Where map data are not monotone, the crossing nearest
-    /// the surge end is returned.
+    /// the surge end is returned. With the cubic interpolation, that bilinear inverse is refined
+    /// by Newton steps on [`CompressorMap::point`].
     pub fn beta_for_pr(&self, nc: f64, pr: f64) -> f64 {
+        let mut b = self.beta_for_pr_linear(nc, pr);
+        if self.cubic.is_none() {
+            return b;
+        }
+        for _ in 0..30 {
+            let p = self.point(nc, b).pr;
+            let err = p - pr;
+            if err.abs() <= 1e-13 * pr.abs().max(1.0) {
+                break;
+            }
+            let db = 1e-7;
+            let slope = (self.point(nc, b + db).pr - p) / db;
+            if slope >= 0.0 || !slope.is_finite() {
+                break;
+            }
+            b -= err / slope;
+        }
+        b
+    }
+
+    /// The exact inverse of the bilinear map's PR (see [`CompressorMap::beta_for_pr`]).
+    fn beta_for_pr_linear(&self, nc: f64, pr: f64) -> f64 {
         let bl = self.blend(nc);
         let m = self.betas.len();
         let (j0, j1) = (bl.j * m, (bl.j + 1) * m);

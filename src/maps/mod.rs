@@ -19,11 +19,14 @@
 //! at low β, flipping files whose PR rises with β ([`CompressorMap::beta_from_file`]). Turbine
 //! design points are given as map PR, `PRmin + β (PRmax − PRmin)` for a GasTurb/GSP turbine β.
 //!
-//! Interpolation is bilinear in (speed, β) inside every map (see [`compressor`], [`turbine`]).
+//! Interpolation is bilinear in (speed, β) inside every map by default, or the not-a-knot
+//! tensor-product cubic spline of [`spline`] (as GSPy/SciPy) when an engine file selects
+//! `maps.interpolation = "cubic"` (see [`compressor`], [`turbine`]).
 
 pub mod compressor;
 pub mod gasturb;
 pub mod scaled;
+pub mod spline;
 pub mod turbine;
 
 pub use compressor::{CompressorMap, CompressorPoint};
