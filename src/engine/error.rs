@@ -13,7 +13,10 @@ pub enum EngineError {
     /// A map named by an engine-file key could not be read or built. The map error is shown,
     /// not chained as a source, so the file is named once.
     #[error("engine file key `{key}`: {error}")]
-    MapFile { key: String, error: maps::MapError },
+    MapFile {
+        key: String,
+        error: Box<maps::MapError>,
+    },
     #[error("design-point calibration failed: {0}")]
     Calibration(String),
     #[error("steady-state solver: {0}")]

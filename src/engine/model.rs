@@ -159,7 +159,7 @@ impl Model {
 fn map_error(key: &str) -> impl Fn(maps::MapError) -> EngineError + '_ {
     move |error| EngineError::MapFile {
         key: key.into(),
-        error,
+        error: Box::new(error),
     }
 }
 

@@ -688,6 +688,45 @@ mod tests {
         }
     }
 
+    /// Cubic interpolation: equals the grid at its nodes, stays continuous across the grid edge
+    /// into the extrapolation, and `beta_for_pr` still inverts `point`.
+    #[test]
+    fn cubic_interpolation_is_continuous_and_invertible() {
+        let m = hpc().with_cubic_interpolation().expect("cubic");
+        assert!(m.is_cubic());
+        let lin = hpc();
+        for &nc in m.speeds() {
+            for &b in m.betas() {
+                let (a, c) = (m.point(nc, b), lin.point(nc, b));
+                assert!((a.pr - c.pr).abs() < 1e-9 && (a.eff - c.eff).abs() < 1e-12);
+            }
+        }
+        let (s0, s1) = (m.speeds()[0], m.speeds()[m.speeds().len() - 1]);
+        let e = 1e-9;
+        for i in 0..=20 {
+            let beta = 0.05 * i as f64;
+            for nc in [s0, s1] {
+                let (a, c) = (m.point(nc - e, beta), m.point(nc + e, beta));
+                assert!(
+                    (a.pr - c.pr).abs() < 1e-6 && (a.wc - c.wc).abs() < 1e-5,
+                    "nc {nc}"
+                );
+            }
+        }
+        for i in 0..=20 {
+            let nc = 0.55 + 0.025 * i as f64;
+            for b in [0.0, 1.0] {
+                let (a, c) = (m.point(nc, b - e), m.point(nc, b + e));
+                assert!((a.pr - c.pr).abs() < 1e-6 && (a.eff - c.eff).abs() < 1e-6);
+            }
+            for beta in [0.1, 0.45, 0.9] {
+                let pr = m.point(nc, beta).pr;
+                let back = m.beta_for_pr(nc, pr);
+                assert!((back - beta).abs() < 1e-8, "nc {nc} beta {beta} -> {back}");
+            }
+        }
+    }
+
     proptest! {
         #[test]
         fn beta_for_pr_inverts_point(nc in 0.0f64..1.2, beta in -0.5f64..1.5) {
