@@ -38,6 +38,22 @@ pub struct AmbientConfig {
     pub pressure_kpa: f64,
 }
 
+/// How a duct's total-pressure loss varies away from the design point. At the design point
+/// both laws give the engine file's value.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PressureLossLaw {
+    /// The loss scales with the square of the duct's corrected flow (inlet: W√T1/P_amb;
+    /// combustor: W2√T2/P2; exhaust: the back-pressure excess with W√T34/P_amb) — a fixed
+    /// loss coefficient times dynamic head. gtwatch's default.
+    #[default]
+    FlowSquared,
+    /// A constant pressure ratio at every operating point (GSP/GSPy's duct and combustor
+    /// default): inlet P1 = (1 − frac)·P_amb, combustor P3 = (1 − frac)·P2, exhaust
+    /// P4 = ratio·P_amb.
+    Constant,
+}
+
 /// Design-point table and the cycle assumptions of REFERENCE §1.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -52,31 +68,84 @@ pub struct DesignConfig {
     pub pt_speed_rpm: f64,
     /// Inlet total-pressure loss at design flow, fraction of ambient pressure.
     pub inlet_loss_frac: f64,
+    /// How the inlet loss varies off design (default: with corrected flow squared).
+    #[serde(default)]
+    pub inlet_loss_law: PressureLossLaw,
     /// Combustor total-pressure loss at design, fraction of P2.
     pub combustor_loss_frac: f64,
+    /// How the combustor loss varies off design (default: with corrected flow squared).
+    #[serde(default)]
+    pub combustor_loss_law: PressureLossLaw,
+    /// Combustion efficiency, (0, 1].
     pub combustion_efficiency: f64,
     pub fuel_lhv_j_per_kg: f64,
-    /// Mechanical efficiency of each shaft.
-    pub mechanical_efficiency: f64,
+    /// Mechanical efficiency of the gas-generator shaft, (0, 1]: the HPT delivers its gas power
+    /// times this to the compressor (GasTurb/GSP convention). The engine file may give the
+    /// legacy `mechanical_efficiency` instead, which sets both shafts.
+    pub gg_mechanical_efficiency: f64,
+    /// Mechanical efficiency of the power-turbine shaft, (0, 1]: the PT delivers its gas power
+    /// times this at its coupling, before windage and bearing losses.
+    pub pt_mechanical_efficiency: f64,
     /// Exhaust static back-pressure at design flow, multiple of ambient pressure.
     pub exhaust_back_pressure_ratio: f64,
+    /// How the exhaust back-pressure excess varies off design (default: with flow squared).
+    #[serde(default)]
+    pub exhaust_loss_law: PressureLossLaw,
     /// Compressor air bled overboard (cooling/leakage), fraction of compressor flow.
     pub cooling_bleed_frac: f64,
 }
 
-/// Component maps: `""` selects the embedded map, otherwise a GasTurb file path.
+/// Component maps: `""` selects the embedded map, otherwise a GasTurb file path; a relative
+/// path is relative to the engine file's directory (see [`EngineConfig::load`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MapsConfig {
     pub compressor_file: String,
+    /// Relative corrected speed of the design point on the compressor map.
     pub compressor_design_speed: f64,
+    /// β of the design point **as the map file states it** (its column keys, as GasTurb and
+    /// GSP/GSPy read the file), whichever way the file's PR runs with β; see `maps::compressor`.
     pub compressor_design_beta: f64,
     pub hpt_file: String,
     pub hpt_design_speed: f64,
+    /// Map pressure ratio of the HPT design point (GasTurb/GSP turbine β converts as
+    /// `PR = PRmin + β (PRmax − PRmin)` at the design speed).
     pub hpt_design_pr: f64,
     pub pt_file: String,
     pub pt_design_speed: f64,
     pub pt_design_pr: f64,
+    /// How all three maps are interpolated inside their grids (default bilinear).
+    #[serde(default)]
+    pub interpolation: MapInterpolation,
+}
+
+/// Map interpolation inside the grid (`maps::compressor`, `maps::turbine`, `maps::spline`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MapInterpolation {
+    /// Bilinear in (speed, β): gtwatch's default.
+    #[default]
+    Linear,
+    /// Not-a-knot tensor-product cubic splines (SciPy's `RegularGridInterpolator` "cubic", as
+    /// GSPy uses): smoother, for agreement with peers that interpolate so.
+    Cubic,
+}
+
+impl MapsConfig {
+    /// Rewrites every non-empty, relative map path as `dir/path` (absolute paths and `""`, the
+    /// embedded map, are unchanged). [`EngineConfig::load`] calls this with the engine file's
+    /// directory.
+    pub fn resolve_relative_to(&mut self, dir: &Path) {
+        for file in [
+            &mut self.compressor_file,
+            &mut self.hpt_file,
+            &mut self.pt_file,
+        ] {
+            if !file.is_empty() && Path::new(file.as_str()).is_relative() {
+                *file = dir.join(file.as_str()).display().to_string();
+            }
+        }
+    }
 }
 
 /// Shafts, volumes and losses.
@@ -248,10 +317,16 @@ impl EngineConfig {
     }
 
     pub fn from_toml_str(text: &str, path: &str) -> Result<EngineConfig, EngineConfigError> {
-        let mut cfg: EngineConfig = toml::from_str(text).map_err(|e| EngineConfigError::Parse {
+        let parse_error = |e: toml::de::Error| EngineConfigError::Parse {
             path: path.into(),
             message: e.to_string(),
-        })?;
+        };
+        let table: toml::Table = toml::from_str(text).map_err(parse_error)?;
+        let mut cfg: EngineConfig = match legacy_mechanical_efficiency(table, path)? {
+            // Deserialise from the text when nothing was rewritten: errors keep their line.
+            None => toml::from_str(text).map_err(parse_error)?,
+            Some(table) => table.try_into().map_err(parse_error)?,
+        };
         cfg.validate(path)?;
         cfg.effects =
             super::effects::complete(&cfg.effects).map_err(|e| EngineConfigError::Invalid {
@@ -262,12 +337,18 @@ impl EngineConfig {
         Ok(cfg)
     }
 
+    /// Reads and validates an engine file. Relative map paths in `[maps]` are resolved against
+    /// the engine file's directory (absolute paths are kept), so a file and its maps can be
+    /// moved together and used from any working directory.
     pub fn load(path: &Path) -> Result<EngineConfig, EngineConfigError> {
         let text = std::fs::read_to_string(path).map_err(|source| EngineConfigError::Io {
             path: path.display().to_string(),
             source,
         })?;
-        Self::from_toml_str(&text, &path.display().to_string())
+        let mut cfg = Self::from_toml_str(&text, &path.display().to_string())?;
+        let dir = path.parent().unwrap_or_else(|| Path::new(""));
+        cfg.maps.resolve_relative_to(dir);
+        Ok(cfg)
     }
 
     /// Loads `path`, or the reference engine when `None`.
@@ -345,25 +426,73 @@ impl EngineConfig {
     }
 }
 
-/// Allowed interval of one engine-file number (inclusive bounds).
+/// The legacy `design.mechanical_efficiency` (one value for both shafts): rewritten as
+/// `gg_mechanical_efficiency` and `pt_mechanical_efficiency`. `None` when the file does not use
+/// it; an error when it is combined with the per-shaft keys.
+fn legacy_mechanical_efficiency(
+    mut table: toml::Table,
+    path: &str,
+) -> Result<Option<toml::Table>, EngineConfigError> {
+    let Some(design) = table.get_mut("design").and_then(|d| d.as_table_mut()) else {
+        return Ok(None);
+    };
+    let Some(value) = design.remove("mechanical_efficiency") else {
+        return Ok(None);
+    };
+    for key in ["gg_mechanical_efficiency", "pt_mechanical_efficiency"] {
+        if design.contains_key(key) {
+            return Err(EngineConfigError::Invalid {
+                path: path.into(),
+                key: "design.mechanical_efficiency".into(),
+                reason: format!("give either it (both shafts) or design.{key}, not both"),
+            });
+        }
+        design.insert(key.into(), value.clone());
+    }
+    Ok(Some(table))
+}
+
+/// Allowed interval of one engine-file number: `[min, max]`, or `(min, max]` when
+/// `min_exclusive`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ParamRange {
     pub min: f64,
     pub max: f64,
+    /// The lower bound itself is not allowed.
+    pub min_exclusive: bool,
 }
 
 impl ParamRange {
     const fn new(min: f64, max: f64) -> ParamRange {
-        ParamRange { min, max }
+        ParamRange {
+            min,
+            max,
+            min_exclusive: false,
+        }
+    }
+    /// An efficiency: (0, 1]. 1.0 (ideal combustion, lossless shaft, as peers' examples use)
+    /// is allowed.
+    const fn efficiency() -> ParamRange {
+        ParamRange {
+            min: 0.0,
+            max: 1.0,
+            min_exclusive: true,
+        }
     }
     /// `Err(reason)` unless `v` is finite and inside the range.
     pub fn check(&self, v: f64) -> Result<(), String> {
         if !v.is_finite() {
             return Err("must be a finite number".into());
         }
-        if v < self.min || v > self.max {
+        let below = if self.min_exclusive {
+            v <= self.min
+        } else {
+            v < self.min
+        };
+        if below || v > self.max {
+            let open = if self.min_exclusive { '(' } else { '[' };
             return Err(format!(
-                "{v} is outside the allowed range [{}, {}]",
+                "{v} is outside the allowed range {open}{}, {}]",
                 self.min, self.max
             ));
         }
@@ -380,16 +509,17 @@ const RANGES: &[(&str, ParamRange)] = &[
     ("design.pressure_ratio", ParamRange::new(1.01, 80.0)),
     ("design.exhaust_flow_kg_s", ParamRange::new(0.01, 5000.0)),
     ("design.power_mw", ParamRange::new(0.001, 2000.0)),
-    ("design.compressor_efficiency", ParamRange::new(0.3, 0.9999)),
-    ("design.hpt_efficiency", ParamRange::new(0.3, 0.9999)),
-    ("design.pt_efficiency", ParamRange::new(0.3, 0.9999)),
+    ("design.compressor_efficiency", ParamRange::efficiency()),
+    ("design.hpt_efficiency", ParamRange::efficiency()),
+    ("design.pt_efficiency", ParamRange::efficiency()),
     ("design.gg_speed_rpm", ParamRange::new(100.0, 200_000.0)),
     ("design.pt_speed_rpm", ParamRange::new(100.0, 200_000.0)),
     ("design.inlet_loss_frac", ParamRange::new(0.0, 0.5)),
     ("design.combustor_loss_frac", ParamRange::new(0.0, 0.5)),
-    ("design.combustion_efficiency", ParamRange::new(0.3, 0.9999)),
+    ("design.combustion_efficiency", ParamRange::efficiency()),
     ("design.fuel_lhv_j_per_kg", ParamRange::new(1.0e6, 2.0e8)),
-    ("design.mechanical_efficiency", ParamRange::new(0.3, 0.9999)),
+    ("design.gg_mechanical_efficiency", ParamRange::efficiency()),
+    ("design.pt_mechanical_efficiency", ParamRange::efficiency()),
     (
         "design.exhaust_back_pressure_ratio",
         ParamRange::new(1.0, 2.0),
@@ -573,5 +703,138 @@ mod tests {
             err.to_string().contains("design.compressor_efficiency"),
             "{err}"
         );
+    }
+
+    /// Map paths in `[maps]` are relative to the engine file, not the working directory; a
+    /// missing map is named once, with its key.
+    #[test]
+    fn map_paths_resolve_against_the_engine_file() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let sub = dir.path().join("maps_here");
+        std::fs::create_dir(&sub).expect("mkdir");
+        std::fs::write(sub.join("hpc.map"), crate::maps::HPC_MAP).expect("write map");
+        let text = REFERENCE_ENGINE_TOML.replace(
+            "compressor_file = \"\"",
+            "compressor_file = \"maps_here/hpc.map\"",
+        );
+        let file = dir.path().join("engine.toml");
+        std::fs::write(&file, &text).expect("write engine");
+        // The test runs in the crate root, where `maps_here/hpc.map` does not exist.
+        assert!(!Path::new("maps_here/hpc.map").exists());
+        let cfg = EngineConfig::load(&file).expect("loads");
+        assert_eq!(
+            Path::new(&cfg.maps.compressor_file),
+            sub.join("hpc.map").as_path()
+        );
+        // Same map as the embedded one: the same calibrated engine.
+        let e = crate::engine::Engine::new(cfg).expect("engine");
+        let r = crate::engine::Engine::reference().expect("reference");
+        assert_eq!(e.design(), r.design());
+        // Absolute paths are kept as they are.
+        let abs = sub.join("hpc.map").display().to_string();
+        let text = REFERENCE_ENGINE_TOML.replace(
+            "compressor_file = \"\"",
+            &format!("compressor_file = {abs:?}"),
+        );
+        let other = tempfile::tempdir().expect("tempdir");
+        let file2 = other.path().join("engine.toml");
+        std::fs::write(&file2, text).expect("write engine");
+        let cfg = EngineConfig::load(&file2).expect("loads");
+        assert_eq!(cfg.maps.compressor_file, abs);
+        // A missing map: one mention of the file, and the key.
+        let text = REFERENCE_ENGINE_TOML.replace("hpt_file = \"\"", "hpt_file = \"nope.map\"");
+        std::fs::write(&file, text).expect("write engine");
+        let cfg = EngineConfig::load(&file).expect("loads");
+        let err = crate::engine::Engine::new(cfg)
+            .expect_err("missing map")
+            .to_string();
+        assert_eq!(err.matches("nope.map").count(), 1, "{err}");
+        assert!(
+            err.contains("maps.hpt_file") && err.contains("cannot read map file"),
+            "{err}"
+        );
+        // Not chained as a source either, so an error-chain printer cannot repeat it.
+        let e = crate::engine::Engine::new(EngineConfig::load(&file).expect("loads"))
+            .expect_err("missing map");
+        assert!(std::error::Error::source(&e).is_none());
+    }
+
+    /// Efficiencies are in (0, 1]: exactly 1 is accepted (ideal combustion, lossless shafts),
+    /// 0, above 1 and non-finite values are refused with the key named.
+    #[test]
+    fn efficiencies_accept_one_and_refuse_zero_and_nan() {
+        let keys = [
+            (
+                "compressor_efficiency = 0.85",
+                "design.compressor_efficiency",
+            ),
+            (
+                "combustion_efficiency = 0.995",
+                "design.combustion_efficiency",
+            ),
+            (
+                "gg_mechanical_efficiency = 0.99",
+                "design.gg_mechanical_efficiency",
+            ),
+            (
+                "pt_mechanical_efficiency = 0.99",
+                "design.pt_mechanical_efficiency",
+            ),
+            ("hpt_efficiency = 0.88", "design.hpt_efficiency"),
+        ];
+        for (from, key) in keys {
+            assert!(REFERENCE_ENGINE_TOML.contains(from), "{from}");
+            let name = from.split(' ').next().unwrap_or(from);
+            let ok = REFERENCE_ENGINE_TOML.replace(from, &format!("{name} = 1.0"));
+            let cfg = EngineConfig::from_toml_str(&ok, "x.toml").expect(key);
+            let leaf = key.split('.').nth(1).unwrap_or(key);
+            let v = serde_json::to_value(&cfg.design).expect("json")[leaf].as_f64();
+            assert_eq!(v, Some(1.0), "{key}");
+            for bad in ["0.0", "1.0001", "nan", "inf", "-0.5"] {
+                let text = REFERENCE_ENGINE_TOML.replace(from, &format!("{name} = {bad}"));
+                let err = EngineConfig::from_toml_str(&text, "x.toml").expect_err(bad);
+                assert!(err.to_string().contains(key), "{key} = {bad}: {err}");
+            }
+        }
+        // Ideal combustion and lossless shafts calibrate.
+        let text = REFERENCE_ENGINE_TOML
+            .replace(
+                "combustion_efficiency = 0.995",
+                "combustion_efficiency = 1.0",
+            )
+            .replace(
+                "gg_mechanical_efficiency = 0.99",
+                "gg_mechanical_efficiency = 1.0",
+            )
+            .replace(
+                "pt_mechanical_efficiency = 0.99",
+                "pt_mechanical_efficiency = 1.0",
+            );
+        let cfg = EngineConfig::from_toml_str(&text, "x.toml").expect("ideal");
+        crate::engine::Engine::new(cfg).expect("calibrates");
+    }
+
+    /// The legacy `mechanical_efficiency` sets both shafts; with a per-shaft key it is an error.
+    #[test]
+    fn legacy_mechanical_efficiency_sets_both_shafts() {
+        let per_shaft = "gg_mechanical_efficiency = 0.99  # gas-generator shaft: HPT gas power x this drives the compressor\npt_mechanical_efficiency = 0.99";
+        let text = REFERENCE_ENGINE_TOML.replace(per_shaft, "mechanical_efficiency = 0.97");
+        assert_ne!(text, REFERENCE_ENGINE_TOML);
+        let cfg = EngineConfig::from_toml_str(&text, "x.toml").expect("legacy");
+        assert_eq!(cfg.design.gg_mechanical_efficiency, 0.97);
+        assert_eq!(cfg.design.pt_mechanical_efficiency, 0.97);
+        let text = REFERENCE_ENGINE_TOML.replace(
+            "pt_mechanical_efficiency = 0.99",
+            "mechanical_efficiency = 0.97",
+        );
+        let err = EngineConfig::from_toml_str(&text, "x.toml").expect_err("both");
+        assert!(
+            err.to_string().contains("design.mechanical_efficiency"),
+            "{err}"
+        );
+        // The legacy key still gets a bad value named.
+        let text = REFERENCE_ENGINE_TOML.replace(per_shaft, "mechanical_efficiency = nan");
+        let err = EngineConfig::from_toml_str(&text, "x.toml").expect_err("nan");
+        assert!(err.to_string().contains("mechanical_efficiency"), "{err}");
     }
 }

@@ -7,11 +7,16 @@
 use crate::maps::{ScaledCompressor, ScaledTurbine};
 use crate::thermo::Gas;
 
-/// Shaft losses outside the mechanical efficiency: GG bearings and windage ∝ n², PT and
-/// generator windage ∝ n³, and a smooth Coulomb bearing torque on each shaft. One law for the
-/// design cycle, the steady solver and the dynamic model.
+/// Shaft losses: each shaft's mechanical efficiency (the fraction of its turbine's gas power
+/// that reaches the shaft, GasTurb/GSP convention), and outside it GG bearings and windage ∝ n²,
+/// PT and generator windage ∝ n³, and a smooth Coulomb bearing torque on each shaft. One law for
+/// the design cycle, the steady solver and the dynamic model.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ShaftLosses {
+    /// Gas-generator shaft mechanical efficiency, (0, 1].
+    pub gg_mechanical_efficiency: f64,
+    /// Power-turbine shaft mechanical efficiency, (0, 1].
+    pub pt_mechanical_efficiency: f64,
     pub gg_friction_w: f64,
     pub pt_windage_w: f64,
     pub gg_bearing_nm: f64,
@@ -25,6 +30,8 @@ impl ShaftLosses {
     pub fn from_config(cfg: &super::config::EngineConfig) -> ShaftLosses {
         let dy = &cfg.dynamics;
         ShaftLosses {
+            gg_mechanical_efficiency: cfg.design.gg_mechanical_efficiency,
+            pt_mechanical_efficiency: cfg.design.pt_mechanical_efficiency,
             gg_friction_w: dy.gg_friction_kw_at_design * 1e3,
             pt_windage_w: dy.pt_windage_kw_at_sync * 1e3,
             gg_bearing_nm: dy.gg_bearing_torque_n_m,
@@ -32,6 +39,16 @@ impl ShaftLosses {
             n1_design: cfg.design.gg_speed_rpm,
             n2_design: cfg.design.pt_speed_rpm,
         }
+    }
+    /// HPT gas power reaching the GG shaft, W.
+    #[inline]
+    pub fn gg_shaft_w(&self, hpt_gas_power_w: f64) -> f64 {
+        self.gg_mechanical_efficiency * hpt_gas_power_w
+    }
+    /// PT gas power (or torque) reaching the PT shaft.
+    #[inline]
+    pub fn pt_shaft(&self, pt_gas: f64) -> f64 {
+        self.pt_mechanical_efficiency * pt_gas
     }
     /// Smooth Coulomb bearing torque (N·m): full value above ~50 rpm, zero at rest.
     #[inline]

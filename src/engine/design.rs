@@ -48,7 +48,6 @@ pub fn design_cycle(cfg: &EngineConfig) -> Result<Stations, EngineError> {
     let p3 = p2 * (1.0 - d.combustor_loss_frac);
     let p4 = cfg.ambient.pressure_kpa * d.exhaust_back_pressure_ratio;
     let w_total = d.exhaust_flow_kg_s;
-    let eta_m = d.mechanical_efficiency;
     // Shaft losses at design speed: the same law the steady and dynamic models use.
     let losses = ShaftLosses::from_config(cfg);
     let gg_friction = losses.gg_w(d.gg_speed_rpm);
@@ -61,7 +60,7 @@ pub fn design_cycle(cfg: &EngineConfig) -> Result<Stations, EngineError> {
         // (`gas_path::combustor_air` is the forward rule: w_comb_air = w_comp (1 − bleed).)
         let w_comp = w_comb_air / (1.0 - d.cooling_bleed_frac);
         let p_comp = w_comp * (h2 - h1);
-        let p_hpt = (p_comp + gg_friction) / eta_m;
+        let p_hpt = (p_comp + gg_friction) / losses.gg_mechanical_efficiency;
         let h3 = gas.h(t3);
         let h34 = h3 - p_hpt / w_total;
         let t34 = gas.t_from_h(h34);
@@ -79,7 +78,7 @@ pub fn design_cycle(cfg: &EngineConfig) -> Result<Stations, EngineError> {
         let h4 = h34 - d.pt_efficiency * (h34 - gas.h(t4s));
         let t4 = gas.t_from_h(h4);
         let p_pt = w_total * (h34 - h4);
-        let power = eta_m * p_pt - pt_windage;
+        let power = losses.pt_shaft(p_pt) - pt_windage;
         Ok(Stations {
             n1_rpm: d.gg_speed_rpm,
             n2_rpm: d.pt_speed_rpm,

@@ -10,6 +10,13 @@ pub enum EngineError {
     Config(#[from] super::config::EngineConfigError),
     #[error("map: {0}")]
     Map(#[from] maps::MapError),
+    /// A map named by an engine-file key could not be read or built. The map error is shown,
+    /// not chained as a source, so the file is named once.
+    #[error("engine file key `{key}`: {error}")]
+    MapFile {
+        key: String,
+        error: Box<maps::MapError>,
+    },
     #[error("design-point calibration failed: {0}")]
     Calibration(String),
     #[error("steady-state solver: {0}")]

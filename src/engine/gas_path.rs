@@ -215,7 +215,7 @@ pub fn evaluate(model: &Model, inp: &Inputs, adjust: &Adjust) -> GasPath {
             // speed-based inlet-loss guess and the loss then follows from that flow: the PR used
             // differs from P2/P1 by ~1e-4 relative at design, the flow error is ~1e-5.
             let nc1 = cycle::corrected_speed(n1_map, t1);
-            let p1_guess = p_amb * (1.0 - c.inlet_loss_frac * (n1 / c.n1_design).powi(2));
+            let p1_guess = c.p1_guess(p_amb, n1);
             let op = comp_map.at_pr(nc1, p2 / p1_guess);
             let p1 = c.p1(p_amb, op.wc_kg_s * fade);
             (p1, cycle::compressor_from_op(t1, p1, p2 / p1, &op))
@@ -261,9 +261,9 @@ pub fn evaluate(model: &Model, inp: &Inputs, adjust: &Adjust) -> GasPath {
     let n2_eval = n2.max(PT_STALL_FRACTION * c.n2_design);
     let p34 = inp.p34_kpa;
     let pt = cycle::turbine(pt_map, &gas, hpt.t_out_k, p34, n2_eval, p34 / p4);
-    let pt_gas_torque = c.eta_m * pt.power_w / (n2_eval * PI / 30.0);
+    let pt_gas_torque = c.shaft.pt_shaft(pt.power_w) / (n2_eval * PI / 30.0);
     let pt_net = pt_gas_torque * n2.max(0.0) * PI / 30.0 - c.pt_loss_w(n2.max(0.0));
-    let gg_net = c.eta_m * hpt.power_w - p_comp - c.gg_loss_w(n1);
+    let gg_net = c.shaft.gg_shaft_w(hpt.power_w) - p_comp - c.gg_loss_w(n1);
 
     let stations = Stations {
         n1_rpm: n1,

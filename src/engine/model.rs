@@ -5,7 +5,7 @@
 //! health vector applied; the steady solver and the dynamic model both run on a `Model`.
 //! Pure: map files are read only by [`Engine::new`] when the config names a file path.
 
-use super::config::EngineConfig;
+use super::config::{EngineConfig, MapInterpolation, PressureLossLaw};
 use super::cycle::{ShaftLosses, P_STD_KPA, T_STD_K};
 use super::effects::EffectSet;
 use crate::health::HealthParams;
@@ -23,16 +23,18 @@ pub struct Constants {
     pub t_amb_k: f64,
     pub p_amb_kpa: f64,
     pub inlet_loss_frac: f64,
+    pub inlet_loss_law: PressureLossLaw,
     pub wc1_design: f64,
     pub combustor_loss_frac: f64,
+    pub combustor_loss_law: PressureLossLaw,
     /// W2·√T2/P2 at design, for the combustor loss law.
     pub q2_design: f64,
     pub exhaust_excess_ratio: f64,
+    pub exhaust_loss_law: PressureLossLaw,
     /// W·√T34/P_amb at design, for the exhaust back-pressure law.
     pub q4_design: f64,
     pub eta_b: f64,
     pub lhv: f64,
-    pub eta_m: f64,
     pub bleed: f64,
     pub gg_inertia: f64,
     pub pt_inertia: f64,
@@ -48,26 +50,54 @@ pub struct Constants {
     pub p2_design_kpa: f64,
     pub t3_design_k: f64,
     pub p34_design_kpa: f64,
+    /// Compressor design β in gtwatch's internal convention (surge end low).
+    pub beta_design: f64,
 }
 
 impl Constants {
-    /// Compressor inlet pressure: ambient less an inlet loss ∝ (corrected flow)².
+    /// Compressor inlet pressure: ambient less an inlet loss ∝ (corrected flow)², or a
+    /// constant fraction ([`PressureLossLaw`]).
     #[inline]
     pub fn p1(&self, p_amb: f64, wc1: f64) -> f64 {
-        let r = wc1 / self.wc1_design;
-        p_amb * (1.0 - self.inlet_loss_frac * r * r)
+        match self.inlet_loss_law {
+            PressureLossLaw::FlowSquared => {
+                let r = wc1 / self.wc1_design;
+                p_amb * (1.0 - self.inlet_loss_frac * r * r)
+            }
+            PressureLossLaw::Constant => p_amb * (1.0 - self.inlet_loss_frac),
+        }
     }
-    /// Combustor exit pressure: P2 less a loss ∝ (W√T2/P2)².
+    /// A first guess of P1 from the GG speed alone (flow ∝ speed), exact for a constant loss.
+    #[inline]
+    pub fn p1_guess(&self, p_amb: f64, n1: f64) -> f64 {
+        match self.inlet_loss_law {
+            PressureLossLaw::FlowSquared => {
+                p_amb * (1.0 - self.inlet_loss_frac * (n1 / self.n1_design).powi(2))
+            }
+            PressureLossLaw::Constant => p_amb * (1.0 - self.inlet_loss_frac),
+        }
+    }
+    /// Combustor exit pressure: P2 less a loss ∝ (W√T2/P2)², or a constant fraction.
     #[inline]
     pub fn p3(&self, p2: f64, w2: f64, t2: f64) -> f64 {
-        let r = w2 * t2.sqrt() / p2 / self.q2_design;
-        p2 * (1.0 - (self.combustor_loss_frac * r * r).min(0.5))
+        match self.combustor_loss_law {
+            PressureLossLaw::FlowSquared => {
+                let r = w2 * t2.sqrt() / p2 / self.q2_design;
+                p2 * (1.0 - (self.combustor_loss_frac * r * r).min(0.5))
+            }
+            PressureLossLaw::Constant => p2 * (1.0 - self.combustor_loss_frac),
+        }
     }
-    /// Exhaust back-pressure: ambient plus an excess ∝ (W√T34/P_amb)².
+    /// Exhaust back-pressure: ambient plus an excess ∝ (W√T34/P_amb)², or a constant ratio.
     #[inline]
     pub fn p4(&self, p_amb: f64, w: f64, t34: f64) -> f64 {
-        let r = w.max(0.0) * t34.sqrt() / p_amb / self.q4_design;
-        p_amb * (1.0 + self.exhaust_excess_ratio * r * r)
+        match self.exhaust_loss_law {
+            PressureLossLaw::FlowSquared => {
+                let r = w.max(0.0) * t34.sqrt() / p_amb / self.q4_design;
+                p_amb * (1.0 + self.exhaust_excess_ratio * r * r)
+            }
+            PressureLossLaw::Constant => p_amb * (1.0 + self.exhaust_excess_ratio),
+        }
     }
     /// All GG shaft losses outside the mechanical efficiency, W.
     #[inline]
@@ -126,22 +156,46 @@ impl Model {
     }
 }
 
-fn load_compressor(file: &str) -> Result<CompressorMap, EngineError> {
-    let parsed = if file.is_empty() {
-        maps::gasturb::parse(maps::HPC_MAP, "embedded hpc.map")?
-    } else {
-        maps::gasturb::read_file(Path::new(file))?
-    };
-    Ok(CompressorMap::from_gasturb(&parsed)?)
+fn map_error(key: &str) -> impl Fn(maps::MapError) -> EngineError + '_ {
+    move |error| EngineError::MapFile {
+        key: key.into(),
+        error: Box::new(error),
+    }
 }
 
-fn load_turbine(file: &str, embedded: &str, name: &str) -> Result<TurbineMap, EngineError> {
+fn load_compressor(file: &str, interp: MapInterpolation) -> Result<CompressorMap, EngineError> {
+    let key = "maps.compressor_file";
     let parsed = if file.is_empty() {
-        maps::gasturb::parse(embedded, name)?
+        maps::gasturb::parse(maps::HPC_MAP, "embedded hpc.map")
     } else {
-        maps::gasturb::read_file(Path::new(file))?
-    };
-    Ok(TurbineMap::from_gasturb(&parsed)?)
+        maps::gasturb::read_file(Path::new(file))
+    }
+    .map_err(map_error(key))?;
+    let map = CompressorMap::from_gasturb(&parsed).map_err(map_error(key))?;
+    match interp {
+        MapInterpolation::Linear => Ok(map),
+        MapInterpolation::Cubic => map.with_cubic_interpolation().map_err(map_error(key)),
+    }
+}
+
+fn load_turbine(
+    key: &str,
+    file: &str,
+    embedded: &str,
+    name: &str,
+    interp: MapInterpolation,
+) -> Result<TurbineMap, EngineError> {
+    let parsed = if file.is_empty() {
+        maps::gasturb::parse(embedded, name)
+    } else {
+        maps::gasturb::read_file(Path::new(file))
+    }
+    .map_err(map_error(key))?;
+    let map = TurbineMap::from_gasturb(&parsed).map_err(map_error(key))?;
+    match interp {
+        MapInterpolation::Linear => Ok(map),
+        MapInterpolation::Cubic => map.with_cubic_interpolation().map_err(map_error(key)),
+    }
 }
 
 impl Engine {
@@ -149,16 +203,23 @@ impl Engine {
     pub fn new(cfg: EngineConfig) -> Result<Engine, EngineError> {
         cfg.validate("<engine>")?;
         let maps = RawMaps {
-            comp: Arc::new(load_compressor(&cfg.maps.compressor_file)?),
+            comp: Arc::new(load_compressor(
+                &cfg.maps.compressor_file,
+                cfg.maps.interpolation,
+            )?),
             hpt: Arc::new(load_turbine(
+                "maps.hpt_file",
                 &cfg.maps.hpt_file,
                 maps::HPT_MAP,
                 "embedded hpt.map",
+                cfg.maps.interpolation,
             )?),
             pt: Arc::new(load_turbine(
+                "maps.pt_file",
                 &cfg.maps.pt_file,
                 maps::LPT_MAP,
                 "embedded lpt.map",
+                cfg.maps.interpolation,
             )?),
         };
         Engine::calibrate(cfg, maps)
@@ -176,10 +237,13 @@ impl Engine {
         let theta1 = design.t1_k / T_STD_K;
         let delta1 = design.p1_kpa / P_STD_KPA;
         let wc1 = design.air_flow_kg_s * theta1.sqrt() / delta1;
+        // The engine file states the design β as the map file does; the map works internally
+        // with the surge end at low β (`maps::compressor` docs).
+        let beta_design = comp_map.beta_from_file(m.compressor_design_beta);
         let comp = ScaledCompressor::calibrate(
             comp_map,
             m.compressor_design_speed,
-            m.compressor_design_beta,
+            beta_design,
             d.gg_speed_rpm / theta1.sqrt(),
             wc1,
             d.pressure_ratio,
@@ -212,14 +276,16 @@ impl Engine {
             t_amb_k: cfg.ambient.temperature_k,
             p_amb_kpa: cfg.ambient.pressure_kpa,
             inlet_loss_frac: d.inlet_loss_frac,
+            inlet_loss_law: d.inlet_loss_law,
             wc1_design: wc1,
             combustor_loss_frac: d.combustor_loss_frac,
+            combustor_loss_law: d.combustor_loss_law,
             q2_design: design.air_flow_kg_s * design.t2_k.sqrt() / design.p2_kpa,
             exhaust_excess_ratio: d.exhaust_back_pressure_ratio - 1.0,
+            exhaust_loss_law: d.exhaust_loss_law,
             q4_design: design.pt_flow_kg_s * design.t34_k.sqrt() / cfg.ambient.pressure_kpa,
             eta_b: d.combustion_efficiency,
             lhv: d.fuel_lhv_j_per_kg,
-            eta_m: d.mechanical_efficiency,
             bleed: d.cooling_bleed_frac,
             gg_inertia: dy.gg_inertia_kg_m2,
             pt_inertia: dy.pt_inertia_kg_m2,
@@ -235,6 +301,7 @@ impl Engine {
             p2_design_kpa: design.p2_kpa,
             t3_design_k: design.t3_k,
             p34_design_kpa: design.p34_kpa,
+            beta_design,
         };
         // The design point's β and surge margin come from the scaled map.
         let at_design = super::cycle::compressor_at_beta(
@@ -242,7 +309,7 @@ impl Engine {
             design.t1_k,
             design.p1_kpa,
             design.n1_rpm,
-            m.compressor_design_beta,
+            beta_design,
         );
         design.compressor_beta = at_design.beta;
         design.surge_margin_pct = at_design.surge_margin_pct;
@@ -330,5 +397,42 @@ impl Engine {
         m.consts.t_amb_k = t_amb_k;
         m.consts.p_amb_kpa = p_amb_kpa;
         m
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::steady::{solve, Demand, SteadyInputs};
+
+    /// Constant-ratio loss laws hold their design ratios at part load; the default flow law does
+    /// not, and both give the same design point.
+    #[test]
+    fn pressure_loss_laws() {
+        let reference = Engine::reference().expect("reference");
+        let mut cfg = EngineConfig::reference();
+        cfg.design.inlet_loss_law = PressureLossLaw::Constant;
+        cfg.design.combustor_loss_law = PressureLossLaw::Constant;
+        cfg.design.exhaust_loss_law = PressureLossLaw::Constant;
+        let constant = Engine::new(cfg).expect("constant laws");
+        assert_eq!(constant.design(), reference.design());
+        let inp = SteadyInputs {
+            t_amb_k: 288.15,
+            p_amb_kpa: 101.325,
+            n2_rpm: 3600.0,
+            demand: Demand::PowerMw(15.0),
+        };
+        let healthy = HealthParams::HEALTHY;
+        let c = solve(&constant.model(&healthy), &inp, None).expect("constant");
+        let f = solve(&reference.model(&healthy), &inp, None).expect("flow");
+        let rel = |a: f64, b: f64| (a / b - 1.0).abs();
+        assert!(rel(c.p1_kpa, 101.325 * 0.99) < 1e-14, "{}", c.p1_kpa);
+        assert!(rel(c.p3_kpa, c.p2_kpa * 0.96) < 1e-14);
+        assert!(rel(c.p4_kpa, 101.325 * 1.03) < 1e-14);
+        // Flow squared: the losses follow the corrected flows (the inlet's falls at part load,
+        // the combustor's W2·√T2/P2 rises).
+        assert!(f.p1_kpa > 101.325 * 0.99 + 0.1, "{}", f.p1_kpa);
+        assert!(f.p3_kpa / f.p2_kpa < 0.959, "{}", f.p3_kpa / f.p2_kpa);
+        assert!(f.p4_kpa < 101.325 * 1.03 - 0.5, "{}", f.p4_kpa);
     }
 }

@@ -233,8 +233,8 @@ fn newton(model: &Model, inp: &SteadyInputs, x0: Unknowns) -> Result<Unknowns, S
     }
 }
 
-fn design_guess() -> Unknowns {
-    Unknowns([1.0, 0.5, 1.0, 1.0])
+fn design_guess(model: &Model) -> Unknowns {
+    Unknowns([1.0, model.consts.beta_design, 1.0, 1.0])
 }
 
 fn guess_from(model: &Model, p: &SteadyPoint) -> Unknowns {
@@ -270,7 +270,7 @@ pub fn solve(
 ) -> Result<SteadyPoint, EngineError> {
     let x0 = guess
         .map(|g| guess_from(model, g))
-        .unwrap_or_else(design_guess);
+        .unwrap_or_else(|| design_guess(model));
     if let Ok(x) = newton(model, inp, x0) {
         return Ok(evaluate(model, inp, &x).point);
     }
@@ -281,7 +281,7 @@ pub fn solve(
             demand: Demand::N1Rpm(model.consts.n1_design),
             ..*inp
         },
-        design_guess(),
+        design_guess(model),
     )
     .map_err(|e| EngineError::NoSteadySolution(format!("even the design speed fails: {e}")))?;
     let dp = evaluate(model, inp, &design).point;

@@ -10,13 +10,30 @@
 //!
 //! `nc` is relative corrected speed (1.0 = map design), `beta` the auxiliary coordinate along a
 //! speed line, 0 at the surge end and 1 at the choke end, so PR falls with beta. A file whose PR
-//! *rises* with beta (e.g. the GSPy sample map) is flipped on reading: `beta = b_min + b_max −
-//! beta_file`.
+//! *rises* with beta (e.g. the GSPy sample map, GasTurb's own convention with β = 1 on the
+//! surge side) is flipped on reading: `beta = b_min + b_max − beta_file`.
+//!
+//! Two β conventions therefore exist, and every API says which it takes:
+//! * **the file's β** — the column keys of the map file, as GasTurb and GSP/GSPy read them. The
+//!   engine file's `maps.compressor_design_beta` is in this convention (so a peer's design β is
+//!   entered as the peer states it); [`CompressorMap::beta_from_file`] converts it.
+//! * **gtwatch's internal β** (surge end low) — what [`CompressorMap::point`],
+//!   [`CompressorMap::beta_for_pr`], the steady solver's unknown and the station table's
+//!   `compressor_beta` use. For a map whose PR already falls with β (the embedded JT9D HPC map)
+//!   both conventions are the same number.
 //!
 //! # Interpolation
 //!
 //! Bilinear in (nc, beta): linear along each speed line between beta keys, linear between the
 //! two neighbouring speed lines. Continuous everywhere, monotone where the data are.
+//!
+//! Optionally ([`CompressorMap::with_cubic_interpolation`], engine file
+//! `maps.interpolation = "cubic"`): the not-a-knot tensor-product cubic spline of
+//! [`super::spline`] (SciPy's `RegularGridInterpolator(method="cubic")`, as GSPy uses) inside
+//! the grid. Outside the grid the extrapolation rules below apply to the bilinear values plus
+//! the cubic-minus-bilinear difference at the nearest grid point, so the map stays continuous
+//! at the grid edge. [`CompressorMap::beta_for_pr`] then refines the bilinear inverse by Newton
+//! steps.
 //!
 //! # Extrapolation (continuous everywhere)
 //!
@@ -40,6 +57,7 @@
 //!   `PR − 1 ∝ wc²`; above its highest point it continues linearly.
 
 use super::gasturb::{GasTurbFile, MapError, MapTable};
+use super::spline::CubicGrid;
 
 /// Lower bound of nc used internally (see module docs).
 pub const NC_MIN: f64 = 0.02;
@@ -77,6 +95,8 @@ pub struct CompressorMap {
     surge_wc: Vec<f64>,
     surge_pr: Vec<f64>,
     flipped: bool,
+    /// The cubic interpolant, when selected.
+    cubic: Option<CubicGrid>,
 }
 
 /// How a corrected speed maps onto the stored speed lines: `value = c0·line[j] + c1·line[j+1]`,
@@ -219,7 +239,59 @@ impl CompressorMap {
             surge_wc,
             surge_pr,
             flipped,
+            cubic: None,
         })
+    }
+
+    /// The same map interpolated with not-a-knot cubic splines inside its grid (module docs).
+    /// Needs 4 to 64 speed lines and β values.
+    pub fn with_cubic_interpolation(mut self) -> Result<Self, MapError> {
+        let grid = CubicGrid::new(&self.speeds, &self.betas).ok_or_else(|| MapError::Invalid {
+            source_name: self.title.clone(),
+            table: "Mass Flow".into(),
+            reason: "cubic interpolation needs 4 to 64 speed lines and beta values".into(),
+        })?;
+        self.cubic = Some(grid);
+        Ok(self)
+    }
+
+    /// Whether the cubic interpolation is selected.
+    pub fn is_cubic(&self) -> bool {
+        self.cubic.is_some()
+    }
+
+    /// Cubic minus bilinear value of (wc, PR, eff) at the grid point nearest (`nc`, `beta`);
+    /// zeros for the bilinear map.
+    #[inline]
+    fn cubic_correction(&self, nc: f64, beta: f64) -> [f64; 3] {
+        let Some(grid) = &self.cubic else {
+            return [0.0; 3];
+        };
+        let (s, b) = (&self.speeds, &self.betas);
+        let ncc = if nc.is_nan() {
+            s[0]
+        } else {
+            nc.clamp(s[0], s[s.len() - 1])
+        };
+        let bc = if beta.is_nan() {
+            b[0]
+        } else {
+            beta.clamp(b[0], b[b.len() - 1])
+        };
+        let bl = self.blend(ncc);
+        let (k, f) = self.beta_pos(bc);
+        let mut out = [0.0; 3];
+        for (q, slot) in out.iter_mut().enumerate() {
+            let lin = bl.c0 * self.line_value(q, bl.j, bc, k, f)
+                + bl.c1 * self.line_value(q, bl.j + 1, bc, k, f);
+            let values = match q {
+                0 => &self.wc,
+                1 => &self.pr,
+                _ => &self.eff,
+            };
+            *slot = grid.eval(values, ncc, bc) - lin;
+        }
+        out
     }
 
     /// Title of the source file.
@@ -237,6 +309,21 @@ impl CompressorMap {
     /// Whether the file's beta direction was reversed on reading.
     pub fn flipped(&self) -> bool {
         self.flipped
+    }
+    /// gtwatch's internal β for a β stated in the map file's convention (identity unless the
+    /// file was flipped; see the module docs).
+    pub fn beta_from_file(&self, beta_file: f64) -> f64 {
+        if self.flipped {
+            let m = self.betas.len();
+            self.betas[0] + self.betas[m - 1] - beta_file
+        } else {
+            beta_file
+        }
+    }
+    /// The map file's β for an internal β (the inverse of [`CompressorMap::beta_from_file`]).
+    pub fn beta_to_file(&self, beta: f64) -> f64 {
+        // The flip is its own inverse.
+        self.beta_from_file(beta)
     }
     /// Surge-line points (corrected flow, PR).
     pub fn surge_points(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
@@ -334,9 +421,11 @@ impl CompressorMap {
     pub fn point(&self, nc: f64, beta: f64) -> CompressorPoint {
         let bl = self.blend(nc);
         let (k, f) = self.beta_pos(beta);
+        let corr = self.cubic_correction(nc, beta);
         let mix = |q: usize| {
             bl.c0 * self.line_value(q, bl.j, beta, k, f)
                 + bl.c1 * self.line_value(q, bl.j + 1, beta, k, f)
+                + corr[q]
         };
         let wc = (mix(0) * bl.wc_f).max(0.0);
         let pr = 1.0 + bl.pr_f * (mix(1) - 1.0);
@@ -348,8 +437,31 @@ impl CompressorMap {
     /// inverse of `point(nc, beta).pr`: the line is piecewise linear in beta with the same
     /// breakpoints, so one scan over the beta keys and one linear solve. Defined for every `pr`
     /// (extrapolated beyond the keys). Where map data are not monotone, the crossing nearest
-    /// the surge end is returned.
+    /// the surge end is returned. With the cubic interpolation, that bilinear inverse is refined
+    /// by Newton steps on [`CompressorMap::point`].
     pub fn beta_for_pr(&self, nc: f64, pr: f64) -> f64 {
+        let mut b = self.beta_for_pr_linear(nc, pr);
+        if self.cubic.is_none() {
+            return b;
+        }
+        for _ in 0..30 {
+            let p = self.point(nc, b).pr;
+            let err = p - pr;
+            if err.abs() <= 1e-13 * pr.abs().max(1.0) {
+                break;
+            }
+            let db = 1e-7;
+            let slope = (self.point(nc, b + db).pr - p) / db;
+            if slope >= 0.0 || !slope.is_finite() {
+                break;
+            }
+            b -= err / slope;
+        }
+        b
+    }
+
+    /// The exact inverse of the bilinear map's PR (see [`CompressorMap::beta_for_pr`]).
+    fn beta_for_pr_linear(&self, nc: f64, pr: f64) -> f64 {
         let bl = self.blend(nc);
         let m = self.betas.len();
         let (j0, j1) = (bl.j * m, (bl.j + 1) * m);
@@ -538,6 +650,81 @@ mod tests {
         // Where its data are monotone the inverse works too.
         let b = m.beta_for_pr(0.9, 4.5);
         assert!((m.point(0.9, b).pr - 4.5).abs() < 1e-9);
+    }
+
+    /// The engine file's design β is the map file's β on both map families: GSPy's sample map
+    /// (PR rises with the file's β, flipped) at GSPy's design β 0.79 lands between the file's
+    /// columns 0.75 and 0.875 (bilinear: 32 % of the way), next to the point GSPy prints
+    /// (turboshaft_2spool: PR map 6.7543, Eta map 0.8667, Wc map 19.857, from its cubic
+    /// interpolation); the JT9D HPC map (not flipped) is unchanged.
+    #[test]
+    fn design_beta_in_the_map_files_convention() {
+        for dir in ["config/maps", "../shared/maps"] {
+            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join(dir)
+                .join("gspy_compmap.map");
+            let m = CompressorMap::from_gasturb(&crate::maps::read_file(&path).expect("read"))
+                .expect("build");
+            assert!(m.flipped());
+            let b = m.beta_from_file(0.79);
+            assert!((b - 0.21).abs() < 1e-12, "{b}");
+            assert!((m.beta_to_file(b) - 0.79).abs() < 1e-12);
+            let p = m.point(1.0, b);
+            let lin = |a: f64, c: f64| a + 0.32 * (c - a);
+            assert!((p.pr - lin(6.62920, 7.06568)).abs() < 1e-9, "{dir}: {p:?}");
+            assert!((p.eff - lin(0.87, 0.85)).abs() < 1e-9, "{dir}: {p:?}");
+            assert!((p.wc - lin(19.87, 19.82)).abs() < 1e-9, "{dir}: {p:?}");
+            // GSPy's printed point, within the bilinear-vs-cubic difference.
+            assert!((p.pr / 6.7543 - 1.0).abs() < 0.005, "{dir}: {p:?}");
+            assert!((p.eff / 0.8667 - 1.0).abs() < 0.005, "{dir}: {p:?}");
+            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join(dir)
+                .join("hpc.map");
+            let h = CompressorMap::from_gasturb(&crate::maps::read_file(&path).expect("read"))
+                .expect("build");
+            assert!(!h.flipped());
+            assert_eq!(h.beta_from_file(0.5), 0.5);
+            assert!((h.point(1.0, h.beta_from_file(0.5)).pr - 22.9999).abs() < 1e-9);
+        }
+    }
+
+    /// Cubic interpolation: equals the grid at its nodes, stays continuous across the grid edge
+    /// into the extrapolation, and `beta_for_pr` still inverts `point`.
+    #[test]
+    fn cubic_interpolation_is_continuous_and_invertible() {
+        let m = hpc().with_cubic_interpolation().expect("cubic");
+        assert!(m.is_cubic());
+        let lin = hpc();
+        for &nc in m.speeds() {
+            for &b in m.betas() {
+                let (a, c) = (m.point(nc, b), lin.point(nc, b));
+                assert!((a.pr - c.pr).abs() < 1e-9 && (a.eff - c.eff).abs() < 1e-12);
+            }
+        }
+        let (s0, s1) = (m.speeds()[0], m.speeds()[m.speeds().len() - 1]);
+        let e = 1e-9;
+        for i in 0..=20 {
+            let beta = 0.05 * i as f64;
+            for nc in [s0, s1] {
+                let (a, c) = (m.point(nc - e, beta), m.point(nc + e, beta));
+                assert!(
+                    (a.pr - c.pr).abs() < 1e-6 && (a.wc - c.wc).abs() < 1e-5,
+                    "nc {nc}"
+                );
+            }
+        }
+        for i in 0..=20 {
+            let nc = 0.55 + 0.025 * i as f64;
+            for b in [0.0, 1.0] {
+                let (a, c) = (m.point(nc, b - e), m.point(nc, b + e));
+                assert!((a.pr - c.pr).abs() < 1e-6 && (a.eff - c.eff).abs() < 1e-6);
+            }
+            for beta in [0.1, 0.45, 0.9] {
+                let pr = m.point(nc, beta).pr;
+                let back = m.beta_for_pr(nc, pr);
+                assert!((back - beta).abs() < 1e-8, "nc {nc} beta {beta} -> {back}");
+            }
+        }
     }
 
     proptest! {

@@ -17,7 +17,7 @@ use thiserror::Error;
 /// A problem reading or interpreting a map file. Every variant names the source (file name).
 #[derive(Debug, Error)]
 pub enum MapError {
-    #[error("{source_name}: cannot read: {error}")]
+    #[error("cannot read map file {source_name}: {error}")]
     Io {
         source_name: String,
         error: std::io::Error,

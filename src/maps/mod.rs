@@ -13,10 +13,20 @@
 //! * [`compressor`], [`turbine`]: map units (relative corrected speed, beta, map flow), with the
 //!   documented extrapolation rules.
 //! * [`scaled`]: engine units and health ([`ScaledCompressor`], [`ScaledTurbine`]).
+//!
+//! β conventions: an engine file states the compressor design β as the map file does (GasTurb /
+//! GSP read the column keys as they stand); internally a compressor map runs from the surge end
+//! at low β, flipping files whose PR rises with β ([`CompressorMap::beta_from_file`]). Turbine
+//! design points are given as map PR, `PRmin + β (PRmax − PRmin)` for a GasTurb/GSP turbine β.
+//!
+//! Interpolation is bilinear in (speed, β) inside every map by default, or the not-a-knot
+//! tensor-product cubic spline of [`spline`] (as GSPy/SciPy) when an engine file selects
+//! `maps.interpolation = "cubic"` (see [`compressor`], [`turbine`]).
 
 pub mod compressor;
 pub mod gasturb;
 pub mod scaled;
+pub mod spline;
 pub mod turbine;
 
 pub use compressor::{CompressorMap, CompressorPoint};

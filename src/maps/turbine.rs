@@ -7,6 +7,10 @@
 //!
 //! # Interpolation
 //! Bilinear in (nc, beta) inside the map; PRmin/PRmax linear in speed (held beyond their keys).
+//! Optionally ([`TurbineMap::with_cubic_interpolation`], engine file
+//! `maps.interpolation = "cubic"`) the not-a-knot tensor-product cubic spline of
+//! [`super::spline`] (as GSPy/SciPy) inside the grid; the rules below act on it unchanged, since
+//! they only ever read the grid at clamped coordinates.
 //!
 //! # Extrapolation (start-up PRs are 1.0–2, far below a map's PRmin of ~3)
 //!
@@ -32,6 +36,7 @@
 //! * **speed above the highest line**: the highest line is held.
 
 use super::gasturb::{GasTurbFile, MapError, MapTable};
+use super::spline::CubicGrid;
 
 /// Below this PR the flow law is linear in (PR − 1).
 pub const PR_LINEAR: f64 = 1.02;
@@ -73,6 +78,8 @@ pub struct TurbineMap {
     pr_min: Vec<f64>,
     lim_speeds_max: Vec<f64>,
     pr_max: Vec<f64>,
+    /// The cubic interpolant, when selected.
+    cubic: Option<CubicGrid>,
 }
 
 /// Linear interpolation in `xs`, held at the ends.
@@ -165,7 +172,20 @@ impl TurbineMap {
             pr_min,
             lim_speeds_max,
             pr_max,
+            cubic: None,
         })
+    }
+
+    /// The same map interpolated with not-a-knot cubic splines inside its grid (module docs).
+    /// Needs 4 to 64 speed lines and β values.
+    pub fn with_cubic_interpolation(mut self) -> Result<Self, MapError> {
+        let grid = CubicGrid::new(&self.speeds, &self.betas).ok_or_else(|| MapError::Invalid {
+            source_name: self.title.clone(),
+            table: "Mass Flow".into(),
+            reason: "cubic interpolation needs 4 to 64 speed lines and beta values".into(),
+        })?;
+        self.cubic = Some(grid);
+        Ok(self)
     }
 
     pub fn title(&self) -> &str {
@@ -187,6 +207,14 @@ impl TurbineMap {
     fn grid(&self, nc: f64, beta: f64) -> (f64, f64) {
         let (s, b) = (&self.speeds, &self.betas);
         let (n, m) = (s.len(), b.len());
+        if let Some(grid) = &self.cubic {
+            let nc = nc.clamp(s[0], s[n - 1]);
+            let beta = beta.clamp(b[0], b[m - 1]);
+            return (
+                grid.eval(&self.wc, nc, beta),
+                grid.eval(&self.eff, nc, beta),
+            );
+        }
         let (j, t) = if n == 1 || nc <= s[0] {
             (0, 0.0)
         } else if nc >= s[n - 1] {
