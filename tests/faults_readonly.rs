@@ -183,7 +183,11 @@ fn assert_fails_naming_the_db(s: &Setup, what: &str) {
             err.matches("readonly database").count(),
             "{name}: {err}"
         );
-        assert_eq!(dir_listing(&s.dbdir), before, "{name} changed the directory");
+        assert_eq!(
+            dir_listing(&s.dbdir),
+            before,
+            "{name} changed the directory"
+        );
     }
 }
 
