@@ -11,6 +11,7 @@ mod bench_gap;
 mod bench_month;
 mod bench_replay;
 mod bench_sim;
+mod bench_soak;
 mod bench_wash;
 mod check_config;
 mod common;
