@@ -65,9 +65,12 @@ struct SoakReport {
     speed_up: f64,
     detector_scans: u64,
     segments_closed: u64,
-    /// Resident memory after day 5 (null for fewer than 5 days) and at the end, KiB.
+    /// Resident memory after day 5 (null for fewer than 5 days) and after the last day, KiB,
+    /// both measured in the same state (running, just after a detector scan).
     rss_kib_day5: Option<u64>,
     rss_kib_end: u64,
+    /// Resident memory once the writer and the detector connection are closed, KiB.
+    rss_kib_after_close: u64,
     /// (end − day 5) / day 5, percent: the soak criterion is < 5.
     rss_growth_pct_day5_to_end: Option<f64>,
     /// Peak resident memory (VmHWM), KiB.
@@ -213,8 +216,9 @@ async fn soak(args: &BenchSoakArgs) -> anyhow::Result<SoakReport> {
     writer.await??;
     let wall = started.elapsed().as_secs_f64();
     drop(det_store);
-    let (rss_end, hwm) = memory_kib()?;
+    let (rss_after_close, hwm) = memory_kib()?;
     let rss_day5 = per_day.iter().find(|p| p.day == 5).map(|p| p.rss_kib);
+    let rss_end = per_day.last().map_or(rss_after_close, |p| p.rss_kib);
     let db = db_bytes(&storage.path) as f64 / MIB;
     Ok(SoakReport {
         bench: "soak",
@@ -231,6 +235,7 @@ async fn soak(args: &BenchSoakArgs) -> anyhow::Result<SoakReport> {
         segments_closed: closed,
         rss_kib_day5: rss_day5,
         rss_kib_end: rss_end,
+        rss_kib_after_close: rss_after_close,
         rss_growth_pct_day5_to_end: rss_day5
             .map(|d5| (rss_end as f64 - d5 as f64) / d5 as f64 * 100.0),
         hwm_kib: hwm,
