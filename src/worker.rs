@@ -362,6 +362,7 @@ pub fn drain_pending(
         let Some(seg) = store.pending_segments()?.into_iter().next() else {
             return Ok(rep);
         };
+        tracing::info!(segment = seg.id, "diagnosing start-up");
         let (outcome, _) = diagnose_segment(store, ctx, seg.id, cancel, true)?;
         match &outcome {
             SegmentOutcome::Diagnosed { ids, failures } => {

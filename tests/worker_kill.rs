@@ -1,5 +1,7 @@
-//! Killing `gtwatch run` (SIGTERM, then kill -9) while it diagnoses a start-up leaves nothing
-//! half-written, and the restarted daemon diagnoses the pending segment.
+//! Killing `gtwatch run` (kill -9 at seeded random moments of the fit, then SIGTERM) while it
+//! diagnoses a start-up leaves nothing half-written, and the restarted daemon diagnoses the
+//! pending segment. Each kill waits for the worker's `diagnosing start-up` log line, so it
+//! lands inside the diagnosis, not before it.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use gtwatch::detect::{scan, DetectorConfig};
@@ -79,6 +81,36 @@ fn start(cfg: &Path) -> Child {
         .expect("daemon starts")
 }
 
+/// Starts the daemon and returns once its worker has logged that it began diagnosing.
+fn start_until_diagnosing(cfg: &Path) -> Child {
+    use std::io::BufRead;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(["run", "--config"])
+        .arg(cfg)
+        .env("RUST_LOG", "info")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("daemon starts");
+    let stderr = child.stderr.take().expect("stderr");
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut sent = false;
+        // Keep reading to the end so the daemon never blocks on a full pipe.
+        for line in std::io::BufReader::new(stderr)
+            .lines()
+            .map_while(Result::ok)
+        {
+            if !sent && line.contains("diagnosing start-up") {
+                sent = tx.send(()).is_ok();
+            }
+        }
+    });
+    rx.recv_timeout(Duration::from_secs(60))
+        .expect("the worker starts diagnosing within 60 s");
+    child
+}
+
 fn sigterm(child: &mut Child) -> std::process::ExitStatus {
     let ok = Command::new("kill")
         .args(["-TERM", &child.id().to_string()])
@@ -112,16 +144,22 @@ fn kill_during_diagnosis_leaves_nothing_half_written_and_restart_resumes() {
     let cfg = dir.path().join("gtwatch.toml");
     std::fs::write(&cfg, text).expect("config");
 
-    // kill -9 in the middle of the fit.
-    let mut d = start(&cfg);
-    std::thread::sleep(Duration::from_millis(1500));
-    d.kill().expect("kill -9");
-    d.wait().expect("reaped");
-    assert_eq!(state(&db), (0, 0, "closed".into(), "ok".into()));
+    // kill -9 at seeded random moments of the fit (xorshift64, fixed seed).
+    let mut seed: u64 = 0x2545_F491_4F6C_DD1D;
+    for _ in 0..3 {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        let mut d = start_until_diagnosing(&cfg);
+        std::thread::sleep(Duration::from_millis(seed % 1500));
+        d.kill().expect("kill -9");
+        d.wait().expect("reaped");
+        assert_eq!(state(&db), (0, 0, "closed".into(), "ok".into()));
+    }
 
     // SIGTERM in the middle of the fit: clean exit, the fit cancelled, nothing stored.
-    let mut d = start(&cfg);
-    std::thread::sleep(Duration::from_millis(1500));
+    let mut d = start_until_diagnosing(&cfg);
+    std::thread::sleep(Duration::from_millis(500));
     let t = Instant::now();
     let status = sigterm(&mut d);
     assert!(status.success(), "{status:?}");

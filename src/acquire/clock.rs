@@ -10,9 +10,33 @@
 //! re-anchoring is reported so the caller can log it. Timestamps never go backwards: after a
 //! backward re-anchor, times are held at the last issued value + 1 ms until the wall clock
 //! catches up (the store is keyed on (tag, t_ms), so duplicates would be dropped).
-//! No I/O other than reading the clocks.
+//! No I/O other than reading the clocks. The wall clock read is a [`WallClock`], so a test
+//! (or a fault-injection run) can step it while the poll loop runs.
 
+use std::sync::atomic::{AtomicI64, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+/// Where wall-clock readings come from.
+#[derive(Debug, Clone, Default)]
+pub enum WallClock {
+    /// The system clock.
+    #[default]
+    System,
+    /// The system clock plus an offset (ms) that may be changed at any time: a clock an
+    /// operator or NTP steps, for fault injection.
+    Shifted(Arc<AtomicI64>),
+}
+
+impl WallClock {
+    /// Current reading in Unix epoch milliseconds.
+    pub fn now_ms(&self) -> i64 {
+        match self {
+            WallClock::System => wall_now_ms(),
+            WallClock::Shifted(offset) => wall_now_ms() + offset.load(Ordering::Relaxed),
+        }
+    }
+}
 
 /// A clock reading in Unix epoch milliseconds plus whether it re-anchored.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -29,6 +53,7 @@ pub struct SampleClock {
     anchor_mono: Instant,
     rejump_threshold_ms: i64,
     last_ms: Option<i64>,
+    wall: WallClock,
 }
 
 /// Current wall-clock time in Unix epoch milliseconds.
@@ -41,7 +66,14 @@ pub fn wall_now_ms() -> i64 {
 
 impl SampleClock {
     pub fn new(rejump_threshold: Duration) -> Self {
-        Self::anchored(wall_now_ms(), Instant::now(), rejump_threshold)
+        Self::with_wall(WallClock::System, rejump_threshold)
+    }
+
+    /// A clock reading `wall` (see [`WallClock::Shifted`]).
+    pub fn with_wall(wall: WallClock, rejump_threshold: Duration) -> Self {
+        let mut c = Self::anchored(wall.now_ms(), Instant::now(), rejump_threshold);
+        c.wall = wall;
+        c
     }
 
     /// A clock anchored at the given readings (for tests and replays of clock behaviour).
@@ -51,12 +83,19 @@ impl SampleClock {
             anchor_mono: mono,
             rejump_threshold_ms: rejump_threshold.as_millis() as i64,
             last_ms: None,
+            wall: WallClock::System,
         }
+    }
+
+    /// The last timestamp issued, if any.
+    pub fn last_issued_ms(&self) -> Option<i64> {
+        self.last_ms
     }
 
     /// Timestamp for now.
     pub fn now(&mut self) -> Stamp {
-        self.stamp(wall_now_ms(), Instant::now())
+        let wall = self.wall.now_ms();
+        self.stamp(wall, Instant::now())
     }
 
     /// Timestamp given explicit wall and monotonic readings (pure; `now` calls this).

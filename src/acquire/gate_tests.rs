@@ -1,19 +1,14 @@
 //! The bad-value policy on the Modbus path: a test server whose T34 register freezes while n1
 //! moves, with one spike, polled by the real poll loop.
 
-use crate::acquire::modbus::AcquisitionConfig;
-use crate::acquire::modbus::{poll_loop, PollPlan, PollProgress};
-use crate::acquire::register_map::{
-    ByteOrder, DataType, FieldSpec, ModbusConfig, RegisterKind, RequestSpec,
-};
+use crate::acquire::modbus::{AcquisitionConfig, PollPlan};
+use crate::acquire::register_map::{ModbusConfig, RegisterKind, RequestSpec};
+use crate::acquire::test_support::{run_poll_loop, serve, u16_field, Until};
 use crate::signals::Signal;
-use crate::store::{Quality, Sample, WriteCmd};
+use crate::store::{Quality, Sample};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
-use tokio::net::TcpListener;
-use tokio::sync::mpsc;
 use tokio_modbus::prelude::{ExceptionCode, Request, Response};
-use tokio_modbus::server::tcp::{accept_tcp_connection, Server};
 
 /// Poll k: n1 = 3000 + 10 k rpm; T34 = 700 + k K, except 1300 K at k = 10 (a spike), then
 /// frozen at 720 K from k = 20.
@@ -49,32 +44,11 @@ impl tokio_modbus::server::Service for Plant {
 
 #[tokio::test]
 async fn stuck_and_spiking_register_is_stored_flagged() {
-    let listener = TcpListener::bind("127.0.0.1:0").await.expect("bind");
-    let addr = listener.local_addr().expect("addr");
     let plant = Plant {
         polls: Arc::new(AtomicU64::new(0)),
     };
-    let server = tokio::spawn(async move {
-        let s = Server::new(listener);
-        let new_service = move |_a| Ok(Some(plant.clone()));
-        let on_connected = |stream, a| {
-            let ns = new_service.clone();
-            async move { accept_tcp_connection(stream, a, ns) }
-        };
-        let _ = s.serve(&on_connected, |_e| {}).await;
-    });
-    let field = |name: &str, address, signal| FieldSpec {
-        name: name.into(),
-        address,
-        data_type: DataType::U16,
-        byte_order: ByteOrder::ABCD,
-        scale: 1.0,
-        offset: 0.0,
-        unit: String::new(),
-        signal: Some(signal),
-        min: None,
-        max: None,
-    };
+    let (addr, server) = serve(plant).await;
+    let field = |name: &str, address, signal| u16_field(name, address, Some(signal));
     let map = ModbusConfig {
         endpoint: addr.to_string(),
         requests: vec![RequestSpec {
@@ -91,27 +65,9 @@ async fn stuck_and_spiking_register_is_stored_flagged() {
         poll_period_ms: 10,
         ..AcquisitionConfig::default()
     };
-    let (tx, mut rx) = mpsc::channel(1024);
-    let (trigger, shutdown) = crate::shutdown::shutdown_channel();
-    let progress = Arc::new(PollProgress::default());
-    let p2 = Arc::clone(&progress);
-    let task = tokio::spawn(async move { poll_loop(&cfg, &plan, tx, p2, shutdown).await });
-    let mut got: Vec<Sample> = Vec::new();
-    while got.len() < 2 * 120 {
-        match rx.recv().await {
-            Some(WriteCmd::Samples(s)) => got.extend(s),
-            Some(_) => {}
-            None => break,
-        }
-    }
-    trigger.trigger();
-    let stats = task.await.expect("join");
-    while let Some(cmd) = rx.recv().await {
-        if let WriteCmd::Samples(s) = cmd {
-            got.extend(s);
-        }
-    }
+    let run = run_poll_loop(cfg, plan, None, Until::Samples(2 * 120), |_| {}).await;
     server.abort();
+    let (got, stats) = (run.samples, run.stats);
     let t34: Vec<Sample> = got.iter().filter(|s| s.tag == 2).copied().collect();
     let n1: Vec<Sample> = got.iter().filter(|s| s.tag == 1).copied().collect();
     // Every polled value is stored (the held one released at shutdown), none twice.

@@ -18,6 +18,9 @@ pub enum BenchCmd {
     Gap(super::bench_gap::BenchGapArgs),
     /// Daemon CPU (live polling of a simulated plant) or memory after a simulated day (--day).
     Daemon(super::bench_daemon::BenchDaemonArgs),
+    /// Reliability soak: N days × M tags of 1 Hz data through writer and detector at full
+    /// speed; throughput and resident memory per simulated day.
+    Soak(super::bench_soak::BenchSoakArgs),
 }
 
 pub fn run(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
@@ -29,5 +32,6 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
         BenchCmd::Daemon(a) => super::bench_daemon::run(a),
         BenchCmd::Month(a) => super::bench_month::run(a),
         BenchCmd::Gap(a) => super::bench_gap::run(a),
+        BenchCmd::Soak(a) => super::bench_soak::run(a),
     }
 }

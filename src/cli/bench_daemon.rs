@@ -79,7 +79,7 @@ fn cpu_seconds() -> anyhow::Result<f64> {
 }
 
 /// (VmRSS, VmHWM) in KiB.
-fn memory_kib() -> anyhow::Result<(u64, u64)> {
+pub(super) fn memory_kib() -> anyhow::Result<(u64, u64)> {
     let status = std::fs::read_to_string("/proc/self/status").context("/proc/self/status")?;
     let get = |key: &str| -> anyhow::Result<u64> {
         let line = status
@@ -506,7 +506,7 @@ async fn day(args: &BenchDaemonArgs) -> anyhow::Result<DayReport> {
 }
 
 /// A temporary directory removed on drop (under $TMPDIR).
-fn tempfile_dir() -> anyhow::Result<TempDir> {
+pub(super) fn tempfile_dir() -> anyhow::Result<TempDir> {
     let base = std::env::temp_dir().join(format!(
         "gtwatch-bench-{}-{}",
         std::process::id(),
@@ -516,10 +516,10 @@ fn tempfile_dir() -> anyhow::Result<TempDir> {
     Ok(TempDir(base))
 }
 
-struct TempDir(std::path::PathBuf);
+pub(super) struct TempDir(std::path::PathBuf);
 
 impl TempDir {
-    fn path(&self) -> &std::path::Path {
+    pub(super) fn path(&self) -> &std::path::Path {
         &self.0
     }
 }

@@ -11,6 +11,7 @@ mod bench_gap;
 mod bench_month;
 mod bench_replay;
 mod bench_sim;
+mod bench_soak;
 mod bench_wash;
 mod check_config;
 mod common;
@@ -122,11 +123,15 @@ pub fn main() -> ExitCode {
 /// otherwise show the OS error twice).
 pub fn error_chain(e: &anyhow::Error) -> String {
     let mut out = String::new();
+    let mut last = String::new();
     for cause in e.chain() {
         let text = cause.to_string();
-        if text.is_empty() || out.contains(&text) {
+        // Also leave out a cause that only repeats the one before it with a prefix (SQLite's
+        // `attempt to write a readonly database` then `Error code 1544: attempt to write …`).
+        if text.is_empty() || out.contains(&text) || (!last.is_empty() && text.contains(&last)) {
             continue;
         }
+        last.clone_from(&text);
         if !out.is_empty() {
             out.push_str(": ");
         }
