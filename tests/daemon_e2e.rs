@@ -17,9 +17,7 @@
 mod common;
 
 use gtwatch::daemon::{self, RunOptions};
-use gtwatch::plantsim::{
-    spawn_plant_sim, ScriptLevels, ScriptStep, ScriptTiming, ScriptedPlant, SimOptions,
-};
+use gtwatch::plantsim::{spawn_plant_sim, ScriptLevels, ScriptedPlant, SimOptions};
 use gtwatch::shutdown::shutdown_channel;
 use gtwatch::signals::Phase;
 use std::time::Duration;
@@ -28,52 +26,6 @@ use tokio::net::TcpListener;
 /// Plant seconds per wall second.
 const SPEEDUP: f64 = 100.0;
 const POLL_MS: u64 = 10;
-
-fn timing() -> ScriptTiming {
-    ScriptTiming {
-        crank_s: 10.0,
-        purge_s: 10.0,
-        coast_to_light_off_s: 6.0,
-        light_off_hold_s: 6.0,
-        acceleration_s: 12.0,
-        idle_settle_s: 3.0,
-        pt_run_up_s: 8.0,
-        synchronisation_s: 6.0,
-        warmup_ramp_s: 3.0,
-        warmup_s: 8.0,
-        load_ramp_s: 10.0,
-        unloading_s: 10.0,
-        coast_down_s: 15.0,
-    }
-}
-
-fn schedule() -> Vec<ScriptStep> {
-    vec![
-        ScriptStep::Standstill { duration_s: 15.0 },
-        // 1: normal cold start.
-        ScriptStep::Start,
-        ScriptStep::Steady { duration_s: 20.0 },
-        ScriptStep::Shutdown { coast_to_rpm: 0.0 },
-        ScriptStep::Standstill { duration_s: 80.0 },
-        // 2: aborted start (trip during acceleration).
-        ScriptStep::AbortedStart {
-            trip_in: Phase::Acceleration,
-            after_s: 6.0,
-        },
-        ScriptStep::Standstill { duration_s: 80.0 },
-        // 3: normal cold start, then a shutdown restarted before the GG stops.
-        ScriptStep::Start,
-        ScriptStep::Steady { duration_s: 20.0 },
-        ScriptStep::Shutdown {
-            coast_to_rpm: 900.0,
-        },
-        // 4: hot restart.
-        ScriptStep::Start,
-        ScriptStep::Steady { duration_s: 20.0 },
-        ScriptStep::Shutdown { coast_to_rpm: 0.0 },
-        ScriptStep::Standstill { duration_s: 20.0 },
-    ]
-}
 
 /// One start in the truth: the first sample index of each phase, in order.
 #[derive(Debug)]
@@ -163,7 +115,13 @@ fn detected(db: &rusqlite::Connection) -> Vec<DetectedSegment> {
 async fn detector_finds_every_simulated_start_within_two_samples() {
     let dir = tempfile::tempdir().expect("tempdir");
     let db_path = dir.path().join("e2e.db");
-    let plant = ScriptedPlant::new(&schedule(), &timing(), ScriptLevels::default(), 1.0, false);
+    let plant = ScriptedPlant::new(
+        &common::e2e_schedule(),
+        &common::e2e_timing(),
+        ScriptLevels::default(),
+        1.0,
+        false,
+    );
     let total_frames = plant.duration_s().ceil() as u64 + 1;
     let listener = TcpListener::bind("127.0.0.1:0").await.expect("bind");
     let endpoint = listener.local_addr().expect("addr").to_string();

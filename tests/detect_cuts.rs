@@ -4,63 +4,27 @@
 //! exactly what one pass finds.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
+mod common;
+
 use gtwatch::detect::{scan, DetectorConfig};
-use gtwatch::plantsim::{PlantModel, ScriptLevels, ScriptStep, ScriptTiming, ScriptedPlant};
-use gtwatch::signals::{Phase, Signal};
+use gtwatch::plantsim::{PlantModel, ScriptLevels, ScriptedPlant};
+use gtwatch::signals::Signal;
 use gtwatch::store::{Quality, Sample, Store, TagInfo};
-
-fn timing() -> ScriptTiming {
-    ScriptTiming {
-        crank_s: 10.0,
-        purge_s: 10.0,
-        coast_to_light_off_s: 6.0,
-        light_off_hold_s: 6.0,
-        acceleration_s: 12.0,
-        idle_settle_s: 3.0,
-        pt_run_up_s: 8.0,
-        synchronisation_s: 6.0,
-        warmup_ramp_s: 3.0,
-        warmup_s: 8.0,
-        load_ramp_s: 10.0,
-        unloading_s: 10.0,
-        coast_down_s: 15.0,
-    }
-}
-
-fn schedule() -> Vec<ScriptStep> {
-    vec![
-        ScriptStep::Standstill { duration_s: 15.0 },
-        ScriptStep::Start,
-        ScriptStep::Steady { duration_s: 20.0 },
-        ScriptStep::Shutdown { coast_to_rpm: 0.0 },
-        ScriptStep::Standstill { duration_s: 80.0 },
-        ScriptStep::AbortedStart {
-            trip_in: Phase::Acceleration,
-            after_s: 6.0,
-        },
-        ScriptStep::Standstill { duration_s: 80.0 },
-        ScriptStep::Start,
-        ScriptStep::Steady { duration_s: 20.0 },
-        ScriptStep::Shutdown {
-            coast_to_rpm: 900.0,
-        },
-        ScriptStep::Start,
-        ScriptStep::Steady { duration_s: 20.0 },
-        ScriptStep::Shutdown { coast_to_rpm: 0.0 },
-        ScriptStep::Standstill { duration_s: 20.0 },
-    ]
-}
-
-const EPOCH_MS: i64 = 1_767_571_200_000;
 
 /// Per frame: the samples of n1, fuel, power and n2 at the frame's time.
 fn frames() -> Vec<Vec<(Signal, i64, f64)>> {
-    let mut plant = ScriptedPlant::new(&schedule(), &timing(), ScriptLevels::default(), 1.0, false);
+    let mut plant = ScriptedPlant::new(
+        &common::e2e_schedule(),
+        &common::e2e_timing(),
+        ScriptLevels::default(),
+        1.0,
+        false,
+    );
     let n = plant.duration_s().ceil() as usize + 1;
     (0..n)
         .map(|_| {
             let f = plant.step();
-            let t = EPOCH_MS + (f.t_s * 1000.0).round() as i64;
+            let t = common::EPOCH_MS + (f.t_s * 1000.0).round() as i64;
             [Signal::N1, Signal::FuelFlow, Signal::Power, Signal::N2]
                 .into_iter()
                 .map(|s| (s, t, f.get(s)))

@@ -3,7 +3,8 @@
 
 use gtwatch::acquire::register_map::{DataType, FieldSpec, PLANT_TIME_FIELD};
 use gtwatch::config::Config;
-use gtwatch::plantsim::{PlantFrame, PlantModel, ScriptedPlant};
+use gtwatch::plantsim::{PlantFrame, PlantModel, ScriptStep, ScriptTiming, ScriptedPlant};
+use gtwatch::signals::Phase;
 use std::path::{Path, PathBuf};
 
 /// The reference configuration shipped in `config/gtwatch.toml`.
@@ -104,4 +105,53 @@ impl PlantModel for Clocked {
     fn epoch_ms(&self) -> Option<i64> {
         Some(EPOCH_MS)
     }
+}
+
+/// Phase timing of the end-to-end script (short phases, plant seconds).
+pub fn e2e_timing() -> ScriptTiming {
+    ScriptTiming {
+        crank_s: 10.0,
+        purge_s: 10.0,
+        coast_to_light_off_s: 6.0,
+        light_off_hold_s: 6.0,
+        acceleration_s: 12.0,
+        idle_settle_s: 3.0,
+        pt_run_up_s: 8.0,
+        synchronisation_s: 6.0,
+        warmup_ramp_s: 3.0,
+        warmup_s: 8.0,
+        load_ramp_s: 10.0,
+        unloading_s: 10.0,
+        coast_down_s: 15.0,
+    }
+}
+
+/// The end-to-end script: a cold start, a trip in acceleration, a start shut down and restarted
+/// hot before the gas generator stops.
+pub fn e2e_schedule() -> Vec<ScriptStep> {
+    vec![
+        ScriptStep::Standstill { duration_s: 15.0 },
+        // 1: normal cold start.
+        ScriptStep::Start,
+        ScriptStep::Steady { duration_s: 20.0 },
+        ScriptStep::Shutdown { coast_to_rpm: 0.0 },
+        ScriptStep::Standstill { duration_s: 80.0 },
+        // 2: aborted start (trip during acceleration).
+        ScriptStep::AbortedStart {
+            trip_in: Phase::Acceleration,
+            after_s: 6.0,
+        },
+        ScriptStep::Standstill { duration_s: 80.0 },
+        // 3: normal cold start, then a shutdown restarted before the GG stops.
+        ScriptStep::Start,
+        ScriptStep::Steady { duration_s: 20.0 },
+        ScriptStep::Shutdown {
+            coast_to_rpm: 900.0,
+        },
+        // 4: hot restart.
+        ScriptStep::Start,
+        ScriptStep::Steady { duration_s: 20.0 },
+        ScriptStep::Shutdown { coast_to_rpm: 0.0 },
+        ScriptStep::Standstill { duration_s: 20.0 },
+    ]
 }
