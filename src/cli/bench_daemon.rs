@@ -15,9 +15,10 @@
 //!
 //! Memory is VmRSS / VmHWM from /proc/self/status. Linux only. Must not be used as a test.
 
-use crate::acquire::modbus::{decode_request, PollPlan, PollProgress};
+use super::bench_ingest::IngestRig;
+use crate::acquire::modbus::PollProgress;
 use crate::acquire::register_map::{
-    encode_field, ByteOrder, DataType, FieldSpec, ModbusConfig, RegisterKind, RequestSpec,
+    ByteOrder, DataType, FieldSpec, ModbusConfig, RegisterKind, RequestSpec,
 };
 use crate::config::{Config, DaemonConfig, PlantConfig};
 use crate::daemon::{self, RunOptions};
@@ -25,7 +26,7 @@ use crate::detect::{self, DetectorConfig};
 use crate::plantsim::{spawn_plant_sim, PlantModel, ScriptedPlant, SimOptions};
 use crate::shutdown::shutdown_channel;
 use crate::signals::Signal;
-use crate::store::{spawn_writer, StorageConfig, Store, TagInfo, WriteCmd};
+use crate::store::{StorageConfig, Store, TagInfo};
 use anyhow::{bail, Context};
 use serde::Serialize;
 use std::process::ExitCode;
@@ -402,102 +403,39 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
 }
 
 async fn day(args: &BenchDaemonArgs) -> anyhow::Result<DayReport> {
-    let dir = tempfile_dir()?;
-    let storage = StorageConfig {
-        path: dir.path().join("day.db"),
-        cache_mib: args.cache_mib,
-        ..StorageConfig::default()
-    };
-    let map = bench_map(args.tags, "127.0.0.1:502");
-    let mut store = Store::open_with(&storage.path, &storage.options())?;
-    let tags = map
-        .fields()
-        .map(|(_, f)| {
-            store.ensure_tag(&TagInfo {
-                name: f.name.clone(),
-                unit: f.unit.clone(),
-                signal: f.signal,
-            })
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    let plan = PollPlan::new(&map, &tags).map_err(anyhow::Error::msg)?;
-    let (tx, rx) = tokio::sync::mpsc::channel(DaemonConfig::default().queue_capacity);
-    let writer = spawn_writer(store, rx, storage.writer());
+    let mut rig = IngestRig::new(args.tags, args.cache_mib, "day.db")?;
     let period_s = 1.0 / args.rate_hz;
     let mut plant = ScriptedPlant::demo(period_s);
     let frames = (args.hours * 3600.0 * args.rate_hz).round() as u64;
     let period_ms = (1000.0 * period_s).round() as i64;
     let t_start = crate::store::now_ms() - frames as i64 * period_ms;
     let scan_every = (3600.0 * args.rate_hz) as u64;
-    let mut det_store = Some(Store::open_with(
-        &storage.path,
-        &daemon::detector_store_options(&storage.options()),
-    )?);
-    let mut scans = 0u64;
-    let mut closed = 0u64;
-    let mut blocks: Vec<Vec<u16>> = plan
-        .requests
-        .iter()
-        .map(|r| vec![0u16; r.count as usize])
-        .collect();
     let started = Instant::now();
-    let mut samples = 0u64;
     for k in 0..frames {
-        // Plant side: encode the frame into register blocks (what the PLC would answer).
         let frame = plant.step();
-        for (req, block) in plan.requests.iter().zip(blocks.iter_mut()) {
-            for (_, f) in &req.fields {
-                let v = f.signal.map_or(k as f64 * 1e-3, |s| frame.get(s));
-                let at = (f.address - u32::from(req.start)) as usize;
-                for (i, w) in encode_field(f, v).into_iter().enumerate() {
-                    block[at + i] = w;
-                }
-            }
-        }
-        // Daemon side: decode and hand to the writer, exactly as the poll loop does.
-        let t_ms = t_start + k as i64 * period_ms;
-        let mut batch = Vec::with_capacity(plan.tag_count());
-        for (req, block) in plan.requests.iter().zip(&blocks) {
-            decode_request(req, block, t_ms, &mut batch);
-        }
-        samples += batch.len() as u64;
-        tx.send(WriteCmd::Samples(batch))
-            .await
-            .context("writer stopped")?;
-        if (k + 1) % scan_every == 0 {
-            let (ack_tx, ack_rx) = tokio::sync::oneshot::channel();
-            tx.send(WriteCmd::Flush(ack_tx)).await?;
-            let _ = ack_rx.await;
-            let mut s = det_store.take().context("detector store")?;
-            let (s, r) = tokio::task::spawn_blocking(move || {
-                let r = detect::scan(&mut s, &DetectorConfig::default());
-                (s, r)
-            })
+        rig.push(&frame, k as f64 * 1e-3, t_start + k as i64 * period_ms)
             .await?;
-            det_store = Some(s);
-            let r = r?;
-            scans += 1;
-            closed += r.segments_closed;
+        if (k + 1) % scan_every == 0 {
+            rig.scan().await?;
         }
     }
-    drop(tx);
-    writer.await??;
+    rig.close_writer().await?;
     let wall = started.elapsed().as_secs_f64();
     let (rss, hwm) = memory_kib()?;
-    let db_bytes = std::fs::metadata(&storage.path)
+    let db_bytes = std::fs::metadata(&rig.db_path)
         .map(|m| m.len())
         .unwrap_or(0);
-    drop(det_store);
+    rig.close_detector();
     Ok(DayReport {
         mode: "day",
         tags: args.tags,
         rate_hz: args.rate_hz,
         simulated_hours: args.hours,
-        samples,
+        samples: rig.samples,
         wall_seconds: wall,
-        samples_per_s: samples as f64 / wall,
-        detector_scans: scans,
-        segments_closed: closed,
+        samples_per_s: rig.samples as f64 / wall,
+        detector_scans: rig.scans,
+        segments_closed: rig.segments_closed,
         rss_kib_after: rss,
         hwm_kib: hwm,
         db_mib: db_bytes as f64 / (1024.0 * 1024.0),

@@ -10,15 +10,10 @@
 //! Diagnosis is not part of the soak (its cost is per start-up, see `bench diagnosis`).
 //! Linux only (/proc). A benchmark: never used as a test.
 
-use super::bench_daemon::{bench_map, memory_kib, tempfile_dir};
-use crate::acquire::modbus::{decode_request, PollPlan};
-use crate::acquire::register_map::encode_field;
-use crate::config::DaemonConfig;
-use crate::daemon;
-use crate::detect::{self, DetectorConfig};
+use super::bench_daemon::memory_kib;
+use super::bench_ingest::IngestRig;
 use crate::plantsim::{PlantModel, ScriptedPlant};
-use crate::store::{spawn_writer, StorageConfig, Store, TagInfo, WriteCmd};
-use anyhow::{bail, Context};
+use anyhow::bail;
 use serde::Serialize;
 use std::io::Write;
 use std::process::ExitCode;
@@ -118,81 +113,19 @@ async fn soak(args: &BenchSoakArgs) -> anyhow::Result<SoakReport> {
     const MIB: f64 = 1024.0 * 1024.0;
     const ROWS_PER_DAY: u64 = 86_400;
     const ROWS_PER_SCAN: u64 = 3_600;
-    let dir = tempfile_dir()?;
-    let storage = StorageConfig {
-        path: dir.path().join("soak.db"),
-        cache_mib: args.cache_mib,
-        ..StorageConfig::default()
-    };
-    let map = bench_map(args.tags, "127.0.0.1:502");
-    let mut store = Store::open_with(&storage.path, &storage.options())?;
-    let tags = map
-        .fields()
-        .map(|(_, f)| {
-            store.ensure_tag(&TagInfo {
-                name: f.name.clone(),
-                unit: f.unit.clone(),
-                signal: f.signal,
-            })
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    let plan = PollPlan::new(&map, &tags).map_err(anyhow::Error::msg)?;
-    let (tx, rx) = tokio::sync::mpsc::channel(DaemonConfig::default().queue_capacity);
-    let writer = spawn_writer(store, rx, storage.writer());
+    let mut rig = IngestRig::new(args.tags, args.cache_mib, "soak.db")?;
     let mut plant = ScriptedPlant::demo(1.0);
     let rows = u64::from(args.days) * ROWS_PER_DAY;
     // The simulated span ends now, so the data looks like a recent history.
     let t_start = crate::store::now_ms() - rows as i64 * 1000;
-    let mut det_store = Some(Store::open_with(
-        &storage.path,
-        &daemon::detector_store_options(&storage.options()),
-    )?);
-    let mut scans = 0u64;
-    let mut closed = 0u64;
-    let mut blocks: Vec<Vec<u16>> = plan
-        .requests
-        .iter()
-        .map(|r| vec![0u16; r.count as usize])
-        .collect();
     let mut per_day = Vec::new();
     let started = Instant::now();
-    let mut samples = 0u64;
     for k in 0..rows {
-        // Plant side: the frame encoded into register blocks (what the PLC would answer).
         let frame = plant.step();
-        for (req, block) in plan.requests.iter().zip(blocks.iter_mut()) {
-            for (_, f) in &req.fields {
-                let v = f.signal.map_or((k % 1000) as f64 * 1e-3, |s| frame.get(s));
-                let at = (f.address - u32::from(req.start)) as usize;
-                for (i, w) in encode_field(f, v).into_iter().enumerate() {
-                    block[at + i] = w;
-                }
-            }
-        }
-        // Daemon side: decode and hand to the writer, as the poll loop does.
-        let t_ms = t_start + k as i64 * 1000;
-        let mut batch = Vec::with_capacity(plan.tag_count());
-        for (req, block) in plan.requests.iter().zip(&blocks) {
-            decode_request(req, block, t_ms, &mut batch);
-        }
-        samples += batch.len() as u64;
-        tx.send(WriteCmd::Samples(batch))
-            .await
-            .context("writer stopped")?;
-        if (k + 1) % ROWS_PER_SCAN == 0 {
-            let (ack_tx, ack_rx) = tokio::sync::oneshot::channel();
-            tx.send(WriteCmd::Flush(ack_tx)).await?;
-            ack_rx.await.context("writer stopped before the flush")?;
-            let mut s = det_store.take().context("detector store")?;
-            let (s, r) = tokio::task::spawn_blocking(move || {
-                let r = detect::scan(&mut s, &DetectorConfig::default());
-                (s, r)
-            })
+        rig.push(&frame, (k % 1000) as f64 * 1e-3, t_start + k as i64 * 1000)
             .await?;
-            det_store = Some(s);
-            let r = r?;
-            scans += 1;
-            closed += r.segments_closed;
+        if (k + 1) % ROWS_PER_SCAN == 0 {
+            rig.scan().await?;
         }
         if (k + 1) % ROWS_PER_DAY == 0 {
             let day = ((k + 1) / ROWS_PER_DAY) as u32;
@@ -200,8 +133,8 @@ async fn soak(args: &BenchSoakArgs) -> anyhow::Result<SoakReport> {
             let point = DayPoint {
                 day,
                 rss_kib: rss,
-                db_mib: db_bytes(&storage.path) as f64 / MIB,
-                samples_per_s: samples as f64 / started.elapsed().as_secs_f64(),
+                db_mib: db_bytes(&rig.db_path) as f64 / MIB,
+                samples_per_s: rig.samples as f64 / started.elapsed().as_secs_f64(),
             };
             if !args.json {
                 eprintln!(
@@ -212,14 +145,14 @@ async fn soak(args: &BenchSoakArgs) -> anyhow::Result<SoakReport> {
             per_day.push(point);
         }
     }
-    drop(tx);
-    writer.await??;
+    rig.close_writer().await?;
     let wall = started.elapsed().as_secs_f64();
-    drop(det_store);
+    rig.close_detector();
     let (rss_after_close, hwm) = memory_kib()?;
     let rss_day5 = per_day.iter().find(|p| p.day == 5).map(|p| p.rss_kib);
     let rss_end = per_day.last().map_or(rss_after_close, |p| p.rss_kib);
-    let db = db_bytes(&storage.path) as f64 / MIB;
+    let db = db_bytes(&rig.db_path) as f64 / MIB;
+    let (samples, scans, closed) = (rig.samples, rig.scans, rig.segments_closed);
     Ok(SoakReport {
         bench: "soak",
         days: args.days,

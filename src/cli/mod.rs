@@ -8,6 +8,7 @@ mod bench;
 mod bench_daemon;
 mod bench_diagnosis;
 mod bench_gap;
+mod bench_ingest;
 mod bench_month;
 mod bench_replay;
 mod bench_sim;
