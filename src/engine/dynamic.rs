@@ -15,11 +15,12 @@
 use super::control::{Feedback, FuelCommand, StarterCommand};
 use super::effects::{Context, CoreView};
 pub use super::gas_path::Stations;
-use super::gas_path::{self, Adjust, CompressorSetting, HotSection, Inputs};
+use super::gas_path::{self, Adjust, CompressorSetting, GasPath, HotSection, Inputs};
 use super::model::Model;
 pub use super::state::{
     Scales, State, FAR_SCALE, IX_FAR, IX_FUEL_I, IX_N1, IX_N2, IX_P2, IX_P34, IX_T3, NX_CORE,
 };
+use crate::thermo::Gas;
 use std::f64::consts::PI;
 
 /// Speed below which torques are computed from power at this speed (rad/s), avoiding 1/ω.
@@ -94,17 +95,73 @@ pub fn standstill_state(model: &Model, t_amb_k: f64, p_amb_kpa: f64) -> State {
 
 /// Evaluates the model: state derivatives (per second) and the station table.
 pub fn evaluate(model: &Model, t: f64, y: &State, drive: &Drive) -> (State, Stations) {
-    evaluate_inline(model, t, y, drive)
+    core_rhs(model, t, y, drive, |mut dy, rhs| {
+        let st = rhs.stations(drive);
+        rhs.effect_derivatives(model, y, &st, &mut dy);
+        (dy, st)
+    })
 }
 
 /// The state derivatives alone (per second): what the integrator calls. The same code as
-/// [`evaluate`], compiled separately so the station table it does not need is never built.
+/// [`evaluate`], compiled separately so the station table it does not need is never built
+/// (unless an effect's derivatives read it).
 pub fn derivatives(model: &Model, t: f64, y: &State, drive: &Drive) -> State {
-    evaluate_inline(model, t, y, drive).0
+    core_rhs(model, t, y, drive, |mut dy, rhs| {
+        if rhs.core.is_some() {
+            let st = rhs.stations(drive);
+            rhs.effect_derivatives(model, y, &st, &mut dy);
+        }
+        dy
+    })
 }
 
+/// What the core right-hand side hands on besides the core derivatives: the station table's
+/// ingredients and the effects' view. Borrowed, not moved: copying the gas path around cost
+/// a few per cent of a simulation.
+struct CoreRhs<'a> {
+    gp: &'a GasPath,
+    core: Option<CoreView>,
+    wf_metered: f64,
+    wf: f64,
+    starter_tq: f64,
+}
+
+impl CoreRhs<'_> {
+    #[inline(always)]
+    fn stations(&self, drive: &Drive) -> Stations {
+        let mut st = self.gp.stations();
+        st.fuel_kg_s = self.wf_metered;
+        st.fuel_burnt_kg_s = self.wf;
+        if !drive.pt_locked {
+            st.power_mw = 0.0;
+        }
+        st.starter_torque_n_m = self.starter_tq;
+        st
+    }
+
+    #[inline(always)]
+    fn effect_derivatives(&self, model: &Model, y: &State, st: &Stations, dy: &mut State) {
+        if let Some(cv) = &self.core {
+            let ctx = Context {
+                core: cv,
+                stations: st,
+                metered_fuel_kg_s: self.wf_metered,
+            };
+            model.effects.derivatives(&ctx, y, dy);
+        }
+    }
+}
+
+/// The core model's right-hand side; `finish` gets the core derivatives and what the station
+/// table and the effects' own derivatives need.
 #[inline(always)]
-fn evaluate_inline(model: &Model, t: f64, y: &State, drive: &Drive) -> (State, Stations) {
+fn core_rhs<R>(
+    model: &Model,
+    t: f64,
+    y: &State,
+    drive: &Drive,
+    finish: impl FnOnce(State, &CoreRhs<'_>) -> R,
+) -> R {
     let c = &model.consts;
     let s = Scales::of(model);
     let p2 = y[IX_P2] * s.p2;
@@ -115,16 +172,14 @@ fn evaluate_inline(model: &Model, t: f64, y: &State, drive: &Drive) -> (State, S
     let effects = &model.effects;
     // With no effect on, every hook is skipped: the arithmetic is the core model's alone.
     let core = (!effects.is_empty()).then(|| core_view(model, t, y, drive));
-    let adjust = match &core {
-        Some(cv) => Adjust {
-            extra_bleed: effects.bleed_fraction(cv, y),
-            deltas: effects.component_deltas(cv, y),
-        },
-        None => Adjust::NONE,
-    };
+    let adjust = core.as_ref().map(|cv| Adjust {
+        extra_bleed: effects.bleed_fraction(cv, y),
+        deltas: effects.component_deltas(cv, y),
+    });
 
     // The gas path from the states: compressor into the plenum at P2, turbines on the
     // plenum's gas (temperature and composition are states).
+    let gas = Gas::products((y[IX_FAR] * FAR_SCALE).clamp(0.0, gas_path::MAX_FAR));
     let gp = gas_path::evaluate(
         model,
         &Inputs {
@@ -136,12 +191,11 @@ fn evaluate_inline(model: &Model, t: f64, y: &State, drive: &Drive) -> (State, S
             compressor: CompressorSetting::Plenum { p2_kpa: p2 },
             hot: HotSection::Plenum {
                 t3_k: t3,
-                fuel_air_ratio: y[IX_FAR] * FAR_SCALE,
+                gas: &gas,
             },
         },
-        &adjust,
+        adjust.as_ref(),
     );
-    let gas = &gp.gas;
     let w_air = gp.w_combustor_air_kg_s;
     let w3 = gp.hpt.w_kg_s;
     let w4 = gp.pt.w_kg_s;
@@ -214,20 +268,14 @@ fn evaluate_inline(model: &Model, t: f64, y: &State, drive: &Drive) -> (State, S
     dy[IX_FUEL_I] = dfi / s.fuel;
     dy[IX_FAR] = dfar / FAR_SCALE;
 
-    let mut st = gp.stations;
-    st.fuel_kg_s = wf_metered;
-    st.fuel_burnt_kg_s = wf;
-    if !drive.pt_locked {
-        st.power_mw = 0.0;
-    }
-    st.starter_torque_n_m = starter_tq;
-    if let Some(cv) = &core {
-        let ctx = Context {
-            core: cv,
-            stations: &st,
-            metered_fuel_kg_s: wf_metered,
-        };
-        effects.derivatives(&ctx, y, &mut dy);
-    }
-    (dy, st)
+    finish(
+        dy,
+        &CoreRhs {
+            gp: &gp,
+            core,
+            wf_metered,
+            wf,
+            starter_tq,
+        },
+    )
 }

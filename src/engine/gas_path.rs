@@ -119,23 +119,24 @@ pub enum CompressorSetting {
 
 /// What fixes the hot section.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum HotSection {
+pub enum HotSection<'g> {
     /// An adiabatic burn of this fuel flow in the compressor's air (steady state).
     Burn { fuel_kg_s: f64 },
-    /// The combustor plenum's gas temperature and fuel-air ratio (dynamic model states).
-    Plenum { t3_k: f64, fuel_air_ratio: f64 },
+    /// The combustor plenum's gas temperature and gas (dynamic model states; the caller owns
+    /// the gas, which it needs for the plenum balance too, so it is not copied around).
+    Plenum { t3_k: f64, gas: &'g Gas },
 }
 
 /// The operating inputs of one gas-path evaluation.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Inputs {
+pub struct Inputs<'g> {
     pub t_amb_k: f64,
     pub p_amb_kpa: f64,
     pub n1_rpm: f64,
     pub n2_rpm: f64,
     pub p34_kpa: f64,
     pub compressor: CompressorSetting,
-    pub hot: HotSection,
+    pub hot: HotSection<'g>,
 }
 
 /// What enabled effects change in the gas path (see `effects`): extra bleed and component
@@ -158,10 +159,20 @@ impl Adjust {
 /// dynamic model's balances and the steady solver's residuals need.
 #[derive(Debug, Clone, Copy)]
 pub struct GasPath {
-    /// The station table (fuel and starter fields are the caller's to fill).
-    pub stations: Stations,
-    /// Combustor gas.
-    pub gas: Gas,
+    /// The inputs' speeds, inlet temperature and duct pressure, for the station table.
+    pub n1_rpm: f64,
+    pub n2_rpm: f64,
+    pub t1_k: f64,
+    pub p34_kpa: f64,
+    /// Station pressures (compressor inlet after the inlet loss, exit, combustor exit, PT
+    /// exit before the exhaust loss) and the combustor exit temperature.
+    pub p1_kpa: f64,
+    pub p2_kpa: f64,
+    pub p3_kpa: f64,
+    pub p4_kpa: f64,
+    pub t3_k: f64,
+    /// Fuel-air ratio of the combustor gas.
+    pub fuel_air_ratio: f64,
     /// Compressor exit state.
     pub compressor: CompressorStation,
     pub hpt: TurbineStation,
@@ -183,17 +194,62 @@ pub struct GasPath {
     pub gg_net_w: f64,
 }
 
-/// Evaluates the gas path on `model` (health applied) with `adjust` from the enabled effects.
+impl GasPath {
+    /// The station table (fuel and starter fields are the caller's to fill). Rendered on
+    /// demand rather than stored: the integrator's right-hand side never needs it, and
+    /// building it on every call cost a few per cent of a simulation.
+    pub fn stations(&self) -> Stations {
+        let (comp, hpt, pt) = (&self.compressor, &self.hpt, &self.pt);
+        Stations {
+            n1_rpm: self.n1_rpm,
+            n2_rpm: self.n2_rpm,
+            t1_k: self.t1_k,
+            p1_kpa: self.p1_kpa,
+            t2_k: comp.t_out_k,
+            p2_kpa: self.p2_kpa,
+            t3_k: self.t3_k,
+            p3_kpa: self.p3_kpa,
+            t34_k: hpt.t_out_k,
+            p34_kpa: self.p34_kpa,
+            t4_k: pt.t_out_k,
+            p4_kpa: self.p4_kpa,
+            air_flow_kg_s: self.w_compressor_kg_s,
+            fuel_kg_s: 0.0,
+            fuel_burnt_kg_s: 0.0,
+            fuel_air_ratio: self.fuel_air_ratio,
+            hpt_flow_kg_s: hpt.w_kg_s,
+            pt_flow_kg_s: pt.w_kg_s,
+            power_mw: self.pt_net_w / 1e6,
+            pt_shaft_mw: self.pt_net_w / 1e6,
+            compressor_power_mw: self.compressor_power_w / 1e6,
+            hpt_power_mw: hpt.power_w / 1e6,
+            pt_power_mw: pt.power_w / 1e6,
+            pressure_ratio: comp.pr,
+            hpt_pressure_ratio: self.p3_kpa / self.p34_kpa,
+            pt_pressure_ratio: self.p34_kpa / self.p4_kpa,
+            compressor_efficiency: comp.eff,
+            hpt_efficiency: hpt.eff,
+            pt_efficiency: pt.eff,
+            compressor_beta: comp.beta,
+            surge_margin_pct: comp.surge_margin_pct,
+            starter_torque_n_m: 0.0,
+        }
+    }
+}
+
+/// Evaluates the gas path on `model` (health applied) with `adjust` from the enabled effects
+/// (`None` when no effect is on: the core model alone, without even comparing deltas).
 #[inline(always)]
-pub fn evaluate(model: &Model, inp: &Inputs, adjust: &Adjust) -> GasPath {
+pub fn evaluate(model: &Model, inp: &Inputs, adjust: Option<&Adjust>) -> GasPath {
     let c = &model.consts;
     let (n1, n2, t1, p_amb) = (inp.n1_rpm, inp.n2_rpm, inp.t_amb_k, inp.p_amb_kpa);
     let adjusted;
-    let (comp_map, hpt_map, pt_map) = if adjust.deltas == ComponentDeltas::NONE {
-        (&model.comp, &model.hpt, &model.pt)
-    } else {
-        adjusted = adjusted_maps(model, &adjust.deltas);
-        (&adjusted.0, &adjusted.1, &adjusted.2)
+    let (comp_map, hpt_map, pt_map) = match adjust {
+        Some(a) if a.deltas != ComponentDeltas::NONE => {
+            adjusted = adjusted_maps(model, &a.deltas);
+            (&adjusted.0, &adjusted.1, &adjusted.2)
+        }
+        _ => (&model.comp, &model.hpt, &model.pt),
     };
 
     // Compressor: below STANDSTILL_FADE of design speed its flow and work fade to zero.
@@ -227,31 +283,25 @@ pub fn evaluate(model: &Model, inp: &Inputs, adjust: &Adjust) -> GasPath {
     };
     let w2 = comp.w_kg_s * fade;
     let p_comp = comp.power_w * fade;
-    let bleed = if adjust.extra_bleed == 0.0 {
-        c.bleed
-    } else {
-        (c.bleed + adjust.extra_bleed).clamp(0.0, 0.5)
+    let bleed = match adjust {
+        Some(a) if a.extra_bleed != 0.0 => (c.bleed + a.extra_bleed).clamp(0.0, 0.5),
+        _ => c.bleed,
     };
     let w_air = combustor_air(w2, bleed);
 
     // Combustor and HPT.
     let p3 = c.p3(p2, w2.max(0.0), comp.t_out_k);
+    let burnt;
     let (t3, gas, w_burn) = match inp.hot {
         HotSection::Burn { fuel_kg_s } => {
             let (t3, gas) =
                 cycle::combustor_exit_temperature(w_air, comp.h_out, fuel_kg_s, c.eta_b, c.lhv);
-            (t3, gas, Some(w_air + fuel_kg_s))
+            burnt = gas;
+            (t3, &burnt, Some(w_air + fuel_kg_s))
         }
-        HotSection::Plenum {
-            t3_k,
-            fuel_air_ratio,
-        } => (
-            t3_k,
-            Gas::products(fuel_air_ratio.clamp(0.0, MAX_FAR)),
-            None,
-        ),
+        HotSection::Plenum { t3_k, gas } => (t3_k, gas, None),
     };
-    let hpt = cycle::turbine(hpt_map, &gas, t3, p3, n1.max(0.0), p3 / inp.p34_kpa);
+    let hpt = cycle::turbine(hpt_map, gas, t3, p3, n1.max(0.0), p3 / inp.p34_kpa);
     let w3 = w_burn.unwrap_or(hpt.w_kg_s);
     let p4 = c.p4(p_amb, w3, hpt.t_out_k);
 
@@ -260,48 +310,22 @@ pub fn evaluate(model: &Model, inp: &Inputs, adjust: &Adjust) -> GasPath {
     // held constant below it (a turbine's torque-speed line is nearly flat near stall).
     let n2_eval = n2.max(PT_STALL_FRACTION * c.n2_design);
     let p34 = inp.p34_kpa;
-    let pt = cycle::turbine(pt_map, &gas, hpt.t_out_k, p34, n2_eval, p34 / p4);
+    let pt = cycle::turbine(pt_map, gas, hpt.t_out_k, p34, n2_eval, p34 / p4);
     let pt_gas_torque = c.shaft.pt_shaft(pt.power_w) / (n2_eval * PI / 30.0);
     let pt_net = pt_gas_torque * n2.max(0.0) * PI / 30.0 - c.pt_loss_w(n2.max(0.0));
     let gg_net = c.shaft.gg_shaft_w(hpt.power_w) - p_comp - c.gg_loss_w(n1);
 
-    let stations = Stations {
+    GasPath {
         n1_rpm: n1,
         n2_rpm: n2,
         t1_k: t1,
-        p1_kpa: p1,
-        t2_k: comp.t_out_k,
-        p2_kpa: p2,
-        t3_k: t3,
-        p3_kpa: p3,
-        t34_k: hpt.t_out_k,
         p34_kpa: p34,
-        t4_k: pt.t_out_k,
+        p1_kpa: p1,
+        p2_kpa: p2,
+        p3_kpa: p3,
         p4_kpa: p4,
-        air_flow_kg_s: w2,
-        fuel_kg_s: 0.0,
-        fuel_burnt_kg_s: 0.0,
+        t3_k: t3,
         fuel_air_ratio: gas.far(),
-        hpt_flow_kg_s: hpt.w_kg_s,
-        pt_flow_kg_s: pt.w_kg_s,
-        power_mw: pt_net / 1e6,
-        pt_shaft_mw: pt_net / 1e6,
-        compressor_power_mw: p_comp / 1e6,
-        hpt_power_mw: hpt.power_w / 1e6,
-        pt_power_mw: pt.power_w / 1e6,
-        pressure_ratio: comp.pr,
-        hpt_pressure_ratio: p3 / p34,
-        pt_pressure_ratio: p34 / p4,
-        compressor_efficiency: comp.eff,
-        hpt_efficiency: hpt.eff,
-        pt_efficiency: pt.eff,
-        compressor_beta: comp.beta,
-        surge_margin_pct: comp.surge_margin_pct,
-        starter_torque_n_m: 0.0,
-    };
-    GasPath {
-        stations,
-        gas,
         compressor: comp,
         hpt,
         pt,

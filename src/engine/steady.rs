@@ -72,7 +72,7 @@ fn effect_adjust(model: &Model, inp: &Inputs) -> Adjust {
     if effects.is_empty() {
         return Adjust::NONE;
     }
-    let base = gas_path::evaluate(model, inp, &Adjust::NONE).stations;
+    let base = gas_path::evaluate(model, inp, None).stations();
     let c = &model.consts;
     let core = CoreView {
         t_s: 0.0,
@@ -108,7 +108,7 @@ fn evaluate(model: &Model, inp: &SteadyInputs, x: &Unknowns) -> Evaluated {
         hot: HotSection::Burn { fuel_kg_s: wf },
     };
     let adjust = effect_adjust(model, &gp_inputs);
-    let gp = gas_path::evaluate(model, &gp_inputs, &adjust);
+    let gp = gas_path::evaluate(model, &gp_inputs, Some(&adjust));
     let w3 = gp.w_combustor_out_kg_s;
     let power_w = gp.pt_net_w;
     let gg_err = gp.gg_net_w;
@@ -125,7 +125,7 @@ fn evaluate(model: &Model, inp: &SteadyInputs, x: &Unknowns) -> Evaluated {
         (power_w - target_power) / pd,
     ];
     let heat = wf * c.lhv;
-    let mut stations = gp.stations;
+    let mut stations = gp.stations();
     stations.fuel_kg_s = wf;
     stations.fuel_burnt_kg_s = wf;
     let point = SteadyPoint {

@@ -262,7 +262,7 @@ impl CompressorMap {
 
     /// Cubic minus bilinear value of (wc, PR, eff) at the grid point nearest (`nc`, `beta`);
     /// zeros for the bilinear map.
-    #[inline]
+    #[inline(never)]
     fn cubic_correction(&self, nc: f64, beta: f64) -> [f64; 3] {
         let Some(grid) = &self.cubic else {
             return [0.0; 3];
@@ -403,7 +403,7 @@ impl CompressorMap {
     }
 
     /// Segment index and position for beta: inside, `(k, fraction)`; outside, `(_, Δbeta)`.
-    #[inline]
+    #[inline(always)]
     fn beta_pos(&self, beta: f64) -> (usize, f64) {
         let b = &self.betas;
         let m = b.len();
@@ -421,15 +421,22 @@ impl CompressorMap {
     pub fn point(&self, nc: f64, beta: f64) -> CompressorPoint {
         let bl = self.blend(nc);
         let (k, f) = self.beta_pos(beta);
-        let corr = self.cubic_correction(nc, beta);
         let mix = |q: usize| {
             bl.c0 * self.line_value(q, bl.j, beta, k, f)
                 + bl.c1 * self.line_value(q, bl.j + 1, beta, k, f)
-                + corr[q]
         };
-        let wc = (mix(0) * bl.wc_f).max(0.0);
-        let pr = 1.0 + bl.pr_f * (mix(1) - 1.0);
-        let eff = (mix(2) * bl.eff_f).clamp(EFF_MIN, EFF_MAX);
+        let (mut v0, mut v1, mut v2) = (mix(0), mix(1), mix(2));
+        // The bilinear map (the common case) skips the correction entirely: the simulation's
+        // hot path reads the map on every right-hand-side call.
+        if self.cubic.is_some() {
+            let corr = self.cubic_correction(nc, beta);
+            v0 += corr[0];
+            v1 += corr[1];
+            v2 += corr[2];
+        }
+        let wc = (v0 * bl.wc_f).max(0.0);
+        let pr = 1.0 + bl.pr_f * (v1 - 1.0);
+        let eff = (v2 * bl.eff_f).clamp(EFF_MIN, EFF_MAX);
         CompressorPoint { wc, pr, eff }
     }
 
@@ -461,6 +468,7 @@ impl CompressorMap {
     }
 
     /// The exact inverse of the bilinear map's PR (see [`CompressorMap::beta_for_pr`]).
+    #[inline(always)]
     fn beta_for_pr_linear(&self, nc: f64, pr: f64) -> f64 {
         let bl = self.blend(nc);
         let m = self.betas.len();

@@ -208,12 +208,7 @@ impl TurbineMap {
         let (s, b) = (&self.speeds, &self.betas);
         let (n, m) = (s.len(), b.len());
         if let Some(grid) = &self.cubic {
-            let nc = nc.clamp(s[0], s[n - 1]);
-            let beta = beta.clamp(b[0], b[m - 1]);
-            return (
-                grid.eval(&self.wc, nc, beta),
-                grid.eval(&self.eff, nc, beta),
-            );
+            return self.grid_cubic(grid, nc, beta);
         }
         let (j, t) = if n == 1 || nc <= s[0] {
             (0, 0.0)
@@ -236,6 +231,19 @@ impl TurbineMap {
         let w = at(&self.wc, j) * (1.0 - t) + at(&self.wc, j + 1) * t;
         let e = at(&self.eff, j) * (1.0 - t) + at(&self.eff, j + 1) * t;
         (w, e)
+    }
+
+    /// The cubic interpolant's (flow, efficiency), kept out of line so the bilinear path (the
+    /// simulation's hot path) stays as small as it was.
+    #[inline(never)]
+    fn grid_cubic(&self, grid: &CubicGrid, nc: f64, beta: f64) -> (f64, f64) {
+        let (s, b) = (&self.speeds, &self.betas);
+        let nc = nc.clamp(s[0], s[s.len() - 1]);
+        let beta = beta.clamp(b[0], b[b.len() - 1]);
+        (
+            grid.eval(&self.wc, nc, beta),
+            grid.eval(&self.eff, nc, beta),
+        )
     }
 
     /// Map point at relative corrected speed `nc` and pressure ratio `pr` (allocation-free).
