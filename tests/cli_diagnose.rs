@@ -160,3 +160,87 @@ fn diagnose_refuses_unusable_data_and_zero_budget() {
         "{err}"
     );
 }
+
+/// Snapshot rows (a historian export with its own column names) from the steady model: day,
+/// inlet temperature, barometric pressure, speeds, compressor-exit and HPT-exit readings, fuel
+/// and power at five loads per day.
+fn write_snapshots(path: &std::path::Path, days: &[(&str, HealthParams)]) {
+    use gtwatch::engine::steady::{solve, Demand, SteadyInputs};
+    let e = Engine::reference().expect("engine");
+    let mut text = String::from("day,T_inlet,P_baro,NGG,NPT,T_cdp,P_cdp,T_egt,P_hpt,FUEL,MW\n");
+    for (day, h) in days {
+        for (k, load) in [14.0, 18.0, 22.0, 26.0, 30.0].iter().enumerate() {
+            let (t, p) = (279.0 + 4.0 * k as f64, 100.6 - 0.25 * k as f64);
+            let m = e.model_at(h, t, p);
+            let inputs = SteadyInputs {
+                t_amb_k: t,
+                p_amb_kpa: p,
+                n2_rpm: e.cfg().design.pt_speed_rpm,
+                demand: Demand::PowerMw(*load),
+            };
+            let s = solve(&m, &inputs, None).expect("steady").stations;
+            text.push_str(&format!(
+                "{day},{t},{p},{},{},{},{},{},{},{},{}\n",
+                s.n1_rpm, s.n2_rpm, s.t2_k, s.p2_kpa, s.t34_k, s.p34_kpa, s.fuel_kg_s, s.power_mw
+            ));
+        }
+    }
+    std::fs::write(path, text).expect("write snapshots");
+}
+
+#[test]
+fn diagnose_steady_snapshots_per_group_with_a_column_map() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let csv = dir.path().join("snapshots.csv");
+    let later = HealthParams {
+        D_GC: 2.0,
+        D_EC: 1.5,
+        ..HealthParams::HEALTHY
+    };
+    write_snapshots(
+        &csv,
+        &[("2026-01-10", HealthParams::HEALTHY), ("2026-06-10", later)],
+    );
+    let map = "t1_k=T_inlet,p_amb_kpa=P_baro,n1_rpm=NGG,n2_rpm=NPT,t2_k=T_cdp,p2_kpa=P_cdp,\
+               t34_k=T_egt,p34_kpa=P_hpt,fuel_kg_s=FUEL,power_mw=MW";
+    let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(["diagnose", "--method", "steady", "--input"])
+        .arg(&csv)
+        .args(["--group-by", "day", "--map", map, "--json"])
+        .output()
+        .expect("runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
+    assert_eq!(v["method"], "steady_snapshots");
+    let groups = v["groups"].as_array().expect("groups");
+    assert_eq!(groups.len(), 2);
+    for (g, truth) in groups.iter().zip([HealthParams::HEALTHY, later]) {
+        assert_eq!(g["lines"].as_array().expect("lines").len(), 5);
+        for (name, t) in gtwatch::health::HEALTH_NAMES.iter().zip(truth.to_array()) {
+            let est = g["health"][*name].as_f64().expect("health value");
+            assert!(
+                (est - t).abs() < 0.3,
+                "{} {name}: {est:.3} vs {t}",
+                g["group"]
+            );
+        }
+        assert_eq!(g["fit_quality"]["verdict"], "good");
+    }
+    // One row alone has fewer readings than parameters: said, not guessed.
+    let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(["diagnose", "--method", "steady", "--snapshots", "--input"])
+        .arg(&csv)
+        .args(["--map", map, "--json"])
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("more averaged values than parameters"),
+        "{err}"
+    );
+}

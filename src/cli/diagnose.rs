@@ -141,9 +141,18 @@ pub struct DiagnoseArgs {
     /// Column mapping for other CSVs: `time_s=Time,phase=State,n1_rpm=NGG,…`.
     #[arg(long)]
     pub map: Option<String>,
-    /// Method(s).
+    /// Method(s). `steady` on a file without a phase column (or with --snapshots/--group-by)
+    /// diagnoses snapshots: each row one averaged steady point with its own ambient, PT speed
+    /// and fuel flow.
     #[arg(long, value_enum, default_value = "both")]
     pub method: MethodArg,
+    /// Read --input as steady snapshots (one averaged operating point per row).
+    #[arg(long)]
+    pub snapshots: bool,
+    /// Snapshots: pool the rows sharing this column's value into one health vector per group
+    /// (default: one per row).
+    #[arg(long, value_name = "COLUMN")]
+    pub group_by: Option<String>,
     /// Engine TOML (default: the built-in reference engine).
     #[arg(long)]
     pub engine: Option<PathBuf>,
@@ -176,7 +185,7 @@ pub fn result_json(r: &MethodResult) -> Value {
     })
 }
 
-fn print_text(m: Method, r: &MethodResult) {
+pub(crate) fn print_text(m: Method, r: &MethodResult) {
     println!(
         "{} (Method {}): objective {:.4}, {} model runs, {:.2} s",
         m.name(),
@@ -232,6 +241,9 @@ pub fn run(a: &DiagnoseArgs) -> anyhow::Result<ExitCode> {
         Some(m) => parse_mapping(m)?,
         None => HashMap::new(),
     };
+    if super::diagnose_snapshots::wants_snapshots(a, input, &mapping)? {
+        return super::diagnose_snapshots::run(a, input, &engine, &cfg, &mapping);
+    }
     let file =
         std::fs::File::open(input).with_context(|| format!("opening {}", input.display()))?;
     let (seg, flagged) = read_recording_checked(

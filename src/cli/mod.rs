@@ -18,6 +18,7 @@ mod check_config;
 mod common;
 mod demo;
 mod diagnose;
+mod diagnose_snapshots;
 mod diagnose_stored;
 pub(crate) mod engine_args;
 mod export;

@@ -22,7 +22,9 @@ pub enum CsvError {
     Csv(#[from] csv::Error),
     #[error("column mapping entry '{0}' is not NAME=COLUMN")]
     BadMapping(String),
-    #[error("column mapping names '{0}', which is not time_s, phase or a signal column")]
+    #[error(
+        "column mapping names '{0}', which is not time_s, phase, p_amb_kpa or a signal column"
+    )]
     UnknownTarget(String),
     #[error("required column '{0}' is missing from the header")]
     MissingColumn(String),
@@ -42,6 +44,10 @@ pub enum CsvError {
     },
 }
 
+/// Canonical name of the ambient (barometric) pressure column, kPa: read by the snapshot
+/// diagnosis (`diagnosis::snapshot`); a start-up's ambient pressure comes from P1 at rest.
+pub const AMBIENT_PRESSURE_COLUMN: &str = "p_amb_kpa";
+
 /// Parses a mapping `time_s=Time,phase=State,n1_rpm=NGG` (canonical = file header).
 pub fn parse_mapping(s: &str) -> Result<HashMap<String, String>, CsvError> {
     let mut m = HashMap::new();
@@ -54,6 +60,8 @@ pub fn parse_mapping(s: &str) -> Result<HashMap<String, String>, CsvError> {
             "time_s".to_string()
         } else if k.eq_ignore_ascii_case("phase") {
             "phase".to_string()
+        } else if k.eq_ignore_ascii_case(AMBIENT_PRESSURE_COLUMN) {
+            AMBIENT_PRESSURE_COLUMN.to_string()
         } else {
             k.parse::<Signal>()
                 .map_err(|_| CsvError::UnknownTarget(k.into()))?
@@ -71,7 +79,7 @@ fn parse_phase(s: &str) -> Option<Phase> {
         .or_else(|| s.trim().parse::<u16>().ok().and_then(Phase::from_code))
 }
 
-fn parse_value(s: &str) -> Result<f64, String> {
+pub(crate) fn parse_value(s: &str) -> Result<f64, String> {
     let t = s.trim();
     if t.is_empty()
         || ["nan", "na", "n/a", "null"]
@@ -165,6 +173,30 @@ fn apply_policy(
     report
 }
 
+/// The header index of a canonical column: the file header `mapping` names for it, else the
+/// canonical name itself or (unmapped only) its short name, case-insensitive.
+pub(crate) fn find_column(
+    headers: &csv::StringRecord,
+    mapping: &HashMap<String, String>,
+    canonical: &str,
+    short: Option<&str>,
+) -> Option<usize> {
+    let want = mapping
+        .get(canonical)
+        .map(String::as_str)
+        .unwrap_or(canonical);
+    headers
+        .iter()
+        .position(|h| h.eq_ignore_ascii_case(want))
+        .or_else(|| {
+            if mapping.contains_key(canonical) {
+                None
+            } else {
+                short.and_then(|s| headers.iter().position(|h| h.eq_ignore_ascii_case(s)))
+            }
+        })
+}
+
 /// Reads a recording. `mapping` maps canonical names to the file's headers (empty = the
 /// `gtwatch simulate` layout). The rows must also pass [`Recording::new`]'s checks; an error
 /// there names the file line of the offending sample.
@@ -178,22 +210,8 @@ pub fn read_recording_checked<R: Read>(
         .trim(csv::Trim::All)
         .from_reader(reader);
     let headers = rdr.headers()?.clone();
-    let find = |canonical: &str, short: Option<&str>| -> Option<usize> {
-        let want = mapping
-            .get(canonical)
-            .map(String::as_str)
-            .unwrap_or(canonical);
-        headers
-            .iter()
-            .position(|h| h.eq_ignore_ascii_case(want))
-            .or_else(|| {
-                if mapping.contains_key(canonical) {
-                    None
-                } else {
-                    short.and_then(|s| headers.iter().position(|h| h.eq_ignore_ascii_case(s)))
-                }
-            })
-    };
+    let find =
+        |canonical: &str, short: Option<&str>| find_column(&headers, mapping, canonical, short);
     let time_col = find("time_s", None).ok_or_else(|| {
         CsvError::MissingColumn(mapping.get("time_s").cloned().unwrap_or("time_s".into()))
     })?;

@@ -42,6 +42,7 @@ pub mod identifiability;
 pub mod objective;
 pub mod params;
 pub mod periodic;
+pub mod snapshot;
 pub mod steady;
 pub mod transient;
 

@@ -1,0 +1,118 @@
+//! `gtwatch diagnose --method steady` on a snapshot file: each row one averaged steady
+//! operating point (performance tests, historian averages), diagnosed per row or per
+//! `--group-by` group (`diagnosis::snapshot`). Prints text or one JSON document.
+
+use super::diagnose::{print_text, result_json, DiagnoseArgs};
+use crate::diagnosis::snapshot::{diagnose_snapshots, read_snapshots};
+use crate::diagnosis::{DiagnosisConfig, Method};
+use crate::engine::Engine;
+use anyhow::{bail, Context};
+use serde_json::json;
+use std::collections::HashMap;
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+use std::process::ExitCode;
+
+/// Whether `--method steady` should read `input` as snapshots: asked for (`--snapshots`,
+/// `--group-by`), or the file has no phase column (a start-up always has one).
+pub fn wants_snapshots(
+    a: &DiagnoseArgs,
+    input: &Path,
+    mapping: &HashMap<String, String>,
+) -> anyhow::Result<bool> {
+    if a.snapshots || a.group_by.is_some() {
+        return Ok(true);
+    }
+    if a.method != super::diagnose::MethodArg::Steady {
+        return Ok(false);
+    }
+    let file =
+        std::fs::File::open(input).with_context(|| format!("opening {}", input.display()))?;
+    let mut header = String::new();
+    BufReader::new(file)
+        .read_line(&mut header)
+        .with_context(|| format!("reading {}", input.display()))?;
+    let phase = mapping.get("phase").map_or("phase", String::as_str);
+    Ok(!header
+        .split(',')
+        .any(|h| h.trim().trim_matches('"').eq_ignore_ascii_case(phase)))
+}
+
+/// Runs the snapshot diagnosis of `input`.
+pub fn run(
+    a: &DiagnoseArgs,
+    input: &Path,
+    engine: &Engine,
+    cfg: &DiagnosisConfig,
+    mapping: &HashMap<String, String>,
+) -> anyhow::Result<ExitCode> {
+    if a.method != super::diagnose::MethodArg::Steady {
+        bail!("snapshot files are diagnosed with --method steady (no start-up to run Method B on)");
+    }
+    let file =
+        std::fs::File::open(input).with_context(|| format!("opening {}", input.display()))?;
+    let rows = read_snapshots(BufReader::new(file), mapping, a.group_by.as_deref())
+        .with_context(|| format!("reading {}", input.display()))?;
+    let report = diagnose_snapshots(engine, &rows, cfg)?;
+    if a.json {
+        let groups: Vec<_> = report
+            .groups
+            .iter()
+            .map(|g| {
+                let mut v = result_json(&g.result);
+                if let Some(o) = v.as_object_mut() {
+                    o.insert("group".into(), json!(g.group));
+                    o.insert("lines".into(), json!(g.lines));
+                    o.insert("dropped_lines".into(), json!(g.dropped_lines));
+                    o.insert("assumptions".into(), json!(g.assumptions));
+                }
+                v
+            })
+            .collect();
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&json!({
+                "method": "steady_snapshots",
+                "group_by": a.group_by,
+                "rows": rows.len(),
+                "groups": groups,
+                "failed": report.failed,
+            }))?
+        );
+    } else {
+        println!(
+            "{} snapshot row(s), {} group(s) diagnosed, {} not",
+            rows.len(),
+            report.groups.len(),
+            report.failed.len()
+        );
+        for g in &report.groups {
+            println!("group {} (lines {:?})", g.group, g.lines);
+            for s in &g.assumptions {
+                println!("  note: {s}");
+            }
+            print_text(Method::Steady, &g.result);
+        }
+        for f in &report.failed {
+            println!(
+                "group {} (lines {:?}): not diagnosed: {}",
+                f.group, f.lines, f.reason
+            );
+        }
+    }
+    if report.groups.is_empty() {
+        bail!(
+            "no group could be diagnosed{}",
+            report
+                .failed
+                .first()
+                .map(|f| format!(" (first: {})", f.reason))
+                .unwrap_or_default()
+        );
+    }
+    Ok(if report.failed.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}

@@ -1,0 +1,488 @@
+//! Snapshot diagnosis: health from steady operating points a plant already keeps — performance
+//! tests, historian hourly averages — instead of a start-up. Each CSV row is one averaged steady
+//! point with its own ambient temperature (T1), ambient pressure, PT speed (n2) and fuel flow;
+//! the other signal columns present are compared with the steady model. Rows are diagnosed one
+//! by one, or pooled by the value of a `--group-by` column (a test id, a day): one health vector
+//! with 1σ per group, and the groups in order of first appearance form a history.
+//!
+//! Inputs per row (what the steady solver is given): T1 → ambient temperature; the ambient
+//! pressure column (`p_amb_kpa`, or the file header a mapping names for it) when present, else
+//! P1 divided by the healthy model's inlet-loss ratio at that point (the inlet loss is ~1 % at
+//! design, so a health-dependent flow changes that ratio by well under 0.1 %), else the engine
+//! file's ambient pressure (said in [`SnapshotGroup::assumptions`]); n2; fuel flow as the demand.
+//! Every other signal column present (n1, T2, P2, T34, P34, power, …) is compared. Each value's
+//! 1σ is the instrument's noise σ at that value (`[sensors]`): an average of many samples is
+//! more precise than that, but its instrument bias is not, so the one-sample σ is the honest
+//! scale. Pure orchestration of Method A's steady problem plus a CSV reader over any
+//! `io::Read`; opens no files, never prints.
+
+use super::csv_input::{find_column, parse_value, CsvError, AMBIENT_PRESSURE_COLUMN};
+use super::steady::{SteadyData, SteadyProblem, SteadyWindow};
+use super::{fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, Method, MethodResult};
+use crate::engine::sensors::noise_sigma;
+use crate::engine::steady::{solve, Demand, SteadyInputs};
+use crate::engine::Engine;
+use crate::health::HealthParams;
+use crate::signals::Signal;
+use serde::Serialize;
+use std::collections::HashMap;
+use std::io::Read;
+
+/// One row of a snapshot file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Snapshot {
+    /// File line (1 = header).
+    pub line: u64,
+    /// The `--group-by` column's value, or the line number when rows are diagnosed one by one.
+    pub group: String,
+    /// The row's `time_s` value, when the file has one (reporting only).
+    pub time_s: Option<f64>,
+    pub t_amb_k: f64,
+    /// The ambient pressure column's value, when the file has one.
+    pub p_amb_kpa: Option<f64>,
+    pub n2_rpm: f64,
+    pub fuel_kg_s: f64,
+    /// Every other signal present in the row: (signal, value).
+    pub values: Vec<(Signal, f64)>,
+}
+
+/// Signals that are inputs of a steady point rather than compared outputs.
+const INPUTS: [Signal; 3] = [Signal::T1, Signal::N2, Signal::FuelFlow];
+
+/// Reads snapshot rows. `mapping` maps canonical names (signal columns, `time_s`,
+/// `p_amb_kpa`) to the file's headers (empty = canonical or short names); `group_by` names
+/// the column whose value pools rows. A row without T1, n2 or a positive fuel flow, a cell
+/// that is not a number, or a value out of physical range is an error naming its line and
+/// column; an empty cell of a compared signal is simply not compared.
+pub fn read_snapshots<R: Read>(
+    reader: R,
+    mapping: &HashMap<String, String>,
+    group_by: Option<&str>,
+) -> Result<Vec<Snapshot>, CsvError> {
+    let mut rdr = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .trim(csv::Trim::All)
+        .from_reader(reader);
+    let headers = rdr.headers()?.clone();
+    let find =
+        |canonical: &str, short: Option<&str>| find_column(&headers, mapping, canonical, short);
+    for (canonical, file_col) in mapping {
+        if canonical != "phase" && find(canonical, None).is_none() {
+            return Err(CsvError::MissingColumn(file_col.clone()));
+        }
+    }
+    let sig_cols: Vec<(Signal, usize)> = Signal::ALL
+        .iter()
+        .filter(|s| !matches!(s, Signal::SurgeMargin))
+        .filter_map(|&s| find(s.column(), Some(s.short())).map(|c| (s, c)))
+        .collect();
+    for s in INPUTS {
+        if !sig_cols.iter().any(|(x, _)| *x == s) {
+            let name = mapping
+                .get(s.column())
+                .cloned()
+                .unwrap_or(s.column().into());
+            return Err(CsvError::MissingColumn(name));
+        }
+    }
+    let time_col = find("time_s", None);
+    let pamb_col = find(AMBIENT_PRESSURE_COLUMN, None);
+    let group_col = match group_by {
+        Some(g) => Some(
+            headers
+                .iter()
+                .position(|h| h.eq_ignore_ascii_case(g))
+                .ok_or_else(|| CsvError::MissingColumn(format!("{g} (--group-by)")))?,
+        ),
+        None => None,
+    };
+    let mut out = Vec::new();
+    for rec in rdr.records() {
+        let rec = rec?;
+        let line = rec.position().map_or(0, |p| p.line());
+        let cell = |c: usize| rec.get(c).unwrap_or("");
+        let err = |c: usize, reason: String| CsvError::Cell {
+            line,
+            column: headers.get(c).unwrap_or("?").to_string(),
+            reason,
+        };
+        let number = |c: usize| parse_value(cell(c)).map_err(|r| err(c, r));
+        let mut values = Vec::new();
+        let (mut t1, mut n2, mut fuel) = (f64::NAN, f64::NAN, f64::NAN);
+        for &(s, c) in &sig_cols {
+            let v = number(c)?;
+            if v.is_nan() {
+                continue;
+            }
+            if let Some(why) = implausible(s, v) {
+                return Err(err(c, why));
+            }
+            match s {
+                Signal::T1 => t1 = v,
+                Signal::N2 => n2 = v,
+                Signal::FuelFlow => fuel = v,
+                _ => values.push((s, v)),
+            }
+        }
+        for (s, v) in [(Signal::T1, t1), (Signal::N2, n2), (Signal::FuelFlow, fuel)] {
+            let c = sig_cols
+                .iter()
+                .find(|(x, _)| *x == s)
+                .map_or(0, |(_, c)| *c);
+            if v.is_nan() {
+                return Err(err(c, "a snapshot needs this input in every row".into()));
+            }
+            if s == Signal::FuelFlow && v <= 0.0 {
+                return Err(err(c, format!("fuel flow {v} is not a fired steady point")));
+            }
+        }
+        let p_amb = match pamb_col {
+            Some(c) => {
+                let v = number(c)?;
+                if v.is_finite() && !(10.0..=200.0).contains(&v) {
+                    return Err(err(c, format!("ambient pressure {v} kPa is not plausible")));
+                }
+                v.is_finite().then_some(v)
+            }
+            None => None,
+        };
+        let time_s = match time_col {
+            Some(c) => Some(number(c)?).filter(|v| v.is_finite()),
+            None => None,
+        };
+        let group = match group_col {
+            Some(c) if !cell(c).is_empty() => cell(c).to_string(),
+            Some(c) => return Err(err(c, "the --group-by column is empty".into())),
+            None => format!("line {line}"),
+        };
+        out.push(Snapshot {
+            line,
+            group,
+            time_s,
+            t_amb_k: t1,
+            p_amb_kpa: p_amb,
+            n2_rpm: n2,
+            fuel_kg_s: fuel,
+            values,
+        });
+    }
+    if out.is_empty() {
+        return Err(CsvError::Empty);
+    }
+    Ok(out)
+}
+
+/// Why a value cannot be a real steady reading (`None` when it can).
+fn implausible(s: Signal, v: f64) -> Option<String> {
+    let (lo, hi) = match s {
+        Signal::T1 => (180.0, 350.0),
+        Signal::T2 | Signal::T3 | Signal::T34 | Signal::T4 => (180.0, 2500.0),
+        Signal::P1 | Signal::P2 | Signal::P3 | Signal::P34 | Signal::P4 => (1.0, 10_000.0),
+        Signal::N1 | Signal::N2 => (0.0, 100_000.0),
+        Signal::FuelFlow => (0.0, 100.0),
+        Signal::Power => (-10.0, 1_000.0),
+        Signal::SurgeMargin => return None,
+    };
+    (!(lo..=hi).contains(&v)).then(|| format!("{v} is outside the plausible range {lo}…{hi}"))
+}
+
+/// One diagnosed group.
+#[derive(Debug, Clone, Serialize)]
+pub struct SnapshotGroup {
+    pub group: String,
+    /// File lines of the rows pooled.
+    pub lines: Vec<u64>,
+    /// Rows whose healthy steady solve failed (dropped), by line.
+    pub dropped_lines: Vec<u64>,
+    /// How each row's ambient pressure was obtained, when not from the ambient column.
+    pub assumptions: Vec<String>,
+    pub result: MethodResult,
+}
+
+/// The whole snapshot diagnosis: groups in order of first appearance, and those that could not
+/// be diagnosed with the reason.
+#[derive(Debug, Clone, Serialize)]
+pub struct SnapshotReport {
+    pub groups: Vec<SnapshotGroup>,
+    pub failed: Vec<FailedGroup>,
+}
+
+/// A group without a result.
+#[derive(Debug, Clone, Serialize)]
+pub struct FailedGroup {
+    pub group: String,
+    pub lines: Vec<u64>,
+    pub reason: String,
+}
+
+/// The steady point of one snapshot: inputs for the solver and the compared values with 1σ.
+/// `None` when its healthy solve fails.
+fn steady_data(
+    engine: &Engine,
+    base: &HealthParams,
+    snap: &Snapshot,
+    index: usize,
+    assumptions: &mut Vec<String>,
+) -> Option<SteadyData> {
+    let cfg = engine.cfg();
+    let mut inputs = SteadyInputs {
+        t_amb_k: snap.t_amb_k,
+        p_amb_kpa: snap.p_amb_kpa.unwrap_or(cfg.ambient.pressure_kpa),
+        n2_rpm: snap.n2_rpm,
+        demand: Demand::FuelKgS(snap.fuel_kg_s),
+    };
+    let p1 = snap
+        .values
+        .iter()
+        .find(|(s, _)| *s == Signal::P1)
+        .map(|(_, v)| *v);
+    match (snap.p_amb_kpa, p1) {
+        (Some(_), _) => {}
+        (None, Some(p1)) => {
+            // Ambient from the measured compressor inlet pressure and the model's inlet loss.
+            inputs.p_amb_kpa = p1;
+            let m = engine.model_at(base, inputs.t_amb_k, inputs.p_amb_kpa);
+            let sp = solve(&m, &inputs, None).ok()?;
+            let ratio = sp.stations.p1_kpa / inputs.p_amb_kpa;
+            if ratio.is_finite() && ratio > 0.5 {
+                inputs.p_amb_kpa = p1 / ratio;
+            }
+            assumptions.push(format!(
+                "line {}: ambient pressure {:.2} kPa from P1 and the model's inlet loss",
+                snap.line, inputs.p_amb_kpa
+            ));
+        }
+        (None, None) => assumptions.push(format!(
+            "line {}: no ambient pressure or P1; the engine file's {:.2} kPa assumed",
+            snap.line, inputs.p_amb_kpa
+        )),
+    }
+    let m = engine.model_at(base, inputs.t_amb_k, inputs.p_amb_kpa);
+    solve(&m, &inputs, None).ok()?;
+    let outputs = snap
+        .values
+        .iter()
+        // P1 became the ambient pressure when no ambient column exists: not also compared.
+        .filter(|(s, _)| !(*s == Signal::P1 && snap.p_amb_kpa.is_none()))
+        .filter_map(|&(s, v)| {
+            let sd = noise_sigma(&cfg.sensors, s, v);
+            (sd > 0.0).then_some((s, v, sd))
+        })
+        .collect();
+    let t = snap.time_s.unwrap_or(snap.line as f64);
+    Some(SteadyData {
+        window: SteadyWindow {
+            start: index,
+            end: index + 1,
+            t_start_s: t,
+            t_end_s: t,
+        },
+        inputs,
+        outputs,
+    })
+}
+
+/// Diagnoses every group of `rows` (see the module docs). The ambient pressure is an input of
+/// each row, never fitted.
+pub fn diagnose_snapshots(
+    engine: &Engine,
+    rows: &[Snapshot],
+    cfg: &DiagnosisConfig,
+) -> Result<SnapshotReport, DiagnosisError> {
+    let mut cfg = cfg.clone();
+    cfg.fit_ambient_pressure = false;
+    cfg.validate()?;
+    let pool = pool_for(&cfg)?;
+    let mut order: Vec<String> = Vec::new();
+    let mut groups: HashMap<String, Vec<(usize, &Snapshot)>> = HashMap::new();
+    for (i, r) in rows.iter().enumerate() {
+        if !groups.contains_key(&r.group) {
+            order.push(r.group.clone());
+        }
+        groups.entry(r.group.clone()).or_default().push((i, r));
+    }
+    let mut report = SnapshotReport {
+        groups: Vec::new(),
+        failed: Vec::new(),
+    };
+    for g in order {
+        let members = groups.remove(&g).unwrap_or_default();
+        let lines: Vec<u64> = members.iter().map(|(_, r)| r.line).collect();
+        let mut assumptions = Vec::new();
+        let mut points = Vec::new();
+        let mut dropped = Vec::new();
+        for (i, r) in &members {
+            match steady_data(engine, &cfg.base, r, *i, &mut assumptions) {
+                Some(p) => points.push(p),
+                None => dropped.push(r.line),
+            }
+        }
+        let start = std::time::Instant::now();
+        let outcome = SteadyProblem::new(engine, points, &cfg).and_then(|mut problem| {
+            let out = fit(&mut problem, &cfg, &pool)?;
+            let signals = problem.objective().signals().to_vec();
+            let n_res = problem.objective().len();
+            let win = problem
+                .points()
+                .iter()
+                .map(|p| (p.window.t_start_s, p.window.t_end_s))
+                .collect();
+            Ok(result_of(
+                Method::Steady,
+                &problem,
+                &out,
+                &cfg,
+                signals,
+                n_res,
+                win,
+            ))
+        });
+        match outcome {
+            Ok(mut result) => {
+                result.wall_s = start.elapsed().as_secs_f64();
+                report.groups.push(SnapshotGroup {
+                    group: g,
+                    lines,
+                    dropped_lines: dropped,
+                    assumptions,
+                    result,
+                });
+            }
+            Err(e) => report.failed.push(FailedGroup {
+                group: g,
+                lines,
+                reason: if dropped.is_empty() {
+                    e.to_string()
+                } else {
+                    format!("{e} (healthy steady solve failed on lines {dropped:?})")
+                },
+            }),
+        }
+    }
+    Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::trace::NSIG;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+
+    /// Snapshot rows from the steady model itself at `loads_mw`, with instrument noise.
+    fn snapshot_csv(engine: &Engine, health: &HealthParams, loads_mw: &[f64], seed: u64) -> String {
+        let cfg = engine.cfg();
+        let sigs = [
+            Signal::T1,
+            Signal::P1,
+            Signal::N1,
+            Signal::N2,
+            Signal::T2,
+            Signal::P2,
+            Signal::T34,
+            Signal::P34,
+            Signal::FuelFlow,
+            Signal::Power,
+        ];
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let mut csv = String::from("test");
+        for s in sigs {
+            csv.push(',');
+            csv.push_str(s.column());
+        }
+        csv.push('\n');
+        for (k, &load) in loads_mw.iter().enumerate() {
+            let t_amb = 283.0 + 3.0 * k as f64;
+            let p_amb = 100.2 - 0.3 * k as f64;
+            let inputs = SteadyInputs {
+                t_amb_k: t_amb,
+                p_amb_kpa: p_amb,
+                n2_rpm: cfg.design.pt_speed_rpm,
+                demand: Demand::PowerMw(load),
+            };
+            let m = engine.model_at(health, t_amb, p_amb);
+            let sp = solve(&m, &inputs, None).expect("steady");
+            let wf = sp.stations.fuel_kg_s;
+            let mut v = [f64::NAN; NSIG];
+            for s in Signal::ALL {
+                v[s.index()] = crate::engine::gas_path::signal_value(&sp.stations, s);
+            }
+            v[Signal::T1.index()] = t_amb;
+            v[Signal::FuelFlow.index()] = wf;
+            csv.push_str(&format!("T{}", k / 4));
+            for s in sigs {
+                let x = v[s.index()];
+                let sd = noise_sigma(&cfg.sensors, s, x) / 5.0; // an average of 25 samples
+                let noisy = if sd > 0.0 && !matches!(s, Signal::T1 | Signal::FuelFlow | Signal::N2)
+                {
+                    x + Normal::new(0.0, sd).expect("normal").sample(&mut rng)
+                } else {
+                    x
+                };
+                csv.push_str(&format!(",{noisy}"));
+            }
+            csv.push('\n');
+        }
+        csv
+    }
+
+    #[test]
+    fn reader_names_line_and_column_of_a_bad_cell() {
+        let csv = "t1_k,n2_rpm,fuel_kg_s,p2_kpa\n288,3000,1.2,1500\n288,3000,abc,1500\n";
+        let e = read_snapshots(csv.as_bytes(), &HashMap::new(), None).expect_err("bad cell");
+        let text = e.to_string();
+        assert!(
+            text.contains("line 3") && text.contains("fuel_kg_s"),
+            "{text}"
+        );
+        let csv = "t1_k,n2_rpm,p2_kpa\n288,3000,1500\n";
+        let e = read_snapshots(csv.as_bytes(), &HashMap::new(), None).expect_err("no fuel");
+        assert!(e.to_string().contains("fuel_kg_s"), "{e}");
+        let csv = "t1_k,n2_rpm,fuel_kg_s\n288,3000,1.2\n";
+        let e = read_snapshots(csv.as_bytes(), &HashMap::new(), Some("test_id"))
+            .expect_err("no group column");
+        assert!(e.to_string().contains("test_id"), "{e}");
+        let csv = "t1_k,n2_rpm,fuel_kg_s\n2880,3000,1.2\n";
+        let e = read_snapshots(csv.as_bytes(), &HashMap::new(), None).expect_err("range");
+        assert!(e.to_string().contains("plausible"), "{e}");
+    }
+
+    #[test]
+    fn grouped_snapshots_recover_health_per_group() {
+        let engine = Engine::reference().expect("engine");
+        let truth = HealthParams::from_array([-2.0, -1.5, 1.0, -1.0, 0.5, -0.8]);
+        let loads = [12.0, 17.0, 22.0, 27.0, 14.0, 19.0, 24.0, 29.0];
+        let csv = snapshot_csv(&engine, &truth, &loads, 3);
+        let rows = read_snapshots(csv.as_bytes(), &HashMap::new(), Some("test")).expect("rows");
+        assert_eq!(rows.len(), 8);
+        assert!(rows.iter().all(|r| r.p_amb_kpa.is_none()));
+        let cfg = DiagnosisConfig {
+            max_model_runs: 1500,
+            ..DiagnosisConfig::default()
+        };
+        let report = diagnose_snapshots(&engine, &rows, &cfg).expect("diagnosis");
+        assert!(report.failed.is_empty(), "{:?}", report.failed);
+        assert_eq!(report.groups.len(), 2);
+        assert_eq!(report.groups[0].group, "T0");
+        for g in &report.groups {
+            assert_eq!(g.lines.len(), 4);
+            let est = g.result.health.to_array();
+            for (i, (&e, &t)) in est.iter().zip(truth.to_array().iter()).enumerate() {
+                assert!(
+                    (e - t).abs() < 0.3,
+                    "group {} parameter {i}: {e:.3} vs truth {t:.3}",
+                    g.group
+                );
+            }
+        }
+        // One row alone: six readings for six parameters, refused with the reason.
+        let single = read_snapshots(csv.as_bytes(), &HashMap::new(), None).expect("rows");
+        let report = diagnose_snapshots(&engine, &single[..1], &cfg).expect("runs");
+        assert!(report.groups.is_empty());
+        assert!(
+            report.failed[0].reason.contains("more averaged values"),
+            "{}",
+            report.failed[0].reason
+        );
+    }
+}
