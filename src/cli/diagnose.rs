@@ -181,6 +181,7 @@ pub fn result_json(r: &MethodResult) -> Value {
         "params": r.params,
         "failed_runs": r.failures,
         "fit_quality": r.fit_quality,
+        "separability": r.separability,
         "localisation": r.localisation,
     })
 }
@@ -208,6 +209,9 @@ pub(crate) fn print_text(m: Method, r: &MethodResult) {
     );
     if q.verdict != crate::diagnosis::fit_quality::Verdict::Good {
         println!("  the model does not fit this start-up: the health below absorbs the mismatch");
+    }
+    if !r.separability.statement.is_empty() {
+        println!("  separability: {}", r.separability.statement);
     }
     let h = r.health.to_array();
     for (i, n) in HEALTH_NAMES.iter().enumerate() {

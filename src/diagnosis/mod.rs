@@ -42,6 +42,7 @@ pub mod identifiability;
 pub mod objective;
 pub mod params;
 pub mod periodic;
+pub mod separability;
 pub mod snapshot;
 pub mod steady;
 pub mod transient;
@@ -227,6 +228,9 @@ pub struct MethodResult {
     /// Whether the fitted model reproduces the data (`good` / `suspect` / `poor`) and the
     /// numbers behind it: a health estimate from a model that does not fit is not clean.
     pub fit_quality: fit_quality::FitQuality,
+    /// Which health parameters the compared signals separate, which only in combination, and
+    /// which not at all (see [`separability`]).
+    pub separability: separability::Separability,
     /// Residual map, signals × phases (Method B; empty for Method A).
     pub localisation: Vec<fit_quality::ResidualCell>,
     /// The fitted model's instrument values, rows like the data's (Method B; empty for Method
@@ -270,6 +274,8 @@ pub struct FitOutcome {
     pub global_objective: f64,
     /// 1σ per free parameter.
     pub sigma: Vec<f64>,
+    /// Correlation matrix of the free parameters (zeros where not estimated).
+    pub correlation: Vec<Vec<f64>>,
 }
 
 fn unit_step_jacobian(cfg: &DiagnosisConfig) -> Result<JacobianOptions, OptimError> {
@@ -339,13 +345,14 @@ pub fn fit<P: DiagnosisProblem>(
             Err(e) => return Err(e.into()),
         }
     }
-    let sigma = if cancel.is_cancelled() {
-        vec![f64::INFINITY; n]
+    let unknown = || (vec![f64::INFINITY; n], vec![vec![0.0; n]; n]);
+    let (sigma, correlation) = if cancel.is_cancelled() {
+        unknown()
     } else {
         match uncertainty(&*problem, &x, &unit_step_jacobian(cfg)?, pool) {
-            Ok(u) => u.sigma,
+            Ok(u) => (u.sigma, u.correlation),
             Err(OptimError::NonFiniteResiduals) | Err(OptimError::TooFewResiduals { .. }) => {
-                vec![f64::INFINITY; n]
+                unknown()
             }
             Err(e) => return Err(e.into()),
         }
@@ -355,6 +362,7 @@ pub fn fit<P: DiagnosisProblem>(
         x,
         global_objective,
         sigma,
+        correlation,
     })
 }
 
@@ -400,6 +408,34 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
         .params()
         .iter()
         .position(|p| p.target == ParamTarget::AmbientPressure);
+    let health_at: Vec<(usize, usize)> = pm
+        .params()
+        .iter()
+        .enumerate()
+        .filter_map(|(k, p)| match p.target {
+            ParamTarget::Health(i) => Some((k, i)),
+            _ => None,
+        })
+        .collect();
+    let health_estimates: Vec<separability::HealthEstimate> = health_at
+        .iter()
+        .map(|&(k, i)| separability::HealthEstimate {
+            index: i,
+            value: fit.x[k],
+            sigma: fit.sigma.get(k).copied().unwrap_or(f64::INFINITY) * inflation,
+            correlation: health_at
+                .iter()
+                .map(|&(l, _)| {
+                    fit.correlation
+                        .get(k)
+                        .and_then(|row| row.get(l))
+                        .copied()
+                        .unwrap_or(0.0)
+                })
+                .collect(),
+        })
+        .collect();
+    let signal_names: Vec<String> = signals.iter().map(|s| s.column().to_string()).collect();
     MethodResult {
         method,
         optimiser: cfg.optimiser,
@@ -426,6 +462,7 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
         params,
         failures: problem.failures(),
         fit_quality: fit_quality::assess(ssr / residuals.max(1) as f64, &[], &[], &cfg.quality),
+        separability: separability::assess(&health_estimates, &signal_names),
         localisation: Vec::new(),
         model_values: Vec::new(),
     }
