@@ -280,11 +280,10 @@ fn write_config(dir: &Path, db: &Path, endpoint: &str, cap_mib: Option<u32>) -> 
     // A small batch bounds the writer's buffer (200 batches): a short fault overflows it.
     t = set(t, "batch_size = 5000", "batch_size = 5");
     t = set(t, "flush_interval_ms = 1000", "flush_interval_ms = 50");
-    let cap = cap_mib.map_or(String::new(), |m| format!("\nmax_db_mib = {m}"));
     t = set(
         t,
-        "busy_timeout_ms = 5000",
-        &format!("busy_timeout_ms = 5000{cap}"),
+        "max_db_mib = 0",
+        &format!("max_db_mib = {}", cap_mib.unwrap_or(0)),
     );
     t = set(
         t,

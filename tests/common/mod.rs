@@ -203,3 +203,45 @@ impl Tally<'_> {
         );
     }
 }
+
+/// `PRAGMA integrity_check` of the database at `path` (read-only).
+pub fn integrity(path: &Path) -> String {
+    open_db(path)
+        .query_row("PRAGMA integrity_check", [], |r| r.get(0))
+        .expect("integrity_check")
+}
+
+/// Samples stored more than once for the same tag and time (the primary key forbids it;
+/// counted anyway for the fault tally).
+pub fn duplicate_samples(db: &rusqlite::Connection) -> u64 {
+    db.query_row(
+        "SELECT COUNT(*) - (SELECT COUNT(*) FROM (SELECT DISTINCT tag_id, t_ms FROM samples))
+         FROM samples",
+        [],
+        |r| r.get::<_, i64>(0),
+    )
+    .expect("duplicates") as u64
+}
+
+/// Diagnosis results stored more than once for the same segment and method.
+pub fn duplicate_diagnoses(db: &rusqlite::Connection) -> u64 {
+    db.query_row(
+        "SELECT COALESCE(SUM(n - 1), 0) FROM
+         (SELECT COUNT(*) AS n FROM diagnoses GROUP BY segment_id, method)",
+        [],
+        |r| r.get::<_, i64>(0),
+    )
+    .expect("duplicate diagnoses") as u64
+}
+
+/// Samples in the database.
+pub fn sample_count(db: &rusqlite::Connection) -> u64 {
+    db.query_row("SELECT COUNT(*) FROM samples", [], |r| r.get::<_, i64>(0))
+        .expect("count") as u64
+}
+
+/// Polled samples (`PollStats::samples`) that are not in the database: committed data lost
+/// for a daemon that ran to a clean shutdown.
+pub fn polled_not_stored(polled: u64, db: &rusqlite::Connection) -> u64 {
+    polled.saturating_sub(sample_count(db))
+}
