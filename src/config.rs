@@ -286,7 +286,7 @@ mod tests {
         // Every key of those sections is written out in the file (none left to a hidden default).
         let table: toml::Table = toml::from_str(text).expect("toml");
         for (section, n_keys) in [
-            ("storage", 6),
+            ("storage", 7),
             ("acquisition", 7),
             ("daemon", 2),
             ("diagnosis", 8),

@@ -69,52 +69,76 @@ async fn server_stopped_and_restarted_gives_one_gap_and_reconnection() {
         },
     ));
     wait_polls(&progress, 30).await;
-    sim.stop().await.expect("stop");
-    tokio::time::sleep(Duration::from_millis(400)).await;
-    let during = progress.polls_ok.load(Ordering::Relaxed);
-    assert!(
-        progress.failures.load(Ordering::Relaxed) >= 2,
-        "{progress:?}"
-    );
-    // Same port again: the PLC came back.
-    let listener = TcpListener::bind(addr).await.expect("rebind");
-    let sim = spawn_plant_sim(
-        listener,
-        map,
-        Box::new(ScriptedPlant::demo(1.0)),
-        sim_opts(),
-        None,
-    )
-    .expect("sim again");
-    wait_polls(&progress, during + 30).await;
+    // One stop/restart cycle (× GTWATCH_FAULTS_LONG).
+    let cycles = common::long_factor() as u64;
+    let mut sim = sim;
+    for _ in 0..cycles {
+        sim.stop().await.expect("stop");
+        let failures_before = progress.failures.load(Ordering::Relaxed);
+        tokio::time::sleep(Duration::from_millis(400)).await;
+        let during = progress.polls_ok.load(Ordering::Relaxed);
+        assert!(
+            progress.failures.load(Ordering::Relaxed) >= failures_before + 2,
+            "{progress:?}"
+        );
+        // Same port again: the PLC came back.
+        let listener = TcpListener::bind(addr).await.expect("rebind");
+        sim = spawn_plant_sim(
+            listener,
+            map.clone(),
+            Box::new(ScriptedPlant::demo(1.0)),
+            sim_opts(),
+            None,
+        )
+        .expect("sim again");
+        wait_polls(&progress, during + 30).await;
+    }
     trigger.trigger();
     let report: RunReport = daemon.await.expect("join").expect("daemon survived");
     sim.stop().await.expect("stop");
 
-    assert!(report.poll.connects >= 2, "{report:?}");
-    assert_eq!(report.poll.gaps, 1, "{report:?}");
+    assert!(report.poll.connects > cycles, "{report:?}");
+    assert_eq!(report.poll.gaps, cycles, "{report:?}");
     let db = common::open_db(&db_path);
     let gaps = common::gaps(&db);
-    assert_eq!(gaps.len(), 1, "{gaps:?}");
-    let (start, end, source, reason) = &gaps[0];
-    assert_eq!(source, "modbus");
-    assert!(
-        end - start >= 350,
-        "gap {start}..{end} shorter than the outage"
-    );
-    assert!(
-        end - start < 3000,
-        "gap {start}..{end} longer than the outage"
-    );
-    assert!(
-        reason.contains(&addr.to_string()) || reason.contains("read holding"),
-        "{reason}"
-    );
-    // Samples on both sides of the gap, none inside it.
+    assert_eq!(gaps.len() as u64, cycles, "{gaps:?}");
     let n1 = common::tag_samples(&db, "n1_rpm");
-    assert!(n1.iter().any(|s| s.0 <= *start));
-    assert!(n1.iter().any(|s| s.0 >= *end));
-    assert!(n1.iter().all(|s| s.0 <= *start || s.0 >= *end));
+    for (start, end, source, reason) in &gaps {
+        assert_eq!(source, "modbus");
+        assert!(
+            end - start >= 350,
+            "gap {start}..{end} shorter than the outage"
+        );
+        assert!(
+            end - start < 3000,
+            "gap {start}..{end} longer than the outage"
+        );
+        assert!(
+            reason.contains(&addr.to_string()) || reason.contains("read holding"),
+            "{reason}"
+        );
+        // Samples on both sides of the gap, none inside it.
+        assert!(n1.iter().any(|s| s.0 <= *start));
+        assert!(n1.iter().any(|s| s.0 >= *end));
+        assert!(n1.iter().all(|s| s.0 <= *start || s.0 >= *end));
+    }
+    let duplicated = common::duplicate_samples(&db);
+    assert_eq!(duplicated, 0);
+    let lost = common::polled_not_stored(report.poll.samples, &db);
+    assert_eq!(lost, 0, "{report:?}");
+    common::Tally {
+        class: "modbus_server_killed_and_restarted",
+        injected: cycles,
+        lost,
+        duplicated,
+        integrity: &common::integrity(&db_path),
+        note: format!(
+            "gaps={} reconnects={}",
+            gaps.len(),
+            report.poll.connects - 1
+        ),
+    }
+    .print();
 }
 
 /// A server that numbers every request and answers some of them late (after the client's
@@ -213,7 +237,7 @@ async fn late_replies_are_never_taken_for_the_next_answer() {
             ..RunOptions::default()
         },
     ));
-    wait_polls(&progress, 40).await;
+    wait_polls(&progress, 40 * u64::from(common::long_factor())).await;
     trigger.trigger();
     let report = daemon.await.expect("join").expect("daemon survived");
     server.abort();
@@ -242,6 +266,19 @@ async fn late_replies_are_never_taken_for_the_next_answer() {
         gaps.iter().all(|g| g.3.contains("timed out after 60 ms")),
         "{gaps:?}"
     );
+    let duplicated = common::duplicate_samples(&db);
+    assert_eq!(duplicated, 0);
+    let lost = common::polled_not_stored(report.poll.samples, &db);
+    assert_eq!(lost, 0, "{:?}", report.poll);
+    common::Tally {
+        class: "modbus_reply_after_timeout",
+        injected: late.len() as u64,
+        lost,
+        duplicated,
+        integrity: &common::integrity(&db_path),
+        note: format!("late_replies_stored=0 gaps={}", gaps.len()),
+    }
+    .print();
 }
 
 /// A plant whose odd frames are garbage: NaN, infinities and absurd magnitudes.
@@ -310,7 +347,7 @@ async fn garbage_and_out_of_range_values_are_flagged_never_good() {
             ..RunOptions::default()
         },
     ));
-    wait_polls(&progress, 60).await;
+    wait_polls(&progress, 60 * u64::from(common::long_factor())).await;
     trigger.trigger();
     let report = daemon.await.expect("join").expect("daemon survived");
     sim.stop().await.expect("stop");
@@ -358,6 +395,19 @@ async fn garbage_and_out_of_range_values_are_flagged_never_good() {
             assert_eq!(s.len(), count(0), "{} should be all good", f.name);
         }
     }
+    let duplicated = common::duplicate_samples(&db);
+    assert_eq!(duplicated, 0);
+    let lost = common::polled_not_stored(report.poll.samples, &db);
+    assert_eq!(lost, 0, "{:?}", report.poll);
+    common::Tally {
+        class: "bad_values_nan_inf_out_of_range",
+        injected: report.poll.flagged,
+        lost,
+        duplicated,
+        integrity: &common::integrity(&db_path),
+        note: "stored_as_good=0".to_string(),
+    }
+    .print();
 }
 
 /// A server answering every read with pseudo-random words: every stored sample is either
@@ -426,9 +476,9 @@ async fn random_register_garbage_is_never_stored_as_good_implausible_data() {
             ..RunOptions::default()
         },
     ));
-    wait_polls(&progress, 50).await;
+    wait_polls(&progress, 50 * u64::from(common::long_factor())).await;
     trigger.trigger();
-    daemon.await.expect("join").expect("daemon survived");
+    let report = daemon.await.expect("join").expect("daemon survived");
     server.abort();
     let db = common::open_db(&db_path);
     let mut flagged = 0;
@@ -447,4 +497,17 @@ async fn random_register_garbage_is_never_stored_as_good_implausible_data() {
         flagged > 100,
         "random words should mostly be implausible ({flagged})"
     );
+    let duplicated = common::duplicate_samples(&db);
+    assert_eq!(duplicated, 0);
+    let lost = common::polled_not_stored(report.poll.samples, &db);
+    assert_eq!(lost, 0, "{:?}", report.poll);
+    common::Tally {
+        class: "modbus_random_register_words",
+        injected: progress.polls_ok.load(Ordering::Relaxed),
+        lost,
+        duplicated,
+        integrity: &common::integrity(&db_path),
+        note: format!("flagged={flagged} implausible_stored_as_good=0"),
+    }
+    .print();
 }

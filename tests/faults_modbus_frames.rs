@@ -4,7 +4,8 @@
 //!
 //! After each fault the real `daemon::run` must still be running, must have stored no sample
 //! (there was never a valid reading), must record the outage as a gap with a stable reason,
-//! and the database must pass `PRAGMA integrity_check`. Each case runs about a second.
+//! and the database must pass `PRAGMA integrity_check`. Each case runs about a second (× the
+//! `GTWATCH_FAULTS_LONG` factor); each prints a `FAULT-TALLY` line.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 mod common;
@@ -85,6 +86,7 @@ async fn serve(listener: TcpListener, fault: Fault) {
 
 struct Outcome {
     samples: usize,
+    duplicated: u64,
     gaps: Vec<(i64, i64, String, String)>,
     failures: u64,
     integrity: String,
@@ -121,6 +123,7 @@ async fn run_daemon_against(endpoint: String, run_ms: u64) -> Outcome {
         .expect("check");
     Outcome {
         samples: common::tag_samples(&db, "n1_rpm").len(),
+        duplicated: common::duplicate_samples(&db),
         gaps: common::gaps(&db),
         failures: progress.failures.load(Ordering::Relaxed),
         integrity,
@@ -131,12 +134,13 @@ async fn fault_case(fault: Fault) -> Outcome {
     let listener = TcpListener::bind("127.0.0.1:0").await.expect("bind");
     let endpoint = listener.local_addr().expect("addr").to_string();
     let server = tokio::spawn(serve(listener, fault));
-    let out = run_daemon_against(endpoint, 1200).await;
+    let out = run_daemon_against(endpoint, 1200 * u64::from(common::long_factor())).await;
     server.abort();
     out
 }
 
 fn assert_outage(name: &str, o: &Outcome, reason_has: &[&str]) {
+    assert_eq!(o.duplicated, 0, "{name}");
     assert_eq!(o.integrity, "ok", "{name}");
     assert_eq!(
         o.samples, 0,
@@ -150,6 +154,16 @@ fn assert_outage(name: &str, o: &Outcome, reason_has: &[&str]) {
         reason_has.iter().any(|r| reason.contains(r)),
         "{name}: gap reason '{reason}' names none of {reason_has:?}"
     );
+    // Every failed poll is one injection; there was never a valid reading to lose.
+    common::Tally {
+        class: &format!("modbus_{}", name.to_lowercase()),
+        injected: o.failures,
+        lost: 0,
+        duplicated: o.duplicated,
+        integrity: &o.integrity,
+        note: format!("gaps={} samples_stored={}", o.gaps.len(), o.samples),
+    }
+    .print();
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -168,7 +182,13 @@ async fn broken_answers_are_outages_never_samples() {
     ];
     for (fault, reasons) in cases {
         let o = fault_case(fault).await;
-        assert_outage(&format!("{fault:?}"), &o, &reasons);
+        let name = match fault {
+            Fault::WrongTransactionId => "wrong_transaction_id",
+            Fault::Exception => "exception_code",
+            Fault::PartialFrame => "partial_frame_reset",
+            Fault::Stall => "stall",
+        };
+        assert_outage(name, &o, &reasons);
     }
 }
 
@@ -179,6 +199,6 @@ async fn connection_refused_is_an_outage() {
         let l = TcpListener::bind("127.0.0.1:0").await.expect("bind");
         l.local_addr().expect("addr").to_string()
     };
-    let o = run_daemon_against(endpoint, 800).await;
-    assert_outage("refused", &o, &["connection refused"]);
+    let o = run_daemon_against(endpoint, 800 * u64::from(common::long_factor())).await;
+    assert_outage("connection_refused", &o, &["connection refused"]);
 }

@@ -7,6 +7,8 @@
 //! `nobody` (65534), for whom the files are read-only like for any other user.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
+mod common;
+
 use std::os::unix::fs::PermissionsExt;
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
@@ -160,8 +162,23 @@ fn commands(s: &Setup) -> Vec<(&'static str, Vec<&Path>)> {
     ]
 }
 
-fn assert_fails_naming_the_db(s: &Setup, what: &str) {
+/// Opens the database without creating -wal/-shm files (`immutable=1`), so reading it leaves
+/// the directory as the commands under test must find and leave it.
+fn immutable(db: &Path) -> rusqlite::Connection {
+    rusqlite::Connection::open_with_flags(
+        format!("file:{}?immutable=1", db.display()),
+        rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY | rusqlite::OpenFlags::SQLITE_OPEN_URI,
+    )
+    .expect("open immutable")
+}
+
+fn assert_fails_naming_the_db(s: &Setup, what: &str, class: &str) {
     let before = dir_listing(&s.dbdir);
+    let samples_before = if s.db.exists() {
+        common::sample_count(&immutable(&s.db))
+    } else {
+        0
+    };
     for (name, args) in commands(s) {
         let (status, err) = gtwatch(&args);
         assert!(
@@ -189,6 +206,25 @@ fn assert_fails_naming_the_db(s: &Setup, what: &str) {
             "{name} changed the directory"
         );
     }
+    let (lost, integrity) = if s.db.exists() {
+        let db = immutable(&s.db);
+        let ok: String = db
+            .query_row("PRAGMA integrity_check", [], |r| r.get(0))
+            .expect("integrity");
+        (samples_before.saturating_sub(common::sample_count(&db)), ok)
+    } else {
+        (0, "ok(no_file)".to_string())
+    };
+    assert_eq!(lost, 0);
+    common::Tally {
+        class,
+        injected: commands(s).len() as u64,
+        lost,
+        duplicated: 0,
+        integrity: &integrity,
+        note: "commands=run,replay exit=nonzero".to_string(),
+    }
+    .print();
 }
 
 #[test]
@@ -196,7 +232,7 @@ fn read_only_database_file_fails_at_start_naming_it() {
     let s = setup();
     create_db(&s);
     chmod(&s.db, 0o444);
-    assert_fails_naming_the_db(&s, "read-only database file");
+    assert_fails_naming_the_db(&s, "read-only database file", "readonly_database_file");
 }
 
 #[test]
@@ -204,7 +240,7 @@ fn read_only_database_directory_fails_at_start_naming_it() {
     let s = setup();
     // No database yet, and the directory that should hold it is read-only.
     chmod(&s.dbdir, 0o555);
-    assert_fails_naming_the_db(&s, "read-only directory");
+    assert_fails_naming_the_db(&s, "read-only directory", "readonly_database_directory");
     assert!(!s.db.exists());
     chmod(&s.dbdir, 0o755);
 }

@@ -90,39 +90,73 @@ async fn restart_records_a_gap(abort: bool) {
     let dir = tempfile::tempdir().expect("tempdir");
     let db_path = dir.path().join("restart.db");
     one_run(&db_path, 20, abort).await;
-    // Read what the first run left only once nothing of it can still be committing.
-    tokio::time::sleep(Duration::from_millis(300)).await;
-    let before = sample_times(&common::open_db(&db_path));
-    assert!(!before.is_empty(), "first run stored nothing");
-    let last_before = *before.last().expect("last");
-    one_run(&db_path, 20, false).await;
+    // One restart (× GTWATCH_FAULTS_LONG), each after a stop of the same kind.
+    let cycles = u64::from(common::long_factor());
+    let mut lost = 0u64;
+    for k in 1..=cycles {
+        // Read what the previous run left only once nothing of it can still be committing.
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        let before = sample_times(&common::open_db(&db_path));
+        assert!(!before.is_empty(), "the previous run stored nothing");
+        let last_before = *before.last().expect("last");
+        one_run(&db_path, 20, abort && k < cycles).await;
 
-    let db = common::open_db(&db_path);
-    let after = sample_times(&db);
-    // No committed sample lost or duplicated (the primary key forbids duplicates; count them
-    // anyway), and every first-run sample is still there.
-    for t in &before {
-        assert!(after.binary_search(t).is_ok(), "sample {t} lost");
+        let db = common::open_db(&db_path);
+        let after = sample_times(&db);
+        // No committed sample lost or duplicated (the primary key forbids duplicates; count
+        // them anyway), and every earlier sample is still there.
+        for t in &before {
+            assert!(after.binary_search(t).is_ok(), "sample {t} lost");
+        }
+        lost += before
+            .iter()
+            .filter(|t| after.binary_search(t).is_err())
+            .count() as u64;
+        let mut dedup = after.clone();
+        dedup.dedup();
+        assert_eq!(dedup.len(), after.len());
+        let first_after = *after
+            .iter()
+            .find(|&&t| t > last_before)
+            .expect("the restarted run stored samples");
+        let gaps = common::gaps(&db);
+        let restart: Vec<_> = gaps.iter().filter(|g| g.3 == "daemon_restart").collect();
+        assert_eq!(restart.len() as u64, k, "{gaps:?}");
+        let (start, end, source, _) = restart
+            .iter()
+            .find(|g| g.0 == last_before)
+            .expect("a gap from the last stored sample");
+        assert_eq!(source, "daemon");
+        assert_eq!(*start, last_before, "gap starts at the last stored sample");
+        assert_eq!(*end, first_after, "gap ends at the first new sample");
+        assert!(end - start >= 300, "{start}..{end}");
+        let ok: String = db
+            .query_row("PRAGMA integrity_check", [], |r| r.get(0))
+            .expect("check");
+        assert_eq!(ok, "ok");
     }
-    let mut dedup = after.clone();
-    dedup.dedup();
-    assert_eq!(dedup.len(), after.len());
-    let first_after = *after
-        .iter()
-        .find(|&&t| t > last_before)
-        .expect("second run stored samples");
-    let gaps = common::gaps(&db);
-    let restart: Vec<_> = gaps.iter().filter(|g| g.3 == "daemon_restart").collect();
-    assert_eq!(restart.len(), 1, "{gaps:?}");
-    let (start, end, source, _) = restart[0];
-    assert_eq!(source, "daemon");
-    assert_eq!(*start, last_before, "gap starts at the last stored sample");
-    assert_eq!(*end, first_after, "gap ends at the first new sample");
-    assert!(end - start >= 300, "{start}..{end}");
-    let ok: String = db
-        .query_row("PRAGMA integrity_check", [], |r| r.get(0))
-        .expect("check");
-    assert_eq!(ok, "ok");
+    let db = common::open_db(&db_path);
+    let duplicated = common::duplicate_samples(&db);
+    assert_eq!(duplicated, 0);
+    common::Tally {
+        class: if abort {
+            "daemon_abrupt_stop_then_restart"
+        } else {
+            "daemon_sigterm_then_restart"
+        },
+        injected: cycles,
+        lost,
+        duplicated,
+        integrity: &common::integrity(&db_path),
+        note: format!(
+            "daemon_restart_gaps={}",
+            common::gaps(&db)
+                .iter()
+                .filter(|g| g.3 == "daemon_restart")
+                .count()
+        ),
+    }
+    .print();
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

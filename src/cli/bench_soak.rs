@@ -7,16 +7,27 @@
 //! (VmRSS from /proc/self/status) after every simulated day, so "memory flat from day 5 to the
 //! end" can be checked: `rss_growth_pct_day5_to_end`.
 //!
-//! Diagnosis is not part of the soak (its cost is per start-up, see `bench diagnosis`).
+//! `--diagnose`: at the end of every simulated day the diagnosis worker's own routine
+//! (`worker::diagnose_segment`, both methods, stored as the daemon stores it) runs on that day's
+//! newest pending completed start-up, on its own connection, with a small optimiser budget
+//! (`--diagnose-runs`, default 40 model runs per method, said in the output: the figures are
+//! about memory and the loop, not accuracy). The other start-ups of the day stay pending. Memory
+//! is read after the day's diagnosis, so "flat" includes the worker. Without the flag diagnosis
+//! is not in the loop (its cost is per start-up, see `bench diagnosis`).
 //! Linux only (/proc). A benchmark: never used as a test.
 
 use super::bench_daemon::memory_kib;
 use super::bench_ingest::IngestRig;
-use crate::plantsim::{PlantModel, ScriptedPlant};
+use crate::daemon::detector_store_options;
+use crate::optim::Cancel;
+use crate::plantsim::{FoulingPlant, FoulingSchedule, PlantModel, ScriptedPlant};
+use crate::store::{StorageConfig, Store};
+use crate::worker::{diagnose_segment, DiagnosisSettings, SegmentOutcome, WorkerContext};
 use anyhow::bail;
 use serde::Serialize;
 use std::io::Write;
 use std::process::ExitCode;
+use std::sync::Arc;
 use std::time::Instant;
 
 #[derive(Debug, clap::Args)]
@@ -30,9 +41,46 @@ pub struct BenchSoakArgs {
     /// SQLite page cache of the writer, MiB (as `[storage].cache_mib`).
     #[arg(long, default_value_t = 16)]
     pub cache_mib: u32,
+    /// The plant: `scripted` (default; the demo script, about 30 start-ups, aborts, hot
+    /// restarts and trips a day, not the engine model) or `fouling` (one start-up a day on the
+    /// engine model, fouling day by day, as `gtwatch demo` and `bench month`; its start-ups are
+    /// ones the diagnosis can fit).
+    #[arg(long, value_enum, default_value_t = SoakPlant::Scripted)]
+    pub plant: SoakPlant,
+    /// Diagnose one start-up per simulated day (the newest completed one) as the daemon's
+    /// worker does, and include it in the memory figures.
+    #[arg(long)]
+    pub diagnose: bool,
+    /// Model runs per method of each `--diagnose` fit (the daemon's default is 400).
+    #[arg(long, default_value_t = 40)]
+    pub diagnose_runs: usize,
     /// Print JSON only (one document on stdout; progress goes to stderr otherwise).
     #[arg(long)]
     pub json: bool,
+}
+
+/// `--plant`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SoakPlant {
+    Scripted,
+    Fouling,
+}
+
+/// What `--diagnose` did over the run.
+#[derive(Debug, Default, Serialize)]
+struct SoakDiagnosis {
+    /// Model runs per method of each fit (a small budget: memory and loop, not accuracy).
+    max_model_runs: usize,
+    /// Days on which a pending completed start-up was found and diagnosed.
+    attempted: u64,
+    /// Outcomes: results stored / stored as undiagnosable (with reasons).
+    diagnosed: u64,
+    undiagnosable: u64,
+    /// Distinct undiagnosable reasons seen (`method: reason: detail` of the first of each).
+    reasons: Vec<String>,
+    /// Wall time spent in the fits, s (not counted in the ingest throughput).
+    wall_seconds: f64,
 }
 
 /// The state after one simulated day.
@@ -47,6 +95,7 @@ struct DayPoint {
 #[derive(Debug, Serialize)]
 struct SoakReport {
     bench: &'static str,
+    plant: SoakPlant,
     days: u32,
     tags: usize,
     rate_hz: f64,
@@ -74,12 +123,17 @@ struct SoakReport {
     db_mib: f64,
     db_mib_per_day: f64,
     cache_mib: u32,
+    /// Present with `--diagnose`.
+    diagnosis: Option<SoakDiagnosis>,
     per_day: Vec<DayPoint>,
 }
 
 pub fn run(args: BenchSoakArgs) -> anyhow::Result<ExitCode> {
     if args.days == 0 || args.days > 3650 || args.tags == 0 || args.tags > 10_000 {
         bail!("--days must be in 1 … 3650 and --tags in 1 … 10000");
+    }
+    if args.diagnose && !(1..=100_000).contains(&args.diagnose_runs) {
+        bail!("--diagnose-runs must be in 1 … 100000");
     }
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
@@ -114,11 +168,39 @@ async fn soak(args: &BenchSoakArgs) -> anyhow::Result<SoakReport> {
     const ROWS_PER_DAY: u64 = 86_400;
     const ROWS_PER_SCAN: u64 = 3_600;
     let mut rig = IngestRig::new(args.tags, args.cache_mib, "soak.db")?;
-    let mut plant = ScriptedPlant::demo(1.0);
+    let mut plant: Box<dyn PlantModel> = match args.plant {
+        SoakPlant::Scripted => Box::new(ScriptedPlant::demo(1.0)),
+        // 1 s idle steps: a plain 1 Hz log, 86 400 frames a day like the scripted plant.
+        SoakPlant::Fouling => Box::new(
+            FoulingPlant::new(
+                &crate::engine::Engine::reference()?,
+                FoulingSchedule::demo(args.days as usize),
+                1,
+                0,
+            )?
+            .with_idle_step(1.0),
+        ),
+    };
     let rows = u64::from(args.days) * ROWS_PER_DAY;
     // The simulated span ends now, so the data looks like a recent history.
     let t_start = crate::store::now_ms() - rows as i64 * 1000;
     let mut per_day = Vec::new();
+    let ctx = if args.diagnose {
+        Some(Arc::new(WorkerContext::load(
+            None,
+            DiagnosisSettings {
+                max_model_runs: args.diagnose_runs,
+                ..DiagnosisSettings::default()
+            },
+        )?))
+    } else {
+        None
+    };
+    let mut diag = ctx.as_ref().map(|_| SoakDiagnosis {
+        max_model_runs: args.diagnose_runs,
+        ..SoakDiagnosis::default()
+    });
+    let mut worker_store: Option<Store> = None;
     let started = Instant::now();
     for k in 0..rows {
         let frame = plant.step();
@@ -129,12 +211,41 @@ async fn soak(args: &BenchSoakArgs) -> anyhow::Result<SoakReport> {
         }
         if (k + 1) % ROWS_PER_DAY == 0 {
             let day = ((k + 1) / ROWS_PER_DAY) as u32;
+            if let (Some(ctx), Some(d)) = (&ctx, diag.as_mut()) {
+                let t = Instant::now();
+                let (store, outcome) =
+                    diagnose_newest(worker_store.take(), &rig.db_path, Arc::clone(ctx)).await?;
+                worker_store = Some(store);
+                d.wall_seconds += t.elapsed().as_secs_f64();
+                match outcome {
+                    None => {}
+                    Some(SegmentOutcome::Diagnosed { .. }) => {
+                        d.attempted += 1;
+                        d.diagnosed += 1;
+                    }
+                    Some(SegmentOutcome::Undiagnosable(f)) => {
+                        d.attempted += 1;
+                        d.undiagnosable += 1;
+                        for r in f {
+                            let key =
+                                format!("{}: {}", r.method.as_deref().unwrap_or("-"), r.reason);
+                            if !d.reasons.iter().any(|x| x.starts_with(&key)) {
+                                d.reasons.push(format!("{key}: {}", r.detail));
+                            }
+                        }
+                    }
+                    Some(SegmentOutcome::Cancelled) => bail!("diagnosis cancelled"),
+                }
+            }
             let (rss, _) = memory_kib()?;
             let point = DayPoint {
                 day,
                 rss_kib: rss,
                 db_mib: db_bytes(&rig.db_path) as f64 / MIB,
-                samples_per_s: rig.samples as f64 / started.elapsed().as_secs_f64(),
+                samples_per_s: rig.samples as f64
+                    / (started.elapsed().as_secs_f64()
+                        - diag.as_ref().map_or(0.0, |d| d.wall_seconds))
+                    .max(1e-9),
             };
             if !args.json {
                 eprintln!(
@@ -147,7 +258,10 @@ async fn soak(args: &BenchSoakArgs) -> anyhow::Result<SoakReport> {
     }
     rig.close_writer().await?;
     let wall = started.elapsed().as_secs_f64();
+    // Throughput is the ingest's: the time spent in `--diagnose` fits is taken out.
+    let ingest_wall = (wall - diag.as_ref().map_or(0.0, |d| d.wall_seconds)).max(1e-9);
     rig.close_detector();
+    drop(worker_store);
     let (rss_after_close, hwm) = memory_kib()?;
     let rss_day5 = per_day.iter().find(|p| p.day == 5).map(|p| p.rss_kib);
     let rss_end = per_day.last().map_or(rss_after_close, |p| p.rss_kib);
@@ -155,15 +269,16 @@ async fn soak(args: &BenchSoakArgs) -> anyhow::Result<SoakReport> {
     let (samples, scans, closed) = (rig.samples, rig.scans, rig.segments_closed);
     Ok(SoakReport {
         bench: "soak",
+        plant: args.plant,
         days: args.days,
         tags: args.tags,
         rate_hz: 1.0,
         rows,
         samples,
         wall_seconds: wall,
-        rows_per_s: rows as f64 / wall,
-        samples_per_s: samples as f64 / wall,
-        speed_up: rows as f64 / wall,
+        rows_per_s: rows as f64 / ingest_wall,
+        samples_per_s: samples as f64 / ingest_wall,
+        speed_up: rows as f64 / ingest_wall,
         detector_scans: scans,
         segments_closed: closed,
         rss_kib_day5: rss_day5,
@@ -175,6 +290,38 @@ async fn soak(args: &BenchSoakArgs) -> anyhow::Result<SoakReport> {
         db_mib: db,
         db_mib_per_day: db / f64::from(args.days),
         cache_mib: args.cache_mib,
+        diagnosis: diag,
         per_day,
     })
+}
+
+/// On the blocking pool, with the worker's connection (opened on first use): diagnoses the
+/// newest pending completed start-up and stores the outcome, as the daemon's worker does.
+/// `None`: nothing pending today.
+async fn diagnose_newest(
+    store: Option<Store>,
+    db: &std::path::Path,
+    ctx: Arc<WorkerContext>,
+) -> anyhow::Result<(Store, Option<SegmentOutcome>)> {
+    let db = db.to_path_buf();
+    tokio::task::spawn_blocking(move || -> anyhow::Result<(Store, Option<SegmentOutcome>)> {
+        let mut store = match store {
+            Some(s) => s,
+            None => Store::open_with(
+                &db,
+                &detector_store_options(&StorageConfig::default().options()),
+            )?,
+        };
+        let newest = store
+            .pending_segments()?
+            .into_iter()
+            .rev()
+            .find(|s| s.outcome == "completed");
+        let Some(seg) = newest else {
+            return Ok((store, None));
+        };
+        let (outcome, _) = diagnose_segment(&mut store, &ctx, seg.id, &Cancel::new(), true)?;
+        Ok((store, Some(outcome)))
+    })
+    .await?
 }

@@ -208,6 +208,13 @@ pub struct StorageConfig {
     pub synchronous: Synchronous,
     /// Read-only connections wait this long for a lock, in ms. Default 5000.
     pub busy_timeout_ms: u64,
+    /// Cap on the database size in MiB (`PRAGMA max_page_count`); 0 (default) = no cap. When
+    /// the database reaches it, writes fail like on a full disk (`SQLITE_FULL`): the writer
+    /// keeps acquisition running, holds a bounded buffer and records the samples it had to
+    /// drop as `writer_buffer_full` gaps until space is freed inside the file (or the cap is
+    /// raised and the daemon restarted). A file already larger than the cap is capped at its
+    /// current size.
+    pub max_db_mib: u32,
 }
 
 impl Default for StorageConfig {
@@ -219,6 +226,7 @@ impl Default for StorageConfig {
             cache_mib: 16,
             synchronous: Synchronous::Normal,
             busy_timeout_ms: 5000,
+            max_db_mib: 0,
         }
     }
 }
@@ -265,6 +273,17 @@ impl StorageConfig {
                 why: "at most 10 minutes of waiting for a lock",
             },
         );
+        check_range(
+            &mut p,
+            "storage.max_db_mib",
+            u64::from(self.max_db_mib),
+            Bounds {
+                lo: 0,
+                hi: 8 * 1024 * 1024,
+                unit: " MiB",
+                why: "0 (no cap) … 8 TiB",
+            },
+        );
         if self.cache_mib == 0 || self.cache_mib > 16 * 1024 {
             p.push(ConfigProblem::new(
                 "storage.cache_mib",
@@ -291,6 +310,7 @@ impl StorageConfig {
             cache_mib: self.cache_mib,
             synchronous: self.synchronous,
             busy_timeout_ms: self.busy_timeout_ms,
+            max_db_mib: self.max_db_mib,
         }
     }
 }
@@ -301,6 +321,8 @@ pub struct StoreOptions {
     pub cache_mib: u32,
     pub synchronous: Synchronous,
     pub busy_timeout_ms: u64,
+    /// Database size cap in MiB (`PRAGMA max_page_count`), 0 = none.
+    pub max_db_mib: u32,
 }
 
 impl Default for StoreOptions {
@@ -391,6 +413,18 @@ impl Store {
         ))
         .map_err(open_err)?;
         schema::migrate(&mut conn, path)?;
+        if opts.max_db_mib > 0 {
+            let page_size: i64 = conn
+                .query_row("PRAGMA page_size", [], |r| r.get(0))
+                .map_err(open_err)?;
+            let pages = i64::from(opts.max_db_mib) * 1024 * 1024 / page_size.max(512);
+            // SQLite answers with the cap it applied (never below the current size).
+            let _applied: i64 = conn
+                .query_row(&format!("PRAGMA max_page_count = {pages}"), [], |r| {
+                    r.get(0)
+                })
+                .map_err(open_err)?;
+        }
         Ok(Store {
             conn,
             path: path.to_path_buf(),

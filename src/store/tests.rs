@@ -415,3 +415,53 @@ async fn writer_overflow_records_a_gap() {
         );
     }
 }
+
+/// `storage.max_db_mib` caps the file: past it inserts fail with SQLITE_FULL (what the writer
+/// survives as a full disk), and the file stays within the cap.
+#[test]
+fn max_db_mib_caps_the_database_with_sqlite_full() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("cap.db");
+    let opts = StorageConfig {
+        path: path.clone(),
+        max_db_mib: 1,
+        ..StorageConfig::default()
+    }
+    .options();
+    let mut store = Store::open_with(&path, &opts).expect("open");
+    let tag = store
+        .ensure_tag(&TagInfo::for_signal(Signal::N1))
+        .expect("tag");
+    let mut full = None;
+    for k in 0..200 {
+        if let Err(e) = store.insert_samples(&samples(tag, k * 1000, 1000)) {
+            full = Some(e);
+            break;
+        }
+    }
+    match full {
+        Some(StoreError::Sql(rusqlite::Error::SqliteFailure(e, _))) => {
+            assert_eq!(e.code, rusqlite::ErrorCode::DiskFull)
+        }
+        other => panic!("expected SQLITE_FULL within 200 000 samples, got {other:?}"),
+    }
+    let (pages, size): (i64, i64) = store
+        .conn()
+        .query_row(
+            "SELECT (SELECT page_count FROM pragma_page_count), (SELECT page_size FROM pragma_page_size)",
+            [],
+            |r| Ok((r.get(0)?, r.get(1)?)),
+        )
+        .expect("size");
+    assert!(pages * size <= 1024 * 1024, "{pages} pages of {size}");
+    assert!(pages * size > 900 * 1024, "{pages} pages of {size}");
+    assert_eq!(
+        StorageConfig {
+            max_db_mib: u32::MAX,
+            ..StorageConfig::default()
+        }
+        .validate()
+        .len(),
+        1
+    );
+}

@@ -155,3 +155,93 @@ pub fn e2e_schedule() -> Vec<ScriptStep> {
         ScriptStep::Standstill { duration_s: 20.0 },
     ]
 }
+
+/// How much longer the fault tests run: `GTWATCH_FAULTS_LONG` unset or `0` → 1 (CI size),
+/// `1` → 10, any other whole number n → n. Fault tests multiply their injections (cycles,
+/// seeded kill moments) and fault durations by it for soak runs.
+pub fn long_factor() -> u32 {
+    match std::env::var("GTWATCH_FAULTS_LONG") {
+        Err(_) => 1,
+        Ok(v) => match v.trim().parse::<u32>() {
+            Ok(0) => 1,
+            Ok(1) => 10,
+            Ok(n) => n,
+            Err(_) => panic!("GTWATCH_FAULTS_LONG={v:?}: expected a whole number (1 = ×10)"),
+        },
+    }
+}
+
+/// Outcome of one fault class in one test, printed as one `FAULT-TALLY` line on stderr
+/// (`cargo test --test faults_x -- --nocapture`, collected for the README's table).
+#[derive(Debug, Clone)]
+pub struct Tally<'a> {
+    /// Fault class, e.g. `disk_full_tmpfs`.
+    pub class: &'a str,
+    /// How many times the fault was injected.
+    pub injected: u64,
+    /// Committed samples (or results) lost; the test asserts 0 before printing.
+    pub lost: u64,
+    /// Samples (or results) stored twice; the test asserts 0 before printing.
+    pub duplicated: u64,
+    /// `PRAGMA integrity_check` after the last injection.
+    pub integrity: &'a str,
+    /// Anything else worth a column (`gaps=3 dropped_uncommitted=120`), may be empty.
+    pub note: String,
+}
+
+impl Tally<'_> {
+    pub fn print(&self) {
+        eprintln!(
+            "FAULT-TALLY class={} injected={} lost={} duplicated={} integrity={}{}{}",
+            self.class,
+            self.injected,
+            self.lost,
+            self.duplicated,
+            self.integrity,
+            if self.note.is_empty() { "" } else { " " },
+            self.note
+        );
+    }
+}
+
+/// `PRAGMA integrity_check` of the database at `path` (read-only).
+pub fn integrity(path: &Path) -> String {
+    open_db(path)
+        .query_row("PRAGMA integrity_check", [], |r| r.get(0))
+        .expect("integrity_check")
+}
+
+/// Samples stored more than once for the same tag and time (the primary key forbids it;
+/// counted anyway for the fault tally).
+pub fn duplicate_samples(db: &rusqlite::Connection) -> u64 {
+    db.query_row(
+        "SELECT COUNT(*) - (SELECT COUNT(*) FROM (SELECT DISTINCT tag_id, t_ms FROM samples))
+         FROM samples",
+        [],
+        |r| r.get::<_, i64>(0),
+    )
+    .expect("duplicates") as u64
+}
+
+/// Diagnosis results stored more than once for the same segment and method.
+pub fn duplicate_diagnoses(db: &rusqlite::Connection) -> u64 {
+    db.query_row(
+        "SELECT COALESCE(SUM(n - 1), 0) FROM
+         (SELECT COUNT(*) AS n FROM diagnoses GROUP BY segment_id, method)",
+        [],
+        |r| r.get::<_, i64>(0),
+    )
+    .expect("duplicate diagnoses") as u64
+}
+
+/// Samples in the database.
+pub fn sample_count(db: &rusqlite::Connection) -> u64 {
+    db.query_row("SELECT COUNT(*) FROM samples", [], |r| r.get::<_, i64>(0))
+        .expect("count") as u64
+}
+
+/// Polled samples (`PollStats::samples`) that are not in the database: committed data lost
+/// for a daemon that ran to a clean shutdown.
+pub fn polled_not_stored(polled: u64, db: &rusqlite::Connection) -> u64 {
+    polled.saturating_sub(sample_count(db))
+}

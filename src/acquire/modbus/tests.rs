@@ -265,4 +265,11 @@ async fn wall_clock_stepping_back_and_forward_never_makes_times_go_backwards() {
         .filter(|&&x| x > back.end_ms && x < fwd.start_ms)
         .count();
     assert!(between >= 30, "{between}");
+    // One line of the fault suite's tally (README, "Fault tally"); no database at this level.
+    eprintln!(
+        "FAULT-TALLY class=clock_step_back_and_forward injected=2 lost={} duplicated=0 \
+         integrity=n/a(poll_loop_only) clock_gaps={}",
+        run.stats.samples - t.len() as u64,
+        clock_gaps.len()
+    );
 }
