@@ -167,7 +167,7 @@ fn evaluate_inline(model: &Model, t: f64, y: &State, drive: &Drive) -> (State, S
     let dm = w_air + wf - w3;
     let h3 = gas.h(t3);
     let u3 = h3 - r * t3;
-    let mut d_energy = w_air * gp.compressor.h_out + wf * c.eta_b * c.lhv - w3 * h3 - u3 * dm;
+    let mut d_energy = w_air * gp.compressor.h_out + c.fuel_heat_w(wf) - w3 * h3 - u3 * dm;
     if let Some(cv) = &core {
         d_energy -= effects.heat_to_metal_w(cv, y);
     }

@@ -238,8 +238,7 @@ pub fn evaluate(model: &Model, inp: &Inputs, adjust: &Adjust) -> GasPath {
     let p3 = c.p3(p2, w2.max(0.0), comp.t_out_k);
     let (t3, gas, w_burn) = match inp.hot {
         HotSection::Burn { fuel_kg_s } => {
-            let (t3, gas) =
-                cycle::combustor_exit_temperature(w_air, comp.h_out, fuel_kg_s, c.eta_b, c.lhv);
+            let (t3, gas) = cycle::combustor_exit_temperature(c, w_air, comp.h_out, fuel_kg_s);
             (t3, gas, Some(w_air + fuel_kg_s))
         }
         HotSection::Plenum {
@@ -247,7 +246,7 @@ pub fn evaluate(model: &Model, inp: &Inputs, adjust: &Adjust) -> GasPath {
             fuel_air_ratio,
         } => (
             t3_k,
-            Gas::products(fuel_air_ratio.clamp(0.0, MAX_FAR)),
+            c.fuel.products(fuel_air_ratio.clamp(0.0, MAX_FAR)),
             None,
         ),
     };

@@ -124,7 +124,7 @@ fn evaluate(model: &Model, inp: &SteadyInputs, x: &Unknowns) -> Evaluated {
         gg_err / pd,
         (power_w - target_power) / pd,
     ];
-    let heat = wf * c.lhv;
+    let heat = wf * c.fuel.lhv();
     let mut stations = gp.stations;
     stations.fuel_kg_s = wf;
     stations.fuel_burnt_kg_s = wf;
@@ -393,10 +393,10 @@ mod tests {
             );
             // Energy closure over the whole engine: fuel heat = exhaust enthalpy rise + PT shaft
             // work + the GG's net shaft work (its mechanical losses leave the gas path).
-            let gas = crate::thermo::Gas::products(p.fuel_air_ratio);
+            let gas = m.consts.fuel.products(p.fuel_air_ratio);
             let air = crate::thermo::Gas::air();
             let c = &m.consts;
-            let heat_in = p.fuel_kg_s * c.eta_b * c.lhv;
+            let heat_in = c.fuel_heat_w(p.fuel_kg_s);
             let exhaust = p.pt_flow_kg_s * gas.h(p.t4_k) - p.air_flow_kg_s * air.h(p.t1_k);
             let shafts = (p.pt_power_mw + p.hpt_power_mw - p.compressor_power_mw) * 1e6;
             assert!(
