@@ -157,6 +157,32 @@ impl MapsConfig {
     }
 }
 
+/// What the power turbine drives.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LoadMode {
+    /// A generator on the grid: PT speed held (today's behaviour).
+    #[default]
+    Generator,
+    /// A mechanical drive or propeller absorbing `P = P_design · (n2/n2_design)^exponent`: the
+    /// PT speed follows the load (steady runs; `engine/load.rs`).
+    LoadLaw,
+}
+
+/// The `[load]` section.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LoadConfig {
+    pub mode: LoadMode,
+    /// Exponent k of the load law P ∝ n^k (3 for a propeller or centrifugal compressor).
+    #[serde(default = "default_load_exponent")]
+    pub exponent: f64,
+}
+
+fn default_load_exponent() -> f64 {
+    3.0
+}
+
 /// Shafts, volumes and losses.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -312,6 +338,9 @@ pub struct EngineConfig {
     /// The fuel (`config/fuel.rs`); absent = methane.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fuel: Option<FuelConfig>,
+    /// What sets the PT speed in steady runs (`engine/load.rs`); absent = generator.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load: Option<LoadConfig>,
     /// Optional model effects, each a table `[effects.<name>]` of its parameters (see
     /// `engine/effects`); absent = the core model alone. Parameters not given take the
     /// effect's defaults (filled in at load, so each is a named parameter).

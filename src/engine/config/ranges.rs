@@ -70,6 +70,7 @@ const RANGES: &[(&str, ParamRange)] = &[
     ("design.combustion_efficiency", ParamRange::efficiency()),
     ("design.fuel_lhv_j_per_kg", ParamRange::new(1.0e6, 2.0e8)),
     ("fuel.temperature_k", ParamRange::new(200.0, 800.0)),
+    ("load.exponent", ParamRange::new(0.5, 5.0)),
     ("fuel.composition.CH4", ParamRange::new(0.0, 1.0)),
     ("fuel.composition.C2H6", ParamRange::new(0.0, 1.0)),
     ("fuel.composition.C3H8", ParamRange::new(0.0, 1.0)),
