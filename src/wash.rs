@@ -167,7 +167,7 @@ pub fn sensitivity(engine: &Engine) -> Result<Sensitivity, crate::engine::Engine
     Ok(Sensitivity {
         base_power_mw: base.power_mw,
         base_fuel_kg_s: base.fuel_kg_s,
-        lhv_mj_kg: cfg.design.fuel_lhv_j_per_kg / 1e6,
+        lhv_mj_kg: engine.consts().fuel.lhv() / 1e6,
         mw_per_point,
     })
 }

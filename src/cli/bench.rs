@@ -21,6 +21,9 @@ pub enum BenchCmd {
     /// Reliability soak: N days × M tags of 1 Hz data through writer and detector at full
     /// speed; throughput and resident memory per simulated day.
     Soak(super::bench_soak::BenchSoakArgs),
+    /// In-process time per off-design steady operating point (median, p90) and Newton
+    /// iterations, over a grid across the load range and ambient temperatures.
+    Steady(super::bench_steady::BenchSteadyArgs),
 }
 
 pub fn run(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
@@ -33,5 +36,6 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
         BenchCmd::Month(a) => super::bench_month::run(a),
         BenchCmd::Gap(a) => super::bench_gap::run(a),
         BenchCmd::Soak(a) => super::bench_soak::run(a),
+        BenchCmd::Steady(a) => super::bench_steady::run(a),
     }
 }

@@ -13,6 +13,7 @@ mod bench_month;
 mod bench_replay;
 mod bench_sim;
 mod bench_soak;
+mod bench_steady;
 mod bench_wash;
 mod check_config;
 mod common;

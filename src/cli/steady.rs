@@ -1,7 +1,7 @@
 //! `gtwatch steady`: one steady operating point and its full station table.
 
 use super::engine_args::EngineArgs;
-use crate::engine::steady::{solve, Demand, SteadyInputs};
+use crate::engine::steady::{Demand, SteadyInputs};
 use std::process::ExitCode;
 
 #[derive(Debug, clap::Args)]
@@ -18,7 +18,8 @@ pub struct SteadyArgs {
     /// GG speed, rpm.
     #[arg(long)]
     pub n1_rpm: Option<f64>,
-    /// PT speed, rpm (default: synchronous).
+    /// PT speed, rpm (default: synchronous). With an engine-file load law (`[load] mode =
+    /// "load_law"`) only the first guess: the speed follows the load.
     #[arg(long)]
     pub n2_rpm: Option<f64>,
     /// Ambient temperature, K (default: the engine file's ambient).
@@ -74,7 +75,8 @@ pub fn run(a: SteadyArgs) -> anyhow::Result<ExitCode> {
         n2_rpm: a.n2_rpm.unwrap_or(cfg.design.pt_speed_rpm),
         demand,
     };
-    let p = solve(&model, &inputs, None)?;
+    // The engine file's load mode decides the PT speed (generator: --n2-rpm or design).
+    let (p, _) = crate::engine::load::solve(&model, cfg.load.as_ref(), &inputs, None)?;
     if a.json {
         let mut v = serde_json::to_value(p)?;
         if let Some(o) = v.as_object_mut() {

@@ -220,20 +220,20 @@ pub fn turbine(
 }
 
 /// Combustor exit temperature from an adiabatic energy balance (steady state):
-/// W_air·h2 + W_f·η_b·LHV = (W_air + W_f)·h3 with sensible enthalpies referenced to 288.15 K.
+/// W_air·h2 + W_f·(η_b·LHV + h_fuel) = (W_air + W_f)·h3 with sensible enthalpies referenced to
+/// 288.15 K, the products those of the engine's fuel ([`super::model::Constants::fuel_heat_w`]).
 pub fn combustor_exit_temperature(
+    c: &super::model::Constants,
     w_air: f64,
     h2: f64,
     w_fuel: f64,
-    eta_b: f64,
-    lhv: f64,
 ) -> (f64, Gas) {
     let far = if w_air > 0.0 {
         (w_fuel / w_air).clamp(0.0, MAX_FAR)
     } else {
         0.0
     };
-    let gas = Gas::products(far);
-    let h3 = (w_air * h2 + w_fuel * eta_b * lhv) / (w_air + w_fuel);
+    let gas = c.fuel.products(far);
+    let h3 = (w_air * h2 + c.fuel_heat_w(w_fuel)) / (w_air + w_fuel);
     (gas.t_from_h(h3), gas)
 }

@@ -10,19 +10,20 @@ use super::config::EngineConfig;
 use super::cycle::ShaftLosses;
 use super::error::EngineError;
 use super::gas_path::Stations;
-use crate::thermo::Gas;
+use crate::thermo::{Fuel, Gas};
 
-/// Fuel flow for a given T3 at fixed total exhaust flow (fixed point, converges in a few steps).
-fn fuel_for_t3(cfg: &EngineConfig, w_total: f64, h2: f64, t3: f64) -> (f64, f64, Gas) {
+/// Fuel flow for a given T3 at fixed total exhaust flow (fixed point, converges in a few steps):
+/// W_air·h2 + W_f·(η_b·LHV + h_fuel) = (W_air + W_f)·h3.
+fn fuel_for_t3(cfg: &EngineConfig, fuel: &Fuel, w_total: f64, h2: f64, t3: f64) -> (f64, f64, Gas) {
     let d = &cfg.design;
     let mut wf = 0.02 * w_total;
-    let mut gas = Gas::products(0.02);
+    let mut gas = fuel.products(0.02);
     let mut w_comb_air = w_total - wf;
     for _ in 0..50 {
         w_comb_air = w_total - wf;
-        gas = Gas::products(wf / w_comb_air);
+        gas = fuel.products(wf / w_comb_air);
         let wf_new = w_comb_air * (gas.h(t3) - h2)
-            / (d.combustion_efficiency * d.fuel_lhv_j_per_kg - gas.h(t3));
+            / (d.combustion_efficiency * fuel.lhv() + fuel.sensible_enthalpy() - gas.h(t3));
         if (wf_new - wf).abs() < 1e-13 * w_total {
             wf = wf_new;
             break;
@@ -35,7 +36,7 @@ fn fuel_for_t3(cfg: &EngineConfig, w_total: f64, h2: f64, t3: f64) -> (f64, f64,
 /// Computes the design cycle; fails if no T3 in 900–2400 K meets the power. The compressor's
 /// map coordinates (β, surge margin) are left at 0: the map is scaled from this cycle, so the
 /// caller fills them in afterwards.
-pub fn design_cycle(cfg: &EngineConfig) -> Result<Stations, EngineError> {
+pub fn design_cycle(cfg: &EngineConfig, fuel: &Fuel) -> Result<Stations, EngineError> {
     let d = &cfg.design;
     let air = Gas::air();
     let t1 = cfg.ambient.temperature_k;
@@ -55,7 +56,7 @@ pub fn design_cycle(cfg: &EngineConfig) -> Result<Stations, EngineError> {
 
     // Everything that follows from a T3 guess.
     let eval = |t3: f64| -> Result<Stations, EngineError> {
-        let (wf, w_comb_air, gas) = fuel_for_t3(cfg, w_total, h2, t3);
+        let (wf, w_comb_air, gas) = fuel_for_t3(cfg, fuel, w_total, h2, t3);
         // Bleed leaves the compressor overboard: the compressor passes more than the combustor gets.
         // (`gas_path::combustor_air` is the forward rule: w_comb_air = w_comp (1 − bleed).)
         let w_comp = w_comb_air / (1.0 - d.cooling_bleed_frac);

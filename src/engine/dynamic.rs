@@ -20,7 +20,6 @@ use super::model::Model;
 pub use super::state::{
     Scales, State, FAR_SCALE, IX_FAR, IX_FUEL_I, IX_N1, IX_N2, IX_P2, IX_P34, IX_T3, NX_CORE,
 };
-use crate::thermo::Gas;
 use std::f64::consts::PI;
 
 /// Speed below which torques are computed from power at this speed (rad/s), avoiding 1/ω.
@@ -179,7 +178,9 @@ fn core_rhs<R>(
 
     // The gas path from the states: compressor into the plenum at P2, turbines on the
     // plenum's gas (temperature and composition are states).
-    let gas = Gas::products((y[IX_FAR] * FAR_SCALE).clamp(0.0, gas_path::MAX_FAR));
+    let gas = c
+        .fuel
+        .products((y[IX_FAR] * FAR_SCALE).clamp(0.0, gas_path::MAX_FAR));
     let gp = gas_path::evaluate(
         model,
         &Inputs {
@@ -221,7 +222,7 @@ fn core_rhs<R>(
     let dm = w_air + wf - w3;
     let h3 = gas.h(t3);
     let u3 = h3 - r * t3;
-    let mut d_energy = w_air * gp.compressor.h_out + wf * c.eta_b * c.lhv - w3 * h3 - u3 * dm;
+    let mut d_energy = w_air * gp.compressor.h_out + c.fuel_heat_w(wf) - w3 * h3 - u3 * dm;
     if let Some(cv) = &core {
         d_energy -= effects.heat_to_metal_w(cv, y);
     }

@@ -294,8 +294,7 @@ pub fn evaluate(model: &Model, inp: &Inputs, adjust: Option<&Adjust>) -> GasPath
     let burnt;
     let (t3, gas, w_burn) = match inp.hot {
         HotSection::Burn { fuel_kg_s } => {
-            let (t3, gas) =
-                cycle::combustor_exit_temperature(w_air, comp.h_out, fuel_kg_s, c.eta_b, c.lhv);
+            let (t3, gas) = cycle::combustor_exit_temperature(c, w_air, comp.h_out, fuel_kg_s);
             burnt = gas;
             (t3, &burnt, Some(w_air + fuel_kg_s))
         }

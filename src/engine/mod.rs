@@ -4,7 +4,7 @@
 //! Module map: `config` (engine TOML), `cycle` (component stations, loss laws), `gas_path` (the
 //! one gas path and its station table, the station → signal mapping), `design` (design cycle),
 //! `model` (calibrated engine, health-scaled instance), `params` (named engine parameters),
-//! `steady` (Newton matching), `state` (state vector and layout), `dynamic` (state equations),
+//! `steady` (Newton matching), `load` (PT load modes: what sets the PT speed), `state` (state vector and layout), `dynamic` (state equations),
 //! `effects` (optional model effects and their hook points), `integrator` (stiff ROS2),
 //! `control` (fuel PID, limits, starter), `sequence` (start-up/shutdown sequencer),
 //! `simulation` (the integration loop under a controller), `measured_drive` (the model run
@@ -21,6 +21,7 @@ pub mod effects;
 pub mod error;
 pub mod gas_path;
 pub mod integrator;
+pub mod load;
 pub mod measured_drive;
 pub mod model;
 pub mod params;

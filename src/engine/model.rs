@@ -10,6 +10,7 @@ use super::cycle::{ShaftLosses, P_STD_KPA, T_STD_K};
 use super::effects::EffectSet;
 use crate::health::HealthParams;
 use crate::maps::{self, CompressorMap, ScaledCompressor, ScaledTurbine, TurbineMap};
+use crate::thermo::Fuel;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -34,7 +35,8 @@ pub struct Constants {
     /// W·√T34/P_amb at design, for the exhaust back-pressure law.
     pub q4_design: f64,
     pub eta_b: f64,
-    pub lhv: f64,
+    /// The fuel: LHV, sensible enthalpy at its supply temperature, products' properties.
+    pub fuel: Fuel,
     pub bleed: f64,
     pub gg_inertia: f64,
     pub pt_inertia: f64,
@@ -98,6 +100,13 @@ impl Constants {
             }
             PressureLossLaw::Constant => p_amb * (1.0 + self.exhaust_excess_ratio),
         }
+    }
+    /// Heat the combustor gas receives from `wf` kg/s of fuel, W: `wf·(η_b·LHV + h_fuel)` with
+    /// the fuel's sensible enthalpy relative to 288.15 K (0 for the legacy methane, so the sum
+    /// is bit for bit `wf·η_b·LHV`).
+    #[inline]
+    pub fn fuel_heat_w(&self, wf: f64) -> f64 {
+        wf * self.eta_b * self.fuel.lhv() + wf * self.fuel.sensible_enthalpy()
     }
     /// All GG shaft losses outside the mechanical efficiency, W.
     #[inline]
@@ -231,7 +240,8 @@ impl Engine {
         let hpt_map = Arc::clone(&maps.hpt);
         let pt_map = Arc::clone(&maps.pt);
         let effects = Arc::new(Engine::build_effects(&cfg)?);
-        let mut design = super::design::design_cycle(&cfg)?;
+        let fuel = cfg.fuel()?;
+        let mut design = super::design::design_cycle(&cfg, &fuel)?;
         let d = &cfg.design;
         let m = &cfg.maps;
         let theta1 = design.t1_k / T_STD_K;
@@ -285,7 +295,7 @@ impl Engine {
             exhaust_loss_law: d.exhaust_loss_law,
             q4_design: design.pt_flow_kg_s * design.t34_k.sqrt() / cfg.ambient.pressure_kpa,
             eta_b: d.combustion_efficiency,
-            lhv: d.fuel_lhv_j_per_kg,
+            fuel,
             bleed: d.cooling_bleed_frac,
             gg_inertia: dy.gg_inertia_kg_m2,
             pt_inertia: dy.pt_inertia_kg_m2,

@@ -56,6 +56,16 @@ impl std::ops::Deref for SteadyPoint {
     }
 }
 
+/// What one [`solve_with_stats`] cost: Newton iterations (Jacobian updates), gas-path
+/// evaluations (each a full station calculation) and continuation steps (0 when the first
+/// Newton run from the guess converged).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct SolveStats {
+    pub newton_iterations: u32,
+    pub evaluations: u32,
+    pub continuation_steps: u32,
+}
+
 /// Unknown vector layout: [n1, beta, p34, wf], each normalised.
 #[derive(Debug, Clone, Copy)]
 struct Unknowns([f64; 4]);
@@ -124,7 +134,7 @@ fn evaluate(model: &Model, inp: &SteadyInputs, x: &Unknowns) -> Evaluated {
         gg_err / pd,
         (power_w - target_power) / pd,
     ];
-    let heat = wf * c.lhv;
+    let heat = wf * c.fuel.lhv();
     let mut stations = gp.stations();
     stations.fuel_kg_s = wf;
     stations.fuel_burnt_kg_s = wf;
@@ -173,16 +183,23 @@ fn valid(x: &Unknowns, model: &Model, inp: &SteadyInputs) -> bool {
 }
 
 /// Newton iteration from `x0`; returns the converged unknowns.
-fn newton(model: &Model, inp: &SteadyInputs, x0: Unknowns) -> Result<Unknowns, String> {
+fn newton(
+    model: &Model,
+    inp: &SteadyInputs,
+    x0: Unknowns,
+    stats: &mut SolveStats,
+) -> Result<Unknowns, String> {
     let (free, rows) = layout(inp.demand);
     let mut x = x0;
     fix_demand(model, inp.demand, &mut x);
     let mut ev = evaluate(model, inp, &x);
+    stats.evaluations += 1;
     let mut f = norm(&ev.residuals, rows);
     for _iter in 0..60 {
         if f < 1e-11 {
             return Ok(x);
         }
+        stats.newton_iterations += 1;
         let n = free.len();
         let mut jac = DMatrix::<f64>::zeros(n, n);
         for (j, &k) in free.iter().enumerate() {
@@ -190,6 +207,7 @@ fn newton(model: &Model, inp: &SteadyInputs, x0: Unknowns) -> Result<Unknowns, S
             let mut xp = x;
             xp.0[k] += h;
             let evp = evaluate(model, inp, &xp);
+            stats.evaluations += 1;
             for (i, &r) in rows.iter().enumerate() {
                 jac[(i, j)] = (evp.residuals[r] - ev.residuals[r]) / h;
             }
@@ -209,6 +227,7 @@ fn newton(model: &Model, inp: &SteadyInputs, x0: Unknowns) -> Result<Unknowns, S
             }
             if valid(&xn, model, inp) {
                 let evn = evaluate(model, inp, &xn);
+                stats.evaluations += 1;
                 let fnew = norm(&evn.residuals, rows);
                 if fnew.is_finite() && fnew < f {
                     x = xn;
@@ -268,10 +287,30 @@ pub fn solve(
     inp: &SteadyInputs,
     guess: Option<&SteadyPoint>,
 ) -> Result<SteadyPoint, EngineError> {
+    solve_with_stats(model, inp, guess).map(|(p, _)| p)
+}
+
+/// [`solve`], also reporting what the solve cost (for `gtwatch bench steady`).
+pub fn solve_with_stats(
+    model: &Model,
+    inp: &SteadyInputs,
+    guess: Option<&SteadyPoint>,
+) -> Result<(SteadyPoint, SolveStats), EngineError> {
+    let mut stats = SolveStats::default();
+    let point = solve_counted(model, inp, guess, &mut stats)?;
+    Ok((point, stats))
+}
+
+fn solve_counted(
+    model: &Model,
+    inp: &SteadyInputs,
+    guess: Option<&SteadyPoint>,
+    stats: &mut SolveStats,
+) -> Result<SteadyPoint, EngineError> {
     let x0 = guess
         .map(|g| guess_from(model, g))
         .unwrap_or_else(|| design_guess(model));
-    if let Ok(x) = newton(model, inp, x0) {
+    if let Ok(x) = newton(model, inp, x0, stats) {
         return Ok(evaluate(model, inp, &x).point);
     }
     // Continuation: start from the design point's own demand value and step towards the target.
@@ -282,6 +321,7 @@ pub fn solve(
             ..*inp
         },
         design_guess(model),
+        stats,
     )
     .map_err(|e| EngineError::NoSteadySolution(format!("even the design speed fails: {e}")))?;
     let dp = evaluate(model, inp, &design).point;
@@ -300,7 +340,8 @@ pub fn solve(
             demand: with_value(inp.demand, start + s_try * (target - start)),
             ..*inp
         };
-        match newton(model, &sub, x) {
+        stats.continuation_steps += 1;
+        match newton(model, &sub, x, stats) {
             Ok(xn) => {
                 x = xn;
                 s = s_try;
@@ -393,10 +434,10 @@ mod tests {
             );
             // Energy closure over the whole engine: fuel heat = exhaust enthalpy rise + PT shaft
             // work + the GG's net shaft work (its mechanical losses leave the gas path).
-            let gas = crate::thermo::Gas::products(p.fuel_air_ratio);
+            let gas = m.consts.fuel.products(p.fuel_air_ratio);
             let air = crate::thermo::Gas::air();
             let c = &m.consts;
-            let heat_in = p.fuel_kg_s * c.eta_b * c.lhv;
+            let heat_in = c.fuel_heat_w(p.fuel_kg_s);
             let exhaust = p.pt_flow_kg_s * gas.h(p.t4_k) - p.air_flow_kg_s * air.h(p.t1_k);
             let shafts = (p.pt_power_mw + p.hpt_power_mw - p.compressor_power_mw) * 1e6;
             assert!(
@@ -436,5 +477,23 @@ mod tests {
             a.air_flow_kg_s,
             b.air_flow_kg_s
         );
+    }
+
+    /// The solve cost reported for `bench steady`: a cold solve takes Newton iterations, each
+    /// with a Jacobian of 3 extra evaluations plus at least one line-search evaluation; a solve
+    /// started at its own solution takes none.
+    #[test]
+    fn solve_stats_count_the_work() {
+        let e = Engine::reference().expect("engine");
+        let m = e.model(&HealthParams::HEALTHY);
+        let inp = iso(Demand::PowerMw(20.0));
+        let (p, cold) = solve_with_stats(&m, &inp, None).expect("solves");
+        assert!(cold.newton_iterations >= 2, "{cold:?}");
+        assert!(cold.evaluations > 4 * cold.newton_iterations, "{cold:?}");
+        assert_eq!(solve(&m, &inp, None).expect("solves"), p);
+        let (q, warm) = solve_with_stats(&m, &inp, Some(&p)).expect("solves");
+        assert!(warm.newton_iterations <= 1, "{warm:?}");
+        assert_eq!(warm.continuation_steps, 0);
+        assert!((q.power_mw - p.power_mw).abs() < 1e-9);
     }
 }

@@ -1,4 +1,4 @@
-//! Gas properties of dry air and lean methane combustion products.
+//! Gas properties of dry air and lean combustion products of methane or another fuel.
 //!
 //! What it is for: `cp`, `cv`, `R`, `γ`, sensible enthalpy `h` and the entropy function `φ`
 //! (and their inverses) as functions of temperature and fuel-air ratio, for the engine model.
@@ -33,9 +33,16 @@
 //! `φ(T_out) = φ(T_in) + R ln(p_out/p_in)`.
 //!
 //! Heat of combustion is *not* in these enthalpies: it enters the combustor energy balance
-//! through the lower heating value of methane at 288.15 K (fuel supplied at 288.15 K, so its
-//! sensible enthalpy is zero too):
-//! `(W_air + W_fuel) · h_products(T3) = W_air · h_air(T2) + η_b · W_fuel · LHV`.
+//! through the fuel's lower heating value at 288.15 K and its sensible enthalpy `h_f` at its
+//! supply temperature (both from [`Fuel`]; 0 for fuel supplied at 288.15 K):
+//! `(W_air + W_fuel) · h_products(T3) = W_air · h_air(T2) + W_fuel · (η_b · LHV + h_f)`.
+//!
+//! # Other fuels
+//!
+//! [`Fuel`] (`fuel.rs`) describes a gas fuel by its mole fractions (CH4, C2H6, C3H8, C4H10, N2,
+//! CO2, H2) or a liquid by its H/C ratio: it computes the LHV, the fuel's sensible enthalpy and
+//! its own per-kg-fuel change `Δ`, and [`Fuel::products`] mixes it with `AIR` exactly as
+//! [`Gas::products`] does for methane. Species data: `species.rs`.
 //!
 //! # Range
 //!
@@ -68,114 +75,13 @@ const LN_T_MID: f64 = 6.907755278982137;
 const LN_T_EXT_LO: f64 = 5.298317366548036;
 const LN_T_EXT_HI: f64 = 8.160518247477505;
 
-// Molar masses, kg/kmol, from Cantera's atomic weights.
-const W_H: f64 = 1.008;
-const W_C: f64 = 12.011;
-const W_N: f64 = 14.007;
-const W_O: f64 = 15.999;
-const W_AR: f64 = 39.95;
-const W_N2: f64 = 2.0 * W_N;
-const W_O2: f64 = 2.0 * W_O;
-const W_CO2: f64 = W_C + 2.0 * W_O;
-const W_H2O: f64 = 2.0 * W_H + W_O;
-const W_CH4: f64 = W_C + 4.0 * W_H;
-
-/// NASA 7-coefficient polynomial pair (low range, high range) of one species, gri30.yaml.
-struct Species {
-    w: f64,
-    lo: [f64; 7],
-    hi: [f64; 7],
-}
-
-const N2: Species = Species {
-    w: W_N2,
-    lo: [
-        3.298677,
-        1.4082404e-03,
-        -3.963222e-06,
-        5.641515e-09,
-        -2.444854e-12,
-        -1020.8999,
-        3.950372,
-    ],
-    hi: [
-        2.92664,
-        1.4879768e-03,
-        -5.68476e-07,
-        1.0097038e-10,
-        -6.753351e-15,
-        -922.7977,
-        5.980528,
-    ],
+mod fuel;
+mod species;
+pub use fuel::{
+    Fuel, FuelError, COMPOSITION_SUM_TOLERANCE, FUEL_T_MAX_K, FUEL_T_MIN_K, GAS_FUEL_SPECIES,
+    LIQUID_CP_J_PER_KG_K,
 };
-const O2: Species = Species {
-    w: W_O2,
-    lo: [
-        3.78245636,
-        -2.99673416e-03,
-        9.84730201e-06,
-        -9.68129509e-09,
-        3.24372837e-12,
-        -1063.94356,
-        3.65767573,
-    ],
-    hi: [
-        3.28253784,
-        1.48308754e-03,
-        -7.57966669e-07,
-        2.09470555e-10,
-        -2.16717794e-14,
-        -1088.45772,
-        5.45323129,
-    ],
-};
-const AR: Species = Species {
-    w: W_AR,
-    lo: [2.5, 0.0, 0.0, 0.0, 0.0, -745.375, 4.366],
-    hi: [2.5, 0.0, 0.0, 0.0, 0.0, -745.375, 4.366],
-};
-const CO2: Species = Species {
-    w: W_CO2,
-    lo: [
-        2.35677352,
-        8.98459677e-03,
-        -7.12356269e-06,
-        2.45919022e-09,
-        -1.43699548e-13,
-        -4.83719697e+04,
-        9.90105222,
-    ],
-    hi: [
-        3.85746029,
-        4.41437026e-03,
-        -2.21481404e-06,
-        5.23490188e-10,
-        -4.72084164e-14,
-        -4.8759166e+04,
-        2.27163806,
-    ],
-};
-const H2O: Species = Species {
-    w: W_H2O,
-    lo: [
-        4.19864056,
-        -2.0364341e-03,
-        6.52040211e-06,
-        -5.48797062e-09,
-        1.77197817e-12,
-        -3.02937267e+04,
-        -0.849032208,
-    ],
-    hi: [
-        3.03399249,
-        2.17691804e-03,
-        -1.64072518e-07,
-        -9.7041987e-11,
-        1.68200992e-14,
-        -3.00042971e+04,
-        4.9667701,
-    ],
-};
+use species::*;
 
 /// Dry-air mole fractions N2, O2, Ar, CO2 (sum 1).
 const X_AIR: [f64; 4] = [0.78084, 0.20946, 0.00934, 0.00036];
@@ -312,15 +218,22 @@ impl Gas {
     }
 
     /// Products of complete lean combustion of methane in dry air at fuel-air ratio `far`
-    /// (kg fuel / kg air), clamped to `0 ..= FAR_MAX`. `products(0.0)` equals `air()`.
+    /// (kg fuel / kg air), clamped to `0 ..= FAR_MAX`. `products(0.0)` equals `air()`. Other
+    /// fuels: [`Fuel::products`].
     pub fn products(far: f64) -> Gas {
+        Gas::mixed(&DELTA, far)
+    }
+
+    /// Air plus `far` times the per-kg-fuel change `d`, per kg of mixture.
+    #[inline]
+    fn mixed(d: &Coeffs, far: f64) -> Gas {
         let far = if far.is_nan() {
             0.0
         } else {
             far.clamp(0.0, FAR_MAX)
         };
         let inv = 1.0 / (1.0 + far);
-        let (a, d) = (&AIR, &DELTA);
+        let a = &AIR;
         Gas {
             far,
             c: Coeffs {
@@ -473,175 +386,4 @@ impl Gas {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn log_constants_match() {
-        assert_eq!(LN_T_REF, T_REF_K.ln());
-        assert_eq!(LN_T_MID, T_MID.ln());
-        assert_eq!(LN_T_EXT_LO, T_EXT_LO.ln());
-        assert_eq!(LN_T_EXT_HI, T_EXT_HI.ln());
-    }
-
-    #[test]
-    fn air_gas_constant_and_molar_mass() {
-        assert!((M_AIR - 28.9657).abs() < 1e-3, "M_air = {M_AIR}");
-        assert!((Gas::air().r() - 287.0448).abs() < 1e-3);
-        assert_eq!(Gas::products(0.0), Gas::air());
-    }
-
-    #[test]
-    fn stoichiometric_far_is_about_0_058() {
-        // O2 in the products vanishes at stoichiometric: y_O2 + far * delta_O2 = 0.
-        let far_st = -Y_AIR[1] / Y_DELTA[1];
-        assert!((far_st - 0.0580).abs() < 5e-4, "far_st = {far_st}");
-    }
-
-    /// Every row of the Cantera reference file. Tolerances: cp, R, γ 0.2 % relative;
-    /// h − h(288.15) 0.2 % relative with an absolute floor of 0.2 % of cp × 50 K (≈100 J/kg),
-    /// because h → 0 near 288.15 K and a relative test is meaningless there; φ likewise
-    /// (0.2 % with a floor of 0.2 % of cp × ln(338/288) ≈ 0.3 J/(kg K)).
-    #[test]
-    fn matches_cantera_reference_every_row() {
-        let path = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../shared/reference/gas_properties_cantera.csv"
-        );
-        let mut rdr = csv::Reader::from_path(path).expect("reference csv present");
-        let mut rows = 0;
-        let mut worst = [0.0f64; 5]; // cp rel, R rel, gamma rel, h rel-to-tol, phi rel-to-tol
-        let mut worst_abs = [0.0f64; 2]; // h abs J/kg, phi abs J/(kg K)
-        for rec in rdr.records() {
-            let rec = rec.expect("csv row");
-            let v: Vec<f64> = rec
-                .iter()
-                .map(|s| s.trim().parse::<f64>().expect("number"))
-                .collect();
-            let (far, t, cp, r, gamma, dh, ds) = (v[0], v[1], v[2], v[3], v[4], v[5], v[6]);
-            let g = Gas::products(far);
-            let e_cp = (g.cp(t) / cp - 1.0).abs();
-            let e_r = (g.r() / r - 1.0).abs();
-            let e_g = (g.gamma(t) / gamma - 1.0).abs();
-            let h_tol = (2e-3 * dh.abs()).max(2e-3 * cp * 50.0);
-            let e_h = (g.h(t) - dh).abs();
-            let phi_tol = (2e-3 * ds.abs()).max(2e-3 * cp * (338.15f64 / 288.15).ln());
-            let e_phi = (g.phi(t) - ds).abs();
-            assert!(e_cp < 2e-3, "cp far {far} T {t}: {} vs {cp}", g.cp(t));
-            assert!(e_r < 2e-3, "R far {far}: {} vs {r}", g.r());
-            assert!(
-                e_g < 2e-3,
-                "gamma far {far} T {t}: {} vs {gamma}",
-                g.gamma(t)
-            );
-            assert!(e_h < h_tol, "h far {far} T {t}: {} vs {dh}", g.h(t));
-            assert!(e_phi < phi_tol, "phi far {far} T {t}: {} vs {ds}", g.phi(t));
-            worst[0] = worst[0].max(e_cp);
-            worst[1] = worst[1].max(e_r);
-            worst[2] = worst[2].max(e_g);
-            worst[3] = worst[3].max(e_h / h_tol);
-            worst[4] = worst[4].max(e_phi / phi_tol);
-            worst_abs[0] = worst_abs[0].max(e_h);
-            worst_abs[1] = worst_abs[1].max(e_phi);
-            rows += 1;
-        }
-        assert!(rows >= 300, "only {rows} rows read");
-        eprintln!(
-            "cantera check, {rows} rows: worst rel cp {:.2e}, R {:.2e}, gamma {:.2e}; \
-             h {:.3} J/kg ({:.1e} of tol), phi {:.2e} J/kgK ({:.1e} of tol)",
-            worst[0], worst[1], worst[2], worst_abs[0], worst[3], worst_abs[1], worst[4]
-        );
-    }
-
-    #[test]
-    fn zero_at_reference_for_every_far() {
-        for i in 0..=68 {
-            let g = Gas::products(i as f64 * 0.001);
-            assert!(g.h(T_REF_K).abs() < 1e-8, "h(288.15) = {}", g.h(T_REF_K));
-            assert!(g.phi(T_REF_K).abs() < 1e-11);
-        }
-    }
-
-    #[test]
-    fn continuous_at_range_switches() {
-        for far in [0.0, 0.02, 0.04, 0.068] {
-            let g = Gas::products(far);
-            for tb in [T_EXT_LO, T_MID, T_EXT_HI] {
-                let (a, b) = (tb * (1.0 - 1e-12), tb * (1.0 + 1e-12));
-                assert!((g.h(a) - g.h(b)).abs() < 1e-4, "h jump at {tb}");
-                assert!((g.phi(a) - g.phi(b)).abs() < 1e-7, "phi jump at {tb}");
-                assert!((g.cp(a) - g.cp(b)).abs() < 1e-2, "cp jump at {tb}");
-            }
-        }
-    }
-
-    #[test]
-    fn derivatives_are_consistent() {
-        // dh/dT = cp and dφ/dT = cp/T, by central differences across the whole range.
-        let g = Gas::products(0.03);
-        let mut t = 160.0;
-        while t < 2500.0 {
-            let d = 1e-3;
-            let dh = (g.h(t + d) - g.h(t - d)) / (2.0 * d);
-            let dphi = (g.phi(t + d) - g.phi(t - d)) / (2.0 * d);
-            assert!((dh / g.cp(t) - 1.0).abs() < 1e-6, "dh/dT at {t}");
-            assert!((dphi * t / g.cp(t) - 1.0).abs() < 1e-5, "dphi/dT at {t}");
-            t += 37.0;
-        }
-    }
-
-    #[test]
-    fn inverse_round_trips() {
-        for far in [0.0, 0.01, 0.025, 0.04, 0.058, 0.068] {
-            let g = Gas::products(far);
-            let mut t = 150.0;
-            while t <= 2500.0 {
-                let th = g.t_from_h(g.h(t));
-                let tp = g.t_from_phi(g.phi(t));
-                assert!(
-                    (th / t - 1.0).abs() < 1e-10,
-                    "t_from_h far {far} T {t}: {th}"
-                );
-                assert!(
-                    (tp / t - 1.0).abs() < 1e-10,
-                    "t_from_phi far {far} T {t}: {tp}"
-                );
-                t += 7.3;
-            }
-        }
-    }
-
-    #[test]
-    fn isentropic_consistency() {
-        let air = Gas::air();
-        // Compression of ISO air by 24.1: T2s ≈ 288.15 * 24.1^(0.2857..) ≈ 720 K with real cp.
-        let t2 = air.isentropic_t(T_REF_K, 24.1);
-        assert!((700.0..740.0).contains(&t2), "T2s = {t2}");
-        let lhs = air.phi(t2) - air.phi(T_REF_K);
-        assert!((lhs - air.r() * 24.1f64.ln()).abs() < 1e-9);
-        // Expansion back recovers the inlet temperature.
-        let back = air.isentropic_t(t2, 1.0 / 24.1);
-        assert!((back / T_REF_K - 1.0).abs() < 1e-12);
-        // Products, hot expansion: identity holds and temperature falls.
-        let g = Gas::products(0.025);
-        for (t_in, pr) in [
-            (1500.0, 0.2),
-            (1400.0, 1.0 / 6.0),
-            (900.0, 0.5),
-            (1200.0, 1.0),
-        ] {
-            let t_out = g.isentropic_t(t_in, pr);
-            let d = g.phi(t_out) - g.phi(t_in) - g.r() * f64::ln(pr);
-            assert!(d.abs() < 1e-9, "residual {d}");
-            assert!(t_out <= t_in);
-        }
-        assert!((g.isentropic_t(1200.0, 1.0) / 1200.0 - 1.0).abs() < 1e-14);
-    }
-
-    #[test]
-    fn products_clamp_far() {
-        assert_eq!(Gas::products(-0.01), Gas::air());
-        assert_eq!(Gas::products(0.1).far(), FAR_MAX);
-        assert_eq!(Gas::products(f64::NAN), Gas::air());
-    }
-}
+mod tests;

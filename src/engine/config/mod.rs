@@ -9,8 +9,13 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
 
+mod fuel;
+mod ranges;
+pub use fuel::{FuelConfig, FuelKind, GasComposition};
+pub use ranges::{param_range, ParamRange};
+
 /// The built-in reference engine, embedded so `gtwatch simulate` works with no files at all.
-pub const REFERENCE_ENGINE_TOML: &str = include_str!("../../config/engine.toml");
+pub const REFERENCE_ENGINE_TOML: &str = include_str!("../../../config/engine.toml");
 
 /// Error loading an engine file.
 #[derive(Debug, thiserror::Error)]
@@ -78,7 +83,11 @@ pub struct DesignConfig {
     pub combustor_loss_law: PressureLossLaw,
     /// Combustion efficiency, (0, 1].
     pub combustion_efficiency: f64,
-    pub fuel_lhv_j_per_kg: f64,
+    /// Methane's LHV, J/kg, fuel at 288.15 K: the fuel description from before `[fuel]`
+    /// existed (results bit for bit as then). Absent when the file has a `[fuel]` section;
+    /// with neither, methane by composition (see `config/fuel.rs`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fuel_lhv_j_per_kg: Option<f64>,
     /// Mechanical efficiency of the gas-generator shaft, (0, 1]: the HPT delivers its gas power
     /// times this to the compressor (GasTurb/GSP convention). The engine file may give the
     /// legacy `mechanical_efficiency` instead, which sets both shafts.
@@ -146,6 +155,32 @@ impl MapsConfig {
             }
         }
     }
+}
+
+/// What the power turbine drives.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LoadMode {
+    /// A generator on the grid: PT speed held (today's behaviour).
+    #[default]
+    Generator,
+    /// A mechanical drive or propeller absorbing `P = P_design · (n2/n2_design)^exponent`: the
+    /// PT speed follows the load (steady runs; `engine/load.rs`).
+    LoadLaw,
+}
+
+/// The `[load]` section.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LoadConfig {
+    pub mode: LoadMode,
+    /// Exponent k of the load law P ∝ n^k (3 for a propeller or centrifugal compressor).
+    #[serde(default = "default_load_exponent")]
+    pub exponent: f64,
+}
+
+fn default_load_exponent() -> f64 {
+    3.0
 }
 
 /// Shafts, volumes and losses.
@@ -300,6 +335,12 @@ pub struct EngineConfig {
     pub sequence: SequenceConfig,
     pub sensors: SensorsConfig,
     pub solver: SolverConfig,
+    /// The fuel (`config/fuel.rs`); absent = methane.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fuel: Option<FuelConfig>,
+    /// What sets the PT speed in steady runs (`engine/load.rs`); absent = generator.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load: Option<LoadConfig>,
     /// Optional model effects, each a table `[effects.<name>]` of its parameters (see
     /// `engine/effects`); absent = the core model alone. Parameters not given take the
     /// effect's defaults (filled in at load, so each is a named parameter).
@@ -359,6 +400,19 @@ impl EngineConfig {
         }
     }
 
+    /// The fuel this engine burns: the `[fuel]` section, or methane (see `config/fuel.rs`).
+    pub fn fuel(&self) -> Result<crate::thermo::Fuel, EngineConfigError> {
+        self.fuel_checked().map_err(|p| EngineConfigError::Invalid {
+            path: "<engine file>".into(),
+            key: p.key,
+            reason: p.reason,
+        })
+    }
+
+    fn fuel_checked(&self) -> Result<crate::thermo::Fuel, fuel::FuelProblem> {
+        fuel::engine_fuel(self.fuel.as_ref(), self.design.fuel_lhv_j_per_kg)
+    }
+
     /// Checks every value: each number finite and inside its key's allowed range
     /// ([`param_range`]), then the relations between keys. The error names the key.
     pub fn validate(&self, path: &str) -> Result<(), EngineConfigError> {
@@ -384,6 +438,7 @@ impl EngineConfig {
             };
             range.check(v).map_err(|reason| bad(key, &reason))?;
         }
+        self.fuel_checked().map_err(|p| bad(&p.key, &p.reason))?;
         let c = &self.control;
         if c.accel_limit_speed_rpm.len() != c.accel_limit_ratio_kg_s_per_kpa.len()
             || c.accel_limit_speed_rpm.len() < 2
@@ -452,204 +507,6 @@ fn legacy_mechanical_efficiency(
     Ok(Some(table))
 }
 
-/// Allowed interval of one engine-file number: `[min, max]`, or `(min, max]` when
-/// `min_exclusive`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ParamRange {
-    pub min: f64,
-    pub max: f64,
-    /// The lower bound itself is not allowed.
-    pub min_exclusive: bool,
-}
-
-impl ParamRange {
-    const fn new(min: f64, max: f64) -> ParamRange {
-        ParamRange {
-            min,
-            max,
-            min_exclusive: false,
-        }
-    }
-    /// An efficiency: (0, 1]. 1.0 (ideal combustion, lossless shaft, as peers' examples use)
-    /// is allowed.
-    const fn efficiency() -> ParamRange {
-        ParamRange {
-            min: 0.0,
-            max: 1.0,
-            min_exclusive: true,
-        }
-    }
-    /// `Err(reason)` unless `v` is finite and inside the range.
-    pub fn check(&self, v: f64) -> Result<(), String> {
-        if !v.is_finite() {
-            return Err("must be a finite number".into());
-        }
-        let below = if self.min_exclusive {
-            v <= self.min
-        } else {
-            v < self.min
-        };
-        if below || v > self.max {
-            let open = if self.min_exclusive { '(' } else { '[' };
-            return Err(format!(
-                "{v} is outside the allowed range {open}{}, {}]",
-                self.min, self.max
-            ));
-        }
-        Ok(())
-    }
-}
-
-/// Allowed ranges of every number in the engine file, by dotted key. Array elements use the
-/// array's key; `sensors.*` covers every channel. Deliberately wide: they reject values that
-/// would make the model hang or panic (NaN, zero steps, negative inertia), not unusual engines.
-const RANGES: &[(&str, ParamRange)] = &[
-    ("ambient.temperature_k", ParamRange::new(180.0, 350.0)),
-    ("ambient.pressure_kpa", ParamRange::new(20.0, 120.0)),
-    ("design.pressure_ratio", ParamRange::new(1.01, 80.0)),
-    ("design.exhaust_flow_kg_s", ParamRange::new(0.01, 5000.0)),
-    ("design.power_mw", ParamRange::new(0.001, 2000.0)),
-    ("design.compressor_efficiency", ParamRange::efficiency()),
-    ("design.hpt_efficiency", ParamRange::efficiency()),
-    ("design.pt_efficiency", ParamRange::efficiency()),
-    ("design.gg_speed_rpm", ParamRange::new(100.0, 200_000.0)),
-    ("design.pt_speed_rpm", ParamRange::new(100.0, 200_000.0)),
-    ("design.inlet_loss_frac", ParamRange::new(0.0, 0.5)),
-    ("design.combustor_loss_frac", ParamRange::new(0.0, 0.5)),
-    ("design.combustion_efficiency", ParamRange::efficiency()),
-    ("design.fuel_lhv_j_per_kg", ParamRange::new(1.0e6, 2.0e8)),
-    ("design.gg_mechanical_efficiency", ParamRange::efficiency()),
-    ("design.pt_mechanical_efficiency", ParamRange::efficiency()),
-    (
-        "design.exhaust_back_pressure_ratio",
-        ParamRange::new(1.0, 2.0),
-    ),
-    ("design.cooling_bleed_frac", ParamRange::new(0.0, 0.5)),
-    ("maps.compressor_design_speed", ParamRange::new(0.05, 5.0)),
-    ("maps.compressor_design_beta", ParamRange::new(-1.0, 2.0)),
-    ("maps.hpt_design_speed", ParamRange::new(0.05, 5.0)),
-    ("maps.hpt_design_pr", ParamRange::new(1.01, 100.0)),
-    ("maps.pt_design_speed", ParamRange::new(0.05, 5.0)),
-    ("maps.pt_design_pr", ParamRange::new(1.01, 100.0)),
-    ("dynamics.gg_inertia_kg_m2", ParamRange::new(1.0e-3, 1.0e6)),
-    ("dynamics.pt_inertia_kg_m2", ParamRange::new(1.0e-3, 1.0e7)),
-    (
-        "dynamics.combustor_volume_m3",
-        ParamRange::new(1.0e-4, 100.0),
-    ),
-    ("dynamics.duct_volume_m3", ParamRange::new(1.0e-4, 100.0)),
-    (
-        "dynamics.gg_friction_kw_at_design",
-        ParamRange::new(0.0, 1.0e5),
-    ),
-    (
-        "dynamics.pt_windage_kw_at_sync",
-        ParamRange::new(0.0, 1.0e5),
-    ),
-    (
-        "dynamics.pt_breakaway_torque_n_m",
-        ParamRange::new(0.0, 1.0e7),
-    ),
-    (
-        "dynamics.gg_bearing_torque_n_m",
-        ParamRange::new(0.0, 1.0e6),
-    ),
-    (
-        "dynamics.pt_bearing_torque_n_m",
-        ParamRange::new(0.0, 1.0e7),
-    ),
-    ("starter.max_torque_n_m", ParamRange::new(1.0, 1.0e7)),
-    ("starter.free_speed_rpm", ParamRange::new(1.0, 200_000.0)),
-    ("starter.cutout_rpm", ParamRange::new(1.0, 200_000.0)),
-    (
-        "starter.speed_hold_gain_n_m_per_rpm",
-        ParamRange::new(0.0, 1.0e5),
-    ),
-    ("control.speed_kp_kg_s_per_rpm", ParamRange::new(0.0, 1.0)),
-    ("control.speed_ki_kg_s_per_rpm_s", ParamRange::new(0.0, 1.0)),
-    (
-        "control.pt_speed_kp_kg_s_per_rpm",
-        ParamRange::new(0.0, 1.0),
-    ),
-    (
-        "control.pt_speed_ki_kg_s_per_rpm_s",
-        ParamRange::new(0.0, 1.0),
-    ),
-    ("control.power_kp_kg_s_per_mw", ParamRange::new(0.0, 100.0)),
-    (
-        "control.power_ki_kg_s_per_mw_s",
-        ParamRange::new(0.0, 100.0),
-    ),
-    ("control.antiwindup_tau_s", ParamRange::new(1.0e-3, 1.0e4)),
-    ("control.min_fuel_kg_s", ParamRange::new(0.0, 100.0)),
-    (
-        "control.accel_limit_speed_rpm",
-        ParamRange::new(0.0, 200_000.0),
-    ),
-    (
-        "control.accel_limit_ratio_kg_s_per_kpa",
-        ParamRange::new(0.0, 1.0),
-    ),
-    (
-        "control.decel_limit_ratio_kg_s_per_kpa",
-        ParamRange::new(0.0, 1.0),
-    ),
-    ("sequence.standstill_s", ParamRange::new(0.0, 86_400.0)),
-    ("sequence.purge_speed_rpm", ParamRange::new(1.0, 200_000.0)),
-    ("sequence.purge_s", ParamRange::new(0.0, 86_400.0)),
-    (
-        "sequence.light_off_speed_rpm",
-        ParamRange::new(0.0, 200_000.0),
-    ),
-    (
-        "sequence.light_off_fuel_kg_s",
-        ParamRange::new(1.0e-6, 100.0),
-    ),
-    ("sequence.light_off_hold_s", ParamRange::new(0.0, 86_400.0)),
-    ("sequence.accel_rate_rpm_s", ParamRange::new(1.0e-2, 1.0e5)),
-    ("sequence.idle_speed_rpm", ParamRange::new(1.0, 200_000.0)),
-    ("sequence.idle_hold_s", ParamRange::new(0.0, 86_400.0)),
-    (
-        "sequence.pt_accel_rate_rpm_s",
-        ParamRange::new(1.0e-2, 1.0e5),
-    ),
-    ("sequence.sync_s", ParamRange::new(0.0, 86_400.0)),
-    ("sequence.min_load_mw", ParamRange::new(0.0, 2000.0)),
-    ("sequence.warmup_s", ParamRange::new(0.0, 86_400.0)),
-    ("sequence.base_load_mw", ParamRange::new(0.0, 2000.0)),
-    ("sequence.load_ramp_mw_s", ParamRange::new(1.0e-4, 1.0e3)),
-    ("sequence.steady_s", ParamRange::new(0.0, 86_400.0)),
-    ("sequence.cooldown_s", ParamRange::new(0.0, 86_400.0)),
-    ("sequence.rest_speed_rpm", ParamRange::new(0.0, 10_000.0)),
-    ("sequence.sample_period_s", ParamRange::new(1.0e-3, 3600.0)),
-    ("sensors.*.tau_s", ParamRange::new(0.0, 600.0)),
-    ("sensors.*.noise_rel", ParamRange::new(0.0, 1.0)),
-    ("sensors.*.noise_abs", ParamRange::new(0.0, 1.0e4)),
-    ("sensors.*.bias", ParamRange::new(-1.0e6, 1.0e6)),
-    ("solver.rtol", ParamRange::new(1.0e-10, 0.1)),
-    ("solver.max_step_s", ParamRange::new(1.0e-3, 60.0)),
-    ("solver.fixed_step_s", ParamRange::new(0.0, 60.0)),
-];
-
-/// The allowed range of the number at dotted `key` (array index `[i]` ignored), if it has one.
-pub fn param_range(key: &str) -> Option<ParamRange> {
-    let base = key.split('[').next().unwrap_or(key);
-    if let Some(rest) = base.strip_prefix("effects.") {
-        let (effect, param) = rest.split_once('.')?;
-        let p = super::effects::param_spec(effect, param)?;
-        return Some(ParamRange::new(p.min, p.max));
-    }
-    if let Some((_, r)) = RANGES.iter().find(|(k, _)| *k == base) {
-        return Some(*r);
-    }
-    let parts: Vec<&str> = base.split('.').collect();
-    if parts.len() == 3 && parts[0] == "sensors" {
-        let wild = format!("sensors.*.{}", parts[2]);
-        return RANGES.iter().find(|(k, _)| *k == wild).map(|(_, r)| *r);
-    }
-    None
-}
-
 /// Every number in `v` with its dotted key (`None` for null, i.e. a non-finite float).
 fn numeric_leaves(v: &serde_json::Value, key: String, out: &mut Vec<(String, Option<f64>)>) {
     match v {
@@ -675,166 +532,4 @@ fn numeric_leaves(v: &serde_json::Value, key: String, out: &mut Vec<(String, Opt
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn reference_engine_parses() {
-        let cfg = EngineConfig::reference();
-        assert_eq!(cfg.design.pressure_ratio, 24.1);
-        assert_eq!(cfg.dynamics.gg_inertia_kg_m2, 40.0);
-    }
-
-    #[test]
-    fn unknown_key_is_named() {
-        let text = REFERENCE_ENGINE_TOML.replace("[ambient]", "[ambient]\nhumidity_pct = 3");
-        let err = EngineConfig::from_toml_str(&text, "x.toml").expect_err("unknown key");
-        assert!(err.to_string().contains("humidity_pct"), "{err}");
-    }
-
-    #[test]
-    fn invalid_value_is_named() {
-        let text = REFERENCE_ENGINE_TOML.replace(
-            "compressor_efficiency = 0.85",
-            "compressor_efficiency = 1.5",
-        );
-        let err = EngineConfig::from_toml_str(&text, "x.toml").expect_err("bad value");
-        assert!(
-            err.to_string().contains("design.compressor_efficiency"),
-            "{err}"
-        );
-    }
-
-    /// Map paths in `[maps]` are relative to the engine file, not the working directory; a
-    /// missing map is named once, with its key.
-    #[test]
-    fn map_paths_resolve_against_the_engine_file() {
-        let dir = tempfile::tempdir().expect("tempdir");
-        let sub = dir.path().join("maps_here");
-        std::fs::create_dir(&sub).expect("mkdir");
-        std::fs::write(sub.join("hpc.map"), crate::maps::HPC_MAP).expect("write map");
-        let text = REFERENCE_ENGINE_TOML.replace(
-            "compressor_file = \"\"",
-            "compressor_file = \"maps_here/hpc.map\"",
-        );
-        let file = dir.path().join("engine.toml");
-        std::fs::write(&file, &text).expect("write engine");
-        // The test runs in the crate root, where `maps_here/hpc.map` does not exist.
-        assert!(!Path::new("maps_here/hpc.map").exists());
-        let cfg = EngineConfig::load(&file).expect("loads");
-        assert_eq!(
-            Path::new(&cfg.maps.compressor_file),
-            sub.join("hpc.map").as_path()
-        );
-        // Same map as the embedded one: the same calibrated engine.
-        let e = crate::engine::Engine::new(cfg).expect("engine");
-        let r = crate::engine::Engine::reference().expect("reference");
-        assert_eq!(e.design(), r.design());
-        // Absolute paths are kept as they are.
-        let abs = sub.join("hpc.map").display().to_string();
-        let text = REFERENCE_ENGINE_TOML.replace(
-            "compressor_file = \"\"",
-            &format!("compressor_file = {abs:?}"),
-        );
-        let other = tempfile::tempdir().expect("tempdir");
-        let file2 = other.path().join("engine.toml");
-        std::fs::write(&file2, text).expect("write engine");
-        let cfg = EngineConfig::load(&file2).expect("loads");
-        assert_eq!(cfg.maps.compressor_file, abs);
-        // A missing map: one mention of the file, and the key.
-        let text = REFERENCE_ENGINE_TOML.replace("hpt_file = \"\"", "hpt_file = \"nope.map\"");
-        std::fs::write(&file, text).expect("write engine");
-        let cfg = EngineConfig::load(&file).expect("loads");
-        let err = crate::engine::Engine::new(cfg)
-            .expect_err("missing map")
-            .to_string();
-        assert_eq!(err.matches("nope.map").count(), 1, "{err}");
-        assert!(
-            err.contains("maps.hpt_file") && err.contains("cannot read map file"),
-            "{err}"
-        );
-        // Not chained as a source either, so an error-chain printer cannot repeat it.
-        let e = crate::engine::Engine::new(EngineConfig::load(&file).expect("loads"))
-            .expect_err("missing map");
-        assert!(std::error::Error::source(&e).is_none());
-    }
-
-    /// Efficiencies are in (0, 1]: exactly 1 is accepted (ideal combustion, lossless shafts),
-    /// 0, above 1 and non-finite values are refused with the key named.
-    #[test]
-    fn efficiencies_accept_one_and_refuse_zero_and_nan() {
-        let keys = [
-            (
-                "compressor_efficiency = 0.85",
-                "design.compressor_efficiency",
-            ),
-            (
-                "combustion_efficiency = 0.995",
-                "design.combustion_efficiency",
-            ),
-            (
-                "gg_mechanical_efficiency = 0.99",
-                "design.gg_mechanical_efficiency",
-            ),
-            (
-                "pt_mechanical_efficiency = 0.99",
-                "design.pt_mechanical_efficiency",
-            ),
-            ("hpt_efficiency = 0.88", "design.hpt_efficiency"),
-        ];
-        for (from, key) in keys {
-            assert!(REFERENCE_ENGINE_TOML.contains(from), "{from}");
-            let name = from.split(' ').next().unwrap_or(from);
-            let ok = REFERENCE_ENGINE_TOML.replace(from, &format!("{name} = 1.0"));
-            let cfg = EngineConfig::from_toml_str(&ok, "x.toml").expect(key);
-            let leaf = key.split('.').nth(1).unwrap_or(key);
-            let v = serde_json::to_value(&cfg.design).expect("json")[leaf].as_f64();
-            assert_eq!(v, Some(1.0), "{key}");
-            for bad in ["0.0", "1.0001", "nan", "inf", "-0.5"] {
-                let text = REFERENCE_ENGINE_TOML.replace(from, &format!("{name} = {bad}"));
-                let err = EngineConfig::from_toml_str(&text, "x.toml").expect_err(bad);
-                assert!(err.to_string().contains(key), "{key} = {bad}: {err}");
-            }
-        }
-        // Ideal combustion and lossless shafts calibrate.
-        let text = REFERENCE_ENGINE_TOML
-            .replace(
-                "combustion_efficiency = 0.995",
-                "combustion_efficiency = 1.0",
-            )
-            .replace(
-                "gg_mechanical_efficiency = 0.99",
-                "gg_mechanical_efficiency = 1.0",
-            )
-            .replace(
-                "pt_mechanical_efficiency = 0.99",
-                "pt_mechanical_efficiency = 1.0",
-            );
-        let cfg = EngineConfig::from_toml_str(&text, "x.toml").expect("ideal");
-        crate::engine::Engine::new(cfg).expect("calibrates");
-    }
-
-    /// The legacy `mechanical_efficiency` sets both shafts; with a per-shaft key it is an error.
-    #[test]
-    fn legacy_mechanical_efficiency_sets_both_shafts() {
-        let per_shaft = "gg_mechanical_efficiency = 0.99  # gas-generator shaft: HPT gas power x this drives the compressor\npt_mechanical_efficiency = 0.99";
-        let text = REFERENCE_ENGINE_TOML.replace(per_shaft, "mechanical_efficiency = 0.97");
-        assert_ne!(text, REFERENCE_ENGINE_TOML);
-        let cfg = EngineConfig::from_toml_str(&text, "x.toml").expect("legacy");
-        assert_eq!(cfg.design.gg_mechanical_efficiency, 0.97);
-        assert_eq!(cfg.design.pt_mechanical_efficiency, 0.97);
-        let text = REFERENCE_ENGINE_TOML.replace(
-            "pt_mechanical_efficiency = 0.99",
-            "mechanical_efficiency = 0.97",
-        );
-        let err = EngineConfig::from_toml_str(&text, "x.toml").expect_err("both");
-        assert!(
-            err.to_string().contains("design.mechanical_efficiency"),
-            "{err}"
-        );
-        // The legacy key still gets a bad value named.
-        let text = REFERENCE_ENGINE_TOML.replace(per_shaft, "mechanical_efficiency = nan");
-        let err = EngineConfig::from_toml_str(&text, "x.toml").expect_err("nan");
-        assert!(err.to_string().contains("mechanical_efficiency"), "{err}");
-    }
-}
+mod tests;
