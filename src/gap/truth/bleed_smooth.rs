@@ -99,9 +99,10 @@ mod tests {
         assert!((t.bleed_fraction(&core(0.5), &[]) - 0.08).abs() < 1e-12);
         assert_eq!(t.bleed_fraction(&core(0.86), &[]), 0.0);
         assert_eq!(t.bleed_fraction(&core(1.0), &[]), 0.0);
-        // Smootherstep's largest slope is 15/8 per span: far from the library's tanh step,
-        // whose slope is f/(2·0.02) = 2 per unit speed for f = 0.08.
+        // Smootherstep's largest slope is 15/8 per span, here 1.25 per unit speed; the
+        // library's tanh step peaks at f/(2·0.02) = 2 for the same f, and the drawn spans
+        // (up to 0.18) make the truth gentler still.
         assert!((steepest - 0.08 * 1.875 / 0.12).abs() < 0.01, "{steepest}");
-        assert!(steepest < 0.5 * 0.08 / (2.0 * 0.02));
+        assert!(steepest < 0.7 * 0.08 / (2.0 * 0.02));
     }
 }

@@ -305,4 +305,40 @@ mod tests {
             assert!(fitted_magnitude(&inst, &params).is_some(), "{inst}");
         }
     }
+
+    /// The plant hook: an empty instance set is the core model bit for bit; a gas-path truth
+    /// changes the start but not the steady load point.
+    #[test]
+    fn plant_truths_run_inside_the_model_and_leave_the_load_point() {
+        let engine = Engine::reference().expect("engine");
+        let h = HealthParams::HEALTHY;
+        let (_, core) = Hidden::None.simulate(&engine, &h).expect("core");
+        let mut m = engine.model(&h);
+        m.effects = Arc::new(EffectSet::from_instances(Vec::new()).expect("empty"));
+        let (empty, _) = run_scenario(&m, &Scenario::startup(engine.cfg())).expect("runs");
+        assert_eq!(empty, core, "no truth: the core model bit for bit");
+        let hidden = Hidden::Plant {
+            effect: Arc::new(bleed_smooth::BleedSmooth {
+                fraction: 0.1,
+                close_at: 0.85,
+                span: 0.12,
+            }),
+            plant_params: &[],
+        };
+        let (_, bled) = hidden.simulate(&engine, &h).expect("bleed");
+        let at = |s: &[TruthSample], p: Phase| {
+            s.iter()
+                .find(|x| x.phase == p)
+                .map(|x| x.stations)
+                .expect("phase")
+        };
+        // At idle the valve is open: less air reaches the combustor, P2 falls.
+        assert!(at(&bled, Phase::Idle).p2_kpa < 0.99 * at(&core, Phase::Idle).p2_kpa);
+        let (a, b) = (
+            bled.last().expect("end").stations,
+            core.last().expect("end").stations,
+        );
+        assert!((a.power_mw / b.power_mw - 1.0).abs() < 1e-3);
+        assert!((a.p2_kpa / b.p2_kpa - 1.0).abs() < 1e-3);
+    }
 }
