@@ -21,6 +21,7 @@
 
 pub mod bench;
 pub mod svg;
+pub mod truth;
 
 use crate::diagnosis::fit_quality::{ResidualCell, Verdict};
 use crate::diagnosis::transient::diagnose_transient;

@@ -354,6 +354,20 @@ impl EffectSet {
         })
     }
 
+    /// Effects given as built instances, in order, not resolved through [`REGISTRY`]: for
+    /// models that must stay out of the candidate library (the gap bench's hidden truths).
+    /// Put the set on a [`super::Model`] (`model.effects`) to simulate with it.
+    pub fn from_instances(instances: Vec<(String, Arc<dyn Effect>)>) -> Result<EffectSet, String> {
+        let sizes: Vec<usize> = instances.iter().map(|(_, e)| e.n_states()).collect();
+        let layout = super::state::StateLayout::with_blocks(&sizes).map_err(|e| e.to_string())?;
+        let (names, effects) = instances.into_iter().unzip();
+        Ok(EffectSet {
+            effects,
+            names,
+            layout,
+        })
+    }
+
     /// Whether no effect is on.
     pub fn is_empty(&self) -> bool {
         self.effects.is_empty()

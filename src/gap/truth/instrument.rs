@@ -1,0 +1,161 @@
+//! Hidden truths on the instrument side: the recorded signals altered after the plant's
+//! simulation (the plant itself is the core model).
+//!
+//! - `t34_two_path` / `t2_two_path`: a thermocouple with a junction path (2–6 s) and a shield
+//!   path (10–25 s), 60/40 — against the library's single first-order `sensor_lag`. Magnitude:
+//!   the mean time constant 0.6·τ₁ + 0.4·τ₂.
+//! - `p2_bias` / `t34_bias`: 0.8–1.5 % of full scale (2500 kPa, 1200 K). Magnitude: the offset.
+//! - `fuel_lead`: the recorded fuel flow leads the fuel burnt by a pure delay of 0.8–3 s —
+//!   against the library's Erlang-chain-plus-lag `fuel_system`. Magnitude: the delay.
+//! - `p34_ripple`: a 0.2 Hz ripple of 1.5–3 % on P34 (not in the library). Magnitude: the
+//!   relative amplitude.
+//!
+//! Pure: no I/O.
+
+use crate::diagnosis::DiagnosisError;
+use crate::recording::Recording;
+use crate::signals::Signal;
+use rand::Rng;
+
+/// A drawn alteration of the recorded signals.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Alteration {
+    /// Junction (τ₁) and shield (τ₂) paths, weighted 60/40.
+    TwoPath {
+        signal: Signal,
+        tau1_s: f64,
+        tau2_s: f64,
+    },
+    Offset {
+        signal: Signal,
+        offset: f64,
+    },
+    /// The record at t shows the flow burnt at t + `lead_s`.
+    FuelLead {
+        lead_s: f64,
+    },
+    /// Multiplicative ripple of relative amplitude `amplitude` at `hz`.
+    Ripple {
+        signal: Signal,
+        amplitude: f64,
+        hz: f64,
+    },
+}
+
+impl Alteration {
+    /// Draws the alteration of instrument truth `kind`, with its magnitude; `None` for a kind
+    /// that is not an instrument truth.
+    pub fn draw(kind: &str, rng: &mut impl Rng) -> Option<(Alteration, f64)> {
+        Some(match kind {
+            "t34_two_path" | "t2_two_path" => {
+                let signal = if kind == "t34_two_path" {
+                    Signal::T34
+                } else {
+                    Signal::T2
+                };
+                let (t1, t2) = (rng.random_range(2.0..6.0), rng.random_range(10.0..25.0));
+                (
+                    Alteration::TwoPath {
+                        signal,
+                        tau1_s: t1,
+                        tau2_s: t2,
+                    },
+                    0.6 * t1 + 0.4 * t2,
+                )
+            }
+            "p2_bias" | "t34_bias" => {
+                let (signal, full_scale) = if kind == "p2_bias" {
+                    (Signal::P2, 2500.0)
+                } else {
+                    (Signal::T34, 1200.0)
+                };
+                let offset = rng.random_range(0.008..0.015) * full_scale;
+                (Alteration::Offset { signal, offset }, offset)
+            }
+            "fuel_lead" => {
+                let lead_s = rng.random_range(0.8..3.0);
+                (Alteration::FuelLead { lead_s }, lead_s)
+            }
+            "p34_ripple" => {
+                let amplitude = rng.random_range(0.015..0.03);
+                (
+                    Alteration::Ripple {
+                        signal: Signal::P34,
+                        amplitude,
+                        hz: 0.2,
+                    },
+                    amplitude,
+                )
+            }
+            _ => return None,
+        })
+    }
+
+    /// Applies the alteration to `rec`.
+    pub fn apply(&self, rec: &mut Recording) -> Result<(), DiagnosisError> {
+        match *self {
+            Alteration::TwoPath {
+                signal,
+                tau1_s,
+                tau2_s,
+            } => two_path(rec, signal, tau1_s, tau2_s),
+            Alteration::Offset { signal, offset } => {
+                for k in 0..rec.len() {
+                    if let Some(v) = rec.value(k, signal) {
+                        rec.set(k, signal, v + offset)?;
+                    }
+                }
+                Ok(())
+            }
+            Alteration::FuelLead { lead_s } => {
+                let t = rec.times().to_vec();
+                let f = rec.series(Signal::FuelFlow);
+                for k in 0..t.len() {
+                    let tt = t[k] + lead_s;
+                    let j = t.partition_point(|&x| x <= tt).clamp(1, t.len() - 1);
+                    let w = ((tt - t[j - 1]) / (t[j] - t[j - 1])).clamp(0.0, 1.0);
+                    let v = f[j - 1] + w * (f[j] - f[j - 1]);
+                    if v.is_finite() {
+                        rec.set(k, Signal::FuelFlow, v)?;
+                    }
+                }
+                Ok(())
+            }
+            Alteration::Ripple {
+                signal,
+                amplitude,
+                hz,
+            } => {
+                let t = rec.times().to_vec();
+                for (k, &tt) in t.iter().enumerate() {
+                    if let Some(v) = rec.value(k, signal) {
+                        let r = 1.0 + amplitude * (2.0 * std::f64::consts::PI * hz * tt).sin();
+                        rec.set(k, signal, v * r)?;
+                    }
+                }
+                Ok(())
+            }
+        }
+    }
+}
+
+fn two_path(rec: &mut Recording, s: Signal, tau1: f64, tau2: f64) -> Result<(), DiagnosisError> {
+    let t = rec.times().to_vec();
+    let x = rec.series(s);
+    let (mut y1, mut y2) = (f64::NAN, f64::NAN);
+    for k in 0..t.len() {
+        if !x[k].is_finite() {
+            continue;
+        }
+        if y1.is_nan() {
+            (y1, y2) = (x[k], x[k]);
+        } else {
+            let dt = t[k] - t[k - 1];
+            let (a1, a2) = ((-dt / tau1).exp(), (-dt / tau2).exp());
+            y1 = a1 * y1 + (1.0 - a1) * x[k];
+            y2 = a2 * y2 + (1.0 - a2) * x[k];
+        }
+        rec.set(k, s, 0.6 * y1 + 0.4 * y2)?;
+    }
+    Ok(())
+}
