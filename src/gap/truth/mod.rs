@@ -87,19 +87,14 @@ pub struct PlantScale {
 impl PlantScale {
     /// The scales of a simulated start-up of `engine`.
     pub fn of(engine: &Engine, samples: &[TruthSample]) -> PlantScale {
-        let d = &engine.cfg().design;
+        let consts = engine.model(&crate::health::HealthParams::HEALTHY).consts;
         let end = samples
             .iter()
             .position(|s| s.phase == Phase::Steady)
             .unwrap_or(samples.len().saturating_sub(1));
         let fuel_heat_j = samples[..=end.min(samples.len().saturating_sub(1))]
             .windows(2)
-            .map(|w| {
-                w[1].stations.fuel_burnt_kg_s
-                    * d.fuel_lhv_j_per_kg
-                    * d.combustion_efficiency
-                    * (w[1].t_s - w[0].t_s)
-            })
+            .map(|w| consts.fuel_heat_w(w[1].stations.fuel_burnt_kg_s) * (w[1].t_s - w[0].t_s))
             .sum();
         let t3 = |k: usize| samples.get(k).map_or(f64::NAN, |s| s.stations.t3_k);
         PlantScale {
