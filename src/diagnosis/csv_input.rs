@@ -173,6 +173,18 @@ fn apply_policy(
     report
 }
 
+/// A CSV reader over `reader` (header row, cells trimmed) and its header.
+pub(crate) fn open_csv<R: Read>(
+    reader: R,
+) -> Result<(csv::Reader<R>, csv::StringRecord), CsvError> {
+    let mut rdr = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .trim(csv::Trim::All)
+        .from_reader(reader);
+    let headers = rdr.headers()?.clone();
+    Ok((rdr, headers))
+}
+
 /// The header index of a canonical column: the file header `mapping` names for it, else the
 /// canonical name itself or (unmapped only) its short name, case-insensitive.
 pub(crate) fn find_column(
@@ -205,11 +217,7 @@ pub fn read_recording_checked<R: Read>(
     mapping: &HashMap<String, String>,
     quality: &QualityConfig,
 ) -> Result<(Recording, CsvQuality), CsvError> {
-    let mut rdr = csv::ReaderBuilder::new()
-        .has_headers(true)
-        .trim(csv::Trim::All)
-        .from_reader(reader);
-    let headers = rdr.headers()?.clone();
+    let (mut rdr, headers) = open_csv(reader)?;
     let find =
         |canonical: &str, short: Option<&str>| find_column(&headers, mapping, canonical, short);
     let time_col = find("time_s", None).ok_or_else(|| {

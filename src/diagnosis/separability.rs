@@ -5,7 +5,7 @@
 //! From the fit's linearised covariance (σ and correlations of the health parameters at the
 //! optimum):
 //! - a parameter is **not identifiable** when the data carry no information on it (σ = ∞) or
-//!   its 1σ exceeds [`MAX_SIGMA`] points;
+//!   its 1σ exceeds [`MAX_SIGMA`] points (half a point at 2σ);
 //! - two identifiable parameters are **confounded** when their estimates correlate with
 //!   |ρ| ≥ [`MAX_CORRELATION`]: then only one combination of them is determined, the
 //!   minimum-variance direction of their 2×2 covariance, reported as `a·X + b·Y = v ± σ`;
@@ -16,9 +16,9 @@
 use crate::health::HEALTH_NAMES;
 use serde::Serialize;
 
-/// Largest 1σ (points) of a parameter still called identifiable: the wash advice acts on
-/// changes of about half a point.
-pub const MAX_SIGMA: f64 = 1.0;
+/// Largest 1σ (points) of a parameter (or a combination) still called determined: the wash
+/// advice acts on changes of about half a point, which needs 2σ ≤ 0.5.
+pub const MAX_SIGMA: f64 = 0.25;
 /// Correlation beyond which two estimates are one combination, not two parameters.
 pub const MAX_CORRELATION: f64 = 0.95;
 
@@ -162,7 +162,7 @@ pub fn assess(params: &[HealthEstimate], signals: &[String]) -> Separability {
         }
         if !out.not_identifiable.is_empty() {
             parts.push(format!(
-                "{} not identifiable{with} (1σ over {MAX_SIGMA} point)",
+                "{} not identifiable{with} (1σ over {MAX_SIGMA} points)",
                 join_and(&out.not_identifiable)
             ));
         }
@@ -251,25 +251,25 @@ mod tests {
 
     #[test]
     fn anti_correlated_pair_reports_its_sum() {
-        // D_GP and D_EP anti-correlated at −0.99, each σ 0.8: their sum is what is known.
+        // D_GP and D_EP anti-correlated at −0.99, each σ 0.2: their sum is what is known.
         let p = vec![
             est(0, 1.0, 0.1, vec![1.0, 0.0, 0.0]),
-            est(4, 0.7, 0.8, vec![0.0, 1.0, -0.99]),
-            est(5, 0.5, 0.8, vec![0.0, -0.99, 1.0]),
+            est(4, 0.7, 0.2, vec![0.0, 1.0, -0.99]),
+            est(5, 0.5, 0.2, vec![0.0, -0.99, 1.0]),
         ];
         let s = assess(&p, &["t2_k".into()]);
         assert_eq!(s.separable, vec!["D_GC".to_string()]);
         assert_eq!(s.confounded.len(), 1);
         let g = &s.confounded[0];
         assert_eq!(g.members, vec!["D_GP".to_string(), "D_EP".to_string()]);
-        // Only the sum direction is determined: the difference has σ 0.8·√1.99 > 1 point.
+        // Only the sum direction is determined: the difference has σ 0.2·√1.99 > 0.25 points.
         assert_eq!(g.determined.len(), 1);
         let c = &g.determined[0];
         assert!((c.weights[0].1 - c.weights[1].1).abs() < 1e-9, "{c:?}");
         assert!((c.value - (0.7 + 0.5) / 2f64.sqrt()).abs() < 1e-9);
         // σ of (x+y)/√2 = √((σ²+σ²+2ρσ²)/2) = σ√(1+ρ).
         assert!(
-            (c.sigma - 0.8 * (0.01f64).sqrt()).abs() < 1e-9,
+            (c.sigma - 0.2 * (0.01f64).sqrt()).abs() < 1e-9,
             "{}",
             c.sigma
         );
@@ -305,9 +305,9 @@ mod tests {
     fn a_chain_of_correlations_is_one_group() {
         // D_ET–D_GP and D_GP–D_EP strongly correlated, D_ET–D_EP less so: one group of three.
         let p = vec![
-            est(3, 0.1, 0.5, vec![1.0, -0.97, 0.9]),
-            est(4, 0.2, 0.8, vec![-0.97, 1.0, -0.96]),
-            est(5, 0.3, 0.5, vec![0.9, -0.96, 1.0]),
+            est(3, 0.1, 0.1, vec![1.0, -0.97, 0.9]),
+            est(4, 0.2, 0.2, vec![-0.97, 1.0, -0.96]),
+            est(5, 0.3, 0.15, vec![0.9, -0.96, 1.0]),
         ];
         let s = assess(&p, &[]);
         assert_eq!(s.confounded.len(), 1);

@@ -16,7 +16,7 @@
 //! scale. Pure orchestration of Method A's steady problem plus a CSV reader over any
 //! `io::Read`; opens no files, never prints.
 
-use super::csv_input::{find_column, parse_value, CsvError, AMBIENT_PRESSURE_COLUMN};
+use super::csv_input::{find_column, open_csv, parse_value, CsvError, AMBIENT_PRESSURE_COLUMN};
 use super::steady::{SteadyData, SteadyProblem, SteadyWindow};
 use super::{fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, Method, MethodResult};
 use crate::engine::sensors::noise_sigma;
@@ -59,11 +59,7 @@ pub fn read_snapshots<R: Read>(
     mapping: &HashMap<String, String>,
     group_by: Option<&str>,
 ) -> Result<Vec<Snapshot>, CsvError> {
-    let mut rdr = csv::ReaderBuilder::new()
-        .has_headers(true)
-        .trim(csv::Trim::All)
-        .from_reader(reader);
-    let headers = rdr.headers()?.clone();
+    let (mut rdr, headers) = open_csv(reader)?;
     let find =
         |canonical: &str, short: Option<&str>| find_column(&headers, mapping, canonical, short);
     for (canonical, file_col) in mapping {
@@ -484,5 +480,75 @@ mod tests {
             "{}",
             report.failed[0].reason
         );
+    }
+
+    #[test]
+    fn reduced_instrument_sets_say_what_they_separate_and_estimate_it() {
+        let engine = Engine::reference().expect("engine");
+        let truth = HealthParams::from_array([-2.0, -1.5, 1.0, -1.0, 0.5, -0.8]).to_array();
+        let loads = [12.0, 15.0, 18.0, 21.0, 24.0, 27.0, 29.0, 31.0];
+        let csv = snapshot_csv(&engine, &HealthParams::from_array(truth), &loads, 9);
+        let all = read_snapshots(csv.as_bytes(), &HashMap::new(), None).expect("rows");
+        let cfg = DiagnosisConfig {
+            max_model_runs: 1500,
+            ..DiagnosisConfig::default()
+        };
+        for dropped in [
+            vec![Signal::T34, Signal::P34],
+            vec![Signal::P34],
+            vec![Signal::P2],
+        ] {
+            let rows: Vec<Snapshot> = all
+                .iter()
+                .map(|r| Snapshot {
+                    group: "all".into(),
+                    values: r
+                        .values
+                        .iter()
+                        .filter(|(s, _)| !dropped.contains(s))
+                        .copied()
+                        .collect(),
+                    ..r.clone()
+                })
+                .collect();
+            let report = diagnose_snapshots(&engine, &rows, &cfg).expect("diagnosis");
+            assert!(report.failed.is_empty(), "{dropped:?}: {:?}", report.failed);
+            let r = &report.groups[0].result;
+            let sep = &r.separability;
+            assert!(!sep.statement.is_empty());
+            let est = r.health.to_array();
+            let at = |name: &str| {
+                crate::health::HEALTH_NAMES
+                    .iter()
+                    .position(|n| *n == name)
+                    .expect("a health name")
+            };
+            // What it calls separable is estimated within 0.5 points ...
+            for name in &sep.separable {
+                let i = at(name);
+                assert!(
+                    (est[i] - truth[i]).abs() < 0.5,
+                    "{dropped:?}: {name} {:.2} vs {:.2} ({})",
+                    est[i],
+                    truth[i],
+                    sep.statement
+                );
+            }
+            // ... and so is every combination it says the data determine.
+            for g in &sep.confounded {
+                for c in &g.determined {
+                    let t: f64 = c.weights.iter().map(|(n, w)| w * truth[at(n)]).sum();
+                    assert!((c.value - t).abs() < 0.5, "{dropped:?}: {c:?} vs {t:.2}");
+                }
+            }
+            // Without the HPT-exit readings the hot-end parameters cannot all be separated.
+            if dropped.contains(&Signal::P34) {
+                assert!(
+                    !sep.confounded.is_empty() || !sep.not_identifiable.is_empty(),
+                    "{dropped:?}: {}",
+                    sep.statement
+                );
+            }
+        }
     }
 }
