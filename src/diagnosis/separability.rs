@@ -4,11 +4,12 @@
 //!
 //! From the fit's linearised covariance (σ and correlations of the health parameters at the
 //! optimum):
-//! - a parameter is **not identifiable** when the data carry no information on it (σ = ∞) or
-//!   its 1σ exceeds [`MAX_SIGMA`] points (half a point at 2σ);
-//! - two identifiable parameters are **confounded** when their estimates correlate with
-//!   |ρ| ≥ [`MAX_CORRELATION`]: then only one combination of them is determined, the
-//!   minimum-variance direction of their 2×2 covariance, reported as `a·X + b·Y = v ± σ`;
+//! - parameters whose estimates correlate with |ρ| ≥ [`MAX_CORRELATION`] (directly or through
+//!   a chain) are **confounded**: the data determine only some combinations of them, the
+//!   eigenvectors of their covariance with 1σ ≤ [`MAX_SIGMA`] points (half a point at 2σ),
+//!   reported as `a·X + b·Y … = v ± σ`;
+//! - a parameter outside such a group is **not identifiable** when the data carry no
+//!   information on it (σ = ∞) or its 1σ exceeds [`MAX_SIGMA`];
 //! - the rest are **separable**.
 //!
 //! Pure arithmetic on the fit's numbers: no I/O.
@@ -67,6 +68,8 @@ pub struct HealthEstimate {
 pub fn assess(params: &[HealthEstimate], signals: &[String]) -> Separability {
     let n = params.len();
     let name = |k: usize| HEALTH_NAMES[params[k].index].to_string();
+    // Finite σ: the data say something about the parameter, alone or in a combination.
+    let informed: Vec<bool> = params.iter().map(|p| p.sigma.is_finite()).collect();
     let ident: Vec<bool> = params
         .iter()
         .map(|p| p.sigma.is_finite() && p.sigma <= MAX_SIGMA)
@@ -85,7 +88,7 @@ pub fn assess(params: &[HealthEstimate], signals: &[String]) -> Separability {
     for i in 0..n {
         for j in i + 1..n {
             let r = rho(i, j);
-            if ident[i] && ident[j] && r.is_finite() && r.abs() >= MAX_CORRELATION {
+            if informed[i] && informed[j] && r.is_finite() && r.abs() >= MAX_CORRELATION {
                 let (a, b) = (root(&mut group, i), root(&mut group, j));
                 group[a] = b;
             }
@@ -94,22 +97,26 @@ pub fn assess(params: &[HealthEstimate], signals: &[String]) -> Separability {
     let mut out = Separability::default();
     let mut done = vec![false; n];
     for k in 0..n {
-        if !ident[k] {
-            out.not_identifiable.push(name(k));
+        if done[k] {
             continue;
         }
-        if done[k] {
+        if !informed[k] {
+            out.not_identifiable.push(name(k));
             continue;
         }
         let r = root(&mut group, k);
         let members: Vec<usize> = (0..n)
-            .filter(|&m| ident[m] && root(&mut group, m) == r)
+            .filter(|&m| informed[m] && root(&mut group, m) == r)
             .collect();
         for &m in &members {
             done[m] = true;
         }
         if members.len() == 1 {
-            out.separable.push(name(k));
+            if ident[k] {
+                out.separable.push(name(k));
+            } else {
+                out.not_identifiable.push(name(k));
+            }
             continue;
         }
         let mut max_corr: f64 = 0.0;
@@ -251,25 +258,25 @@ mod tests {
 
     #[test]
     fn anti_correlated_pair_reports_its_sum() {
-        // D_GP and D_EP anti-correlated at −0.99, each σ 0.2: their sum is what is known.
+        // D_GP and D_EP anti-correlated at −0.99, each σ 0.8 (too wide alone): their sum is known.
         let p = vec![
             est(0, 1.0, 0.1, vec![1.0, 0.0, 0.0]),
-            est(4, 0.7, 0.2, vec![0.0, 1.0, -0.99]),
-            est(5, 0.5, 0.2, vec![0.0, -0.99, 1.0]),
+            est(4, 0.7, 0.8, vec![0.0, 1.0, -0.99]),
+            est(5, 0.5, 0.8, vec![0.0, -0.99, 1.0]),
         ];
         let s = assess(&p, &["t2_k".into()]);
         assert_eq!(s.separable, vec!["D_GC".to_string()]);
         assert_eq!(s.confounded.len(), 1);
         let g = &s.confounded[0];
         assert_eq!(g.members, vec!["D_GP".to_string(), "D_EP".to_string()]);
-        // Only the sum direction is determined: the difference has σ 0.2·√1.99 > 0.25 points.
+        // Only the sum direction is determined: the difference has σ 0.8·√1.99 > 0.25 points.
         assert_eq!(g.determined.len(), 1);
         let c = &g.determined[0];
         assert!((c.weights[0].1 - c.weights[1].1).abs() < 1e-9, "{c:?}");
         assert!((c.value - (0.7 + 0.5) / 2f64.sqrt()).abs() < 1e-9);
         // σ of (x+y)/√2 = √((σ²+σ²+2ρσ²)/2) = σ√(1+ρ).
         assert!(
-            (c.sigma - 0.2 * (0.01f64).sqrt()).abs() < 1e-9,
+            (c.sigma - 0.8 * (0.01f64).sqrt()).abs() < 1e-9,
             "{}",
             c.sigma
         );
