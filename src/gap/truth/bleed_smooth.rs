@@ -43,8 +43,7 @@ impl BleedSmooth {
 
     /// Valve opening (0 closed … 1 open) at corrected speed `nc` (fraction of design).
     pub fn opening(&self, nc: f64) -> f64 {
-        let u = ((self.close_at - nc) / self.span).clamp(0.0, 1.0);
-        u * u * u * (u * (6.0 * u - 15.0) + 10.0)
+        super::falling_smoothstep(nc, self.close_at, self.span)
     }
 }
 

@@ -253,6 +253,13 @@ pub fn fitted_magnitude(effect: &str, params: &BTreeMap<String, (f64, f64)>) -> 
     }
 }
 
+/// 1 below `edge − span`, 0 above `edge`, and the quintic smoothstep (zero slope and curvature
+/// at both ends) between: the smooth schedules of the bleed and VIGV truths.
+pub(crate) fn falling_smoothstep(x: f64, edge: f64, span: f64) -> f64 {
+    let u = ((edge - x) / span).clamp(0.0, 1.0);
+    u * u * u * (u * (6.0 * u - 15.0) + 10.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

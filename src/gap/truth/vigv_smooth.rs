@@ -44,8 +44,7 @@ impl VigvSmooth {
 
     /// Share of the offset present at corrected speed `nc` (1 at low speed, 0 above `end`).
     pub fn share(&self, nc: f64) -> f64 {
-        let u = ((self.end - nc) / self.span).clamp(0.0, 1.0);
-        u * u * u * (u * (6.0 * u - 15.0) + 10.0)
+        super::falling_smoothstep(nc, self.end, self.span)
     }
 }
 
