@@ -109,6 +109,22 @@ pub struct CubicGrid {
 }
 
 impl CubicGrid {
+    /// The grid of a map's speed lines × β keys, or the map error naming the map: what
+    /// `with_cubic_interpolation` of the compressor and turbine maps need.
+    pub fn for_map(
+        title: &str,
+        speeds: &[f64],
+        betas: &[f64],
+    ) -> Result<CubicGrid, super::gasturb::MapError> {
+        CubicGrid::new(speeds, betas).ok_or_else(|| super::gasturb::MapError::Invalid {
+            source_name: title.to_string(),
+            table: "Mass Flow".into(),
+            reason: format!(
+                "cubic interpolation needs 4 to {MAX_KNOTS} speed lines and beta values"
+            ),
+        })
+    }
+
     /// `None` unless both axes have 4 ..= [`MAX_KNOTS`] increasing keys.
     pub fn new(row_keys: &[f64], col_keys: &[f64]) -> Option<CubicGrid> {
         Some(CubicGrid {

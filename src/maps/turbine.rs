@@ -179,12 +179,7 @@ impl TurbineMap {
     /// The same map interpolated with not-a-knot cubic splines inside its grid (module docs).
     /// Needs 4 to 64 speed lines and β values.
     pub fn with_cubic_interpolation(mut self) -> Result<Self, MapError> {
-        let grid = CubicGrid::new(&self.speeds, &self.betas).ok_or_else(|| MapError::Invalid {
-            source_name: self.title.clone(),
-            table: "Mass Flow".into(),
-            reason: "cubic interpolation needs 4 to 64 speed lines and beta values".into(),
-        })?;
-        self.cubic = Some(grid);
+        self.cubic = Some(CubicGrid::for_map(&self.title, &self.speeds, &self.betas)?);
         Ok(self)
     }
 
