@@ -174,6 +174,7 @@ fn core_rhs<R>(
     let adjust = core.as_ref().map(|cv| Adjust {
         extra_bleed: effects.bleed_fraction(cv, y),
         deltas: effects.component_deltas(cv, y),
+        losses: effects.duct_losses(cv, y),
     });
 
     // The gas path from the states: compressor into the plenum at P2, turbines on the

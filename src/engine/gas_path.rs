@@ -12,7 +12,7 @@
 //! Pure: no I/O, no state.
 
 use super::cycle::{self, CompressorStation, TurbineStation};
-use super::effects::ComponentDeltas;
+use super::effects::{ComponentDeltas, DuctLosses};
 use super::model::Model;
 use crate::signals::{Signal, Values, NSIG};
 use crate::thermo::Gas;
@@ -145,6 +145,7 @@ pub struct Inputs<'g> {
 pub struct Adjust {
     pub extra_bleed: f64,
     pub deltas: ComponentDeltas,
+    pub losses: DuctLosses,
 }
 
 impl Adjust {
@@ -152,6 +153,7 @@ impl Adjust {
     pub const NONE: Adjust = Adjust {
         extra_bleed: 0.0,
         deltas: ComponentDeltas::NONE,
+        losses: DuctLosses::NONE,
     };
 }
 
@@ -252,6 +254,15 @@ pub fn evaluate(model: &Model, inp: &Inputs, adjust: Option<&Adjust>) -> GasPath
         _ => (&model.comp, &model.hpt, &model.pt),
     };
 
+    // Duct-loss multipliers of the effects (the loss laws themselves are the engine file's).
+    let losses = adjust
+        .map(|a| &a.losses)
+        .filter(|l| **l != DuctLosses::NONE);
+    let inlet = |p1: f64| match losses {
+        Some(l) if l.inlet != 1.0 => p_amb - (p_amb - p1) * l.inlet,
+        _ => p1,
+    };
+
     // Compressor: below STANDSTILL_FADE of design speed its flow and work fade to zero.
     let n1_map = n1.max(STANDSTILL_FADE * c.n1_design);
     let fade = (n1.max(0.0) / (STANDSTILL_FADE * c.n1_design)).min(1.0);
@@ -259,7 +270,7 @@ pub fn evaluate(model: &Model, inp: &Inputs, adjust: Option<&Adjust>) -> GasPath
         CompressorSetting::Beta(beta) => {
             // The inlet loss depends on the corrected flow, which β fixes directly.
             let probe = cycle::compressor_at_beta(comp_map, t1, p_amb, n1_map, beta);
-            let p1 = c.p1(p_amb, probe.wc_kg_s * fade);
+            let p1 = inlet(c.p1(p_amb, probe.wc_kg_s * fade));
             (
                 p1,
                 cycle::compressor_at_beta(comp_map, t1, p1, n1_map, beta),
@@ -271,9 +282,9 @@ pub fn evaluate(model: &Model, inp: &Inputs, adjust: Option<&Adjust>) -> GasPath
             // speed-based inlet-loss guess and the loss then follows from that flow: the PR used
             // differs from P2/P1 by ~1e-4 relative at design, the flow error is ~1e-5.
             let nc1 = cycle::corrected_speed(n1_map, t1);
-            let p1_guess = c.p1_guess(p_amb, n1);
+            let p1_guess = inlet(c.p1_guess(p_amb, n1));
             let op = comp_map.at_pr(nc1, p2 / p1_guess);
-            let p1 = c.p1(p_amb, op.wc_kg_s * fade);
+            let p1 = inlet(c.p1(p_amb, op.wc_kg_s * fade));
             (p1, cycle::compressor_from_op(t1, p1, p2 / p1, &op))
         }
     };
@@ -302,7 +313,10 @@ pub fn evaluate(model: &Model, inp: &Inputs, adjust: Option<&Adjust>) -> GasPath
     };
     let hpt = cycle::turbine(hpt_map, gas, t3, p3, n1.max(0.0), p3 / inp.p34_kpa);
     let w3 = w_burn.unwrap_or(hpt.w_kg_s);
-    let p4 = c.p4(p_amb, w3, hpt.t_out_k);
+    let p4 = match losses {
+        Some(l) if l.exhaust != 1.0 => p_amb + (c.p4(p_amb, w3, hpt.t_out_k) - p_amb) * l.exhaust,
+        _ => c.p4(p_amb, w3, hpt.t_out_k),
+    };
 
     // PT. Its gas torque is largest at stall; the map's efficiency (and so P/ω) is meaningless
     // there, so the torque is evaluated at no less than PT_STALL_FRACTION of design speed and

@@ -101,6 +101,7 @@ fn effect_adjust(model: &Model, inp: &Inputs) -> Adjust {
     Adjust {
         extra_bleed: effects.bleed_fraction(&core, &y),
         deltas: effects.component_deltas(&core, &y),
+        losses: effects.duct_losses(&core, &y),
     }
 }
 

@@ -13,6 +13,8 @@
 //! - **fuel delivery** ([`Effect::fuel_delivered`]): metered fuel → fuel burnt;
 //! - **bleed / flow schedule** ([`Effect::bleed_fraction`]): extra compressor bleed;
 //! - **component deltas** ([`Effect::component_deltas`]): flow and efficiency multipliers;
+//! - **duct losses** ([`Effect::duct_losses`]): multipliers on the inlet and exhaust pressure
+//!   losses;
 //! - **heat exchange** ([`Effect::heat_to_metal_w`]): heat the combustor gas gives to metal;
 //! - **instrument path** ([`Effect::instrument`]): what a channel's instrument makes of the
 //!   signal it measures.
@@ -38,6 +40,7 @@ registry!(
     bleed_schedule,
     vigv_schedule,
     tip_clearance,
+    duct_loss,
 );
 
 use super::gas_path::Stations;
@@ -172,6 +175,21 @@ impl ComponentDeltas {
     };
 }
 
+/// Multipliers on the inlet pressure loss (ambient → compressor inlet) and the exhaust
+/// back-pressure excess (PT exit → ambient); 1 = the engine file's loss.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DuctLosses {
+    pub inlet: f64,
+    pub exhaust: f64,
+}
+
+impl DuctLosses {
+    pub const NONE: DuctLosses = DuctLosses {
+        inlet: 1.0,
+        exhaust: 1.0,
+    };
+}
+
 /// What the hooks evaluated before the gas path may look at: the core states in physical units.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CoreView {
@@ -228,6 +246,8 @@ pub trait Effect: Debug + Send + Sync {
     }
     /// Component deltas: multiply `d` by this effect's flow/efficiency changes.
     fn component_deltas(&self, _core: &CoreView, _x: &[f64], _d: &mut ComponentDeltas) {}
+    /// Duct losses: multiply `d` by this effect's inlet/exhaust loss changes.
+    fn duct_losses(&self, _core: &CoreView, _x: &[f64], _d: &mut DuctLosses) {}
     /// Heat exchange: heat flow from the combustor gas into metal, W (negative: metal heats gas).
     fn heat_to_metal_w(&self, _core: &CoreView, _x: &[f64]) -> f64 {
         0.0
@@ -420,6 +440,15 @@ impl EffectSet {
         let mut d = ComponentDeltas::NONE;
         for (e, x) in self.each(y) {
             e.component_deltas(core, x, &mut d);
+        }
+        d
+    }
+
+    /// Combined duct-loss multipliers.
+    pub fn duct_losses(&self, core: &CoreView, y: &[f64]) -> DuctLosses {
+        let mut d = DuctLosses::NONE;
+        for (e, x) in self.each(y) {
+            e.duct_losses(core, x, &mut d);
         }
         d
     }

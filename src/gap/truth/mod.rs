@@ -9,7 +9,8 @@
 //!   conducting metal nodes ([`heat_soak_nodes`]), a smooth bleed schedule
 //!   ([`bleed_smooth`]), a transport line plus second-order fuel valve ([`fuel_valve2`]), a
 //!   smooth vane-schedule offset on flow and efficiency ([`vigv_smooth`]) and a
-//!   two-time-constant casing driving the tip clearance ([`clearance_nodes`]).
+//!   two-time-constant casing driving the tip clearance ([`clearance_nodes`]), a laminar
+//!   filter cake and a boiler's back-pressure on the ducts ([`duct_fouling`]).
 //!
 //! The gas-path truths live here, never in `engine::effects::REGISTRY`: the analysis cannot
 //! name or fit them. The plant simulation puts them on the model through
@@ -18,6 +19,7 @@
 
 pub mod bleed_smooth;
 pub mod clearance_nodes;
+pub mod duct_fouling;
 pub mod fuel_valve2;
 pub mod heat_soak_nodes;
 pub mod instrument;
@@ -37,7 +39,7 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 /// The hidden truths, in the order cases cycle through them.
-pub const KINDS: [&str; 12] = [
+pub const KINDS: [&str; 13] = [
     "none",
     "t34_two_path",
     "p2_bias",
@@ -50,6 +52,7 @@ pub const KINDS: [&str; 12] = [
     "t34_bias",
     "vigv_smooth",
     "clearance_nodes",
+    "duct_fouling",
 ];
 
 /// The verdict a correct analysis gives for a hidden truth.
@@ -64,6 +67,7 @@ pub fn expected(kind: &str) -> &'static str {
         "bleed_smooth" => "bleed_schedule",
         "vigv_smooth" => "vigv_schedule",
         "clearance_nodes" => "tip_clearance",
+        "duct_fouling" => "duct_loss",
         "p34_ripple" => "unexplained",
         _ => "none",
     }
@@ -166,6 +170,10 @@ pub fn draw(kind: &str, rng: &mut impl Rng, scale: &PlantScale) -> Option<Drawn>
             let (t, m) = clearance_nodes::ClearanceNodes::draw(rng);
             plant(Arc::new(t), m)
         }
+        "duct_fouling" => {
+            let (t, m) = duct_fouling::DuctFouling::draw(rng);
+            plant(Arc::new(t), m)
+        }
         _ => {
             let (a, m) = Alteration::draw(kind, rng)?;
             Drawn {
@@ -236,7 +244,8 @@ impl Hidden {
 /// The magnitude of a fitted candidate in the unit its truths state theirs: τ (s) of a sensor
 /// lag, the offset of a bias, delay + lag (s) of the fuel system, the capacity UA·τ (kJ/K) of
 /// heat soak, the open fraction of a bleed, the flow change (%) of a vane schedule, the
-/// efficiency change (%/100 K) of the tip clearance. `params` as a candidate reports them
+/// efficiency change (%/100 K) of the tip clearance, the extra inlet loss (multiple of the
+/// file's) of the duct losses. `params` as a candidate reports them
 /// (`effects.<instance>.<param>` → (value, σ)).
 pub fn fitted_magnitude(effect: &str, params: &BTreeMap<String, (f64, f64)>) -> Option<f64> {
     let p = |name: &str| params.get(&format!("effects.{effect}.{name}")).map(|v| v.0);
@@ -249,6 +258,7 @@ pub fn fitted_magnitude(effect: &str, params: &BTreeMap<String, (f64, f64)>) -> 
         "bleed_schedule" => p("fraction"),
         "vigv_schedule" => p("flow_delta_pct"),
         "tip_clearance" => p("eff_pct_per_100k"),
+        "duct_loss" => Some(p("inlet_scale")? - 1.0),
         _ => None,
     }
 }
