@@ -161,9 +161,7 @@ pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
         }
         (None, None) => bail!("--input or --segment is required (or --list-effects)"),
     };
-    let start = std::time::Instant::now();
     let report = crate::gap::analyse(&engine, &rec, holdout.as_ref(), &candidates, &cfg)?;
-    let wall_s = start.elapsed().as_secs_f64();
     if let (Some(s), Some(id)) = (store.as_mut(), a.segment) {
         s.insert_gap_analysis(&crate::store::NewGapAnalysis {
             segment_id: id,
@@ -193,7 +191,6 @@ pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
     };
     if a.json {
         let mut v = serde_json::to_value(&report)?;
-        v["wall_s"] = serde_json::json!(wall_s);
         if let Some(msg) = &adopted {
             v["adopted"] = serde_json::json!(msg);
         }
@@ -214,6 +211,16 @@ pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
             100.0 * report.optimiser_spread
         );
     }
+    if !report.candidates.is_empty() {
+        let how = match report.scoring {
+            crate::gap::Scoring::Holdout => "the held-out start-up".to_string(),
+            crate::gap::Scoring::BlockedCv => format!(
+                "blocked cross-validation (alternate {:.0}-s blocks)",
+                crate::gap::CV_BLOCK_S
+            ),
+        };
+        println!("candidates scored by {how}:");
+    }
     for c in &report.candidates {
         println!(
             "  {:24} score {:+.2} (train {:+.2}{}) BIC gain {:.0} → {}",
@@ -228,10 +235,13 @@ pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
     }
     let v = &report.verdict;
     println!(
-        "verdict: {} (shrinkage {:.0} %, confidence {:.2}) in {wall_s:.0} s",
+        "verdict: {} (shrinkage {:.0} %, confidence {:.2}) in {:.0} s ({} fits on {} threads)",
         v.effect,
         100.0 * v.shrinkage,
-        v.confidence
+        v.confidence,
+        report.wall_s,
+        report.fits,
+        report.threads
     );
     let (b, f) = (v.health_before.to_array(), v.health_after.to_array());
     for (i, n) in crate::health::HEALTH_NAMES.iter().enumerate() {

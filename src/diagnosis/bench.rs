@@ -157,6 +157,9 @@ pub struct CaseRecord {
     pub steady: Result<BTreeMap<String, f64>, String>,
     pub transient_wall_s: f64,
     pub steady_wall_s: f64,
+    /// Method B's fit-quality verdict (`good` / `suspect` / `poor`; `None` when it failed):
+    /// the data are the model's own twin, so anything but `good` is a false alarm.
+    pub transient_fit_quality: Option<String>,
 }
 
 /// Method B with another optimiser at the same budget.
@@ -179,6 +182,8 @@ pub struct DiagnosisBench {
     pub steady: MethodStats,
     /// Method B under each compared optimiser (same cases, same budget).
     pub comparison: Vec<OptimiserStats>,
+    /// Share of Method B results whose fit quality is not `good` (false alarms on twin data).
+    pub transient_fit_quality_not_good: Option<f64>,
     pub per_case: Vec<CaseRecord>,
 }
 
@@ -214,6 +219,10 @@ pub fn bench_diagnosis(
             steady: as_record(&a),
             transient_wall_s: b.as_ref().map_or(f64::NAN, |r| r.wall_s),
             steady_wall_s: a.as_ref().map_or(f64::NAN, |r| r.wall_s),
+            transient_fit_quality: b
+                .as_ref()
+                .ok()
+                .map(|r| r.fit_quality.verdict.as_str().to_string()),
         };
         progress(&rec);
         per_case.push(rec);
@@ -242,6 +251,12 @@ pub fn bench_diagnosis(
             median_objective: median(rs.iter().flatten().map(|r| r.objective).collect()),
         })
         .collect();
+    let verdicts: Vec<&str> = per_case
+        .iter()
+        .filter_map(|c: &CaseRecord| c.transient_fit_quality.as_deref())
+        .collect();
+    let not_good = (!verdicts.is_empty())
+        .then(|| verdicts.iter().filter(|v| **v != "good").count() as f64 / verdicts.len() as f64);
     Ok(DiagnosisBench {
         cases,
         seed,
@@ -250,6 +265,7 @@ pub fn bench_diagnosis(
         transient: MethodStats::from(&truths, &tr),
         steady: MethodStats::from(&truths, &st),
         comparison,
+        transient_fit_quality_not_good: not_good,
         per_case,
     })
 }

@@ -70,6 +70,32 @@ pub struct TransientProblem {
     failures: FailureLog,
 }
 
+/// Method B's objective for `segment` under `cfg`: the compared signals (operating inputs
+/// dropped) over the window's samples. The gap analysis also uses it to score a fitted model on
+/// samples the fit did not see.
+pub fn objective_for(engine: &Engine, segment: &Recording, cfg: &DiagnosisConfig) -> Objective {
+    let signals: Vec<Signal> = cfg
+        .signals
+        .iter()
+        .copied()
+        .filter(|s| !is_input(*s, cfg.drive_mode, cfg.fit_ambient_pressure))
+        .collect();
+    let in_window: Vec<bool> = segment
+        .times()
+        .iter()
+        .zip(segment.phases())
+        .map(|(&t, &p)| cfg.window.contains(t, p))
+        .collect();
+    Objective::new(
+        segment.times(),
+        segment.rows(),
+        &in_window,
+        &signals,
+        &engine.cfg().sensors,
+        cfg.rate_weight,
+    )
+}
+
 impl TransientProblem {
     /// Builds the problem for `segment` under `cfg` (window, signals, drive mode, fixed step).
     /// The recording must be a start-up ([`Recording::check_startup`]).
@@ -84,26 +110,7 @@ impl TransientProblem {
         if cfg.fixed_step_s > 0.0 {
             engine.set_param("solver.fixed_step_s", cfg.fixed_step_s)?;
         }
-        let signals: Vec<Signal> = cfg
-            .signals
-            .iter()
-            .copied()
-            .filter(|s| !is_input(*s, cfg.drive_mode, cfg.fit_ambient_pressure))
-            .collect();
-        let in_window: Vec<bool> = segment
-            .times()
-            .iter()
-            .zip(segment.phases())
-            .map(|(&t, &p)| cfg.window.contains(t, p))
-            .collect();
-        let objective = Objective::new(
-            segment.times(),
-            segment.rows(),
-            &in_window,
-            &signals,
-            &engine.cfg().sensors,
-            cfg.rate_weight,
-        );
+        let objective = objective_for(&engine, segment, cfg);
         if objective.len() <= cfg.n_fitted() {
             return Err(DiagnosisError::Data(format!(
                 "only {} valid measured samples in the window for {} parameters",

@@ -10,7 +10,8 @@
 //! core model at the true health replaying it. A draw below that is redrawn (up to
 //! [`MAX_DRAWS`] times, then the case is reported as skipped); `none` cases are not filtered.
 //! With `holdout`, a second start-up of the same unit (same health and hidden truth, other
-//! noise) is simulated and the candidates are scored on it.
+//! noise) is simulated and the candidates are scored on it; without, by blocked
+//! cross-validation over the one start-up.
 //!
 //! Library, thresholds and seeds are fixed before the cases are drawn. Pure: no I/O.
 
@@ -60,6 +61,9 @@ pub struct Case {
     pub error_after: f64,
     pub health_before: HealthParams,
     pub health_after: HealthParams,
+    /// The analysis's wall time, s, and the fits it ran.
+    pub analysis_wall_s: f64,
+    pub fits: usize,
 }
 
 /// A case whose truth stayed below [`MIN_SIGNATURE_SIGMA`] in every draw (not analysed).
@@ -207,6 +211,8 @@ pub fn run_cases(
             error_after: max_error(&r.verdict.health_after, &truth),
             health_before: r.verdict.health_before,
             health_after: r.verdict.health_after,
+            analysis_wall_s: r.wall_s,
+            fits: r.fits,
         };
         progress(&c);
         out.cases.push(c);
@@ -293,8 +299,8 @@ pub fn summarise(run: &BenchRun) -> serde_json::Value {
         "top1_by_kind": per_kind,
         "false_attribution_on_null": rate(&nulls, |c| c.verdict != "none" && c.verdict != "unexplained"),
         "unexplained_on_out_of_library": rate(&outs, |c| c.verdict == "unexplained"),
-        // The verdict's shrinkage over in-library cases: the held-out one when the run had a
-        // holdout, else the shrinkage on the fitted start-up.
+        // The verdict's shrinkage over in-library cases, always on data its fit did not see:
+        // the second start-up with --holdout, else the blocked cross-validation's other fold.
         "median_shrinkage": median(in_lib.iter().map(|c| c.shrinkage).collect()),
         "median_heldout_shrinkage": median(in_lib.iter().filter_map(|c| c.heldout_shrinkage).collect()),
         "median_train_shrinkage": median(in_lib.iter().filter_map(|c| c.train_shrinkage).collect()),
@@ -312,6 +318,8 @@ pub fn summarise(run: &BenchRun) -> serde_json::Value {
         "health_rmse_after": health_rmse(&in_lib, |c| c.health_after),
         "health_rmse_before_identified": health_rmse(&identified, |c| c.health_before),
         "health_rmse_after_identified": health_rmse(&identified, |c| c.health_after),
+        "median_analysis_wall_s": median(cases.iter().map(|c| c.analysis_wall_s).collect()),
+        "max_analysis_wall_s": cases.iter().map(|c| c.analysis_wall_s).fold(0.0, f64::max),
         "fit_quality_flags_bad_cases": rate(&bad, |c| c.baseline_fit_quality != "good"),
         "fit_quality_flags_clean_cases": rate(&nulls, |c| c.baseline_fit_quality != "good"),
         "confusion": confusion,

@@ -6,10 +6,12 @@
 //! 2. Candidates: every registry instance asked for (`all` by default), each refitted together
 //!    with the health vector (its parameters as named fit parameters, bounds from the registry,
 //!    a bias's bounds from the channel's readings). Scored by the shrinkage of the residual sum
-//!    of squares — on a second start-up of the same unit when one is given (held out: the
-//!    effect's parameters fitted on the first are kept, health refitted), else on the same
-//!    data — with the Bayesian information criterion (n ln(SSR/n) + k ln n) as the tie-breaker
-//!    and the penalty for extra parameters.
+//!    of squares on data the fit did not see: a second start-up of the same unit when one is
+//!    given (held out: the effect's parameters fitted on the first are kept, health refitted),
+//!    else two-fold blocked cross-validation over the start-up (alternate [`CV_BLOCK_S`] blocks:
+//!    fitted on one fold, scored on the other, both ways; the leader is then refitted on the
+//!    whole start-up) — with the Bayesian information criterion (n ln(SSR/n) + k ln n) as the
+//!    tie-breaker and the penalty for extra parameters.
 //! 3. Verdict: `none` when the baseline fits within noise; the best candidate when it lowers
 //!    the BIC, shrinks the gap by more than the optimiser's own spread (the baseline refitted
 //!    with [`SEED_REFITS`] other seeds) and either by at least [`MIN_SHRINKAGE`] or so far
@@ -17,14 +19,16 @@
 //!
 //! Instrument candidates (`sensor_lag:<column>`, `sensor_bias:<column>`) are tried only on
 //! channels the residual map points at; engine effects always. Pure orchestration of the
-//! diagnosis: no I/O. Candidates run one after another, each fit using the configured threads.
+//! diagnosis: no I/O. After the baseline, the fits (seed refits, folds, candidates) run in
+//! parallel, one per worker thread, each single-threaded; results do not depend on the order.
 
 pub mod bench;
 pub mod svg;
 pub mod truth;
 
+use crate::diagnosis::config::Blocks;
 use crate::diagnosis::fit_quality::{ResidualCell, Verdict};
-use crate::diagnosis::transient::diagnose_transient;
+use crate::diagnosis::transient::{diagnose_transient, objective_for};
 use crate::diagnosis::{DiagnosisConfig, DiagnosisError, FitParam, MethodResult};
 use crate::engine::effects::{self, Channels};
 use crate::engine::trace::Values;
@@ -34,6 +38,7 @@ use crate::recording::Recording;
 use crate::signals::Signal;
 use serde::Serialize;
 use std::collections::BTreeMap;
+use std::time::Instant;
 
 /// Least shrinkage of the gap (fraction of the baseline SSR) a candidate must reach to be named.
 pub const MIN_SHRINKAGE: f64 = 0.3;
@@ -84,8 +89,14 @@ pub struct GapReport {
     /// ((max − min)/min of the SSR over [`SEED_REFITS`] + 1 fits): a candidate must shrink
     /// the gap by more than this to be named (0 when the baseline fits).
     pub optimiser_spread: f64,
+    /// How the candidates were scored.
+    pub scoring: Scoring,
     pub candidates: Vec<Candidate>,
     pub verdict: GapVerdict,
+    /// Diagnosis fits the analysis ran, on how many worker threads, and its wall time, s.
+    pub fits: usize,
+    pub threads: usize,
+    pub wall_s: f64,
     /// The worst signal of the baseline's residual map: measured, modelled before and after
     /// the winning effect (for the SVG; not serialised).
     #[serde(skip)]
@@ -174,8 +185,103 @@ fn bic(r: &MethodResult, k: usize) -> f64 {
     n * (r.ssr / n).max(1e-300).ln() + k as f64 * n.ln()
 }
 
+/// Length of one block of the blocked cross-validation, s: longer than the residuals'
+/// correlation (lags of a few to 25 s), short enough that both folds see every phase of a
+/// start-up.
+pub const CV_BLOCK_S: f64 = 30.0;
+
+/// How the candidates were scored.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Scoring {
+    /// On a second start-up of the same unit: the effect's parameters fitted on the first are
+    /// kept, the health vector refitted.
+    Holdout,
+    /// Two-fold blocked cross-validation over the start-up: alternate [`CV_BLOCK_S`] blocks;
+    /// fitted on one fold, scored on the other, and the other way round.
+    BlockedCv,
+}
+
+/// `cfg` restricted to one fold of the blocked cross-validation.
+fn fold_cfg(cfg: &DiagnosisConfig, parity: u8) -> DiagnosisConfig {
+    let mut c = cfg.clone();
+    c.window.blocks = Some(Blocks {
+        length_s: CV_BLOCK_S,
+        parity,
+    });
+    c
+}
+
+/// One fit on one fold: its result and its sum of squares on the other fold.
+struct FoldFit {
+    fit: MethodResult,
+    test_ssr: f64,
+}
+
+fn fit_fold(
+    engine: &Engine,
+    rec: &Recording,
+    cfg: &DiagnosisConfig,
+    parity: u8,
+) -> Result<FoldFit, DiagnosisError> {
+    let fit = diagnose_transient(engine, rec, &fold_cfg(cfg, parity))?;
+    let test_ssr = objective_for(engine, rec, &fold_cfg(cfg, 1 - parity)).ssr(&fit.model_values);
+    Ok(FoldFit { fit, test_ssr })
+}
+
+/// What one candidate job returns: a fit on the whole start-up (holdout scoring) with the
+/// held-out start-up's SSR after the health refit, or a fit on one fold.
+enum CandidateFit {
+    Whole {
+        fit: MethodResult,
+        heldout_ssr: Option<f64>,
+    },
+    Fold(FoldFit),
+}
+
+/// The effect parameters of a fit: name → (value, 1σ).
+fn effect_params(r: &MethodResult) -> BTreeMap<String, (f64, f64)> {
+    r.params
+        .iter()
+        .filter(|p| p.name.starts_with("effects."))
+        .map(|p| (p.name.clone(), (p.value, p.sigma)))
+        .collect()
+}
+
+fn mean_health(a: &HealthParams, b: &HealthParams) -> HealthParams {
+    let (a, b) = (a.to_array(), b.to_array());
+    HealthParams::from_array(std::array::from_fn(|i| 0.5 * (a[i] + b[i])))
+}
+
+fn worse(a: Verdict, b: Verdict) -> Verdict {
+    let rank = |v: Verdict| match v {
+        Verdict::Good => 0,
+        Verdict::Suspect => 1,
+        Verdict::Poor => 2,
+    };
+    if rank(a) >= rank(b) {
+        a
+    } else {
+        b
+    }
+}
+
+/// Runs `jobs` on a pool of `threads` workers, each fit single-threaded (a fit's result does not
+/// depend on its thread count, so the order of completion changes nothing), results in order.
+fn in_parallel<J: Sync, R: Send>(
+    threads: usize,
+    jobs: &[J],
+    run: impl Fn(&J) -> R + Sync + Send,
+) -> Result<Vec<R>, DiagnosisError> {
+    use rayon::prelude::*;
+    let pool = crate::optim::thread_pool(Some(threads.max(1)))?;
+    Ok(pool.install(|| jobs.par_iter().map(&run).collect()))
+}
+
 /// Runs the analysis of `rec` (and `holdout`, a second start-up of the same unit) over the
-/// candidate instances `candidates`.
+/// candidate instances `candidates`. Without a holdout the candidates are scored by blocked
+/// cross-validation ([`Scoring::BlockedCv`]). The fits after the baseline run in parallel on
+/// `cfg.threads` workers (all cores by default).
 pub fn analyse(
     engine: &Engine,
     rec: &Recording,
@@ -183,79 +289,189 @@ pub fn analyse(
     candidates: &[String],
     cfg: &DiagnosisConfig,
 ) -> Result<GapReport, DiagnosisError> {
-    let base = diagnose_transient(engine, rec, cfg)?;
-    let base_ho = match holdout {
-        Some(h) => Some(diagnose_transient(engine, h, cfg)?),
-        None => None,
+    let start = Instant::now();
+    let threads = cfg
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let single = DiagnosisConfig {
+        threads: Some(1),
+        ..cfg.clone()
     };
+    let scoring = if holdout.is_some() {
+        Scoring::Holdout
+    } else {
+        Scoring::BlockedCv
+    };
+    let base = diagnose_transient(engine, rec, cfg)?;
     let k_base = 6 + usize::from(cfg.fit_ambient_pressure);
+    let mut fits = 1;
     let mut out = Vec::new();
     let mut models: BTreeMap<String, Vec<Values>> = BTreeMap::new();
     let mut optimiser_spread = 0.0;
     if base.fit_quality.verdict != Verdict::Good {
-        // What optimiser and noise variation alone do to the residual: refit the baseline with
-        // other seeds. A candidate's shrinkage must exceed it.
+        // First batch: what optimiser and noise variation alone do to the residual (the
+        // baseline refitted with other seeds; a candidate's shrinkage must exceed it), and the
+        // baseline on the held-out start-up or on each fold.
+        #[derive(Clone, Copy)]
+        enum BaseJob {
+            Seed(u64),
+            Holdout,
+            Fold(u8),
+        }
+        let mut jobs: Vec<BaseJob> = (1..=SEED_REFITS).map(BaseJob::Seed).collect();
+        match scoring {
+            Scoring::Holdout => jobs.push(BaseJob::Holdout),
+            Scoring::BlockedCv => jobs.extend([BaseJob::Fold(0), BaseJob::Fold(1)]),
+        }
+        let done = in_parallel(threads, &jobs, |job| -> Result<FoldFit, DiagnosisError> {
+            match *job {
+                BaseJob::Seed(k) => {
+                    let seeded = DiagnosisConfig {
+                        seed: cfg.seed.wrapping_add(k),
+                        ..single.clone()
+                    };
+                    diagnose_transient(engine, rec, &seeded).map(|fit| FoldFit {
+                        fit,
+                        test_ssr: f64::NAN,
+                    })
+                }
+                BaseJob::Holdout => {
+                    let h = holdout.ok_or_else(|| DiagnosisError::Config("no holdout".into()))?;
+                    diagnose_transient(engine, h, &single).map(|fit| FoldFit {
+                        test_ssr: fit.ssr,
+                        fit,
+                    })
+                }
+                BaseJob::Fold(p) => fit_fold(engine, rec, &single, p),
+            }
+        })?;
+        fits += jobs.len();
         let mut ssrs = vec![base.ssr];
-        for k in 1..=SEED_REFITS {
-            let seeded = DiagnosisConfig {
-                seed: cfg.seed.wrapping_add(k),
-                ..cfg.clone()
-            };
-            if let Ok(r) = diagnose_transient(engine, rec, &seeded) {
-                ssrs.push(r.ssr);
+        let mut base_test = 0.0;
+        let mut base_folds: Vec<MethodResult> = Vec::new();
+        for (job, r) in jobs.iter().zip(done) {
+            match (job, r) {
+                (BaseJob::Seed(_), Ok(f)) => ssrs.push(f.fit.ssr),
+                (BaseJob::Seed(_), Err(_)) => {}
+                (_, Ok(f)) => {
+                    base_test += f.test_ssr;
+                    base_folds.push(f.fit);
+                }
+                // The baseline must be scorable: its error is the analysis's error.
+                (_, Err(e)) => return Err(e),
             }
         }
         let lo = ssrs.iter().copied().fold(f64::INFINITY, f64::min);
         let hi = ssrs.iter().copied().fold(0.0, f64::max);
         optimiser_spread = ((hi - lo) / lo.max(1e-300)).clamp(0.0, 1.0);
-        for name in candidates
+
+        // Second batch: every candidate worth trying, on the whole start-up (holdout scoring)
+        // or on each fold.
+        let names: Vec<(String, Vec<FitParam>)> = candidates
             .iter()
             .filter(|c| worth_trying(c, &base.localisation))
-        {
-            let extra = fit_params(name, rec);
-            if extra.is_empty() {
-                continue;
-            }
-            let c_cfg = DiagnosisConfig {
-                extra_params: extra.clone(),
-                max_model_runs: cfg.max_model_runs + 100 * extra.len(),
-                ..cfg.clone()
-            };
-            let r = match diagnose_transient(engine, rec, &c_cfg) {
-                Ok(r) => r,
-                Err(_) => continue,
-            };
-            let params: BTreeMap<String, (f64, f64)> = r
-                .params
-                .iter()
-                .filter(|p| p.name.starts_with("effects."))
-                .map(|p| (p.name.clone(), (p.value, p.sigma)))
-                .collect();
-            let heldout_shrinkage = match (holdout, &base_ho) {
-                (Some(h), Some(bh)) => {
-                    let mut e = engine.clone();
-                    for (key, (v, _)) in &params {
-                        e.set_param(key, *v)?;
+            .map(|c| (c.clone(), fit_params(c, rec)))
+            .filter(|(_, extra)| !extra.is_empty())
+            .collect();
+        let cand_cfg = |extra: &[FitParam]| DiagnosisConfig {
+            extra_params: extra.to_vec(),
+            max_model_runs: cfg.max_model_runs + 100 * extra.len(),
+            ..single.clone()
+        };
+        let jobs: Vec<(usize, Option<u8>)> = match scoring {
+            Scoring::Holdout => (0..names.len()).map(|i| (i, None)).collect(),
+            Scoring::BlockedCv => (0..names.len())
+                .flat_map(|i| [(i, Some(0)), (i, Some(1))])
+                .collect(),
+        };
+        let done = in_parallel(
+            threads,
+            &jobs,
+            |&(i, fold)| -> Result<CandidateFit, DiagnosisError> {
+                let c_cfg = cand_cfg(&names[i].1);
+                match fold {
+                    Some(p) => fit_fold(engine, rec, &c_cfg, p).map(CandidateFit::Fold),
+                    None => {
+                        let fit = diagnose_transient(engine, rec, &c_cfg)?;
+                        let heldout_ssr = match holdout {
+                            Some(h) => {
+                                let mut e = engine.clone();
+                                for (key, (v, _)) in effect_params(&fit) {
+                                    e.set_param(&key, v)?;
+                                }
+                                diagnose_transient(&e, h, &single).ok().map(|r| r.ssr)
+                            }
+                            None => None,
+                        };
+                        Ok(CandidateFit::Whole { fit, heldout_ssr })
                     }
-                    diagnose_transient(&e, h, cfg)
-                        .ok()
-                        .map(|rh| 1.0 - rh.ssr / bh.ssr.max(1e-300))
                 }
-                _ => None,
+            },
+        )?;
+        fits += jobs.len() + usize::from(holdout.is_some()) * names.len();
+        let mut by_name: BTreeMap<usize, Vec<CandidateFit>> = BTreeMap::new();
+        for (&(i, _), r) in jobs.iter().zip(done) {
+            // A candidate whose model fails on the data is no explanation of it.
+            match r {
+                Ok(f) => by_name.entry(i).or_default().push(f),
+                Err(_) => {
+                    by_name.insert(i, Vec::new());
+                }
+            }
+        }
+        for (i, results) in by_name {
+            let (name, extra) = &names[i];
+            let k = k_base + extra.len();
+            let candidate = match (scoring, results.as_slice()) {
+                (Scoring::Holdout, [CandidateFit::Whole { fit, heldout_ssr }]) => {
+                    models.insert(name.clone(), fit.model_values.clone());
+                    let train = 1.0 - fit.ssr / base.ssr.max(1e-300);
+                    let heldout = heldout_ssr.map(|s| 1.0 - s / base_test.max(1e-300));
+                    Candidate {
+                        effect: name.clone(),
+                        params: effect_params(fit),
+                        train_shrinkage: train,
+                        heldout_shrinkage: heldout,
+                        bic_gain: bic(&base, k_base) - bic(fit, k),
+                        score: heldout.unwrap_or(train),
+                        health: fit.health,
+                        fit_quality: fit.fit_quality.verdict,
+                        normalised_residual: fit.fit_quality.normalised_residual,
+                    }
+                }
+                (Scoring::BlockedCv, [CandidateFit::Fold(a), CandidateFit::Fold(b)])
+                    if base_folds.len() == 2 =>
+                {
+                    let train_ssr = a.fit.ssr + b.fit.ssr;
+                    let base_train = base_folds[0].ssr + base_folds[1].ssr;
+                    let heldout = 1.0 - (a.test_ssr + b.test_ssr) / base_test.max(1e-300);
+                    let (pa, pb) = (effect_params(&a.fit), effect_params(&b.fit));
+                    let params = pa
+                        .iter()
+                        .map(|(key, (va, sa))| {
+                            let (vb, sb) = pb.get(key).copied().unwrap_or((*va, *sa));
+                            (key.clone(), (0.5 * (va + vb), 0.5 * (sa + sb)))
+                        })
+                        .collect();
+                    Candidate {
+                        effect: name.clone(),
+                        params,
+                        train_shrinkage: 1.0 - train_ssr / base_train.max(1e-300),
+                        heldout_shrinkage: Some(heldout),
+                        bic_gain: bic(&base_folds[0], k_base) + bic(&base_folds[1], k_base)
+                            - bic(&a.fit, k)
+                            - bic(&b.fit, k),
+                        score: heldout,
+                        health: mean_health(&a.fit.health, &b.fit.health),
+                        fit_quality: worse(a.fit.fit_quality.verdict, b.fit.fit_quality.verdict),
+                        normalised_residual: 0.5
+                            * (a.fit.fit_quality.normalised_residual
+                                + b.fit.fit_quality.normalised_residual),
+                    }
+                }
+                _ => continue,
             };
-            let train = 1.0 - r.ssr / base.ssr.max(1e-300);
-            models.insert(name.clone(), r.model_values.clone());
-            out.push(Candidate {
-                effect: name.clone(),
-                bic_gain: bic(&base, k_base) - bic(&r, k_base + extra.len()),
-                score: heldout_shrinkage.unwrap_or(train),
-                params,
-                train_shrinkage: train,
-                heldout_shrinkage,
-                health: r.health,
-                fit_quality: r.fit_quality.verdict,
-                normalised_residual: r.fit_quality.normalised_residual,
-            });
+            out.push(candidate);
         }
     }
     out.sort_by(|a, b| {
@@ -263,6 +479,25 @@ pub fn analyse(
             .total_cmp(&a.score)
             .then(b.bic_gain.total_cmp(&a.bic_gain))
     });
+    // Cross-validated: the leader is refitted on the whole start-up, so its health, parameters
+    // and fit quality are those of the complete data (the others keep their fold means).
+    if scoring == Scoring::BlockedCv {
+        if let Some(best) = out.first_mut() {
+            let c_cfg = DiagnosisConfig {
+                extra_params: fit_params(&best.effect, rec),
+                max_model_runs: cfg.max_model_runs + 100 * best.params.len(),
+                ..cfg.clone()
+            };
+            fits += 1;
+            if let Ok(fit) = diagnose_transient(engine, rec, &c_cfg) {
+                models.insert(best.effect.clone(), fit.model_values.clone());
+                best.params = effect_params(&fit);
+                best.health = fit.health;
+                best.fit_quality = fit.fit_quality.verdict;
+                best.normalised_residual = fit.fit_quality.normalised_residual;
+            }
+        }
+    }
     let verdict = if base.fit_quality.verdict == Verdict::Good {
         GapVerdict {
             effect: "none".into(),
@@ -324,8 +559,12 @@ pub fn analyse(
         summary: base.fit_quality.summary.clone(),
         localisation: base.localisation,
         optimiser_spread,
+        scoring,
         candidates: out,
         verdict,
+        fits,
+        threads,
+        wall_s: start.elapsed().as_secs_f64(),
         worst_signal,
     })
 }

@@ -235,7 +235,11 @@ mod tests {
             summary: String::new(),
             localisation: Vec::new(),
             optimiser_spread: 0.0,
+            scoring: crate::gap::Scoring::BlockedCv,
             candidates: Vec::new(),
+            fits: 1,
+            threads: 1,
+            wall_s: 0.0,
             verdict: crate::gap::GapVerdict {
                 effect: "sensor_lag:t34_k".into(),
                 confidence: 0.5,
