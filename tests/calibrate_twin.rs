@@ -3,6 +3,8 @@
 //! capacities ±3 %, losses ±30 %, compressor map design point shifted) gives healthy baseline
 //! snapshots across 9 loads; the engine file is calibrated on them; degraded snapshots of the
 //! true unit are then diagnosed with the uncalibrated and the calibrated file side by side.
+//! Also `gtwatch calibrate` end to end on the shipped example baseline.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use gtwatch::calibrate::synthetic::{load_sweep, snapshot_csv};
 use gtwatch::calibrate::{calibrate, candidates::default_candidates, CalibrationSettings};
@@ -176,5 +178,81 @@ fn calibration_removes_the_design_mismatch_from_the_diagnosis() {
         "uncalibrated {} vs calibrated {}",
         worst(0),
         worst(1)
+    );
+}
+
+/// `gtwatch calibrate` on the shipped baseline writes a file that loads from another folder
+/// (maps resolved), with the fitted values and the header, and prints one JSON document.
+#[test]
+fn cli_writes_a_loadable_calibrated_engine_file() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("unit.toml");
+    let root = env!("CARGO_MANIFEST_DIR");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(["calibrate", "--engine"])
+        .arg(format!("{root}/config/engine.toml"))
+        .arg("--input")
+        .arg(format!("{root}/examples/baseline_snapshots.csv"))
+        .arg("--out")
+        .arg(&out)
+        .args(["--threads", "2", "--json"])
+        .output()
+        .expect("run gtwatch");
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let doc: serde_json::Value = serde_json::from_slice(&run.stdout).expect("one JSON document");
+    let cal = &doc["calibration"];
+    assert!(cal["rms_after"].as_f64().expect("rms") < 1.0, "{cal}");
+    assert!(cal["rms_before"].as_f64().expect("rms") > 3.0, "{cal}");
+    let text = std::fs::read_to_string(&out).expect("written");
+    assert!(
+        text.starts_with("# Calibrated by gtwatch calibrate"),
+        "{text}"
+    );
+    assert!(
+        text.contains("# isentropic, total-to-total"),
+        "comments kept"
+    );
+    let cfg = gtwatch::engine::EngineConfig::load(&out).expect("loads");
+    let engine = Engine::new(cfg).expect("builds");
+    for p in cal["params"].as_array().expect("params") {
+        let key = p["key"].as_str().expect("key");
+        let want = p["fitted"].as_f64().expect("fitted");
+        let got = engine.get_param(key).expect("key");
+        assert!(
+            (got - want).abs() <= 1e-6 * want.abs(),
+            "{key}: {got} vs {want}"
+        );
+    }
+    // Bad input names the file and line.
+    let bad = dir.path().join("bad.csv");
+    std::fs::write(&bad, "t1_k,n2_rpm,fuel_kg_s,p2_kpa\n288,3600,abc,1500\n").expect("write");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(["calibrate", "--engine"])
+        .arg(format!("{root}/config/engine.toml"))
+        .arg("--input")
+        .arg(&bad)
+        .output()
+        .expect("run gtwatch");
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        !run.status.success() && err.contains("bad.csv") && err.contains("line 2"),
+        "{err}"
+    );
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(["calibrate", "--engine"])
+        .arg(format!("{root}/config/engine.toml"))
+        .arg("--input")
+        .arg(format!("{root}/examples/baseline_snapshots.csv"))
+        .args(["--params", "design.hpt_efficiency,design.nope"])
+        .output()
+        .expect("run gtwatch");
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        !run.status.success() && err.contains("design.nope"),
+        "{err}"
     );
 }

@@ -160,7 +160,7 @@ pub fn candidate(engine: &Engine, key: &str) -> Result<Candidate, CalibrateError
         lower = range.min + 1e-6 * half.max(1e-12);
     }
     let upper = (guess + half).min(range.max);
-    if !(upper > lower) {
+    if upper.partial_cmp(&lower) != Some(std::cmp::Ordering::Greater) {
         return Err(bad(format!(
             "its realistic interval around {guess} is empty (within the allowed range {}…{})",
             range.min, range.max

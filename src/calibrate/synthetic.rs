@@ -1,7 +1,7 @@
 //! Synthetic steady snapshots with known truth: the rows a plant historian would export, made
 //! with the steady model of a given engine and health plus instrument noise. Used by the
 //! calibration twin test and to write `examples/baseline_snapshots.csv`
-//! (`cargo run --release --example baseline_snapshots`).
+//! (`cargo run --example baseline_snapshots`).
 //!
 //! What it is for: one CSV text in the snapshot layout (`diagnosis::snapshot`), canonical
 //! column names, with T1, ambient pressure, n2 and fuel flow as exact inputs and the other
@@ -36,6 +36,44 @@ pub const WRITTEN: [Signal; 7] = [
     Signal::Power,
     Signal::P1,
 ];
+
+/// The example unit of `examples/baseline_snapshots.csv`: the engine file's design values
+/// moved as a real unit differs from its datasheet (compressor −1.2 points, HPT +1.0, PT −0.8
+/// points of design efficiency; air flow +2.5 %; pressure ratio −2 %; inlet loss +30 %,
+/// exhaust back-pressure excess −20 %). Keys and values, to give `Engine::with_params`.
+pub fn example_unit(engine: &Engine) -> Result<Vec<(String, f64)>, String> {
+    let v = |k: &str| engine.get_param(k).map_err(|e| e.to_string());
+    Ok(vec![
+        (
+            "design.compressor_efficiency".into(),
+            v("design.compressor_efficiency")? - 0.012,
+        ),
+        (
+            "design.hpt_efficiency".into(),
+            v("design.hpt_efficiency")? + 0.010,
+        ),
+        (
+            "design.pt_efficiency".into(),
+            v("design.pt_efficiency")? - 0.008,
+        ),
+        (
+            "design.exhaust_flow_kg_s".into(),
+            v("design.exhaust_flow_kg_s")? * 1.025,
+        ),
+        (
+            "design.pressure_ratio".into(),
+            v("design.pressure_ratio")? * 0.98,
+        ),
+        (
+            "design.inlet_loss_frac".into(),
+            v("design.inlet_loss_frac")? * 1.3,
+        ),
+        (
+            "design.exhaust_back_pressure_ratio".into(),
+            1.0 + (v("design.exhaust_back_pressure_ratio")? - 1.0) * 0.8,
+        ),
+    ])
+}
 
 /// `n` operating points from 35 % to 100 % of the design power, ambient temperature swinging
 /// 278–298 K and pressure 99.5–101.5 kPa (deterministic).
