@@ -213,7 +213,7 @@ fn cli_writes_a_loadable_calibrated_engine_file() {
         "{text}"
     );
     assert!(
-        text.contains("# isentropic, total-to-total"),
+        text.contains("temperature_k = 288.15        # ISO day"),
         "comments kept"
     );
     let cfg = gtwatch::engine::EngineConfig::load(&out).expect("loads");
