@@ -7,6 +7,7 @@
 
 pub mod acquire;
 pub mod advice;
+pub mod calibrate;
 pub mod chart;
 pub mod cli;
 pub mod config;

@@ -15,6 +15,7 @@ mod bench_sim;
 mod bench_soak;
 mod bench_steady;
 mod bench_wash;
+mod calibrate;
 mod check_config;
 mod common;
 mod demo;
@@ -59,6 +60,9 @@ pub enum Command {
     /// Sim-to-real gap: where the model and a start-up disagree, which effect of the library
     /// explains it, and the health once it is added (`--list-effects` lists the library).
     Gap(gap::GapArgs),
+    /// Adapt an engine file's design values to one unit's healthy steady snapshots and write
+    /// the calibrated engine file.
+    Calibrate(calibrate::CalibrateArgs),
     /// Ingest a historical CSV log into the database (idempotent), then detect start-ups.
     Replay(replay::ReplayArgs),
     /// List detected start-ups with outcome and phase durations.
@@ -99,6 +103,7 @@ pub fn main() -> ExitCode {
         Command::Steady(a) => steady::run(a),
         Command::Diagnose(a) => diagnose::run(&a),
         Command::Gap(a) => gap::run(&a),
+        Command::Calibrate(a) => calibrate::run(a),
         Command::Replay(a) => replay::run(a),
         Command::Segments(a) => segments::run(a),
         Command::History(a) => history::run(a),

@@ -213,7 +213,7 @@ pub struct FailedGroup {
 
 /// The steady point of one snapshot: inputs for the solver and the compared values with 1σ.
 /// `None` when its healthy solve fails.
-fn steady_data(
+pub(crate) fn steady_data(
     engine: &Engine,
     base: &HealthParams,
     snap: &Snapshot,

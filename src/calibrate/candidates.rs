@@ -1,0 +1,216 @@
+//! The design parameters `gtwatch calibrate` may fit, each with the realistic interval a unit's
+//! true value lies in around the engine file's guess.
+//!
+//! What it is for: one table of keys and ranges (efficiencies ±3 points, design air flow ±5 %,
+//! flow-setting design values ±6 %, losses ±50 %, map design points shifted) so the fit and the
+//! identifiability analysis speak of the same intervals. What it must not do: I/O or physics.
+//!
+//! The engine file states its design as a cycle table (pressure ratio, exhaust flow, power,
+//! component efficiencies, losses) and the maps are scaled so that table holds; the components'
+//! flow capacities follow from it: the compressor's from the exhaust (air) flow, the HPT's from
+//! flow, T3 (set by the power) and P3 (set by the pressure ratio and combustor loss), the PT's
+//! from the HPT's expansion. So "flow capacities" are fitted through those table values.
+
+use super::CalibrateError;
+use crate::engine::config::param_range;
+use crate::engine::Engine;
+
+/// How wide the realistic interval around the guess is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Spread {
+    /// ± this much, in the key's unit (efficiency points as fractions: 0.03 = 3 points).
+    Absolute(f64),
+    /// ± this fraction of the guess.
+    Relative(f64),
+    /// ± this fraction of (guess − 1): a ratio whose excess over one is the loss.
+    Excess(f64),
+}
+
+/// The default candidates, in the order they are reported, with their spread and meaning.
+pub const DEFAULT_CANDIDATES: &[(&str, Spread, &str)] = &[
+    (
+        "design.compressor_efficiency",
+        Spread::Absolute(0.03),
+        "compressor design efficiency",
+    ),
+    (
+        "design.hpt_efficiency",
+        Spread::Absolute(0.03),
+        "HP-turbine design efficiency",
+    ),
+    (
+        "design.pt_efficiency",
+        Spread::Absolute(0.03),
+        "power-turbine design efficiency",
+    ),
+    (
+        "design.exhaust_flow_kg_s",
+        Spread::Relative(0.05),
+        "design air flow (compressor flow capacity)",
+    ),
+    (
+        "design.pressure_ratio",
+        Spread::Relative(0.06),
+        "design pressure ratio (with the flow, the HPT flow capacity)",
+    ),
+    (
+        "design.power_mw",
+        Spread::Relative(0.06),
+        "design power (sets design T3, hence the turbines' flow capacities)",
+    ),
+    (
+        "design.inlet_loss_frac",
+        Spread::Relative(0.5),
+        "inlet pressure loss",
+    ),
+    (
+        "design.combustor_loss_frac",
+        Spread::Relative(0.5),
+        "combustor pressure loss",
+    ),
+    (
+        "design.exhaust_back_pressure_ratio",
+        Spread::Excess(0.5),
+        "exhaust back-pressure excess",
+    ),
+    (
+        "design.combustion_efficiency",
+        Spread::Absolute(0.005),
+        "combustion efficiency",
+    ),
+    (
+        "maps.compressor_design_beta",
+        Spread::Absolute(0.1),
+        "compressor map design point (β)",
+    ),
+    (
+        "maps.hpt_design_pr",
+        Spread::Relative(0.1),
+        "HPT map design point (PR)",
+    ),
+    (
+        "maps.pt_design_pr",
+        Spread::Relative(0.1),
+        "PT map design point (PR)",
+    ),
+];
+
+/// Keys outside the default table that still have a sensible spread when asked for.
+const EXTRA_SPREADS: &[(&str, Spread)] = &[
+    ("design.gg_mechanical_efficiency", Spread::Absolute(0.01)),
+    ("design.pt_mechanical_efficiency", Spread::Absolute(0.01)),
+    ("design.cooling_bleed_frac", Spread::Absolute(0.02)),
+    ("maps.compressor_design_speed", Spread::Absolute(0.05)),
+    ("maps.hpt_design_speed", Spread::Absolute(0.05)),
+    ("maps.pt_design_speed", Spread::Absolute(0.05)),
+    ("dynamics.gg_friction_kw_at_design", Spread::Relative(0.5)),
+    ("dynamics.pt_windage_kw_at_sync", Spread::Relative(0.5)),
+];
+
+/// Spread of any other engine-file number asked for by name: ±10 % of its guess.
+pub const OTHER_SPREAD: Spread = Spread::Relative(0.1);
+
+/// One design parameter to calibrate: its key, the engine file's value (the guess) and the
+/// realistic interval `[lower, upper]` (inside the key's allowed range).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Candidate {
+    pub key: String,
+    pub guess: f64,
+    pub lower: f64,
+    pub upper: f64,
+}
+
+/// The spread used for `key`.
+pub fn spread_of(key: &str) -> Spread {
+    DEFAULT_CANDIDATES
+        .iter()
+        .find(|(k, _, _)| *k == key)
+        .map(|(_, s, _)| *s)
+        .or_else(|| {
+            EXTRA_SPREADS
+                .iter()
+                .find(|(k, _)| *k == key)
+                .map(|(_, s)| *s)
+        })
+        .unwrap_or(OTHER_SPREAD)
+}
+
+/// The candidate for `key` on `engine`: an error names a key that is not a tunable number of
+/// the engine file, or whose interval collapses (a value of zero with a relative spread).
+pub fn candidate(engine: &Engine, key: &str) -> Result<Candidate, CalibrateError> {
+    let bad = |reason: String| CalibrateError::Param {
+        key: key.to_string(),
+        reason,
+    };
+    if key.starts_with("effects.") || key.starts_with("sensors.") {
+        return Err(bad(
+            "not a design parameter (effects and sensor settings are not calibrated here)".into(),
+        ));
+    }
+    let guess = engine.get_param(key).map_err(|e| bad(e.to_string()))?;
+    let range = param_range(key)
+        .ok_or_else(|| bad("has no allowed range (not a tunable number)".into()))?;
+    let half = match spread_of(key) {
+        Spread::Absolute(d) => d,
+        Spread::Relative(f) => f * guess.abs(),
+        Spread::Excess(f) => f * (guess - 1.0).abs(),
+    };
+    let mut lower = (guess - half).max(range.min);
+    if range.min_exclusive && lower <= range.min {
+        lower = range.min + 1e-6 * half.max(1e-12);
+    }
+    let upper = (guess + half).min(range.max);
+    if upper.partial_cmp(&lower) != Some(std::cmp::Ordering::Greater) {
+        return Err(bad(format!(
+            "its realistic interval around {guess} is empty (within the allowed range {}…{})",
+            range.min, range.max
+        )));
+    }
+    Ok(Candidate {
+        key: key.to_string(),
+        guess,
+        lower,
+        upper,
+    })
+}
+
+/// The default candidates on `engine`.
+pub fn default_candidates(engine: &Engine) -> Result<Vec<Candidate>, CalibrateError> {
+    DEFAULT_CANDIDATES
+        .iter()
+        .map(|(k, _, _)| candidate(engine, k))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ranges_are_realistic_and_inside_the_allowed_ranges() {
+        let e = Engine::reference().expect("engine");
+        let c = default_candidates(&e).expect("candidates");
+        assert_eq!(c.len(), DEFAULT_CANDIDATES.len());
+        let by = |k: &str| c.iter().find(|x| x.key == k).expect(k).clone();
+        let eff = by("design.compressor_efficiency");
+        assert!((eff.lower - 0.82).abs() < 1e-12 && (eff.upper - 0.88).abs() < 1e-12);
+        let flow = by("design.exhaust_flow_kg_s");
+        assert!((flow.upper / flow.guess - 1.05).abs() < 1e-12);
+        let exh = by("design.exhaust_back_pressure_ratio");
+        assert!((exh.lower - 1.015).abs() < 1e-12 && (exh.upper - 1.045).abs() < 1e-12);
+        // Combustion efficiency 0.995 + 0.005 = 1.0 is the ceiling.
+        assert!(by("design.combustion_efficiency").upper <= 1.0);
+        for x in &c {
+            assert!(x.lower < x.guess && x.guess < x.upper, "{x:?}");
+        }
+        for key in [
+            "sensors.t4.bias",
+            "effects.fuel_system.lag_s",
+            "design.nope",
+            "name",
+        ] {
+            let err = candidate(&e, key).expect_err(key);
+            assert!(err.to_string().contains(key), "{err}");
+        }
+    }
+}

@@ -1,0 +1,112 @@
+//! Writing a calibrated engine file: the original text with the fitted numbers (and, where the
+//! file moves, its map paths) replaced in place, comments and layout kept (`toml_edit`), and a
+//! header comment saying what was calibrated when.
+//!
+//! What it is for: a text-to-text rewrite the CLI saves. What it must not do: I/O (the caller
+//! reads and writes the files and checks the result loads).
+
+use super::CalibrateError;
+use toml_edit::{DocumentMut, Item, Value};
+
+/// A value to put at a dotted key.
+#[derive(Debug, Clone, PartialEq)]
+pub enum NewValue {
+    Number(f64),
+    Text(String),
+}
+
+/// A number rounded to 7 significant digits (the engine file's precision; the fit's σ is far
+/// larger), so the written file reads `0.8612345`, not `0.86123449876543`.
+fn rounded(v: f64) -> f64 {
+    format!("{v:.6e}").parse::<f64>().unwrap_or(v)
+}
+
+/// The item at a dotted key (`design.hpt_efficiency`, `sensors.t4.bias`).
+fn item_mut<'d>(doc: &'d mut DocumentMut, key: &str) -> Option<&'d mut Item> {
+    let mut parts = key.split('.');
+    let mut item = doc.get_mut(parts.next()?)?;
+    for part in parts {
+        item = item.get_mut(part)?;
+    }
+    Some(item)
+}
+
+/// `original` with each `(key, value)` replaced, keeping each value's surrounding comments and
+/// spacing, and `header` (comment lines without the `#`) put first. Every key must already be
+/// in the file as a value of the same kind: an error names the key otherwise.
+pub fn rewrite(
+    original: &str,
+    path_name: &str,
+    values: &[(String, NewValue)],
+    header: &[String],
+) -> Result<String, CalibrateError> {
+    let mut doc: DocumentMut = original.parse().map_err(|e| CalibrateError::File {
+        path: path_name.to_string(),
+        reason: format!("not TOML: {e}"),
+    })?;
+    for (key, new) in values {
+        let bad = |reason: &str| CalibrateError::File {
+            path: path_name.to_string(),
+            reason: format!("key `{key}`: {reason}"),
+        };
+        let value = item_mut(&mut doc, key)
+            .and_then(Item::as_value_mut)
+            .ok_or_else(|| bad("not in the file as a value (cannot be replaced in place)"))?;
+        let decor = value.decor().clone();
+        *value = match (new, &*value) {
+            (NewValue::Number(v), Value::Float(_) | Value::Integer(_)) => Value::from(rounded(*v)),
+            (NewValue::Text(s), Value::String(_)) => Value::from(s.as_str()),
+            _ => return Err(bad("has another type in the file")),
+        };
+        *value.decor_mut() = decor;
+    }
+    let mut out = String::new();
+    for line in header {
+        out.push_str("# ");
+        out.push_str(line);
+        out.push('\n');
+    }
+    out.push_str(&doc.to_string());
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::config::{EngineConfig, REFERENCE_ENGINE_TOML};
+
+    #[test]
+    fn replaces_values_in_place_and_keeps_comments() {
+        let text = rewrite(
+            REFERENCE_ENGINE_TOML,
+            "engine.toml",
+            &[
+                (
+                    "design.hpt_efficiency".into(),
+                    NewValue::Number(0.873456789123),
+                ),
+                ("maps.pt_file".into(), NewValue::Text("/abs/lpt.map".into())),
+            ],
+            &["calibrated".into()],
+        )
+        .expect("rewrite");
+        assert!(text.starts_with("# calibrated\n"));
+        assert!(text.contains("hpt_efficiency = 0.8734568\n"), "{text}");
+        assert!(text.contains("pt_file = \"/abs/lpt.map\""));
+        // Comments elsewhere and beside replaced values survive.
+        assert!(text.contains("compressor_efficiency = 0.85  # isentropic"));
+        assert!(text.contains("# ISO day"));
+        let cfg = EngineConfig::from_toml_str(&text, "x").expect("loads");
+        assert_eq!(cfg.design.hpt_efficiency, 0.8734568);
+        for key in ["design.nope", "design", "maps.pt_file"] {
+            let e = rewrite(
+                REFERENCE_ENGINE_TOML,
+                "engine.toml",
+                &[(key.into(), NewValue::Number(1.0))],
+                &[],
+            )
+            .expect_err(key);
+            assert!(e.to_string().contains(key) && e.to_string().contains("engine.toml"));
+        }
+    }
+}

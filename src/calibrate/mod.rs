@@ -1,0 +1,297 @@
+//! Calibration to one unit's healthy baseline (issue 10 item 2): from steady snapshots across
+//! the load range (the CSV `gtwatch diagnose --method steady --input` reads) and an engine file
+//! whose design values are guesses, fit the design parameters the data can identify and keep
+//! the others at their guesses, saying why.
+//!
+//! Steps ([`calibrate`]):
+//! 1. every snapshot becomes a healthy steady operating point exactly as in the snapshot
+//!    diagnosis (`diagnosis::snapshot`), compared signals scaled by their one-sample noise σ;
+//! 2. the Jacobian of those residuals with respect to the candidates ([`candidates`], each
+//!    within its realistic interval) at the guesses feeds the identifiability analysis
+//!    ([`identify`]): a parameter is fitted when its 1σ is at most an eighth of its interval
+//!    and it correlates with no other fitted one at |ρ| ≥ 0.95;
+//! 3. bounded Levenberg–Marquardt (`optim::lm`) fits the identified set;
+//! 4. the report gives every candidate's guess, fitted value, 1σ and reason, and the
+//!    residuals before and after per signal and per operating point.
+//!
+//! A baseline by definition has health 0, so after calibration the health the diagnosis finds
+//! on the same data is ≈ 0 (tests/calibrate_twin.rs). Pure: no I/O (`edit` rewrites text the
+//! CLI reads and writes).
+
+pub mod candidates;
+pub mod edit;
+pub mod identify;
+pub mod problem;
+pub mod synthetic;
+
+use crate::diagnosis::snapshot::Snapshot;
+use crate::engine::Engine;
+use crate::optim::lm::jacobian_unit;
+use crate::optim::{refine, thread_pool, JacobianOptions, LmOptions};
+use candidates::Candidate;
+use problem::{prepare, CalibrationProblem};
+use serde::Serialize;
+
+/// Why a calibration could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum CalibrateError {
+    #[error("parameter `{key}`: {reason}")]
+    Param { key: String, reason: String },
+    #[error("{0}")]
+    Data(String),
+    #[error("engine model: {0}")]
+    Model(String),
+    #[error("{path}: {reason}")]
+    File { path: String, reason: String },
+    #[error("optimiser: {0}")]
+    Optim(String),
+}
+
+/// Settings of a calibration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibrationSettings {
+    /// Levenberg–Marquardt iterations at most.
+    pub max_iterations: usize,
+    /// Threads for the Jacobian columns (`None` = all cores).
+    pub threads: Option<usize>,
+}
+
+impl Default for CalibrationSettings {
+    fn default() -> Self {
+        Self {
+            max_iterations: 30,
+            threads: None,
+        }
+    }
+}
+
+/// One candidate's outcome.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ParamResult {
+    pub key: String,
+    /// The engine file's value.
+    pub guess: f64,
+    /// The calibrated value (= guess when not identifiable).
+    pub fitted: f64,
+    /// 1σ in the key's unit (linearised at the guesses, one-sample noise): within the fitted
+    /// set for an identified parameter, alone for the others (`None`: no information).
+    pub sigma: Option<f64>,
+    /// The realistic interval searched.
+    pub lower: f64,
+    pub upper: f64,
+    pub identifiable: bool,
+    pub reason: String,
+}
+
+/// Residuals of one signal over all points, in noise σ.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SignalResiduals {
+    pub signal: String,
+    pub n: usize,
+    /// Mean and RMS of (model − measured)/σ before (guesses) and after calibration.
+    pub mean_before: f64,
+    pub mean_after: f64,
+    pub rms_before: f64,
+    pub rms_after: f64,
+}
+
+/// Residuals of one operating point over its signals, in noise σ.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PointResiduals {
+    /// The snapshot's file line.
+    pub line: u64,
+    pub rms_before: f64,
+    pub rms_after: f64,
+}
+
+/// The calibration report.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Calibration {
+    pub params: Vec<ParamResult>,
+    pub signals: Vec<SignalResiduals>,
+    pub points: Vec<PointResiduals>,
+    /// RMS of all residuals (noise σ) before and after.
+    pub rms_before: f64,
+    pub rms_after: f64,
+    /// Snapshot lines whose healthy solve failed (not used).
+    pub dropped_lines: Vec<u64>,
+    /// How rows' ambient pressures were obtained, where not from an ambient column.
+    pub assumptions: Vec<String>,
+    pub lm_iterations: usize,
+    pub lm_stop: String,
+    /// Model evaluations (each one design calibration and one steady solve per point).
+    pub model_runs: usize,
+}
+
+impl Calibration {
+    /// The fitted values of the identified parameters: what changes in the engine file.
+    pub fn changes(&self) -> Vec<(String, f64)> {
+        self.params
+            .iter()
+            .filter(|p| p.identifiable)
+            .map(|p| (p.key.clone(), p.fitted))
+            .collect()
+    }
+}
+
+fn rms(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
+}
+
+fn mean(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.iter().sum::<f64>() / v.len() as f64
+}
+
+/// Calibrates `engine` (the guesses) to the healthy snapshots `rows` over `candidates`.
+/// Returns the report and the calibrated engine.
+pub fn calibrate(
+    engine: &Engine,
+    rows: &[Snapshot],
+    candidates: Vec<Candidate>,
+    settings: &CalibrationSettings,
+) -> Result<(Calibration, Engine), CalibrateError> {
+    if candidates.is_empty() {
+        return Err(CalibrateError::Data("no candidate parameter to fit".into()));
+    }
+    let prepared = prepare(engine, rows);
+    if prepared.points.is_empty() {
+        return Err(CalibrateError::Data(format!(
+            "no snapshot could be solved on the healthy model (lines {:?})",
+            prepared.dropped_lines
+        )));
+    }
+    let pool = thread_pool(settings.threads).map_err(|e| CalibrateError::Optim(e.to_string()))?;
+    let jac_opts = JacobianOptions::default()
+        .with_step(1e-3)
+        .map_err(|e| CalibrateError::Optim(e.to_string()))?;
+    let full = CalibrationProblem::new(engine, prepared.points.clone(), candidates.clone())?;
+    let x0 = full.guesses();
+    let r0 = full.residuals_at(&x0)?;
+    let u0 = crate::optim::Problem::bounds(&full).to_unit(&x0);
+    let (jac, failed, _) = jacobian_unit(&full, &u0, &r0, &jac_opts, &pool);
+    let names: Vec<String> = candidates.iter().map(|c| c.key.clone()).collect();
+    let mut verdicts = identify::identify(&jac, &names);
+    for (j, v) in verdicts.iter_mut().enumerate() {
+        if failed[j] {
+            v.identifiable = false;
+            v.sigma_fraction = None;
+            v.reason = "the model failed when it was varied within its interval".into();
+        }
+        if prepared.ambient_from_p1 && names[j] == "design.inlet_loss_frac" {
+            v.identifiable = false;
+            v.reason = "the ambient pressure was derived from P1 through this loss (no \
+                        ambient-pressure column), so the data cannot inform it"
+                .into();
+        }
+    }
+    // Fit the identified set (the others stay at their guesses in the engine).
+    let chosen: Vec<usize> = (0..candidates.len())
+        .filter(|&j| verdicts[j].identifiable)
+        .collect();
+    let mut fitted = x0.clone();
+    let (mut iterations, mut stop, mut runs) = (0, "nothing identifiable to fit".to_string(), 0);
+    if !chosen.is_empty() {
+        let sub = CalibrationProblem::new(
+            engine,
+            prepared.points.clone(),
+            chosen.iter().map(|&j| candidates[j].clone()).collect(),
+        )?;
+        let opts = LmOptions::default()
+            .with_jacobian(jac_opts)
+            .and_then(|o| o.with_max_iterations(settings.max_iterations.max(1)))
+            .and_then(|o| o.with_ftol(1e-8))
+            .and_then(|o| o.with_xtol(1e-7))
+            .map_err(|e| CalibrateError::Optim(e.to_string()))?;
+        let out = refine(&sub, &sub.guesses(), &opts, &pool)
+            .map_err(|e| CalibrateError::Optim(e.to_string()))?;
+        for (k, &j) in chosen.iter().enumerate() {
+            fitted[j] = out.x[k];
+        }
+        iterations = out.iterations;
+        stop = format!("{:?}", out.stop);
+        runs = sub.runs();
+    }
+    let r1 = full.residuals_at(&fitted)?;
+    let calibrated = full.engine_at(&fitted)?;
+    let params = candidates
+        .iter()
+        .zip(&verdicts)
+        .zip(&fitted)
+        .map(|((c, v), &x)| ParamResult {
+            key: c.key.clone(),
+            guess: c.guess,
+            fitted: x,
+            sigma: v.sigma_fraction.map(|s| s * (c.upper - c.lower)),
+            lower: c.lower,
+            upper: c.upper,
+            identifiable: v.identifiable,
+            reason: v.reason.clone(),
+        })
+        .collect();
+    let layout = full.layout();
+    let mut signals: Vec<SignalResiduals> = Vec::new();
+    let mut order: Vec<crate::signals::Signal> = Vec::new();
+    for (_, s) in &layout {
+        if !order.contains(s) {
+            order.push(*s);
+        }
+    }
+    for s in order {
+        let pick = |r: &[f64]| -> Vec<f64> {
+            layout
+                .iter()
+                .zip(r)
+                .filter(|((_, x), _)| *x == s)
+                .map(|(_, v)| *v)
+                .collect()
+        };
+        let (b, a) = (pick(&r0), pick(&r1));
+        signals.push(SignalResiduals {
+            signal: s.to_string(),
+            n: b.len(),
+            mean_before: mean(&b),
+            mean_after: mean(&a),
+            rms_before: rms(&b),
+            rms_after: rms(&a),
+        });
+    }
+    let points = full
+        .points()
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let pick = |r: &[f64]| -> Vec<f64> {
+                layout
+                    .iter()
+                    .zip(r)
+                    .filter(|((k, _), _)| *k == i)
+                    .map(|(_, v)| *v)
+                    .collect()
+            };
+            PointResiduals {
+                line: p.line,
+                rms_before: rms(&pick(&r0)),
+                rms_after: rms(&pick(&r1)),
+            }
+        })
+        .collect();
+    let report = Calibration {
+        params,
+        signals,
+        points,
+        rms_before: rms(&r0),
+        rms_after: rms(&r1),
+        dropped_lines: prepared.dropped_lines,
+        assumptions: prepared.assumptions,
+        lm_iterations: iterations,
+        lm_stop: stop,
+        model_runs: full.runs() + runs,
+    };
+    Ok((report, calibrated))
+}

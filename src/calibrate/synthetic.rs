@@ -1,0 +1,165 @@
+//! Synthetic steady snapshots with known truth: the rows a plant historian would export, made
+//! with the steady model of a given engine and health plus instrument noise. Used by the
+//! calibration twin test and to write `examples/baseline_snapshots.csv`
+//! (`cargo run --example baseline_snapshots`).
+//!
+//! What it is for: one CSV text in the snapshot layout (`diagnosis::snapshot`), canonical
+//! column names, with T1, ambient pressure, n2 and fuel flow as exact inputs and the other
+//! signals noisy (1σ = the engine file's instrument noise divided by `averaging` — a row is
+//! the mean of that many squared samples' worth). What it must not do: I/O; deterministic for a
+//! seed.
+
+use crate::engine::gas_path::signal_value;
+use crate::engine::sensors::noise_sigma;
+use crate::engine::steady::{solve, Demand, SteadyInputs};
+use crate::engine::Engine;
+use crate::health::HealthParams;
+use crate::signals::Signal;
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
+
+/// One operating point to write.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OperatingPoint {
+    pub t_amb_k: f64,
+    pub p_amb_kpa: f64,
+    pub power_mw: f64,
+}
+
+/// The compared signals written (besides the inputs T1, ambient pressure, n2 and fuel).
+pub const WRITTEN: [Signal; 7] = [
+    Signal::N1,
+    Signal::T2,
+    Signal::P2,
+    Signal::T34,
+    Signal::P34,
+    Signal::Power,
+    Signal::P1,
+];
+
+/// The example unit of `examples/baseline_snapshots.csv`: the engine file's design values
+/// moved as a real unit differs from its datasheet (compressor −1.2 points, HPT +1.0, PT −0.8
+/// points of design efficiency; air flow +2.5 %; pressure ratio −2 %; inlet loss +30 %,
+/// exhaust back-pressure excess −20 %). Keys and values, to give `Engine::with_params`.
+pub fn example_unit(engine: &Engine) -> Result<Vec<(String, f64)>, String> {
+    let v = |k: &str| engine.get_param(k).map_err(|e| e.to_string());
+    Ok(vec![
+        (
+            "design.compressor_efficiency".into(),
+            v("design.compressor_efficiency")? - 0.012,
+        ),
+        (
+            "design.hpt_efficiency".into(),
+            v("design.hpt_efficiency")? + 0.010,
+        ),
+        (
+            "design.pt_efficiency".into(),
+            v("design.pt_efficiency")? - 0.008,
+        ),
+        (
+            "design.exhaust_flow_kg_s".into(),
+            v("design.exhaust_flow_kg_s")? * 1.025,
+        ),
+        (
+            "design.pressure_ratio".into(),
+            v("design.pressure_ratio")? * 0.98,
+        ),
+        (
+            "design.inlet_loss_frac".into(),
+            v("design.inlet_loss_frac")? * 1.3,
+        ),
+        (
+            "design.exhaust_back_pressure_ratio".into(),
+            1.0 + (v("design.exhaust_back_pressure_ratio")? - 1.0) * 0.8,
+        ),
+    ])
+}
+
+/// `n` operating points from 35 % to 100 % of the design power, ambient temperature swinging
+/// 278–298 K and pressure 99.5–101.5 kPa (deterministic).
+pub fn load_sweep(engine: &Engine, n: usize) -> Vec<OperatingPoint> {
+    let design = engine.cfg().design.power_mw;
+    (0..n)
+        .map(|k| {
+            let f = if n > 1 {
+                k as f64 / (n - 1) as f64
+            } else {
+                1.0
+            };
+            OperatingPoint {
+                t_amb_k: 278.0 + 20.0 * ((k * 7) % n.max(1)) as f64 / n.max(1) as f64,
+                p_amb_kpa: 99.5 + 2.0 * ((k * 3) % n.max(1)) as f64 / n.max(1) as f64,
+                power_mw: design * (0.35 + 0.6 * f),
+            }
+        })
+        .collect()
+}
+
+/// Snapshot CSV text of `engine` at `health` over `points`; `group` fills a `test` column.
+/// An error names the point whose steady solve failed.
+pub fn snapshot_csv(
+    engine: &Engine,
+    health: &HealthParams,
+    points: &[OperatingPoint],
+    group: &str,
+    averaging: f64,
+    seed: u64,
+) -> Result<String, String> {
+    let cfg = engine.cfg();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut csv = String::from("test,t1_k,p_amb_kpa,n2_rpm,fuel_kg_s");
+    for s in WRITTEN {
+        csv.push(',');
+        csv.push_str(s.column());
+    }
+    csv.push('\n');
+    for (k, p) in points.iter().enumerate() {
+        let inputs = SteadyInputs {
+            t_amb_k: p.t_amb_k,
+            p_amb_kpa: p.p_amb_kpa,
+            n2_rpm: cfg.design.pt_speed_rpm,
+            demand: Demand::PowerMw(p.power_mw),
+        };
+        let m = engine.model_at(health, p.t_amb_k, p.p_amb_kpa);
+        let sp = solve(&m, &inputs, None).map_err(|e| format!("point {k} ({p:?}): {e}"))?;
+        csv.push_str(&format!(
+            "{group},{},{},{},{}",
+            p.t_amb_k, p.p_amb_kpa, inputs.n2_rpm, sp.stations.fuel_kg_s
+        ));
+        for s in WRITTEN {
+            let x = signal_value(&sp.stations, s);
+            let sd = noise_sigma(&cfg.sensors, s, x) / averaging.max(1.0).sqrt();
+            let noisy = match Normal::new(0.0, sd) {
+                Ok(n) if sd > 0.0 => x + n.sample(&mut rng),
+                _ => x,
+            };
+            csv.push_str(&format!(",{noisy:.6}"));
+        }
+        csv.push('\n');
+    }
+    Ok(csv)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rows_read_back_as_snapshots_with_the_truth_inside_the_noise() {
+        let e = Engine::reference().expect("engine");
+        let pts = load_sweep(&e, 5);
+        assert!((pts[4].power_mw - 0.95 * 31.4).abs() < 1e-9);
+        let csv = snapshot_csv(&e, &HealthParams::HEALTHY, &pts, "a", 25.0, 1).expect("csv");
+        let rows = crate::diagnosis::snapshot::read_snapshots(
+            csv.as_bytes(),
+            &Default::default(),
+            Some("test"),
+        )
+        .expect("rows");
+        assert_eq!(rows.len(), 5);
+        assert_eq!(rows[0].p_amb_kpa, Some(pts[0].p_amb_kpa));
+        assert_eq!(rows[0].values.len(), WRITTEN.len());
+        let again = snapshot_csv(&e, &HealthParams::HEALTHY, &pts, "a", 25.0, 1).expect("csv");
+        assert_eq!(csv, again);
+    }
+}

@@ -1,0 +1,256 @@
+//! `gtwatch calibrate`: adapt an engine file's design values to one unit's healthy baseline
+//! (steady snapshots, the CSV `gtwatch diagnose --method steady` reads) and write the new
+//! engine file (`calibrate`, `calibrate::edit`). Prints a report, or one JSON document.
+
+use crate::calibrate::candidates::{candidate, default_candidates};
+use crate::calibrate::edit::{rewrite, NewValue};
+use crate::calibrate::{calibrate, Calibration, CalibrationSettings};
+use crate::diagnosis::csv_input::parse_mapping;
+use crate::diagnosis::snapshot::read_snapshots;
+use crate::engine::{Engine, EngineConfig};
+use anyhow::{bail, Context};
+use clap::Args;
+use serde_json::json;
+use std::collections::HashMap;
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+/// `gtwatch calibrate`
+#[derive(Debug, Clone, Args)]
+pub struct CalibrateArgs {
+    /// Engine file with the design guesses (TOML).
+    #[arg(long, value_name = "FILE")]
+    pub engine: PathBuf,
+    /// Healthy steady snapshots across the load range: one averaged operating point per row
+    /// (T1, n2, fuel flow and the measured signals; an ambient-pressure column if any).
+    #[arg(long, value_name = "SNAPSHOTS.csv")]
+    pub input: PathBuf,
+    /// Write the calibrated engine file here (without it nothing is written).
+    #[arg(long, value_name = "NEW.toml")]
+    pub out: Option<PathBuf>,
+    /// Candidate parameters (dotted engine-file keys), comma-separated; default: design
+    /// efficiencies, air flow, pressure ratio, power, losses, combustion efficiency and map
+    /// design points.
+    #[arg(long, value_name = "KEY,KEY…")]
+    pub params: Option<String>,
+    /// Column mapping for the snapshot file: `t1_k=T_inlet,n1_rpm=NGG,…`.
+    #[arg(long)]
+    pub map: Option<String>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print one JSON document.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Map-path keys rewritten when the new file lives in another folder.
+const MAP_KEYS: [&str; 3] = ["maps.compressor_file", "maps.hpt_file", "maps.pt_file"];
+
+/// The map paths of `original` (as written, relative to `from_dir`) restated for a file in
+/// `to_dir`: unchanged when both folders are the same, else absolute.
+fn moved_map_paths(
+    original: &str,
+    engine_path: &Path,
+    from_dir: &Path,
+    to_dir: &Path,
+) -> anyhow::Result<Vec<(String, NewValue)>> {
+    let raw = EngineConfig::from_toml_str(original, &engine_path.display().to_string())?;
+    let canon = |d: &Path| {
+        let d = if d.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            d
+        };
+        d.canonicalize()
+            .with_context(|| format!("resolving folder {}", d.display()))
+    };
+    let (from, to) = (canon(from_dir)?, canon(to_dir)?);
+    if from == to {
+        return Ok(Vec::new());
+    }
+    let m = &raw.maps;
+    let mut out = Vec::new();
+    for (key, file) in MAP_KEYS
+        .iter()
+        .zip([&m.compressor_file, &m.hpt_file, &m.pt_file])
+    {
+        if !file.is_empty() && Path::new(file.as_str()).is_relative() {
+            let abs = from.join(file.as_str());
+            out.push((key.to_string(), NewValue::Text(abs.display().to_string())));
+        }
+    }
+    Ok(out)
+}
+
+fn header(a: &CalibrateArgs, report: &Calibration, n_rows: usize) -> Vec<String> {
+    let now = time::OffsetDateTime::now_utc()
+        .format(&time::format_description::well_known::Rfc3339)
+        .unwrap_or_else(|_| "?".into());
+    let mut h = vec![format!(
+        "Calibrated by gtwatch calibrate {} at {now}: {} fitted to {} healthy snapshot(s) of {}",
+        env!("CARGO_PKG_VERSION"),
+        a.engine.display(),
+        n_rows,
+        a.input.display()
+    )];
+    for p in &report.params {
+        if p.identifiable {
+            h.push(format!(
+                "  {} = {:.7} (was {}; 1σ {:.2e})",
+                p.key,
+                p.fitted,
+                p.guess,
+                p.sigma.unwrap_or(f64::NAN)
+            ));
+        }
+    }
+    let kept: Vec<&str> = report
+        .params
+        .iter()
+        .filter(|p| !p.identifiable)
+        .map(|p| p.key.as_str())
+        .collect();
+    if !kept.is_empty() {
+        h.push(format!(
+            "  kept at the file's values (not identifiable from these data): {}",
+            kept.join(", ")
+        ));
+    }
+    h.push(format!(
+        "  RMS residual {:.2} σ before, {:.2} σ after",
+        report.rms_before, report.rms_after
+    ));
+    h
+}
+
+fn print_text(report: &Calibration, wall_s: f64) {
+    println!(
+        "{:<36} {:>12} {:>12} {:>10}  verdict",
+        "parameter", "guess", "fitted", "1σ"
+    );
+    for p in &report.params {
+        println!(
+            "{:<36} {:>12.6} {:>12.6} {:>10}  {}",
+            p.key,
+            p.guess,
+            p.fitted,
+            p.sigma.map_or("-".into(), |s| format!("{s:.2e}")),
+            p.reason
+        );
+    }
+    println!("\nresiduals per signal (model − measured, in noise σ): mean / RMS");
+    for s in &report.signals {
+        println!(
+            "  {:<10} before {:+7.2} / {:6.2}   after {:+7.2} / {:6.2}",
+            s.signal, s.mean_before, s.rms_before, s.mean_after, s.rms_after
+        );
+    }
+    println!("residuals per operating point (RMS, σ)");
+    for p in &report.points {
+        println!(
+            "  line {:<5} before {:6.2}   after {:6.2}",
+            p.line, p.rms_before, p.rms_after
+        );
+    }
+    for a in &report.assumptions {
+        println!("note: {a}");
+    }
+    if !report.dropped_lines.is_empty() {
+        println!(
+            "lines not used (healthy steady solve failed): {:?}",
+            report.dropped_lines
+        );
+    }
+    println!(
+        "RMS residual {:.2} σ → {:.2} σ ({} LM iteration(s), {} model runs, {:.1} s)",
+        report.rms_before, report.rms_after, report.lm_iterations, report.model_runs, wall_s
+    );
+}
+
+pub fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
+    let start = Instant::now();
+    let original = std::fs::read_to_string(&a.engine)
+        .with_context(|| format!("reading engine file {}", a.engine.display()))?;
+    let cfg = EngineConfig::load(&a.engine)?;
+    let engine = Engine::new(cfg).context("building the engine model")?;
+    let mapping = match &a.map {
+        Some(m) => parse_mapping(m)?,
+        None => HashMap::new(),
+    };
+    let file =
+        std::fs::File::open(&a.input).with_context(|| format!("opening {}", a.input.display()))?;
+    let rows = read_snapshots(BufReader::new(file), &mapping, None)
+        .with_context(|| format!("reading {}", a.input.display()))?;
+    let candidates = match &a.params {
+        None => default_candidates(&engine)?,
+        Some(list) => {
+            let keys: Vec<&str> = list
+                .split(',')
+                .map(str::trim)
+                .filter(|k| !k.is_empty())
+                .collect();
+            if keys.is_empty() {
+                bail!("--params: no key given");
+            }
+            keys.iter()
+                .map(|k| candidate(&engine, k))
+                .collect::<Result<Vec<_>, _>>()
+                .context("--params")?
+        }
+    };
+    let settings = CalibrationSettings {
+        threads: a.threads,
+        ..CalibrationSettings::default()
+    };
+    let (report, _calibrated) =
+        calibrate(&engine, &rows, candidates, &settings).with_context(|| {
+            format!(
+                "calibrating {} on {}",
+                a.engine.display(),
+                a.input.display()
+            )
+        })?;
+    if let Some(out) = &a.out {
+        let from_dir = a.engine.parent().unwrap_or_else(|| Path::new(""));
+        let to_dir = out.parent().unwrap_or_else(|| Path::new(""));
+        let mut values: Vec<(String, NewValue)> = report
+            .changes()
+            .into_iter()
+            .map(|(k, v)| (k, NewValue::Number(v)))
+            .collect();
+        values.extend(moved_map_paths(&original, &a.engine, from_dir, to_dir)?);
+        let text = rewrite(
+            &original,
+            &a.engine.display().to_string(),
+            &values,
+            &header(&a, &report, rows.len()),
+        )?;
+        std::fs::write(out, &text).with_context(|| format!("writing {}", out.display()))?;
+        // The written file must load, maps included.
+        let check = EngineConfig::load(out)?;
+        Engine::new(check).with_context(|| format!("checking the written {}", out.display()))?;
+        eprintln!("wrote {}", out.display());
+    } else {
+        eprintln!("no --out given: nothing written");
+    }
+    let wall_s = start.elapsed().as_secs_f64();
+    if a.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&json!({
+                "engine": a.engine.display().to_string(),
+                "input": a.input.display().to_string(),
+                "out": a.out.as_ref().map(|p| p.display().to_string()),
+                "rows": rows.len(),
+                "calibration": report,
+                "wall_s": wall_s,
+            }))?
+        );
+    } else {
+        print_text(&report, wall_s);
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,258 @@
+//! Twin test of `gtwatch calibrate` (issue 10 item 2 acceptance): a "true" unit whose design
+//! differs from the engine file by realistic amounts (design efficiencies ±1.5 points, flow
+//! capacities ±3 %, losses ±30 %, compressor map design point shifted) gives healthy baseline
+//! snapshots across 9 loads; the engine file is calibrated on them; degraded snapshots of the
+//! true unit are then diagnosed with the uncalibrated and the calibrated file side by side.
+//! Also `gtwatch calibrate` end to end on the shipped example baseline.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
+
+use gtwatch::calibrate::synthetic::{load_sweep, snapshot_csv};
+use gtwatch::calibrate::{calibrate, candidates::default_candidates, CalibrationSettings};
+use gtwatch::diagnosis::snapshot::{diagnose_snapshots, read_snapshots, Snapshot};
+use gtwatch::diagnosis::DiagnosisConfig;
+use gtwatch::engine::Engine;
+use gtwatch::health::{HealthParams, HEALTH_NAMES};
+use std::collections::HashMap;
+
+/// The true unit: the reference engine file with its design values moved.
+fn true_unit(reference: &Engine) -> Engine {
+    let v = |k: &str| reference.get_param(k).expect(k);
+    let values: Vec<(String, f64)> = [
+        (
+            "design.compressor_efficiency",
+            v("design.compressor_efficiency") - 0.015,
+        ),
+        ("design.hpt_efficiency", v("design.hpt_efficiency") + 0.015),
+        ("design.pt_efficiency", v("design.pt_efficiency") - 0.015),
+        // Flow capacities: compressor (air flow) +3 %, HPT (through the pressure ratio) −3 %.
+        (
+            "design.exhaust_flow_kg_s",
+            v("design.exhaust_flow_kg_s") * 1.03,
+        ),
+        ("design.pressure_ratio", v("design.pressure_ratio") * 0.97),
+        ("design.inlet_loss_frac", v("design.inlet_loss_frac") * 1.3),
+        (
+            "design.combustor_loss_frac",
+            v("design.combustor_loss_frac") * 0.7,
+        ),
+        (
+            "design.exhaust_back_pressure_ratio",
+            1.0 + (v("design.exhaust_back_pressure_ratio") - 1.0) * 1.3,
+        ),
+        (
+            "maps.compressor_design_beta",
+            v("maps.compressor_design_beta") + 0.05,
+        ),
+    ]
+    .into_iter()
+    .map(|(k, x)| (k.to_string(), x))
+    .collect();
+    reference.with_params(&values).expect("true unit")
+}
+
+fn rows(csv: &str) -> Vec<Snapshot> {
+    read_snapshots(csv.as_bytes(), &HashMap::new(), Some("test")).expect("rows")
+}
+
+#[test]
+fn calibration_removes_the_design_mismatch_from_the_diagnosis() {
+    let file = Engine::reference().expect("reference");
+    let truth = true_unit(&file);
+    let points = load_sweep(&file, 9);
+    let baseline =
+        snapshot_csv(&truth, &HealthParams::HEALTHY, &points, "base", 25.0, 11).expect("baseline");
+    let base_rows = rows(&baseline);
+    let settings = CalibrationSettings {
+        threads: Some(2),
+        ..CalibrationSettings::default()
+    };
+    let candidates = default_candidates(&file).expect("candidates");
+    let (report, calibrated) =
+        calibrate(&file, &base_rows, candidates, &settings).expect("calibration");
+    for p in &report.params {
+        eprintln!(
+            "{:36} guess {:9.5} fitted {:9.5} truth {:9.5} {}  {}",
+            p.key,
+            p.guess,
+            p.fitted,
+            truth.get_param(&p.key).expect("key"),
+            if p.identifiable { "FIT " } else { "kept" },
+            p.reason
+        );
+    }
+    eprintln!(
+        "rms before {:.2} after {:.2} ({} LM iterations, {}, {} model runs)",
+        report.rms_before,
+        report.rms_after,
+        report.lm_iterations,
+        report.lm_stop,
+        report.model_runs
+    );
+    assert!(
+        report.rms_before > 5.0,
+        "the guess is far off: {}",
+        report.rms_before
+    );
+    assert!(report.rms_after < 1.0, "rms after {}", report.rms_after);
+    assert!(report.params.iter().filter(|p| p.identifiable).count() >= 3);
+
+    let cfg = DiagnosisConfig {
+        max_model_runs: 1500,
+        threads: Some(2),
+        ..DiagnosisConfig::default()
+    };
+    // The baseline itself: health ≈ 0 on the calibrated model.
+    let base = diagnose_snapshots(&calibrated, &base_rows, &cfg).expect("baseline diagnosis");
+    let h0 = base.groups[0].result.health.to_array();
+    eprintln!("baseline health on the calibrated model: {h0:.2?}");
+    assert!(h0.iter().all(|d| d.abs() <= 0.3), "{h0:?}");
+
+    // Degraded snapshots of the true unit, one group per health vector.
+    let truths = [
+        [1.5, 0.5, 0.0, 0.0, 0.0, 0.0],
+        [3.0, 1.0, 1.0, 0.7, 0.0, 0.0],
+        [0.0, 0.0, 0.5, 1.5, -0.5, 1.0],
+    ];
+    let mut csv = String::new();
+    for (g, t) in truths.iter().enumerate() {
+        let text = snapshot_csv(
+            &truth,
+            &HealthParams::from_array(*t),
+            &points,
+            &format!("g{g}"),
+            25.0,
+            100 + g as u64,
+        )
+        .expect("degraded");
+        let body = if g == 0 {
+            text.as_str()
+        } else {
+            text.split_once('\n').map_or("", |(_, b)| b)
+        };
+        csv.push_str(body);
+    }
+    let degraded = rows(&csv);
+    let mut sq = [[0.0f64; 6]; 2];
+    let mut separable = [true; 6];
+    for (k, engine) in [&file, &calibrated].into_iter().enumerate() {
+        let rep = diagnose_snapshots(engine, &degraded, &cfg).expect("diagnosis");
+        assert_eq!(rep.groups.len(), truths.len(), "{:?}", rep.failed);
+        for (g, t) in rep.groups.iter().zip(&truths) {
+            let est = g.result.health.to_array();
+            for i in 0..6 {
+                sq[k][i] += (est[i] - t[i]).powi(2);
+                if k == 1
+                    && !g
+                        .result
+                        .separability
+                        .separable
+                        .iter()
+                        .any(|n| n == HEALTH_NAMES[i])
+                {
+                    separable[i] = false;
+                }
+            }
+        }
+    }
+    let rmse = |k: usize, i: usize| (sq[k][i] / truths.len() as f64).sqrt();
+    eprintln!("health RMSE, points: parameter  uncalibrated  calibrated");
+    for i in 0..6 {
+        eprintln!(
+            "  {:5} {:6.2} {:6.2}{}",
+            HEALTH_NAMES[i],
+            rmse(0, i),
+            rmse(1, i),
+            if separable[i] {
+                ""
+            } else {
+                "  (not separable)"
+            }
+        );
+    }
+    for i in (0..6).filter(|&i| separable[i]) {
+        assert!(rmse(1, i) <= 0.3, "{}: {}", HEALTH_NAMES[i], rmse(1, i));
+    }
+    let worst = |k: usize| (0..6).map(|i| rmse(k, i)).fold(0.0, f64::max);
+    assert!(
+        worst(0) > 3.0 * worst(1) && worst(0) > 0.6,
+        "uncalibrated {} vs calibrated {}",
+        worst(0),
+        worst(1)
+    );
+}
+
+/// `gtwatch calibrate` on the shipped baseline writes a file that loads from another folder
+/// (maps resolved), with the fitted values and the header, and prints one JSON document.
+#[test]
+fn cli_writes_a_loadable_calibrated_engine_file() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("unit.toml");
+    let root = env!("CARGO_MANIFEST_DIR");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(["calibrate", "--engine"])
+        .arg(format!("{root}/config/engine.toml"))
+        .arg("--input")
+        .arg(format!("{root}/examples/baseline_snapshots.csv"))
+        .arg("--out")
+        .arg(&out)
+        .args(["--threads", "2", "--json"])
+        .output()
+        .expect("run gtwatch");
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let doc: serde_json::Value = serde_json::from_slice(&run.stdout).expect("one JSON document");
+    let cal = &doc["calibration"];
+    assert!(cal["rms_after"].as_f64().expect("rms") < 1.0, "{cal}");
+    assert!(cal["rms_before"].as_f64().expect("rms") > 3.0, "{cal}");
+    let text = std::fs::read_to_string(&out).expect("written");
+    assert!(
+        text.starts_with("# Calibrated by gtwatch calibrate"),
+        "{text}"
+    );
+    assert!(
+        text.contains("temperature_k = 288.15        # ISO day"),
+        "comments kept"
+    );
+    let cfg = gtwatch::engine::EngineConfig::load(&out).expect("loads");
+    let engine = Engine::new(cfg).expect("builds");
+    for p in cal["params"].as_array().expect("params") {
+        let key = p["key"].as_str().expect("key");
+        let want = p["fitted"].as_f64().expect("fitted");
+        let got = engine.get_param(key).expect("key");
+        assert!(
+            (got - want).abs() <= 1e-6 * want.abs(),
+            "{key}: {got} vs {want}"
+        );
+    }
+    // Bad input names the file and line.
+    let bad = dir.path().join("bad.csv");
+    std::fs::write(&bad, "t1_k,n2_rpm,fuel_kg_s,p2_kpa\n288,3600,abc,1500\n").expect("write");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(["calibrate", "--engine"])
+        .arg(format!("{root}/config/engine.toml"))
+        .arg("--input")
+        .arg(&bad)
+        .output()
+        .expect("run gtwatch");
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        !run.status.success() && err.contains("bad.csv") && err.contains("line 2"),
+        "{err}"
+    );
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(["calibrate", "--engine"])
+        .arg(format!("{root}/config/engine.toml"))
+        .arg("--input")
+        .arg(format!("{root}/examples/baseline_snapshots.csv"))
+        .args(["--params", "design.hpt_efficiency,design.nope"])
+        .output()
+        .expect("run gtwatch");
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        !run.status.success() && err.contains("design.nope"),
+        "{err}"
+    );
+}
