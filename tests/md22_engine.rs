@@ -226,3 +226,74 @@ fn startup_reaches_base_load() {
     assert!(fired.iter().all(|x| x.stations.surge_margin_pct > 0.0));
     assert!(s.iter().all(|x| x.stations.t3_k < 1600.0));
 }
+
+/// Issue 10 item 5, dynamic part: the start-up on the cube law (no breaker; the fuel governs PT
+/// speed) ends at the steady solver's load-law point: for the fuel flow the dynamic run ends
+/// with, the steady solver's PT speed and power agree within 0.5 % (reached: < 1e-5), and so do
+/// GG speed and T3; the power is the law's at the PT speed reached.
+#[test]
+fn load_law_startup_ends_on_the_steady_load_law_point() {
+    let e = md22();
+    let m = e.model(&HealthParams::HEALTHY);
+    let law = e.cfg().load.clone().expect("[load]");
+    let (s, _) = run_scenario(&m, &Scenario::startup(e.cfg())).expect("start-up runs");
+    // No breaker: no synchronisation phase, and the PT speed follows the load all along.
+    assert!(s.iter().all(|x| x.phase != Phase::Synchronisation));
+    let end = &s.last().expect("samples").stations;
+    let inp = SteadyInputs {
+        t_amb_k: 288.15,
+        p_amb_kpa: 101.325,
+        n2_rpm: 6500.0,
+        demand: Demand::FuelKgS(end.fuel_kg_s),
+    };
+    let (p, _) = load::solve(&m, Some(&law), &inp, None).expect("steady load-law point");
+    for (name, dynamic, steady) in [
+        ("n2", end.n2_rpm, p.n2_rpm),
+        ("power", end.power_mw, p.power_mw),
+        ("shaft power", end.pt_shaft_mw, p.power_mw),
+        ("n1", end.n1_rpm, p.n1_rpm),
+        ("T3", end.t3_k, p.t3_k),
+    ] {
+        let rel = (dynamic / steady - 1.0).abs();
+        assert!(rel < 0.005, "{name}: dynamic {dynamic} vs steady {steady}");
+    }
+    assert!((end.power_mw / law_power_mw(&m, &law, end.n2_rpm) - 1.0).abs() < 1e-12);
+    // The governor's set-point: the speed at which the law absorbs base load.
+    assert!((end.n2_rpm / 6500.0 - 1.0).abs() < 0.005, "{}", end.n2_rpm);
+    // During the warm-up the PT runs at its minimum governed speed (law power = min load).
+    let warm: Vec<_> = s.iter().filter(|x| x.phase == Phase::Loading).collect();
+    let n_min = 6500.0 * (4.0f64 / 22.0).powf(1.0 / 3.0);
+    assert!(warm
+        .iter()
+        .any(|x| (x.stations.n2_rpm / n_min - 1.0).abs() < 1e-3));
+}
+
+/// A day of operations on the mechanical drive: normal stop (speed ramps down to the minimum
+/// governed speed, cool-down, fuel off), an aborted start (trip), a hot restart to base load; the
+/// PT coasts down against its load after each fuel cut.
+#[test]
+fn mechanical_drive_stops_trips_and_restarts() {
+    let e = md22();
+    let m = e.model(&HealthParams::HEALTHY);
+    let (s, _) = run_scenario(&m, &Scenario::operations(e.cfg())).expect("operations run");
+    for ph in [Phase::Unloading, Phase::Shutdown, Phase::Trip] {
+        assert!(s.iter().any(|x| x.phase == ph), "{ph:?}");
+    }
+    let steady: Vec<_> = s.iter().filter(|x| x.phase == Phase::Steady).collect();
+    assert!(steady.first().expect("steady").t_s < 1100.0);
+    let last = s.last().expect("samples");
+    assert_eq!(last.phase, Phase::Steady);
+    assert!((last.stations.power_mw / 22.0 - 1.0).abs() < 0.01);
+    // After the normal stop's fuel cut, the PT decelerates (its load brakes it).
+    let shut: Vec<_> = s.iter().filter(|x| x.phase == Phase::Shutdown).collect();
+    let (a, b) = (
+        shut.first().expect("shutdown"),
+        shut.last().expect("shutdown"),
+    );
+    assert!(
+        b.stations.n2_rpm < 0.5 * a.stations.n2_rpm,
+        "{} → {}",
+        a.stations.n2_rpm,
+        b.stations.n2_rpm
+    );
+}

@@ -38,7 +38,7 @@ impl PtLoadLaw {
     /// The model's load law, or `None` in generator mode (no `[load]`, or `mode = "generator"`).
     pub fn of(model: &Model) -> Option<PtLoadLaw> {
         let law = model.cfg().load.as_ref()?;
-        (law.mode == LoadMode::LoadLaw).then(|| PtLoadLaw {
+        (law.mode == LoadMode::LoadLaw).then_some(PtLoadLaw {
             power_design_w: model.consts.power_design_w,
             n2_design_rpm: model.consts.n2_design,
             exponent: law.exponent,
@@ -53,7 +53,8 @@ impl PtLoadLaw {
 
     /// The PT speed at which the load absorbs `power_mw`, rpm.
     pub fn speed_for_power_rpm(&self, power_mw: f64) -> f64 {
-        self.n2_design_rpm * (power_mw.max(0.0) * 1e6 / self.power_design_w).powf(1.0 / self.exponent)
+        self.n2_design_rpm
+            * (power_mw.max(0.0) * 1e6 / self.power_design_w).powf(1.0 / self.exponent)
     }
 }
 
@@ -184,6 +185,22 @@ mod tests {
         }
         // More fuel, more power, a faster PT.
         assert!(speeds.windows(2).all(|w| w[1] > w[0]), "{speeds:?}");
+    }
+
+    /// The dynamic form of the law: the same power as [`law_power_mw`], its inverse, and none in
+    /// generator mode.
+    #[test]
+    fn dynamic_law_matches_the_steady_one() {
+        let (e, load) = propeller_engine();
+        let m = e.model(&HealthParams::HEALTHY);
+        let law = PtLoadLaw::of(&m).expect("load law");
+        for n2 in [0.0, 900.0, 1800.0, 3600.0, 4000.0] {
+            assert!((law.power_w(n2) / 1e6 - law_power_mw(&m, &load, n2)).abs() < 1e-12);
+        }
+        assert!((law.speed_for_power_rpm(31.4 / 8.0) / 1800.0 - 1.0).abs() < 1e-12);
+        assert_eq!(law.power_w(-5.0), 0.0);
+        let generator = Engine::reference().expect("reference");
+        assert!(PtLoadLaw::of(&generator.model(&HealthParams::HEALTHY)).is_none());
     }
 
     #[test]
