@@ -16,6 +16,7 @@ use super::control::{Feedback, FuelCommand, StarterCommand};
 use super::effects::{Context, CoreView};
 pub use super::gas_path::Stations;
 use super::gas_path::{self, Adjust, CompressorSetting, GasPath, HotSection, Inputs};
+use super::load::PtLoadLaw;
 use super::model::Model;
 pub use super::state::{
     Scales, State, FAR_SCALE, IX_FAR, IX_FUEL_I, IX_N1, IX_N2, IX_P2, IX_P34, IX_T3, NX_CORE,
@@ -34,6 +35,10 @@ pub struct Drive {
     pub starter: StarterCommand,
     /// Breaker closed: the grid holds the PT at synchronous speed.
     pub pt_locked: bool,
+    /// A mechanical load on the PT (`[load] mode = "load_law"`): while the PT is not locked it
+    /// absorbs `P_law(n2)`, and the station table's `power_mw` is that power. `None`: generator
+    /// (an unloaded PT until the breaker closes; the core arithmetic is then unchanged).
+    pub pt_load: Option<PtLoadLaw>,
     /// Flame on (fuel burns). Without flame, fuel flow is zero.
     pub flame: bool,
 }
@@ -84,6 +89,7 @@ pub fn standstill_state(model: &Model, t_amb_k: f64, p_amb_kpa: f64) -> State {
             fuel: FuelCommand::Off,
             starter: StarterCommand::Off,
             pt_locked: false,
+            pt_load: None,
             flame: false,
         };
         let core = core_view(model, 0.0, &y, &rest);
@@ -132,7 +138,11 @@ impl CoreRhs<'_> {
         st.fuel_kg_s = self.wf_metered;
         st.fuel_burnt_kg_s = self.wf;
         if !drive.pt_locked {
-            st.power_mw = 0.0;
+            // Open breaker: no electrical power; a mechanical load absorbs its law's power.
+            st.power_mw = match &drive.pt_load {
+                None => 0.0,
+                Some(law) => law.power_w(st.n2_rpm) / 1e6,
+            };
         }
         st.starter_torque_n_m = self.starter_tq;
         st
@@ -246,12 +256,16 @@ fn core_rhs<R>(
         dn1 = 0.0;
     }
 
-    // PT shaft: locked to the grid once the breaker closes; static friction until break-away.
+    // PT shaft: locked to the grid once the breaker closes; static friction until break-away;
+    // a mechanical load (load law) brakes it with P_law(n2)/ω.
     let w2r = n2.max(0.0) * PI / 30.0;
     let dn2 = if drive.pt_locked {
         0.0
     } else {
-        let tq2 = pt_gas_torque - c.pt_loss_w(n2.max(0.0)) / w2r.max(OMEGA_MIN);
+        let mut tq2 = pt_gas_torque - c.pt_loss_w(n2.max(0.0)) / w2r.max(OMEGA_MIN);
+        if let Some(law) = &drive.pt_load {
+            tq2 -= law.power_w(n2) / w2r.max(OMEGA_MIN);
+        }
         if n2 <= 0.5 && pt_gas_torque < c.pt_breakaway_nm {
             0.0
         } else {

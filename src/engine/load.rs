@@ -10,12 +10,53 @@
 //! With a load law, a power demand fixes the speed in closed form,
 //! `n2 = n2_design · (P / P_design)^(1/k)`; a fuel or GG-speed demand leaves the speed unknown,
 //! found by a secant iteration on `P_engine(n2) − P_law(n2) = 0` (the engine's power depends
-//! weakly on n2, the law strongly, so 3–6 steady solves suffice). The dynamic model still runs
-//! the generator mode only.
+//! weakly on n2, the law strongly, so 3–6 steady solves suffice).
+//!
+//! Dynamic runs: [`PtLoadLaw`] is the same law frozen into a `Copy` value that the drive of each
+//! integration step carries (`dynamic::Drive::pt_load`). The PT speed is then a state driven by
+//! `J2 ω dω/dt = P_PT,net(n2) − P_law(n2)` whenever the breaker is not closed (a mechanical drive
+//! has none), and the sequencer governs the PT speed (`sequence.rs`). In generator mode the drive
+//! carries no law and the dynamic model is the grid-locked one, bit for bit.
 
 use super::config::{LoadConfig, LoadMode};
 use super::model::{EngineError, Model};
 use super::steady::{solve_with_stats, Demand, SolveStats, SteadyInputs, SteadyPoint};
+
+/// The load law of a mechanical drive as the dynamic model applies it: `P = P_design ·
+/// (n2 / n2_design)^exponent`, frozen from the engine file and the calibrated design point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PtLoadLaw {
+    /// Power absorbed at the design PT speed, W (the engine's design power).
+    pub power_design_w: f64,
+    /// Design PT speed, rpm.
+    pub n2_design_rpm: f64,
+    /// Exponent k of the law.
+    pub exponent: f64,
+}
+
+impl PtLoadLaw {
+    /// The model's load law, or `None` in generator mode (no `[load]`, or `mode = "generator"`).
+    pub fn of(model: &Model) -> Option<PtLoadLaw> {
+        let law = model.cfg().load.as_ref()?;
+        (law.mode == LoadMode::LoadLaw).then_some(PtLoadLaw {
+            power_design_w: model.consts.power_design_w,
+            n2_design_rpm: model.consts.n2_design,
+            exponent: law.exponent,
+        })
+    }
+
+    /// Power the load absorbs at PT speed `n2_rpm`, W (0 at and below standstill).
+    #[inline]
+    pub fn power_w(&self, n2_rpm: f64) -> f64 {
+        self.power_design_w * (n2_rpm.max(0.0) / self.n2_design_rpm).powf(self.exponent)
+    }
+
+    /// The PT speed at which the load absorbs `power_mw`, rpm.
+    pub fn speed_for_power_rpm(&self, power_mw: f64) -> f64 {
+        self.n2_design_rpm
+            * (power_mw.max(0.0) * 1e6 / self.power_design_w).powf(1.0 / self.exponent)
+    }
+}
 
 /// The load law's power at PT speed `n2_rpm`, MW.
 pub fn law_power_mw(model: &Model, law: &LoadConfig, n2_rpm: f64) -> f64 {
@@ -144,6 +185,22 @@ mod tests {
         }
         // More fuel, more power, a faster PT.
         assert!(speeds.windows(2).all(|w| w[1] > w[0]), "{speeds:?}");
+    }
+
+    /// The dynamic form of the law: the same power as [`law_power_mw`], its inverse, and none in
+    /// generator mode.
+    #[test]
+    fn dynamic_law_matches_the_steady_one() {
+        let (e, load) = propeller_engine();
+        let m = e.model(&HealthParams::HEALTHY);
+        let law = PtLoadLaw::of(&m).expect("load law");
+        for n2 in [0.0, 900.0, 1800.0, 3600.0, 4000.0] {
+            assert!((law.power_w(n2) / 1e6 - law_power_mw(&m, &load, n2)).abs() < 1e-12);
+        }
+        assert!((law.speed_for_power_rpm(31.4 / 8.0) / 1800.0 - 1.0).abs() < 1e-12);
+        assert_eq!(law.power_w(-5.0), 0.0);
+        let generator = Engine::reference().expect("reference");
+        assert!(PtLoadLaw::of(&generator.model(&HealthParams::HEALTHY)).is_none());
     }
 
     #[test]

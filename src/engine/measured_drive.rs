@@ -11,6 +11,7 @@
 use super::config::EngineConfig;
 use super::control::{Feedback, FuelCommand, FuelLimits, Loop, Series, Setpoint, StarterCommand};
 use super::dynamic::{Drive, Stations};
+use super::load::PtLoadLaw;
 use super::model::{Engine, EngineError, Model};
 use super::sensors::MeasurementOptions;
 use super::simulation::{Controller, Simulation, TruthSample, Watch};
@@ -48,6 +49,8 @@ pub struct MeasuredDrive {
     k: usize,
     fuel_cmd: FuelCommand,
     pt_locked: bool,
+    /// The engine file's PT load law (`None`: generator).
+    pt_load: Option<PtLoadLaw>,
     flame: bool,
     starter: StarterCommand,
 }
@@ -80,6 +83,7 @@ impl MeasuredDrive {
             k: 0,
             fuel_cmd: FuelCommand::Off,
             pt_locked: false,
+            pt_load: PtLoadLaw::of(model),
             flame: false,
             starter: StarterCommand::Off,
         }
@@ -111,7 +115,9 @@ impl MeasuredDrive {
             },
             _ => StarterCommand::Off,
         };
-        let locked = matches!(ph, Phase::Loading | Phase::Steady | Phase::Unloading);
+        // A mechanical drive (load law) has no breaker: its PT speed follows the load throughout.
+        let locked = self.pt_load.is_none()
+            && matches!(ph, Phase::Loading | Phase::Steady | Phase::Unloading);
         if locked && !self.pt_locked {
             // The breaker closed: the grid holds the PT at synchronous speed from here on.
             act.set_speed_rpm(Shaft::Pt, self.cfg.design.pt_speed_rpm);
@@ -162,6 +168,7 @@ impl Controller for MeasuredDrive {
             fuel: self.fuel_cmd.clone(),
             starter: self.starter,
             pt_locked: self.pt_locked,
+            pt_load: self.pt_load,
             flame: self.flame,
         }
     }

@@ -7,6 +7,17 @@
 //! It chooses the drive (fuel command, starter, breaker) for each integration step and acts on
 //! the engine only through [`Actuator`] at its transitions; `simulation.rs` runs the model
 //! under it.
+//!
+//! Mechanical drive (`[load] mode = "load_law"`, e.g. a pipeline compressor): there is no
+//! breaker and no synchronisation; the driven machine is coupled from standstill and absorbs
+//! `P_law(n2)` (`load.rs`). As a pipeline compressor's unit control does, the fuel governs PT
+//! speed (the station control asks for a compressor speed), within the same acceleration,
+//! deceleration and minimum-fuel limits. After core idle the PT governor ramps the PT to its
+//! minimum governed speed (where the law absorbs `min_load_mw`), holds it for the warm-up
+//! (`warmup_s`, reported as loading), then ramps the speed set-point to the speed where the law
+//! absorbs `base_load_mw`, in the time the power ramp `load_ramp_mw_s` would take; steady when
+//! the shaft power is within 1 % of base load after the ramp. A stop ramps the speed back to the
+//! minimum governed speed, holds it for the cool-down, then cuts the fuel.
 //! Pure and deterministic: no I/O, no randomness (sensor noise is applied afterwards).
 
 use super::config::EngineConfig;
@@ -14,6 +25,7 @@ use super::control::{
     Feedback, FuelCommand, FuelLimits, Loop, Ramp, Series, Setpoint, StarterCommand,
 };
 use super::dynamic::{Drive, Stations};
+use super::load::PtLoadLaw;
 use super::model::Model;
 use super::simulation::{Controller, Watch};
 use super::state::{Actuator, Shaft};
@@ -137,6 +149,8 @@ pub struct Sequencer {
     starter_engaged: bool,
     fuel: FuelCommand,
     pt_locked: bool,
+    /// The PT's mechanical load law (`None`: generator on a breaker).
+    pt_load: Option<PtLoadLaw>,
     flame: bool,
     events: Vec<Event>,
     next_event: usize,
@@ -156,6 +170,7 @@ impl Sequencer {
             starter_engaged: false,
             fuel: FuelCommand::Off,
             pt_locked: false,
+            pt_load: PtLoadLaw::of(model),
             flame: false,
             events,
             next_event: 0,
@@ -199,6 +214,7 @@ impl Sequencer {
             fuel: self.fuel.clone(),
             starter,
             pt_locked: self.pt_locked,
+            pt_load: self.pt_load,
             flame: self.flame,
         }
     }
@@ -245,7 +261,7 @@ impl Sequencer {
                 }
                 w
             }
-            Mode::PtGovern => vec![n2(0.99 * self.cfg.design.pt_speed_rpm, true)],
+            Mode::PtGovern => vec![n2(0.99 * self.pt_governor_target_rpm(), true)],
             Mode::Coastdown { .. } => vec![n1(q.rest_speed_rpm, false)],
             _ => Vec::new(),
         }
@@ -303,6 +319,9 @@ impl Sequencer {
                 }
             }
             Command::Stop => match self.mode {
+                Mode::Steady | Mode::Loading { .. } if self.pt_load.is_some() => {
+                    self.mechanical_stop(t, act, st);
+                }
                 Mode::Steady | Mode::Loading { .. } => {
                     let p0 = st.pt_shaft_mw;
                     let ramp = Ramp {
@@ -346,6 +365,11 @@ impl Sequencer {
         let tol = 1e-6;
         let n1 = act.speed_rpm(Shaft::Gg);
         let n2 = act.speed_rpm(Shaft::Pt);
+        if let Some(law) = self.pt_load {
+            if let Some(done) = self.mechanical_transition(t, act, st, &law, n2) {
+                return done;
+            }
+        }
         match self.mode {
             Mode::Crank if n1 >= 0.98 * q.purge_speed_rpm * (1.0 - tol) => {
                 self.mode = Mode::Purge {
@@ -452,6 +476,90 @@ impl Sequencer {
             _ => return false,
         }
         true
+    }
+
+    /// The PT speed the governor ramps to after core idle: synchronous speed for a generator, the
+    /// minimum governed speed of a mechanical drive.
+    fn pt_governor_target_rpm(&self) -> f64 {
+        match &self.pt_load {
+            None => self.cfg.design.pt_speed_rpm,
+            Some(law) => law.speed_for_power_rpm(self.cfg.sequence.min_load_mw),
+        }
+    }
+
+    /// The transitions in which a mechanical drive differs from a generator (module docs);
+    /// `None` for modes it shares with the generator sequence.
+    fn mechanical_transition(
+        &mut self,
+        t: f64,
+        act: &mut Actuator<'_>,
+        st: &Stations,
+        law: &PtLoadLaw,
+        n2: f64,
+    ) -> Option<bool> {
+        let q = self.cfg.sequence.clone();
+        let n_min = law.speed_for_power_rpm(q.min_load_mw);
+        let tol = 1e-6;
+        match self.mode {
+            Mode::Idle { until } if t >= until - 1e-9 => {
+                // As the generator's PT governor, with the minimum governed speed as the target.
+                let r = q.pt_accel_rate_rpm_s;
+                let knee = (0.95 * n_min).max(n2).min(n_min);
+                let t1 = t + (knee - n2).max(0.0) / r;
+                let t2 = t1 + (n_min - knee) / (r / 6.0);
+                let series = Series {
+                    t_s: vec![t, t1, t2],
+                    value: vec![n2.min(knee), knee, n_min],
+                };
+                let cmd = self.pid(Loop::PtSpeed, Setpoint::Series(Arc::new(series)));
+                self.switch_fuel(t, act, st, cmd);
+                self.mode = Mode::PtGovern;
+            }
+            Mode::PtGovern if n2 >= 0.99 * n_min * (1.0 - tol) => {
+                // Warm-up at the minimum governed speed, then the speed ramp to base load.
+                let n_base = law.speed_for_power_rpm(q.base_load_mw);
+                let t1 = t + q.warmup_s;
+                let t2 = t1 + (q.base_load_mw - q.min_load_mw) / q.load_ramp_mw_s;
+                let series = Series {
+                    t_s: vec![t, t1, t2],
+                    value: vec![n_min, n_min, n_base],
+                };
+                let cmd = self.pid(Loop::PtSpeed, Setpoint::Series(Arc::new(series)));
+                self.switch_fuel(t, act, st, cmd);
+                self.mode = Mode::Loading { ramp_done_at: t2 };
+            }
+            Mode::Unloading { ramp_done_at } if t >= ramp_done_at - 1e-9 => {
+                let cmd = self.pid(Loop::PtSpeed, Setpoint::Ramp(Ramp::hold(n_min)));
+                self.switch_fuel(t, act, st, cmd);
+                self.mode = Mode::Cooldown {
+                    until: t + q.cooldown_s,
+                };
+            }
+            Mode::Idle { .. } | Mode::PtGovern | Mode::Unloading { .. } => return Some(false),
+            _ => return None,
+        }
+        Some(true)
+    }
+
+    /// Normal stop of a mechanical drive: the PT speed set-point ramps down to the minimum
+    /// governed speed at the loading ramp's speed rate.
+    fn mechanical_stop(&mut self, t: f64, act: &mut Actuator<'_>, st: &Stations) {
+        let Some(law) = self.pt_load else { return };
+        let q = &self.cfg.sequence;
+        let n_min = law.speed_for_power_rpm(q.min_load_mw);
+        let n_base = law.speed_for_power_rpm(q.base_load_mw);
+        let rate = (n_base - n_min) * q.load_ramp_mw_s / (q.base_load_mw - q.min_load_mw).max(1e-9);
+        let ramp = Ramp {
+            t0: t,
+            v0: st.n2_rpm,
+            rate: rate.max(1.0),
+            target: n_min.min(st.n2_rpm),
+        };
+        let cmd = self.pid(Loop::PtSpeed, Setpoint::Ramp(ramp));
+        self.switch_fuel(t, act, st, cmd);
+        self.mode = Mode::Unloading {
+            ramp_done_at: ramp.end_time().max(t + 1.0),
+        };
     }
 
     /// Whether `update` must be called after every step (conditions that are not thresholds).

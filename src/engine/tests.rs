@@ -26,6 +26,7 @@ impl Controller for Constant {
             fuel: FuelCommand::Fixed(self.fuel),
             starter: StarterCommand::Off,
             pt_locked: true,
+            pt_load: None,
             flame: true,
         }
     }

@@ -165,7 +165,7 @@ pub enum LoadMode {
     #[default]
     Generator,
     /// A mechanical drive or propeller absorbing `P = P_design · (n2/n2_design)^exponent`: the
-    /// PT speed follows the load (steady runs; `engine/load.rs`).
+    /// PT speed follows the load (steady and dynamic runs; `engine/load.rs`).
     LoadLaw,
 }
 
@@ -338,7 +338,7 @@ pub struct EngineConfig {
     /// The fuel (`config/fuel.rs`); absent = methane.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fuel: Option<FuelConfig>,
-    /// What sets the PT speed in steady runs (`engine/load.rs`); absent = generator.
+    /// What sets the PT speed in steady and dynamic runs (`engine/load.rs`); absent = generator.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub load: Option<LoadConfig>,
     /// Optional model effects, each a table `[effects.<name>]` of its parameters (see
