@@ -60,6 +60,8 @@ pub fn default_limits(signal: Signal) -> SignalLimits {
         Signal::FuelFlow => l(-0.05, 6.0, 3.0),
         Signal::Power => l(-5.0, 100.0, 60.0),
         Signal::SurgeMargin => l(-50.0, 100.0, 100.0),
+        Signal::Torque => l(-20.0, 500.0, 300.0),
+        Signal::InletDepression => l(-1.0, 10.0, 5.0),
     }
 }
 

@@ -42,11 +42,17 @@ pub enum Signal {
     Power,
     /// Compressor surge margin, percent (model only).
     SurgeMargin,
+    /// Shaft torque at the PT coupling, kN·m (a torque meter: power = torque × ω; mechanical
+    /// drives often measure this rather than electrical power).
+    Torque,
+    /// Compressor inlet depression, ambient minus compressor-inlet total pressure, kPa: the
+    /// bellmouth/filter-house pressure drop, a flow measure (it grows with flow squared).
+    InletDepression,
 }
 
 impl Signal {
     /// All signals in the canonical column order of `gtwatch simulate`.
-    pub const ALL: [Signal; 15] = [
+    pub const ALL: [Signal; 17] = [
         Signal::N1,
         Signal::N2,
         Signal::T1,
@@ -62,6 +68,8 @@ impl Signal {
         Signal::FuelFlow,
         Signal::Power,
         Signal::SurgeMargin,
+        Signal::Torque,
+        Signal::InletDepression,
     ];
 
     /// Column / tag name with its unit, e.g. `n1_rpm`, `p2_kpa`.
@@ -82,6 +90,8 @@ impl Signal {
             Signal::FuelFlow => "fuel_kg_s",
             Signal::Power => "power_mw",
             Signal::SurgeMargin => "surge_margin",
+            Signal::Torque => "torque_knm",
+            Signal::InletDepression => "dp_inlet_kpa",
         }
     }
 
@@ -103,6 +113,8 @@ impl Signal {
             Signal::FuelFlow => "fuel_flow",
             Signal::Power => "power",
             Signal::SurgeMargin => "surge_margin",
+            Signal::Torque => "torque",
+            Signal::InletDepression => "dp_inlet",
         }
     }
 

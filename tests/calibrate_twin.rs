@@ -6,12 +6,13 @@
 //! Also `gtwatch calibrate` end to end on the shipped example baseline.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-use gtwatch::calibrate::synthetic::{load_sweep, snapshot_csv};
+use gtwatch::calibrate::synthetic::{load_sweep, snapshot_csv_of, OperatingPoint, WRITTEN};
 use gtwatch::calibrate::{calibrate, candidates::default_candidates, CalibrationSettings};
 use gtwatch::diagnosis::snapshot::{diagnose_snapshots, read_snapshots, Snapshot};
 use gtwatch::diagnosis::DiagnosisConfig;
-use gtwatch::engine::Engine;
+use gtwatch::engine::{Engine, EngineConfig};
 use gtwatch::health::{HealthParams, HEALTH_NAMES};
+use gtwatch::signals::Signal;
 use std::collections::HashMap;
 
 /// The true unit: the reference engine file with its design values moved.
@@ -57,6 +58,43 @@ fn rows(csv: &str) -> Vec<Snapshot> {
 #[test]
 fn calibration_removes_the_design_mismatch_from_the_diagnosis() {
     let file = Engine::reference().expect("reference");
+    twin(&file, &WRITTEN);
+}
+
+/// The second engine (`config/engine_md22.toml`): a mechanical drive whose PT speed follows the
+/// load, instrumented with a coupling torque meter instead of a power measurement and with an
+/// exhaust (PT-exit) thermocouple.
+#[test]
+fn calibration_on_the_mechanical_drive_engine_with_torque() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("config/engine_md22.toml");
+    let file = Engine::new(EngineConfig::load(&path).expect("md22 loads")).expect("md22");
+    twin(
+        &file,
+        &[
+            Signal::N1,
+            Signal::P1,
+            Signal::T2,
+            Signal::P2,
+            Signal::T34,
+            Signal::P34,
+            Signal::T4,
+            Signal::Torque,
+        ],
+    );
+}
+
+/// Calibrates `file` on healthy snapshots of a true unit that differs from it by realistic
+/// design amounts (instruments `written`), then diagnoses degraded snapshots of that unit with
+/// the uncalibrated and the calibrated file side by side.
+fn twin(file: &Engine, written: &[Signal]) {
+    let snapshot_csv =
+        |engine: &Engine,
+         h: &HealthParams,
+         pts: &[OperatingPoint],
+         group: &str,
+         avg: f64,
+         seed: u64| { snapshot_csv_of(engine, h, pts, group, avg, seed, written) };
+    let file = file.clone();
     let truth = true_unit(&file);
     let points = load_sweep(&file, 9);
     let baseline =

@@ -10,6 +10,7 @@
 //! seed.
 
 use crate::engine::gas_path::signal_value;
+use crate::engine::load::PtLoadLaw;
 use crate::engine::sensors::noise_sigma;
 use crate::engine::steady::{solve, Demand, SteadyInputs};
 use crate::engine::Engine;
@@ -96,7 +97,7 @@ pub fn load_sweep(engine: &Engine, n: usize) -> Vec<OperatingPoint> {
 }
 
 /// Snapshot CSV text of `engine` at `health` over `points`; `group` fills a `test` column.
-/// An error names the point whose steady solve failed.
+/// Writes the [`WRITTEN`] signals. An error names the point whose steady solve failed.
 pub fn snapshot_csv(
     engine: &Engine,
     health: &HealthParams,
@@ -105,28 +106,48 @@ pub fn snapshot_csv(
     averaging: f64,
     seed: u64,
 ) -> Result<String, String> {
+    snapshot_csv_of(engine, health, points, group, averaging, seed, &WRITTEN)
+}
+
+/// [`snapshot_csv`] writing the compared signals `written` (the unit's instrument set: e.g.
+/// torque instead of power, no P34). The PT speed of each point is the design speed for a
+/// generator drive, and the load law's speed for the point's power on a mechanical drive
+/// (`[load] mode = "load_law"`), as that unit would run.
+pub fn snapshot_csv_of(
+    engine: &Engine,
+    health: &HealthParams,
+    points: &[OperatingPoint],
+    group: &str,
+    averaging: f64,
+    seed: u64,
+    written: &[Signal],
+) -> Result<String, String> {
     let cfg = engine.cfg();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut csv = String::from("test,t1_k,p_amb_kpa,n2_rpm,fuel_kg_s");
-    for s in WRITTEN {
+    for s in written {
         csv.push(',');
         csv.push_str(s.column());
     }
     csv.push('\n');
     for (k, p) in points.iter().enumerate() {
+        let m = engine.model_at(health, p.t_amb_k, p.p_amb_kpa);
+        let n2_rpm = match PtLoadLaw::of(&m) {
+            Some(law) => law.speed_for_power_rpm(p.power_mw),
+            None => cfg.design.pt_speed_rpm,
+        };
         let inputs = SteadyInputs {
             t_amb_k: p.t_amb_k,
             p_amb_kpa: p.p_amb_kpa,
-            n2_rpm: cfg.design.pt_speed_rpm,
+            n2_rpm,
             demand: Demand::PowerMw(p.power_mw),
         };
-        let m = engine.model_at(health, p.t_amb_k, p.p_amb_kpa);
         let sp = solve(&m, &inputs, None).map_err(|e| format!("point {k} ({p:?}): {e}"))?;
         csv.push_str(&format!(
             "{group},{},{},{},{}",
             p.t_amb_k, p.p_amb_kpa, inputs.n2_rpm, sp.stations.fuel_kg_s
         ));
-        for s in WRITTEN {
+        for &s in written {
             let x = signal_value(&sp.stations, s);
             let sd = noise_sigma(&cfg.sensors, s, x) / averaging.max(1.0).sqrt();
             let noisy = match Normal::new(0.0, sd) {

@@ -177,6 +177,8 @@ fn implausible(s: Signal, v: f64) -> Option<String> {
         Signal::N1 | Signal::N2 => (0.0, 100_000.0),
         Signal::FuelFlow => (0.0, 100.0),
         Signal::Power => (-10.0, 1_000.0),
+        Signal::Torque => (-100.0, 10_000.0),
+        Signal::InletDepression => (-1.0, 20.0),
         Signal::SurgeMargin => return None,
     };
     (!(lo..=hi).contains(&v)).then(|| format!("{v} is outside the plausible range {lo}…{hi}"))

@@ -81,6 +81,7 @@ pub fn design_cycle(cfg: &EngineConfig, fuel: &Fuel) -> Result<Stations, EngineE
         let p_pt = w_total * (h34 - h4);
         let power = losses.pt_shaft(p_pt) - pt_windage;
         Ok(Stations {
+            p_amb_kpa: cfg.ambient.pressure_kpa,
             n1_rpm: d.gg_speed_rpm,
             n2_rpm: d.pt_speed_rpm,
             t1_k: t1,

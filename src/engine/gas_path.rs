@@ -29,6 +29,8 @@ pub const PT_STALL_FRACTION: f64 = 0.1;
 /// point, whether the design point, a steady point or an instant of a transient.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct Stations {
+    /// Ambient (static) pressure the inlet draws from, kPa.
+    pub p_amb_kpa: f64,
     pub n1_rpm: f64,
     pub n2_rpm: f64,
     pub t1_k: f64,
@@ -89,7 +91,16 @@ pub fn signal_value(st: &Stations, s: Signal) -> f64 {
         Signal::FuelFlow => st.fuel_kg_s,
         Signal::Power => st.power_mw,
         Signal::SurgeMargin => st.surge_margin_pct,
+        Signal::Torque => torque_knm(st.power_mw, st.n2_rpm),
+        Signal::InletDepression => st.p_amb_kpa - st.p1_kpa,
     }
+}
+
+/// Shaft torque at the PT coupling, kN·m, for `power_mw` delivered there at `n2_rpm`: what a
+/// torque meter on the coupling reads (power = torque × ω). Below 1 rpm the speed is held at
+/// 1 rpm: a shaft at rest transmits no power, and the reading must stay finite.
+pub fn torque_knm(power_mw: f64, n2_rpm: f64) -> f64 {
+    power_mw * 1e3 / (n2_rpm.max(1.0) * PI / 30.0)
 }
 
 /// Every signal's value in a station table.
@@ -166,6 +177,8 @@ pub struct GasPath {
     pub n2_rpm: f64,
     pub t1_k: f64,
     pub p34_kpa: f64,
+    /// Ambient pressure, kPa (the inlet depression P_amb − P1 is a flow measure).
+    pub p_amb_kpa: f64,
     /// Station pressures (compressor inlet after the inlet loss, exit, combustor exit, PT
     /// exit before the exhaust loss) and the combustor exit temperature.
     pub p1_kpa: f64,
@@ -203,6 +216,7 @@ impl GasPath {
     pub fn stations(&self) -> Stations {
         let (comp, hpt, pt) = (&self.compressor, &self.hpt, &self.pt);
         Stations {
+            p_amb_kpa: self.p_amb_kpa,
             n1_rpm: self.n1_rpm,
             n2_rpm: self.n2_rpm,
             t1_k: self.t1_k,
@@ -333,6 +347,7 @@ pub fn evaluate(model: &Model, inp: &Inputs, adjust: Option<&Adjust>) -> GasPath
         n2_rpm: n2,
         t1_k: t1,
         p34_kpa: p34,
+        p_amb_kpa: p_amb,
         p1_kpa: p1,
         p2_kpa: p2,
         p3_kpa: p3,

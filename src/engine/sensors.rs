@@ -29,6 +29,8 @@ pub fn channel(cfg: &SensorsConfig, s: Signal) -> Option<&SensorChannel> {
         Signal::P4 => &cfg.p4,
         Signal::FuelFlow => &cfg.fuel,
         Signal::Power => &cfg.power,
+        Signal::Torque => &cfg.torque,
+        Signal::InletDepression => &cfg.dp_inlet,
         Signal::SurgeMargin => return None,
     })
 }

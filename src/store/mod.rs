@@ -134,6 +134,8 @@ pub fn signal_unit(signal: Signal) -> &'static str {
         Signal::FuelFlow => "kg/s",
         Signal::Power => "MW",
         Signal::SurgeMargin => "%",
+        Signal::Torque => "kN·m",
+        Signal::InletDepression => "kPa",
     }
 }
 

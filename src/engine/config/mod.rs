@@ -307,6 +307,31 @@ pub struct SensorsConfig {
     pub p4: SensorChannel,
     pub fuel: SensorChannel,
     pub power: SensorChannel,
+    /// PT coupling torque meter (absent from older engine files: 0.5 % noise, no lag).
+    #[serde(default = "default_torque_channel")]
+    pub torque: SensorChannel,
+    /// Inlet depression transmitter, P_amb − P1 (absent from older files: 0.02 kPa noise,
+    /// 0.05 s lag — a differential transmitter is far more precise than two absolute ones).
+    #[serde(default = "default_dp_inlet_channel")]
+    pub dp_inlet: SensorChannel,
+}
+
+fn default_torque_channel() -> SensorChannel {
+    SensorChannel {
+        tau_s: 0.0,
+        noise_rel: 0.005,
+        noise_abs: 0.0,
+        bias: 0.0,
+    }
+}
+
+fn default_dp_inlet_channel() -> SensorChannel {
+    SensorChannel {
+        tau_s: 0.05,
+        noise_rel: 0.0,
+        noise_abs: 0.02,
+        bias: 0.0,
+    }
 }
 
 /// Integration settings.
