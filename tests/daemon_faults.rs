@@ -289,9 +289,9 @@ struct GarbagePlant {
 impl PlantModel for GarbagePlant {
     fn step(&mut self) -> PlantFrame {
         self.k += 1;
-        let mut v = [0.0; 15];
+        let mut v = [0.0; gtwatch::signals::NSIG];
         let good = self.k % 2 == 0;
-        let set = |v: &mut [f64; 15], s: Signal, good_v: f64, bad_v: f64| {
+        let set = |v: &mut [f64; gtwatch::signals::NSIG], s: Signal, good_v: f64, bad_v: f64| {
             v[s.index()] = if good { good_v } else { bad_v };
         };
         set(&mut v, Signal::N1, 9000.0, f64::NAN); // f32 NaN → bad

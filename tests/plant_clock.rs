@@ -108,7 +108,7 @@ impl PlantModel for Backwards {
         self.k += 1;
         PlantFrame {
             t_s: t,
-            values: [0.0; 15],
+            values: [0.0; gtwatch::signals::NSIG],
             phase: Phase::Standstill,
         }
     }

@@ -32,7 +32,7 @@ pub struct PlantFrame {
     /// Simulation time, s.
     pub t_s: f64,
     /// Indexed by [`Signal::index`].
-    pub values: [f64; 15],
+    pub values: [f64; crate::signals::NSIG],
     /// True operating phase of this frame.
     pub phase: Phase,
 }

@@ -4,7 +4,7 @@
 //! model fails (the frame is then held).
 
 use super::{PlantFrame, PlantModel};
-use crate::signals::Phase;
+use crate::signals::{Phase, NSIG};
 
 /// The engine model as the plant source: [`crate::engine::plant::SimulatedPlant`] (the dynamic
 /// model through a repeating schedule of starts, stops, an aborted start and a hot restart, with
@@ -22,7 +22,7 @@ impl ModelPlant {
             plant,
             last: PlantFrame {
                 t_s: 0.0,
-                values: [0.0; 15],
+                values: [0.0; NSIG],
                 phase: Phase::Standstill,
             },
             failed: false,

@@ -3,7 +3,7 @@
 //! and its tests work without the engine model. Pure: no I/O, no clock.
 
 use super::{PlantFrame, PlantModel};
-use crate::signals::{Phase, Signal};
+use crate::signals::{Phase, Signal, NSIG};
 
 /// Operating points of the scripted start (contract defaults; speeds rpm, fuel kg/s, power MW).
 #[derive(Debug, Clone, PartialEq)]
@@ -241,7 +241,7 @@ impl ScriptedPlant {
 
     /// Plausible gas-path values from the scripted operating state. Not physics: simple
     /// monotone relations so that every channel moves with the start-up the way a plant's does.
-    fn measurements(&self, op: Operating) -> [f64; 15] {
+    fn measurements(&self, op: Operating) -> [f64; NSIG] {
         let (t1, p1) = (self.ambient_t_k, self.ambient_p_kpa);
         let r = (op.n1 / self.levels.full_load_rpm).max(0.0);
         let pr = 1.0 + 23.1 * r.powf(2.2);
@@ -255,7 +255,7 @@ impl ScriptedPlant {
         let p34 = p1 * (1.0 + 3.2 * r * r);
         let t4 = t34 - (t34 - t1) * 0.3 * (op.n2 / self.levels.pt_sync_rpm).clamp(0.0, 1.0);
         let p4 = 1.03 * p1;
-        let mut v = [0.0; 15];
+        let mut v = [0.0; NSIG];
         v[Signal::N1.index()] = op.n1;
         v[Signal::N2.index()] = op.n2;
         v[Signal::T1.index()] = t1;
