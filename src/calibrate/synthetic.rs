@@ -10,9 +10,9 @@
 //! seed.
 
 use crate::engine::gas_path::signal_value;
-use crate::engine::load::PtLoadLaw;
+use crate::engine::load;
 use crate::engine::sensors::noise_sigma;
-use crate::engine::steady::{solve, Demand, SteadyInputs};
+use crate::engine::steady::{Demand, SteadyInputs};
 use crate::engine::Engine;
 use crate::health::HealthParams;
 use crate::signals::Signal;
@@ -132,20 +132,18 @@ pub fn snapshot_csv_of(
     csv.push('\n');
     for (k, p) in points.iter().enumerate() {
         let m = engine.model_at(health, p.t_amb_k, p.p_amb_kpa);
-        let n2_rpm = match PtLoadLaw::of(&m) {
-            Some(law) => law.speed_for_power_rpm(p.power_mw),
-            None => cfg.design.pt_speed_rpm,
-        };
         let inputs = SteadyInputs {
             t_amb_k: p.t_amb_k,
             p_amb_kpa: p.p_amb_kpa,
-            n2_rpm,
+            n2_rpm: cfg.design.pt_speed_rpm,
             demand: Demand::PowerMw(p.power_mw),
         };
-        let sp = solve(&m, &inputs, None).map_err(|e| format!("point {k} ({p:?}): {e}"))?;
+        // The engine file's load mode sets the PT speed (a load law: its speed for this power).
+        let (sp, _) = load::solve(&m, cfg.load.as_ref(), &inputs, None)
+            .map_err(|e| format!("point {k} ({p:?}): {e}"))?;
         csv.push_str(&format!(
             "{group},{},{},{},{}",
-            p.t_amb_k, p.p_amb_kpa, inputs.n2_rpm, sp.stations.fuel_kg_s
+            p.t_amb_k, p.p_amb_kpa, sp.stations.n2_rpm, sp.stations.fuel_kg_s
         ));
         for &s in written {
             let x = signal_value(&sp.stations, s);
