@@ -68,20 +68,21 @@ fn calibration_removes_the_design_mismatch_from_the_diagnosis() {
 fn calibration_on_the_mechanical_drive_engine_with_torque() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("config/engine_md22.toml");
     let file = Engine::new(EngineConfig::load(&path).expect("md22 loads")).expect("md22");
-    twin(
-        &file,
-        &[
-            Signal::N1,
-            Signal::P1,
-            Signal::T2,
-            Signal::P2,
-            Signal::T34,
-            Signal::P34,
-            Signal::T4,
-            Signal::Torque,
-        ],
-    );
+    twin(&file, &MD22_INSTRUMENTS);
 }
+
+/// The second engine's instrument set: a coupling torque meter instead of a power
+/// measurement, an exhaust (PT-exit) thermocouple.
+const MD22_INSTRUMENTS: [Signal; 8] = [
+    Signal::N1,
+    Signal::P1,
+    Signal::T2,
+    Signal::P2,
+    Signal::T34,
+    Signal::P34,
+    Signal::T4,
+    Signal::Torque,
+];
 
 /// Calibrates `file` on healthy snapshots of a true unit that differs from it by realistic
 /// design amounts (instruments `written`), then diagnoses degraded snapshots of that unit with
@@ -292,5 +293,159 @@ fn cli_writes_a_loadable_calibrated_engine_file() {
     assert!(
         !run.status.success() && err.contains("design.nope"),
         "{err}"
+    );
+}
+
+/// A start-up of `unit` at health `h`, as its instruments record it (default lags and noise).
+fn startup_of(unit: &Engine, h: &HealthParams, seed: u64) -> gtwatch::recording::Recording {
+    use gtwatch::engine::sensors::MeasurementOptions;
+    use gtwatch::engine::simulation::run_scenario;
+    use gtwatch::engine::{Scenario, Trace};
+    let (samples, _) =
+        run_scenario(&unit.model(h), &Scenario::startup(unit.cfg())).expect("start-up runs");
+    let opts = MeasurementOptions {
+        lags: true,
+        noise: true,
+        bias: false,
+        seed,
+    };
+    Trace::from_truth(unit, &samples, Some(&opts))
+        .to_recording()
+        .expect("recording")
+}
+
+/// The twin test on start-ups (issue 10 acceptance), on the second engine (mechanical drive,
+/// PT speed following the load): the engine file is calibrated on the true unit's healthy
+/// snapshots together with the steady windows of two healthy start-ups, then degraded
+/// start-ups of the true unit are diagnosed by Method B (the whole transient) with the
+/// uncalibrated file, the calibrated one, and one calibrated on the start-ups alone.
+#[test]
+fn calibration_carries_over_to_method_b_on_start_ups() {
+    use gtwatch::calibrate::startup::startup_snapshots;
+    use gtwatch::diagnosis::config::SteadyCriteria;
+    use gtwatch::diagnosis::transient::diagnose_transient;
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("config/engine_md22.toml");
+    let file = Engine::new(EngineConfig::load(&path).expect("md22 loads")).expect("md22");
+    let truth = true_unit(&file);
+    let healthy_startups: Vec<Snapshot> = (0..2)
+        .flat_map(|k| {
+            let rec = startup_of(&truth, &HealthParams::HEALTHY, 40 + k);
+            startup_snapshots(
+                &rec,
+                file.cfg(),
+                &SteadyCriteria::default(),
+                &format!("su{k}"),
+            )
+        })
+        .collect();
+    assert!(healthy_startups.len() >= 4, "{}", healthy_startups.len());
+    let settings = CalibrationSettings {
+        threads: Some(2),
+        ..CalibrationSettings::default()
+    };
+    // Start-ups alone: fewer operating points (idle, holds, load), so fewer parameters
+    // identified.
+    let (alone, from_startups) = calibrate(
+        &file,
+        &healthy_startups,
+        default_candidates(&file).expect("candidates"),
+        &settings,
+    )
+    .expect("calibration on start-ups");
+    let kept: Vec<&str> = alone
+        .params
+        .iter()
+        .filter(|p| !p.identifiable)
+        .map(|p| p.key.as_str())
+        .collect();
+    eprintln!(
+        "start-ups alone: rms {:.2} → {:.2}; kept at guesses: {kept:?}",
+        alone.rms_before, alone.rms_after
+    );
+    assert!(alone.rms_after < 0.5 * alone.rms_before, "{alone:?}");
+    assert!(alone.rms_after < 1.5, "{}", alone.rms_after);
+
+    let points = load_sweep(&file, 9);
+    let sweep = snapshot_csv_of(
+        &truth,
+        &HealthParams::HEALTHY,
+        &points,
+        "base",
+        25.0,
+        11,
+        &MD22_INSTRUMENTS,
+    )
+    .expect("baseline");
+    let mut baseline = rows(&sweep);
+    baseline.extend(healthy_startups);
+    let (report, calibrated) = calibrate(
+        &file,
+        &baseline,
+        default_candidates(&file).expect("candidates"),
+        &settings,
+    )
+    .expect("calibration");
+    eprintln!(
+        "snapshots + start-ups: rms {:.2} → {:.2}, {} identified",
+        report.rms_before,
+        report.rms_after,
+        report.params.iter().filter(|p| p.identifiable).count()
+    );
+    assert!(report.rms_after < 1.0, "{}", report.rms_after);
+
+    let cfg = DiagnosisConfig {
+        threads: Some(2),
+        ..DiagnosisConfig::default()
+    };
+    let truths = [
+        [1.5, 0.5, 0.0, 0.0, 0.0, 0.0],
+        [3.0, 1.0, 1.0, 0.7, 0.0, 0.0],
+        [0.0, 0.0, 0.5, 1.5, -0.5, 1.0],
+    ];
+    let mut sq = [[0.0f64; 6]; 3];
+    for (g, t) in truths.iter().enumerate() {
+        let rec = startup_of(&truth, &HealthParams::from_array(*t), 70 + g as u64);
+        for (k, engine) in [&file, &calibrated, &from_startups].into_iter().enumerate() {
+            let r = diagnose_transient(engine, &rec, &cfg).expect("Method B");
+            let est = r.health.to_array();
+            eprintln!(
+                "start-up {g} {}: {est:.2?} (truth {t:?}), fit {}",
+                [
+                    "uncalibrated",
+                    "calibrated",
+                    "calibrated on start-ups alone"
+                ][k],
+                r.fit_quality.verdict.as_str()
+            );
+            for i in 0..6 {
+                sq[k][i] += (est[i] - t[i]).powi(2);
+            }
+        }
+    }
+    let rmse = |k: usize, i: usize| (sq[k][i] / truths.len() as f64).sqrt();
+    eprintln!(
+        "Method B health RMSE on start-ups, points: parameter  uncalibrated  calibrated  \
+         calibrated on start-ups alone"
+    );
+    for i in 0..6 {
+        eprintln!(
+            "  {:5} {:6.2} {:6.2} {:6.2}",
+            HEALTH_NAMES[i],
+            rmse(0, i),
+            rmse(1, i),
+            rmse(2, i)
+        );
+    }
+    for k in [1, 2] {
+        for i in 0..6 {
+            assert!(rmse(k, i) <= 0.3, "{k} {}: {}", HEALTH_NAMES[i], rmse(k, i));
+        }
+    }
+    let worst = |k: usize| (0..6).map(|i| rmse(k, i)).fold(0.0, f64::max);
+    assert!(
+        worst(0) > 3.0 * worst(1) && worst(0) > 0.6,
+        "uncalibrated {} vs calibrated {}",
+        worst(0),
+        worst(1)
     );
 }

@@ -1,5 +1,6 @@
 //! Calibration to one unit's healthy baseline (issue 10 item 2): from steady snapshots across
-//! the load range (the CSV `gtwatch diagnose --method steady --input` reads) and an engine file
+//! the load range (the CSV `gtwatch diagnose --method steady --input` reads) and/or the steady
+//! windows of recorded start-ups ([`startup`]), and an engine file
 //! whose design values are guesses, fit the design parameters the data can identify and keep
 //! the others at their guesses, saying why.
 //!
@@ -22,6 +23,7 @@ pub mod candidates;
 pub mod edit;
 pub mod identify;
 pub mod problem;
+pub mod startup;
 pub mod synthetic;
 
 use crate::diagnosis::snapshot::Snapshot;
@@ -98,8 +100,10 @@ pub struct SignalResiduals {
 /// Residuals of one operating point over its signals, in noise σ.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PointResiduals {
-    /// The snapshot's file line.
+    /// The snapshot's file line (a start-up window's: its first sample's).
     pub line: u64,
+    /// The snapshot's file or group, or the start-up file and window times.
+    pub source: String,
     pub rms_before: f64,
     pub rms_after: f64,
 }
@@ -276,6 +280,7 @@ pub fn calibrate(
             };
             PointResiduals {
                 line: p.line,
+                source: p.source.clone(),
                 rms_before: rms(&pick(&r0)),
                 rms_after: rms(&pick(&r1)),
             }

@@ -22,8 +22,11 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 /// One healthy operating point of the calibration.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CalibrationPoint {
-    /// File line of the snapshot.
+    /// File line of the snapshot (of a start-up window: of its first sample).
     pub line: u64,
+    /// Where the point comes from: the snapshot's group (a start-up window names its file and
+    /// times).
+    pub source: String,
     pub data: SteadyData,
 }
 
@@ -65,7 +68,11 @@ pub fn prepare(engine: &Engine, rows: &[Snapshot]) -> PreparedPoints {
             out.ambient_from_p1 = true;
         }
         match steady_data(engine, &HealthParams::HEALTHY, r, i, &mut out.assumptions) {
-            Some(data) => out.points.push(CalibrationPoint { line: r.line, data }),
+            Some(data) => out.points.push(CalibrationPoint {
+                line: r.line,
+                source: r.group.clone(),
+                data,
+            }),
             None => out.dropped_lines.push(r.line),
         }
     }

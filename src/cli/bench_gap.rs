@@ -42,7 +42,8 @@ pub fn run(a: BenchGapArgs) -> anyhow::Result<ExitCode> {
         crate::gap::bench::run_cases(&engine, a.cases, a.seed, &a.kinds, a.holdout, &cfg, |c| {
             eprintln!(
                 "case {:3} {:15} → {:20} {} (signature {:.1} σ, shrinkage {:.0} %, \
-                 magnitude {:.3} fitted {}, max health error {:.2} → {:.2})",
+                 magnitude {:.3} fitted {}, max health error {:.2} → {:.2}, screen rank {}, \
+                 {:.0} s)",
                 c.index,
                 c.kind,
                 c.verdict,
@@ -53,7 +54,10 @@ pub fn run(a: BenchGapArgs) -> anyhow::Result<ExitCode> {
                 c.fitted_magnitude
                     .map_or("-".to_string(), |m| format!("{m:.3}")),
                 c.error_before,
-                c.error_after
+                c.error_after,
+                c.expected_screen_rank
+                    .map_or("-".to_string(), |k| k.to_string()),
+                c.analysis_wall_s
             );
         })?;
     let cases = &run.cases;

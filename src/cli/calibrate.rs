@@ -1,11 +1,13 @@
 //! `gtwatch calibrate`: adapt an engine file's design values to one unit's healthy baseline
-//! (steady snapshots, the CSV `gtwatch diagnose --method steady` reads) and write the new
+//! (steady snapshots, the CSV `gtwatch diagnose --method steady` reads, and/or the steady
+//! windows of recorded start-ups) and write the new
 //! engine file (`calibrate`, `calibrate::edit`). Prints a report, or one JSON document.
 
 use crate::calibrate::candidates::{candidate, default_candidates};
 use crate::calibrate::edit::{rewrite, NewValue};
+use crate::calibrate::startup::startup_snapshots;
 use crate::calibrate::{calibrate, Calibration, CalibrationSettings};
-use crate::diagnosis::csv_input::parse_mapping;
+use crate::diagnosis::csv_input::{parse_mapping, read_recording};
 use crate::diagnosis::snapshot::read_snapshots;
 use crate::engine::{Engine, EngineConfig};
 use anyhow::{bail, Context};
@@ -25,8 +27,17 @@ pub struct CalibrateArgs {
     pub engine: PathBuf,
     /// Healthy steady snapshots across the load range: one averaged operating point per row
     /// (T1, n2, fuel flow and the measured signals; an ambient-pressure column if any).
-    #[arg(long, value_name = "SNAPSHOTS.csv")]
-    pub input: PathBuf,
+    #[arg(
+        long,
+        value_name = "SNAPSHOTS.csv",
+        required_unless_present = "startup"
+    )]
+    pub input: Option<PathBuf>,
+    /// Healthy start-up recordings (the layout `gtwatch simulate` writes, or any CSV with
+    /// --map; repeat for several): each steady window (idle, holds, the settled load) becomes
+    /// one operating point, found and averaged with Method A's stability criteria.
+    #[arg(long, value_name = "STARTUP.csv")]
+    pub startup: Vec<PathBuf>,
     /// Write the calibrated engine file here (without it nothing is written).
     #[arg(long, value_name = "NEW.toml")]
     pub out: Option<PathBuf>,
@@ -85,16 +96,26 @@ fn moved_map_paths(
     Ok(out)
 }
 
+/// The data files of a run, as the header and the JSON name them.
+fn sources(a: &CalibrateArgs) -> Vec<String> {
+    a.input
+        .iter()
+        .chain(&a.startup)
+        .map(|p| p.display().to_string())
+        .collect()
+}
+
 fn header(a: &CalibrateArgs, report: &Calibration, n_rows: usize) -> Vec<String> {
     let now = time::OffsetDateTime::now_utc()
         .format(&time::format_description::well_known::Rfc3339)
         .unwrap_or_else(|_| "?".into());
     let mut h = vec![format!(
-        "Calibrated by gtwatch calibrate {} at {now}: {} fitted to {} healthy snapshot(s) of {}",
+        "Calibrated by gtwatch calibrate {} at {now}: {} fitted to {} healthy operating \
+         point(s) of {}",
         env!("CARGO_PKG_VERSION"),
         a.engine.display(),
         n_rows,
-        a.input.display()
+        sources(a).join(", ")
     )];
     for p in &report.params {
         if p.identifiable {
@@ -151,8 +172,8 @@ fn print_text(report: &Calibration, wall_s: f64) {
     println!("residuals per operating point (RMS, σ)");
     for p in &report.points {
         println!(
-            "  line {:<5} before {:6.2}   after {:6.2}",
-            p.line, p.rms_before, p.rms_after
+            "  {:<40} line {:<5} before {:6.2}   after {:6.2}",
+            p.source, p.line, p.rms_before, p.rms_after
         );
     }
     for a in &report.assumptions {
@@ -180,10 +201,35 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
         Some(m) => parse_mapping(m)?,
         None => HashMap::new(),
     };
-    let file =
-        std::fs::File::open(&a.input).with_context(|| format!("opening {}", a.input.display()))?;
-    let rows = read_snapshots(BufReader::new(file), &mapping, None)
-        .with_context(|| format!("reading {}", a.input.display()))?;
+    let mut rows = Vec::new();
+    if let Some(input) = &a.input {
+        let file =
+            std::fs::File::open(input).with_context(|| format!("opening {}", input.display()))?;
+        let mut snaps = read_snapshots(BufReader::new(file), &mapping, None)
+            .with_context(|| format!("reading {}", input.display()))?;
+        for r in &mut snaps {
+            r.group = input.display().to_string();
+        }
+        rows.extend(snaps);
+    }
+    let criteria = crate::diagnosis::config::SteadyCriteria::default();
+    for path in &a.startup {
+        let file =
+            std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
+        let rec = read_recording(BufReader::new(file), &mapping)
+            .with_context(|| format!("reading {}", path.display()))?;
+        let windows = startup_snapshots(&rec, engine.cfg(), &criteria, &path.display().to_string());
+        if windows.is_empty() {
+            bail!(
+                "{}: no steady window (Method A's criteria: n1, P2, T2, T34 and power stable \
+                 for at least {} s above {:.0} % GG speed)",
+                path.display(),
+                criteria.min_duration_s,
+                100.0 * criteria.min_n1_fraction
+            );
+        }
+        rows.extend(windows);
+    }
     let candidates = match &a.params {
         None => default_candidates(&engine)?,
         Some(list) => {
@@ -210,7 +256,7 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
             format!(
                 "calibrating {} on {}",
                 a.engine.display(),
-                a.input.display()
+                sources(&a).join(", ")
             )
         })?;
     if let Some(out) = &a.out {
@@ -242,7 +288,8 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
             "{}",
             serde_json::to_string_pretty(&json!({
                 "engine": a.engine.display().to_string(),
-                "input": a.input.display().to_string(),
+                "input": a.input.as_ref().map(|p| p.display().to_string()),
+                "startups": a.startup.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
                 "out": a.out.as_ref().map(|p| p.display().to_string()),
                 "rows": rows.len(),
                 "calibration": report,

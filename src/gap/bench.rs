@@ -61,6 +61,11 @@ pub struct Case {
     pub error_after: f64,
     pub health_before: HealthParams,
     pub health_after: HealthParams,
+    /// Rank (1 = first) of the truth's expected candidate in the analysis's screen, and whether
+    /// the screen passed it on to be scored (`None` for truths without a library candidate, or
+    /// when the baseline fitted and nothing was screened).
+    pub expected_screen_rank: Option<usize>,
+    pub expected_shortlisted: Option<bool>,
     /// The analysis's wall time, s, and the fits it ran.
     pub analysis_wall_s: f64,
     pub fits: usize,
@@ -193,6 +198,9 @@ pub fn run_cases(
         };
         let r: GapReport = analyse(engine, &rec, ho.as_ref(), &candidates, cfg)?;
         let winner = r.candidates.iter().find(|c| c.effect == r.verdict.effect);
+        let mut by_screen: Vec<&super::Candidate> = r.candidates.iter().collect();
+        by_screen.sort_by(|a, b| b.screen_shrinkage.total_cmp(&a.screen_shrinkage));
+        let expected_at = by_screen.iter().position(|c| c.effect == expected(kind));
         let c = Case {
             index,
             kind: kind.into(),
@@ -211,6 +219,8 @@ pub fn run_cases(
             error_after: max_error(&r.verdict.health_after, &truth),
             health_before: r.verdict.health_before,
             health_after: r.verdict.health_after,
+            expected_screen_rank: expected_at.map(|k| k + 1),
+            expected_shortlisted: expected_at.map(|k| by_screen[k].shortlisted),
             analysis_wall_s: r.wall_s,
             fits: r.fits,
         };
@@ -318,6 +328,12 @@ pub fn summarise(run: &BenchRun) -> serde_json::Value {
         "health_rmse_after": health_rmse(&in_lib, |c| c.health_after),
         "health_rmse_before_identified": health_rmse(&identified, |c| c.health_before),
         "health_rmse_after_identified": health_rmse(&identified, |c| c.health_after),
+        // Whether the screen passed the truth's candidate on to be scored (in-library cases
+        // where a screen ran).
+        "expected_shortlisted": rate(
+            &in_lib.iter().copied().filter(|c| c.expected_shortlisted.is_some()).collect::<Vec<_>>(),
+            |c| c.expected_shortlisted == Some(true)
+        ),
         "median_analysis_wall_s": median(cases.iter().map(|c| c.analysis_wall_s).collect()),
         "max_analysis_wall_s": cases.iter().map(|c| c.analysis_wall_s).fold(0.0, f64::max),
         "fit_quality_flags_bad_cases": rate(&bad, |c| c.baseline_fit_quality != "good"),

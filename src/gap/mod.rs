@@ -5,13 +5,17 @@
 //!    residual map say whether there is a gap and where.
 //! 2. Candidates: every registry instance asked for (`all` by default), each refitted together
 //!    with the health vector (its parameters as named fit parameters, bounds from the registry,
-//!    a bias's bounds from the channel's readings). Scored by the shrinkage of the residual sum
-//!    of squares on data the fit did not see: a second start-up of the same unit when one is
-//!    given (held out: the effect's parameters fitted on the first are kept, health refitted),
-//!    else two-fold blocked cross-validation over the start-up (alternate [`CV_BLOCK_S`] blocks:
-//!    fitted on one fold, scored on the other, both ways; the leader is then refitted on the
-//!    whole start-up) — with the Bayesian information criterion (n ln(SSR/n) + k ln n) as the
-//!    tie-breaker and the penalty for extra parameters.
+//!    a bias's bounds from the channel's readings). First a screen: each candidate fitted on the
+//!    whole start-up at [`SCREEN_BUDGET`] of a full fit's model runs, starting from the
+//!    baseline's health, ranked by the residual it leaves there. The [`SHORTLIST`] best (those
+//!    within [`SHORTLIST_RATIO`] of the leader) are then scored by the shrinkage of the residual
+//!    sum of squares on data the fit did not see: a second start-up of the same unit when one
+//!    is given (held out: the effect's parameters fitted on the first are kept, health
+//!    refitted), else two-fold blocked cross-validation over the start-up (alternate
+//!    [`CV_BLOCK_S`] blocks: fitted on one fold from the baseline's fit of that fold, scored on
+//!    the other, both ways; the leader is then refitted on the whole start-up) — with the
+//!    Bayesian information criterion (n ln(SSR/n) + k ln n) as the tie-breaker and the penalty
+//!    for extra parameters. Only a shortlisted candidate can be named.
 //! 3. Verdict: `none` when the baseline fits within noise; the best candidate when it lowers
 //!    the BIC, shrinks the gap by more than the optimiser's own spread (the baseline refitted
 //!    with [`SEED_REFITS`] other seeds) and either by at least [`MIN_SHRINKAGE`] or so far
@@ -19,8 +23,9 @@
 //!
 //! Instrument candidates (`sensor_lag:<column>`, `sensor_bias:<column>`) are tried only on
 //! channels the residual map points at; engine effects always. Pure orchestration of the
-//! diagnosis: no I/O. After the baseline, the fits (seed refits, folds, candidates) run in
-//! parallel, one per worker thread, each single-threaded; results do not depend on the order.
+//! diagnosis: no I/O. After the baseline, the fits run in two parallel batches (seed refits,
+//! the baseline's folds or holdout and the screen; then the shortlist's scoring), one fit per
+//! worker thread, each single-threaded; results do not depend on the order.
 
 pub mod bench;
 pub mod svg;
@@ -44,6 +49,17 @@ use std::time::Instant;
 pub const MIN_SHRINKAGE: f64 = 0.3;
 /// Extra baseline fits with other optimiser seeds that measure the optimiser's own spread.
 pub const SEED_REFITS: u64 = 2;
+/// Candidates the screen passes on to be scored on held-out data. A candidate that explains
+/// the gap shrinks it on the fitted start-up too; the screen keeps one analysis to about a
+/// third of the fits that scoring every candidate would take.
+pub const SHORTLIST: usize = 3;
+/// Of those, only candidates whose screen shrinkage is at least this fraction of the leading
+/// candidate's: one that explains a small part of what the leader explains on the data it was
+/// fitted on does not overtake it on data it was not.
+pub const SHORTLIST_RATIO: f64 = 0.25;
+/// A screening fit's budget (model runs, global and Levenberg–Marquardt) as a fraction of a full
+/// candidate fit's.
+pub const SCREEN_BUDGET: f64 = 0.5;
 /// Bounds of a fitted sensor bias: this fraction of the channel's largest reading, either way.
 const BIAS_BOUND_FRACTION: f64 = 0.05;
 
@@ -53,6 +69,13 @@ pub struct Candidate {
     pub effect: String,
     /// Fitted parameters: name → (value, 1σ).
     pub params: BTreeMap<String, (f64, f64)>,
+    /// 1 − SSR(candidate)/SSR(baseline) on the whole start-up in the screen (a reduced-budget
+    /// fit from the baseline's health).
+    pub screen_shrinkage: f64,
+    /// Whether the screen ranked it among the [`SHORTLIST`] scored on held-out data. The
+    /// others keep their screen's fit (`heldout_shrinkage` is `None`, `score` the screen's
+    /// shrinkage) and cannot be named.
+    pub shortlisted: bool,
     /// 1 − SSR(candidate)/SSR(baseline) on the fitted start-up.
     pub train_shrinkage: f64,
     /// The same on the held-out start-up (`None` without one).
@@ -97,10 +120,23 @@ pub struct GapReport {
     pub fits: usize,
     pub threads: usize,
     pub wall_s: f64,
+    /// Wall time of each stage, s: the baseline fit, the first batch (seed refits, the
+    /// baseline's folds or held-out start-up, the screen), the shortlist's scoring, and the
+    /// leader's refit on the whole start-up (cross-validation only).
+    pub stage_wall_s: StageWalls,
     /// The worst signal of the baseline's residual map: measured, modelled before and after
     /// the winning effect (for the SVG; not serialised).
     #[serde(skip)]
     pub worst_signal: Option<SignalTraces>,
+}
+
+/// Wall time of each stage of one analysis, s (0 for a stage that did not run).
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct StageWalls {
+    pub baseline: f64,
+    pub screen: f64,
+    pub scoring: f64,
+    pub leader: f64,
 }
 
 /// One signal over the start-up: measured, the baseline model, and the model with the winning
@@ -239,6 +275,15 @@ enum CandidateFit {
     Fold(FoldFit),
 }
 
+/// `engine` with the effect parameters of `fit` set (the start of a refit from it).
+fn with_effect_params(engine: &Engine, fit: &MethodResult) -> Result<Engine, DiagnosisError> {
+    let mut e = engine.clone();
+    for (key, (v, _)) in effect_params(fit) {
+        e.set_param(&key, v)?;
+    }
+    Ok(e)
+}
+
 /// The effect parameters of a fit: name → (value, 1σ).
 fn effect_params(r: &MethodResult) -> BTreeMap<String, (f64, f64)> {
     r.params
@@ -303,102 +348,187 @@ pub fn analyse(
         Scoring::BlockedCv
     };
     let base = diagnose_transient(engine, rec, cfg)?;
+    let mut stages = StageWalls {
+        baseline: start.elapsed().as_secs_f64(),
+        ..StageWalls::default()
+    };
+    let mut lap = Instant::now();
     let k_base = 6 + usize::from(cfg.fit_ambient_pressure);
     let mut fits = 1;
     let mut out = Vec::new();
     let mut models: BTreeMap<String, Vec<Values>> = BTreeMap::new();
     let mut optimiser_spread = 0.0;
+    // The screen's fit of each candidate (the start of the leader's full refit).
+    let mut screened: BTreeMap<String, MethodResult> = BTreeMap::new();
     if base.fit_quality.verdict != Verdict::Good {
-        // First batch: what optimiser and noise variation alone do to the residual (the
-        // baseline refitted with other seeds; a candidate's shrinkage must exceed it), and the
-        // baseline on the held-out start-up or on each fold.
-        #[derive(Clone, Copy)]
-        enum BaseJob {
-            Seed(u64),
-            Holdout,
-            Fold(u8),
-        }
-        let mut jobs: Vec<BaseJob> = (1..=SEED_REFITS).map(BaseJob::Seed).collect();
-        match scoring {
-            Scoring::Holdout => jobs.push(BaseJob::Holdout),
-            Scoring::BlockedCv => jobs.extend([BaseJob::Fold(0), BaseJob::Fold(1)]),
-        }
-        let done = in_parallel(threads, &jobs, |job| -> Result<FoldFit, DiagnosisError> {
-            match *job {
-                BaseJob::Seed(k) => {
-                    let seeded = DiagnosisConfig {
-                        seed: cfg.seed.wrapping_add(k),
-                        ..single.clone()
-                    };
-                    diagnose_transient(engine, rec, &seeded).map(|fit| FoldFit {
-                        fit,
-                        test_ssr: f64::NAN,
-                    })
-                }
-                BaseJob::Holdout => {
-                    let h = holdout.ok_or_else(|| DiagnosisError::Config("no holdout".into()))?;
-                    diagnose_transient(engine, h, &single).map(|fit| FoldFit {
-                        test_ssr: fit.ssr,
-                        fit,
-                    })
-                }
-                BaseJob::Fold(p) => fit_fold(engine, rec, &single, p),
-            }
-        })?;
-        fits += jobs.len();
-        let mut ssrs = vec![base.ssr];
-        let mut base_test = 0.0;
-        let mut base_folds: Vec<MethodResult> = Vec::new();
-        for (job, r) in jobs.iter().zip(done) {
-            match (job, r) {
-                (BaseJob::Seed(_), Ok(f)) => ssrs.push(f.fit.ssr),
-                (BaseJob::Seed(_), Err(_)) => {}
-                (_, Ok(f)) => {
-                    base_test += f.test_ssr;
-                    base_folds.push(f.fit);
-                }
-                // The baseline must be scorable: its error is the analysis's error.
-                (_, Err(e)) => return Err(e),
-            }
-        }
-        let lo = ssrs.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = ssrs.iter().copied().fold(0.0, f64::max);
-        optimiser_spread = ((hi - lo) / lo.max(1e-300)).clamp(0.0, 1.0);
-
-        // Second batch: every candidate worth trying, on the whole start-up (holdout scoring)
-        // or on each fold.
+        // The candidates worth trying, with their fit parameters.
         let names: Vec<(String, Vec<FitParam>)> = candidates
             .iter()
             .filter(|c| worth_trying(c, &base.localisation))
             .map(|c| (c.clone(), fit_params(c, rec)))
             .filter(|(_, extra)| !extra.is_empty())
             .collect();
-        let cand_cfg = |extra: &[FitParam]| DiagnosisConfig {
+        let screen_cfg = |extra: &[FitParam]| DiagnosisConfig {
             extra_params: extra.to_vec(),
+            base: base.health,
+            max_model_runs: ((cfg.max_model_runs + 100 * extra.len()) as f64 * SCREEN_BUDGET).ceil()
+                as usize,
+            lm_runs: (cfg.lm_runs as f64 * SCREEN_BUDGET).ceil() as usize,
+            ..single.clone()
+        };
+        // First batch, all independent of each other: what optimiser and noise variation
+        // alone do to the residual (the baseline refitted with other seeds; a candidate's
+        // shrinkage must exceed it); the baseline on the held-out start-up or on each fold; and
+        // the screen: every candidate fitted on the whole start-up at a reduced budget from the
+        // baseline's health (its start nest is the baseline itself, so a candidate never
+        // screens worse than the baseline), ranked by how far it shrinks the residual there.
+        // The full-budget fits go first so that the pool's workers finish together.
+        #[derive(Clone, Copy)]
+        enum BaseJob {
+            Seed(u64),
+            Holdout,
+            Fold(u8),
+            Screen(usize),
+        }
+        enum BaseOut {
+            Fit(Result<FoldFit, DiagnosisError>),
+            Screen(Option<MethodResult>),
+        }
+        let mut jobs: Vec<BaseJob> = (1..=SEED_REFITS).map(BaseJob::Seed).collect();
+        match scoring {
+            Scoring::Holdout => jobs.push(BaseJob::Holdout),
+            Scoring::BlockedCv => jobs.extend([BaseJob::Fold(0), BaseJob::Fold(1)]),
+        }
+        let mut by_size: Vec<usize> = (0..names.len()).collect();
+        by_size.sort_by_key(|&i| std::cmp::Reverse(names[i].1.len()));
+        jobs.extend(by_size.into_iter().map(BaseJob::Screen));
+        let done = in_parallel(threads, &jobs, |job| match *job {
+            BaseJob::Seed(k) => {
+                let seeded = DiagnosisConfig {
+                    seed: cfg.seed.wrapping_add(k),
+                    ..single.clone()
+                };
+                BaseOut::Fit(diagnose_transient(engine, rec, &seeded).map(|fit| FoldFit {
+                    fit,
+                    test_ssr: f64::NAN,
+                }))
+            }
+            BaseJob::Holdout => BaseOut::Fit(
+                holdout
+                    .ok_or_else(|| DiagnosisError::Config("no holdout".into()))
+                    .and_then(|h| diagnose_transient(engine, h, &single))
+                    .map(|fit| FoldFit {
+                        test_ssr: fit.ssr,
+                        fit,
+                    }),
+            ),
+            BaseJob::Fold(p) => BaseOut::Fit(fit_fold(engine, rec, &single, p)),
+            BaseJob::Screen(i) => {
+                BaseOut::Screen(diagnose_transient(engine, rec, &screen_cfg(&names[i].1)).ok())
+            }
+        })?;
+        fits += jobs.len();
+        let mut ssrs = vec![base.ssr];
+        let mut base_test = 0.0;
+        let mut base_folds: Vec<MethodResult> = Vec::new();
+        let mut screens: Vec<Option<MethodResult>> = vec![None; names.len()];
+        for (job, r) in jobs.iter().zip(done) {
+            match (job, r) {
+                (BaseJob::Screen(i), BaseOut::Screen(f)) => screens[*i] = f,
+                (BaseJob::Seed(_), BaseOut::Fit(Ok(f))) => ssrs.push(f.fit.ssr),
+                (BaseJob::Seed(_), _) => {}
+                (_, BaseOut::Fit(Ok(f))) => {
+                    base_test += f.test_ssr;
+                    base_folds.push(f.fit);
+                }
+                // The baseline must be scorable: its error is the analysis's error.
+                (_, BaseOut::Fit(Err(e))) => return Err(e),
+                (_, BaseOut::Screen(_)) => {}
+            }
+        }
+        let lo = ssrs.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = ssrs.iter().copied().fold(0.0, f64::max);
+        optimiser_spread = ((hi - lo) / lo.max(1e-300)).clamp(0.0, 1.0);
+        stages.screen = lap.elapsed().as_secs_f64();
+        lap = Instant::now();
+        let screen_shrinkage =
+            |r: &Option<MethodResult>| r.as_ref().map(|f| 1.0 - f.ssr / base.ssr.max(1e-300));
+        // Candidates whose model failed on the data are no explanation of it.
+        let mut ranked: Vec<usize> = (0..names.len()).filter(|&i| screens[i].is_some()).collect();
+        ranked.sort_by(|&a, &b| {
+            let (sa, sb) = (screen_shrinkage(&screens[a]), screen_shrinkage(&screens[b]));
+            sb.unwrap_or(0.0).total_cmp(&sa.unwrap_or(0.0))
+        });
+        let lead = ranked
+            .first()
+            .and_then(|&i| screen_shrinkage(&screens[i]))
+            .unwrap_or(0.0);
+        let shortlist: Vec<usize> = ranked
+            .iter()
+            .copied()
+            .enumerate()
+            .take_while(|&(rank, i)| {
+                rank == 0
+                    || (rank < SHORTLIST
+                        && screen_shrinkage(&screens[i]).unwrap_or(0.0) >= SHORTLIST_RATIO * lead)
+            })
+            .map(|(_, i)| i)
+            .collect();
+        for &i in ranked.iter().skip(shortlist.len()) {
+            let Some(fit) = &screens[i] else { continue };
+            let train = 1.0 - fit.ssr / base.ssr.max(1e-300);
+            out.push(Candidate {
+                effect: names[i].0.clone(),
+                params: effect_params(fit),
+                screen_shrinkage: train,
+                shortlisted: false,
+                train_shrinkage: train,
+                heldout_shrinkage: None,
+                bic_gain: bic(&base, k_base) - bic(fit, k_base + names[i].1.len()),
+                score: train,
+                health: fit.health,
+                fit_quality: fit.fit_quality.verdict,
+                normalised_residual: fit.fit_quality.normalised_residual,
+            });
+        }
+
+        // Third batch: the shortlist scored on data its fits did not see. Holdout: a full fit
+        // on the whole start-up from the screen's solution, then the held-out start-up with its
+        // effect parameters kept and the health refitted. Cross-validation: each fold fitted
+        // from the baseline's fit of the same fold (which saw only that fold).
+        let cand_cfg = |extra: &[FitParam], start: HealthParams| DiagnosisConfig {
+            extra_params: extra.to_vec(),
+            base: start,
             max_model_runs: cfg.max_model_runs + 100 * extra.len(),
             ..single.clone()
         };
         let jobs: Vec<(usize, Option<u8>)> = match scoring {
-            Scoring::Holdout => (0..names.len()).map(|i| (i, None)).collect(),
-            Scoring::BlockedCv => (0..names.len())
-                .flat_map(|i| [(i, Some(0)), (i, Some(1))])
+            Scoring::Holdout => shortlist.iter().map(|&i| (i, None)).collect(),
+            Scoring::BlockedCv if base_folds.len() == 2 => shortlist
+                .iter()
+                .flat_map(|&i| [(i, Some(0)), (i, Some(1))])
                 .collect(),
+            Scoring::BlockedCv => Vec::new(),
         };
         let done = in_parallel(
             threads,
             &jobs,
             |&(i, fold)| -> Result<CandidateFit, DiagnosisError> {
-                let c_cfg = cand_cfg(&names[i].1);
+                let extra = &names[i].1;
                 match fold {
-                    Some(p) => fit_fold(engine, rec, &c_cfg, p).map(CandidateFit::Fold),
+                    Some(p) => {
+                        let c_cfg = cand_cfg(extra, base_folds[usize::from(p)].health);
+                        fit_fold(engine, rec, &c_cfg, p).map(CandidateFit::Fold)
+                    }
                     None => {
-                        let fit = diagnose_transient(engine, rec, &c_cfg)?;
+                        let screened = screens[i]
+                            .as_ref()
+                            .ok_or_else(|| DiagnosisError::Config("not screened".into()))?;
+                        let e = with_effect_params(engine, screened)?;
+                        let fit = diagnose_transient(&e, rec, &cand_cfg(extra, screened.health))?;
                         let heldout_ssr = match holdout {
                             Some(h) => {
-                                let mut e = engine.clone();
-                                for (key, (v, _)) in effect_params(&fit) {
-                                    e.set_param(&key, v)?;
-                                }
+                                let e = with_effect_params(engine, &fit)?;
                                 diagnose_transient(&e, h, &single).ok().map(|r| r.ssr)
                             }
                             None => None,
@@ -408,7 +538,9 @@ pub fn analyse(
                 }
             },
         )?;
-        fits += jobs.len() + usize::from(holdout.is_some()) * names.len();
+        fits += jobs.len() + usize::from(holdout.is_some()) * shortlist.len();
+        stages.scoring = lap.elapsed().as_secs_f64();
+        lap = Instant::now();
         let mut by_name: BTreeMap<usize, Vec<CandidateFit>> = BTreeMap::new();
         for (&(i, _), r) in jobs.iter().zip(done) {
             // A candidate whose model fails on the data is no explanation of it.
@@ -422,6 +554,7 @@ pub fn analyse(
         for (i, results) in by_name {
             let (name, extra) = &names[i];
             let k = k_base + extra.len();
+            let screen = screen_shrinkage(&screens[i]).unwrap_or(0.0);
             let candidate = match (scoring, results.as_slice()) {
                 (Scoring::Holdout, [CandidateFit::Whole { fit, heldout_ssr }]) => {
                     models.insert(name.clone(), fit.model_values.clone());
@@ -430,6 +563,8 @@ pub fn analyse(
                     Candidate {
                         effect: name.clone(),
                         params: effect_params(fit),
+                        screen_shrinkage: screen,
+                        shortlisted: true,
                         train_shrinkage: train,
                         heldout_shrinkage: heldout,
                         bic_gain: bic(&base, k_base) - bic(fit, k),
@@ -439,9 +574,7 @@ pub fn analyse(
                         normalised_residual: fit.fit_quality.normalised_residual,
                     }
                 }
-                (Scoring::BlockedCv, [CandidateFit::Fold(a), CandidateFit::Fold(b)])
-                    if base_folds.len() == 2 =>
-                {
+                (Scoring::BlockedCv, [CandidateFit::Fold(a), CandidateFit::Fold(b)]) => {
                     let train_ssr = a.fit.ssr + b.fit.ssr;
                     let base_train = base_folds[0].ssr + base_folds[1].ssr;
                     let heldout = 1.0 - (a.test_ssr + b.test_ssr) / base_test.max(1e-300);
@@ -456,6 +589,8 @@ pub fn analyse(
                     Candidate {
                         effect: name.clone(),
                         params,
+                        screen_shrinkage: screen,
+                        shortlisted: true,
                         train_shrinkage: 1.0 - train_ssr / base_train.max(1e-300),
                         heldout_shrinkage: Some(heldout),
                         bic_gain: bic(&base_folds[0], k_base) + bic(&base_folds[1], k_base)
@@ -473,29 +608,43 @@ pub fn analyse(
             };
             out.push(candidate);
         }
+        for (i, fit) in screens.into_iter().enumerate() {
+            if let Some(fit) = fit {
+                screened.insert(names[i].0.clone(), fit);
+            }
+        }
     }
+    // The shortlist first, by score; then the rest of the screen, by its shrinkage.
     out.sort_by(|a, b| {
-        b.score
-            .total_cmp(&a.score)
+        b.shortlisted
+            .cmp(&a.shortlisted)
+            .then(b.score.total_cmp(&a.score))
             .then(b.bic_gain.total_cmp(&a.bic_gain))
     });
     // Cross-validated: the leader is refitted on the whole start-up, so its health, parameters
     // and fit quality are those of the complete data (the others keep their fold means).
     if scoring == Scoring::BlockedCv {
-        if let Some(best) = out.first_mut() {
+        if let Some(best) = out.first_mut().filter(|b| b.shortlisted) {
+            // From the screen's solution: the full fit can only improve on it.
+            let (e, start) = match screened.get(&best.effect) {
+                Some(screen) => (with_effect_params(engine, screen)?, screen.health),
+                None => (engine.clone(), base.health),
+            };
             let c_cfg = DiagnosisConfig {
                 extra_params: fit_params(&best.effect, rec),
                 max_model_runs: cfg.max_model_runs + 100 * best.params.len(),
+                base: start,
                 ..cfg.clone()
             };
             fits += 1;
-            if let Ok(fit) = diagnose_transient(engine, rec, &c_cfg) {
+            if let Ok(fit) = diagnose_transient(&e, rec, &c_cfg) {
                 models.insert(best.effect.clone(), fit.model_values.clone());
                 best.params = effect_params(&fit);
                 best.health = fit.health;
                 best.fit_quality = fit.fit_quality.verdict;
                 best.normalised_residual = fit.fit_quality.normalised_residual;
             }
+            stages.leader = lap.elapsed().as_secs_f64();
         }
     }
     let verdict = if base.fit_quality.verdict == Verdict::Good {
@@ -509,7 +658,8 @@ pub fn analyse(
     } else {
         match out.first() {
             Some(best)
-                if best.bic_gain > 0.0
+                if best.shortlisted
+                    && best.bic_gain > 0.0
                     && best.score > optimiser_spread
                     && (best.score >= MIN_SHRINKAGE || best.fit_quality == Verdict::Good) =>
             {
@@ -517,6 +667,7 @@ pub fn analyse(
                     effect: best.effect.clone(),
                     confidence: out
                         .get(1)
+                        .filter(|second| second.shortlisted)
                         .map_or(best.score, |second| best.score - second.score.max(0.0))
                         .clamp(0.0, 1.0),
                     shrinkage: best.score,
@@ -565,6 +716,7 @@ pub fn analyse(
         fits,
         threads,
         wall_s: start.elapsed().as_secs_f64(),
+        stage_wall_s: stages,
         worst_signal,
     })
 }

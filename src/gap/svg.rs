@@ -240,6 +240,7 @@ mod tests {
             fits: 1,
             threads: 1,
             wall_s: 0.0,
+            stage_wall_s: Default::default(),
             verdict: crate::gap::GapVerdict {
                 effect: "sensor_lag:t34_k".into(),
                 confidence: 0.5,

@@ -1,0 +1,128 @@
+//! Start-ups as calibration data: the steady stretches of a recorded start-up (idle, hold
+//! points, the settled load at its end) averaged into snapshot rows, so `calibrate` can use a
+//! unit's start-up records where no performance test exists, alone or beside snapshots.
+//!
+//! What it is for: Method A's own window detection and stability criteria
+//! (`diagnosis::steady::detect_windows`) applied to a healthy recording, each window becoming
+//! one [`Snapshot`] with the window's mean of every measured signal; the ambient pressure from
+//! the samples at rest before the start when the recording has them (else the snapshot leaves
+//! it to P1 and the model's inlet loss, as a snapshot file without an ambient column does).
+//! The transient parts carry the dynamics (inertias, lags), which calibration does not fit:
+//! they are not used. What it must not do: I/O, or judge health (a baseline is healthy).
+
+use crate::diagnosis::config::SteadyCriteria;
+use crate::diagnosis::snapshot::Snapshot;
+use crate::diagnosis::steady::detect_windows;
+use crate::engine::EngineConfig;
+use crate::recording::Recording;
+use crate::signals::Signal;
+
+/// Signals a snapshot row carries as inputs of its operating point, not as compared values.
+const INPUTS: [Signal; 3] = [Signal::T1, Signal::N2, Signal::FuelFlow];
+
+fn window_mean(rec: &Recording, s: Signal, start: usize, end: usize) -> Option<f64> {
+    let (sum, n) = rec.rows()[start..end]
+        .iter()
+        .map(|v| v[s.index()])
+        .filter(|x| x.is_finite())
+        .fold((0.0, 0usize), |(a, n), x| (a + x, n + 1));
+    (n > 0).then(|| sum / n as f64)
+}
+
+/// The steady windows of `rec` as snapshot rows, labelled `source` (the group of every row:
+/// `source t=START–END s`). `line` of a row is the CSV line of its window's first sample when
+/// the file holds one sample per line after its header (line 2 = sample 0). Windows without
+/// fuel flow or PT speed, or without T1 and no ambient default, are left out.
+pub fn startup_snapshots(
+    rec: &Recording,
+    cfg: &EngineConfig,
+    criteria: &SteadyCriteria,
+    source: &str,
+) -> Vec<Snapshot> {
+    let at_rest = (0..rec.len()).any(|k| rec.at_rest_with_p1(k));
+    let p_amb = at_rest.then(|| {
+        rec.ambient(cfg.ambient.temperature_k, cfg.ambient.pressure_kpa)
+            .1
+    });
+    let mut out = Vec::new();
+    for w in detect_windows(rec, cfg, criteria) {
+        let mean = |s: Signal| window_mean(rec, s, w.start, w.end);
+        let (Some(fuel), Some(n2)) = (mean(Signal::FuelFlow), mean(Signal::N2)) else {
+            continue;
+        };
+        if fuel <= 0.0 {
+            continue;
+        }
+        let values = Signal::ALL
+            .iter()
+            .copied()
+            .filter(|s| !INPUTS.contains(s) && *s != Signal::SurgeMargin)
+            .filter_map(|s| mean(s).map(|v| (s, v)))
+            .collect();
+        out.push(Snapshot {
+            line: w.start as u64 + 2,
+            group: format!("{source} t={:.0}–{:.0} s", w.t_start_s, w.t_end_s),
+            time_s: Some(0.5 * (w.t_start_s + w.t_end_s)),
+            t_amb_k: mean(Signal::T1).unwrap_or(cfg.ambient.temperature_k),
+            p_amb_kpa: p_amb,
+            n2_rpm: n2,
+            fuel_kg_s: fuel,
+            values,
+        });
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::sensors::MeasurementOptions;
+    use crate::engine::simulation::run_scenario;
+    use crate::engine::{Engine, Scenario, Trace};
+    use crate::health::HealthParams;
+
+    #[test]
+    fn a_start_up_gives_its_idle_and_load_points_with_ambient_from_rest() {
+        let e = Engine::reference().expect("engine");
+        let (samples, _) = run_scenario(
+            &e.model(&HealthParams::HEALTHY),
+            &Scenario::startup(e.cfg()),
+        )
+        .expect("start-up");
+        let opts = MeasurementOptions {
+            lags: true,
+            noise: true,
+            bias: false,
+            seed: 4,
+        };
+        let rec = Trace::from_truth(&e, &samples, Some(&opts))
+            .to_recording()
+            .expect("recording");
+        let rows = startup_snapshots(&rec, e.cfg(), &SteadyCriteria::default(), "su.csv");
+        assert!(rows.len() >= 2, "{} windows", rows.len());
+        let fuels: Vec<f64> = rows.iter().map(|r| r.fuel_kg_s).collect();
+        let (lo, hi) = fuels
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(a, b), &f| (a.min(f), b.max(f)));
+        assert!(hi > 2.0 * lo, "idle and load both present: {fuels:?}");
+        for r in &rows {
+            assert!(r.group.starts_with("su.csv t="), "{}", r.group);
+            let p = r.p_amb_kpa.expect("ambient from the samples at rest");
+            assert!((p - e.cfg().ambient.pressure_kpa).abs() < 0.2, "{p}");
+            assert!(r.values.iter().any(|(s, _)| *s == Signal::T34));
+            assert!(!r.values.iter().any(|(s, _)| INPUTS.contains(s)));
+        }
+        // Averaged over its window, a load point's P2 is within a few noise σ of the truth.
+        let last = rows.last().expect("a load point");
+        let (a, b) = ((last.line - 2) as usize, rec.len());
+        assert!(a < b);
+        let p2 = last
+            .values
+            .iter()
+            .find(|(s, _)| *s == Signal::P2)
+            .map(|(_, v)| *v)
+            .expect("P2");
+        let truth = samples[samples.len() - 1].stations.p2_kpa;
+        assert!((p2 / truth - 1.0).abs() < 0.005, "{p2} vs {truth}");
+    }
+}
