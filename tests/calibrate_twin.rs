@@ -326,7 +326,10 @@ fn calibration_carries_over_to_method_b_on_start_ups() {
     use gtwatch::diagnosis::transient::diagnose_transient;
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("config/engine_md22.toml");
     let file = Engine::new(EngineConfig::load(&path).expect("md22 loads")).expect("md22");
-    let truth = true_unit(&file);
+    // The true unit's pipeline compressor also absorbs P ∝ n2^2.7, not the file's n2^3.
+    let truth = true_unit(&file)
+        .with_params(&[("load.exponent".to_string(), 2.7)])
+        .expect("true load law");
     let healthy_startups: Vec<Snapshot> = (0..2)
         .flat_map(|k| {
             let rec = startup_of(&truth, &HealthParams::HEALTHY, 40 + k);
@@ -392,6 +395,18 @@ fn calibration_carries_over_to_method_b_on_start_ups() {
         report.params.iter().filter(|p| p.identifiable).count()
     );
     assert!(report.rms_after < 1.0, "{}", report.rms_after);
+    for r in [&report, &alone] {
+        let k = r
+            .params
+            .iter()
+            .find(|p| p.key == "load.exponent")
+            .expect("the load law's exponent is a candidate on a mechanical drive");
+        eprintln!(
+            "load.exponent fitted {:.3} (truth 2.7): {}",
+            k.fitted, k.reason
+        );
+        assert!(k.identifiable && (k.fitted - 2.7).abs() < 0.05, "{k:?}");
+    }
 
     let cfg = DiagnosisConfig {
         threads: Some(2),

@@ -12,7 +12,7 @@
 //! from the HPT's expansion. So "flow capacities" are fitted through those table values.
 
 use super::CalibrateError;
-use crate::engine::config::param_range;
+use crate::engine::config::{param_range, LoadMode};
 use crate::engine::Engine;
 
 /// How wide the realistic interval around the guess is.
@@ -97,6 +97,7 @@ pub const DEFAULT_CANDIDATES: &[(&str, Spread, &str)] = &[
 
 /// Keys outside the default table that still have a sensible spread when asked for.
 const EXTRA_SPREADS: &[(&str, Spread)] = &[
+    (LOAD_EXPONENT, Spread::Absolute(0.5)),
     ("design.gg_mechanical_efficiency", Spread::Absolute(0.01)),
     ("design.pt_mechanical_efficiency", Spread::Absolute(0.01)),
     ("design.cooling_bleed_frac", Spread::Absolute(0.02)),
@@ -174,13 +175,24 @@ pub fn candidate(engine: &Engine, key: &str) -> Result<Candidate, CalibrateError
     })
 }
 
-/// The default candidates on `engine`.
+/// The default candidates on `engine`: [`DEFAULT_CANDIDATES`], and on a mechanical drive
+/// (`[load] mode = "load_law"`) the load law's exponent.
 pub fn default_candidates(engine: &Engine) -> Result<Vec<Candidate>, CalibrateError> {
+    let law = engine
+        .cfg()
+        .load
+        .as_ref()
+        .is_some_and(|l| l.mode == LoadMode::LoadLaw);
     DEFAULT_CANDIDATES
         .iter()
-        .map(|(k, _, _)| candidate(engine, k))
+        .map(|(k, _, _)| *k)
+        .chain(law.then_some(LOAD_EXPONENT))
+        .map(|k| candidate(engine, k))
         .collect()
 }
+
+/// The load law's exponent (P ∝ n2^k), a candidate on a mechanical drive.
+pub const LOAD_EXPONENT: &str = "load.exponent";
 
 #[cfg(test)]
 mod tests {

@@ -5,13 +5,22 @@
 //! (σ the instrument's one-sample noise at the reading, as the snapshot diagnosis uses), for
 //! the identifiability analysis and Levenberg–Marquardt. Each evaluation sets the candidate
 //! values on a copy of the engine (one design calibration) and solves every point from the
-//! guess engine's solution, so evaluations are independent and order-free. What it must not
-//! do: I/O, or fit health (health is 0 by definition of a baseline).
+//! guess engine's solution, so evaluations are independent and order-free.
+//!
+//! A mechanical drive (`[load] mode = "load_law"`) adds one residual per point that measured
+//! its power (or coupling torque): the PT speed the load law gives for that power against the
+//! measured PT speed, reported as `n2_rpm` (the law's only trace in steady data, where the PT
+//! speed is an input of the point). Its σ combines the speed's noise with the power's, carried
+//! through the law at the guessed exponent. It informs `load.exponent` and, with it, the
+//! design power the law is referred to. What it must not do: I/O, or fit health (health is 0
+//! by definition of a baseline).
 
 use super::candidates::Candidate;
 use super::CalibrateError;
 use crate::diagnosis::snapshot::{steady_data, Snapshot};
 use crate::diagnosis::steady::{steady_value, SteadyData};
+use crate::engine::load::PtLoadLaw;
+use crate::engine::sensors::noise_sigma;
 use crate::engine::steady::{solve, SteadyPoint};
 use crate::engine::Engine;
 use crate::health::HealthParams;
@@ -30,11 +39,22 @@ pub struct CalibrationPoint {
     pub data: SteadyData,
 }
 
+/// A point's measured shaft power for the load-law residual: power W, and σ of the speed
+/// residual, rpm.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct LawPoint {
+    power_w: f64,
+    sigma_rpm: f64,
+}
+
 /// Healthy snapshots against the model with `candidates` free (the others at the engine's
 /// values).
 pub struct CalibrationProblem {
     engine: Engine,
     points: Vec<CalibrationPoint>,
+    /// Per point: its load-law residual, when the engine has a load law and the point measured
+    /// power or torque.
+    law: Vec<Option<LawPoint>>,
     /// The guess engine's solution per point: every solve starts there.
     starts: Vec<SteadyPoint>,
     candidates: Vec<Candidate>,
@@ -99,7 +119,9 @@ impl CalibrationProblem {
             })?;
             starts.push(s);
         }
-        let m: usize = points.iter().map(|p| p.data.outputs.len()).sum();
+        let law: Vec<Option<LawPoint>> = points.iter().map(|p| law_point(engine, p)).collect();
+        let m: usize = points.iter().map(|p| p.data.outputs.len()).sum::<usize>()
+            + law.iter().flatten().count();
         if m <= candidates.len() {
             return Err(CalibrateError::Data(format!(
                 "{} snapshot(s) give {m} compared values for {} candidate parameters: more \
@@ -116,6 +138,7 @@ impl CalibrationProblem {
         Ok(CalibrationProblem {
             engine: engine.clone(),
             points,
+            law,
             starts,
             candidates,
             bounds,
@@ -160,8 +183,15 @@ impl CalibrationProblem {
     pub fn layout(&self) -> Vec<(usize, Signal)> {
         self.points
             .iter()
+            .zip(&self.law)
             .enumerate()
-            .flat_map(|(i, p)| p.data.outputs.iter().map(move |(s, _, _)| (i, *s)))
+            .flat_map(|(i, (p, law))| {
+                p.data
+                    .outputs
+                    .iter()
+                    .map(move |(s, _, _)| (i, *s))
+                    .chain(law.map(|_| (i, Signal::N2)))
+            })
             .collect()
     }
 
@@ -171,7 +201,7 @@ impl CalibrationProblem {
         self.runs.fetch_add(1, Ordering::Relaxed);
         let engine = self.engine_at(x)?;
         let mut out = Vec::new();
-        for (p, start) in self.points.iter().zip(&self.starts) {
+        for ((p, start), &law_point) in self.points.iter().zip(&self.starts).zip(&self.law) {
             let inp = &p.data.inputs;
             let m = engine.model_at(&HealthParams::HEALTHY, inp.t_amb_k, inp.p_amb_kpa);
             let sp = solve(&m, inp, Some(start)).map_err(|e| {
@@ -180,9 +210,42 @@ impl CalibrationProblem {
             for &(s, v, sd) in &p.data.outputs {
                 out.push((steady_value(&sp, s) - v) / sd);
             }
+            if let (Some(lp), Some(law)) = (law_point, PtLoadLaw::of(&m)) {
+                let n2 = law.speed_for_power_rpm(lp.power_w / 1e6);
+                out.push((n2 - inp.n2_rpm) / lp.sigma_rpm);
+            }
         }
         Ok(out)
     }
+}
+
+/// The load-law residual's data of point `p` on `engine`: `None` in generator mode or when the
+/// point measured neither power nor torque.
+fn law_point(engine: &Engine, p: &CalibrationPoint) -> Option<LawPoint> {
+    let inp = &p.data.inputs;
+    let m = engine.model_at(&HealthParams::HEALTHY, inp.t_amb_k, inp.p_amb_kpa);
+    let law = PtLoadLaw::of(&m)?;
+    let omega = inp.n2_rpm * std::f64::consts::PI / 30.0;
+    let find = |s: Signal| {
+        p.data
+            .outputs
+            .iter()
+            .find(|(x, _, _)| *x == s)
+            .map(|&(_, v, sd)| (v, sd))
+    };
+    let (power_w, sd_w) = match (find(Signal::Power), find(Signal::Torque)) {
+        (Some((v, sd)), _) => (v * 1e6, sd * 1e6),
+        (None, Some((v, sd))) => (v * 1e3 * omega, sd * 1e3 * omega),
+        (None, None) => return None,
+    };
+    if !(power_w > 0.0 && inp.n2_rpm > 0.0 && law.exponent > 0.0) {
+        return None;
+    }
+    // n = n_d (P/P_d)^(1/k): dn/n = dP/(k P).
+    let sd_speed = noise_sigma(&engine.cfg().sensors, Signal::N2, inp.n2_rpm);
+    let sd_from_power = inp.n2_rpm * sd_w / (law.exponent * power_w);
+    let sigma_rpm = (sd_speed * sd_speed + sd_from_power * sd_from_power).sqrt();
+    (sigma_rpm > 0.0).then_some(LawPoint { power_w, sigma_rpm })
 }
 
 impl Problem for CalibrationProblem {
