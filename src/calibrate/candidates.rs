@@ -14,6 +14,7 @@
 use super::CalibrateError;
 use crate::engine::config::{param_range, LoadMode};
 use crate::engine::Engine;
+use crate::signals::Signal;
 
 /// How wide the realistic interval around the guess is.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -145,7 +146,9 @@ pub fn candidate(engine: &Engine, key: &str) -> Result<Candidate, CalibrateError
     };
     if key.starts_with("effects.") || key.starts_with("sensors.") {
         return Err(bad(
-            "not a design parameter (effects and sensor settings are not calibrated here)".into(),
+            "not a design parameter (effects and sensor settings are not calibrated here; \
+             instrument offsets: --offsets)"
+                .into(),
         ));
     }
     let guess = engine.get_param(key).map_err(|e| bad(e.to_string()))?;
@@ -189,6 +192,44 @@ pub fn default_candidates(engine: &Engine) -> Result<Vec<Candidate>, CalibrateEr
         .chain(law.then_some(LOAD_EXPONENT))
         .map(|k| candidate(engine, k))
         .collect()
+}
+
+/// Realistic interval of an instrument offset: ± this fraction of the channel's largest reading
+/// in the calibration data (of the order of a transmitter's full scale; REFERENCE §5 states
+/// biases of 0.8–1.5 % of full scale).
+pub const OFFSET_FRACTION: f64 = 0.02;
+
+/// The engine-file key of the offset of the instrument of `s`: the `sensor_bias` effect of
+/// the library on that channel, which the diagnosis applies to the model's readings.
+pub fn offset_key(s: Signal) -> String {
+    format!("effects.sensor_bias:{}.offset", s.column())
+}
+
+/// The candidate offset of the instrument of `s`, `largest` its largest reading (absolute) in
+/// the calibration data; the guess is the file's offset (0 without one).
+pub fn offset_candidate(
+    engine: &Engine,
+    s: Signal,
+    largest: f64,
+) -> Result<Candidate, CalibrateError> {
+    let key = offset_key(s);
+    let guess = engine.get_param(&key).map_err(|e| CalibrateError::Param {
+        key: key.clone(),
+        reason: e.to_string(),
+    })?;
+    let half = OFFSET_FRACTION * largest.abs();
+    if !(half > 0.0 && half.is_finite()) {
+        return Err(CalibrateError::Param {
+            key,
+            reason: format!("no reading to size its interval from (largest {largest})"),
+        });
+    }
+    Ok(Candidate {
+        key,
+        guess,
+        lower: guess - half,
+        upper: guess + half,
+    })
 }
 
 /// The load law's exponent (P ∝ n2^k), a candidate on a mechanical drive.

@@ -33,7 +33,8 @@ fn item_mut<'d>(doc: &'d mut DocumentMut, key: &str) -> Option<&'d mut Item> {
 
 /// `original` with each `(key, value)` replaced, keeping each value's surrounding comments and
 /// spacing, and `header` (comment lines without the `#`) put first. Every key must already be
-/// in the file as a value of the same kind: an error names the key otherwise.
+/// in the file as a value of the same kind (an error names the key otherwise), except an
+/// effect's number (`effects.<instance>.<param>`), whose table is added when missing.
 pub fn rewrite(
     original: &str,
     path_name: &str,
@@ -49,6 +50,30 @@ pub fn rewrite(
             path: path_name.to_string(),
             reason: format!("key `{key}`: {reason}"),
         };
+        if let (None, Some((effect, param)), NewValue::Number(v)) = (
+            item_mut(&mut doc, key),
+            key.strip_prefix("effects.").and_then(|r| r.split_once('.')),
+            new,
+        ) {
+            // An effect the file does not have yet (a fitted instrument offset): its table is
+            // added, `[effects."<instance>"]`.
+            let effects = doc
+                .entry("effects")
+                .or_insert_with(|| {
+                    let mut t = toml_edit::Table::new();
+                    t.set_implicit(true);
+                    Item::Table(t)
+                })
+                .as_table_mut()
+                .ok_or_else(|| bad("`effects` is not a table in the file"))?;
+            let table = effects
+                .entry(effect)
+                .or_insert_with(|| Item::Table(toml_edit::Table::new()))
+                .as_table_mut()
+                .ok_or_else(|| bad("the effect is not a table in the file"))?;
+            table.insert(param, toml_edit::value(rounded(*v)));
+            continue;
+        }
         let value = item_mut(&mut doc, key)
             .and_then(Item::as_value_mut)
             .ok_or_else(|| bad("not in the file as a value (cannot be replaced in place)"))?;
@@ -108,5 +133,23 @@ mod tests {
             .expect_err(key);
             assert!(e.to_string().contains(key) && e.to_string().contains("engine.toml"));
         }
+    }
+
+    #[test]
+    fn a_fitted_instrument_offset_adds_its_effect_table() {
+        let key = "effects.sensor_bias:t34_k.offset";
+        let text = rewrite(
+            REFERENCE_ENGINE_TOML,
+            "engine.toml",
+            &[(key.into(), NewValue::Number(-1.23456789))],
+            &[],
+        )
+        .expect("rewrite");
+        assert!(
+            text.contains("[effects.\"sensor_bias:t34_k\"]\noffset = -1.234568"),
+            "{text}"
+        );
+        let cfg = EngineConfig::from_toml_str(&text, "x").expect("loads");
+        assert_eq!(cfg.get_param(key).expect("key"), -1.234568);
     }
 }

@@ -33,6 +33,7 @@ use crate::optim::{refine, thread_pool, JacobianOptions, LmOptions};
 use candidates::Candidate;
 use problem::{prepare, CalibrationProblem};
 use serde::Serialize;
+use startup::RestReading;
 
 /// Why a calibration could not run.
 #[derive(Debug, thiserror::Error)]
@@ -152,11 +153,13 @@ fn mean(v: &[f64]) -> f64 {
     v.iter().sum::<f64>() / v.len() as f64
 }
 
-/// Calibrates `engine` (the guesses) to the healthy snapshots `rows` over `candidates`.
+/// Calibrates `engine` (the guesses) to the healthy snapshots `rows` and the pressure readings
+/// at rest `rest` (which inform instrument offsets only) over `candidates`.
 /// Returns the report and the calibrated engine.
 pub fn calibrate(
     engine: &Engine,
     rows: &[Snapshot],
+    rest: &[RestReading],
     candidates: Vec<Candidate>,
     settings: &CalibrationSettings,
 ) -> Result<(Calibration, Engine), CalibrateError> {
@@ -174,7 +177,12 @@ pub fn calibrate(
     let jac_opts = JacobianOptions::default()
         .with_step(1e-3)
         .map_err(|e| CalibrateError::Optim(e.to_string()))?;
-    let full = CalibrationProblem::new(engine, prepared.points.clone(), candidates.clone())?;
+    let full = CalibrationProblem::new(
+        engine,
+        prepared.points.clone(),
+        rest.to_vec(),
+        candidates.clone(),
+    )?;
     let x0 = full.guesses();
     let r0 = full.residuals_at(&x0)?;
     let u0 = crate::optim::Problem::bounds(&full).to_unit(&x0);
@@ -204,6 +212,7 @@ pub fn calibrate(
         let sub = CalibrationProblem::new(
             engine,
             prepared.points.clone(),
+            rest.to_vec(),
             chosen.iter().map(|&j| candidates[j].clone()).collect(),
         )?;
         let opts = LmOptions::default()

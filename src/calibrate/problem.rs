@@ -12,13 +12,17 @@
 //! measured PT speed, reported as `n2_rpm` (the law's only trace in steady data, where the PT
 //! speed is an input of the point). Its σ combines the speed's noise with the power's, carried
 //! through the law at the guessed exponent. It informs `load.exponent` and, with it, the
-//! design power the law is referred to. What it must not do: I/O, or fit health (health is 0
+//! design power the law is referred to.
+//!
+//! Pressure readings at rest ([`RestReading`]) add one residual each: the instrument's offset
+//! (its `sensor_bias` effect; 0 without one) against its excess over P1 at rest. What it must not do: I/O, or fit health (health is 0
 //! by definition of a baseline).
 
-use super::candidates::Candidate;
+use super::candidates::{offset_key, Candidate};
+use super::startup::RestReading;
 use super::CalibrateError;
 use crate::diagnosis::snapshot::{steady_data, Snapshot};
-use crate::diagnosis::steady::{steady_value, SteadyData};
+use crate::diagnosis::steady::{steady_reading, SteadyData};
 use crate::engine::load::PtLoadLaw;
 use crate::engine::sensors::noise_sigma;
 use crate::engine::steady::{solve, SteadyPoint};
@@ -55,6 +59,8 @@ pub struct CalibrationProblem {
     /// Per point: its load-law residual, when the engine has a load law and the point measured
     /// power or torque.
     law: Vec<Option<LawPoint>>,
+    /// Pressure readings at rest: residual (instrument offset − excess over P1)/σ each.
+    rest: Vec<RestReading>,
     /// The guess engine's solution per point: every solve starts there.
     starts: Vec<SteadyPoint>,
     candidates: Vec<Candidate>,
@@ -105,6 +111,7 @@ impl CalibrationProblem {
     pub fn new(
         engine: &Engine,
         points: Vec<CalibrationPoint>,
+        rest: Vec<RestReading>,
         candidates: Vec<Candidate>,
     ) -> Result<CalibrationProblem, CalibrateError> {
         let mut starts = Vec::with_capacity(points.len());
@@ -121,7 +128,8 @@ impl CalibrationProblem {
         }
         let law: Vec<Option<LawPoint>> = points.iter().map(|p| law_point(engine, p)).collect();
         let m: usize = points.iter().map(|p| p.data.outputs.len()).sum::<usize>()
-            + law.iter().flatten().count();
+            + law.iter().flatten().count()
+            + rest.len();
         if m <= candidates.len() {
             return Err(CalibrateError::Data(format!(
                 "{} snapshot(s) give {m} compared values for {} candidate parameters: more \
@@ -139,6 +147,7 @@ impl CalibrationProblem {
             engine: engine.clone(),
             points,
             law,
+            rest,
             starts,
             candidates,
             bounds,
@@ -179,7 +188,8 @@ impl CalibrationProblem {
             .map_err(|e| CalibrateError::Model(e.to_string()))
     }
 
-    /// The compared signal of every residual, point-major (the layout of [`Self::residuals_at`]).
+    /// The compared signal of every residual, point-major (the layout of [`Self::residuals_at`]);
+    /// the readings at rest last, with the point index `points().len()`.
     pub fn layout(&self) -> Vec<(usize, Signal)> {
         self.points
             .iter()
@@ -192,6 +202,7 @@ impl CalibrationProblem {
                     .map(move |(s, _, _)| (i, *s))
                     .chain(law.map(|_| (i, Signal::N2)))
             })
+            .chain(self.rest.iter().map(|r| (self.points.len(), r.signal)))
             .collect()
     }
 
@@ -208,12 +219,16 @@ impl CalibrationProblem {
                 CalibrateError::Model(format!("line {}: steady solve: {e}", p.line))
             })?;
             for &(s, v, sd) in &p.data.outputs {
-                out.push((steady_value(&sp, s) - v) / sd);
+                out.push((steady_reading(&m, &sp, s) - v) / sd);
             }
             if let (Some(lp), Some(law)) = (law_point, PtLoadLaw::of(&m)) {
                 let n2 = law.speed_for_power_rpm(lp.power_w / 1e6);
                 out.push((n2 - inp.n2_rpm) / lp.sigma_rpm);
             }
+        }
+        for r in &self.rest {
+            let offset = engine.get_param(&offset_key(r.signal)).unwrap_or(0.0);
+            out.push((offset - r.excess) / r.sigma);
         }
         Ok(out)
     }

@@ -8,11 +8,18 @@
 //! the samples at rest before the start when the recording has them (else the snapshot leaves
 //! it to P1 and the model's inlet loss, as a snapshot file without an ambient column does).
 //! The transient parts carry the dynamics (inertias, lags), which calibration does not fit:
-//! they are not used. What it must not do: I/O, or judge health (a baseline is healthy).
+//! they are not used.
+//!
+//! The samples at rest before the start are the one state whose truth is known without any
+//! model: every pressure of the gas path is the ambient pressure. [`rest_readings`] gives each
+//! pressure instrument's excess over P1 there, which over-determines its offset (the
+//! calibration's `sensor_bias` candidates). Temperatures are not used: a recently run engine's
+//! metal is not at ambient. What it must not do: I/O, or judge health (a baseline is healthy).
 
 use crate::diagnosis::config::SteadyCriteria;
 use crate::diagnosis::snapshot::Snapshot;
 use crate::diagnosis::steady::detect_windows;
+use crate::engine::sensors::noise_sigma;
 use crate::engine::EngineConfig;
 use crate::recording::Recording;
 use crate::signals::Signal;
@@ -73,6 +80,57 @@ pub fn startup_snapshots(
     out
 }
 
+/// Pressure instruments whose reading at rest is the ambient pressure (P1's reading at rest is
+/// the ambient pressure itself, so its own offset is not observable this way).
+pub const REST_PRESSURES: [Signal; 3] = [Signal::P2, Signal::P34, Signal::P4];
+
+/// What one pressure instrument read while the engine was at rest, against P1.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct RestReading {
+    /// The recording it comes from.
+    pub source: String,
+    pub signal: Signal,
+    /// Mean reading minus mean P1 over the samples at rest, kPa: the instrument's offset, plus
+    /// noise.
+    pub excess: f64,
+    /// 1σ of `excess` (both instruments' noise over the samples), kPa.
+    pub sigma: f64,
+    pub samples: usize,
+}
+
+/// Each [`REST_PRESSURES`] instrument's excess over P1 at rest in `rec` (none without samples
+/// at rest, or for a channel not recorded then).
+pub fn rest_readings(rec: &Recording, cfg: &EngineConfig, source: &str) -> Vec<RestReading> {
+    let rest: Vec<usize> = (0..rec.len()).filter(|&k| rec.at_rest_with_p1(k)).collect();
+    let mean_of = |s: Signal| {
+        let v: Vec<f64> = rest
+            .iter()
+            .map(|&k| rec.rows()[k][s.index()])
+            .filter(|x| x.is_finite())
+            .collect();
+        (!v.is_empty()).then(|| (v.iter().sum::<f64>() / v.len() as f64, v.len()))
+    };
+    let Some((p1, n1)) = mean_of(Signal::P1) else {
+        return Vec::new();
+    };
+    let sd1 = noise_sigma(&cfg.sensors, Signal::P1, p1) / (n1 as f64).sqrt();
+    REST_PRESSURES
+        .iter()
+        .filter_map(|&s| {
+            let (v, n) = mean_of(s)?;
+            let sd = noise_sigma(&cfg.sensors, s, v) / (n as f64).sqrt();
+            let sigma = (sd * sd + sd1 * sd1).sqrt();
+            (sigma > 0.0).then(|| RestReading {
+                source: source.to_string(),
+                signal: s,
+                excess: v - p1,
+                sigma,
+                samples: n,
+            })
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -124,5 +182,12 @@ mod tests {
             .expect("P2");
         let truth = samples[samples.len() - 1].stations.p2_kpa;
         assert!((p2 / truth - 1.0).abs() < 0.005, "{p2} vs {truth}");
+        // At rest, unbiased transmitters read the ambient within their noise.
+        let rest = rest_readings(&rec, e.cfg(), "su.csv");
+        assert_eq!(rest.len(), REST_PRESSURES.len());
+        for r in &rest {
+            assert!(r.samples >= 5 && r.sigma > 0.0, "{r:?}");
+            assert!(r.excess.abs() < 4.0 * r.sigma, "{r:?}");
+        }
     }
 }

@@ -9,7 +9,7 @@
 //! the mean of that many squared samples' worth). What it must not do: I/O; deterministic for a
 //! seed.
 
-use crate::engine::gas_path::signal_value;
+use crate::diagnosis::steady::steady_reading;
 use crate::engine::load;
 use crate::engine::sensors::noise_sigma;
 use crate::engine::steady::{Demand, SteadyInputs};
@@ -146,7 +146,8 @@ pub fn snapshot_csv_of(
             p.t_amb_k, p.p_amb_kpa, sp.stations.n2_rpm, sp.stations.fuel_kg_s
         ));
         for &s in written {
-            let x = signal_value(&sp.stations, s);
+            // What the unit's instruments read (an offset the engine file states included).
+            let x = steady_reading(&m, &sp, s);
             let sd = noise_sigma(&cfg.sensors, s, x) / averaging.max(1.0).sqrt();
             let noisy = match Normal::new(0.0, sd) {
                 Ok(n) if sd > 0.0 => x + n.sample(&mut rng),

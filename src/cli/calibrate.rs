@@ -3,9 +3,9 @@
 //! windows of recorded start-ups) and write the new
 //! engine file (`calibrate`, `calibrate::edit`). Prints a report, or one JSON document.
 
-use crate::calibrate::candidates::{candidate, default_candidates};
+use crate::calibrate::candidates::{candidate, default_candidates, offset_candidate};
 use crate::calibrate::edit::{rewrite, NewValue};
-use crate::calibrate::startup::startup_snapshots;
+use crate::calibrate::startup::{rest_readings, startup_snapshots};
 use crate::calibrate::{calibrate, Calibration, CalibrationSettings};
 use crate::diagnosis::csv_input::{parse_mapping, read_recording};
 use crate::diagnosis::snapshot::read_snapshots;
@@ -46,6 +46,12 @@ pub struct CalibrateArgs {
     /// design points.
     #[arg(long, value_name = "KEY,KEY…")]
     pub params: Option<String>,
+    /// Also fit a constant offset of each gas-path pressure instrument (P2, P34, P4: the
+    /// `sensor_bias` effect of the channel, ± 2 % of its largest reading), over-determined by
+    /// the --startup recordings' samples at rest, where every pressure is the ambient;
+    /// identified offsets are written as `[effects."sensor_bias:<column>"]` tables.
+    #[arg(long)]
+    pub offsets: bool,
     /// Column mapping for the snapshot file: `t1_k=T_inlet,n1_rpm=NGG,…`.
     #[arg(long)]
     pub map: Option<String>,
@@ -202,6 +208,7 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
         None => HashMap::new(),
     };
     let mut rows = Vec::new();
+    let mut rest = Vec::new();
     if let Some(input) = &a.input {
         let file =
             std::fs::File::open(input).with_context(|| format!("opening {}", input.display()))?;
@@ -229,6 +236,11 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
             );
         }
         rows.extend(windows);
+        rest.extend(rest_readings(
+            &rec,
+            engine.cfg(),
+            &path.display().to_string(),
+        ));
     }
     let candidates = match &a.params {
         None => default_candidates(&engine)?,
@@ -247,12 +259,37 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
                 .context("--params")?
         }
     };
+    let mut candidates = candidates;
+    if a.offsets {
+        let mut seen: Vec<crate::signals::Signal> = Vec::new();
+        for r in &rest {
+            if !seen.contains(&r.signal) {
+                seen.push(r.signal);
+            }
+        }
+        if seen.is_empty() {
+            bail!(
+                "--offsets needs --startup recordings with samples at rest before the start \
+                 (the one state where every pressure's truth, the ambient, is known)"
+            );
+        }
+        for sig in seen {
+            let largest = rows
+                .iter()
+                .flat_map(|r| r.values.iter())
+                .filter(|(x, _)| *x == sig)
+                .fold(engine.cfg().ambient.pressure_kpa, |m, (_, v)| {
+                    m.max(v.abs())
+                });
+            candidates.push(offset_candidate(&engine, sig, largest).context("--offsets")?);
+        }
+    }
     let settings = CalibrationSettings {
         threads: a.threads,
         ..CalibrationSettings::default()
     };
-    let (report, _calibrated) =
-        calibrate(&engine, &rows, candidates, &settings).with_context(|| {
+    let (report, _calibrated) = calibrate(&engine, &rows, &rest, candidates, &settings)
+        .with_context(|| {
             format!(
                 "calibrating {} on {}",
                 a.engine.display(),
@@ -292,6 +329,7 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
                 "startups": a.startup.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
                 "out": a.out.as_ref().map(|p| p.display().to_string()),
                 "rows": rows.len(),
+                "rest_readings": rest,
                 "calibration": report,
                 "wall_s": wall_s,
             }))?

@@ -26,7 +26,7 @@ use crate::engine::config::EngineConfig;
 use crate::engine::sensors::noise_sigma;
 use crate::engine::steady::{solve, Demand, SteadyInputs, SteadyPoint};
 use crate::engine::trace::{Values, NSIG};
-use crate::engine::Engine;
+use crate::engine::{Engine, Model};
 use crate::health::HealthParams;
 use crate::recording::Recording;
 use crate::signals::Signal;
@@ -178,6 +178,15 @@ pub fn steady_value(p: &SteadyPoint, s: Signal) -> f64 {
     crate::engine::gas_path::signal_value(&p.stations, s)
 }
 
+/// What the instrument of `s` reads at a steady point of model `m`: the station value through
+/// the instrument path of the model's effects (an adopted or calibrated sensor offset shifts
+/// it; a lag leaves a steady value as it is).
+pub fn steady_reading(m: &Model, p: &SteadyPoint, s: Signal) -> f64 {
+    let mut v = [steady_value(p, s)];
+    m.effects.instrument(s, &[0.0], &mut v);
+    v[0]
+}
+
 /// Averages each window into a steady operating point.
 pub fn average_windows(
     seg: &Recording,
@@ -312,7 +321,7 @@ impl SteadyProblem {
             })?;
             let mut v = [f64::NAN; NSIG];
             for s in Signal::ALL {
-                v[s.index()] = steady_value(&sp, s);
+                v[s.index()] = steady_reading(&m, &sp, s);
             }
             rows.push(v);
         }
