@@ -444,18 +444,18 @@ fn calibration_carries_over_to_method_b_on_start_ups() {
         "Method B health RMSE on start-ups, points: parameter  uncalibrated  calibrated  \
          calibrated on start-ups alone"
     );
-    for i in 0..6 {
+    for (i, name) in HEALTH_NAMES.iter().enumerate() {
         eprintln!(
             "  {:5} {:6.2} {:6.2} {:6.2}",
-            HEALTH_NAMES[i],
+            name,
             rmse(0, i),
             rmse(1, i),
             rmse(2, i)
         );
     }
     for k in [1, 2] {
-        for i in 0..6 {
-            assert!(rmse(k, i) <= 0.3, "{k} {}: {}", HEALTH_NAMES[i], rmse(k, i));
+        for (i, name) in HEALTH_NAMES.iter().enumerate() {
+            assert!(rmse(k, i) <= 0.3, "{k} {}: {}", name, rmse(k, i));
         }
     }
     let worst = |k: usize| (0..6).map(|i| rmse(k, i)).fold(0.0, f64::max);
@@ -570,15 +570,10 @@ fn calibration_fits_pressure_offsets_from_the_samples_at_rest() {
     }
     let rmse = |k: usize, i: usize| (sq[k][i] / truths.len() as f64).sqrt();
     eprintln!("Method B health RMSE, points: parameter  without offsets  with offsets");
-    for i in 0..6 {
-        eprintln!(
-            "  {:5} {:6.2} {:6.2}",
-            HEALTH_NAMES[i],
-            rmse(0, i),
-            rmse(1, i)
-        );
+    for (i, name) in HEALTH_NAMES.iter().enumerate() {
+        eprintln!("  {:5} {:6.2} {:6.2}", name, rmse(0, i), rmse(1, i));
     }
-    for i in 0..6 {
-        assert!(rmse(1, i) <= 0.3, "{}: {}", HEALTH_NAMES[i], rmse(1, i));
+    for (i, name) in HEALTH_NAMES.iter().enumerate() {
+        assert!(rmse(1, i) <= 0.3, "{}: {}", name, rmse(1, i));
     }
 }
