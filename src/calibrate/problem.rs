@@ -15,8 +15,9 @@
 //! design power the law is referred to.
 //!
 //! Pressure readings at rest ([`RestReading`]) add one residual each: the instrument's offset
-//! (its `sensor_bias` effect; 0 without one) against its excess over P1 at rest. What it must not do: I/O, or fit health (health is 0
-//! by definition of a baseline).
+//! (its `sensor_bias` effect; 0 without one) against its excess over P1 at rest.
+//!
+//! What it must not do: I/O, or fit health (health is 0 by definition of a baseline).
 
 use super::candidates::{offset_key, Candidate};
 use super::startup::RestReading;

@@ -17,24 +17,12 @@
 //! metal is not at ambient. What it must not do: I/O, or judge health (a baseline is healthy).
 
 use crate::diagnosis::config::SteadyCriteria;
-use crate::diagnosis::snapshot::Snapshot;
-use crate::diagnosis::steady::detect_windows;
+use crate::diagnosis::snapshot::{Snapshot, INPUTS};
+use crate::diagnosis::steady::{detect_windows, finite_mean};
 use crate::engine::sensors::noise_sigma;
 use crate::engine::EngineConfig;
 use crate::recording::Recording;
 use crate::signals::Signal;
-
-/// Signals a snapshot row carries as inputs of its operating point, not as compared values.
-const INPUTS: [Signal; 3] = [Signal::T1, Signal::N2, Signal::FuelFlow];
-
-fn window_mean(rec: &Recording, s: Signal, start: usize, end: usize) -> Option<f64> {
-    let (sum, n) = rec.rows()[start..end]
-        .iter()
-        .map(|v| v[s.index()])
-        .filter(|x| x.is_finite())
-        .fold((0.0, 0usize), |(a, n), x| (a + x, n + 1));
-    (n > 0).then(|| sum / n as f64)
-}
 
 /// The steady windows of `rec` as snapshot rows, labelled `source` (the group of every row:
 /// `source t=START–END s`). `line` of a row is the CSV line of its window's first sample when
@@ -53,7 +41,9 @@ pub fn startup_snapshots(
     });
     let mut out = Vec::new();
     for w in detect_windows(rec, cfg, criteria) {
-        let mean = |s: Signal| window_mean(rec, s, w.start, w.end);
+        let mean = |s: Signal| {
+            finite_mean(rec.rows()[w.start..w.end].iter().map(|v| v[s.index()])).map(|m| m.0)
+        };
         let (Some(fuel), Some(n2)) = (mean(Signal::FuelFlow), mean(Signal::N2)) else {
             continue;
         };
@@ -102,14 +92,7 @@ pub struct RestReading {
 /// at rest, or for a channel not recorded then).
 pub fn rest_readings(rec: &Recording, cfg: &EngineConfig, source: &str) -> Vec<RestReading> {
     let rest: Vec<usize> = (0..rec.len()).filter(|&k| rec.at_rest_with_p1(k)).collect();
-    let mean_of = |s: Signal| {
-        let v: Vec<f64> = rest
-            .iter()
-            .map(|&k| rec.rows()[k][s.index()])
-            .filter(|x| x.is_finite())
-            .collect();
-        (!v.is_empty()).then(|| (v.iter().sum::<f64>() / v.len() as f64, v.len()))
-    };
+    let mean_of = |s: Signal| finite_mean(rest.iter().map(|&k| rec.rows()[k][s.index()]));
     let Some((p1, n1)) = mean_of(Signal::P1) else {
         return Vec::new();
     };

@@ -47,7 +47,7 @@ pub struct Snapshot {
 }
 
 /// Signals that are inputs of a steady point rather than compared outputs.
-const INPUTS: [Signal; 3] = [Signal::T1, Signal::N2, Signal::FuelFlow];
+pub(crate) const INPUTS: [Signal; 3] = [Signal::T1, Signal::N2, Signal::FuelFlow];
 
 /// Reads snapshot rows. `mapping` maps canonical names (signal columns, `time_s`,
 /// `p_amb_kpa`) to the file's headers (empty = canonical or short names); `group_by` names

@@ -42,7 +42,8 @@ pub struct SteadyWindow {
     pub t_end_s: f64,
 }
 
-fn finite_mean(v: impl Iterator<Item = f64>) -> Option<(f64, usize)> {
+/// Mean and count of the finite values of `v` (`None` when there are none).
+pub(crate) fn finite_mean(v: impl Iterator<Item = f64>) -> Option<(f64, usize)> {
     let (s, n) = v
         .filter(|x| x.is_finite())
         .fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));

@@ -275,6 +275,12 @@ enum CandidateFit {
     Fold(FoldFit),
 }
 
+/// Model runs of a full candidate fit with `extra` effect parameters: the baseline's budget and
+/// 100 more per parameter.
+fn candidate_runs(cfg: &DiagnosisConfig, extra: usize) -> usize {
+    cfg.max_model_runs + 100 * extra
+}
+
 /// `engine` with the effect parameters of `fit` set (the start of a refit from it).
 fn with_effect_params(engine: &Engine, fit: &MethodResult) -> Result<Engine, DiagnosisError> {
     let mut e = engine.clone();
@@ -371,7 +377,7 @@ pub fn analyse(
         let screen_cfg = |extra: &[FitParam]| DiagnosisConfig {
             extra_params: extra.to_vec(),
             base: base.health,
-            max_model_runs: ((cfg.max_model_runs + 100 * extra.len()) as f64 * SCREEN_BUDGET).ceil()
+            max_model_runs: (candidate_runs(cfg, extra.len()) as f64 * SCREEN_BUDGET).ceil()
                 as usize,
             lm_runs: (cfg.lm_runs as f64 * SCREEN_BUDGET).ceil() as usize,
             ..single.clone()
@@ -499,7 +505,7 @@ pub fn analyse(
         let cand_cfg = |extra: &[FitParam], start: HealthParams| DiagnosisConfig {
             extra_params: extra.to_vec(),
             base: start,
-            max_model_runs: cfg.max_model_runs + 100 * extra.len(),
+            max_model_runs: candidate_runs(cfg, extra.len()),
             ..single.clone()
         };
         let jobs: Vec<(usize, Option<u8>)> = match scoring {
@@ -632,7 +638,7 @@ pub fn analyse(
             };
             let c_cfg = DiagnosisConfig {
                 extra_params: fit_params(&best.effect, rec),
-                max_model_runs: cfg.max_model_runs + 100 * best.params.len(),
+                max_model_runs: candidate_runs(cfg, best.params.len()),
                 base: start,
                 ..cfg.clone()
             };
