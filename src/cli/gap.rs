@@ -233,6 +233,17 @@ pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
             c.fit_quality.as_str()
         );
     }
+    if !report.unscreened.is_empty() {
+        let list: Vec<String> = report
+            .unscreened
+            .iter()
+            .map(|u| format!("{} {:.2}", u.effect, u.predicted_shrinkage))
+            .collect();
+        println!(
+            "not fitted (linear screen's predicted shrinkage): {}",
+            list.join(", ")
+        );
+    }
     let v = &report.verdict;
     println!(
         "verdict: {} (shrinkage {:.0} %, confidence {:.2}) in {:.0} s ({} fits on {} threads)",

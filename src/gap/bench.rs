@@ -63,11 +63,14 @@ pub struct Case {
     pub health_after: HealthParams,
     /// Rank (1 = first) of the truth's expected candidate in the analysis's screen, and whether
     /// the screen passed it on to be scored (`None` for truths without a library candidate, or
-    /// when the baseline fitted and nothing was screened).
+    /// when the baseline fitted and nothing was screened; `false` also when the linear screen
+    /// left it unfitted).
     pub expected_screen_rank: Option<usize>,
     pub expected_shortlisted: Option<bool>,
     /// The analysis's wall time, s, and the fits it ran.
     pub analysis_wall_s: f64,
+    /// The analysis's wall time by stage, s.
+    pub stage_wall_s: super::StageWalls,
     pub fits: usize,
 }
 
@@ -220,7 +223,14 @@ pub fn run_cases(
             health_before: r.verdict.health_before,
             health_after: r.verdict.health_after,
             expected_screen_rank: expected_at.map(|k| k + 1),
-            expected_shortlisted: expected_at.map(|k| by_screen[k].shortlisted),
+            // A truth's candidate the linear screen left unfitted was not shortlisted either.
+            expected_shortlisted: expected_at.map(|k| by_screen[k].shortlisted).or_else(|| {
+                r.unscreened
+                    .iter()
+                    .any(|u| u.effect == expected(kind))
+                    .then_some(false)
+            }),
+            stage_wall_s: r.stage_wall_s,
             analysis_wall_s: r.wall_s,
             fits: r.fits,
         };

@@ -237,6 +237,7 @@ mod tests {
             optimiser_spread: 0.0,
             scoring: crate::gap::Scoring::BlockedCv,
             candidates: Vec::new(),
+            unscreened: Vec::new(),
             fits: 1,
             threads: 1,
             wall_s: 0.0,

@@ -1,0 +1,195 @@
+//! The linearised screen of instrument candidates (a score test): how far each candidate would
+//! shrink the baseline's residual if the model were linear around the baseline's fit, from one
+//! finite-difference Jacobian of the residuals — the health parameters' columns once, and one
+//! column per candidate parameter from its neutral value (no lag, no offset).
+//!
+//! An instrument effect acts on one channel only and is nearly linear in its parameter (an
+//! offset exactly, a lag to first order), so the prediction ranks the per-channel candidates at
+//! a cost of one model run each, where a screening fit takes hundreds; the gap analysis then
+//! fits only the most promising of them. Engine effects are never screened this way: they are
+//! nonlinear in their parameters and always fitted.
+//!
+//! Pure: no I/O; the model runs are serial on the calling thread.
+
+use crate::diagnosis::transient::TransientProblem;
+use crate::diagnosis::{DiagnosisConfig, DiagnosisError, FitParam, MethodResult};
+use crate::engine::Engine;
+use crate::recording::Recording;
+use nalgebra::{DMatrix, DVector};
+
+/// Finite-difference step of a health parameter, % (points): well above the integrator's
+/// noise, small against the −3 … +10 % box.
+const HEALTH_STEP: f64 = 0.05;
+/// Secant step of a candidate's parameter from its neutral value, as a fraction of its range:
+/// large enough to reach the magnitudes a plant shows (a lag of several seconds), where a
+/// derivative at zero would understate a lag's effect.
+const PARAM_STEP_FRACTION: f64 = 0.1;
+
+/// Predicted shrinkage (fraction of the baseline's SSR, 0 … 1) of each candidate in
+/// `candidates` (instance name and its fit parameters), in order, for the baseline fit `base`
+/// of `rec` under `cfg`. A candidate whose perturbed run fails gets `None` (fit it to find
+/// out). Errors only when the baseline itself cannot be re-run.
+pub fn predicted_shrinkage(
+    engine: &Engine,
+    rec: &Recording,
+    cfg: &DiagnosisConfig,
+    base: &MethodResult,
+    candidates: &[(String, Vec<FitParam>)],
+) -> Result<Vec<Option<f64>>, DiagnosisError> {
+    let extra: Vec<FitParam> = candidates
+        .iter()
+        .flat_map(|(_, p)| p.iter().cloned())
+        .collect();
+    let lin_cfg = DiagnosisConfig {
+        extra_params: extra.clone(),
+        base: base.health,
+        threads: Some(1),
+        ..cfg.clone()
+    };
+    let problem = TransientProblem::new(engine, rec, &lin_cfg)?;
+    // The baseline's fitted parameters (health, ambient pressure), then every candidate
+    // parameter at its neutral value.
+    let fitted: Vec<f64> = base.params.iter().map(|p| p.value).collect();
+    let neutral: Vec<f64> = extra
+        .iter()
+        .map(|p| 0.0_f64.clamp(p.lower, p.upper))
+        .collect();
+    let x0: Vec<f64> = fitted.iter().chain(&neutral).copied().collect();
+    let residuals = |x: &[f64]| -> Option<DVector<f64>> {
+        let model = problem.simulate(x).ok()?;
+        let mut r = Vec::new();
+        problem.objective().residuals(&model, &mut r);
+        r.iter()
+            .all(|v| v.is_finite())
+            .then(|| DVector::from_vec(r))
+    };
+    let r0 = residuals(&x0).ok_or_else(|| {
+        DiagnosisError::Data("the baseline's fit cannot be re-run for the linear screen".into())
+    })?;
+    let ssr0 = r0.norm_squared().max(1e-300);
+    let column = |j: usize, step: f64| -> Option<DVector<f64>> {
+        let mut x = x0.clone();
+        x[j] += step;
+        residuals(&x).map(|r| (r - &r0) / step)
+    };
+    // Health (and ambient-pressure) columns: the baseline's own degrees of freedom.
+    let mut base_cols = Vec::new();
+    for (j, p) in base.params.iter().enumerate() {
+        let step = if p.name.starts_with("D_") {
+            HEALTH_STEP
+        } else {
+            1e-3 * p.value.abs().max(1.0)
+        };
+        match column(j, step) {
+            Some(c) => base_cols.push(c),
+            None => column(j, -step).map(|c| base_cols.push(c)).ok_or_else(|| {
+                DiagnosisError::Data(format!(
+                    "the linear screen could not perturb {} from the baseline",
+                    p.name
+                ))
+            })?,
+        }
+    }
+    let reduction = |cols: &[DVector<f64>]| -> f64 {
+        if cols.is_empty() {
+            return 0.0;
+        }
+        // Columns scaled to unit norm so the SVD's cut-off is relative to each one.
+        let scaled: Vec<DVector<f64>> = cols.iter().map(|c| c / c.norm().max(1e-300)).collect();
+        let a = DMatrix::from_columns(&scaled);
+        let Ok(delta) = a.clone().svd(true, true).solve(&r0, 1e-10) else {
+            return 0.0;
+        };
+        ssr0 - (&r0 - a * delta).norm_squared()
+    };
+    let base_reduction = reduction(&base_cols);
+    let mut offset = fitted.len();
+    Ok(candidates
+        .iter()
+        .map(|(_, params)| {
+            let mut cols = base_cols.clone();
+            let mut ok = true;
+            for (i, p) in params.iter().enumerate() {
+                let step = PARAM_STEP_FRACTION * (p.upper - p.lower);
+                match column(offset + i, step) {
+                    Some(c) => cols.push(c),
+                    None => ok = false,
+                }
+            }
+            offset += params.len();
+            ok.then(|| ((reduction(&cols) - base_reduction) / ssr0).clamp(0.0, 1.0))
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnosis::bench::synthetic_startup;
+    use crate::diagnosis::transient::diagnose_transient;
+    use crate::health::HealthParams;
+    use crate::signals::Signal;
+
+    /// A P2 transmitter reading 1 % of its peak high: the linear screen ranks the P2 offset
+    /// first and predicts most of the gap, close to what fitting the offset achieves; an offset
+    /// on a channel that reads true, and a lag on T34, predict almost nothing.
+    #[test]
+    fn an_offset_on_one_channel_leads_the_linear_screen() {
+        let engine = Engine::reference().expect("engine");
+        let truth = HealthParams {
+            D_GC: 2.0,
+            D_EC: 1.0,
+            D_GT: -0.5,
+            D_ET: 1.0,
+            D_GP: 0.0,
+            D_EP: 0.5,
+        };
+        let mut rec = synthetic_startup(&engine, &truth, 3, true).expect("start-up");
+        let peak = rec
+            .series(Signal::P2)
+            .into_iter()
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max);
+        for k in 0..rec.len() {
+            if let Some(v) = rec.value(k, Signal::P2) {
+                rec.set(k, Signal::P2, v + 0.01 * peak).expect("set");
+            }
+        }
+        let cfg = DiagnosisConfig {
+            base: truth,
+            max_model_runs: 120,
+            lm_runs: 80,
+            threads: Some(2),
+            ..DiagnosisConfig::default()
+        };
+        let base = diagnose_transient(&engine, &rec, &cfg).expect("baseline");
+        let names = ["sensor_bias:p2_kpa", "sensor_bias:t4_k", "sensor_lag:t34_k"];
+        let candidates: Vec<(String, Vec<FitParam>)> = names
+            .iter()
+            .map(|n| (n.to_string(), crate::gap::fit_params(n, &rec)))
+            .collect();
+        let predicted: Vec<f64> = predicted_shrinkage(&engine, &rec, &cfg, &base, &candidates)
+            .expect("linear screen")
+            .into_iter()
+            .map(|p| p.expect("every candidate predicted"))
+            .collect();
+        assert!(predicted[0] > 0.5, "P2 offset predicted {predicted:?}");
+        assert!(
+            predicted[1] < 0.05 && predicted[2] < 0.05,
+            "channels that read true predicted {predicted:?}"
+        );
+        // The offset is linear in the readings: fitting it shrinks the gap as predicted.
+        let with_offset = DiagnosisConfig {
+            extra_params: candidates[0].1.clone(),
+            base: base.health,
+            ..cfg.clone()
+        };
+        let fitted = diagnose_transient(&engine, &rec, &with_offset).expect("refit");
+        let actual = 1.0 - fitted.ssr / base.ssr;
+        assert!(
+            (actual - predicted[0]).abs() < 0.1,
+            "fitted shrinkage {actual:.3} against predicted {:.3}",
+            predicted[0]
+        );
+    }
+}
