@@ -242,7 +242,7 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
             &path.display().to_string(),
         ));
     }
-    let candidates = match &a.params {
+    let mut candidates = match &a.params {
         None => default_candidates(&engine)?,
         Some(list) => {
             let keys: Vec<&str> = list
@@ -259,7 +259,6 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
                 .context("--params")?
         }
     };
-    let mut candidates = candidates;
     if a.offsets {
         let mut seen: Vec<crate::signals::Signal> = Vec::new();
         for r in &rest {

@@ -83,9 +83,9 @@ pub(super) fn worth_trying(instance: &str, cells: &[ResidualCell]) -> bool {
 pub const CHANNEL_CELL_SIGMA: f64 = 2.0;
 
 /// Instrument candidates (`name:column`) fitted in the screen at most: the best of the linear
-/// screen's ranking ([`linear`](super::linear)). An instrument effect that explains the gap leads that ranking
-/// among its kind; fitting a dozen offsets on channels the gap merely spills into costs a third
-/// of an analysis and names nothing.
+/// screen's ranking ([`linear`](super::linear)). An instrument effect that explains the gap
+/// leads that ranking among its kind; fitting a dozen offsets on channels the gap merely spills
+/// into costs a third of an analysis and names nothing.
 pub const INSTRUMENT_SCREENS: usize = 3;
 /// Least shrinkage the linear screen must predict for an instrument candidate to be fitted.
 pub const LINEAR_MIN_SHRINKAGE: f64 = 0.02;
@@ -98,26 +98,36 @@ pub struct Unscreened {
     pub predicted_shrinkage: f64,
 }
 
+/// A candidate the analysis fits: its instance name, its fit parameters, and the linear
+/// screen's prediction (instrument candidates only).
+#[derive(Debug, Clone)]
+pub(super) struct Trial {
+    pub effect: String,
+    pub params: Vec<FitParam>,
+    pub predicted: Option<f64>,
+}
+
 /// Splits the candidates worth trying into those to fit (every engine effect; the instrument
 /// candidates the linear screen ranks best, at most [`INSTRUMENT_SCREENS`], each predicted to
 /// shrink the gap by at least [`LINEAR_MIN_SHRINKAGE`] or unpredictable) and the instrument
 /// candidates left out. When the linear screen cannot run, every candidate is fitted.
-#[allow(clippy::type_complexity)]
 pub(super) fn gate_instruments(
     engine: &Engine,
     rec: &Recording,
     cfg: &DiagnosisConfig,
     base: &MethodResult,
     names: Vec<(String, Vec<FitParam>)>,
-) -> (Vec<(String, Vec<FitParam>, Option<f64>)>, Vec<Unscreened>) {
+) -> (Vec<Trial>, Vec<Unscreened>) {
+    let trial = |(effect, params): (String, Vec<FitParam>), predicted| Trial {
+        effect,
+        params,
+        predicted,
+    };
     let (instruments, engine_effects): (Vec<_>, Vec<_>) =
         names.into_iter().partition(|(n, _)| n.contains(':'));
-    let mut fitted: Vec<(String, Vec<FitParam>, Option<f64>)> = engine_effects
-        .into_iter()
-        .map(|(n, p)| (n, p, None))
-        .collect();
+    let mut fitted: Vec<Trial> = engine_effects.into_iter().map(|c| trial(c, None)).collect();
     let Ok(pred) = linear::predicted_shrinkage(engine, rec, cfg, base, &instruments) else {
-        fitted.extend(instruments.into_iter().map(|(n, p)| (n, p, None)));
+        fitted.extend(instruments.into_iter().map(|c| trial(c, None)));
         return (fitted, Vec::new());
     };
     // Unpredictable candidates first (a failed perturbation says nothing against them).
@@ -133,7 +143,7 @@ pub(super) fn gate_instruments(
         let promising = pred[i].is_none_or(|v| v >= LINEAR_MIN_SHRINKAGE);
         if promising && taken < INSTRUMENT_SCREENS {
             taken += 1;
-            fitted.push((n.clone(), p.clone(), pred[i]));
+            fitted.push(trial((n.clone(), p.clone()), pred[i]));
         } else {
             unscreened.push(Unscreened {
                 effect: n.clone(),

@@ -40,7 +40,7 @@ pub use candidates::{
     fit_params, list_effects, select, Unscreened, CHANNEL_CELL_SIGMA, INSTRUMENT_SCREENS,
     LINEAR_MIN_SHRINKAGE,
 };
-use candidates::{gate_instruments, worth_trying};
+use candidates::{gate_instruments, worth_trying, Trial};
 
 use crate::diagnosis::config::Blocks;
 use crate::diagnosis::fit_quality::{ResidualCell, Verdict};
@@ -388,7 +388,7 @@ pub fn analyse(
             Scoring::BlockedCv => jobs.extend([BaseJob::Fold(0), BaseJob::Fold(1)]),
         }
         let mut by_size: Vec<usize> = (0..names.len()).collect();
-        by_size.sort_by_key(|&i| std::cmp::Reverse(names[i].1.len()));
+        by_size.sort_by_key(|&i| std::cmp::Reverse(names[i].params.len()));
         jobs.extend(by_size.into_iter().map(BaseJob::Screen));
         let done = in_parallel(threads, &jobs, |job| match *job {
             BaseJob::Seed(k) => {
@@ -412,7 +412,7 @@ pub fn analyse(
             ),
             BaseJob::Fold(p) => BaseOut::Fit(fit_fold(engine, rec, &single, p)),
             BaseJob::Screen(i) => {
-                BaseOut::Screen(diagnose_transient(engine, rec, &screen_cfg(&names[i].1)).ok())
+                BaseOut::Screen(diagnose_transient(engine, rec, &screen_cfg(&names[i].params)).ok())
             }
         })?;
         fits += jobs.len();
@@ -466,14 +466,14 @@ pub fn analyse(
             let Some(fit) = &screens[i] else { continue };
             let train = 1.0 - fit.ssr / base.ssr.max(1e-300);
             out.push(Candidate {
-                effect: names[i].0.clone(),
+                effect: names[i].effect.clone(),
                 params: effect_params(fit),
                 screen_shrinkage: train,
                 shortlisted: false,
-                predicted_shrinkage: names[i].2,
+                predicted_shrinkage: names[i].predicted,
                 train_shrinkage: train,
                 heldout_shrinkage: None,
-                bic_gain: bic(&base, k_base) - bic(fit, k_base + names[i].1.len()),
+                bic_gain: bic(&base, k_base) - bic(fit, k_base + names[i].params.len()),
                 score: train,
                 health: fit.health,
                 fit_quality: fit.fit_quality.verdict,
@@ -503,7 +503,7 @@ pub fn analyse(
             threads,
             &jobs,
             |&(i, fold)| -> Result<CandidateFit, DiagnosisError> {
-                let extra = &names[i].1;
+                let extra = &names[i].params;
                 match fold {
                     Some(p) => {
                         let c_cfg = cand_cfg(extra, base_folds[usize::from(p)].health);
@@ -541,7 +541,11 @@ pub fn analyse(
             }
         }
         for (i, results) in by_name {
-            let (name, extra, predicted) = &names[i];
+            let Trial {
+                effect: name,
+                params: extra,
+                predicted,
+            } = &names[i];
             let k = k_base + extra.len();
             let screen = screen_shrinkage(&screens[i]).unwrap_or(0.0);
             let candidate = match (scoring, results.as_slice()) {
@@ -601,7 +605,7 @@ pub fn analyse(
         }
         for (i, fit) in screens.into_iter().enumerate() {
             if let Some(fit) = fit {
-                screened.insert(names[i].0.clone(), fit);
+                screened.insert(names[i].effect.clone(), fit);
             }
         }
     }
