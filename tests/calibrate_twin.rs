@@ -7,7 +7,9 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use gtwatch::calibrate::synthetic::{load_sweep, snapshot_csv_of, OperatingPoint, WRITTEN};
-use gtwatch::calibrate::{calibrate, candidates::default_candidates, CalibrationSettings};
+use gtwatch::calibrate::{
+    calibrate, candidates::default_candidates, Calibration, CalibrationSettings,
+};
 use gtwatch::diagnosis::snapshot::{diagnose_snapshots, read_snapshots, Snapshot};
 use gtwatch::diagnosis::DiagnosisConfig;
 use gtwatch::engine::{Engine, EngineConfig};
@@ -53,6 +55,64 @@ fn true_unit(reference: &Engine) -> Engine {
 
 fn rows(csv: &str) -> Vec<Snapshot> {
     read_snapshots(csv.as_bytes(), &HashMap::new(), Some("test")).expect("rows")
+}
+
+/// Prints the calibration's parameters beside the true unit's values, `decimals` after the point.
+fn print_params(report: &Calibration, truth: &Engine, decimals: usize) {
+    for p in &report.params {
+        eprintln!(
+            "{:36} guess {:9.d$} fitted {:9.d$} truth {:9.d$} {}  {}",
+            p.key,
+            p.guess,
+            p.fitted,
+            truth.get_param(&p.key).expect("key"),
+            if p.identifiable { "FIT " } else { "kept" },
+            p.reason,
+            d = decimals
+        );
+    }
+}
+
+/// Health errors of several models (engine files) over the same cases: squared errors summed
+/// per model and parameter, read back as RMSE, points.
+struct HealthRmse {
+    sq: Vec<[f64; 6]>,
+    cases: Vec<usize>,
+}
+
+impl HealthRmse {
+    fn new(models: usize) -> HealthRmse {
+        HealthRmse {
+            sq: vec![[0.0; 6]; models],
+            cases: vec![0; models],
+        }
+    }
+
+    fn add(&mut self, model: usize, est: &[f64; 6], truth: &[f64; 6]) {
+        for i in 0..6 {
+            self.sq[model][i] += (est[i] - truth[i]).powi(2);
+        }
+        self.cases[model] += 1;
+    }
+
+    fn get(&self, model: usize, i: usize) -> f64 {
+        (self.sq[model][i] / self.cases[model].max(1) as f64).sqrt()
+    }
+
+    fn worst(&self, model: usize) -> f64 {
+        (0..6).map(|i| self.get(model, i)).fold(0.0, f64::max)
+    }
+
+    /// Prints `title`, then per parameter its RMSE under every model and `note(i)`.
+    fn print(&self, title: &str, note: impl Fn(usize) -> &'static str) {
+        eprintln!("{title}");
+        for (i, name) in HEALTH_NAMES.iter().enumerate() {
+            let cols: String = (0..self.sq.len())
+                .map(|k| format!(" {:6.2}", self.get(k, i)))
+                .collect();
+            eprintln!("  {name:5}{cols}{}", note(i));
+        }
+    }
 }
 
 #[test]
@@ -108,17 +168,7 @@ fn twin(file: &Engine, written: &[Signal]) {
     let candidates = default_candidates(&file).expect("candidates");
     let (report, calibrated) =
         calibrate(&file, &base_rows, &[], candidates, &settings).expect("calibration");
-    for p in &report.params {
-        eprintln!(
-            "{:36} guess {:9.5} fitted {:9.5} truth {:9.5} {}  {}",
-            p.key,
-            p.guess,
-            p.fitted,
-            truth.get_param(&p.key).expect("key"),
-            if p.identifiable { "FIT " } else { "kept" },
-            p.reason
-        );
-    }
+    print_params(&report, &truth, 5);
     eprintln!(
         "rms before {:.2} after {:.2} ({} LM iterations, {}, {} model runs)",
         report.rms_before,
@@ -171,15 +221,14 @@ fn twin(file: &Engine, written: &[Signal]) {
         csv.push_str(body);
     }
     let degraded = rows(&csv);
-    let mut sq = [[0.0f64; 6]; 2];
+    let mut rmse = HealthRmse::new(2);
     let mut separable = [true; 6];
     for (k, engine) in [&file, &calibrated].into_iter().enumerate() {
         let rep = diagnose_snapshots(engine, &degraded, &cfg).expect("diagnosis");
         assert_eq!(rep.groups.len(), truths.len(), "{:?}", rep.failed);
         for (g, t) in rep.groups.iter().zip(&truths) {
-            let est = g.result.health.to_array();
+            rmse.add(k, &g.result.health.to_array(), t);
             for i in 0..6 {
-                sq[k][i] += (est[i] - t[i]).powi(2);
                 if k == 1
                     && !g
                         .result
@@ -193,30 +242,29 @@ fn twin(file: &Engine, written: &[Signal]) {
             }
         }
     }
-    let rmse = |k: usize, i: usize| (sq[k][i] / truths.len() as f64).sqrt();
-    eprintln!("health RMSE, points: parameter  uncalibrated  calibrated");
-    for i in 0..6 {
-        eprintln!(
-            "  {:5} {:6.2} {:6.2}{}",
-            HEALTH_NAMES[i],
-            rmse(0, i),
-            rmse(1, i),
+    rmse.print(
+        "health RMSE, points: parameter  uncalibrated  calibrated",
+        |i| {
             if separable[i] {
                 ""
             } else {
                 "  (not separable)"
             }
+        },
+    );
+    for i in (0..6).filter(|&i| separable[i]) {
+        assert!(
+            rmse.get(1, i) <= 0.3,
+            "{}: {}",
+            HEALTH_NAMES[i],
+            rmse.get(1, i)
         );
     }
-    for i in (0..6).filter(|&i| separable[i]) {
-        assert!(rmse(1, i) <= 0.3, "{}: {}", HEALTH_NAMES[i], rmse(1, i));
-    }
-    let worst = |k: usize| (0..6).map(|i| rmse(k, i)).fold(0.0, f64::max);
     assert!(
-        worst(0) > 3.0 * worst(1) && worst(0) > 0.6,
+        rmse.worst(0) > 3.0 * rmse.worst(1) && rmse.worst(0) > 0.6,
         "uncalibrated {} vs calibrated {}",
-        worst(0),
-        worst(1)
+        rmse.worst(0),
+        rmse.worst(1)
     );
 }
 
@@ -419,7 +467,7 @@ fn calibration_carries_over_to_method_b_on_start_ups() {
         [3.0, 1.0, 1.0, 0.7, 0.0, 0.0],
         [0.0, 0.0, 0.5, 1.5, -0.5, 1.0],
     ];
-    let mut sq = [[0.0f64; 6]; 3];
+    let mut rmse = HealthRmse::new(3);
     for (g, t) in truths.iter().enumerate() {
         let rec = startup_of(&truth, &HealthParams::from_array(*t), 70 + g as u64);
         for (k, engine) in [&file, &calibrated, &from_startups].into_iter().enumerate() {
@@ -434,36 +482,24 @@ fn calibration_carries_over_to_method_b_on_start_ups() {
                 ][k],
                 r.fit_quality.verdict.as_str()
             );
-            for i in 0..6 {
-                sq[k][i] += (est[i] - t[i]).powi(2);
-            }
+            rmse.add(k, &est, t);
         }
     }
-    let rmse = |k: usize, i: usize| (sq[k][i] / truths.len() as f64).sqrt();
-    eprintln!(
+    rmse.print(
         "Method B health RMSE on start-ups, points: parameter  uncalibrated  calibrated  \
-         calibrated on start-ups alone"
+         calibrated on start-ups alone",
+        |_| "",
     );
-    for (i, name) in HEALTH_NAMES.iter().enumerate() {
-        eprintln!(
-            "  {:5} {:6.2} {:6.2} {:6.2}",
-            name,
-            rmse(0, i),
-            rmse(1, i),
-            rmse(2, i)
-        );
-    }
     for k in [1, 2] {
         for (i, name) in HEALTH_NAMES.iter().enumerate() {
-            assert!(rmse(k, i) <= 0.3, "{k} {}: {}", name, rmse(k, i));
+            assert!(rmse.get(k, i) <= 0.3, "{k} {}: {}", name, rmse.get(k, i));
         }
     }
-    let worst = |k: usize| (0..6).map(|i| rmse(k, i)).fold(0.0, f64::max);
     assert!(
-        worst(0) > 3.0 * worst(1) && worst(0) > 0.6,
+        rmse.worst(0) > 3.0 * rmse.worst(1) && rmse.worst(0) > 0.6,
         "uncalibrated {} vs calibrated {}",
-        worst(0),
-        worst(1)
+        rmse.worst(0),
+        rmse.worst(1)
     );
 }
 
@@ -518,17 +554,7 @@ fn calibration_fits_pressure_offsets_from_the_samples_at_rest() {
     }
     let (report, calibrated) =
         calibrate(&file, &rows_, &rest, with_offsets, &settings).expect("calibration");
-    for p in &report.params {
-        eprintln!(
-            "{:36} guess {:9.4} fitted {:9.4} truth {:9.4} {}  {}",
-            p.key,
-            p.guess,
-            p.fitted,
-            truth.get_param(&p.key).expect("key"),
-            if p.identifiable { "FIT " } else { "kept" },
-            p.reason
-        );
-    }
+    print_params(&report, &truth, 4);
     for (s, want) in [
         (Signal::P2, p2_offset),
         (Signal::P34, p34_offset),
@@ -557,23 +583,20 @@ fn calibration_fits_pressure_offsets_from_the_samples_at_rest() {
         [1.5, 0.5, 0.0, 0.0, 0.0, 0.0],
         [0.0, 0.0, 0.5, 1.5, -0.5, 1.0],
     ];
-    let mut sq = [[0.0f64; 6]; 2];
+    let mut rmse = HealthRmse::new(2);
     for (g, t) in truths.iter().enumerate() {
         let rec = startup_of(&truth, &HealthParams::from_array(*t), 70 + g as u64);
         for (k, engine) in [&design_only, &calibrated].into_iter().enumerate() {
             let r = diagnose_transient(engine, &rec, &cfg).expect("Method B");
             let est = r.health.to_array();
-            for i in 0..6 {
-                sq[k][i] += (est[i] - t[i]).powi(2);
-            }
+            rmse.add(k, &est, t);
         }
     }
-    let rmse = |k: usize, i: usize| (sq[k][i] / truths.len() as f64).sqrt();
-    eprintln!("Method B health RMSE, points: parameter  without offsets  with offsets");
+    rmse.print(
+        "Method B health RMSE, points: parameter  without offsets  with offsets",
+        |_| "",
+    );
     for (i, name) in HEALTH_NAMES.iter().enumerate() {
-        eprintln!("  {:5} {:6.2} {:6.2}", name, rmse(0, i), rmse(1, i));
-    }
-    for (i, name) in HEALTH_NAMES.iter().enumerate() {
-        assert!(rmse(1, i) <= 0.3, "{}: {}", name, rmse(1, i));
+        assert!(rmse.get(1, i) <= 0.3, "{}: {}", name, rmse.get(1, i));
     }
 }
