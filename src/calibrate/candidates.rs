@@ -122,8 +122,30 @@ pub struct Candidate {
     pub upper: f64,
 }
 
+/// Spread of an adaptation curve's knot value (`adaptation.<component>.<curve>[i]`), by curve:
+/// a speed line re-labelled by up to ±30 %, flow ±30 %, efficiency ±15 %, (PR − 1) ±50 % per
+/// step of the fit (a unit of another make is that far from a borrowed map at part speed: at
+/// 70 % speed one maker's compressor runs at the pressure ratio another's reaches at 90 %).
+pub fn adaptation_spread(curve: &str) -> f64 {
+    match curve {
+        "speed" => 0.30,
+        "flow" => 0.30,
+        "efficiency" => 0.15,
+        "pressure_ratio" => 0.50,
+        _ => 0.10,
+    }
+}
+
 /// The spread used for `key`.
 pub fn spread_of(key: &str) -> Spread {
+    if let Some(rest) = key.strip_prefix("adaptation.") {
+        let curve = rest
+            .split('.')
+            .nth(1)
+            .and_then(|c| c.split('[').next())
+            .unwrap_or("");
+        return Spread::Absolute(adaptation_spread(curve));
+    }
     DEFAULT_CANDIDATES
         .iter()
         .find(|(k, _, _)| *k == key)
@@ -175,6 +197,45 @@ pub fn candidate(engine: &Engine, key: &str) -> Result<Candidate, CalibrateError
         guess,
         lower,
         upper,
+    })
+}
+
+/// The candidate for `key` with the interval `[lower, upper]` the user states
+/// (`--params key=LOW:HIGH`): inside the key's allowed range, containing the file's value.
+pub fn candidate_in(
+    engine: &Engine,
+    key: &str,
+    lower: f64,
+    upper: f64,
+) -> Result<Candidate, CalibrateError> {
+    let bad = |reason: String| CalibrateError::Param {
+        key: key.to_string(),
+        reason,
+    };
+    let base = candidate(engine, key)?;
+    if upper.partial_cmp(&lower) != Some(std::cmp::Ordering::Greater) {
+        return Err(bad(format!(
+            "interval {lower}:{upper} is empty (LOW must be < HIGH)"
+        )));
+    }
+    let range = param_range(key)
+        .ok_or_else(|| bad("has no allowed range (not a tunable number)".into()))?;
+    for v in [lower, upper] {
+        range
+            .check(v)
+            .map_err(|r| bad(format!("interval bound {r}")))?;
+    }
+    if !(lower <= base.guess && base.guess <= upper) {
+        return Err(bad(format!(
+            "interval {lower}:{upper} does not contain the engine file's value {} (the fit \
+             starts there): set the file's value inside it first",
+            base.guess
+        )));
+    }
+    Ok(Candidate {
+        lower,
+        upper,
+        ..base
     })
 }
 

@@ -13,6 +13,8 @@ use toml_edit::{DocumentMut, Item, Value};
 pub enum NewValue {
     Number(f64),
     Text(String),
+    /// A list of numbers (an `[adaptation]` curve or its knots).
+    Numbers(Vec<f64>),
 }
 
 /// A number rounded to 7 significant digits (the engine file's precision; the fit's σ is far
@@ -45,11 +47,41 @@ pub fn rewrite(
         path: path_name.to_string(),
         reason: format!("not TOML: {e}"),
     })?;
+    // A new adaptation replaces the file's whole `[adaptation]` section: curves the new fit
+    // does not have must not survive from an older one.
+    if values.iter().any(|(k, _)| k.starts_with("adaptation.")) {
+        doc.remove("adaptation");
+    }
     for (key, new) in values {
         let bad = |reason: &str| CalibrateError::File {
             path: path_name.to_string(),
             reason: format!("key `{key}`: {reason}"),
         };
+        // Before any look-up by `item_mut`: toml_edit's `get_mut` on a table inserts the
+        // missing key (as an inline table once indexed further), which would shadow the
+        // `[adaptation.<component>]` table made here.
+        if let (Some(rest), NewValue::Numbers(list)) = (key.strip_prefix("adaptation."), new) {
+            let (component, curve) = rest
+                .split_once('.')
+                .ok_or_else(|| bad("use adaptation.<component>.<curve>"))?;
+            let section = doc
+                .entry("adaptation")
+                .or_insert_with(|| {
+                    let mut t = toml_edit::Table::new();
+                    t.set_implicit(true);
+                    Item::Table(t)
+                })
+                .as_table_mut()
+                .ok_or_else(|| bad("`adaptation` is not a table in the file"))?;
+            let table = section
+                .entry(component)
+                .or_insert_with(|| Item::Table(toml_edit::Table::new()))
+                .as_table_mut()
+                .ok_or_else(|| bad("the component is not a table in the file"))?;
+            let array: toml_edit::Array = list.iter().map(|v| rounded(*v)).collect();
+            table.insert(curve, toml_edit::value(array));
+            continue;
+        }
         if let (None, Some((effect, param)), NewValue::Number(v)) = (
             item_mut(&mut doc, key),
             key.strip_prefix("effects.").and_then(|r| r.split_once('.')),
@@ -151,5 +183,48 @@ mod tests {
         );
         let cfg = EngineConfig::from_toml_str(&text, "x").expect("loads");
         assert_eq!(cfg.get_param(key).expect("key"), -1.234568);
+    }
+
+    #[test]
+    fn an_adaptation_is_written_as_a_section_and_replaces_an_older_one() {
+        let lists = [
+            ("adaptation.compressor.speed_knots", vec![0.7, 0.85]),
+            ("adaptation.compressor.speed", vec![0.12345678912, 0.05]),
+            ("adaptation.pt.speed_knots", vec![0.8]),
+            ("adaptation.pt.flow", vec![-0.02]),
+        ];
+        let values: Vec<(String, NewValue)> = lists
+            .iter()
+            .map(|(k, v)| (k.to_string(), NewValue::Numbers(v.clone())))
+            .collect();
+        let text = rewrite(REFERENCE_ENGINE_TOML, "engine.toml", &values, &[]).expect("rewrite");
+        let cfg = EngineConfig::from_toml_str(&text, "x").expect("loads");
+        let a = cfg.adaptation.clone().expect("section");
+        let c = a.compressor.expect("compressor");
+        assert_eq!(c.speed_knots, vec![0.7, 0.85]);
+        assert_eq!(c.speed, vec![0.1234568, 0.05]);
+        assert!(c.flow.is_empty() && a.hpt.is_none());
+        assert_eq!(a.pt.expect("pt").flow, vec![-0.02]);
+        // Written again with other curves: the older section does not survive.
+        let again = rewrite(
+            &text,
+            "engine.toml",
+            &[
+                (
+                    "adaptation.hpt.speed_knots".into(),
+                    NewValue::Numbers(vec![0.9]),
+                ),
+                (
+                    "adaptation.hpt.efficiency".into(),
+                    NewValue::Numbers(vec![0.01]),
+                ),
+            ],
+            &[],
+        )
+        .expect("rewrite");
+        let cfg = EngineConfig::from_toml_str(&again, "x").expect("loads");
+        let a = cfg.adaptation.expect("section");
+        assert!(a.compressor.is_none() && a.pt.is_none());
+        assert_eq!(a.hpt.expect("hpt").efficiency, vec![0.01]);
     }
 }

@@ -12,13 +12,17 @@
 //!    ([`identify`]): a parameter is fitted when its 1σ is at most an eighth of its interval
 //!    and it correlates with no other fitted one at |ρ| ≥ 0.95;
 //! 3. bounded Levenberg–Marquardt (`optim::lm`) fits the identified set;
-//! 4. the report gives every candidate's guess, fitted value, 1σ and reason, and the
+//! 4. with [`CalibrationSettings::adapt`], the off-design adaptation ([`adapt`]): modification
+//!    curves of each component's corrected speed, as many as the data identify, fitted with the
+//!    identified design values beside them;
+//! 5. the report gives every candidate's guess, fitted value, 1σ and reason, and the
 //!    residuals before and after per signal and per operating point.
 //!
 //! A baseline by definition has health 0, so after calibration the health the diagnosis finds
 //! on the same data is ≈ 0 (tests/calibrate_twin.rs). Pure: no I/O (`edit` rewrites text the
 //! CLI reads and writes).
 
+pub mod adapt;
 pub mod candidates;
 pub mod edit;
 pub mod identify;
@@ -57,6 +61,8 @@ pub struct CalibrationSettings {
     pub max_iterations: usize,
     /// Threads for the Jacobian columns (`None` = all cores).
     pub threads: Option<usize>,
+    /// Off-design adaptation after the design values ([`adapt`]); `None` = design values only.
+    pub adapt: Option<adapt::AdaptSettings>,
 }
 
 impl Default for CalibrationSettings {
@@ -64,6 +70,7 @@ impl Default for CalibrationSettings {
         Self {
             max_iterations: 30,
             threads: None,
+            adapt: None,
         }
     }
 }
@@ -83,6 +90,10 @@ pub struct ParamResult {
     pub lower: f64,
     pub upper: f64,
     pub identifiable: bool,
+    /// `identified`, `at_bound` (fitted, but it ended on its interval's bound: the data want
+    /// more than the realistic interval allows — never called identified) or
+    /// `not_identifiable` (kept at the guess).
+    pub status: String,
     pub reason: String,
 }
 
@@ -124,22 +135,65 @@ pub struct Calibration {
     pub assumptions: Vec<String>,
     pub lm_iterations: usize,
     pub lm_stop: String,
+    /// The off-design adaptation, when asked for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub adaptation: Option<adapt::AdaptReport>,
     /// Model evaluations (each one design calibration and one steady solve per point).
     pub model_runs: usize,
 }
 
 impl Calibration {
-    /// The fitted values of the identified parameters: what changes in the engine file.
+    /// The fitted values of the identified parameters and of those fitted to their bound
+    /// (the best value inside the realistic interval, reported `at_bound`): what changes in
+    /// the engine file.
     pub fn changes(&self) -> Vec<(String, f64)> {
         self.params
             .iter()
-            .filter(|p| p.identifiable)
+            .filter(|p| p.identifiable || p.status == "at_bound")
             .map(|p| (p.key.clone(), p.fitted))
             .collect()
     }
+
+    /// The adaptation curves to write, as `(adaptation.<component>.<curve>, values)` with each
+    /// component's `speed_knots` first; empty without an adaptation.
+    pub fn adaptation_lists(&self) -> Vec<(String, Vec<f64>)> {
+        let mut out = Vec::new();
+        for c in self.adaptation.iter().flat_map(|a| &a.components) {
+            if c.curves.is_empty() {
+                continue;
+            }
+            out.push((
+                format!("adaptation.{}.speed_knots", c.component),
+                c.knots.clone(),
+            ));
+            for k in &c.curves {
+                out.push((
+                    format!("adaptation.{}.{}", c.component, k.curve),
+                    k.values.clone(),
+                ));
+            }
+        }
+        out
+    }
 }
 
-fn rms(v: &[f64]) -> f64 {
+/// Residuals `(model − measured)/σ` of `engine` as it is on `points` and `rest` (the layout of
+/// [`CalibrationProblem::residuals_at`] with no candidate).
+pub(crate) fn residuals_of(
+    engine: &Engine,
+    points: &[problem::CalibrationPoint],
+    rest: &[RestReading],
+) -> Result<Vec<f64>, CalibrateError> {
+    problem::residuals_on(engine, points, rest)
+}
+
+/// Whether `x` sits on a bound of `[lower, upper]` (within 10⁻⁴ of the width).
+fn on_bound(x: f64, lower: f64, upper: f64) -> bool {
+    let tol = 1e-4 * (upper - lower).abs();
+    (x - lower).abs() <= tol || (upper - x).abs() <= tol
+}
+
+pub(crate) fn rms(v: &[f64]) -> f64 {
     if v.is_empty() {
         return 0.0;
     }
@@ -230,21 +284,64 @@ pub fn calibrate(
         stop = format!("{:?}", out.stop);
         runs = sub.runs();
     }
-    let r1 = full.residuals_at(&fitted)?;
-    let calibrated = full.engine_at(&fitted)?;
+    let mut calibrated = full.engine_at(&fitted)?;
+    let mut adaptation = None;
+    if let Some(ad) = &settings.adapt {
+        let design_keys: Vec<String> = chosen.iter().map(|&j| candidates[j].key.clone()).collect();
+        let ctx = adapt::Ctx {
+            points: &prepared.points,
+            rest,
+            pool: &pool,
+            settings: ad,
+            max_iterations: settings.max_iterations,
+        };
+        let (rep, adapted) = adapt::adapt(&calibrated, &design_keys, ctx)?;
+        // The design values refitted beside the curves.
+        for (j, c) in candidates.iter().enumerate() {
+            if let Ok(v) = adapted.get_param(&c.key) {
+                fitted[j] = v;
+            }
+        }
+        runs += rep.model_runs;
+        calibrated = adapted;
+        adaptation = Some(rep);
+    }
+    let r1 = residuals_of(&calibrated, &prepared.points, rest)?;
     let params = candidates
         .iter()
         .zip(&verdicts)
         .zip(&fitted)
-        .map(|((c, v), &x)| ParamResult {
-            key: c.key.clone(),
-            guess: c.guess,
-            fitted: x,
-            sigma: v.sigma_fraction.map(|s| s * (c.upper - c.lower)),
-            lower: c.lower,
-            upper: c.upper,
-            identifiable: v.identifiable,
-            reason: v.reason.clone(),
+        .map(|((c, v), &x)| {
+            let at_bound = v.identifiable && on_bound(x, c.lower, c.upper);
+            let reason = if at_bound {
+                format!(
+                    "ended on its interval's bound ({x} in [{}, {}]): the data want a value \
+                     beyond the realistic interval. Check the data (units, an instrument \
+                     offset) or, if the unit really is that far from the file, widen it with \
+                     --params {}=LOW:HIGH",
+                    c.lower, c.upper, c.key
+                )
+            } else {
+                v.reason.clone()
+            };
+            ParamResult {
+                key: c.key.clone(),
+                guess: c.guess,
+                fitted: x,
+                sigma: v.sigma_fraction.map(|s| s * (c.upper - c.lower)),
+                lower: c.lower,
+                upper: c.upper,
+                identifiable: v.identifiable && !at_bound,
+                status: if at_bound {
+                    "at_bound"
+                } else if v.identifiable {
+                    "identified"
+                } else {
+                    "not_identifiable"
+                }
+                .into(),
+                reason,
+            }
         })
         .collect();
     let layout = full.layout();
@@ -305,6 +402,7 @@ pub fn calibrate(
         assumptions: prepared.assumptions,
         lm_iterations: iterations,
         lm_stop: stop,
+        adaptation,
         model_runs: full.runs() + runs,
     };
     Ok((report, calibrated))

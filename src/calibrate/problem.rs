@@ -52,6 +52,14 @@ struct LawPoint {
     sigma_rpm: f64,
 }
 
+/// A smoothness row of an adaptation curve: `Σ coef·x[index] / scale`, a residual the
+/// Levenberg–Marquardt fit sees beside the data (not reported among the signals' residuals).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SmoothnessRow {
+    pub terms: Vec<(usize, f64)>,
+    pub scale: f64,
+}
+
 /// Healthy snapshots against the model with `candidates` free (the others at the engine's
 /// values).
 pub struct CalibrationProblem {
@@ -67,6 +75,8 @@ pub struct CalibrationProblem {
     candidates: Vec<Candidate>,
     bounds: Bounds,
     runs: AtomicUsize,
+    /// Penalty rows appended to the least-squares residuals (adaptation curves' curvature).
+    smoothness: Vec<SmoothnessRow>,
 }
 
 /// Points prepared from snapshot rows: the rows whose healthy solve failed (by line), and how
@@ -115,18 +125,7 @@ impl CalibrationProblem {
         rest: Vec<RestReading>,
         candidates: Vec<Candidate>,
     ) -> Result<CalibrationProblem, CalibrateError> {
-        let mut starts = Vec::with_capacity(points.len());
-        for p in &points {
-            let m = engine.model_at(
-                &HealthParams::HEALTHY,
-                p.data.inputs.t_amb_k,
-                p.data.inputs.p_amb_kpa,
-            );
-            let s = solve(&m, &p.data.inputs, None).map_err(|e| {
-                CalibrateError::Data(format!("line {}: healthy steady solve: {e}", p.line))
-            })?;
-            starts.push(s);
-        }
+        let starts = solve_all(engine, &points)?;
         let law: Vec<Option<LawPoint>> = points.iter().map(|p| law_point(engine, p)).collect();
         let m: usize = points.iter().map(|p| p.data.outputs.len()).sum::<usize>()
             + law.iter().flatten().count()
@@ -153,6 +152,25 @@ impl CalibrationProblem {
             candidates,
             bounds,
             runs: AtomicUsize::new(0),
+            smoothness: Vec::new(),
+        })
+    }
+
+    /// The same problem whose least-squares residuals also carry `rows` (see
+    /// [`SmoothnessRow`]); [`Self::residuals_at`] and [`Self::layout`] stay the data's.
+    pub fn with_smoothness(mut self, rows: Vec<SmoothnessRow>) -> Self {
+        self.smoothness = rows;
+        self
+    }
+
+    fn penalties(&self, x: &[f64]) -> impl Iterator<Item = f64> + '_ {
+        let x = x.to_vec();
+        self.smoothness.iter().map(move |r| {
+            r.terms
+                .iter()
+                .map(|&(i, c)| c * x.get(i).copied().unwrap_or(0.0))
+                .sum::<f64>()
+                / r.scale
         })
     }
 
@@ -212,11 +230,21 @@ impl CalibrationProblem {
     pub fn residuals_at(&self, x: &[f64]) -> Result<Vec<f64>, CalibrateError> {
         self.runs.fetch_add(1, Ordering::Relaxed);
         let engine = self.engine_at(x)?;
+        self.residuals_of_engine(&engine, Some(&self.starts))
+    }
+
+    /// Residuals of `engine` as it is, each point solved from `starts` (or cold).
+    fn residuals_of_engine(
+        &self,
+        engine: &Engine,
+        starts: Option<&[SteadyPoint]>,
+    ) -> Result<Vec<f64>, CalibrateError> {
         let mut out = Vec::new();
-        for ((p, start), &law_point) in self.points.iter().zip(&self.starts).zip(&self.law) {
+        for (i, (p, &law_point)) in self.points.iter().zip(&self.law).enumerate() {
+            let start = starts.and_then(|s| s.get(i));
             let inp = &p.data.inputs;
             let m = engine.model_at(&HealthParams::HEALTHY, inp.t_amb_k, inp.p_amb_kpa);
-            let sp = solve(&m, inp, Some(start)).map_err(|e| {
+            let sp = solve(&m, inp, start).map_err(|e| {
                 CalibrateError::Model(format!("line {}: steady solve: {e}", p.line))
             })?;
             for &(s, v, sd) in &p.data.outputs {
@@ -233,6 +261,96 @@ impl CalibrationProblem {
         }
         Ok(out)
     }
+}
+
+/// Residuals `(model − measured)/σ` of `engine` as it is on `points` and `rest` (the layout of
+/// [`CalibrationProblem::layout`]), every point solved from the engine's own guess.
+pub fn residuals_on(
+    engine: &Engine,
+    points: &[CalibrationPoint],
+    rest: &[RestReading],
+) -> Result<Vec<f64>, CalibrateError> {
+    let law: Vec<Option<LawPoint>> = points.iter().map(|p| law_point(engine, p)).collect();
+    let bounds = Bounds::new(vec![0.0], vec![1.0])
+        .map_err(|e| CalibrateError::Data(format!("bounds: {e}")))?;
+    let prob = CalibrationProblem {
+        engine: engine.clone(),
+        points: points.to_vec(),
+        law,
+        rest: rest.to_vec(),
+        starts: Vec::new(),
+        candidates: Vec::new(),
+        bounds,
+        runs: AtomicUsize::new(0),
+        smoothness: Vec::new(),
+    };
+    let starts = solve_all(engine, points)?;
+    prob.residuals_of_engine(engine, Some(&starts))
+}
+
+/// Every point solved on `engine` (healthy), in the order of `points`. A solve from the
+/// design point can stall far off design on an engine being adapted, so each point that fails
+/// cold is solved again from the solution of the nearest point already solved (by fuel flow or
+/// power demand), then from each of the others in turn.
+fn solve_all(
+    engine: &Engine,
+    points: &[CalibrationPoint],
+) -> Result<Vec<SteadyPoint>, CalibrateError> {
+    let demand = |p: &CalibrationPoint| match p.data.inputs.demand {
+        crate::engine::steady::Demand::PowerMw(v) => v,
+        crate::engine::steady::Demand::FuelKgS(v) => v,
+        crate::engine::steady::Demand::N1Rpm(v) => v,
+    };
+    let mut out: Vec<Option<SteadyPoint>> = vec![None; points.len()];
+    let mut failed: Vec<(usize, String)> = Vec::new();
+    let model_of = |p: &CalibrationPoint| {
+        engine.model_at(
+            &HealthParams::HEALTHY,
+            p.data.inputs.t_amb_k,
+            p.data.inputs.p_amb_kpa,
+        )
+    };
+    for (i, p) in points.iter().enumerate() {
+        match solve(&model_of(p), &p.data.inputs, None) {
+            Ok(s) => out[i] = Some(s),
+            Err(e) => failed.push((i, e.to_string())),
+        }
+    }
+    // Retry the failures from solved neighbours, nearest demand first; a success becomes a
+    // neighbour for the rest.
+    let mut progress = true;
+    while progress && !failed.is_empty() {
+        progress = false;
+        let mut still = Vec::new();
+        for (i, err) in failed {
+            let p = &points[i];
+            let mut solved: Vec<usize> = (0..points.len()).filter(|&j| out[j].is_some()).collect();
+            solved.sort_by(|&a, &b| {
+                (demand(&points[a]) - demand(p))
+                    .abs()
+                    .total_cmp(&(demand(&points[b]) - demand(p)).abs())
+            });
+            let m = model_of(p);
+            let found = solved
+                .iter()
+                .find_map(|&j| solve(&m, &p.data.inputs, out[j].as_ref()).ok());
+            match found {
+                Some(s) => {
+                    out[i] = Some(s);
+                    progress = true;
+                }
+                None => still.push((i, err)),
+            }
+        }
+        failed = still;
+    }
+    if let Some((i, e)) = failed.first() {
+        return Err(CalibrateError::Data(format!(
+            "line {}: healthy steady solve: {e}",
+            points[*i].line
+        )));
+    }
+    Ok(out.into_iter().flatten().collect())
 }
 
 /// The load-law residual's data of point `p` on `engine`: `None` in generator mode or when the
@@ -273,7 +391,11 @@ impl Problem for CalibrationProblem {
     }
     fn cost(&self, x: &[f64]) -> f64 {
         match self.residuals_at(x) {
-            Ok(r) => r.iter().map(|v| v * v).sum(),
+            Ok(r) => r
+                .iter()
+                .chain(&self.penalties(x).collect::<Vec<_>>())
+                .map(|v| v * v)
+                .sum(),
             Err(_) => f64::INFINITY,
         }
     }
@@ -287,5 +409,6 @@ impl ResidualProblem for CalibrationProblem {
             // A failed solve: the right length of NaN marks the evaluation as failed.
             Err(_) => out.extend(std::iter::repeat_n(f64::NAN, self.layout().len())),
         }
+        out.extend(self.penalties(x));
     }
 }

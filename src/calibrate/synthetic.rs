@@ -122,6 +122,66 @@ pub fn snapshot_csv_of(
     seed: u64,
     written: &[Signal],
 ) -> Result<String, String> {
+    let rows = Rows {
+        group,
+        averaging,
+        seed,
+        written,
+    };
+    write_rows(engine, health, points, None, &rows)
+}
+
+/// [`snapshot_csv_of`] with the PT speed of each point given (`n2_rpm[k]` for `points[k]`):
+/// a load whose speed follows a schedule of its own (a controllable-pitch propeller's
+/// combinator, a compressor with recycle), each point solved at that speed for its power.
+#[allow(clippy::too_many_arguments)] // the row layout's four settings beside the points
+pub fn snapshot_csv_at_speeds(
+    engine: &Engine,
+    health: &HealthParams,
+    points: &[OperatingPoint],
+    n2_rpm: &[f64],
+    group: &str,
+    averaging: f64,
+    seed: u64,
+    written: &[Signal],
+) -> Result<String, String> {
+    if n2_rpm.len() != points.len() {
+        return Err(format!(
+            "{} PT speeds for {} points",
+            n2_rpm.len(),
+            points.len()
+        ));
+    }
+    let rows = Rows {
+        group,
+        averaging,
+        seed,
+        written,
+    };
+    write_rows(engine, health, points, Some(n2_rpm), &rows)
+}
+
+/// How rows are written: group label, averaging, noise seed, compared signals.
+struct Rows<'a> {
+    group: &'a str,
+    averaging: f64,
+    seed: u64,
+    written: &'a [Signal],
+}
+
+fn write_rows(
+    engine: &Engine,
+    health: &HealthParams,
+    points: &[OperatingPoint],
+    speeds: Option<&[f64]>,
+    rows: &Rows,
+) -> Result<String, String> {
+    let Rows {
+        group,
+        averaging,
+        seed,
+        written,
+    } = *rows;
     let cfg = engine.cfg();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut csv = String::from("test,t1_k,p_amb_kpa,n2_rpm,fuel_kg_s");
@@ -135,12 +195,18 @@ pub fn snapshot_csv_of(
         let inputs = SteadyInputs {
             t_amb_k: p.t_amb_k,
             p_amb_kpa: p.p_amb_kpa,
-            n2_rpm: cfg.design.pt_speed_rpm,
+            n2_rpm: speeds.map_or(cfg.design.pt_speed_rpm, |s| s[k]),
             demand: Demand::PowerMw(p.power_mw),
         };
-        // The engine file's load mode sets the PT speed (a load law: its speed for this power).
-        let (sp, _) = load::solve(&m, cfg.load.as_ref(), &inputs, None)
-            .map_err(|e| format!("point {k} ({p:?}): {e}"))?;
+        // The engine file's load mode sets the PT speed (a load law: its speed for this power),
+        // unless the speeds are given.
+        let load = if speeds.is_some() {
+            None
+        } else {
+            cfg.load.as_ref()
+        };
+        let (sp, _) =
+            load::solve(&m, load, &inputs, None).map_err(|e| format!("point {k} ({p:?}): {e}"))?;
         csv.push_str(&format!(
             "{group},{},{},{},{}",
             p.t_amb_k, p.p_amb_kpa, sp.stations.n2_rpm, sp.stations.fuel_kg_s

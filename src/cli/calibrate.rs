@@ -3,7 +3,8 @@
 //! windows of recorded start-ups) and write the new
 //! engine file (`calibrate`, `calibrate::edit`). Prints a report, or one JSON document.
 
-use crate::calibrate::candidates::{candidate, default_candidates, offset_candidate};
+use crate::calibrate::adapt::AdaptSettings;
+use crate::calibrate::candidates::{candidate, candidate_in, default_candidates, offset_candidate};
 use crate::calibrate::edit::{rewrite, NewValue};
 use crate::calibrate::startup::{rest_readings, startup_snapshots};
 use crate::calibrate::{calibrate, Calibration, CalibrationSettings};
@@ -41,9 +42,10 @@ pub struct CalibrateArgs {
     /// Write the calibrated engine file here (without it nothing is written).
     #[arg(long, value_name = "NEW.toml")]
     pub out: Option<PathBuf>,
-    /// Candidate parameters (dotted engine-file keys), comma-separated; default: design
-    /// efficiencies, air flow, pressure ratio, power, losses, combustion efficiency and map
-    /// design points.
+    /// Candidate parameters (dotted engine-file keys), comma-separated, each optionally with
+    /// its interval `KEY=LOW:HIGH` (default: a realistic interval around the file's value);
+    /// default set: design efficiencies, air flow, pressure ratio, power, losses, combustion
+    /// efficiency and map design points.
     #[arg(long, value_name = "KEY,KEY…")]
     pub params: Option<String>,
     /// Also fit a constant offset of each gas-path pressure instrument (P2, P34, P4: the
@@ -52,6 +54,13 @@ pub struct CalibrateArgs {
     /// identified offsets are written as `[effects."sensor_bias:<column>"]` tables.
     #[arg(long)]
     pub offsets: bool,
+    /// Also adapt the maps off design: smooth modification curves of each component's
+    /// relative corrected speed (compressor speed line, flow, efficiency, pressure ratio; HPT
+    /// and PT flow and efficiency), as many curves and knots as the identifiability analysis
+    /// finds the data support, written as the `[adaptation]` section. For a unit whose maps
+    /// are not the engine file's (another make, variable stators, a different off-design shape).
+    #[arg(long)]
+    pub adapt: bool,
     /// Column mapping for the snapshot file: `t1_k=T_inlet,n1_rpm=NGG,…`.
     #[arg(long)]
     pub map: Option<String>,
@@ -132,12 +141,17 @@ fn header(a: &CalibrateArgs, report: &Calibration, n_rows: usize) -> Vec<String>
                 p.guess,
                 p.sigma.unwrap_or(f64::NAN)
             ));
+        } else if p.status == "at_bound" {
+            h.push(format!(
+                "  {} = {:.7} (was {}; AT THE BOUND of [{}, {}]: the data want more)",
+                p.key, p.fitted, p.guess, p.lower, p.upper
+            ));
         }
     }
     let kept: Vec<&str> = report
         .params
         .iter()
-        .filter(|p| !p.identifiable)
+        .filter(|p| p.status == "not_identifiable")
         .map(|p| p.key.as_str())
         .collect();
     if !kept.is_empty() {
@@ -155,16 +169,17 @@ fn header(a: &CalibrateArgs, report: &Calibration, n_rows: usize) -> Vec<String>
 
 fn print_text(report: &Calibration, wall_s: f64) {
     println!(
-        "{:<36} {:>12} {:>12} {:>10}  verdict",
-        "parameter", "guess", "fitted", "1σ"
+        "{:<36} {:>12} {:>12} {:>10}  {:<17} why",
+        "parameter", "guess", "fitted", "1σ", "status"
     );
     for p in &report.params {
         println!(
-            "{:<36} {:>12.6} {:>12.6} {:>10}  {}",
+            "{:<36} {:>12.6} {:>12.6} {:>10}  {:<17} {}",
             p.key,
             p.guess,
             p.fitted,
             p.sigma.map_or("-".into(), |s| format!("{s:.2e}")),
+            p.status,
             p.reason
         );
     }
@@ -182,6 +197,40 @@ fn print_text(report: &Calibration, wall_s: f64) {
             p.source, p.line, p.rms_before, p.rms_after
         );
     }
+    if let Some(ad) = &report.adaptation {
+        println!(
+            "\noff-design adaptation (fraction of the map's value; 0 at the design speed): RMS \
+             {:.2} σ → {:.2} σ",
+            ad.rms_before, ad.rms_after
+        );
+        for c in &ad.components {
+            let knots: Vec<String> = c.knots.iter().map(|k| format!("{k:.3}")).collect();
+            println!(
+                "  {:<10} speeds {:.3}…{:.3}  knots [{}]  ({})",
+                c.component,
+                c.speed_range[0],
+                c.speed_range[1],
+                knots.join(", "),
+                c.knots_reason
+            );
+            for k in &c.curves {
+                let v: Vec<String> = k.values.iter().map(|x| format!("{x:+.4}")).collect();
+                println!(
+                    "    {:<15} [{}]{}",
+                    k.curve,
+                    v.join(", "),
+                    if k.at_bound {
+                        "  AT BOUND: the data want more than the interval allows"
+                    } else {
+                        ""
+                    }
+                );
+            }
+            for (curve, why) in &c.not_fitted {
+                println!("    {curve:<15} not fitted: {why}");
+            }
+        }
+    }
     for a in &report.assumptions {
         println!("note: {a}");
     }
@@ -195,6 +244,25 @@ fn print_text(report: &Calibration, wall_s: f64) {
         "RMS residual {:.2} σ → {:.2} σ ({} LM iteration(s), {} model runs, {:.1} s)",
         report.rms_before, report.rms_after, report.lm_iterations, report.model_runs, wall_s
     );
+}
+
+/// One `--params` entry: `key` (its realistic interval) or `key=LOW:HIGH` (the user's).
+fn param_candidate(
+    engine: &Engine,
+    entry: &str,
+) -> anyhow::Result<crate::calibrate::candidates::Candidate> {
+    let Some((key, interval)) = entry.split_once('=') else {
+        return Ok(candidate(engine, entry)?);
+    };
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<f64>()
+            .with_context(|| format!("`{entry}`: `{v}` is not a number (use KEY=LOW:HIGH)"))
+    };
+    let (lo, hi) = interval
+        .split_once(':')
+        .with_context(|| format!("`{entry}`: use KEY=LOW:HIGH"))?;
+    Ok(candidate_in(engine, key.trim(), parse(lo)?, parse(hi)?)?)
 }
 
 pub fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
@@ -254,8 +322,8 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
                 bail!("--params: no key given");
             }
             keys.iter()
-                .map(|k| candidate(&engine, k))
-                .collect::<Result<Vec<_>, _>>()
+                .map(|k| param_candidate(&engine, k))
+                .collect::<anyhow::Result<Vec<_>>>()
                 .context("--params")?
         }
     };
@@ -285,6 +353,7 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
     }
     let settings = CalibrationSettings {
         threads: a.threads,
+        adapt: a.adapt.then(AdaptSettings::default),
         ..CalibrationSettings::default()
     };
     let (report, _calibrated) = calibrate(&engine, &rows, &rest, candidates, &settings)
@@ -303,6 +372,12 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
             .into_iter()
             .map(|(k, v)| (k, NewValue::Number(v)))
             .collect();
+        values.extend(
+            report
+                .adaptation_lists()
+                .into_iter()
+                .map(|(k, v)| (k, NewValue::Numbers(v))),
+        );
         values.extend(moved_map_paths(&original, &a.engine, from_dir, to_dir)?);
         let text = rewrite(
             &original,

@@ -207,6 +207,20 @@ fn load_turbine(
     }
 }
 
+/// The engine file's adaptation curves of `component` (none when the file has none).
+fn adaptation_of(cfg: &EngineConfig, component: &str) -> maps::ComponentAdaptation {
+    let Some(c) = cfg.adaptation.as_ref().and_then(|a| a.component(component)) else {
+        return maps::ComponentAdaptation::default();
+    };
+    let curve = |v: &[f64]| maps::SpeedCurve::new(&c.speed_knots, v);
+    maps::ComponentAdaptation {
+        flow: curve(&c.flow),
+        eff: curve(&c.efficiency),
+        pr: curve(&c.pressure_ratio),
+        speed: curve(&c.speed),
+    }
+}
+
 impl Engine {
     /// Loads the maps and calibrates them to the design point.
     pub fn new(cfg: EngineConfig) -> Result<Engine, EngineError> {
@@ -259,6 +273,10 @@ impl Engine {
             d.pressure_ratio,
             d.compressor_efficiency,
         );
+        let comp = comp.with_adaptation(
+            d.gg_speed_rpm / theta1.sqrt(),
+            adaptation_of(&cfg, "compressor"),
+        );
         let theta3 = design.t3_k / T_STD_K;
         let wc3 = design.hpt_flow_kg_s * theta3.sqrt() / (design.p3_kpa / P_STD_KPA);
         let hpt = ScaledTurbine::calibrate(
@@ -270,6 +288,7 @@ impl Engine {
             design.hpt_pressure_ratio,
             d.hpt_efficiency,
         );
+        let hpt = hpt.with_adaptation(d.gg_speed_rpm / theta3.sqrt(), adaptation_of(&cfg, "hpt"));
         let theta34 = design.t34_k / T_STD_K;
         let wc34 = design.pt_flow_kg_s * theta34.sqrt() / (design.p34_kpa / P_STD_KPA);
         let pt = ScaledTurbine::calibrate(
@@ -281,6 +300,7 @@ impl Engine {
             design.pt_pressure_ratio,
             d.pt_efficiency,
         );
+        let pt = pt.with_adaptation(d.pt_speed_rpm / theta34.sqrt(), adaptation_of(&cfg, "pt"));
         let dy = &cfg.dynamics;
         let consts = Constants {
             t_amb_k: cfg.ambient.temperature_k,

@@ -143,6 +143,14 @@ impl Engine {
     /// A copy with several engine-file numbers set at once and the design calibrated once
     /// (what `set_param` in a loop would give, at the cost of one calibration). Errors name the
     /// first key refused; `self` is never changed.
+    /// A copy built from `cfg` (validated) on this engine's maps, without reading map files
+    /// again: for a structural change of the file, such as a new `[adaptation]` section, that
+    /// numbers alone cannot make. `cfg`'s map paths are not re-read.
+    pub fn with_config(&self, cfg: EngineConfig) -> Result<Engine, EngineError> {
+        cfg.validate("<with_config>")?;
+        Engine::calibrate(cfg, self.raw_maps().clone())
+    }
+
     pub fn with_params(&self, values: &[(String, f64)]) -> Result<Engine, EngineError> {
         let mut cfg = self.cfg().clone();
         for (key, v) in values {

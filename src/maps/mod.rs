@@ -23,12 +23,14 @@
 //! tensor-product cubic spline of [`spline`] (as GSPy/SciPy) when an engine file selects
 //! `maps.interpolation = "cubic"` (see [`compressor`], [`turbine`]).
 
+pub mod adapt;
 pub mod compressor;
 pub mod gasturb;
 pub mod scaled;
 pub mod spline;
 pub mod turbine;
 
+pub use adapt::{ComponentAdaptation, SpeedCurve};
 pub use compressor::{CompressorMap, CompressorPoint};
 pub use gasturb::{parse, read_file, GasTurbFile, MapError, MapTable};
 pub use scaled::{CompressorOp, MapScalers, ScaledCompressor, ScaledTurbine, TurbineOp};

@@ -15,13 +15,44 @@
 //! including the surge line. `with_health` *replaces* the health factors (it is always relative
 //! to the calibrated, healthy map), so an optimiser can call it for every candidate.
 //!
+//! Off-design adaptation ([`super::adapt`], the engine file's `[adaptation]`): curves of relative
+//! corrected speed, zero at the design speed, that multiply flow, efficiency and (PR − 1) and
+//! re-label the compressor speed line read; kept through `with_health`.
+//!
 //! Surge margin, percent: `SM = (PR_surge(Wc) / PR − 1) · 100` with `PR_surge` the scaled surge
 //! line's pressure ratio at the operating point's corrected flow. Positive inside the map, 0 on
 //! the surge line, negative beyond it.
 
+use super::adapt::{ComponentAdaptation, Factors};
 use super::compressor::CompressorMap;
 use super::turbine::TurbineMap;
 use std::sync::Arc;
+
+/// A component's off-design adaptation ([`super::adapt`]) and the corrected speed, engine
+/// units (rpm), its relative speed is referred to: the design point's.
+#[derive(Debug, Clone)]
+struct Adaptation {
+    design_nc_rpm: f64,
+    curves: Arc<ComponentAdaptation>,
+}
+
+impl Adaptation {
+    /// The factors at engine corrected speed `nc_rpm` (all 1 without an adaptation).
+    #[inline]
+    fn factors(this: &Option<Adaptation>, nc_rpm: f64) -> Factors {
+        match this {
+            None => Factors::ONE,
+            Some(a) => a.curves.factors(nc_rpm / a.design_nc_rpm),
+        }
+    }
+
+    fn of(design_nc_rpm: f64, curves: ComponentAdaptation) -> Option<Adaptation> {
+        curves.is_active().then(|| Adaptation {
+            design_nc_rpm,
+            curves: Arc::new(curves),
+        })
+    }
+}
 
 /// Design-point scalers: engine = scaler × map (PR: `1 + pr_minus_one · (PR_map − 1)`).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -65,6 +96,7 @@ pub struct ScaledCompressor {
     scalers: MapScalers,
     flow_factor: f64,
     eff_factor: f64,
+    adaptation: Option<Adaptation>,
 }
 
 impl ScaledCompressor {
@@ -97,6 +129,7 @@ impl ScaledCompressor {
             scalers,
             flow_factor: 1.0,
             eff_factor: 1.0,
+            adaptation: None,
         }
     }
 
@@ -108,6 +141,16 @@ impl ScaledCompressor {
             scalers: self.scalers,
             flow_factor,
             eff_factor,
+            adaptation: self.adaptation.clone(),
+        }
+    }
+
+    /// The same compressor with the off-design adaptation `curves` (replacing any previous
+    /// one), relative speeds referred to `design_nc_rpm`. Inactive curves cost nothing.
+    pub fn with_adaptation(&self, design_nc_rpm: f64, curves: ComponentAdaptation) -> Self {
+        ScaledCompressor {
+            adaptation: Adaptation::of(design_nc_rpm, curves),
+            ..self.clone()
         }
     }
 
@@ -122,17 +165,20 @@ impl ScaledCompressor {
         &self.map
     }
 
+    /// The point at map coordinates (`nc_read`, `beta`) with the adaptation factors `a` of the
+    /// engine speed it stands for (`nc_read` is already the re-labelled map speed).
     #[inline]
-    fn op(&self, nc_map: f64, beta: f64) -> CompressorOp {
+    fn op(&self, nc_read: f64, beta: f64, a: Factors) -> CompressorOp {
         let s = &self.scalers;
-        let p = self.map.point(nc_map, beta);
-        let pr = 1.0 + s.pr_minus_one * (p.pr - 1.0);
+        let p = self.map.point(nc_read, beta);
+        let pr_m1 = s.pr_minus_one * a.pr_minus_one;
+        let pr = 1.0 + pr_m1 * (p.pr - 1.0);
         // Surge line in map units at the same map flow (health shifts the map as a whole).
-        let pr_surge = 1.0 + s.pr_minus_one * (self.map.surge_pr(p.wc) - 1.0);
+        let pr_surge = 1.0 + pr_m1 * (self.map.surge_pr(p.wc) - 1.0);
         CompressorOp {
-            wc_kg_s: s.flow * self.flow_factor * p.wc,
+            wc_kg_s: s.flow * self.flow_factor * a.flow * p.wc,
             pr,
-            eff: s.eff * self.eff_factor * p.eff,
+            eff: s.eff * self.eff_factor * a.eff * p.eff,
             beta,
             surge_margin_pct: (pr_surge / pr - 1.0) * 100.0,
         }
@@ -141,17 +187,19 @@ impl ScaledCompressor {
     /// Operating point at corrected speed `nc_rpm` and engine pressure ratio `pr`.
     pub fn at_pr(&self, nc_rpm: f64, pr: f64) -> CompressorOp {
         let s = &self.scalers;
-        let nc_map = nc_rpm / s.speed;
-        let pr_map = 1.0 + (pr - 1.0) / s.pr_minus_one;
-        let beta = self.map.beta_for_pr(nc_map, pr_map);
-        let mut op = self.op(nc_map, beta);
+        let a = Adaptation::factors(&self.adaptation, nc_rpm);
+        let nc_read = nc_rpm / s.speed * a.speed;
+        let pr_map = 1.0 + (pr - 1.0) / (s.pr_minus_one * a.pr_minus_one);
+        let beta = self.map.beta_for_pr(nc_read, pr_map);
+        let mut op = self.op(nc_read, beta, a);
         op.pr = pr;
         op
     }
 
     /// Operating point at corrected speed `nc_rpm` and map coordinate `beta`.
     pub fn at_beta(&self, nc_rpm: f64, beta: f64) -> CompressorOp {
-        self.op(nc_rpm / self.scalers.speed, beta)
+        let a = Adaptation::factors(&self.adaptation, nc_rpm);
+        self.op(nc_rpm / self.scalers.speed * a.speed, beta, a)
     }
 }
 
@@ -162,6 +210,7 @@ pub struct ScaledTurbine {
     scalers: MapScalers,
     flow_factor: f64,
     eff_factor: f64,
+    adaptation: Option<Adaptation>,
 }
 
 impl ScaledTurbine {
@@ -193,6 +242,7 @@ impl ScaledTurbine {
             scalers,
             flow_factor: 1.0,
             eff_factor: 1.0,
+            adaptation: None,
         }
     }
 
@@ -203,6 +253,16 @@ impl ScaledTurbine {
             scalers: self.scalers,
             flow_factor,
             eff_factor,
+            adaptation: self.adaptation.clone(),
+        }
+    }
+
+    /// The same turbine with the off-design adaptation `curves` (flow and efficiency curves;
+    /// replacing any previous one), relative speeds referred to `design_nc_rpm`.
+    pub fn with_adaptation(&self, design_nc_rpm: f64, curves: ComponentAdaptation) -> Self {
+        ScaledTurbine {
+            adaptation: Adaptation::of(design_nc_rpm, curves),
+            ..self.clone()
         }
     }
 
@@ -219,12 +279,13 @@ impl ScaledTurbine {
     /// Operating point at corrected speed `nc_rpm` and engine pressure ratio `pr` (inlet/outlet).
     pub fn at_pr(&self, nc_rpm: f64, pr: f64) -> TurbineOp {
         let s = &self.scalers;
+        let a = Adaptation::factors(&self.adaptation, nc_rpm);
         let p = self
             .map
             .point(nc_rpm / s.speed, 1.0 + (pr - 1.0) / s.pr_minus_one);
         TurbineOp {
-            wc_kg_s: s.flow * self.flow_factor * p.wc,
-            eff: s.eff * self.eff_factor * p.eff,
+            wc_kg_s: s.flow * self.flow_factor * a.flow * p.wc,
+            eff: s.eff * self.eff_factor * a.eff * p.eff,
             beta: p.beta,
         }
     }

@@ -9,8 +9,10 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
 
+mod adaptation;
 mod fuel;
 mod ranges;
+pub use adaptation::{curves_of, AdaptationConfig, ComponentCurves, COMPONENTS};
 pub use fuel::{FuelConfig, FuelKind, GasComposition};
 pub use ranges::{param_range, ParamRange};
 
@@ -371,6 +373,10 @@ pub struct EngineConfig {
     /// effect's defaults (filled in at load, so each is a named parameter).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub effects: BTreeMap<String, BTreeMap<String, f64>>,
+    /// One unit's off-design corrections of the maps (`config/adaptation.rs`); absent = the
+    /// maps as scaled at the design point.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub adaptation: Option<AdaptationConfig>,
 }
 
 impl EngineConfig {
@@ -447,6 +453,9 @@ impl EngineConfig {
             reason: reason.into(),
         };
         super::effects::check(&self.effects).map_err(|e| bad("effects", &e.to_string()))?;
+        if let Some(a) = &self.adaptation {
+            a.check().map_err(|(key, reason)| bad(&key, &reason))?;
+        }
         let tree = serde_json::to_value(self).map_err(|e| EngineConfigError::Parse {
             path: path.into(),
             message: e.to_string(),

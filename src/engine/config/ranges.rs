@@ -71,6 +71,13 @@ const RANGES: &[(&str, ParamRange)] = &[
     ("design.fuel_lhv_j_per_kg", ParamRange::new(1.0e6, 2.0e8)),
     ("fuel.temperature_k", ParamRange::new(200.0, 800.0)),
     ("load.exponent", ParamRange::new(0.5, 5.0)),
+    // Off-design adaptation (`config/adaptation.rs`): knots in relative corrected speed,
+    // corrections as fractions, bounded as `maps::adapt` clamps them.
+    ("adaptation.*.speed_knots", ParamRange::new(0.05, 2.0)),
+    ("adaptation.*.flow", ParamRange::new(-0.5, 0.5)),
+    ("adaptation.*.efficiency", ParamRange::new(-0.5, 0.5)),
+    ("adaptation.*.pressure_ratio", ParamRange::new(-0.5, 0.5)),
+    ("adaptation.*.speed", ParamRange::new(-0.5, 0.5)),
     ("fuel.composition.CH4", ParamRange::new(0.0, 1.0)),
     ("fuel.composition.C2H6", ParamRange::new(0.0, 1.0)),
     ("fuel.composition.C3H8", ParamRange::new(0.0, 1.0)),
@@ -205,8 +212,8 @@ pub fn param_range(key: &str) -> Option<ParamRange> {
         return Some(*r);
     }
     let parts: Vec<&str> = base.split('.').collect();
-    if parts.len() == 3 && parts[0] == "sensors" {
-        let wild = format!("sensors.*.{}", parts[2]);
+    if parts.len() == 3 && (parts[0] == "sensors" || parts[0] == "adaptation") {
+        let wild = format!("{}.*.{}", parts[0], parts[2]);
         return RANGES.iter().find(|(k, _)| *k == wild).map(|(_, r)| *r);
     }
     None
