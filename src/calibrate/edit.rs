@@ -33,6 +33,25 @@ fn item_mut<'d>(doc: &'d mut DocumentMut, key: &str) -> Option<&'d mut Item> {
     Some(item)
 }
 
+/// The table `[section.name]`, made (the section implicit, so only `[section.name]` headers
+/// appear) where missing; `None` when either exists as something other than a table.
+fn sub_table<'d>(
+    doc: &'d mut DocumentMut,
+    section: &str,
+    name: &str,
+) -> Option<&'d mut toml_edit::Table> {
+    doc.entry(section)
+        .or_insert_with(|| {
+            let mut t = toml_edit::Table::new();
+            t.set_implicit(true);
+            Item::Table(t)
+        })
+        .as_table_mut()?
+        .entry(name)
+        .or_insert_with(|| Item::Table(toml_edit::Table::new()))
+        .as_table_mut()
+}
+
 /// `original` with each `(key, value)` replaced, keeping each value's surrounding comments and
 /// spacing, and `header` (comment lines without the `#`) put first. Every key must already be
 /// in the file as a value of the same kind (an error names the key otherwise), except an
@@ -64,20 +83,8 @@ pub fn rewrite(
             let (component, curve) = rest
                 .split_once('.')
                 .ok_or_else(|| bad("use adaptation.<component>.<curve>"))?;
-            let section = doc
-                .entry("adaptation")
-                .or_insert_with(|| {
-                    let mut t = toml_edit::Table::new();
-                    t.set_implicit(true);
-                    Item::Table(t)
-                })
-                .as_table_mut()
-                .ok_or_else(|| bad("`adaptation` is not a table in the file"))?;
-            let table = section
-                .entry(component)
-                .or_insert_with(|| Item::Table(toml_edit::Table::new()))
-                .as_table_mut()
-                .ok_or_else(|| bad("the component is not a table in the file"))?;
+            let table = sub_table(&mut doc, "adaptation", component)
+                .ok_or_else(|| bad("`adaptation` or the component is not a table in the file"))?;
             let array: toml_edit::Array = list.iter().map(|v| rounded(*v)).collect();
             table.insert(curve, toml_edit::value(array));
             continue;
@@ -89,20 +96,8 @@ pub fn rewrite(
         ) {
             // An effect the file does not have yet (a fitted instrument offset): its table is
             // added, `[effects."<instance>"]`.
-            let effects = doc
-                .entry("effects")
-                .or_insert_with(|| {
-                    let mut t = toml_edit::Table::new();
-                    t.set_implicit(true);
-                    Item::Table(t)
-                })
-                .as_table_mut()
-                .ok_or_else(|| bad("`effects` is not a table in the file"))?;
-            let table = effects
-                .entry(effect)
-                .or_insert_with(|| Item::Table(toml_edit::Table::new()))
-                .as_table_mut()
-                .ok_or_else(|| bad("the effect is not a table in the file"))?;
+            let table = sub_table(&mut doc, "effects", effect)
+                .ok_or_else(|| bad("`effects` or the effect is not a table in the file"))?;
             table.insert(param, toml_edit::value(rounded(*v)));
             continue;
         }
