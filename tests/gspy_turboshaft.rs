@@ -1,6 +1,6 @@
 //! GSPy's `turboshaft_2spool` example as a gtwatch engine file (`config/gspy_turboshaft_2spool.toml`,
 //! in GSPy's own terms), compared station by station with GSPy's published results in
-//! `../shared/reference/gspy_turboshaft_2spool/turboshaft_2spool_output.csv`: the design point and
+//! `tests/data/reference/gspy_turboshaft_2spool/turboshaft_2spool_output.csv`: the design point and
 //! the 8 off-design points (fuel flow 2.5 → 1.8 kg/s, PT at 4100 rpm).
 //!
 //! Every compared quantity must agree within [`TOLERANCE`] (relative). The remaining differences
@@ -27,7 +27,7 @@ fn root() -> PathBuf {
 /// GSPy's rows: mode ("DP"/"OD") and column → value.
 fn reference_rows() -> Vec<(String, HashMap<String, f64>)> {
     let path =
-        root().join("../shared/reference/gspy_turboshaft_2spool/turboshaft_2spool_output.csv");
+        root().join("tests/data/reference/gspy_turboshaft_2spool/turboshaft_2spool_output.csv");
     let file = std::fs::File::open(&path).unwrap_or_else(|e| {
         panic!(
             "the GSPy reference {} is needed for this comparison and cannot be read: {e}",

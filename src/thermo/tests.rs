@@ -32,7 +32,7 @@ fn stoichiometric_far_is_about_0_058() {
 fn matches_cantera_reference_every_row() {
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../shared/reference/gas_properties_cantera.csv"
+        "/tests/data/reference/gas_properties_cantera.csv"
     );
     let mut rdr = csv::Reader::from_path(path).expect("reference csv present");
     let mut rows = 0;
