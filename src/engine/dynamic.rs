@@ -77,10 +77,22 @@ fn core_view(model: &Model, t: f64, y: &State, drive: &Drive) -> CoreView {
 
 /// The state of an engine at rest in ambient air (the model's layout: core and effect states).
 pub fn standstill_state(model: &Model, t_amb_k: f64, p_amb_kpa: f64) -> State {
+    warm_standstill_state(model, t_amb_k, p_amb_kpa, t_amb_k)
+}
+
+/// The state of an engine at rest whose hot section (the gas in it and, for effects with metal
+/// states, the metal around it: at rest both are at one temperature) is at `hot_section_k`:
+/// ambient after a long stop, warmer soon after a run or a trip.
+pub fn warm_standstill_state(
+    model: &Model,
+    t_amb_k: f64,
+    p_amb_kpa: f64,
+    hot_section_k: f64,
+) -> State {
     let s = Scales::of(model);
     let mut y = model.effects.layout().zeros();
     y[IX_P2] = p_amb_kpa / s.p2;
-    y[IX_T3] = t_amb_k / s.t3;
+    y[IX_T3] = hot_section_k.max(t_amb_k) / s.t3;
     y[IX_P34] = p_amb_kpa / s.p34;
     if !model.effects.is_empty() {
         let rest = Drive {

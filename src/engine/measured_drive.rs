@@ -14,7 +14,7 @@ use super::dynamic::{Drive, Stations};
 use super::load::PtLoadLaw;
 use super::model::{Engine, EngineError, Model};
 use super::sensors::MeasurementOptions;
-use super::simulation::{Controller, Simulation, TruthSample, Watch};
+use super::simulation::{Controller, Simulation, StartState, TruthSample, Watch};
 use super::state::{Actuator, Shaft};
 use super::trace::Trace;
 use crate::health::HealthParams;
@@ -206,6 +206,41 @@ impl Controller for MeasuredDrive {
     }
 }
 
+/// GG speed below which a sample still shows the engine as it stood before the start, rpm.
+const START_WINDOW_N1_RPM: f64 = 100.0;
+
+/// The state a segment starts from, read from its samples before the GG rises out of rest:
+/// each shaft's first measured speed (0 where none is measured), and the hot section's
+/// temperature as its thermocouples show it at rest (T34, else T4; the mean over that window,
+/// never below ambient). After a long stop this is a cold engine at rest; soon after a run or a
+/// trip the power turbine is still coasting and the hot section is warm, and a model started
+/// cold would read the difference as degradation.
+pub fn start_state_of(seg: &Recording, t_amb_k: f64) -> StartState {
+    let n1 = seg.series(Signal::N1);
+    let window = n1
+        .iter()
+        .position(|v| v.is_finite() && *v > START_WINDOW_N1_RPM)
+        .unwrap_or(n1.len())
+        .max(1);
+    let rest_values = |s: Signal| -> Vec<f64> {
+        seg.series(s)
+            .into_iter()
+            .take(window)
+            .filter(|v| v.is_finite())
+            .collect()
+    };
+    let first_speed = |s: Signal| rest_values(s).first().map_or(0.0, |v| v.max(0.0));
+    let mean = |v: Vec<f64>| (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
+    let hot = mean(rest_values(Signal::T34))
+        .or_else(|| mean(rest_values(Signal::T4)))
+        .unwrap_or(t_amb_k);
+    StartState {
+        n1_rpm: first_speed(Signal::N1),
+        n2_rpm: first_speed(Signal::N2),
+        hot_section_k: hot.max(t_amb_k),
+    }
+}
+
 /// Simulates what the instruments would have recorded for `seg` on an engine with `health`.
 /// The result has the segment's sample times; its `measured` values include the sensor lags
 /// (no noise), its `truth` the model's true values.
@@ -231,6 +266,9 @@ pub fn simulate_segment(
     let rseg = seg.shifted_to_zero();
     let ctl = MeasuredDrive::new(&model, &rseg, mode);
     let mut sim = Simulation::with_controller(&model, ctl);
+    // A restart soon after a stop or a trip begins with the power turbine (large inertia, little
+    // drag) still coasting and the hot section warm: start from what the data show.
+    sim.start_from(&start_state_of(seg, t_amb));
     let mut samples = Vec::with_capacity(seg.len());
     for (k, &t) in rseg.times().iter().enumerate() {
         sim.advance_to(t)?;
@@ -275,6 +313,34 @@ mod tests {
             .skip(from)
             .map(|(x, y)| (x[s.index()] - y[s.index()]).abs() / y[s.index()].abs().max(1.0))
             .fold(0.0, f64::max)
+    }
+
+    /// A cold start begins at rest and ambient; a restart whose first samples show a coasting
+    /// PT and a warm hot section begins there, and only those samples (before the GG rises)
+    /// count.
+    #[test]
+    fn start_state_is_read_from_the_samples_before_the_gg_rises() {
+        let engine = Engine::reference().expect("engine");
+        let plant = startup(&engine, &HealthParams::HEALTHY);
+        let mut seg = plant.to_recording().expect("a valid recording");
+        let t_amb = engine.cfg().ambient.temperature_k;
+        let cold = start_state_of(&seg, t_amb);
+        assert_eq!((cold.n1_rpm, cold.n2_rpm), (0.0, 0.0));
+        assert!((cold.hot_section_k - t_amb).abs() < 1.0, "{cold:?}");
+        let rises = seg
+            .series(Signal::N1)
+            .iter()
+            .position(|v| *v > START_WINDOW_N1_RPM)
+            .expect("the GG rises");
+        for k in 0..rises {
+            seg.set(k, Signal::N2, 950.0 - k as f64).expect("set");
+            seg.set(k, Signal::T34, if k == 0 { f64::NAN } else { 700.0 })
+                .expect("set");
+        }
+        seg.set(rises, Signal::T34, 2000.0).expect("set");
+        let warm = start_state_of(&seg, t_amb);
+        assert_eq!(warm.n2_rpm, 950.0);
+        assert!((warm.hot_section_k - 700.0).abs() < 1e-9, "{warm:?}");
     }
 
     #[test]

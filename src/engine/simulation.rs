@@ -57,6 +57,15 @@ pub struct TruthSample {
     pub stations: Stations,
 }
 
+/// How a run begins when the engine is not cold and still: shaft speeds and the temperature of
+/// the hot section (gas and metal at rest).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StartState {
+    pub n1_rpm: f64,
+    pub n2_rpm: f64,
+    pub hot_section_k: f64,
+}
+
 /// Integration statistics (performance accounting).
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct RunStats {
@@ -111,6 +120,22 @@ impl<C: Controller> Simulation<C> {
             p_amb_kpa: c.p_amb_kpa,
             stats: RunStats::default(),
         }
+    }
+
+    /// Starts from a turning, warm engine instead of a cold one at rest (a restart soon after a
+    /// stop or a trip): the shafts at the given speeds, the hot section at `start.hot_section_k`.
+    /// Call before the first [`Simulation::advance_to`].
+    pub fn start_from(&mut self, start: &StartState) {
+        self.y = dynamic::warm_standstill_state(
+            &self.model,
+            self.t_amb_k,
+            self.p_amb_kpa,
+            start.hot_section_k,
+        );
+        let mut act = Actuator::new(&mut self.y, &self.scales);
+        act.set_speed_rpm(Shaft::Gg, start.n1_rpm);
+        act.set_speed_rpm(Shaft::Pt, start.n2_rpm);
+        self.ros.invalidate();
     }
 
     /// Station table at the current time.

@@ -495,9 +495,10 @@ impl MetalNode {
     pub fn temperature_k(x: f64) -> f64 {
         x * Self::T_SCALE_K
     }
-    /// State at rest (ambient).
+    /// State at rest: the metal at the temperature of the still gas around it (ambient after a
+    /// long stop, warmer in a restart soon after a run).
     pub fn rest(core: &CoreView) -> f64 {
-        core.t_amb_k / Self::T_SCALE_K
+        core.t3_k.max(core.t_amb_k) / Self::T_SCALE_K
     }
     /// State in steady operation (at the gas temperature).
     pub fn steady(stations: &Stations) -> f64 {
