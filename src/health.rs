@@ -13,6 +13,76 @@ pub const HEALTH_NAMES: [&str; 6] = ["D_GC", "D_EC", "D_GT", "D_ET", "D_GP", "D_
 /// Default search bounds in percent (REFERENCE §3).
 pub const HEALTH_BOUNDS: (f64, f64) = (-3.0, 10.0);
 
+/// The interval each health parameter is searched in, percent (by index into [`HEALTH_NAMES`]).
+/// The default is [`HEALTH_BOUNDS`] for all six; a unit far from new (or an engine whose model is
+/// not yet adapted) may need wider limits: `[diagnosis] health_bounds` in the config,
+/// `--fit-param D_GC=LOW:HIGH` on the command line. An estimate that ends on its limit is
+/// flagged, never reported as a plain value.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct HealthBounds {
+    pub lower: [f64; 6],
+    pub upper: [f64; 6],
+}
+
+impl Default for HealthBounds {
+    fn default() -> Self {
+        HealthBounds::all(HEALTH_BOUNDS.0, HEALTH_BOUNDS.1)
+    }
+}
+
+impl HealthBounds {
+    /// The same interval for all six parameters.
+    pub fn all(lower: f64, upper: f64) -> HealthBounds {
+        HealthBounds {
+            lower: [lower; 6],
+            upper: [upper; 6],
+        }
+    }
+
+    /// True for the default [`HEALTH_BOUNDS`] on all six (serialised settings leave them out,
+    /// so the stored results' configuration hashes stay what they were).
+    pub fn is_default(&self) -> bool {
+        *self == HealthBounds::default()
+    }
+
+    /// Parameter `index`'s interval.
+    pub fn of(&self, index: usize) -> (f64, f64) {
+        (self.lower[index], self.upper[index])
+    }
+
+    /// Sets parameter `index`'s interval (checked with [`HealthBounds::check`]).
+    pub fn set(&mut self, index: usize, lower: f64, upper: f64) -> Result<(), String> {
+        check_interval(lower, upper)?;
+        self.lower[index] = lower;
+        self.upper[index] = upper;
+        Ok(())
+    }
+
+    /// Why these bounds cannot be searched, naming the parameter. Each interval
+    /// must hold 0 (a healthy engine) and stay within [`PLAUSIBLE_RANGE`].
+    pub fn check(&self) -> Result<(), String> {
+        for (i, name) in HEALTH_NAMES.iter().enumerate() {
+            check_interval(self.lower[i], self.upper[i]).map_err(|e| format!("{name}: {e}"))?;
+        }
+        Ok(())
+    }
+}
+
+fn check_interval(lower: f64, upper: f64) -> Result<(), String> {
+    let (lo, hi) = PLAUSIBLE_RANGE;
+    if !(lower.is_finite() && upper.is_finite() && lower < 0.0 && upper > 0.0) {
+        return Err(format!(
+            "interval {lower} … {upper} % must be finite and hold 0 strictly inside (a healthy engine)"
+        ));
+    }
+    if lower < lo || upper > hi {
+        return Err(format!(
+            "interval {lower} … {upper} % reaches beyond the plausible {lo} … {hi} %"
+        ));
+    }
+    Ok(())
+}
+
 /// Component health vector, each in percent degradation.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[allow(non_snake_case)]
@@ -115,7 +185,7 @@ pub enum HealthParseError {
 }
 
 /// Plausible range of a health parameter given on the command line or in a file, percent: far
-/// wider than the diagnosis's search bounds (−3 … +10), yet excluding values no engine can have
+/// wider than the diagnosis's default search bounds (−3 … +10), yet excluding values no engine can have
 /// (a map scaled by 1 − D/100 with D = −50 or +60 runs a start-up into nonsense).
 pub const PLAUSIBLE_RANGE: (f64, f64) = (-10.0, 30.0);
 
@@ -157,6 +227,28 @@ impl FromStr for HealthParams {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn health_bounds_hold_zero_and_stay_plausible() {
+        let mut b = HealthBounds::default();
+        assert!(b.is_default() && b.check().is_ok());
+        assert_eq!(b.of(0), HEALTH_BOUNDS);
+        b.set(0, -5.0, 20.0).expect("wider");
+        assert_eq!(b.of(0), (-5.0, 20.0));
+        assert_eq!(b.of(1), HEALTH_BOUNDS);
+        assert!(!b.is_default());
+        assert!(b.set(1, 1.0, 5.0).expect_err("no 0").contains("hold 0"));
+        assert!(b
+            .set(1, -3.0, 31.0)
+            .expect_err("too wide")
+            .contains("plausible"));
+        assert!(b.set(1, f64::NAN, 5.0).is_err());
+        let bad = HealthBounds {
+            lower: [-3.0, -3.0, -3.0, 0.5, -3.0, -3.0],
+            ..HealthBounds::default()
+        };
+        assert!(bad.check().expect_err("D_ET").starts_with("D_ET:"));
+    }
 
     #[test]
     fn implausible_health_is_refused_with_its_name() {

@@ -17,7 +17,7 @@ use crate::diagnosis::steady::diagnose_steady;
 use crate::diagnosis::transient::diagnose_transient;
 use crate::diagnosis::{DiagnosisConfig, MethodResult};
 use crate::engine::Engine;
-use crate::health::HEALTH_NAMES;
+use crate::health::{HealthBounds, HEALTH_BOUNDS, HEALTH_NAMES};
 use crate::optim::Cancel;
 use crate::shutdown::Shutdown;
 use crate::signals::Signal;
@@ -27,6 +27,12 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::Notify;
+
+/// Serialised settings leave the default health bounds out, so the configuration hash of
+/// results stored before the key existed stays the same.
+fn is_default_bounds(b: &[f64; 2]) -> bool {
+    *b == [HEALTH_BOUNDS.0, HEALTH_BOUNDS.1]
+}
 
 /// `[diagnosis]` section: the worker's settings.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -54,6 +60,11 @@ pub struct DiagnosisSettings {
     /// this fraction of good samples (quality 0) among all its samples in the segment, else
     /// the segment is stored undiagnosable (`low_quality`). Default 0.9.
     pub min_good_fraction: f64,
+    /// Search interval of every health parameter, `[lower, upper]` percent. Default −3 … +10
+    /// (REFERENCE §3); widen it for a unit far from new. An estimate that ends on a limit is
+    /// stored with `fit_quality` at least "suspect" and named in the result.
+    #[serde(skip_serializing_if = "is_default_bounds")]
+    pub health_bounds: [f64; 2],
 }
 
 impl Default for DiagnosisSettings {
@@ -67,6 +78,7 @@ impl Default for DiagnosisSettings {
             good_residual_level: 0.9,
             poll_interval_ms: 60_000,
             min_good_fraction: 0.9,
+            health_bounds: [HEALTH_BOUNDS.0, HEALTH_BOUNDS.1],
         }
     }
 }
@@ -105,6 +117,14 @@ impl DiagnosisSettings {
                 "must be a number between 0 and 1",
             ));
         }
+        let [lo, hi] = self.health_bounds;
+        if let Err(e) = HealthBounds::all(lo, hi).check() {
+            let why = e
+                .split_once(": ")
+                .map_or(e.as_str(), |(_, w)| w)
+                .to_string();
+            p.push(ConfigProblem::new("diagnosis.health_bounds", why));
+        }
         if self.poll_interval_ms < 100 {
             p.push(ConfigProblem::new(
                 "diagnosis.poll_interval_ms",
@@ -126,6 +146,7 @@ impl DiagnosisSettings {
                 poor_level: self.good_residual_level.max(2.5),
                 ..Default::default()
             },
+            health_bounds: HealthBounds::all(self.health_bounds[0], self.health_bounds[1]),
             ..DiagnosisConfig::default()
         }
     }

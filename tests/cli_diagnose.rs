@@ -244,3 +244,79 @@ fn diagnose_steady_snapshots_per_group_with_a_column_map() {
         "{err}"
     );
 }
+
+/// A compressor far from new (D_GC 13 %, beyond the default +10 % search limit): the estimate
+/// ends on the limit, which the result says (fit quality not `good`, `at_limit` names D_GC,
+/// the text output flags the line); with the interval widened (`--fit-param D_GC=-3:20`) the
+/// same data give 13 % with nothing at a limit. Out-of-range intervals are refused by name.
+#[test]
+fn health_estimate_at_its_search_limit_is_flagged_and_limits_can_be_widened() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let csv = dir.path().join("startup.csv");
+    let truth = HealthParams {
+        D_GC: 13.0,
+        D_EC: 1.0,
+        ..HealthParams::HEALTHY
+    };
+    write_startup(&csv, &truth);
+    let diagnose = |extra: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+            .args(["diagnose", "--input"])
+            .arg(&csv)
+            .args(["--method", "steady", "--seed", "3"])
+            .args(extra)
+            .output()
+            .expect("runs")
+    };
+    let json = |extra: &[&str]| -> serde_json::Value {
+        let mut args = vec!["--json"];
+        args.extend_from_slice(extra);
+        let out = diagnose(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).expect("json")["methods"]["steady"]
+            .clone()
+    };
+    let st = json(&[]);
+    let q = &st["fit_quality"];
+    assert_ne!(q["verdict"], "good", "{q}");
+    let hits = q["at_limit"].as_array().expect("at_limit");
+    assert!(
+        hits.iter()
+            .any(|h| h["name"] == "D_GC" && h["side"] == "upper" && h["limit"] == 10.0),
+        "{q}"
+    );
+    assert!(
+        q["summary"]
+            .as_str()
+            .expect("summary")
+            .contains("--fit-param D_GC=LOW:HIGH"),
+        "{q}"
+    );
+    let text = String::from_utf8_lossy(&diagnose(&[]).stdout).to_string();
+    assert!(text.contains("AT ITS UPPER SEARCH LIMIT +10 %"), "{text}");
+
+    let wide = json(&["--fit-param", "D_GC=-3:20"]);
+    let gc = wide["health"]["D_GC"].as_f64().expect("D_GC");
+    assert!((gc - 13.0).abs() < 0.5, "{wide}");
+    assert!(
+        wide["fit_quality"]["at_limit"]
+            .as_array()
+            .expect("at_limit")
+            .is_empty(),
+        "{wide}"
+    );
+    for bad in ["D_GC=2:20", "d_ec=-3:45"] {
+        let out = diagnose(&["--fit-param", bad]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success()
+                && err.contains(bad)
+                && (err.contains("must") || err.contains("beyond")),
+            "{bad}: {err}"
+        );
+    }
+}

@@ -71,7 +71,9 @@ pub struct FitArgs {
     #[arg(long, value_enum, default_value = "measured-fuel")]
     pub drive: DriveArg,
     /// Also fit an engine-file or effect value within bounds, `KEY=LOW:HIGH` (repeatable), e.g.
-    /// `effects.fuel_system.delay_s=0:4` (fitting an effect's parameter enables the effect).
+    /// `effects.fuel_system.delay_s=0:4` (fitting an effect's parameter enables the effect); a
+    /// health parameter's name sets its search interval instead of the default −3:10, e.g.
+    /// `D_GC=-5:20`.
     #[arg(long = "fit-param", value_name = "KEY=LOW:HIGH")]
     pub fit_params: Vec<String>,
 }
@@ -97,6 +99,13 @@ pub fn parse_fit_param(text: &str) -> anyhow::Result<FitParam> {
     )
 }
 
+/// Index of a health parameter named `name` (case-insensitive), if it is one.
+fn health_index(name: &str) -> Option<usize> {
+    HEALTH_NAMES
+        .iter()
+        .position(|n| n.eq_ignore_ascii_case(name))
+}
+
 impl FitArgs {
     /// The diagnosis configuration these options select; refuses settings that cannot give a
     /// result (`--max-runs 0`, `--threads 0`).
@@ -115,7 +124,14 @@ impl FitArgs {
             cfg.max_model_runs = n;
         }
         for p in &self.fit_params {
-            cfg.extra_params.push(parse_fit_param(p)?);
+            let param = parse_fit_param(p)?;
+            match health_index(&param.name) {
+                Some(i) => cfg
+                    .health_bounds
+                    .set(i, param.lower, param.upper)
+                    .map_err(|e| anyhow::anyhow!("--fit-param `{p}`: {e}"))?,
+                None => cfg.extra_params.push(param),
+            }
         }
         cfg.validate()?;
         Ok(cfg)
@@ -216,7 +232,19 @@ pub(crate) fn print_text(m: Method, r: &MethodResult) {
     let h = r.health.to_array();
     for (i, n) in HEALTH_NAMES.iter().enumerate() {
         let s = r.sigma.get(*n).copied().unwrap_or(f64::NAN);
-        println!("  {n:5} {:8.3} ± {:.3} %", h[i], s);
+        let flag = q
+            .at_limit
+            .iter()
+            .find(|hit| hit.name == *n)
+            .map(|hit| {
+                format!(
+                    "  AT ITS {} SEARCH LIMIT {:+} %",
+                    hit.side.to_uppercase(),
+                    hit.limit
+                )
+            })
+            .unwrap_or_default();
+        println!("  {n:5} {:8.3} ± {:.3} %{flag}", h[i], s);
     }
     for p in r.params.iter().filter(|p| p.target.engine_key().is_some()) {
         println!("  {} {:.6} ± {:.6}", p.name, p.value, p.sigma);

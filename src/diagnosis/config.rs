@@ -7,7 +7,7 @@ use super::fit_quality;
 use super::params::FitParam;
 use super::DiagnosisError;
 use crate::engine::measured_drive::DriveMode;
-use crate::health::HealthParams;
+use crate::health::{HealthBounds, HealthParams};
 use crate::optim::Cancel;
 use crate::signals::{Phase, Signal};
 use serde::Serialize;
@@ -240,6 +240,9 @@ pub struct DiagnosisConfig {
     /// ([`FitParam::engine_value`], [`FitParam::effect`]), started at the engine's values and
     /// appended after the health parameters and the ambient pressure. Empty by default.
     pub extra_params: Vec<FitParam>,
+    /// Search interval of each health parameter, percent (default −3 … +10 for all six).
+    #[serde(skip_serializing_if = "HealthBounds::is_default")]
+    pub health_bounds: HealthBounds,
     /// Thresholds of the `fit_quality` verdict.
     #[serde(default)]
     pub quality: fit_quality::Thresholds,
@@ -283,6 +286,7 @@ impl Default for DiagnosisConfig {
             fixed: [false; 6],
             base: HealthParams::HEALTHY,
             extra_params: Vec::new(),
+            health_bounds: HealthBounds::default(),
             quality: fit_quality::Thresholds::default(),
             cancel: Cancel::new(),
         }
@@ -324,6 +328,9 @@ impl DiagnosisConfig {
                 self.fd_step
             )));
         }
+        self.health_bounds
+            .check()
+            .map_err(|e| DiagnosisError::Config(format!("health bounds: {e}")))?;
         if !(self.rate_weight.is_finite() && self.rate_weight >= 0.0) {
             return Err(DiagnosisError::Config(format!(
                 "rate_weight must be a non-negative number, not {}",

@@ -113,8 +113,56 @@ pub struct FitQuality {
     /// Oscillations in the residual the model does not have (see [`super::periodic`]); any
     /// makes a `good` fit `suspect`.
     pub periodic: Vec<Periodicity>,
+    /// Health estimates that ended on their search limits: the true value may lie beyond, so the
+    /// estimate is not a measurement; any makes a `good` fit `suspect`.
+    pub at_limit: Vec<LimitHit>,
     /// Where the gap lies, in plain words (empty for a good fit).
     pub summary: String,
+}
+
+/// A fitted parameter that ended on a limit of its search interval.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LimitHit {
+    pub name: String,
+    pub value: f64,
+    /// The limit it sits on.
+    pub limit: f64,
+    /// `lower` or `upper`.
+    pub side: &'static str,
+}
+
+/// An estimate within this fraction of its interval's width from a limit is "at" it.
+pub const AT_LIMIT_FRACTION: f64 = 0.002;
+
+impl LimitHit {
+    /// The hit of `value` on `[lower, upper]`, if it is within [`AT_LIMIT_FRACTION`] of the
+    /// width from a limit.
+    pub fn of(name: &str, value: f64, lower: f64, upper: f64) -> Option<LimitHit> {
+        let tol = AT_LIMIT_FRACTION * (upper - lower);
+        let hit = |limit: f64, side: &'static str| LimitHit {
+            name: name.to_string(),
+            value,
+            limit,
+            side,
+        };
+        if value <= lower + tol {
+            Some(hit(lower, "lower"))
+        } else if value >= upper - tol {
+            Some(hit(upper, "upper"))
+        } else {
+            None
+        }
+    }
+
+    /// Plain words with what to do.
+    pub fn describe(&self) -> String {
+        format!(
+            "{} ended on its {} search limit {:+} % (estimate {:+.2}): the true value may lie \
+             beyond, or the model does not fit this unit; widen it with [diagnosis] \
+             health_bounds or --fit-param {}=LOW:HIGH",
+            self.name, self.side, self.limit, self.value, self.name
+        )
+    }
 }
 
 fn column_name<S: serde::Serializer>(s: &Signal, ser: S) -> Result<S::Ok, S::Error> {
@@ -327,12 +375,13 @@ fn best_shift(t_s: &[f64], idx: &[usize], dz: &[f64], dm: &[f64]) -> Option<f64>
     Some(shift * dt)
 }
 
-/// The verdict for a result with normalised residual `level`, residual map `cells` and the
-/// oscillations found in its residual.
+/// The verdict for a result with normalised residual `level`, residual map `cells`, the
+/// oscillations found in its residual and the estimates that ended on a search limit.
 pub fn assess(
     level: f64,
     cells: &[ResidualCell],
     periodic: &[Periodicity],
+    at_limit: &[LimitHit],
     th: &Thresholds,
 ) -> FitQuality {
     let worst = cells
@@ -342,7 +391,11 @@ pub fn assess(
     let worst_cell_error = worst.map_or(0.0, |c| c.norm_error);
     let verdict = if !level.is_finite() || level > th.poor_level {
         Verdict::Poor
-    } else if level > th.good_level || worst_cell_error > th.suspect_cell || !periodic.is_empty() {
+    } else if level > th.good_level
+        || worst_cell_error > th.suspect_cell
+        || !periodic.is_empty()
+        || !at_limit.is_empty()
+    {
         Verdict::Suspect
     } else {
         Verdict::Good
@@ -361,6 +414,10 @@ pub fn assess(
                 p.amplitude_sigma
             ));
         }
+        for h in at_limit {
+            text.push_str("; ");
+            text.push_str(&h.describe());
+        }
         text
     };
     FitQuality {
@@ -369,6 +426,7 @@ pub fn assess(
         worst_cell_error,
         thresholds: *th,
         periodic: periodic.to_vec(),
+        at_limit: at_limit.to_vec(),
         summary,
     }
 }
@@ -414,6 +472,26 @@ fn character(c: &ResidualCell) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An estimate on a limit makes a good fit suspect and says what to do; one inside does not.
+    #[test]
+    fn estimate_on_a_search_limit_is_flagged() {
+        assert!(LimitHit::of("D_GC", 5.0, -3.0, 10.0).is_none());
+        let hit = LimitHit::of("D_GC", 9.99, -3.0, 10.0).expect("at the upper limit");
+        assert_eq!((hit.side, hit.limit), ("upper", 10.0));
+        let low = LimitHit::of("D_EP", -3.0, -3.0, 10.0).expect("at the lower limit");
+        assert_eq!(low.side, "lower");
+        let th = Thresholds::default();
+        assert_eq!(assess(0.7, &[], &[], &[], &th).verdict, Verdict::Good);
+        let q = assess(0.7, &[], &[], &[hit], &th);
+        assert_eq!(q.verdict, Verdict::Suspect);
+        assert!(
+            q.summary.contains("D_GC ended on its upper search limit"),
+            "{}",
+            q.summary
+        );
+        assert_eq!(q.at_limit.len(), 1);
+    }
     use crate::engine::EngineConfig;
     use crate::signals::NSIG;
 
@@ -467,13 +545,13 @@ mod tests {
         assert!(character(&off).starts_with("offset"), "{}", character(&off));
 
         let th = Thresholds::default();
-        assert_eq!(assess(0.7, &[exact], &[], &th).verdict, Verdict::Good);
+        assert_eq!(assess(0.7, &[exact], &[], &[], &th).verdict, Verdict::Good);
         // A clean overall residual with one cell far beyond noise is suspect.
         let bad_cell = ResidualCell {
             norm_error: 6.0,
             ..lag.clone()
         };
-        let q = assess(0.8, std::slice::from_ref(&bad_cell), &[], &th);
+        let q = assess(0.8, std::slice::from_ref(&bad_cell), &[], &[], &th);
         assert_eq!(q.verdict, Verdict::Suspect, "one bad cell");
         assert!(
             q.summary.contains("t34_k during acceleration: lag-like"),
@@ -489,15 +567,15 @@ mod tests {
             amplitude_sigma: 1.0,
             p_value: 1e-12,
         };
-        let q = assess(0.7, &[], std::slice::from_ref(&ripple), &th);
+        let q = assess(0.7, &[], std::slice::from_ref(&ripple), &[], &th);
         assert_eq!(q.verdict, Verdict::Suspect);
         assert!(
             q.summary.contains("p34_kpa oscillates at 0.200 Hz"),
             "{}",
             q.summary
         );
-        assert_eq!(assess(1.3, &[], &[], &th).verdict, Verdict::Suspect);
-        assert_eq!(assess(3.0, &[], &[], &th).verdict, Verdict::Poor);
-        assert_eq!(assess(f64::NAN, &[], &[], &th).verdict, Verdict::Poor);
+        assert_eq!(assess(1.3, &[], &[], &[], &th).verdict, Verdict::Suspect);
+        assert_eq!(assess(3.0, &[], &[], &[], &th).verdict, Verdict::Poor);
+        assert_eq!(assess(f64::NAN, &[], &[], &[], &th).verdict, Verdict::Poor);
     }
 }

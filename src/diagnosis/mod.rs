@@ -436,6 +436,13 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
         })
         .collect();
     let signal_names: Vec<String> = signals.iter().map(|s| s.column().to_string()).collect();
+    let at_limit: Vec<fit_quality::LimitHit> = health_at
+        .iter()
+        .filter_map(|&(k, _)| {
+            let p = &pm.params()[k];
+            fit_quality::LimitHit::of(&p.name, fit.x[k], p.lower, p.upper)
+        })
+        .collect();
     MethodResult {
         method,
         optimiser: cfg.optimiser,
@@ -461,7 +468,13 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
         }),
         params,
         failures: problem.failures(),
-        fit_quality: fit_quality::assess(ssr / residuals.max(1) as f64, &[], &[], &cfg.quality),
+        fit_quality: fit_quality::assess(
+            ssr / residuals.max(1) as f64,
+            &[],
+            &[],
+            &at_limit,
+            &cfg.quality,
+        ),
         separability: separability::assess(&health_estimates, &signal_names),
         localisation: Vec::new(),
         model_values: Vec::new(),

@@ -9,7 +9,7 @@
 //! I/O, no globals.
 
 use crate::engine::Engine;
-use crate::health::{HealthParams, HEALTH_BOUNDS, HEALTH_NAMES};
+use crate::health::{HealthBounds, HealthParams, HEALTH_NAMES};
 use crate::optim::Bounds;
 use crate::signals::Signal;
 use serde::Serialize;
@@ -57,15 +57,21 @@ pub struct FitParam {
 }
 
 impl FitParam {
-    /// Health parameter `index` (into [`HEALTH_NAMES`]) within [`HEALTH_BOUNDS`].
+    /// Health parameter `index` (into [`HEALTH_NAMES`]) within the default [`HealthBounds`].
     pub fn health(index: usize) -> Result<FitParam, DiagnosisError> {
+        FitParam::health_within(index, &HealthBounds::default())
+    }
+
+    /// Health parameter `index` (into [`HEALTH_NAMES`]) within its interval of `bounds`.
+    pub fn health_within(index: usize, bounds: &HealthBounds) -> Result<FitParam, DiagnosisError> {
         let name = HEALTH_NAMES.get(index).ok_or_else(|| {
             DiagnosisError::Config(format!("health parameter index {index} is not 0…5"))
         })?;
+        let (lower, upper) = bounds.of(index);
         Ok(FitParam {
             name: (*name).to_string(),
-            lower: HEALTH_BOUNDS.0,
-            upper: HEALTH_BOUNDS.1,
+            lower,
+            upper,
             target: ParamTarget::Health(index),
         })
     }
@@ -249,11 +255,12 @@ impl ParamMap {
     }
 
     /// The classic diagnosis map: free health parameters `free` (indices into
-    /// [`HEALTH_NAMES`]), the others at `base`, then the ambient pressure when `ambient0` is
-    /// given, then `extra` parameters starting at the engine's current values.
+    /// [`HEALTH_NAMES`]) within `bounds`, the others at `base`, then the ambient pressure when
+    /// `ambient0` is given, then `extra` parameters starting at the engine's current values.
     pub fn for_diagnosis(
         free: &[usize],
         base: HealthParams,
+        bounds: &HealthBounds,
         ambient0: Option<f64>,
         extra: &[FitParam],
         engine: &Engine,
@@ -261,8 +268,10 @@ impl ParamMap {
         let mut params = Vec::new();
         let mut start = Vec::new();
         for &i in free {
-            params.push(FitParam::health(i)?);
-            start.push(base.to_array()[i]);
+            params.push(FitParam::health_within(i, bounds)?);
+            // A start outside a narrowed interval would be refused by the optimiser.
+            let (lo, hi) = bounds.of(i);
+            start.push(base.to_array()[i].clamp(lo, hi));
         }
         if let Some(p) = ambient0 {
             params.push(FitParam::ambient_pressure(p));
@@ -382,6 +391,7 @@ mod tests {
         let m = ParamMap::for_diagnosis(
             &[0, 1],
             base,
+            &HealthBounds::default(),
             Some(101.0),
             &[],
             &Engine::reference().expect("engine"),

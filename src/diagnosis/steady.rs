@@ -279,6 +279,7 @@ impl SteadyProblem {
             params: ParamMap::for_diagnosis(
                 &cfg.free(),
                 cfg.base,
+                &cfg.health_bounds,
                 ambient0,
                 &cfg.extra_params,
                 engine,

@@ -154,6 +154,7 @@ impl TransientProblem {
             params: ParamMap::for_diagnosis(
                 &cfg.free(),
                 cfg.base,
+                &cfg.health_bounds,
                 ambient0,
                 &cfg.extra_params,
                 &engine,
@@ -258,6 +259,7 @@ pub fn diagnose_transient(
             r.fit_quality.normalised_residual,
             &r.localisation,
             &periodic,
+            &r.fit_quality.at_limit.clone(),
             &r.fit_quality.thresholds,
         );
         r.model_values = model;
