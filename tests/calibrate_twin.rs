@@ -184,6 +184,16 @@ fn twin(file: &Engine, written: &[Signal]) {
     );
     assert!(report.rms_after < 1.0, "rms after {}", report.rms_after);
     assert!(report.params.iter().filter(|p| p.identifiable).count() >= 3);
+    // The signal × point table: one row per point, its cells the residuals the RMS is made of.
+    assert_eq!(report.table.rows.len(), report.points.len());
+    let cells: Vec<f64> = report
+        .table
+        .rows
+        .iter()
+        .flat_map(|r| r.values.iter().flatten().copied())
+        .collect();
+    let rms_cells = (cells.iter().map(|v| v * v).sum::<f64>() / cells.len() as f64).sqrt();
+    assert!(rms_cells < 1.0 && rms_cells > 0.0, "table rms {rms_cells}");
 
     let cfg = DiagnosisConfig {
         max_model_runs: 1500,

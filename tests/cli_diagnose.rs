@@ -229,7 +229,65 @@ fn diagnose_steady_snapshots_per_group_with_a_column_map() {
             );
         }
         assert_eq!(g["fit_quality"]["verdict"], "good");
+        // The residual table: one row per snapshot, every value within noise.
+        let table = &g["residual_table"];
+        let rows = table["rows"].as_array().expect("rows");
+        assert_eq!(rows.len(), 5, "{table}");
+        let columns = table["signals"].as_array().expect("signals");
+        assert!(columns.iter().any(|c| c == "p2_kpa"), "{table}");
+        for r in rows {
+            for v in r["values"].as_array().expect("values") {
+                assert!(v.as_f64().expect("value").abs() < 4.0, "{table}");
+            }
+        }
     }
+    // A wrong P2 reading on one row (file line 4, +3 %) is where the table shows it.
+    let text = std::fs::read_to_string(&csv).expect("csv");
+    let header: Vec<&str> = text.lines().next().expect("header").split(',').collect();
+    let col = header.iter().position(|h| *h == "P_cdp").expect("P_cdp");
+    let altered: Vec<String> = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i + 1 != 4 {
+                return l.to_string();
+            }
+            let mut cells: Vec<String> = l.split(',').map(str::to_string).collect();
+            let v: f64 = cells[col].parse().expect("number");
+            cells[col] = format!("{}", v * 1.03);
+            cells.join(",")
+        })
+        .collect();
+    let bad = dir.path().join("bad_p2.csv");
+    std::fs::write(&bad, altered.join("\n")).expect("write");
+    let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(["diagnose", "--method", "steady", "--input"])
+        .arg(&bad)
+        .args(["--group-by", "day", "--map", map, "--json"])
+        .output()
+        .expect("runs");
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
+    let table = &v["groups"][0]["residual_table"];
+    let p2 = table["signals"]
+        .as_array()
+        .expect("signals")
+        .iter()
+        .position(|c| c == "p2_kpa")
+        .expect("p2 column");
+    let mut worst = (0u64, 0usize, 0.0f64);
+    for r in table["rows"].as_array().expect("rows") {
+        for (j, v) in r["values"].as_array().expect("values").iter().enumerate() {
+            let v = v.as_f64().unwrap_or(0.0).abs();
+            if v > worst.2 {
+                worst = (r["line"].as_u64().expect("line"), j, v);
+            }
+        }
+    }
+    assert_eq!(
+        (worst.0, worst.1),
+        (4, p2),
+        "largest residual {worst:?} in {table}"
+    );
     // One row alone has fewer readings than parameters: said, not guessed.
     let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
         .args(["diagnose", "--method", "steady", "--snapshots", "--input"])

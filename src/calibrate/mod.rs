@@ -30,6 +30,7 @@ pub mod problem;
 pub mod startup;
 pub mod synthetic;
 
+use crate::diagnosis::residual_table::{Cell, ResidualTable};
 use crate::diagnosis::snapshot::Snapshot;
 use crate::engine::Engine;
 use crate::optim::lm::jacobian_unit;
@@ -126,6 +127,8 @@ pub struct Calibration {
     pub params: Vec<ParamResult>,
     pub signals: Vec<SignalResiduals>,
     pub points: Vec<PointResiduals>,
+    /// After calibration: (model − measured)/σ of every signal at every point.
+    pub table: ResidualTable,
     /// RMS of all residuals (noise σ) before and after.
     pub rms_before: f64,
     pub rms_after: f64,
@@ -392,10 +395,27 @@ pub fn calibrate(
             }
         })
         .collect();
+    let table = ResidualTable::from_cells(
+        &full
+            .points()
+            .iter()
+            .map(|p| (p.line, p.data.operating_point()))
+            .collect::<Vec<_>>(),
+        &layout
+            .iter()
+            .zip(&r1)
+            .map(|(&(point, signal), &value)| Cell {
+                point,
+                signal,
+                value,
+            })
+            .collect::<Vec<_>>(),
+    );
     let report = Calibration {
         params,
         signals,
         points,
+        table,
         rms_before: rms(&r0),
         rms_after: rms(&r1),
         dropped_lines: prepared.dropped_lines,

@@ -197,6 +197,10 @@ fn print_text(report: &Calibration, wall_s: f64) {
             p.source, p.line, p.rms_before, p.rms_after
         );
     }
+    println!("\nafter calibration, per signal and point (model − measured, in noise σ):");
+    for l in report.table.render().lines() {
+        println!("  {l}");
+    }
     if let Some(ad) = &report.adaptation {
         println!(
             "\noff-design adaptation (fraction of the map's value; 0 at the design speed): RMS \

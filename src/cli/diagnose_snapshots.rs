@@ -65,6 +65,7 @@ pub fn run(
                     o.insert("lines".into(), json!(g.lines));
                     o.insert("dropped_lines".into(), json!(g.dropped_lines));
                     o.insert("assumptions".into(), json!(g.assumptions));
+                    o.insert("residual_table".into(), json!(g.residual_table));
                 }
                 v
             })
@@ -92,6 +93,12 @@ pub fn run(
                 println!("  note: {s}");
             }
             print_text(Method::Steady, &g.result);
+            if !g.residual_table.rows.is_empty() {
+                println!("  residuals per row (model − measured, in noise σ):");
+                for l in g.residual_table.render().lines() {
+                    println!("    {l}");
+                }
+            }
         }
         for f in &report.failed {
             println!(

@@ -42,6 +42,7 @@ pub mod identifiability;
 pub mod objective;
 pub mod params;
 pub mod periodic;
+pub mod residual_table;
 pub mod separability;
 pub mod snapshot;
 pub mod steady;

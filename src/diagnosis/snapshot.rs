@@ -17,6 +17,7 @@
 //! `io::Read`; opens no files, never prints.
 
 use super::csv_input::{find_column, open_csv, parse_value, CsvError, AMBIENT_PRESSURE_COLUMN};
+use super::residual_table::{Cell, ResidualTable};
 use super::steady::{SteadyData, SteadyProblem, SteadyWindow};
 use super::{fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, Method, MethodResult};
 use crate::engine::sensors::noise_sigma;
@@ -195,6 +196,39 @@ pub struct SnapshotGroup {
     /// How each row's ambient pressure was obtained, when not from the ambient column.
     pub assumptions: Vec<String>,
     pub result: MethodResult,
+    /// (model − measured)/σ of every compared signal at every row used, at the fitted health.
+    pub residual_table: ResidualTable,
+}
+
+/// The residual table of a fitted snapshot group: one row per snapshot the problem kept (its
+/// window's `start` is the row's index in `rows`). Empty when the model cannot be evaluated at
+/// `x` (the result then carries the failure).
+fn residual_table_of(problem: &SteadyProblem, x: &[f64], rows: &[Snapshot]) -> ResidualTable {
+    let Ok(model) = problem.simulate(x) else {
+        return ResidualTable::default();
+    };
+    let points: Vec<(u64, String)> = problem
+        .points()
+        .iter()
+        .map(|p| {
+            let line = rows.get(p.window.start).map_or(0, |r| r.line);
+            (line, p.operating_point())
+        })
+        .collect();
+    let cells: Vec<Cell> = problem
+        .points()
+        .iter()
+        .zip(&model)
+        .enumerate()
+        .flat_map(|(i, (p, m))| {
+            p.outputs.iter().map(move |&(signal, z, sd)| Cell {
+                point: i,
+                signal,
+                value: (m[signal.index()] - z) / sd,
+            })
+        })
+        .collect();
+    ResidualTable::from_cells(&points, &cells)
 }
 
 /// The whole snapshot diagnosis: groups in order of first appearance, and those that could not
@@ -269,6 +303,7 @@ pub(crate) fn steady_data(
         .collect();
     let t = snap.time_s.unwrap_or(snap.line as f64);
     Some(SteadyData {
+        label: format!("snapshot at line {}", snap.line),
         window: SteadyWindow {
             start: index,
             end: index + 1,
@@ -325,18 +360,12 @@ pub fn diagnose_snapshots(
                 .iter()
                 .map(|p| (p.window.t_start_s, p.window.t_end_s))
                 .collect();
-            Ok(result_of(
-                Method::Steady,
-                &problem,
-                &out,
-                &cfg,
-                signals,
-                n_res,
-                win,
-            ))
+            let table = residual_table_of(&problem, &out.x, rows);
+            let result = result_of(Method::Steady, &problem, &out, &cfg, signals, n_res, win);
+            Ok((result, table))
         });
         match outcome {
-            Ok(mut result) => {
+            Ok((mut result, residual_table)) => {
                 result.wall_s = start.elapsed().as_secs_f64();
                 report.groups.push(SnapshotGroup {
                     group: g,
@@ -344,6 +373,7 @@ pub fn diagnose_snapshots(
                     dropped_lines: dropped,
                     assumptions,
                     result,
+                    residual_table,
                 });
             }
             Err(e) => report.failed.push(FailedGroup {

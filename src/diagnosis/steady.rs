@@ -169,9 +169,35 @@ pub fn detect_windows(
 #[derive(Debug, Clone, PartialEq)]
 pub struct SteadyData {
     pub window: SteadyWindow,
+    /// What the point is, in messages: "steady window at 600–660 s", "snapshot at line 7".
+    pub label: String,
     pub inputs: SteadyInputs,
     /// Compared outputs: (signal, window mean, 1σ of the mean).
     pub outputs: Vec<(Signal, f64, f64)>,
+}
+
+impl SteadyData {
+    /// The operating point in words, for tables: measured power (else torque, else GG speed)
+    /// and the demand (fuel flow, power or speed).
+    pub fn operating_point(&self) -> String {
+        let value = |s: Signal| self.outputs.iter().find(|o| o.0 == s).map(|o| o.1);
+        let load = match (
+            value(Signal::Power),
+            value(Signal::Torque),
+            value(Signal::N1),
+        ) {
+            (Some(p), _, _) => format!("{p:.2} MW, "),
+            (None, Some(q), _) => format!("{q:.1} kN·m, "),
+            (None, None, Some(n)) => format!("n1 {n:.0} rpm, "),
+            _ => String::new(),
+        };
+        let demand = match self.inputs.demand {
+            Demand::FuelKgS(f) => format!("fuel {f:.3} kg/s"),
+            Demand::PowerMw(p) => format!("demand {p:.2} MW"),
+            Demand::N1Rpm(n) => format!("demand n1 {n:.0} rpm"),
+        };
+        format!("{load}{demand}")
+    }
 }
 
 /// The model's value of a signal at a steady point (the engine's one station → signal mapping).
@@ -215,6 +241,7 @@ pub fn average_windows(
             .collect();
         out.push(SteadyData {
             window: *w,
+            label: format!("steady window at {:.0}–{:.0} s", w.t_start_s, w.t_end_s),
             inputs: SteadyInputs {
                 t_amb_k: t_amb,
                 p_amb_kpa: p_amb,
@@ -265,7 +292,7 @@ impl SteadyProblem {
         let objective = Objective::from_points(&pts);
         if objective.len() <= cfg.n_fitted() {
             return Err(DiagnosisError::Data(format!(
-                "Method A needs more averaged values than parameters: {} steady window(s) give {} values for {} parameters",
+                "Method A needs more averaged values than parameters: {} steady point(s) give {} values for {} parameters",
                 kept.len(),
                 objective.len(),
                 cfg.n_fitted()
@@ -315,12 +342,8 @@ impl SteadyProblem {
                 ..p.inputs
             };
             let m = engine.model_at(&h, inputs.t_amb_k, inputs.p_amb_kpa);
-            let sp = solve(&m, &inputs, Some(g)).map_err(|e| {
-                EvalError::Model(format!(
-                    "steady point at {:.0}–{:.0} s: {e}",
-                    p.window.t_start_s, p.window.t_end_s
-                ))
-            })?;
+            let sp = solve(&m, &inputs, Some(g))
+                .map_err(|e| EvalError::Model(format!("{}: {e}", p.label)))?;
             let mut v = [f64::NAN; NSIG];
             for s in Signal::ALL {
                 v[s.index()] = steady_reading(&m, &sp, s);
