@@ -33,6 +33,7 @@ pub mod shutdown;
 pub mod signals;
 pub mod store;
 pub mod thermo;
+pub mod time;
 pub mod trend;
 pub mod wash;
 pub mod worker;

@@ -4,9 +4,9 @@
 //! the store's (`store/segments.rs`), this module only shapes and formats. Must not write.
 
 use crate::detect::{AbortCause, Outcome, PhaseSpan};
-use crate::ingest::fmt_ms;
 use crate::signals::Phase;
 use crate::store::{Store, StoreError};
+use crate::time::fmt_ms;
 use serde::Serialize;
 use std::io::Write;
 

@@ -121,9 +121,7 @@ fn sources(a: &CalibrateArgs) -> Vec<String> {
 }
 
 fn header(a: &CalibrateArgs, report: &Calibration, n_rows: usize) -> Vec<String> {
-    let now = time::OffsetDateTime::now_utc()
-        .format(&time::format_description::well_known::Rfc3339)
-        .unwrap_or_else(|_| "?".into());
+    let now = crate::time::fmt_rfc3339(time::OffsetDateTime::now_utc());
     let mut h = vec![format!(
         "Calibrated by gtwatch calibrate {} at {now}: {} fitted to {} healthy operating \
          point(s) of {}",
