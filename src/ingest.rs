@@ -17,9 +17,9 @@
 //! This module must not run the detector or know about Modbus; it only turns CSV into samples.
 
 use crate::config_problem::{check_range, Bounds, ConfigProblem};
-use crate::quality::{Point, QualityConfig, QualityCounts, SpikeFilter, ValueChecker};
+use crate::quality::{Point, Quality, QualityConfig, QualityCounts, SpikeFilter, ValueChecker};
 use crate::signals::Signal;
-use crate::store::{Gap, Quality, Sample, Store, StoreError, TagId, TagInfo};
+use crate::store::{Gap, Sample, Store, StoreError, TagId, TagInfo};
 use crate::time::{fmt_ms, parse_time, TimeFormat};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;

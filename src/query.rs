@@ -298,8 +298,9 @@ pub fn export_csv(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::quality::Quality;
     use crate::signals::Signal;
-    use crate::store::{Quality, Sample, TagInfo};
+    use crate::store::{Sample, TagInfo};
 
     #[test]
     fn export_wide_and_long() {
