@@ -29,6 +29,7 @@ pub mod quality;
 pub mod query;
 pub mod recording;
 pub mod report;
+pub mod segment;
 pub mod shutdown;
 pub mod signals;
 pub mod store;

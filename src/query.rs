@@ -3,7 +3,7 @@
 //! Works on a read-only store (`ReadStore`) so it never disturbs the running daemon; the SQL is
 //! the store's (`store/segments.rs`), this module only shapes and formats. Must not write.
 
-use crate::detect::{AbortCause, Outcome, PhaseSpan};
+use crate::segment::{AbortCause, Outcome, PhaseSpan};
 use crate::signals::Phase;
 use crate::store::{Store, StoreError};
 use crate::time::fmt_ms;
