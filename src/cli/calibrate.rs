@@ -2,6 +2,8 @@
 //! (steady snapshots, the CSV `gtwatch diagnose --method steady` reads, and/or the steady
 //! windows of recorded start-ups) and write the new
 //! engine file (`calibrate`, `calibrate::edit`). Prints a report, or one JSON document.
+//! Must not fit anything itself (that is `crate::calibrate`) or write any file but the output
+//! engine file.
 
 use crate::calibrate::adapt::AdaptSettings;
 use crate::calibrate::candidates::{candidate, candidate_in, default_candidates, offset_candidate};

@@ -3,6 +3,7 @@
 //! `advise` recomputes the trends and the advice from the stored history (recording washes the
 //! trend detects and the new recommendation) and explains it in plain words, or prints one JSON
 //! document with `--format json`. The arithmetic is `crate::advice` / `trend` / `wash`.
+//! Must not hold wash or trend arithmetic of its own.
 
 use super::common::{db_path, parse_cli_time};
 use super::diagnose_stored::{wash_economics, worker_context};
