@@ -10,9 +10,10 @@ use gtwatch::config::Config;
 use gtwatch::diagnosis::csv_input::read_recording;
 use gtwatch::engine::config::EngineConfig;
 use gtwatch::engine::Engine;
-use gtwatch::ingest::{replay_file, Progress, ReplayConfig, TimeFormat};
+use gtwatch::ingest::{replay_file, Progress, ReplayConfig};
 use gtwatch::maps::gasturb;
 use gtwatch::store::Store;
+use gtwatch::time::TimeFormat;
 use std::collections::HashMap;
 
 /// A harness body: takes any bytes, must return normally.

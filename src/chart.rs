@@ -116,7 +116,7 @@ pub fn ticks(lo: f64, hi: f64, n: usize) -> Vec<f64> {
 
 fn fmt_tick(v: f64, axis: XAxis, span: f64) -> String {
     match axis {
-        XAxis::Date => crate::ingest::fmt_ms(v as i64)
+        XAxis::Date => crate::time::fmt_ms(v as i64)
             .get(..10)
             .unwrap_or("")
             .to_string(),

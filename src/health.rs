@@ -2,6 +2,7 @@
 //!
 //! Percent, positive = degraded. Scaled maps: corrected flow × (1 − D_G/100),
 //! efficiency × (1 − D_E/100). Pure data: no physics here beyond the scaler arithmetic.
+//! Ground floor: must not depend on any other module of the crate, do I/O or run a model.
 
 use serde::{Deserialize, Serialize};
 use std::fmt;

@@ -17,24 +17,15 @@
 //! This module must not run the detector or know about Modbus; it only turns CSV into samples.
 
 use crate::config_problem::{check_range, Bounds, ConfigProblem};
-use crate::quality::{Point, QualityConfig, QualityCounts, SpikeFilter, ValueChecker};
+use crate::quality::{Point, Quality, QualityConfig, QualityCounts, SpikeFilter, ValueChecker};
 use crate::signals::Signal;
-use crate::store::{Gap, Quality, Sample, Store, StoreError, TagId, TagInfo};
+use crate::store::{Gap, Sample, Store, StoreError, TagId, TagInfo};
+use crate::time::{fmt_ms, parse_time, TimeFormat};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
-
-/// How the time column is written.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum TimeFormat {
-    #[default]
-    Iso8601,
-    EpochS,
-    EpochMs,
-}
 
 /// What to do with a malformed row.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize, Default)]
@@ -881,7 +872,7 @@ fn parse_row(
     let mut any_good = false;
     for (column, c) in columns.iter().enumerate() {
         let raw = rec.get(c.index).unwrap_or_default();
-        let s = trim_ascii(raw);
+        let s = raw.trim_ascii();
         if s.is_empty() {
             continue;
         }
@@ -921,107 +912,6 @@ fn parse_row(
         return Err(RowProblem::other(reason));
     }
     Ok(t)
-}
-
-fn trim_ascii(b: &[u8]) -> &[u8] {
-    let start = b
-        .iter()
-        .position(|c| !c.is_ascii_whitespace())
-        .unwrap_or(b.len());
-    let end = b
-        .iter()
-        .rposition(|c| !c.is_ascii_whitespace())
-        .map_or(start, |e| e + 1);
-    &b[start..end.max(start)]
-}
-
-/// Formats epoch ms as ISO 8601 UTC (for messages and exports).
-pub fn fmt_ms(t_ms: i64) -> String {
-    let fmt = time::macros::format_description!(
-        "[year]-[month]-[day]T[hour]:[minute]:[second].[subsecond digits:3]Z"
-    );
-    time::OffsetDateTime::from_unix_timestamp_nanos(i128::from(t_ms) * 1_000_000)
-        .ok()
-        .and_then(|t| t.format(&fmt).ok())
-        .unwrap_or_else(|| format!("{t_ms} ms"))
-}
-
-/// Parses a time stamp to Unix epoch ms. ISO 8601 without an offset is UTC.
-pub fn parse_time(raw: &[u8], fmt: TimeFormat) -> Result<i64, String> {
-    let s = std::str::from_utf8(trim_ascii(raw)).map_err(|_| "not UTF-8".to_string())?;
-    if s.is_empty() {
-        return Err("empty".into());
-    }
-    match fmt {
-        TimeFormat::EpochMs => {
-            if let Ok(v) = s.parse::<i64>() {
-                return Ok(v);
-            }
-            let v: f64 = s.parse().map_err(|_| "not a number".to_string())?;
-            finite_ms(v)
-        }
-        TimeFormat::EpochS => {
-            if let Ok(v) = s.parse::<i64>() {
-                return v.checked_mul(1000).ok_or_else(|| "out of range".into());
-            }
-            let v: f64 = s.parse().map_err(|_| "not a number".to_string())?;
-            finite_ms(v * 1000.0)
-        }
-        TimeFormat::Iso8601 => parse_iso8601_ms(s),
-    }
-}
-
-fn finite_ms(v: f64) -> Result<i64, String> {
-    if v.is_finite() && v.abs() < 1e17 {
-        Ok(v.round() as i64)
-    } else {
-        Err("out of range".into())
-    }
-}
-
-/// ISO 8601 date-time to epoch ms; `T` or a space between date and time; no offset = UTC.
-/// A bare date (`2024-03-01`) is midnight UTC.
-pub fn parse_iso8601_ms(s: &str) -> Result<i64, String> {
-    use time::format_description::well_known::Iso8601;
-    let s = s.trim();
-    let owned;
-    let s = if s.len() > 10 && s.as_bytes()[10] == b' ' {
-        owned = format!("{}T{}", &s[..10], &s[11..]);
-        owned.as_str()
-    } else {
-        s
-    };
-    let to_ms = |t: time::OffsetDateTime| (t.unix_timestamp_nanos() / 1_000_000) as i64;
-    if let Ok(t) = time::OffsetDateTime::parse(s, &Iso8601::DEFAULT) {
-        return Ok(to_ms(t));
-    }
-    if let Ok(t) = time::PrimitiveDateTime::parse(s, &Iso8601::DEFAULT) {
-        return Ok(to_ms(t.assume_utc()));
-    }
-    match time::Date::parse(s, &Iso8601::DEFAULT) {
-        Ok(d) => Ok(to_ms(d.midnight().assume_utc())),
-        Err(e) => Err(date_problem(s).unwrap_or_else(|| e.to_string())),
-    }
-}
-
-/// For a `YYYY-MM-DD…` text whose date part is out of range, says which part (the `time`
-/// parser only says "unexpected trailing characters" for `2024-13-01`).
-fn date_problem(s: &str) -> Option<String> {
-    let b = s.as_bytes();
-    if b.len() < 10 || b[4] != b'-' || b[7] != b'-' {
-        return None;
-    }
-    let year: i32 = s.get(0..4)?.parse().ok()?;
-    let month: u8 = s.get(5..7)?.parse().ok()?;
-    let day: u8 = s.get(8..10)?.parse().ok()?;
-    let month = match time::Month::try_from(month) {
-        Ok(m) => m,
-        Err(_) => return Some(format!("month {month} is not 1 … 12")),
-    };
-    match time::Date::from_calendar_date(year, month, day) {
-        Ok(_) => None,
-        Err(_) => Some(format!("day {day} does not exist in {month} {year}")),
-    }
 }
 
 #[cfg(test)]

@@ -1,8 +1,13 @@
 //! gtwatch: transient-based gas-path diagnosis for a two-shaft industrial gas turbine.
 //!
-//! The physics (`thermo`, `maps`, `engine`, `optim`, `diagnosis`) is pure: no I/O, no async,
-//! no globals, deterministic for a given seed. The daemon modules (`store`, `ingest`, `detect`,
-//! `query`, `cli`) are a thin shell around it.
+//! The modules form a house of floors (README.md, "Architecture"; checked by
+//! `tests/architecture.rs`): the foundations (`thermo`, `maps`, `health`, `signals`, `optim`,
+//! and shared plain types such as `quality`, `segment`, `time`), the engine model, what is
+//! computed with it (`diagnosis`, `calibrate`, `gap`, `trend`, `wash`), the data floor (`store`,
+//! `ingest`, `acquire`, `detect`, …), the services (`worker`, `daemon`, `report`, …) and `cli`.
+//! Code refers only to its own floor or below, never to a floor above, and no two modules refer
+//! to each other. The physics is pure: no I/O, no async, no globals, deterministic for a given
+//! seed. This file only declares the modules; it must not hold code of its own.
 #![deny(clippy::unwrap_used)]
 
 pub mod acquire;
@@ -29,10 +34,12 @@ pub mod quality;
 pub mod query;
 pub mod recording;
 pub mod report;
+pub mod segment;
 pub mod shutdown;
 pub mod signals;
 pub mod store;
 pub mod thermo;
+pub mod time;
 pub mod trend;
 pub mod wash;
 pub mod worker;

@@ -3,6 +3,7 @@
 //! Five stacked panels sharing the time axis — shaft speeds, temperatures, pressures, fuel flow,
 //! power — with the phases as labelled background bands. Renders into a `String` (plotters' SVG
 //! backend); the caller decides where it goes. No physics here.
+//! Must not write files, run the model or read the store: it draws a trace it is given.
 
 use crate::engine::trace::Trace;
 use crate::signals::{Phase, Signal};

@@ -18,13 +18,61 @@
 //!
 //! Time stamps out of order are not a per-value code: the replay counts those rows and does not
 //! store them (a sample keyed at a wrong time would overwrite or shadow a real one).
-//! Pure: no I/O, no clock, no globals.
+//! The codes themselves ([`Quality`], stored as `samples.quality`) are defined here, beside the
+//! rules that assign them, so the diagnosis's CSV input, replay, acquisition and the store all
+//! take them from this ground-floor room (see README.md, "Architecture").
+//! Pure: no I/O, no clock, no globals; must not know about the store, the CSV reader or Modbus.
 
 use crate::config_problem::ConfigProblem;
 use crate::signals::Signal;
-use crate::store::Quality;
 use serde::Deserialize;
 use std::collections::BTreeMap;
+
+/// Sample quality, stored as INTEGER (`samples.quality`). Only `Good` (0) samples feed
+/// detection and diagnosis; every other code is stored flagged and counted. Codes 0–2 are
+/// those of schema 1 (unchanged); 3 and 4 came with schema 3. Defined here, beside the policy that assigns it, so every floor that reads or
+/// writes samples (diagnosis CSV input, replay, acquisition, the store) can name it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[repr(u8)]
+pub enum Quality {
+    #[default]
+    Good = 0,
+    /// Outside the signal's physical range (or the register map's range).
+    OutOfRange = 1,
+    /// Not a number: NaN, ±inf, or registers that do not decode (value stored as 0).
+    Bad = 2,
+    /// Stuck sensor: bit-identical value for longer than `quality.stuck_after_s` while the
+    /// engine moved.
+    Stuck = 3,
+    /// Isolated spike: a jump beyond the signal's rate limit from the last good value.
+    Spike = 4,
+}
+
+impl Quality {
+    pub fn from_code(code: i64) -> Option<Quality> {
+        match code {
+            0 => Some(Quality::Good),
+            1 => Some(Quality::OutOfRange),
+            2 => Some(Quality::Bad),
+            3 => Some(Quality::Stuck),
+            4 => Some(Quality::Spike),
+            _ => None,
+        }
+    }
+    /// Stable lower-case name (`good`, `out_of_range`, `bad`, `stuck`, `spike`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Quality::Good => "good",
+            Quality::OutOfRange => "out_of_range",
+            Quality::Bad => "bad",
+            Quality::Stuck => "stuck",
+            Quality::Spike => "spike",
+        }
+    }
+    pub fn code(self) -> u8 {
+        self as u8
+    }
+}
 
 /// Physical limits of one signal.
 #[derive(Debug, Clone, Copy, PartialEq)]

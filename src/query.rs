@@ -3,10 +3,10 @@
 //! Works on a read-only store (`ReadStore`) so it never disturbs the running daemon; the SQL is
 //! the store's (`store/segments.rs`), this module only shapes and formats. Must not write.
 
-use crate::detect::{AbortCause, Outcome, PhaseSpan};
-use crate::ingest::fmt_ms;
+use crate::segment::{AbortCause, Outcome, PhaseSpan};
 use crate::signals::Phase;
 use crate::store::{Store, StoreError};
+use crate::time::fmt_ms;
 use serde::Serialize;
 use std::io::Write;
 
@@ -298,8 +298,9 @@ pub fn export_csv(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::quality::Quality;
     use crate::signals::Signal;
-    use crate::store::{Quality, Sample, TagInfo};
+    use crate::store::{Sample, TagInfo};
 
     #[test]
     fn export_wide_and_long() {

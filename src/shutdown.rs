@@ -3,6 +3,7 @@
 //! `main` maps SIGTERM/SIGINT onto a [`ShutdownTrigger`]; tests trigger it directly. Every task
 //! holds a cloned [`Shutdown`] and selects on [`Shutdown::wait`]. Dropping the trigger also
 //! counts as shutdown, so a task can never outlive its owner by waiting forever.
+//! Must not decide when to shut down or hold any task state: it only carries the signal.
 
 use tokio::sync::watch;
 

@@ -8,8 +8,9 @@ mod common;
 
 use gtwatch::detect::{scan, DetectorConfig};
 use gtwatch::plantsim::{PlantModel, ScriptLevels, ScriptedPlant};
+use gtwatch::quality::Quality;
 use gtwatch::signals::Signal;
-use gtwatch::store::{Quality, Sample, Store, TagInfo};
+use gtwatch::store::{Sample, Store, TagInfo};
 
 /// Per frame: the samples of n1, fuel, power and n2 at the frame's time.
 fn frames() -> Vec<Vec<(Signal, i64, f64)>> {

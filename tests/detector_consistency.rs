@@ -9,9 +9,11 @@ use gtwatch::engine::sensors::MeasurementOptions;
 use gtwatch::engine::simulation::run_scenario;
 use gtwatch::engine::{Engine, Scenario, Trace};
 use gtwatch::health::HealthParams;
-use gtwatch::ingest::{replay_file, Progress, ReplayConfig, TimeFormat};
+use gtwatch::ingest::{replay_file, Progress, ReplayConfig};
+use gtwatch::quality::Quality;
 use gtwatch::signals::Signal;
-use gtwatch::store::{Quality, Sample, Store, TagInfo};
+use gtwatch::store::{Sample, Store, TagInfo};
+use gtwatch::time::TimeFormat;
 use std::path::Path;
 
 fn shipped() -> Config {

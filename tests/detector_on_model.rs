@@ -4,11 +4,12 @@
 //! samples of the simulator's truth.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-use gtwatch::detect::{DetectorConfig, Frame, Machine, Outcome, SegmentRecord};
+use gtwatch::detect::{DetectorConfig, Frame, Machine};
 use gtwatch::engine::sensors::MeasurementOptions;
 use gtwatch::engine::simulation::run_scenario;
 use gtwatch::engine::{Engine, Scenario, Trace};
 use gtwatch::health::HealthParams;
+use gtwatch::segment::{Outcome, SegmentRecord};
 use gtwatch::signals::{Phase, Signal};
 
 fn detect(trace: &Trace, with_n2: bool) -> Vec<SegmentRecord> {

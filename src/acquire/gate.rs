@@ -5,9 +5,9 @@
 //! needs the next reading, so each tag's latest sample is held back one poll; [`Gate::finish`]
 //! releases the held ones at shutdown. Pure: no I/O, no clock.
 
-use crate::quality::{Point, QualityConfig, QualityCounts, SpikeFilter, ValueChecker};
+use crate::quality::{Point, Quality, QualityConfig, QualityCounts, SpikeFilter, ValueChecker};
 use crate::signals::Signal;
-use crate::store::{Quality, Sample, TagId};
+use crate::store::{Sample, TagId};
 use std::collections::HashMap;
 
 use super::modbus::PollPlan;

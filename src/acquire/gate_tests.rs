@@ -4,8 +4,9 @@
 use crate::acquire::modbus::{AcquisitionConfig, PollPlan};
 use crate::acquire::register_map::{ModbusConfig, RegisterKind, RequestSpec};
 use crate::acquire::test_support::{run_poll_loop, serve, u16_field, Until};
+use crate::quality::Quality;
 use crate::signals::Signal;
-use crate::store::{Quality, Sample};
+use crate::store::Sample;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use tokio_modbus::prelude::{ExceptionCode, Request, Response};

@@ -1,4 +1,5 @@
 //! `gtwatch bench <kind>`: benchmarks that print JSON. Each kind lives in its own file.
+//! Must not hold benchmark logic itself: it dispatches to the kind's file.
 
 use std::process::ExitCode;
 

@@ -182,7 +182,8 @@ fn prefill_startups(
 ) -> anyhow::Result<()> {
     use crate::engine::sensors::MeasurementOptions;
     use crate::engine::{Engine, Scenario, Trace};
-    use crate::store::{Quality, Sample};
+    use crate::quality::Quality;
+    use crate::store::Sample;
     let engine = Engine::reference()?;
     let h = crate::health::HealthParams {
         D_GC: 2.0,

@@ -1,6 +1,8 @@
 //! `gtwatch bench diagnosis`: accuracy of both methods on synthetic start-ups with known truth
 //! (per-parameter RMSE and maximum error, median wall time and model runs), optionally with the
 //! optimiser comparison at equal budget.
+//! Must not diagnose anything itself: the cases and fits are `diagnosis::bench`'s; this file parses
+//! flags and prints.
 
 use super::diagnose::FitArgs;
 use crate::diagnosis::bench::{bench_diagnosis, MethodStats};

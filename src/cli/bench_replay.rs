@@ -4,9 +4,10 @@
 //! directory, replays it into a fresh database, then replays it again to show the idempotent
 //! pass (nothing new is added); reports samples/s for both. Run it from a release build.
 
-use crate::ingest::{fmt_ms, replay_file, Progress, ReplayConfig};
+use crate::ingest::{replay_file, Progress, ReplayConfig};
 use crate::signals::Signal;
 use crate::store::Store;
+use crate::time::fmt_ms;
 use anyhow::Context;
 use serde::Serialize;
 use std::io::Write;

@@ -1,4 +1,5 @@
 //! `gtwatch bench sim`: wall time of one complete start-up simulation (median of repeats).
+//! Must not change the model or its settings: it only times the simulation.
 
 use super::engine_args::EngineArgs;
 use crate::engine::simulation::run_scenario;

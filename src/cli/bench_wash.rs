@@ -1,5 +1,6 @@
 //! `gtwatch bench wash`: the paper's Table 3 (before/after a compressor wash) on synthetic
 //! truth, diagnosed by both methods, printed in the paper's layout next to the truth.
+//! Must not diagnose anything itself: it prints what `diagnosis::bench::bench_wash` returns.
 
 use super::diagnose::FitArgs;
 use crate::diagnosis::bench::{bench_wash, WashRow};

@@ -2,6 +2,8 @@
 //! (steady snapshots, the CSV `gtwatch diagnose --method steady` reads, and/or the steady
 //! windows of recorded start-ups) and write the new
 //! engine file (`calibrate`, `calibrate::edit`). Prints a report, or one JSON document.
+//! Must not fit anything itself (that is `crate::calibrate`) or write any file but the output
+//! engine file.
 
 use crate::calibrate::adapt::AdaptSettings;
 use crate::calibrate::candidates::{candidate, candidate_in, default_candidates, offset_candidate};
@@ -121,9 +123,7 @@ fn sources(a: &CalibrateArgs) -> Vec<String> {
 }
 
 fn header(a: &CalibrateArgs, report: &Calibration, n_rows: usize) -> Vec<String> {
-    let now = time::OffsetDateTime::now_utc()
-        .format(&time::format_description::well_known::Rfc3339)
-        .unwrap_or_else(|_| "?".into());
+    let now = crate::time::fmt_rfc3339(time::OffsetDateTime::now_utc());
     let mut h = vec![format!(
         "Calibrated by gtwatch calibrate {} at {now}: {} fitted to {} healthy operating \
          point(s) of {}",

@@ -71,10 +71,10 @@ pub fn db_path(db: Option<&PathBuf>, config: Option<&PathBuf>) -> anyhow::Result
 /// or `@SECONDS` since the Unix epoch.
 pub fn parse_cli_time(s: &str) -> anyhow::Result<i64> {
     if let Some(rest) = s.strip_prefix('@') {
-        return crate::ingest::parse_time(rest.as_bytes(), crate::ingest::TimeFormat::EpochS)
+        return crate::time::parse_time(rest.as_bytes(), crate::time::TimeFormat::EpochS)
             .map_err(|e| anyhow::anyhow!("'{s}': {e}"));
     }
-    crate::ingest::parse_iso8601_ms(s).map_err(|e| {
+    crate::time::parse_iso8601_ms(s).map_err(|e| {
         anyhow::anyhow!(
             "'{s}' is not a time (use 2024-03-01, 2024-03-01T12:00:00Z or @EPOCH_S): {e}"
         )

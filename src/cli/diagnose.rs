@@ -1,5 +1,6 @@
 //! `gtwatch diagnose`: read a start-up CSV, run Method B and/or Method A, print the health
 //! parameters with 1σ, the objective, model runs and wall time (text or JSON).
+//! Must not open the database or store results: it reads a CSV and prints.
 
 use crate::diagnosis::csv_input::{parse_mapping, read_recording_checked};
 use crate::diagnosis::params::FitParam;

@@ -1,6 +1,7 @@
 //! `gtwatch diagnose --method steady` on a snapshot file: each row one averaged steady
 //! operating point (performance tests, historian averages), diagnosed per row or per
 //! `--group-by` group (`diagnosis::snapshot`). Prints text or one JSON document.
+//! Must not open the database or store results: it reads a file and prints.
 
 use super::diagnose::{print_text, result_json, DiagnoseArgs};
 use crate::diagnosis::snapshot::{diagnose_snapshots, read_snapshots};

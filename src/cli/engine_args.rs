@@ -1,4 +1,5 @@
 //! Arguments shared by the engine-model commands (engine file, health vector).
+//! Must not run the model: it only parses and loads.
 
 use crate::engine::{Engine, EngineConfig};
 use crate::health::HealthParams;

@@ -1,4 +1,5 @@
 //! `gtwatch export --tag NAME[,NAME] --from … --to … [--out FILE]`: samples as CSV.
+//! Must not write to the database: it reads through a read-only store.
 
 use super::common::{db_path, parse_cli_time};
 use crate::query::{export_csv, ExportLayout};

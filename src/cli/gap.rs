@@ -1,6 +1,7 @@
 //! `gtwatch gap`: where the model and this start-up disagree, which effect of the library
 //! explains it, and how far the gap shrinks with it (`src/gap`); `--list-effects` lists the
 //! library. Reads the CSV like `gtwatch diagnose`; prints text or one JSON document.
+//! Must not hold analysis logic of its own (that is `crate::gap`).
 
 use super::diagnose::FitArgs;
 use crate::diagnosis::csv_input::{parse_mapping, read_recording};

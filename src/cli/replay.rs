@@ -2,6 +2,7 @@
 //!
 //! Exit status: 0 all rows stored; 1 an error (or `on_malformed = "stop"` hit a bad row);
 //! 3 replayed, but rows were rejected for their time stamps (see stderr / the JSON report).
+//! Must not parse CSV or detect start-ups itself: that is `ingest` and `detect`.
 
 use super::common::DataSections;
 use crate::ingest::{

@@ -1,4 +1,5 @@
 //! `gtwatch segments [--since …] [--format table|csv|json]`: list detected start-ups.
+//! Must not write to the database: it reads through a read-only store.
 
 use super::common::{db_path, parse_cli_time};
 use crate::query::{list_segments, write_segments, Format};

@@ -1,4 +1,5 @@
 //! `gtwatch simulate`: a start-up (or a day of operations) on the engine model, as CSV and SVG.
+//! Must not open the database: it writes the CSV and SVG it is asked for and nothing else.
 
 use super::engine_args::EngineArgs;
 use crate::engine::sensors::MeasurementOptions;

@@ -1,4 +1,5 @@
 //! `gtwatch steady`: one steady operating point and its full station table.
+//! Must not open the database or write files: it prints.
 
 use super::engine_args::EngineArgs;
 use crate::engine::steady::{Demand, SteadyInputs};

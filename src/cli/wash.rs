@@ -3,11 +3,13 @@
 //! `advise` recomputes the trends and the advice from the stored history (recording washes the
 //! trend detects and the new recommendation) and explains it in plain words, or prints one JSON
 //! document with `--format json`. The arithmetic is `crate::advice` / `trend` / `wash`.
+//! Must not hold wash or trend arithmetic of its own.
 
 use super::common::{db_path, parse_cli_time};
 use super::diagnose_stored::{wash_economics, worker_context};
 use crate::query::Format;
 use crate::store::Store;
+use crate::time::fmt_ms_rfc3339;
 use crate::trend::WashDetection;
 use anyhow::{bail, Context};
 use std::path::PathBuf;
@@ -80,16 +82,6 @@ fn open(db: &DbArgs) -> anyhow::Result<Store> {
     Store::open(&path).with_context(|| format!("opening {}", path.display()))
 }
 
-fn utc(ms: i64) -> String {
-    time::OffsetDateTime::from_unix_timestamp_nanos(ms as i128 * 1_000_000)
-        .ok()
-        .and_then(|t| {
-            t.format(&time::format_description::well_known::Rfc3339)
-                .ok()
-        })
-        .unwrap_or_else(|| format!("{ms} ms"))
-}
-
 /// Runs `gtwatch wash …`.
 pub fn run(a: WashArgs) -> anyhow::Result<ExitCode> {
     match a.cmd {
@@ -101,7 +93,7 @@ pub fn run(a: WashArgs) -> anyhow::Result<ExitCode> {
                 WashKind::Offline => "offline",
             };
             let id = store.record_wash(t, kind, &note)?;
-            println!("wash {id} recorded: {kind} at {}", utc(t));
+            println!("wash {id} recorded: {kind} at {}", fmt_ms_rfc3339(t));
         }
         WashCmd::Confirm { db, id } => {
             if !open(&db)?.confirm_wash(id)? {
@@ -131,7 +123,8 @@ pub fn run(a: WashArgs) -> anyhow::Result<ExitCode> {
                 _ => {
                     println!(
                         "last wash: {}; {} Method B results since",
-                        r.last_wash_ms.map_or("none recorded".into(), utc),
+                        r.last_wash_ms
+                            .map_or("none recorded".into(), fmt_ms_rfc3339),
                         r.results_since_wash
                     );
                     for id in &r.detected_now {
@@ -165,7 +158,7 @@ pub fn run(a: WashArgs) -> anyhow::Result<ExitCode> {
                     }
                     match (&r.advice, r.advised_ms) {
                         (Some(a), Some(ms)) => {
-                            println!("\nnext offline wash: {}", utc(ms));
+                            println!("\nnext offline wash: {}", fmt_ms_rfc3339(ms));
                             println!("{}", a.summary);
                         }
                         (Some(a), None) => println!("\n{}", a.summary),

@@ -11,9 +11,10 @@
 
 pub mod machine;
 
-pub use machine::{AbortCause, Frame, Machine, Outcome, PhaseSpan, SegmentRecord};
+pub use machine::{Frame, Machine};
 
 use crate::config_problem::ConfigProblem;
+use crate::segment::SegmentRecord;
 use crate::signals::Signal;
 use crate::store::{Store, StoreError, TagId};
 use serde::{Deserialize, Serialize};

@@ -1,6 +1,7 @@
 use super::machine::tests::{empty_script, frames, hot_restart_script, push_start, T0_MS};
 use super::*;
-use crate::store::{Gap, Quality, Sample, TagInfo};
+use crate::quality::Quality;
+use crate::store::{Gap, Sample, TagInfo};
 
 struct Db {
     _dir: tempfile::TempDir,

@@ -10,6 +10,7 @@
 //! * [`bench_wash`]: the paper's Table 3 experiment with known truth.
 //!
 //! Cases run one after another; each diagnosis uses the whole thread pool.
+//! Must not print, write files or open the database.
 
 use super::steady::diagnose_steady;
 use super::transient::diagnose_transient;

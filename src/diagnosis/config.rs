@@ -1,7 +1,7 @@
 //! The diagnosis settings: which method, which optimiser, the window of the start-up, the
 //! steady-window criteria of Method A, and [`DiagnosisConfig`] (budget, seed, threads, fitted
 //! and fixed parameters, fit-quality thresholds, cancellation). Plain data with validation; no
-//! I/O.
+//! I/O. Must not run a diagnosis.
 
 use super::fit_quality;
 use super::params::FitParam;

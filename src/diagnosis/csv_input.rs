@@ -8,10 +8,9 @@
 //! the same rules as replay and acquisition) flags as stuck or a spike become missing too
 //! (out-of-range values stay errors naming the line), and are counted ([`CsvQuality`]). Reads from any `io::Read`; opens no files.
 
-use crate::quality::{Point, QualityConfig, QualityCounts, SpikeFilter};
+use crate::quality::{Point, Quality, QualityConfig, QualityCounts, SpikeFilter};
 use crate::recording::{Recording, RecordingError};
 use crate::signals::{Phase, Signal, Values, NSIG};
-use crate::store::Quality;
 use std::collections::HashMap;
 use std::io::Read;
 

@@ -6,7 +6,7 @@
 //!
 //! Engine-file and effect values are applied with `Engine::set_param` on a copy of the engine,
 //! so calibration and the gap tool fit them with the same [`super::fit`] as health. Pure: no
-//! I/O, no globals.
+//! I/O, no globals. Must not run the optimiser: it only maps its vector to model inputs.
 
 use crate::engine::Engine;
 use crate::health::{HealthBounds, HealthParams, HEALTH_NAMES};

@@ -4,6 +4,7 @@
 //! These are the continuous parts evaluated inside the model's right-hand side; the discrete
 //! sequencing (which loop is active, when the starter cuts out) lives in `sequence.rs`.
 //! Pure: a command is a value; evaluating it has no side effects.
+//! Must not sequence the start (that is `sequence.rs`) or do I/O.
 
 use super::config::{ControlConfig, StarterConfig};
 use std::sync::Arc;

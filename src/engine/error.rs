@@ -1,5 +1,6 @@
 //! The engine's error type: what can go wrong building or running the model.
 //! Plain data, no logic; every engine module returns it.
+//! Must not log, print or decide what a caller does about an error.
 
 use crate::maps;
 

@@ -2,7 +2,7 @@
 //! CSV layout that `gtwatch simulate` writes and the diagnosis reads.
 //!
 //! Column order follows [`Signal::ALL`]. Writing is to any `io::Write`; this module does not
-//! open files.
+//! open files. Must not run the model: it holds and writes what a simulation produced.
 
 pub use super::gas_path::values_of;
 use super::model::Engine;

@@ -3,6 +3,7 @@
 //! yellow, to red ≥ 10 σ — and labelled with the error and its character, bias in σ or
 //! lag-like τ), and below it the worst signal measured against the model before and after the
 //! winning effect. Pure string building.
+//! Must not write files or run the analysis: it draws a result it is given.
 
 use super::{GapReport, SignalTraces};
 use crate::chart::{Chart, Series, XAxis, BLUE, GREY, ORANGE};

@@ -1,5 +1,6 @@
 //! Box bounds in physical units, the map to normalised `[0, 1]` coordinates, and reflection
 //! at the faces of the unit box. Pure arithmetic; no solver logic.
+//! Must not know about any problem or solver.
 
 use super::OptimError;
 

@@ -9,6 +9,7 @@
 //! that is a typesetting slip, and gtwatch uses the Γ form, as Mantegna and Yang & Deb do.
 //! The tail is `P(|L| > x) ∝ x^(−β)`: heavy, so most steps are short and a few are very long.
 //! Pure: the caller supplies the random generator.
+//! Must not keep state or seed a generator of its own.
 
 use super::{setting, OptimError};
 use rand::Rng;

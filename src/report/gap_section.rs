@@ -3,8 +3,8 @@
 //! cause, how far adding it shrank the gap. Pure HTML building from stored rows.
 
 use crate::chart::esc;
-use crate::ingest::fmt_ms;
 use crate::store::GapAnalysisRow;
+use crate::time::fmt_ms;
 use std::fmt::Write;
 
 /// Rows shown at most.

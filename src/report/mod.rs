@@ -15,13 +15,13 @@ mod gap_section;
 use crate::engine::measured_drive::{simulate_segment, DriveMode};
 use crate::engine::Engine;
 use crate::health::{HealthParams, HEALTH_NAMES};
-use crate::ingest::fmt_ms;
 use crate::query::{list_segments, QueryError};
 use crate::signals::Signal;
 use crate::store::{
     signal_unit, Gap, GapAnalysisRow, HistoryFilter, HistoryRow, RecommendationRow, Store,
     StoreError, WashRow,
 };
+use crate::time::fmt_ms;
 use crate::trend::{fit_rate, TrendPoint};
 use serde::Serialize;
 use std::fmt::Write;

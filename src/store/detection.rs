@@ -5,7 +5,7 @@
 //! stores and fetches. Must not hold detection logic.
 
 use super::{now_ms, StoreError, TagId};
-use crate::detect::SegmentRecord;
+use crate::segment::SegmentRecord;
 use rusqlite::{params, OptionalExtension};
 
 /// Persistent detector progress (table `detector_state`).

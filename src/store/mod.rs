@@ -31,6 +31,7 @@ pub use diagnoses::{
 pub use writer::{spawn_writer, WriteCmd, WriterConfig, WriterStats};
 
 use crate::config_problem::{check_range, Bounds, ConfigProblem};
+use crate::quality::Quality;
 use crate::signals::Signal;
 use rusqlite::{params, Connection, OpenFlags, OptionalExtension};
 use serde::Deserialize;
@@ -39,51 +40,6 @@ use std::time::Duration;
 
 /// Row id of a tag in the `tags` table.
 pub type TagId = i64;
-
-/// Sample quality, stored as INTEGER (`samples.quality`). Only `Good` (0) samples feed
-/// detection and diagnosis; every other code is stored flagged and counted. Codes 0–2 are
-/// those of schema 1 (unchanged); 3 and 4 came with schema 3. See [`crate::quality`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-#[repr(u8)]
-pub enum Quality {
-    #[default]
-    Good = 0,
-    /// Outside the signal's physical range (or the register map's range).
-    OutOfRange = 1,
-    /// Not a number: NaN, ±inf, or registers that do not decode (value stored as 0).
-    Bad = 2,
-    /// Stuck sensor: bit-identical value for longer than `quality.stuck_after_s` while the
-    /// engine moved.
-    Stuck = 3,
-    /// Isolated spike: a jump beyond the signal's rate limit from the last good value.
-    Spike = 4,
-}
-
-impl Quality {
-    pub fn from_code(code: i64) -> Option<Quality> {
-        match code {
-            0 => Some(Quality::Good),
-            1 => Some(Quality::OutOfRange),
-            2 => Some(Quality::Bad),
-            3 => Some(Quality::Stuck),
-            4 => Some(Quality::Spike),
-            _ => None,
-        }
-    }
-    /// Stable lower-case name (`good`, `out_of_range`, `bad`, `stuck`, `spike`).
-    pub fn name(self) -> &'static str {
-        match self {
-            Quality::Good => "good",
-            Quality::OutOfRange => "out_of_range",
-            Quality::Bad => "bad",
-            Quality::Stuck => "stuck",
-            Quality::Spike => "spike",
-        }
-    }
-    pub fn code(self) -> u8 {
-        self as u8
-    }
-}
 
 /// One measured value of one tag at one time.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -4,8 +4,9 @@ use crate::engine::sensors::MeasurementOptions;
 use crate::engine::simulation::run_scenario;
 use crate::engine::{Scenario, Trace};
 use crate::health::HealthParams;
+use crate::quality::Quality;
 use crate::shutdown::shutdown_channel;
-use crate::store::{HistoryFilter, Quality, Sample, TagInfo};
+use crate::store::{HistoryFilter, Sample, TagInfo};
 
 fn truth() -> HealthParams {
     HealthParams {

@@ -5,7 +5,8 @@
 use crate::acquire::register_map::{
     decode_field, FieldSpec, ModbusConfig, ReadingStatus, RegisterKind,
 };
-use crate::store::{Quality, Sample, TagId};
+use crate::quality::Quality;
+use crate::store::{Sample, TagId};
 
 /// One request of the poll plan, with the tag id of each field.
 #[derive(Debug, Clone)]

@@ -239,8 +239,8 @@ pub async fn poll_loop_with_clock(
                     // it passes the last stored time, recorded as a gap.
                     error = Some(format!(
                         "plant clock went backwards from {} to {}",
-                        crate::ingest::fmt_ms(last_plant_ms.unwrap_or(t)),
-                        crate::ingest::fmt_ms(t)
+                        crate::time::fmt_ms(last_plant_ms.unwrap_or(t)),
+                        crate::time::fmt_ms(t)
                     ));
                 }
                 Ok(t) => {

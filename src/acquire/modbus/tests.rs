@@ -5,7 +5,7 @@ use super::*;
 use crate::acquire::clock::{SampleClock, WallClock};
 use crate::acquire::register_map::{ModbusConfig, RegisterKind, RequestSpec};
 use crate::acquire::test_support::{run_poll_loop, serve, u16_field, Until};
-use crate::store::Quality;
+use crate::quality::Quality;
 use std::sync::atomic::{AtomicI64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;

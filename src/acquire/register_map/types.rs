@@ -1,6 +1,6 @@
 //! The register map's types as read from the `[modbus]` section (serde), with the small
 //! arithmetic on them (word counts, address spans). No validation (that is `check`) and no
-//! decoding (that is `codec`).
+//! decoding (that is `codec`). Must not talk to Modbus.
 
 use crate::signals::Signal;
 use serde::{Deserialize, Deserializer, Serialize};
