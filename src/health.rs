@@ -185,6 +185,28 @@ pub enum HealthParseError {
     },
 }
 
+/// A health estimate below −(this + 3σ) points is better than new beyond its uncertainty and
+/// beyond what a calibration leaves: not the engine, but an input instrument (fuel meter, T1,
+/// power) or a design value the fit absorbed.
+pub const IMPLAUSIBLE_MARGIN: f64 = 0.3;
+
+/// How far an estimate with 1σ `sigma` lies below plausibility, points (0 where plausible, and
+/// where σ is not finite: an unidentifiable estimate says nothing).
+pub fn below_plausible(value: f64, sigma: f64) -> f64 {
+    if !(value.is_finite() && sigma.is_finite()) {
+        return 0.0;
+    }
+    (-(value + IMPLAUSIBLE_MARGIN + 3.0 * sigma)).max(0.0)
+}
+
+/// Σ of the squared points below plausibility over a health vector (0: plausible).
+pub fn implausibility(h: &[f64; 6], sigma: &[f64; 6]) -> f64 {
+    h.iter()
+        .zip(sigma)
+        .map(|(v, s)| below_plausible(*v, *s).powi(2))
+        .sum()
+}
+
 /// Plausible range of a health parameter given on the command line or in a file, percent: far
 /// wider than the diagnosis's default search bounds (−3 … +10), yet excluding values no engine can have
 /// (a map scaled by 1 − D/100 with D = −50 or +60 runs a start-up into nonsense).

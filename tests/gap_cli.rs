@@ -129,3 +129,66 @@ fn a_slow_t34_thermocouple_is_found_and_named() {
     let list: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
     assert!(list["effects"].as_array().expect("array").len() >= 7);
 }
+
+/// An inlet thermometer reading 2.1 K high (sun on the sensor), written into a `simulate`
+/// start-up by this test: the model still fits within noise, so the old verdict was `none` with
+/// a health vector off by points. Now the verdict is `ambiguous`, the T1 instrument is among
+/// the hidden aliases, and — the baseline's health being better than new — it is the alias
+/// that restores plausibility first, at a T1 error between 1 and 3.5 K.
+#[test]
+fn an_inlet_thermometer_error_is_never_passed_off_as_none() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let clean = dir.path().join("clean.csv");
+    let out = gtwatch()
+        .args(["simulate", "--noise", "--seed", "3", "--out"])
+        .arg(&clean)
+        .output()
+        .expect("simulate runs");
+    assert!(out.status.success());
+    let text = std::fs::read_to_string(&clean).expect("read");
+    let mut lines = text.lines();
+    let header = lines.next().expect("header");
+    let ix = header
+        .split(',')
+        .position(|c| c == "t1_k")
+        .expect("t1 column");
+    let mut altered = format!("{header}\n");
+    for line in lines {
+        let mut f: Vec<String> = line.split(',').map(str::to_string).collect();
+        let t1: f64 = f[ix].parse().expect("t1");
+        f[ix] = format!("{:.4}", t1 + 2.1);
+        altered.push_str(&f.join(","));
+        altered.push('\n');
+    }
+    let csv = dir.path().join("t1_high.csv");
+    std::fs::write(&csv, altered).expect("write");
+    let out = gtwatch()
+        .args(["gap", "--input"])
+        .arg(&csv)
+        .args(["--json"])
+        .output()
+        .expect("gap runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
+    let verdict = v["verdict"]["effect"].as_str().expect("verdict");
+    assert!(
+        verdict == "ambiguous" || verdict == "inlet_temperature",
+        "verdict {verdict}: {}",
+        v["aliases"]
+    );
+    let aliases = v["aliases"]["aliases"].as_array().expect("aliases");
+    let t1 = aliases
+        .iter()
+        .find(|a| a["effect"] == "inlet_temperature")
+        .expect("the T1 alias is listed");
+    assert_eq!(t1["hidden"], true, "{t1}");
+    assert_eq!(aliases[0]["effect"], "inlet_temperature", "{aliases:#?}");
+    let m = aliases[0]["plausible_magnitude"]
+        .as_f64()
+        .expect("a plausible magnitude");
+    assert!((1.0..=3.5).contains(&m), "T1 error {m}");
+}

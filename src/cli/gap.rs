@@ -259,8 +259,54 @@ pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
     for (i, n) in crate::health::HEALTH_NAMES.iter().enumerate() {
         println!("  {n:5} {:8.3} → {:8.3} %", b[i], f[i]);
     }
+    print_aliases(&report.aliases);
     if let Some(msg) = adopted {
         println!("{msg}");
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The input instruments the health may hide, with the health each implies.
+fn print_aliases(a: &crate::gap::alias::Aliases) {
+    if a.aliases.is_empty() {
+        return;
+    }
+    println!(
+        "input instruments the health parameters absorb (absorbed share; health shift for the \
+         nominal error; '*' = can hide, one start-up cannot tell):"
+    );
+    for x in &a.aliases {
+        let shift: Vec<String> = crate::health::HEALTH_NAMES
+            .iter()
+            .zip(x.health_shift.to_array())
+            .filter(|(_, v)| v.abs() >= 0.1)
+            .map(|(n, v)| format!("{n} {v:+.2}"))
+            .collect();
+        println!(
+            "  {}{:24} {:3.0} %  {} {:+} {}: {}",
+            if x.hidden { '*' } else { ' ' },
+            x.effect,
+            100.0 * x.absorbed,
+            x.param,
+            x.nominal,
+            x.unit,
+            if shift.is_empty() {
+                "—".to_string()
+            } else {
+                shift.join(", ")
+            }
+        );
+        if let (Some(m), Some(h)) = (x.plausible_magnitude, x.health_if_plausible) {
+            let hv: Vec<String> = crate::health::HEALTH_NAMES
+                .iter()
+                .zip(h.to_array())
+                .map(|(n, v)| format!("{n} {v:+.2}"))
+                .collect();
+            println!(
+                "      the baseline's health is better than new; at {m:+.4} {} it would be: {}",
+                x.unit,
+                hv.join(", ")
+            );
+        }
+    }
 }

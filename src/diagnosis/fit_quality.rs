@@ -116,6 +116,14 @@ pub struct FitQuality {
     /// Health estimates that ended on their search limits: the true value may lie beyond, so the
     /// estimate is not a measurement; any makes a `good` fit `suspect`.
     pub at_limit: Vec<LimitHit>,
+    /// Health estimates better than new beyond their uncertainty
+    /// ([`crate::health::below_plausible`]): an input instrument or a design value absorbed by
+    /// the health; any makes a `good` fit `suspect`.
+    pub implausible: Vec<Implausible>,
+    /// The verdict on the residual alone (before the health checks above): `good` here with a
+    /// `suspect` verdict means the model reproduces the data but the health it needs is not
+    /// believable.
+    pub residual_verdict: Verdict,
     /// Where the gap lies, in plain words (empty for a good fit).
     pub summary: String,
 }
@@ -129,6 +137,33 @@ pub struct LimitHit {
     pub limit: f64,
     /// `lower` or `upper`.
     pub side: &'static str,
+}
+
+/// A health estimate better than new beyond its uncertainty.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Implausible {
+    pub name: String,
+    pub value: f64,
+    pub sigma: f64,
+}
+
+impl Implausible {
+    /// Plain words with what to suspect.
+    pub fn describe(&self) -> String {
+        format!(
+            "{} = {:+.2} ± {:.2} % is better than new beyond its uncertainty: an input \
+             instrument (fuel meter, T1, power) or a design value is more likely than the engine \
+             (run gtwatch gap for the aliases)",
+            self.name, self.value, self.sigma
+        )
+    }
+}
+
+/// What the health estimates of a result say about it, beside its residual.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct HealthFlags {
+    pub at_limit: Vec<LimitHit>,
+    pub implausible: Vec<Implausible>,
 }
 
 /// An estimate within this fraction of its interval's width from a limit is "at" it.
@@ -381,7 +416,7 @@ pub fn assess(
     level: f64,
     cells: &[ResidualCell],
     periodic: &[Periodicity],
-    at_limit: &[LimitHit],
+    flags: &HealthFlags,
     th: &Thresholds,
 ) -> FitQuality {
     let worst = cells
@@ -389,16 +424,19 @@ pub fn assess(
         .filter(|c| c.norm_error.is_finite())
         .max_by(|a, b| a.norm_error.total_cmp(&b.norm_error));
     let worst_cell_error = worst.map_or(0.0, |c| c.norm_error);
-    let verdict = if !level.is_finite() || level > th.poor_level {
+    let residual_verdict = if !level.is_finite() || level > th.poor_level {
         Verdict::Poor
-    } else if level > th.good_level
-        || worst_cell_error > th.suspect_cell
-        || !periodic.is_empty()
-        || !at_limit.is_empty()
-    {
+    } else if level > th.good_level || worst_cell_error > th.suspect_cell || !periodic.is_empty() {
         Verdict::Suspect
     } else {
         Verdict::Good
+    };
+    let verdict = if residual_verdict == Verdict::Good
+        && !(flags.at_limit.is_empty() && flags.implausible.is_empty())
+    {
+        Verdict::Suspect
+    } else {
+        residual_verdict
     };
     let summary = if verdict == Verdict::Good {
         String::new()
@@ -414,7 +452,11 @@ pub fn assess(
                 p.amplitude_sigma
             ));
         }
-        for h in at_limit {
+        for h in &flags.at_limit {
+            text.push_str("; ");
+            text.push_str(&h.describe());
+        }
+        for h in &flags.implausible {
             text.push_str("; ");
             text.push_str(&h.describe());
         }
@@ -426,7 +468,9 @@ pub fn assess(
         worst_cell_error,
         thresholds: *th,
         periodic: periodic.to_vec(),
-        at_limit: at_limit.to_vec(),
+        at_limit: flags.at_limit.clone(),
+        implausible: flags.implausible.clone(),
+        residual_verdict,
         summary,
     }
 }
@@ -482,8 +526,15 @@ mod tests {
         let low = LimitHit::of("D_EP", -3.0, -3.0, 10.0).expect("at the lower limit");
         assert_eq!(low.side, "lower");
         let th = Thresholds::default();
-        assert_eq!(assess(0.7, &[], &[], &[], &th).verdict, Verdict::Good);
-        let q = assess(0.7, &[], &[], &[hit], &th);
+        assert_eq!(
+            assess(0.7, &[], &[], &HealthFlags::default(), &th).verdict,
+            Verdict::Good
+        );
+        let flags = HealthFlags {
+            at_limit: vec![hit],
+            ..HealthFlags::default()
+        };
+        let q = assess(0.7, &[], &[], &flags, &th);
         assert_eq!(q.verdict, Verdict::Suspect);
         assert!(
             q.summary.contains("D_GC ended on its upper search limit"),
@@ -545,13 +596,22 @@ mod tests {
         assert!(character(&off).starts_with("offset"), "{}", character(&off));
 
         let th = Thresholds::default();
-        assert_eq!(assess(0.7, &[exact], &[], &[], &th).verdict, Verdict::Good);
+        assert_eq!(
+            assess(0.7, &[exact], &[], &HealthFlags::default(), &th).verdict,
+            Verdict::Good
+        );
         // A clean overall residual with one cell far beyond noise is suspect.
         let bad_cell = ResidualCell {
             norm_error: 6.0,
             ..lag.clone()
         };
-        let q = assess(0.8, std::slice::from_ref(&bad_cell), &[], &[], &th);
+        let q = assess(
+            0.8,
+            std::slice::from_ref(&bad_cell),
+            &[],
+            &HealthFlags::default(),
+            &th,
+        );
         assert_eq!(q.verdict, Verdict::Suspect, "one bad cell");
         assert!(
             q.summary.contains("t34_k during acceleration: lag-like"),
@@ -567,15 +627,30 @@ mod tests {
             amplitude_sigma: 1.0,
             p_value: 1e-12,
         };
-        let q = assess(0.7, &[], std::slice::from_ref(&ripple), &[], &th);
+        let q = assess(
+            0.7,
+            &[],
+            std::slice::from_ref(&ripple),
+            &HealthFlags::default(),
+            &th,
+        );
         assert_eq!(q.verdict, Verdict::Suspect);
         assert!(
             q.summary.contains("p34_kpa oscillates at 0.200 Hz"),
             "{}",
             q.summary
         );
-        assert_eq!(assess(1.3, &[], &[], &[], &th).verdict, Verdict::Suspect);
-        assert_eq!(assess(3.0, &[], &[], &[], &th).verdict, Verdict::Poor);
-        assert_eq!(assess(f64::NAN, &[], &[], &[], &th).verdict, Verdict::Poor);
+        assert_eq!(
+            assess(1.3, &[], &[], &HealthFlags::default(), &th).verdict,
+            Verdict::Suspect
+        );
+        assert_eq!(
+            assess(3.0, &[], &[], &HealthFlags::default(), &th).verdict,
+            Verdict::Poor
+        );
+        assert_eq!(
+            assess(f64::NAN, &[], &[], &HealthFlags::default(), &th).verdict,
+            Verdict::Poor
+        );
     }
 }

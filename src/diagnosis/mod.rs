@@ -437,13 +437,24 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
         })
         .collect();
     let signal_names: Vec<String> = signals.iter().map(|s| s.column().to_string()).collect();
-    let at_limit: Vec<fit_quality::LimitHit> = health_at
-        .iter()
-        .filter_map(|&(k, _)| {
-            let p = &pm.params()[k];
-            fit_quality::LimitHit::of(&p.name, fit.x[k], p.lower, p.upper)
-        })
-        .collect();
+    let flags = fit_quality::HealthFlags {
+        at_limit: health_at
+            .iter()
+            .filter_map(|&(k, _)| {
+                let p = &pm.params()[k];
+                fit_quality::LimitHit::of(&p.name, fit.x[k], p.lower, p.upper)
+            })
+            .collect(),
+        implausible: health_estimates
+            .iter()
+            .filter(|e| crate::health::below_plausible(e.value, e.sigma) > 0.0)
+            .map(|e| fit_quality::Implausible {
+                name: HEALTH_NAMES[e.index].to_string(),
+                value: e.value,
+                sigma: e.sigma,
+            })
+            .collect(),
+    };
     MethodResult {
         method,
         optimiser: cfg.optimiser,
@@ -473,7 +484,7 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
             ssr / residuals.max(1) as f64,
             &[],
             &[],
-            &at_limit,
+            &flags,
             &cfg.quality,
         ),
         separability: separability::assess(&health_estimates, &signal_names),

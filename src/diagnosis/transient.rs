@@ -259,7 +259,10 @@ pub fn diagnose_transient(
             r.fit_quality.normalised_residual,
             &r.localisation,
             &periodic,
-            &r.fit_quality.at_limit.clone(),
+            &super::fit_quality::HealthFlags {
+                at_limit: r.fit_quality.at_limit.clone(),
+                implausible: r.fit_quality.implausible.clone(),
+            },
             &r.fit_quality.thresholds,
         );
         r.model_values = model;

@@ -424,8 +424,11 @@ impl Engine {
     /// The model at given ambient conditions (the design calibration stays ISO).
     pub fn model_at(&self, health: &HealthParams, t_amb_k: f64, p_amb_kpa: f64) -> Model {
         let mut m = self.model(health);
-        m.consts.t_amb_k = t_amb_k;
-        m.consts.p_amb_kpa = p_amb_kpa;
+        // The ambient given is what the instruments read; an input-instrument effect
+        // (`inlet_temperature`) says what the engine really breathes.
+        let (t, p) = m.effects.true_ambient(t_amb_k, p_amb_kpa);
+        m.consts.t_amb_k = t;
+        m.consts.p_amb_kpa = p;
         m
     }
 }

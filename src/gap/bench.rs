@@ -212,7 +212,10 @@ pub fn run_cases(
             signature_sigma: signature,
             draws,
             truth,
-            correct: r.verdict.effect == expected(kind),
+            // On a truth without an effect `ambiguous` is right too: it names nothing and says
+            // an input instrument could hide behind the health.
+            correct: r.verdict.effect == expected(kind)
+                || (expected(kind) == "none" && r.verdict.effect == super::AMBIGUOUS),
             verdict: r.verdict.effect.clone(),
             shrinkage: r.verdict.shrinkage,
             train_shrinkage: winner.map(|w| w.train_shrinkage),
@@ -317,7 +320,8 @@ pub fn summarise(run: &BenchRun) -> serde_json::Value {
         "in_library_cases": in_lib.len(),
         "top1_identification": rate(&in_lib, |c| c.correct),
         "top1_by_kind": per_kind,
-        "false_attribution_on_null": rate(&nulls, |c| c.verdict != "none" && c.verdict != "unexplained"),
+        "false_attribution_on_null": rate(&nulls, |c| !matches!(c.verdict.as_str(), "none" | "unexplained" | super::AMBIGUOUS)),
+        "ambiguous_on_null": rate(&nulls, |c| c.verdict == super::AMBIGUOUS),
         "unexplained_on_out_of_library": rate(&outs, |c| c.verdict == "unexplained"),
         // The verdict's shrinkage over in-library cases, always on data its fit did not see:
         // the second start-up with --holdout, else the blocked cross-validation's other fold.

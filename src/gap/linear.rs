@@ -25,6 +25,115 @@ const HEALTH_STEP: f64 = 0.05;
 /// derivative at zero would understate a lag's effect.
 const PARAM_STEP_FRACTION: f64 = 0.1;
 
+/// The baseline's residual and its Jacobian columns around the baseline's fit: the health (and
+/// ambient-pressure) columns once, any further parameter's column on demand. Shared by the
+/// linear screen and the alias analysis ([`super::alias`]).
+pub(super) struct Linearised {
+    problem: TransientProblem,
+    x0: Vec<f64>,
+    /// Residual at the baseline's fit with every further parameter neutral.
+    pub r0: DVector<f64>,
+    /// Columns of the baseline's own parameters (health, ambient), in `base.params` order.
+    pub base_cols: Vec<DVector<f64>>,
+    /// Names of those parameters.
+    pub base_names: Vec<String>,
+    /// Index of the first further parameter in the model's vector.
+    first_extra: usize,
+}
+
+impl Linearised {
+    /// Linearises `rec`'s baseline fit `base` under `cfg`, with `extra` parameters appended at
+    /// their neutral values (0 clamped into their bounds). Errors when the baseline cannot be
+    /// re-run or one of its parameters cannot be perturbed.
+    pub fn new(
+        engine: &Engine,
+        rec: &Recording,
+        cfg: &DiagnosisConfig,
+        base: &MethodResult,
+        extra: &[FitParam],
+    ) -> Result<Linearised, DiagnosisError> {
+        let lin_cfg = DiagnosisConfig {
+            extra_params: extra.to_vec(),
+            base: base.health,
+            threads: Some(1),
+            ..cfg.clone()
+        };
+        let problem = TransientProblem::new(engine, rec, &lin_cfg)?;
+        // The baseline's fitted parameters (health, ambient pressure), then every further
+        // parameter at its neutral value.
+        let fitted: Vec<f64> = base.params.iter().map(|p| p.value).collect();
+        let neutral = extra.iter().map(|p| 0.0_f64.clamp(p.lower, p.upper));
+        let x0: Vec<f64> = fitted.iter().copied().chain(neutral).collect();
+        let mut lin = Linearised {
+            problem,
+            x0,
+            r0: DVector::zeros(0),
+            base_cols: Vec::new(),
+            base_names: base.params.iter().map(|p| p.name.clone()).collect(),
+            first_extra: fitted.len(),
+        };
+        lin.r0 = lin.residuals(&lin.x0).ok_or_else(|| {
+            DiagnosisError::Data("the baseline's fit cannot be re-run for the linearisation".into())
+        })?;
+        for (j, p) in base.params.iter().enumerate() {
+            let step = if p.name.starts_with("D_") {
+                HEALTH_STEP
+            } else {
+                1e-3 * p.value.abs().max(1.0)
+            };
+            let col = lin
+                .column_at(j, step)
+                .or_else(|| lin.column_at(j, -step))
+                .ok_or_else(|| {
+                    DiagnosisError::Data(format!(
+                        "the linearisation could not perturb {} from the baseline",
+                        p.name
+                    ))
+                })?;
+            lin.base_cols.push(col);
+        }
+        Ok(lin)
+    }
+
+    fn residuals(&self, x: &[f64]) -> Option<DVector<f64>> {
+        let model = self.problem.simulate(x).ok()?;
+        let mut r = Vec::new();
+        self.problem.objective().residuals(&model, &mut r);
+        r.iter()
+            .all(|v| v.is_finite())
+            .then(|| DVector::from_vec(r))
+    }
+
+    fn column_at(&self, j: usize, step: f64) -> Option<DVector<f64>> {
+        let mut x = self.x0.clone();
+        x[j] += step;
+        self.residuals(&x).map(|r| (r - &self.r0) / step)
+    }
+
+    /// The secant column of further parameter `i` (in `extra` order) over `step` from neutral:
+    /// d(residual)/d(parameter). `None` when the perturbed run fails.
+    pub fn extra_column(&self, i: usize, step: f64) -> Option<DVector<f64>> {
+        self.column_at(self.first_extra + i, step)
+    }
+}
+
+/// Least-squares coefficients of `target` on `cols` and the part of `target` they leave
+/// (columns scaled to unit norm internally, so the SVD's cut-off is relative to each one).
+pub(super) fn project(cols: &[DVector<f64>], target: &DVector<f64>) -> (Vec<f64>, DVector<f64>) {
+    if cols.is_empty() {
+        return (Vec::new(), target.clone());
+    }
+    let norms: Vec<f64> = cols.iter().map(|c| c.norm().max(1e-300)).collect();
+    let scaled: Vec<DVector<f64>> = cols.iter().zip(&norms).map(|(c, n)| c / *n).collect();
+    let a = DMatrix::from_columns(&scaled);
+    let Ok(delta) = a.clone().svd(true, true).solve(target, 1e-10) else {
+        return (vec![0.0; cols.len()], target.clone());
+    };
+    let left = target - &a * &delta;
+    let coef = delta.iter().zip(&norms).map(|(d, n)| d / n).collect();
+    (coef, left)
+}
+
 /// Predicted shrinkage (fraction of the baseline's SSR, 0 … 1) of each candidate in
 /// `candidates` (instance name and its fit parameters), in order, for the baseline fit `base`
 /// of `rec` under `cfg`. A candidate whose perturbed run fails gets `None` (fit it to find
@@ -40,78 +149,24 @@ pub fn predicted_shrinkage(
         .iter()
         .flat_map(|(_, p)| p.iter().cloned())
         .collect();
-    let lin_cfg = DiagnosisConfig {
-        extra_params: extra.clone(),
-        base: base.health,
-        threads: Some(1),
-        ..cfg.clone()
-    };
-    let problem = TransientProblem::new(engine, rec, &lin_cfg)?;
-    // The baseline's fitted parameters (health, ambient pressure), then every candidate
-    // parameter at its neutral value.
-    let fitted: Vec<f64> = base.params.iter().map(|p| p.value).collect();
-    let neutral: Vec<f64> = extra
-        .iter()
-        .map(|p| 0.0_f64.clamp(p.lower, p.upper))
-        .collect();
-    let x0: Vec<f64> = fitted.iter().chain(&neutral).copied().collect();
-    let residuals = |x: &[f64]| -> Option<DVector<f64>> {
-        let model = problem.simulate(x).ok()?;
-        let mut r = Vec::new();
-        problem.objective().residuals(&model, &mut r);
-        r.iter()
-            .all(|v| v.is_finite())
-            .then(|| DVector::from_vec(r))
-    };
-    let r0 = residuals(&x0).ok_or_else(|| {
-        DiagnosisError::Data("the baseline's fit cannot be re-run for the linear screen".into())
-    })?;
-    let ssr0 = r0.norm_squared().max(1e-300);
-    let column = |j: usize, step: f64| -> Option<DVector<f64>> {
-        let mut x = x0.clone();
-        x[j] += step;
-        residuals(&x).map(|r| (r - &r0) / step)
-    };
-    // Health (and ambient-pressure) columns: the baseline's own degrees of freedom.
-    let mut base_cols = Vec::new();
-    for (j, p) in base.params.iter().enumerate() {
-        let step = if p.name.starts_with("D_") {
-            HEALTH_STEP
-        } else {
-            1e-3 * p.value.abs().max(1.0)
-        };
-        match column(j, step) {
-            Some(c) => base_cols.push(c),
-            None => column(j, -step).map(|c| base_cols.push(c)).ok_or_else(|| {
-                DiagnosisError::Data(format!(
-                    "the linear screen could not perturb {} from the baseline",
-                    p.name
-                ))
-            })?,
-        }
-    }
+    let lin = Linearised::new(engine, rec, cfg, base, &extra)?;
+    let ssr0 = lin.r0.norm_squared().max(1e-300);
     let reduction = |cols: &[DVector<f64>]| -> f64 {
         if cols.is_empty() {
             return 0.0;
         }
-        // Columns scaled to unit norm so the SVD's cut-off is relative to each one.
-        let scaled: Vec<DVector<f64>> = cols.iter().map(|c| c / c.norm().max(1e-300)).collect();
-        let a = DMatrix::from_columns(&scaled);
-        let Ok(delta) = a.clone().svd(true, true).solve(&r0, 1e-10) else {
-            return 0.0;
-        };
-        ssr0 - (&r0 - a * delta).norm_squared()
+        ssr0 - project(cols, &lin.r0).1.norm_squared()
     };
-    let base_reduction = reduction(&base_cols);
-    let mut offset = fitted.len();
+    let base_reduction = reduction(&lin.base_cols);
+    let mut offset = 0;
     Ok(candidates
         .iter()
         .map(|(_, params)| {
-            let mut cols = base_cols.clone();
+            let mut cols = lin.base_cols.clone();
             let mut ok = true;
             for (i, p) in params.iter().enumerate() {
                 let step = PARAM_STEP_FRACTION * (p.upper - p.lower);
-                match column(offset + i, step) {
+                match lin.extra_column(offset + i, step) {
                     Some(c) => cols.push(c),
                     None => ok = false,
                 }

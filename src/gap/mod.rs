@@ -16,7 +16,11 @@
 //!    the other, both ways; the leader is then refitted on the whole start-up) — with the
 //!    Bayesian information criterion (n ln(SSR/n) + k ln n) as the tie-breaker and the penalty
 //!    for extra parameters. Only a shortlisted candidate can be named.
-//! 3. Verdict: `none` when the baseline fits within noise; the best candidate when it lowers
+//! 3. Verdict: `none` when the baseline fits within noise and no input instrument can hide
+//!    behind its health; `ambiguous` when it fits but one can ([`alias`]: the fuel meter, T1 or
+//!    power reading off by a common amount moves the health by more than 0.3 points while the
+//!    residual stays within noise — the report lists each with the health it implies); the
+//!    best candidate when it lowers
 //!    the BIC, shrinks the gap by more than the optimiser's own spread (the baseline refitted
 //!    with [`SEED_REFITS`] other seeds) and either by at least [`MIN_SHRINKAGE`] or so far
 //!    that the fit becomes `good` (the same yardstick as the baseline's); else `unexplained`.
@@ -30,6 +34,7 @@
 //! scoring), one fit per worker thread, each single-threaded; results do not depend on the
 //! order.
 
+pub mod alias;
 pub mod bench;
 pub mod candidates;
 pub mod linear;
@@ -54,6 +59,10 @@ use crate::signals::Signal;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::time::Instant;
+
+/// The verdict when the model fits within noise but an input instrument's error could hide
+/// behind the health (see [`GapReport::aliases`]): one start-up cannot tell them apart.
+pub const AMBIGUOUS: &str = "ambiguous";
 
 /// Least shrinkage of the gap (fraction of the baseline SSR) a candidate must reach to be named.
 pub const MIN_SHRINKAGE: f64 = 0.3;
@@ -128,6 +137,9 @@ pub struct GapReport {
     /// Instrument candidates worth trying that the linear screen left unfitted.
     pub unscreened: Vec<Unscreened>,
     pub verdict: GapVerdict,
+    /// Input instruments (fuel meter, T1, power) whose error the health parameters would
+    /// absorb, with the health each would imply ([`alias`]).
+    pub aliases: alias::Aliases,
     /// Diagnosis fits the analysis ran, on how many worker threads, and its wall time, s.
     pub fits: usize,
     pub threads: usize,
@@ -332,6 +344,9 @@ pub fn analyse(
         Scoring::BlockedCv
     };
     let base = diagnose_transient(engine, rec, cfg)?;
+    // Input instruments the health may be hiding (one model run per parameter; a baseline that
+    // cannot be linearised has no alias analysis, which the report shows as an empty list).
+    let aliases = alias::aliases(engine, rec, &single, &base).unwrap_or_default();
     let mut stages = StageWalls {
         baseline: start.elapsed().as_secs_f64(),
         ..StageWalls::default()
@@ -345,7 +360,9 @@ pub fn analyse(
     // The screen's fit of each candidate (the start of the leader's full refit).
     let mut screened: BTreeMap<String, MethodResult> = BTreeMap::new();
     let mut unscreened: Vec<Unscreened> = Vec::new();
-    if base.fit_quality.verdict != Verdict::Good {
+    // Candidates are fitted where the residual shows a gap; a fit within noise whose health is
+    // implausible is a question for the aliases, which refitting cannot answer.
+    if base.fit_quality.residual_verdict != Verdict::Good {
         // The candidates worth trying, with their fit parameters.
         let names: Vec<(String, Vec<FitParam>)> = candidates
             .iter()
@@ -642,9 +659,14 @@ pub fn analyse(
             stages.leader = lap.elapsed().as_secs_f64();
         }
     }
-    let verdict = if base.fit_quality.verdict == Verdict::Good {
+    let verdict = if base.fit_quality.residual_verdict == Verdict::Good {
+        // Within noise: `none` only when no input instrument can hide behind the health.
         GapVerdict {
-            effect: "none".into(),
+            effect: if aliases.hidden().is_empty() {
+                "none".into()
+            } else {
+                AMBIGUOUS.into()
+            },
             confidence: 0.0,
             shrinkage: 0.0,
             health_before: base.health,
@@ -709,6 +731,7 @@ pub fn analyse(
         candidates: out,
         unscreened,
         verdict,
+        aliases,
         fits,
         threads,
         wall_s: start.elapsed().as_secs_f64(),

@@ -250,6 +250,7 @@ mod tests {
                 health_before: Default::default(),
                 health_after: Default::default(),
             },
+            aliases: Default::default(),
             worst_signal: Some(tr),
         };
         let doc = document(&report, "t");

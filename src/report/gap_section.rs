@@ -22,13 +22,15 @@ pub fn render(rows: &[GapAnalysisRow]) -> String {
     }
     let named = rows
         .iter()
-        .filter(|r| !matches!(r.effect.as_str(), "none" | "unexplained"))
+        .filter(|r| !matches!(r.effect.as_str(), "none" | "unexplained" | "ambiguous"))
         .count();
     let unexplained = rows.iter().filter(|r| r.effect == "unexplained").count();
+    let ambiguous = rows.iter().filter(|r| r.effect == "ambiguous").count();
     let _ = write!(
         h,
         "<p class=\"meta\">{} analysis(es): {named} named an unmodelled effect, {unexplained} \
-         found a gap no library effect explains. An effect adopted into the engine file \
+         found a gap no library effect explains, {ambiguous} fit within noise with an input \
+         instrument (fuel meter, T1, power) that could hide behind the health. An effect adopted into the engine file \
          (<code>gtwatch gap --adopt</code>) is used by every later diagnosis.</p>\
          <table><tr><th class=\"l\">start-up (UTC)</th><th>segment</th><th class=\"l\">baseline fit</th>\
          <th>normalised residual</th><th class=\"l\">verdict</th><th>shrinkage</th><th>confidence</th></tr>",

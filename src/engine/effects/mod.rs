@@ -17,7 +17,9 @@
 //!   losses;
 //! - **heat exchange** ([`Effect::heat_to_metal_w`]): heat the combustor gas gives to metal;
 //! - **instrument path** ([`Effect::instrument`]): what a channel's instrument makes of the
-//!   signal it measures.
+//!   signal it measures;
+//! - **ambient** ([`Effect::true_ambient`]): the ambient the engine runs in, given the one its
+//!   instruments read (an input instrument's error).
 //!
 //! With no effect on, the core skips every hook, so its results are bit for bit those of the
 //! model without this seam. Effects are pure: no I/O, no globals, deterministic.
@@ -41,6 +43,9 @@ registry!(
     vigv_schedule,
     tip_clearance,
     duct_loss,
+    fuel_meter,
+    inlet_temperature,
+    sensor_scale,
 );
 
 use super::gas_path::Stations;
@@ -225,6 +230,11 @@ pub trait Effect: Debug + Send + Sync {
     fn n_states(&self) -> usize {
         0
     }
+    /// The ambient the engine really runs in, given the ambient its instruments read (T1 and
+    /// the ambient pressure are inputs of the model: an error on them enters here).
+    fn true_ambient(&self, t_amb_k: f64, p_amb_kpa: f64) -> (f64, f64) {
+        (t_amb_k, p_amb_kpa)
+    }
     /// The effect's states with the engine at rest.
     fn rest_states(&self, _core: &CoreView, _x: &mut [f64]) {}
     /// The effect's states in equilibrium at a steady point (`stations` as the core model
@@ -408,6 +418,13 @@ impl EffectSet {
             .iter()
             .enumerate()
             .map(move |(i, e)| (e.as_ref(), &y[self.layout.block(i)]))
+    }
+
+    /// The ambient the engine really runs in, given the measured one (the effects in order).
+    pub fn true_ambient(&self, t_amb_k: f64, p_amb_kpa: f64) -> (f64, f64) {
+        self.effects
+            .iter()
+            .fold((t_amb_k, p_amb_kpa), |(t, p), e| e.true_ambient(t, p))
     }
 
     /// Fills every effect's rest states into `y`.

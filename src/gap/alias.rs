@@ -1,0 +1,305 @@
+//! Aliases: errors on the instruments that *drive* the model — the fuel meter, the inlet
+//! thermometer T1, the power transducer, the ambient-pressure reading — that the six health
+//! parameters absorb.
+//!
+//! Such an error leaves hardly any residual: the fit moves the health vector until the model
+//! matches again, reports `good`, and the health is wrong by points (a 3 % fuel meter error
+//! moves D_EP by ≈ 4 points). What one start-up cannot tell, the tool must say. For each
+//! input-instrument candidate this module takes the linearisation of the baseline fit
+//! ([`super::linear::Linearised`]: the residual's Jacobian in the health parameters, and the
+//! candidate's column) and projects the candidate's column on the health columns:
+//! - `absorbed`: the share of the candidate's signature the health parameters reproduce (1 =
+//!   the data cannot tell them apart);
+//! - `health_shift`: how far an error of the nominal size moves the health estimate
+//!   (estimate − truth), so the health the same data give if the instrument is off by that
+//!   much is the baseline's minus the shift;
+//! - `plausible_magnitude`: when the baseline's health is physically implausible (a parameter
+//!   better than new beyond its uncertainty), the error of this instrument that makes it most
+//!   plausible, and the health then.
+//!
+//! An alias is *hidden* when it is absorbed almost entirely ([`HIDDEN_ABSORBED`]) and its
+//! nominal error moves some health parameter by more than [`HIDDEN_SHIFT`] points: then a fit
+//! within noise is not evidence that no instrument is off, and the gap verdict is `ambiguous`.
+//! Pure: no I/O; the model runs (one per health parameter and candidate) are serial.
+
+use super::linear::{project, Linearised};
+use crate::diagnosis::{DiagnosisConfig, DiagnosisError, FitParam, MethodResult};
+use crate::engine::Engine;
+use crate::health::{implausibility, HealthParams, HEALTH_NAMES};
+use crate::recording::Recording;
+use crate::signals::Signal;
+use serde::Serialize;
+
+/// Share of a candidate's signature the health parameters must reproduce for it to hide.
+pub const HIDDEN_ABSORBED: f64 = 0.9;
+/// Shift of a health parameter (points) at the nominal error beyond which hiding matters.
+pub const HIDDEN_SHIFT: f64 = 0.3;
+
+/// An input-instrument candidate: its instance, its parameter, the size of error a plant
+/// commonly has (the nominal, in the parameter's unit), and the signal it needs.
+#[derive(Debug, Clone, Copy)]
+struct InputCandidate {
+    effect: &'static str,
+    param: &'static str,
+    nominal: f64,
+    unit: &'static str,
+    /// The candidate applies only when this signal is in the data (compared or driving).
+    needs: Signal,
+    /// Search range of the plausible magnitude, ± this.
+    range: f64,
+}
+
+const INPUTS: [InputCandidate; 4] = [
+    InputCandidate {
+        effect: "fuel_meter",
+        param: "scale",
+        nominal: 0.02,
+        unit: "fraction",
+        needs: Signal::FuelFlow,
+        range: 0.06,
+    },
+    InputCandidate {
+        effect: "inlet_temperature",
+        param: "offset_k",
+        nominal: 2.0,
+        unit: "K",
+        needs: Signal::T1,
+        range: 6.0,
+    },
+    InputCandidate {
+        effect: "sensor_scale:power_mw",
+        param: "scale",
+        nominal: 0.015,
+        unit: "fraction",
+        needs: Signal::Power,
+        range: 0.05,
+    },
+    InputCandidate {
+        effect: "sensor_scale:torque_knm",
+        param: "scale",
+        nominal: 0.015,
+        unit: "fraction",
+        needs: Signal::Torque,
+        range: 0.05,
+    },
+];
+
+/// One input instrument the health parameters may be hiding.
+#[derive(Debug, Clone, Serialize)]
+pub struct Alias {
+    /// The effect instance (`fuel_meter`, `inlet_temperature`, `sensor_scale:power_mw`).
+    pub effect: String,
+    /// Its parameter (`effects.fuel_meter.scale`).
+    pub param: String,
+    pub unit: &'static str,
+    /// The error size the shifts are given for.
+    pub nominal: f64,
+    /// Share of the candidate's signature the health parameters reproduce (0 … 1).
+    pub absorbed: f64,
+    /// Estimate − truth of each health parameter for an error of `nominal`, points.
+    pub health_shift: HealthParams,
+    /// The health the same data give if the instrument is off by `nominal`.
+    pub health_if_nominal: HealthParams,
+    /// Absorbed beyond [`HIDDEN_ABSORBED`] with a shift beyond [`HIDDEN_SHIFT`].
+    pub hidden: bool,
+    /// When the baseline's health is implausible: the error of this instrument that makes it
+    /// most plausible (`None`: the health is plausible, or this instrument does not help).
+    pub plausible_magnitude: Option<f64>,
+    /// The health at that error.
+    pub health_if_plausible: Option<HealthParams>,
+    /// Implausibility (sum of squared points beyond the margin) left at that error; the
+    /// baseline's own is [`Aliases::implausibility`].
+    pub implausibility_left: Option<f64>,
+}
+
+/// The alias analysis of one baseline fit.
+#[derive(Debug, Clone, Serialize, Default)]
+pub struct Aliases {
+    /// [`crate::health::implausibility`] of the baseline's health: 0 when every estimate is
+    /// plausible.
+    pub implausibility: f64,
+    /// The candidates, those that restore plausibility best first, then by `absorbed`.
+    pub aliases: Vec<Alias>,
+}
+
+impl Aliases {
+    /// The hidden aliases' instance names.
+    pub fn hidden(&self) -> Vec<&str> {
+        self.aliases
+            .iter()
+            .filter(|a| a.hidden)
+            .map(|a| a.effect.as_str())
+            .collect()
+    }
+}
+
+/// The aliases of `base` (Method B's fit of `rec` under `cfg`) among the input instruments the
+/// data have. Errors only when the baseline cannot be linearised.
+pub fn aliases(
+    engine: &Engine,
+    rec: &Recording,
+    cfg: &DiagnosisConfig,
+    base: &MethodResult,
+) -> Result<Aliases, DiagnosisError> {
+    let present = |s: Signal| rec.series(s).iter().any(|v| v.is_finite());
+    let inputs: Vec<InputCandidate> = INPUTS
+        .iter()
+        .copied()
+        .filter(|c| present(c.needs))
+        .collect();
+    let extra: Vec<FitParam> = inputs
+        .iter()
+        .map(|c| FitParam::effect(c.effect, c.param, -c.range, c.range))
+        .collect();
+    let lin = Linearised::new(engine, rec, cfg, base, &extra)?;
+    let h0 = base.health.to_array();
+    let sigma: [f64; 6] =
+        std::array::from_fn(|i| base.sigma.get(HEALTH_NAMES[i]).copied().unwrap_or(0.0));
+    let implausible0 = implausibility(&h0, &sigma);
+    // Which of the baseline's parameters are health parameters (index into HEALTH_NAMES).
+    let health_of: Vec<Option<usize>> = lin
+        .base_names
+        .iter()
+        .map(|n| HEALTH_NAMES.iter().position(|h| h == n))
+        .collect();
+    let mut out = Vec::new();
+    for (i, c) in inputs.iter().enumerate() {
+        let Some(col) = lin.extra_column(i, c.nominal) else {
+            continue;
+        };
+        let norm2 = col.norm_squared();
+        if norm2 <= 0.0 {
+            continue;
+        }
+        let (coef, left) = project(&lin.base_cols, &col);
+        let absorbed = (1.0 - left.norm_squared() / norm2).clamp(0.0, 1.0);
+        // Data made with an error m fit as J_h·(estimate − truth) ≈ J_c·m, whatever the
+        // residual's sign: estimate − truth = coef · m.
+        let mut per_unit = [0.0; 6];
+        for (k, h) in health_of.iter().enumerate() {
+            if let Some(h) = h {
+                per_unit[*h] = coef[k];
+            }
+        }
+        let at = |m: f64| -> [f64; 6] { std::array::from_fn(|j| h0[j] - per_unit[j] * m) };
+        let shift: [f64; 6] = std::array::from_fn(|j| per_unit[j] * c.nominal);
+        let hidden = absorbed >= HIDDEN_ABSORBED && shift.iter().any(|s| s.abs() > HIDDEN_SHIFT);
+        let (mut plausible_magnitude, mut health_if_plausible, mut left_at) = (None, None, None);
+        if implausible0 > 0.0 {
+            // The smallest error that makes the health most plausible (a grid, then the
+            // smallest |m| within 1 % of the best).
+            let grid: Vec<f64> = (-200..=200)
+                .map(|k| c.range * f64::from(k) / 200.0)
+                .collect();
+            let score: Vec<f64> = grid
+                .iter()
+                .map(|&m| implausibility(&at(m), &sigma))
+                .collect();
+            let best = score.iter().copied().fold(f64::INFINITY, f64::min);
+            if best < 0.5 * implausible0 {
+                let m = grid
+                    .iter()
+                    .zip(&score)
+                    .filter(|(_, s)| **s <= best + 0.01 * implausible0)
+                    .map(|(m, _)| *m)
+                    .min_by(|a, b| a.abs().total_cmp(&b.abs()))
+                    .unwrap_or(0.0);
+                plausible_magnitude = Some(m);
+                health_if_plausible = Some(HealthParams::from_array(at(m)));
+                left_at = Some(implausibility(&at(m), &sigma));
+            }
+        }
+        out.push(Alias {
+            effect: c.effect.to_string(),
+            param: format!("effects.{}.{}", c.effect, c.param),
+            unit: c.unit,
+            nominal: c.nominal,
+            absorbed,
+            health_shift: HealthParams::from_array(shift),
+            health_if_nominal: HealthParams::from_array(at(c.nominal)),
+            hidden,
+            plausible_magnitude,
+            health_if_plausible,
+            implausibility_left: left_at,
+        });
+    }
+    out.sort_by(|a, b| {
+        let key = |x: &Alias| x.implausibility_left.unwrap_or(f64::INFINITY);
+        key(a)
+            .total_cmp(&key(b))
+            .then(b.absorbed.total_cmp(&a.absorbed))
+    });
+    Ok(Aliases {
+        implausibility: implausible0,
+        aliases: out,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnosis::bench::synthetic_startup;
+    use crate::diagnosis::transient::diagnose_transient;
+
+    /// A fuel meter reading 3 % high on a degraded engine: the fit stays close to noise, the
+    /// fuel meter is a hidden alias (absorbed almost entirely, shifting health by points), and
+    /// the linear alias says how the estimate moved: the baseline's health less the shift for a
+    /// 3 % error is the truth within half a point on every parameter.
+    #[test]
+    fn a_fuel_meter_error_is_a_hidden_alias_that_accounts_for_the_health_error() {
+        let engine = Engine::reference().expect("engine");
+        let truth = HealthParams {
+            D_GC: 1.5,
+            D_EC: 1.0,
+            D_GT: 0.5,
+            D_ET: 1.0,
+            D_GP: 0.5,
+            D_EP: 0.8,
+        };
+        let mut rec = synthetic_startup(&engine, &truth, 5, true).expect("start-up");
+        for k in 0..rec.len() {
+            if let Some(v) = rec.value(k, Signal::FuelFlow) {
+                rec.set(k, Signal::FuelFlow, v * 1.03).expect("set");
+            }
+        }
+        let cfg = DiagnosisConfig {
+            max_model_runs: 300,
+            lm_runs: 200,
+            threads: Some(2),
+            ..DiagnosisConfig::default()
+        };
+        let base = diagnose_transient(&engine, &rec, &cfg).expect("baseline");
+        let before: f64 = base
+            .health
+            .to_array()
+            .iter()
+            .zip(truth.to_array())
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(before > 1.0, "the meter error moves the health: {before}");
+        let a = aliases(&engine, &rec, &cfg, &base).expect("aliases");
+        let fuel = a
+            .aliases
+            .iter()
+            .find(|x| x.effect == "fuel_meter")
+            .expect("fuel meter alias");
+        assert!(fuel.hidden && fuel.absorbed > 0.9, "{fuel:?}");
+        assert!(a.hidden().contains(&"fuel_meter"));
+        let scale = 0.03 / fuel.nominal;
+        let corrected: Vec<f64> = base
+            .health
+            .to_array()
+            .iter()
+            .zip(fuel.health_shift.to_array())
+            .map(|(h, s)| h - s * scale)
+            .collect();
+        for (i, (c, t)) in corrected.iter().zip(truth.to_array()).enumerate() {
+            assert!(
+                (c - t).abs() < 0.5,
+                "{}: corrected {c:.2} vs truth {t:.2} (baseline {:?})",
+                HEALTH_NAMES[i],
+                base.health
+            );
+        }
+    }
+}
