@@ -378,3 +378,89 @@ fn health_estimate_at_its_search_limit_is_flagged_and_limits_can_be_widened() {
         );
     }
 }
+
+/// A column in another unit is refused with the unit it most likely is: T1 in °C in a start-up
+/// (Windows line ends, so the line named must still be the file's), P2 in bar in snapshots.
+#[test]
+fn a_column_in_the_wrong_unit_is_named() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let csv = dir.path().join("startup.csv");
+    write_startup(&csv, &HealthParams::HEALTHY);
+    let text = std::fs::read_to_string(&csv).expect("csv");
+    let header: Vec<&str> = text.lines().next().expect("header").split(',').collect();
+    let t1 = header.iter().position(|h| *h == "t1_k").expect("t1");
+    let celsius: Vec<String> = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i == 0 {
+                return l.to_string();
+            }
+            let mut cells: Vec<String> = l.split(',').map(str::to_string).collect();
+            let v: f64 = cells[t1].parse().expect("number");
+            cells[t1] = format!("{:.3}", v - 273.15);
+            cells.join(",")
+        })
+        .collect();
+    let bad = dir.path().join("t1_celsius.csv");
+    std::fs::write(&bad, celsius.join("\r\n")).expect("write");
+    let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(["diagnose", "--input"])
+        .arg(&bad)
+        .output()
+        .expect("runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(
+        err.contains("'t1_k'") && err.contains("looks like °C"),
+        "{err}"
+    );
+    // The line named is the file line of the value quoted.
+    let line: usize = err
+        .split("line ")
+        .nth(1)
+        .and_then(|r| r.split(',').next())
+        .and_then(|n| n.parse().ok())
+        .expect("a line number");
+    let quoted = err
+        .split("'t1_k': ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .expect("value");
+    assert!(celsius[line - 1].contains(quoted), "line {line}: {err}");
+
+    let snaps = dir.path().join("snapshots.csv");
+    write_snapshots(&snaps, &[("2026-01-10", HealthParams::HEALTHY)]);
+    let text = std::fs::read_to_string(&snaps).expect("csv");
+    let header: Vec<&str> = text.lines().next().expect("header").split(',').collect();
+    let p2 = header.iter().position(|h| *h == "P_cdp").expect("P_cdp");
+    let bar: Vec<String> = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i == 0 {
+                return l.to_string();
+            }
+            let mut cells: Vec<String> = l.split(',').map(str::to_string).collect();
+            let v: f64 = cells[p2].parse().expect("number");
+            cells[p2] = format!("{:.4}", v / 100.0);
+            cells.join(",")
+        })
+        .collect();
+    let bad = dir.path().join("p2_bar.csv");
+    std::fs::write(&bad, bar.join("\n")).expect("write");
+    let map = "t1_k=T_inlet,p_amb_kpa=P_baro,n1_rpm=NGG,n2_rpm=NPT,t2_k=T_cdp,p2_kpa=P_cdp,\
+               t34_k=T_egt,p34_kpa=P_hpt,fuel_kg_s=FUEL,power_mw=MW";
+    let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(["diagnose", "--method", "steady", "--input"])
+        .arg(&bad)
+        .args(["--group-by", "day", "--map", map])
+        .output()
+        .expect("runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(
+        err.contains("line 2, column 'P_cdp'") && err.contains("looks like bar"),
+        "{err}"
+    );
+}

@@ -172,16 +172,38 @@ fn apply_policy(
     report
 }
 
+/// A CSV file read into memory with its line ends normalised (see [`crlf_to_lf`]).
+pub(crate) type CsvReader = csv::Reader<std::io::Cursor<Vec<u8>>>;
+
 /// A CSV reader over `reader` (header row, cells trimmed) and its header.
-pub(crate) fn open_csv<R: Read>(
-    reader: R,
-) -> Result<(csv::Reader<R>, csv::StringRecord), CsvError> {
+pub(crate) fn open_csv<R: Read>(mut reader: R) -> Result<(CsvReader, csv::StringRecord), CsvError> {
+    let mut raw = Vec::new();
+    reader
+        .read_to_end(&mut raw)
+        .map_err(|e| CsvError::Csv(csv::Error::from(e)))?;
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(true)
         .trim(csv::Trim::All)
-        .from_reader(reader);
+        .from_reader(std::io::Cursor::new(crlf_to_lf(raw)));
     let headers = rdr.headers()?.clone();
     Ok((rdr, headers))
+}
+
+/// `raw` with every CR LF line end as LF (a lone CR is kept). The csv reader counts lines at
+/// LF and reports the records of a CR LF file — what spreadsheets and historians on Windows
+/// write — one line early (rust-csv issue 395); the messages here name file lines.
+fn crlf_to_lf(raw: Vec<u8>) -> Vec<u8> {
+    if !raw.windows(2).any(|w| w == b"\r\n") {
+        return raw;
+    }
+    let mut out = Vec::with_capacity(raw.len());
+    for (i, &b) in raw.iter().enumerate() {
+        if b == b'\r' && raw.get(i + 1) == Some(&b'\n') {
+            continue;
+        }
+        out.push(b);
+    }
+    out
 }
 
 /// The header index of a canonical column: the file header `mapping` names for it, else the
@@ -285,6 +307,7 @@ pub fn read_recording_checked<R: Read>(
     if t_s.is_empty() {
         return Err(CsvError::Empty);
     }
+    check_units(&sig_cols, &headers, &rows, &lines)?;
     let report = apply_policy(quality, &sig_cols, &t_s, &mut rows);
     let rec = Recording::new(t_s, phases, rows).map_err(|source| CsvError::Recording {
         line: source.index().and_then(|i| lines.get(i).copied()),
@@ -293,9 +316,59 @@ pub fn read_recording_checked<R: Read>(
     Ok((rec, report))
 }
 
+/// Refuses a column in another unit (°C for K, bar for kPa, …), judged at the recording's
+/// most fired sample (largest fuel flow with the GG turning), where every relation between
+/// the signals holds; a recording never fired is not judged.
+fn check_units(
+    sig_cols: &[(Signal, usize)],
+    headers: &csv::StringRecord,
+    rows: &[Values],
+    lines: &[u64],
+) -> Result<(), CsvError> {
+    let fuel = |v: &Values| v[Signal::FuelFlow.index()];
+    let fired = rows
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| fuel(v).is_finite() && fuel(v) > 0.0)
+        .max_by(|a, b| fuel(a.1).total_cmp(&fuel(b.1)));
+    let Some((k, v)) = fired else {
+        return Ok(());
+    };
+    let row: Vec<(Signal, f64)> = sig_cols.iter().map(|(s, _)| (*s, v[s.index()])).collect();
+    match super::units::check_fired_point(&row) {
+        Some(x) => {
+            let c = sig_cols
+                .iter()
+                .find(|(s, _)| *s == x.signal)
+                .map_or(0, |(_, c)| *c);
+            Err(CsvError::Cell {
+                line: lines.get(k).copied().unwrap_or(0),
+                column: headers.get(c).unwrap_or("?").to_string(),
+                reason: x.describe(),
+            })
+        }
+        None => Ok(()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A file with Windows line ends names the same lines as with Unix ones.
+    #[test]
+    fn crlf_files_name_their_file_lines() {
+        let unix = "time_s,phase,n1_rpm\n0,standstill,0\n1,crank,abc\n";
+        let windows = unix.replace('\n', "\r\n");
+        for text in [unix.to_string(), windows] {
+            let e = read_recording(text.as_bytes(), &HashMap::new()).expect_err("bad cell");
+            assert_eq!(
+                e.to_string(),
+                "line 3, column 'n1_rpm': 'abc' is not a number"
+            );
+        }
+        assert_eq!(crlf_to_lf(b"a\r\nb\rc\n".to_vec()), b"a\nb\rc\n".to_vec());
+    }
 
     #[test]
     fn reads_simulate_layout_and_mapping_with_clear_errors() {

@@ -47,6 +47,7 @@ pub mod separability;
 pub mod snapshot;
 pub mod steady;
 pub mod transient;
+pub mod units;
 
 pub use config::{DiagnosisConfig, Method, Optimiser, SteadyCriteria, Window};
 pub use params::{

@@ -106,8 +106,45 @@ pub fn read_snapshots<R: Read>(
         let number = |c: usize| parse_value(cell(c)).map_err(|r| err(c, r));
         let mut values = Vec::new();
         let (mut t1, mut n2, mut fuel) = (f64::NAN, f64::NAN, f64::NAN);
+        let mut row: Vec<(Signal, f64)> = Vec::with_capacity(sig_cols.len());
         for &(s, c) in &sig_cols {
-            let v = number(c)?;
+            row.push((s, number(c)?));
+        }
+        let p_amb = match pamb_col {
+            Some(c) => {
+                let v = number(c)?;
+                if v.is_finite() && !(10.0..=200.0).contains(&v) {
+                    let hint = if (0.1..=2.0).contains(&v) {
+                        " (it looks like bar: give kPa)"
+                    } else if (10_000.0..=200_000.0).contains(&v) {
+                        " (it looks like Pa: give kPa)"
+                    } else {
+                        ""
+                    };
+                    return Err(err(
+                        c,
+                        format!("ambient pressure {v} kPa is not plausible{hint}"),
+                    ));
+                }
+                v.is_finite().then_some(v)
+            }
+            None => None,
+        };
+        // A column in another unit (°C, bar, kW, …) is named as such before any range check
+        // calls its values implausible. Without P1 the barometer is the inlet's reference.
+        let has_p1 = row.iter().any(|(s, v)| *s == Signal::P1 && v.is_finite());
+        let mut judged = row.clone();
+        if let (false, Some(p)) = (has_p1, p_amb.filter(|p| (40.0..=115.0).contains(p))) {
+            judged.push((Signal::P1, p));
+        }
+        if let Some(x) = super::units::check_fired_point(&judged) {
+            let c = sig_cols
+                .iter()
+                .find(|(s, _)| *s == x.signal)
+                .map_or(0, |(_, c)| *c);
+            return Err(err(c, x.describe()));
+        }
+        for (&(s, c), &(_, v)) in sig_cols.iter().zip(&row) {
             if v.is_nan() {
                 continue;
             }
@@ -133,16 +170,6 @@ pub fn read_snapshots<R: Read>(
                 return Err(err(c, format!("fuel flow {v} is not a fired steady point")));
             }
         }
-        let p_amb = match pamb_col {
-            Some(c) => {
-                let v = number(c)?;
-                if v.is_finite() && !(10.0..=200.0).contains(&v) {
-                    return Err(err(c, format!("ambient pressure {v} kPa is not plausible")));
-                }
-                v.is_finite().then_some(v)
-            }
-            None => None,
-        };
         let time_s = match time_col {
             Some(c) => Some(number(c)?).filter(|v| v.is_finite()),
             None => None,

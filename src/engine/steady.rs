@@ -109,6 +109,9 @@ fn evaluate(model: &Model, inp: &SteadyInputs, x: &Unknowns) -> Evaluated {
     let c = &model.consts;
     let n1 = x.0[0] * c.n1_design;
     let wf = x.0[3] * c.fuel_design;
+    // The unknown is the metered fuel (what a fuel demand fixes); an input-instrument effect
+    // (`fuel_meter`) says how much of it burns.
+    let burnt = model.effects.steady_fuel_burnt(wf);
     let gp_inputs = Inputs {
         t_amb_k: inp.t_amb_k,
         p_amb_kpa: inp.p_amb_kpa,
@@ -116,7 +119,7 @@ fn evaluate(model: &Model, inp: &SteadyInputs, x: &Unknowns) -> Evaluated {
         n2_rpm: inp.n2_rpm,
         p34_kpa: x.0[2] * c.p34_design_kpa,
         compressor: CompressorSetting::Beta(x.0[1]),
-        hot: HotSection::Burn { fuel_kg_s: wf },
+        hot: HotSection::Burn { fuel_kg_s: burnt },
     };
     let adjust = effect_adjust(model, &gp_inputs);
     let gp = gas_path::evaluate(model, &gp_inputs, Some(&adjust));
@@ -135,10 +138,10 @@ fn evaluate(model: &Model, inp: &SteadyInputs, x: &Unknowns) -> Evaluated {
         gg_err / pd,
         (power_w - target_power) / pd,
     ];
-    let heat = wf * c.fuel.lhv();
+    let heat = burnt * c.fuel.lhv();
     let mut stations = gp.stations();
     stations.fuel_kg_s = wf;
-    stations.fuel_burnt_kg_s = wf;
+    stations.fuel_burnt_kg_s = burnt;
     let point = SteadyPoint {
         stations,
         heat_rate_kj_kwh: if power_w > 0.0 {

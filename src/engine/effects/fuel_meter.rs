@@ -48,7 +48,11 @@ impl Effect for FuelMeter {
     }
 
     fn fuel_delivered(&self, upstream_kg_s: f64, _core: &CoreView, _x: &[f64]) -> f64 {
-        upstream_kg_s / (1.0 + self.scale)
+        self.steady_fuel_burnt(upstream_kg_s)
+    }
+
+    fn steady_fuel_burnt(&self, metered_kg_s: f64) -> f64 {
+        metered_kg_s / (1.0 + self.scale)
     }
 }
 

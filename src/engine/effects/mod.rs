@@ -230,6 +230,12 @@ pub trait Effect: Debug + Send + Sync {
     fn n_states(&self) -> usize {
         0
     }
+    /// The fuel that burns at a steady point for a metered flow, kg/s: the steady limit of
+    /// [`Effect::fuel_delivered`] (a delay or lag passes the metered flow unchanged; a meter
+    /// error does not).
+    fn steady_fuel_burnt(&self, metered_kg_s: f64) -> f64 {
+        metered_kg_s
+    }
     /// The ambient the engine really runs in, given the ambient its instruments read (T1 and
     /// the ambient pressure are inputs of the model: an error on them enters here).
     fn true_ambient(&self, t_amb_k: f64, p_amb_kpa: f64) -> (f64, f64) {
@@ -418,6 +424,13 @@ impl EffectSet {
             .iter()
             .enumerate()
             .map(move |(i, e)| (e.as_ref(), &y[self.layout.block(i)]))
+    }
+
+    /// The fuel that burns at a steady point for a metered flow (the effects in order).
+    pub fn steady_fuel_burnt(&self, metered_kg_s: f64) -> f64 {
+        self.effects
+            .iter()
+            .fold(metered_kg_s, |wf, e| e.steady_fuel_burnt(wf))
     }
 
     /// The ambient the engine really runs in, given the measured one (the effects in order).

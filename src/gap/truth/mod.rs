@@ -259,6 +259,8 @@ pub fn fitted_magnitude(effect: &str, params: &BTreeMap<String, (f64, f64)>) -> 
         "vigv_schedule" => p("flow_delta_pct"),
         "tip_clearance" => p("eff_pct_per_100k"),
         "duct_loss" => Some(p("inlet_scale")? - 1.0),
+        "fuel_meter" | "sensor_scale" => p("scale"),
+        "inlet_temperature" => p("offset_k"),
         _ => None,
     }
 }
