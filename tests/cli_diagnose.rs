@@ -22,6 +22,36 @@ fn write_startup(path: &std::path::Path, h: &HealthParams) {
     tr.write_csv(std::io::BufWriter::new(f)).expect("write csv");
 }
 
+/// The lines of the CSV file `path` with `column`'s data cells replaced where `f(file line,
+/// value)` gives a new text (the header is line 1) — an instrument error written by another
+/// program.
+fn alter_column(
+    path: &std::path::Path,
+    column: &str,
+    f: impl Fn(usize, f64) -> Option<String>,
+) -> Vec<String> {
+    let text = std::fs::read_to_string(path).expect("csv");
+    let header: Vec<&str> = text.lines().next().expect("header").split(',').collect();
+    let col = header
+        .iter()
+        .position(|h| *h == column)
+        .unwrap_or_else(|| panic!("no column {column}"));
+    text.lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i == 0 {
+                return l.to_string();
+            }
+            let mut cells: Vec<String> = l.split(',').map(str::to_string).collect();
+            let v: f64 = cells[col].parse().expect("number");
+            if let Some(new) = f(i + 1, v) {
+                cells[col] = new;
+            }
+            cells.join(",")
+        })
+        .collect()
+}
+
 #[test]
 fn diagnose_prints_json_and_rejects_bad_rows() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -242,22 +272,9 @@ fn diagnose_steady_snapshots_per_group_with_a_column_map() {
         }
     }
     // A wrong P2 reading on one row (file line 4, +3 %) is where the table shows it.
-    let text = std::fs::read_to_string(&csv).expect("csv");
-    let header: Vec<&str> = text.lines().next().expect("header").split(',').collect();
-    let col = header.iter().position(|h| *h == "P_cdp").expect("P_cdp");
-    let altered: Vec<String> = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| {
-            if i + 1 != 4 {
-                return l.to_string();
-            }
-            let mut cells: Vec<String> = l.split(',').map(str::to_string).collect();
-            let v: f64 = cells[col].parse().expect("number");
-            cells[col] = format!("{}", v * 1.03);
-            cells.join(",")
-        })
-        .collect();
+    let altered = alter_column(&csv, "P_cdp", |line, v| {
+        (line == 4).then(|| format!("{}", v * 1.03))
+    });
     let bad = dir.path().join("bad_p2.csv");
     std::fs::write(&bad, altered.join("\n")).expect("write");
     let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
@@ -386,22 +403,7 @@ fn a_column_in_the_wrong_unit_is_named() {
     let dir = tempfile::tempdir().expect("tempdir");
     let csv = dir.path().join("startup.csv");
     write_startup(&csv, &HealthParams::HEALTHY);
-    let text = std::fs::read_to_string(&csv).expect("csv");
-    let header: Vec<&str> = text.lines().next().expect("header").split(',').collect();
-    let t1 = header.iter().position(|h| *h == "t1_k").expect("t1");
-    let celsius: Vec<String> = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| {
-            if i == 0 {
-                return l.to_string();
-            }
-            let mut cells: Vec<String> = l.split(',').map(str::to_string).collect();
-            let v: f64 = cells[t1].parse().expect("number");
-            cells[t1] = format!("{:.3}", v - 273.15);
-            cells.join(",")
-        })
-        .collect();
+    let celsius = alter_column(&csv, "t1_k", |_, v| Some(format!("{:.3}", v - 273.15)));
     let bad = dir.path().join("t1_celsius.csv");
     std::fs::write(&bad, celsius.join("\r\n")).expect("write");
     let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
@@ -431,22 +433,7 @@ fn a_column_in_the_wrong_unit_is_named() {
 
     let snaps = dir.path().join("snapshots.csv");
     write_snapshots(&snaps, &[("2026-01-10", HealthParams::HEALTHY)]);
-    let text = std::fs::read_to_string(&snaps).expect("csv");
-    let header: Vec<&str> = text.lines().next().expect("header").split(',').collect();
-    let p2 = header.iter().position(|h| *h == "P_cdp").expect("P_cdp");
-    let bar: Vec<String> = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| {
-            if i == 0 {
-                return l.to_string();
-            }
-            let mut cells: Vec<String> = l.split(',').map(str::to_string).collect();
-            let v: f64 = cells[p2].parse().expect("number");
-            cells[p2] = format!("{:.4}", v / 100.0);
-            cells.join(",")
-        })
-        .collect();
+    let bar = alter_column(&snaps, "P_cdp", |_, v| Some(format!("{:.4}", v / 100.0)));
     let bad = dir.path().join("p2_bar.csv");
     std::fs::write(&bad, bar.join("\n")).expect("write");
     let map = "t1_k=T_inlet,p_amb_kpa=P_baro,n1_rpm=NGG,n2_rpm=NPT,t2_k=T_cdp,p2_kpa=P_cdp,\
