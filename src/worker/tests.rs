@@ -6,6 +6,7 @@ use crate::engine::{Scenario, Trace};
 use crate::health::HealthParams;
 use crate::quality::Quality;
 use crate::shutdown::shutdown_channel;
+use crate::signals::Signal;
 use crate::store::{HistoryFilter, Sample, TagInfo};
 
 fn truth() -> HealthParams {
