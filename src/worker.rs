@@ -12,7 +12,7 @@
 //! module reads a segment, calls it and stores the outcome ([`diagnose_segment`]).
 //!
 //! Hook for trends / wash advice: [`AfterResult`] is called after each stored outcome (see
-//! [`DiagnosisTask::with_after_result`] and [`drain_pending`]).
+//! [`drain_pending`]). The daemon's task that runs the drain is `daemon::diagnosis`.
 //! Must not talk to Modbus, detect segments or hold fitting arithmetic of its own.
 
 use crate::config_problem::ConfigProblem;
@@ -21,17 +21,11 @@ use crate::diagnosis::DiagnosisConfig;
 use crate::engine::Engine;
 use crate::health::{HealthBounds, HEALTH_BOUNDS, HEALTH_NAMES};
 use crate::optim::Cancel;
-use crate::shutdown::Shutdown;
-use crate::store::{
-    NewDiagnosis, SegmentRecording, Store, StoreError, StoreOptions, Undiagnosable,
-};
+use crate::store::{NewDiagnosis, SegmentRecording, Store, StoreError, Undiagnosable};
 
 pub use crate::diagnosis::assess::residual_level;
 use serde::{Deserialize, Serialize};
-use std::path::PathBuf;
 use std::sync::Arc;
-use std::time::Duration;
-use tokio::sync::Notify;
 
 /// Serialised settings leave the default health bounds out, so the configuration hash of
 /// results stored before the key existed stays the same.
@@ -385,83 +379,6 @@ pub fn drain_pending(
         if let Some(f) = after {
             f(store, seg.id, &outcome);
         }
-    }
-}
-
-/// The diagnosis task of the daemon (mini-redis shape: a small struct with its own `run`).
-pub struct DiagnosisTask {
-    pub db_path: PathBuf,
-    pub store_opts: StoreOptions,
-    pub ctx: Arc<WorkerContext>,
-    /// The detector wakes the worker through this when a segment closes.
-    pub wake: Arc<Notify>,
-    pub after_result: Option<AfterResult>,
-}
-
-impl DiagnosisTask {
-    pub fn with_after_result(mut self, f: AfterResult) -> Self {
-        self.after_result = Some(f);
-        self
-    }
-
-    /// Drains the queue now, then whenever woken (or every `poll_interval_ms`), until shutdown.
-    /// Shutdown cancels a running fit; the segment stays pending for the next start.
-    pub async fn run(self, shutdown: Shutdown) -> DrainReport {
-        let cancel = Cancel::new();
-        {
-            let mut sd = shutdown.clone();
-            let c = cancel.clone();
-            tokio::spawn(async move {
-                sd.wait().await;
-                c.cancel();
-            });
-        }
-        let mut total = DrainReport::default();
-        let mut store: Option<Store> = None;
-        let mut sd = shutdown;
-        let period = Duration::from_millis(self.ctx.settings.poll_interval_ms.max(100));
-        loop {
-            if sd.is_triggered() {
-                break;
-            }
-            let path = self.db_path.clone();
-            let opts = self.store_opts;
-            let ctx = Arc::clone(&self.ctx);
-            let c = cancel.clone();
-            let after = self.after_result.clone();
-            let s = store.take();
-            let r = tokio::task::spawn_blocking(move || {
-                let mut st = match s {
-                    Some(s) => s,
-                    None => match Store::open_with(&path, &opts) {
-                        Ok(s) => s,
-                        Err(e) => return (None, Err(e)),
-                    },
-                };
-                let r = drain_pending(&mut st, &ctx, &c, after.as_ref());
-                (Some(st), r)
-            })
-            .await;
-            match r {
-                Ok((s, Ok(rep))) => {
-                    store = s;
-                    total.diagnosed += rep.diagnosed;
-                    total.undiagnosable += rep.undiagnosable;
-                    total.cancelled |= rep.cancelled;
-                }
-                Ok((s, Err(e))) => {
-                    store = s;
-                    tracing::warn!("diagnosis worker: {e}");
-                }
-                Err(e) => tracing::error!("diagnosis worker task failed: {e}"),
-            }
-            tokio::select! {
-                _ = sd.wait() => break,
-                _ = self.wake.notified() => {}
-                _ = tokio::time::sleep(period) => {}
-            }
-        }
-        total
     }
 }
 
