@@ -222,3 +222,93 @@ fn accept(
         result,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn settings() -> AssessSettings {
+        AssessSettings {
+            fit: DiagnosisConfig::default(),
+            min_good_fraction: 0.9,
+            max_residual_level: 5.0,
+        }
+    }
+
+    fn good_counts() -> Vec<SignalQuality> {
+        REQUIRED
+            .iter()
+            .map(|s| SignalQuality {
+                signal: *s,
+                good: 100,
+                total: 100,
+            })
+            .collect()
+    }
+
+    /// The data checks decide without running a model, in order, and say why.
+    #[test]
+    fn data_checks_give_the_first_reason_without_a_fit() {
+        let engine = Engine::reference().expect("engine");
+        let too_few: Result<Recording, RecordingError> = Recording::new(
+            vec![0.0],
+            vec![crate::signals::Phase::Standstill],
+            vec![[f64::NAN; crate::engine::trace::NSIG]],
+        );
+        assert!(too_few.is_err());
+        let counts = good_counts();
+        let base = SegmentData {
+            outcome: "completed",
+            abort_cause: None,
+            has_gap: false,
+            recording: &too_few,
+            missing: &[],
+            quality: &counts,
+        };
+        let mut low = good_counts();
+        low[1].good = 50;
+        let cases: Vec<(SegmentData<'_>, &str)> = vec![
+            (
+                SegmentData {
+                    outcome: "aborted",
+                    abort_cause: Some("trip"),
+                    has_gap: true,
+                    ..base
+                },
+                "aborted",
+            ),
+            (
+                SegmentData {
+                    has_gap: true,
+                    ..base
+                },
+                "gaps",
+            ),
+            (
+                SegmentData {
+                    missing: &[Signal::Power],
+                    ..base
+                },
+                "missing_signals",
+            ),
+            (
+                SegmentData {
+                    quality: &low,
+                    ..base
+                },
+                "low_quality",
+            ),
+            (base, "bad_recording"),
+        ];
+        for (data, reason) in cases {
+            match assess(&data, &engine, &settings(), &Cancel::new()) {
+                Assessment::Undiagnosable(why) => {
+                    assert_eq!(why.len(), 1, "{why:?}");
+                    assert_eq!(why[0].reason, reason, "{why:?}");
+                    assert_eq!(why[0].method, None);
+                }
+                other => panic!("{reason}: {other:?}"),
+            }
+        }
+    }
+}
