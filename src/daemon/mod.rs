@@ -9,7 +9,7 @@
 //!   running fit (nothing half-written);
 //! - [`supervisor`]: systemd readiness, watchdog and stopping notifications.
 //!
-//! Tasks that use the database outside the writer do so through [`blocking::BlockingStore`]
+//! Tasks that use the database outside the writer do so through `blocking::BlockingStore`
 //! (their own connection on the blocking pool, reopened when lost).
 //!
 //! [`run`] opens the store, starts the tasks and, once shutdown fires, stops them in order:
@@ -19,7 +19,7 @@
 //! no business logic of its own.
 
 pub mod acquisition;
-pub mod blocking;
+mod blocking;
 pub mod detector;
 pub mod diagnosis;
 pub mod supervisor;

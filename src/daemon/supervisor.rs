@@ -88,7 +88,7 @@ impl Watchdog {
 }
 
 /// Sends `state` to systemd when `enabled`; a failure is only logged.
-pub fn notify(enabled: bool, state: &[sd_notify::NotifyState]) {
+fn notify(enabled: bool, state: &[sd_notify::NotifyState]) {
     if enabled {
         if let Err(e) = sd_notify::notify(false, state) {
             tracing::debug!("sd_notify: {e}");
