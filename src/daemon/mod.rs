@@ -1,8 +1,8 @@
 //! `gtwatch run`: the daemon as a supervisor of small tasks, each a struct with
 //! `run(self, shutdown)` (the mini-redis shape: the shutdown signal is a value, so `main` maps
 //! SIGTERM/SIGINT onto it and tests trigger it directly):
-//! - [`acquisition`]: the Modbus poll loop → bounded channel → the single writer
-//!   (`store::spawn_writer`), which batches inserts into transactions;
+//! - [`acquisition`]: the Modbus poll loop → bounded channel → [`writer`], the single writer of
+//!   samples and gaps, which batches inserts into transactions and ends once its senders have;
 //! - [`detector`]: scans for start-ups every `daemon.detect_interval_ms` and wakes the worker
 //!   when a scan closes a segment;
 //! - [`diagnosis`]: drains the queue of closed segments, one at a time; shutdown cancels a
@@ -23,18 +23,20 @@ mod blocking;
 pub mod detector;
 pub mod diagnosis;
 pub mod supervisor;
+pub mod writer;
 
 pub use acquisition::AcquisitionTask;
 pub use detector::{detector_store_options, DetectorTask, DETECTOR_CACHE_MIB};
 pub use diagnosis::DiagnosisTask;
 pub use supervisor::Supervisor;
+pub use writer::WriterTask;
 
 use crate::acquire::modbus::{PollProgress, PollStats};
 use crate::acquire::register_map::ModbusConfig;
 use crate::config::Config;
 use crate::detect::ScanReport;
 use crate::shutdown::Shutdown;
-use crate::store::{spawn_writer, Gap, Store, StoreError, TagId, TagInfo, WriteCmd, WriterStats};
+use crate::store::{Gap, Store, StoreError, TagId, TagInfo, WriteCmd, WriterStats};
 use crate::worker::{AfterResult, DrainReport, WorkerContext};
 use blocking::{BlockingError, BlockingStore};
 use std::path::PathBuf;
@@ -95,7 +97,14 @@ pub async fn run(
         "gtwatch daemon starting"
     );
     let (tx, rx) = mpsc::channel::<WriteCmd>(cfg.daemon.queue_capacity.max(1));
-    let writer = spawn_writer(opened.store, rx, cfg.storage.writer());
+    let writer = tokio::spawn(
+        WriterTask {
+            store: opened.store,
+            rx,
+            cfg: cfg.storage.writer(),
+        }
+        .run(shutdown.clone()),
+    );
     record_restart(&tx, &cfg, opened.last_stored_ms).await;
     let progress = opts.progress.clone().unwrap_or_default();
     let tasks = Running::start(&cfg, &opts, &opened.tags, tx, &progress, &shutdown, writer)?;

@@ -28,7 +28,7 @@ pub use diagnoses::{
     Undiagnosable,
 };
 
-pub use writer::{spawn_writer, WriteCmd, WriterConfig, WriterStats};
+pub use writer::{run_writer, spawn_writer, WriteCmd, WriterConfig, WriterStats};
 
 use crate::config_problem::{check_range, Bounds, ConfigProblem};
 use crate::quality::Quality;
