@@ -166,6 +166,8 @@ impl Chart {
     }
 
     /// The `<svg>` element. A chart with no finite data says so instead of drawing axes.
+    // TODO(issue 27): split into named stages.
+    #[allow(clippy::too_many_lines)]
     pub fn render(&self) -> String {
         let (w, h) = (self.width, self.height);
         let mut s = String::new();

@@ -254,29 +254,10 @@ pub async fn run_demo(
     opts.validate()?;
     let started = Instant::now();
     let (db_path, config_path) = prepare_out_dir(&opts.out_dir)?;
-
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
         .await
         .context("binding the plant simulator on 127.0.0.1")?;
-    let endpoint = listener.local_addr()?.to_string();
-    let text = demo_config_text(&endpoint, opts.poll_period_ms())?;
-    std::fs::write(&config_path, &text)
-        .with_context(|| format!("writing {}", config_path.display()))?;
-    let mut cfg = Config::load(&config_path)?;
-    cfg.storage.path = db_path.clone();
-    cfg.diagnosis.seed = opts.seed;
-    let problems = cfg.check();
-    if !problems.is_empty() {
-        bail!(
-            "demo configuration invalid: {}",
-            problems
-                .iter()
-                .map(|p| p.to_string())
-                .collect::<Vec<_>>()
-                .join("; ")
-        );
-    }
-
+    let cfg = demo_config(opts, &listener, &config_path, &db_path)?;
     let engine = Engine::reference()?;
     let plant_name = cfg.plant.name.clone();
     let schedule = FoulingSchedule::demo(opts.days);
@@ -309,75 +290,178 @@ pub async fn run_demo(
             after_result: None,
         },
     ));
-
-    // Watch the database until every day's start-up has a result (or a recorded reason).
-    let last_day_end_ms = opts.epoch_ms
-        + (((opts.days - 1) as f64 * DAY_S
-            + crate::plantsim::fouling::DayTimes::default().active_end_s)
-            * 1000.0) as i64;
-    let mut seen_day = None;
-    let mut seen_segments = std::collections::BTreeSet::new();
-    let mut seen_results = std::collections::BTreeSet::new();
-    let mut complete = false;
-    let mut tick = tokio::time::interval(Duration::from_millis(250));
-    loop {
-        tick.tick().await;
-        let now_ms = clock.load(Ordering::Relaxed);
-        if let Some(d) = day_of(now_ms, opts.epoch_ms).map(|d| d.min(opts.days - 1)) {
-            if seen_day.is_none_or(|s| d > s) {
-                seen_day = Some(d);
-                on_event(DemoEvent::PlantDay(d));
-            }
-        }
-        if daemon_task.is_finished() {
-            break;
-        }
-        if let Ok(store) = Store::open_readonly(&db_path) {
-            let state = collect_days(&store, opts, &schedule).unwrap_or_default();
-            for d in &state {
-                if let (Some(id), Some(o)) = (d.segment_id, &d.outcome) {
-                    if seen_segments.insert(id) {
-                        on_event(DemoEvent::Startup {
-                            day: d.day,
-                            segment_id: id,
-                            outcome: o.clone(),
-                        });
-                    }
-                }
-                if let Some(b) = &d.method_b {
-                    if seen_results.insert(b.diagnosis_id) {
-                        on_event(DemoEvent::Diagnosed {
-                            day: d.day,
-                            d_gc: b.health.get("D_GC").copied().unwrap_or(f64::NAN),
-                            truth_gc: d.truth.D_GC,
-                            fit_quality: b.fit_quality.clone().unwrap_or_default(),
-                        });
-                    }
-                }
-            }
-            let all_done = state.len() == opts.days
-                && state
-                    .iter()
-                    .all(|d| d.method_b.is_some() || !d.undiagnosable.is_empty());
-            if all_done && now_ms > last_day_end_ms {
-                complete = true;
-                break;
-            }
-        }
-        if started.elapsed() > opts.timeout {
-            tracing::warn!("demo timed out; reporting what was diagnosed so far");
-            break;
-        }
-    }
+    let watch = Watch {
+        opts,
+        db_path: &db_path,
+        schedule: &schedule,
+        clock: &clock,
+        started,
+    };
+    let complete = watch.until_done(&daemon_task, &mut on_event).await;
     trigger.trigger();
     let run_report = daemon_task
         .await
         .context("daemon task panicked")?
         .context("daemon")?;
     sim.stop().await.context("stopping the plant simulator")?;
+    summarise(
+        opts,
+        &engine,
+        &plant_name,
+        &schedule,
+        Finished {
+            db_path,
+            config_path,
+            poll: run_report.poll,
+            started,
+            complete,
+        },
+    )
+}
 
-    let store = Store::open_readonly(&db_path)?;
-    let days = collect_days(&store, opts, &schedule)?;
+/// Writes the demo's configuration (polling the simulator at `listener`) to `config_path`
+/// and loads it with the database at `db_path` and the demo's seed; refuses an invalid one.
+fn demo_config(
+    opts: &DemoOptions,
+    listener: &tokio::net::TcpListener,
+    config_path: &Path,
+    db_path: &Path,
+) -> anyhow::Result<Config> {
+    let endpoint = listener.local_addr()?.to_string();
+    let text = demo_config_text(&endpoint, opts.poll_period_ms())?;
+    std::fs::write(config_path, &text)
+        .with_context(|| format!("writing {}", config_path.display()))?;
+    let mut cfg = Config::load(config_path)?;
+    cfg.storage.path = db_path.to_path_buf();
+    cfg.diagnosis.seed = opts.seed;
+    let problems = cfg.check();
+    if !problems.is_empty() {
+        bail!(
+            "demo configuration invalid: {}",
+            problems
+                .iter()
+                .map(|p| p.to_string())
+                .collect::<Vec<_>>()
+                .join("; ")
+        );
+    }
+    Ok(cfg)
+}
+
+/// The monitoring loop's view: what it watches and since when.
+struct Watch<'a> {
+    opts: &'a DemoOptions,
+    db_path: &'a Path,
+    schedule: &'a FoulingSchedule,
+    /// The plant's clock, Unix ms.
+    clock: &'a std::sync::atomic::AtomicI64,
+    started: Instant,
+}
+
+/// What the monitoring loop has already reported.
+#[derive(Default)]
+struct Seen {
+    day: Option<usize>,
+    segments: std::collections::BTreeSet<i64>,
+    results: std::collections::BTreeSet<i64>,
+}
+
+impl Watch<'_> {
+    /// Watches the database until every day's start-up has a result (or a recorded reason)
+    /// and the last day is over: `true`; `false` when the daemon ended or the demo timed out.
+    async fn until_done(
+        &self,
+        daemon_task: &tokio::task::JoinHandle<Result<daemon::RunReport, daemon::DaemonError>>,
+        on_event: &mut impl FnMut(DemoEvent),
+    ) -> bool {
+        let opts = self.opts;
+        let last_day_end_ms = opts.epoch_ms
+            + (((opts.days - 1) as f64 * DAY_S
+                + crate::plantsim::fouling::DayTimes::default().active_end_s)
+                * 1000.0) as i64;
+        let mut seen = Seen::default();
+        let mut tick = tokio::time::interval(Duration::from_millis(250));
+        loop {
+            tick.tick().await;
+            let now_ms = self.clock.load(Ordering::Relaxed);
+            if let Some(d) = day_of(now_ms, opts.epoch_ms).map(|d| d.min(opts.days - 1)) {
+                if seen.day.is_none_or(|s| d > s) {
+                    seen.day = Some(d);
+                    on_event(DemoEvent::PlantDay(d));
+                }
+            }
+            if daemon_task.is_finished() {
+                return false;
+            }
+            if let Ok(store) = Store::open_readonly(self.db_path) {
+                let all_done = self.report_new(&store, &mut seen, on_event);
+                if all_done && now_ms > last_day_end_ms {
+                    return true;
+                }
+            }
+            if self.started.elapsed() > opts.timeout {
+                tracing::warn!("demo timed out; reporting what was diagnosed so far");
+                return false;
+            }
+        }
+    }
+
+    /// Reports start-ups and results not reported yet; whether every day has its outcome.
+    fn report_new(
+        &self,
+        store: &Store,
+        seen: &mut Seen,
+        on_event: &mut impl FnMut(DemoEvent),
+    ) -> bool {
+        let state = collect_days(store, self.opts, self.schedule).unwrap_or_default();
+        for d in &state {
+            if let (Some(id), Some(o)) = (d.segment_id, &d.outcome) {
+                if seen.segments.insert(id) {
+                    on_event(DemoEvent::Startup {
+                        day: d.day,
+                        segment_id: id,
+                        outcome: o.clone(),
+                    });
+                }
+            }
+            if let Some(b) = &d.method_b {
+                if seen.results.insert(b.diagnosis_id) {
+                    on_event(DemoEvent::Diagnosed {
+                        day: d.day,
+                        d_gc: b.health.get("D_GC").copied().unwrap_or(f64::NAN),
+                        truth_gc: d.truth.D_GC,
+                        fit_quality: b.fit_quality.clone().unwrap_or_default(),
+                    });
+                }
+            }
+        }
+        state.len() == self.opts.days
+            && state
+                .iter()
+                .all(|d| d.method_b.is_some() || !d.undiagnosable.is_empty())
+    }
+}
+
+/// How the run ended, for the summary.
+struct Finished {
+    db_path: PathBuf,
+    config_path: PathBuf,
+    poll: PollStats,
+    started: Instant,
+    complete: bool,
+}
+
+/// The demo's report from the database the daemon left: each day against the truth, the
+/// washes, the advice, and the HTML report written beside it.
+fn summarise(
+    opts: &DemoOptions,
+    engine: &Engine,
+    plant_name: &str,
+    schedule: &FoulingSchedule,
+    run: Finished,
+) -> anyhow::Result<DemoReport> {
+    let store = Store::open_readonly(&run.db_path)?;
+    let days = collect_days(&store, opts, schedule)?;
     let washes = store
         .washes()?
         .into_iter()
@@ -393,8 +477,8 @@ pub async fn run_demo(
         .collect();
     let report = crate::report::write_report(
         &store,
-        &engine,
-        crate::report::header_now(&plant_name, &db_path),
+        engine,
+        crate::report::header_now(plant_name, &run.db_path),
         &opts.out_dir,
         None,
         None,
@@ -407,15 +491,15 @@ pub async fn run_demo(
         });
     Ok(DemoReport {
         out_dir: opts.out_dir.clone(),
-        db_path,
-        config_path,
+        db_path: run.db_path,
+        config_path: run.config_path,
         days,
         wash_day: schedule.wash_day,
         washes,
         advice,
-        poll: run_report.poll,
-        wall_s: started.elapsed().as_secs_f64(),
-        complete,
+        poll: run.poll,
+        wall_s: run.started.elapsed().as_secs_f64(),
+        complete: run.complete,
         report_path: report.path,
     })
 }

@@ -417,6 +417,14 @@ impl QualityCounts {
     }
 }
 
+/// How many of a signal's samples in a segment are good (quality 0) of all it has there.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SignalQuality {
+    pub signal: Signal,
+    pub good: u64,
+    pub total: u64,
+}
+
 /// Whether a segment's data is good enough to diagnose: for each required signal, the
 /// fraction of good samples among all its samples in the segment must reach `min_fraction`.
 /// Returns the first failing signal's description, or `None` when the data is good enough.

@@ -8,25 +8,24 @@
 //! to the shutdown value: a cancelled fit stores nothing, and the segment stays pending. Each
 //! segment's outcome is written in one transaction (all or nothing on kill -9).
 //!
+//! What is diagnosable and the fits themselves are [`crate::diagnosis::assess`] (pure); this
+//! module reads a segment, calls it and stores the outcome ([`diagnose_segment`]).
+//!
 //! Hook for trends / wash advice: [`AfterResult`] is called after each stored outcome (see
-//! [`DiagnosisTask::with_after_result`] and [`drain_pending`]).
+//! [`drain_pending`]). The daemon's task that runs the drain is `daemon::diagnosis`.
 //! Must not talk to Modbus, detect segments or hold fitting arithmetic of its own.
 
 use crate::config_problem::ConfigProblem;
-use crate::diagnosis::steady::diagnose_steady;
-use crate::diagnosis::transient::diagnose_transient;
-use crate::diagnosis::{DiagnosisConfig, MethodResult};
+use crate::diagnosis::assess::{assess, AssessSettings, Assessment, SegmentData};
+use crate::diagnosis::DiagnosisConfig;
 use crate::engine::Engine;
 use crate::health::{HealthBounds, HEALTH_BOUNDS, HEALTH_NAMES};
 use crate::optim::Cancel;
-use crate::shutdown::Shutdown;
-use crate::signals::Signal;
-use crate::store::{NewDiagnosis, Store, StoreError, StoreOptions, Undiagnosable};
+use crate::store::{NewDiagnosis, SegmentRecording, Store, StoreError, Undiagnosable};
+
+pub use crate::diagnosis::assess::residual_level;
 use serde::{Deserialize, Serialize};
-use std::path::PathBuf;
 use std::sync::Arc;
-use std::time::Duration;
-use tokio::sync::Notify;
 
 /// Serialised settings leave the default health bounds out, so the configuration hash of
 /// results stored before the key existed stays the same.
@@ -150,6 +149,16 @@ impl DiagnosisSettings {
             ..DiagnosisConfig::default()
         }
     }
+
+    /// The settings of [`assess`]: the fit (its cancel flag set by `assess`) and the two
+    /// thresholds that decide what is diagnosable.
+    pub fn assess_settings(&self) -> AssessSettings {
+        AssessSettings {
+            fit: self.fit_config(&Cancel::new()),
+            min_good_fraction: self.min_good_fraction,
+            max_residual_level: self.max_residual_level,
+        }
+    }
 }
 
 /// The engine and what identifies it, shared by every diagnosis of a run.
@@ -214,149 +223,110 @@ pub enum SegmentOutcome {
     Cancelled,
 }
 
-/// Signals a start-up must have for either method.
-const REQUIRED: [Signal; 4] = [Signal::N1, Signal::FuelFlow, Signal::Power, Signal::T1];
-
 /// Called after each stored outcome (segment id, outcome), on the worker's blocking thread,
 /// with the worker's writable store: the place to recompute trends, detected washes and advice.
 pub type AfterResult = Arc<dyn Fn(&mut Store, i64, &SegmentOutcome) + Send + Sync>;
 
-fn failure(method: Option<&str>, reason: &str, detail: impl Into<String>) -> Undiagnosable {
-    Undiagnosable {
-        method: method.map(str::to_string),
-        reason: reason.into(),
-        detail: detail.into(),
+/// Reads one stored segment's data for [`assess`] (an error if there is no such segment).
+/// Takes `&Store`, so a [`crate::store::ReadStore`] serves as well.
+pub fn read_segment(store: &Store, segment_id: i64) -> Result<SegmentRecording, StoreError> {
+    store
+        .segment_recording(segment_id)?
+        .ok_or_else(|| StoreError::Corrupt(format!("no segment {segment_id}")))
+}
+
+/// The assessment's view of a segment read from the store.
+pub fn segment_data(rec: &SegmentRecording) -> SegmentData<'_> {
+    SegmentData {
+        outcome: &rec.segment.outcome,
+        abort_cause: rec.segment.abort_cause.as_deref(),
+        has_gap: rec.segment.has_gap,
+        recording: &rec.recording,
+        missing: &rec.missing,
+        quality: &rec.quality,
     }
 }
 
-/// Residual level of a result: the objective per signal (mean |residual| in noise σ).
-pub fn residual_level(r: &MethodResult) -> f64 {
-    r.objective / r.signals.len().max(1) as f64
+/// Assesses a segment already read, with the context's engine and settings. No I/O.
+pub fn assess_segment(ctx: &WorkerContext, rec: &SegmentRecording, cancel: &Cancel) -> Assessment {
+    assess(
+        &segment_data(rec),
+        &ctx.engine,
+        &ctx.settings.assess_settings(),
+        cancel,
+    )
 }
 
-/// Diagnoses one stored segment (both methods) and stores the outcome. With `store_result`
-/// false (`gtwatch diagnose --segment`) nothing is written and the results are returned.
+/// The `diagnoses` rows of an assessment (none unless it diagnosed the segment).
+pub fn new_diagnoses(
+    ctx: &WorkerContext,
+    segment_id: i64,
+    assessment: &Assessment,
+) -> Vec<NewDiagnosis> {
+    let Assessment::Diagnosed { estimates, .. } = assessment else {
+        return Vec::new();
+    };
+    estimates
+        .iter()
+        .map(|e| NewDiagnosis {
+            segment_id,
+            method: e.method.into(),
+            health: e.result.health.to_array(),
+            sigma: HEALTH_NAMES.map(|n| e.result.sigma.get(n).copied().unwrap_or(f64::NAN)),
+            objective: e.result.objective,
+            residual_level: e.residual_level,
+            fit_quality: e.result.fit_quality.verdict.as_str().into(),
+            model_runs: e.result.model_runs,
+            wall_s: e.result.wall_s,
+            seed: ctx.settings.seed,
+            config_hash: ctx.config_hash.clone(),
+            gtwatch_version: env!("CARGO_PKG_VERSION").into(),
+        })
+        .collect()
+}
+
+/// The reasons an assessment found for what gave no result.
+pub fn failures(assessment: &Assessment) -> &[Undiagnosable] {
+    match assessment {
+        Assessment::Diagnosed { failures, .. } => failures,
+        Assessment::Undiagnosable(f) => f,
+        Assessment::Cancelled => &[],
+    }
+}
+
+/// Stores an assessment's outcome in one transaction (results and reasons, segment marked
+/// diagnosed); a cancelled assessment stores nothing and the segment stays pending.
+pub fn store_assessment(
+    store: &mut Store,
+    ctx: &WorkerContext,
+    segment_id: i64,
+    assessment: &Assessment,
+) -> Result<SegmentOutcome, StoreError> {
+    let failures = failures(assessment).to_vec();
+    Ok(match assessment {
+        Assessment::Cancelled => SegmentOutcome::Cancelled,
+        Assessment::Undiagnosable(_) => {
+            store.insert_outcome(segment_id, &[], &failures, &ctx.config_hash)?;
+            SegmentOutcome::Undiagnosable(failures)
+        }
+        Assessment::Diagnosed { .. } => {
+            let rows = new_diagnoses(ctx, segment_id, assessment);
+            let ids = store.insert_outcome(segment_id, &rows, &failures, &ctx.config_hash)?;
+            SegmentOutcome::Diagnosed { ids, failures }
+        }
+    })
+}
+
+/// The worker's step for one stored segment: read it, assess it, store the outcome.
 pub fn diagnose_segment(
     store: &mut Store,
     ctx: &WorkerContext,
     segment_id: i64,
     cancel: &Cancel,
-    store_result: bool,
-) -> Result<(SegmentOutcome, Vec<NewDiagnosis>), StoreError> {
-    let Some(rec) = store.segment_recording(segment_id)? else {
-        return Err(StoreError::Corrupt(format!("no segment {segment_id}")));
-    };
-    let mut failures = Vec::new();
-    if rec.segment.outcome != "completed" {
-        failures.push(failure(
-            None,
-            "aborted",
-            format!(
-                "start-up {} ({})",
-                rec.segment.outcome,
-                rec.segment.abort_cause.as_deref().unwrap_or("no cause")
-            ),
-        ));
-    } else if rec.segment.has_gap {
-        failures.push(failure(None, "gaps", "data gap inside the start-up"));
-    } else {
-        let missing: Vec<&str> = rec
-            .missing
-            .iter()
-            .filter(|s| REQUIRED.contains(s))
-            .map(|s| s.column())
-            .collect();
-        let quality: Vec<(Signal, u64, u64)> = rec
-            .quality
-            .iter()
-            .filter(|q| REQUIRED.contains(&q.signal))
-            .map(|q| (q.signal, q.good, q.total))
-            .collect();
-        if !missing.is_empty() {
-            failures.push(failure(
-                None,
-                "missing_signals",
-                format!("no good samples of {}", missing.join(", ")),
-            ));
-        } else if let Some(why) =
-            crate::quality::insufficient_quality(&quality, ctx.settings.min_good_fraction)
-        {
-            failures.push(failure(None, "low_quality", why));
-        } else {
-            match &rec.recording {
-                Err(e) => failures.push(failure(None, "bad_recording", e.to_string())),
-                Ok(r) if r.len() < 20 => {
-                    failures.push(failure(None, "too_short", format!("{} samples", r.len())))
-                }
-                Ok(_) => {}
-            }
-        }
-    }
-    let recording = match (&rec.recording, failures.is_empty()) {
-        (Ok(r), true) => r,
-        _ => {
-            if store_result {
-                store.insert_outcome(segment_id, &[], &failures, &ctx.config_hash)?;
-            }
-            return Ok((SegmentOutcome::Undiagnosable(failures), Vec::new()));
-        }
-    };
-    let cfg = ctx.settings.fit_config(cancel);
-    let mut results = Vec::new();
-    for (name, r) in [
-        ("B", diagnose_transient(&ctx.engine, recording, &cfg)),
-        ("A", diagnose_steady(&ctx.engine, recording, &cfg)),
-    ] {
-        if cancel.is_cancelled() {
-            return Ok((SegmentOutcome::Cancelled, Vec::new()));
-        }
-        match r {
-            Ok(r) => {
-                let level = residual_level(&r);
-                if level.is_nan() || level > ctx.settings.max_residual_level {
-                    failures.push(failure(
-                        Some(name),
-                        "residual_too_high",
-                        format!(
-                            "residual level {level:.2} σ > {:.2} σ",
-                            ctx.settings.max_residual_level
-                        ),
-                    ));
-                    continue;
-                }
-                let sigma = HEALTH_NAMES.map(|n| r.sigma.get(n).copied().unwrap_or(f64::NAN));
-                results.push(NewDiagnosis {
-                    segment_id,
-                    method: name.into(),
-                    health: r.health.to_array(),
-                    sigma,
-                    objective: r.objective,
-                    residual_level: level,
-                    fit_quality: r.fit_quality.verdict.as_str().into(),
-                    model_runs: r.model_runs,
-                    wall_s: r.wall_s,
-                    seed: ctx.settings.seed,
-                    config_hash: ctx.config_hash.clone(),
-                    gtwatch_version: env!("CARGO_PKG_VERSION").into(),
-                });
-            }
-            Err(e) => failures.push(failure(Some(name), "error", e.to_string())),
-        }
-    }
-    let outcome = if results.is_empty() {
-        if store_result {
-            store.insert_outcome(segment_id, &[], &failures, &ctx.config_hash)?;
-        }
-        SegmentOutcome::Undiagnosable(failures)
-    } else {
-        let ids = if store_result {
-            store.insert_outcome(segment_id, &results, &failures, &ctx.config_hash)?
-        } else {
-            Vec::new()
-        };
-        SegmentOutcome::Diagnosed { ids, failures }
-    };
-    Ok((outcome, results))
+) -> Result<SegmentOutcome, StoreError> {
+    let rec = read_segment(store, segment_id)?;
+    let assessment = assess_segment(ctx, &rec, cancel);
+    store_assessment(store, ctx, segment_id, &assessment)
 }
 
 /// What a drain did.
@@ -384,7 +354,7 @@ pub fn drain_pending(
             return Ok(rep);
         };
         tracing::info!(segment = seg.id, "diagnosing start-up");
-        let (outcome, _) = diagnose_segment(store, ctx, seg.id, cancel, true)?;
+        let outcome = diagnose_segment(store, ctx, seg.id, cancel)?;
         match &outcome {
             SegmentOutcome::Diagnosed { ids, failures } => {
                 rep.diagnosed += 1;
@@ -409,83 +379,6 @@ pub fn drain_pending(
         if let Some(f) = after {
             f(store, seg.id, &outcome);
         }
-    }
-}
-
-/// The diagnosis task of the daemon (mini-redis shape: a small struct with its own `run`).
-pub struct DiagnosisTask {
-    pub db_path: PathBuf,
-    pub store_opts: StoreOptions,
-    pub ctx: Arc<WorkerContext>,
-    /// The detector wakes the worker through this when a segment closes.
-    pub wake: Arc<Notify>,
-    pub after_result: Option<AfterResult>,
-}
-
-impl DiagnosisTask {
-    pub fn with_after_result(mut self, f: AfterResult) -> Self {
-        self.after_result = Some(f);
-        self
-    }
-
-    /// Drains the queue now, then whenever woken (or every `poll_interval_ms`), until shutdown.
-    /// Shutdown cancels a running fit; the segment stays pending for the next start.
-    pub async fn run(self, shutdown: Shutdown) -> DrainReport {
-        let cancel = Cancel::new();
-        {
-            let mut sd = shutdown.clone();
-            let c = cancel.clone();
-            tokio::spawn(async move {
-                sd.wait().await;
-                c.cancel();
-            });
-        }
-        let mut total = DrainReport::default();
-        let mut store: Option<Store> = None;
-        let mut sd = shutdown;
-        let period = Duration::from_millis(self.ctx.settings.poll_interval_ms.max(100));
-        loop {
-            if sd.is_triggered() {
-                break;
-            }
-            let path = self.db_path.clone();
-            let opts = self.store_opts;
-            let ctx = Arc::clone(&self.ctx);
-            let c = cancel.clone();
-            let after = self.after_result.clone();
-            let s = store.take();
-            let r = tokio::task::spawn_blocking(move || {
-                let mut st = match s {
-                    Some(s) => s,
-                    None => match Store::open_with(&path, &opts) {
-                        Ok(s) => s,
-                        Err(e) => return (None, Err(e)),
-                    },
-                };
-                let r = drain_pending(&mut st, &ctx, &c, after.as_ref());
-                (Some(st), r)
-            })
-            .await;
-            match r {
-                Ok((s, Ok(rep))) => {
-                    store = s;
-                    total.diagnosed += rep.diagnosed;
-                    total.undiagnosable += rep.undiagnosable;
-                    total.cancelled |= rep.cancelled;
-                }
-                Ok((s, Err(e))) => {
-                    store = s;
-                    tracing::warn!("diagnosis worker: {e}");
-                }
-                Err(e) => tracing::error!("diagnosis worker task failed: {e}"),
-            }
-            tokio::select! {
-                _ = sd.wait() => break,
-                _ = self.wake.notified() => {}
-                _ = tokio::time::sleep(period) => {}
-            }
-        }
-        total
     }
 }
 

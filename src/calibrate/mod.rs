@@ -213,6 +213,8 @@ fn mean(v: &[f64]) -> f64 {
 /// Calibrates `engine` (the guesses) to the healthy snapshots `rows` and the pressure readings
 /// at rest `rest` (which inform instrument offsets only) over `candidates`.
 /// Returns the report and the calibrated engine.
+// TODO(issue 27): split into named stages.
+#[allow(clippy::too_many_lines)]
 pub fn calibrate(
     engine: &Engine,
     rows: &[Snapshot],

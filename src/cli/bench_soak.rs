@@ -320,7 +320,7 @@ async fn diagnose_newest(
         let Some(seg) = newest else {
             return Ok((store, None));
         };
-        let (outcome, _) = diagnose_segment(&mut store, &ctx, seg.id, &Cancel::new(), true)?;
+        let outcome = diagnose_segment(&mut store, &ctx, seg.id, &Cancel::new())?;
         Ok((store, Some(outcome)))
     })
     .await?

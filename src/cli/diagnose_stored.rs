@@ -7,7 +7,8 @@
 use crate::optim::Cancel;
 use crate::store::Store;
 use crate::worker::{
-    diagnose_segment, drain_pending, DiagnosisSettings, SegmentOutcome, WorkerContext,
+    assess_segment, drain_pending, failures, new_diagnoses, read_segment, DiagnosisSettings,
+    WorkerContext,
 };
 use anyhow::{bail, Context};
 use std::path::{Path, PathBuf};
@@ -88,26 +89,24 @@ pub fn diagnose_after_replay(store: &mut Store, config: &Path, json: bool) -> an
 }
 
 /// `gtwatch diagnose --segment ID`: re-runs one stored segment with the config's engine and
-/// settings; prints JSON of both methods' results (or the reasons). Stores nothing.
+/// settings; prints JSON of both methods' results (or the reasons). Stores nothing: the
+/// database is opened read-only ([`Store::open_readonly`]), so this works on a file nobody may
+/// write and beside a running daemon.
 pub fn run_segment(db: &Path, config: Option<&Path>, segment: i64) -> anyhow::Result<()> {
     let ctx = worker_context(config)?;
-    let mut store = Store::open_with(db, &crate::store::StoreOptions::default())
-        .with_context(|| format!("opening {}", db.display()))?;
+    let store = Store::open_readonly(db).with_context(|| format!("opening {}", db.display()))?;
     if store.segment(segment)?.is_none() {
         bail!("database {} has no segment {segment}", db.display());
     }
-    let (outcome, results) = diagnose_segment(&mut store, &ctx, segment, &Cancel::new(), false)?;
-    let failures = match &outcome {
-        SegmentOutcome::Diagnosed { failures, .. } => failures.clone(),
-        SegmentOutcome::Undiagnosable(f) => f.clone(),
-        SegmentOutcome::Cancelled => Vec::new(),
-    };
+    let rec = read_segment(&store, segment)?;
+    drop(store);
+    let assessment = assess_segment(&ctx, &rec, &Cancel::new());
     let doc = serde_json::json!({
         "segment_id": segment,
         "config_hash": ctx.config_hash,
         "gtwatch_version": env!("CARGO_PKG_VERSION"),
-        "results": results,
-        "undiagnosable": failures,
+        "results": new_diagnoses(&ctx, segment, &assessment),
+        "undiagnosable": failures(&assessment),
     });
     println!("{}", serde_json::to_string_pretty(&doc)?);
     Ok(())

@@ -103,6 +103,8 @@ fn read(path: &Path, map: &Option<String>) -> anyhow::Result<Recording> {
         .with_context(|| format!("reading {}", path.display()))
 }
 
+// TODO(issue 27): split into named stages.
+#[allow(clippy::too_many_lines)]
 pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
     if a.list_effects {
         let list = crate::gap::list_effects();

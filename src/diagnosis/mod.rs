@@ -11,6 +11,7 @@
 //! with Levenberg–Marquardt on the per-sample residual vector and report a 1σ uncertainty per
 //! parameter from the residual Jacobian at the optimum ([`Optimiser`], [`fit`]).
 //! [`identifiability`] computes the sensitivity matrix / Fisher information behind those σ;
+//! [`assess`] decides whether a stored start-up is diagnosable and runs both methods on it;
 //! [`bench`] holds the accuracy and wash benchmarks; [`csv_input`] parses a segment CSV.
 //!
 //! # Defaults, and why (measured with `gtwatch bench diagnosis --compare`, release, 8 cases)
@@ -34,6 +35,7 @@
 //! The one exception is `wall_s` in the results, read from a monotonic clock for reporting; it
 //! never influences a computed value.
 
+pub mod assess;
 pub mod bench;
 pub mod config;
 pub mod csv_input;

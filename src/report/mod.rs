@@ -357,9 +357,23 @@ const PARAM_TITLES: [&str; 6] = [
     "D_EP power-turbine efficiency",
 ];
 
-/// The page (pure).
+/// The page (pure): its sections in order.
 pub fn render(d: &ReportData) -> String {
     let mut h = String::new();
+    head(&mut h, d);
+    advice_section(&mut h, d);
+    health_section(&mut h, d);
+    latest_section(&mut h, d);
+    undiagnosed_section(&mut h, d);
+    h.push_str(&gap_section::render(&d.gap_analyses));
+    gaps_section(&mut h, d);
+    washes_section(&mut h, d);
+    h.push_str("</body></html>\n");
+    h
+}
+
+/// The document head, title and the line of what the page covers.
+fn head(h: &mut String, d: &ReportData) {
     let _ = write!(
         h,
         "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>gtwatch report: {}</title><style>{CSS}{}svg text{{font-family:inherit}}</style></head><body>",
@@ -381,8 +395,10 @@ pub fn render(d: &ReportData) -> String {
         esc(&d.header.generated_utc),
         esc(&d.header.version)
     );
+}
 
-    // Advice first: it is what the page is for.
+/// Advice first: it is what the page is for (and a warning when the latest fit is not good).
+fn advice_section(h: &mut String, d: &ReportData) {
     h.push_str("<h2>Wash advice</h2>");
     match &d.advice {
         Some(a) => {
@@ -407,8 +423,10 @@ pub fn render(d: &ReportData) -> String {
             );
         }
     }
+}
 
-    // Health trend.
+/// The health parameters over time: one chart each, the fouling rates, the history table.
+fn health_section(h: &mut String, d: &ReportData) {
     h.push_str("<h2>Health parameters over time</h2>");
     if d.history.is_empty() {
         h.push_str("<p class=\"warn\">No diagnoses yet: the charts appear once a start-up has been diagnosed.</p>");
@@ -433,8 +451,10 @@ pub fn render(d: &ReportData) -> String {
         }
         h.push_str(&history_table(d));
     }
+}
 
-    // Latest start-up.
+/// The latest diagnosed start-up, measured against the model.
+fn latest_section(h: &mut String, d: &ReportData) {
     h.push_str("<h2>Latest diagnosed start-up: measured against model</h2>");
     match &d.latest {
         None => h.push_str("<p class=\"warn\">No diagnosed start-up yet.</p>"),
@@ -463,8 +483,10 @@ pub fn render(d: &ReportData) -> String {
             h.push_str("</div>");
         }
     }
+}
 
-    // Data problems.
+/// The start-ups that were not diagnosed, and why.
+fn undiagnosed_section(h: &mut String, d: &ReportData) {
     h.push_str("<h2>Start-ups not diagnosed</h2>");
     if d.undiagnosed.is_empty() {
         h.push_str("<p class=\"meta\">None: every closed start-up has a result.</p>");
@@ -482,7 +504,10 @@ pub fn render(d: &ReportData) -> String {
         }
         h.push_str("</table>");
     }
-    h.push_str(&gap_section::render(&d.gap_analyses));
+}
+
+/// The recorded data gaps (the first 200).
+fn gaps_section(h: &mut String, d: &ReportData) {
     h.push_str("<h2>Data gaps</h2>");
     if d.gaps.is_empty() {
         h.push_str("<p class=\"meta\">None recorded in this period.</p>");
@@ -518,6 +543,10 @@ pub fn render(d: &ReportData) -> String {
             );
         }
     }
+}
+
+/// The washes, recorded or detected.
+fn washes_section(h: &mut String, d: &ReportData) {
     h.push_str("<h2>Washes</h2>");
     if d.washes.is_empty() {
         h.push_str("<p class=\"meta\">None recorded or detected.</p>");
@@ -535,8 +564,6 @@ pub fn render(d: &ReportData) -> String {
         }
         h.push_str("</table>");
     }
-    h.push_str("</body></html>\n");
-    h
 }
 
 fn date(ms: i64) -> String {

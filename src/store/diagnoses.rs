@@ -6,8 +6,11 @@
 //! leaves either the whole result or nothing. Must not fit models or decide what is diagnosable.
 
 use super::{Store, StoreError};
+/// The types the assessment shares with the store live on the floor below it.
+pub use crate::diagnosis::assess::Undiagnosable;
 use crate::engine::trace::{Values, NSIG};
 use crate::health::HEALTH_NAMES;
+pub use crate::quality::SignalQuality;
 use crate::recording::{Recording, RecordingError};
 use crate::signals::{Phase, Signal};
 use rusqlite::{params, OptionalExtension};
@@ -43,14 +46,6 @@ pub struct SegmentRecording {
     pub quality: Vec<SignalQuality>,
 }
 
-/// How many of a signal's samples in a segment are good.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct SignalQuality {
-    pub signal: Signal,
-    pub good: u64,
-    pub total: u64,
-}
-
 /// One result to store.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct NewDiagnosis {
@@ -69,16 +64,6 @@ pub struct NewDiagnosis {
     pub seed: u64,
     pub config_hash: String,
     pub gtwatch_version: String,
-}
-
-/// Why a segment, or one method on it, gave no result.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
-pub struct Undiagnosable {
-    /// `None`: the segment as a whole; `Some("A")`/`Some("B")`: that method.
-    pub method: Option<String>,
-    /// `aborted`, `gaps`, `missing_signals`, `too_short`, `residual_too_high` or `error`.
-    pub reason: String,
-    pub detail: String,
 }
 
 /// One row of `gtwatch history`.

@@ -28,7 +28,7 @@ pub use diagnoses::{
     Undiagnosable,
 };
 
-pub use writer::{spawn_writer, WriteCmd, WriterConfig, WriterStats};
+pub use writer::{run_writer, spawn_writer, WriteCmd, WriterConfig, WriterStats};
 
 use crate::config_problem::{check_range, Bounds, ConfigProblem};
 use crate::quality::Quality;
@@ -297,6 +297,28 @@ pub struct Store {
     read_only: bool,
 }
 
+/// The `-wal` file of a database.
+fn wal_file(path: &Path) -> PathBuf {
+    let mut name = path.as_os_str().to_os_string();
+    name.push("-wal");
+    PathBuf::from(name)
+}
+
+/// A `file:` URI opening `path` read-only and immutable (`%`, `?` and `#` escaped).
+fn immutable_uri(path: &Path) -> String {
+    let mut uri = String::from("file:");
+    for ch in path.to_string_lossy().chars() {
+        match ch {
+            '%' => uri.push_str("%25"),
+            '?' => uri.push_str("%3f"),
+            '#' => uri.push_str("%23"),
+            c => uri.push(c),
+        }
+    }
+    uri.push_str("?mode=ro&immutable=1");
+    uri
+}
+
 /// Current wall-clock time in Unix epoch ms.
 pub fn now_ms() -> i64 {
     let now = time::OffsetDateTime::now_utc();
@@ -392,24 +414,45 @@ impl Store {
 
     /// Opens an existing store read-only (for `segments`, `export`, … while the daemon runs).
     /// Fails if the file does not exist or has no schema; never writes.
+    ///
+    /// A WAL database needs its `-shm` file even to be read. When nobody has it open (no
+    /// `-wal` file beside it) and the directory is not writable, SQLite cannot create that
+    /// file and refuses; then the file is opened `immutable` instead: no connection is
+    /// writing it, and none could start a WAL write in a directory we cannot write either
+    /// without the `-wal` file appearing first.
     pub fn open_readonly(path: &Path) -> Result<ReadStore, StoreError> {
-        let open_err = |source| StoreError::Open {
-            path: path.to_path_buf(),
-            source,
+        let conn = match Store::readonly_connection(path, false) {
+            Ok(conn) => conn,
+            Err(e) if path.is_file() && !wal_file(path).exists() => {
+                tracing::debug!(path = %path.display(), "read-only open failed ({e}); retrying immutable");
+                Store::readonly_connection(path, true).map_err(|_| e)?
+            }
+            Err(e) => return Err(e),
         };
-        let conn = Connection::open_with_flags(
-            path,
-            OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX,
-        )
-        .map_err(open_err)?;
-        conn.busy_timeout(Duration::from_millis(5000))
-            .map_err(open_err)?;
-        schema::check_readonly(&conn, path)?;
         Ok(ReadStore(Store {
             conn,
             path: path.to_path_buf(),
             read_only: true,
         }))
+    }
+
+    /// A read-only connection whose schema was checked; `immutable`: without locks or `-shm`.
+    fn readonly_connection(path: &Path, immutable: bool) -> Result<Connection, StoreError> {
+        let open_err = |source| StoreError::Open {
+            path: path.to_path_buf(),
+            source,
+        };
+        let flags = OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX;
+        let conn = if immutable {
+            Connection::open_with_flags(immutable_uri(path), flags | OpenFlags::SQLITE_OPEN_URI)
+        } else {
+            Connection::open_with_flags(path, flags)
+        }
+        .map_err(open_err)?;
+        conn.busy_timeout(Duration::from_millis(5000))
+            .map_err(open_err)?;
+        schema::check_readonly(&conn, path)?;
+        Ok(conn)
     }
 
     pub fn path(&self) -> &Path {

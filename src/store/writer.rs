@@ -251,7 +251,9 @@ impl Writer {
     }
 }
 
-async fn run_writer(
+/// The writer itself (what [`spawn_writer`] spawns): runs until every sender is gone, then
+/// commits what it holds and returns its statistics.
+pub async fn run_writer(
     store: Store,
     mut rx: mpsc::Receiver<WriteCmd>,
     cfg: WriterConfig,

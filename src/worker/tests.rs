@@ -1,4 +1,5 @@
 use super::*;
+use crate::daemon::DiagnosisTask;
 use crate::detect::{scan, DetectorConfig};
 use crate::engine::sensors::MeasurementOptions;
 use crate::engine::simulation::run_scenario;
@@ -6,7 +7,11 @@ use crate::engine::{Scenario, Trace};
 use crate::health::HealthParams;
 use crate::quality::Quality;
 use crate::shutdown::shutdown_channel;
+use crate::signals::Signal;
+use crate::store::StoreOptions;
 use crate::store::{HistoryFilter, Sample, TagInfo};
+use std::time::Duration;
+use tokio::sync::Notify;
 
 fn truth() -> HealthParams {
     HealthParams {

@@ -9,6 +9,10 @@
 //! is dropped and re-made (with capped exponential backoff): a reply that arrives after its
 //! timeout then lands on a closed socket and can never be taken for the answer to the next
 //! request. An outage is recorded as a [`Gap`] from the last good poll to the first good poll
+//! after it.
+//!
+//! The loop is a small state machine (`Link`: down → connect → up → poll; a failure backs
+//! off to down) whose steps are named methods of one `Poller`.
 
 use super::client::{resolve, ReadError, ReadOnlyClient};
 use super::plan::{decode_request, plant_clock, PollPlan};
@@ -59,142 +63,277 @@ pub async fn poll_loop_with_clock(
     tx: mpsc::Sender<WriteCmd>,
     progress: Arc<PollProgress>,
     mut shutdown: Shutdown,
-    mut clock: SampleClock,
+    clock: SampleClock,
 ) -> PollStats {
-    let period = Duration::from_millis(cfg.poll_period_ms.max(1));
-    let connect_timeout = Duration::from_millis(cfg.connect_timeout_ms);
-    let request_timeout = Duration::from_millis(cfg.request_timeout_ms);
-    let mut backoff = Backoff::new(
-        Duration::from_millis(cfg.backoff_initial_ms),
-        Duration::from_millis(cfg.backoff_max_ms),
-    );
-    let mut interval = tokio::time::interval(period);
+    let mut interval = tokio::time::interval(Duration::from_millis(cfg.poll_period_ms.max(1)));
     // After a stall, skip the missed ticks: polling faster to "catch up" would only produce
     // samples bunched in time.
     interval.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-    let mut client: Option<ReadOnlyClient> = None;
-    let mut retry_at: Option<Instant> = None;
-    let mut outage: Option<Outage> = None;
-    let mut last_good_ms: Option<i64> = None;
-    let mut batch: Vec<Sample> = Vec::with_capacity(plan.tag_count());
-    // The tag whose value is the plant clock, when samples are stamped in plant time.
-    let time_tag: Option<TagId> = cfg.timestamp_field.as_deref().and_then(|name| {
-        plan.requests
-            .iter()
-            .flat_map(|r| r.fields.iter())
-            .find(|(_, f)| f.name == name)
-            .map(|(tag, _)| *tag)
-    });
-    let mut last_plant_ms: Option<i64> = None;
-    let mut gate = crate::acquire::gate::Gate::new(plan, &plan.quality);
-    let count = |released: &[Sample], progress: &PollProgress| {
-        let mut c = crate::quality::QualityCounts::default();
-        for s in released {
-            c.add(s.quality);
-        }
-        progress
-            .samples
-            .fetch_add(released.len() as u64, Ordering::Relaxed);
-        progress.flagged.fetch_add(c.flagged(), Ordering::Relaxed);
-        progress.stuck.fetch_add(c.stuck, Ordering::Relaxed);
-        progress.spike.fetch_add(c.spike, Ordering::Relaxed);
-    };
-
-    let fail = |outage: &mut Option<Outage>,
-                last_good: Option<i64>,
-                now_ms: i64,
-                reason: String,
-                progress: &PollProgress| {
-        progress.failures.fetch_add(1, Ordering::Relaxed);
-        match outage {
-            Some(o) => o.failures += 1,
-            None => {
-                tracing::warn!(%reason, "acquisition interrupted");
-                *outage = Some(Outage {
-                    start_ms: last_good.unwrap_or(now_ms),
-                    reason,
-                    failures: 1,
-                });
-            }
-        }
-    };
-
+    let mut poller = Poller::new(cfg, plan, tx, progress, clock);
     loop {
         tokio::select! {
             biased;
             _ = shutdown.wait() => break,
             _ = interval.tick() => {}
         }
-        progress.cycles.fetch_add(1, Ordering::Relaxed);
-        if client.is_none() {
-            if retry_at.is_some_and(|t| Instant::now() < t) {
-                continue;
-            }
-            // Name resolution counts against the connect timeout too.
-            let attempt = async {
-                match tokio::time::timeout(connect_timeout, resolve(&plan.endpoint)).await {
-                    Err(_) => Err(ReadError::Timeout(connect_timeout.as_millis() as u64)),
-                    Ok(Err(e)) => Err(e),
-                    Ok(Ok(addr)) => ReadOnlyClient::connect(addr, connect_timeout).await,
-                }
-            };
-            let result = tokio::select! {
-                biased;
-                _ = shutdown.wait() => break,
-                r = attempt => r,
-            };
-            match result {
-                Ok(c) => {
-                    progress.connects.fetch_add(1, Ordering::Relaxed);
-                    tracing::info!(endpoint = %plan.endpoint, "connected");
-                    client = Some(c);
-                }
-                Err(e) => {
-                    let now = clock.now().t_ms;
-                    tracing::debug!(endpoint = %plan.endpoint, error = %e, "connect failed");
-                    let reason =
-                        format!("connect to {} failed: {}", plan.endpoint, e.stable_reason());
-                    fail(&mut outage, last_good_ms, now, reason, &progress);
-                    retry_at = Some(Instant::now() + backoff.next_delay());
-                    continue;
-                }
-            }
+        if poller.cycle(&mut shutdown).await == Flow::Stop {
+            break;
         }
-        let Some(conn) = client.as_mut() else {
-            continue;
+    }
+    poller.finish().await
+}
+
+/// Whether the loop goes on after a step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Flow {
+    Continue,
+    /// Shutdown, or the writer has gone away.
+    Stop,
+}
+
+/// The link to the PLC: the state of the machine (connect → poll → back off → connect).
+enum Link {
+    /// No connection; the next attempt not before `retry_at` (at once if `None`).
+    Down { retry_at: Option<Instant> },
+    /// Connected: poll.
+    Up(ReadOnlyClient),
+}
+
+/// What a connect attempt gave.
+enum Connect {
+    Connected(ReadOnlyClient),
+    /// Backing off, or the attempt failed (recorded): try again at a later tick.
+    NotYet,
+    Shutdown,
+}
+
+/// What the plant clock says about one poll's readings.
+enum PlantTime {
+    /// A new frame at this plant time.
+    At(i64),
+    /// The same frame as the last poll's: nothing new to store.
+    Stalled,
+    /// No valid plant time (why).
+    Invalid(String),
+}
+
+/// The poll loop's state between ticks.
+struct Poller<'a> {
+    plan: &'a PollPlan,
+    tx: mpsc::Sender<WriteCmd>,
+    progress: Arc<PollProgress>,
+    clock: SampleClock,
+    connect_timeout: Duration,
+    request_timeout: Duration,
+    backoff: Backoff,
+    link: Link,
+    outage: Option<Outage>,
+    last_good_ms: Option<i64>,
+    batch: Vec<Sample>,
+    /// The tag whose value is the plant clock, when samples are stamped in plant time.
+    time_tag: Option<TagId>,
+    last_plant_ms: Option<i64>,
+    gate: crate::acquire::gate::Gate,
+}
+
+impl<'a> Poller<'a> {
+    fn new(
+        cfg: &AcquisitionConfig,
+        plan: &'a PollPlan,
+        tx: mpsc::Sender<WriteCmd>,
+        progress: Arc<PollProgress>,
+        clock: SampleClock,
+    ) -> Poller<'a> {
+        let time_tag = cfg.timestamp_field.as_deref().and_then(|name| {
+            plan.requests
+                .iter()
+                .flat_map(|r| r.fields.iter())
+                .find(|(_, f)| f.name == name)
+                .map(|(tag, _)| *tag)
+        });
+        Poller {
+            plan,
+            tx,
+            progress,
+            clock,
+            connect_timeout: Duration::from_millis(cfg.connect_timeout_ms),
+            request_timeout: Duration::from_millis(cfg.request_timeout_ms),
+            backoff: Backoff::new(
+                Duration::from_millis(cfg.backoff_initial_ms),
+                Duration::from_millis(cfg.backoff_max_ms),
+            ),
+            link: Link::Down { retry_at: None },
+            outage: None,
+            last_good_ms: None,
+            batch: Vec::with_capacity(plan.tag_count()),
+            time_tag,
+            last_plant_ms: None,
+            gate: crate::acquire::gate::Gate::new(plan, &plan.quality),
+        }
+    }
+
+    /// One tick: connect if down (unless backing off), then poll.
+    async fn cycle(&mut self, shutdown: &mut Shutdown) -> Flow {
+        self.progress.cycles.fetch_add(1, Ordering::Relaxed);
+        let client = match std::mem::replace(&mut self.link, Link::Down { retry_at: None }) {
+            Link::Up(client) => client,
+            Link::Down { retry_at } => match self.connect(retry_at, shutdown).await {
+                Connect::Connected(client) => client,
+                Connect::NotYet => return Flow::Continue,
+                Connect::Shutdown => return Flow::Stop,
+            },
         };
-        let before = clock.last_issued_ms();
-        let stamp = clock.now();
-        if let Some(jump) = stamp.reanchored_by_ms {
-            tracing::warn!(
-                jump_ms = jump,
-                "wall clock jumped; sample clock re-anchored"
-            );
-            progress.clock_reanchors.fetch_add(1, Ordering::Relaxed);
-            if let (Some(from), None) = (before, time_tag) {
-                let gap = clock_gap(from, stamp.t_ms, jump);
-                progress.gaps.fetch_add(1, Ordering::Relaxed);
-                if tx.send(WriteCmd::Gap(gap)).await.is_err() {
-                    break;
-                }
+        self.poll(client, shutdown).await
+    }
+
+    /// The connect step: a new connection, or the link left down (backing off).
+    async fn connect(&mut self, retry_at: Option<Instant>, shutdown: &mut Shutdown) -> Connect {
+        if retry_at.is_some_and(|t| Instant::now() < t) {
+            self.link = Link::Down { retry_at };
+            return Connect::NotYet;
+        }
+        let endpoint = &self.plan.endpoint;
+        let connect_timeout = self.connect_timeout;
+        // Name resolution counts against the connect timeout too.
+        let attempt = async {
+            match tokio::time::timeout(connect_timeout, resolve(endpoint)).await {
+                Err(_) => Err(ReadError::Timeout(connect_timeout.as_millis() as u64)),
+                Ok(Err(e)) => Err(e),
+                Ok(Ok(addr)) => ReadOnlyClient::connect(addr, connect_timeout).await,
+            }
+        };
+        let result = tokio::select! {
+            biased;
+            _ = shutdown.wait() => return Connect::Shutdown,
+            r = attempt => r,
+        };
+        match result {
+            Ok(client) => {
+                self.progress.connects.fetch_add(1, Ordering::Relaxed);
+                tracing::info!(endpoint = %self.plan.endpoint, "connected");
+                Connect::Connected(client)
+            }
+            Err(e) => {
+                let now = self.clock.now().t_ms;
+                tracing::debug!(endpoint = %self.plan.endpoint, error = %e, "connect failed");
+                let reason = format!(
+                    "connect to {} failed: {}",
+                    self.plan.endpoint,
+                    e.stable_reason()
+                );
+                self.back_off(now, reason);
+                Connect::NotYet
             }
         }
-        batch.clear();
-        let mut error: Option<String> = None;
+    }
+
+    /// The poll step on a connected link: stamp, read every request, take the plant's time
+    /// when configured, gate, then account for a good poll or back off after a failure.
+    async fn poll(&mut self, mut client: ReadOnlyClient, shutdown: &mut Shutdown) -> Flow {
+        let before = self.clock.last_issued_ms();
+        let stamp = self.clock.now();
+        if let Some(jump) = stamp.reanchored_by_ms {
+            if self.clock_stepped(before, stamp.t_ms, jump).await == Flow::Stop {
+                return Flow::Stop;
+            }
+        }
+        let mut error = self.read_all(&mut client, stamp.t_ms, shutdown).await;
+        if shutdown.is_triggered() && error.is_some() {
+            return Flow::Stop;
+        }
+        let mut stamp_ms = stamp.t_ms;
+        if let (Some(tag), None) = (self.time_tag, &error) {
+            match self.plant_time(tag) {
+                PlantTime::Stalled => {
+                    // The plant has not produced a new frame since the last poll: storing it
+                    // again would duplicate samples.
+                    self.progress.clock_stalls.fetch_add(1, Ordering::Relaxed);
+                    self.progress.polls_ok.fetch_add(1, Ordering::Relaxed);
+                    self.link = Link::Up(client);
+                    return Flow::Continue;
+                }
+                PlantTime::At(t) => stamp_ms = t,
+                PlantTime::Invalid(why) => error = Some(why),
+            }
+        }
+        if self.time_tag.is_some() && error.is_some() {
+            // In plant time, a reading without a valid plant clock has no true time stamp:
+            // never store it under the local clock's.
+            self.batch.clear();
+            stamp_ms = self.last_plant_ms.unwrap_or(stamp_ms);
+        }
+        // Whatever was decoded before a failure is a valid reading at this instant: keep it.
+        let released = self.gate.apply(&self.batch);
+        let flow = match error {
+            Some(reason) => {
+                // Drop the connection: a late reply must never be matched to the next request.
+                drop(client);
+                self.back_off(stamp_ms, reason);
+                Flow::Continue
+            }
+            None => {
+                self.link = Link::Up(client);
+                self.resumed(stamp_ms).await
+            }
+        };
+        if flow == Flow::Stop {
+            return Flow::Stop;
+        }
+        self.send_samples(released).await
+    }
+
+    /// A wall-clock step re-anchored the sample clock: logged, counted and, when samples are
+    /// stamped by this clock, recorded as a gap.
+    async fn clock_stepped(&mut self, before: Option<i64>, t_ms: i64, jump: i64) -> Flow {
+        tracing::warn!(
+            jump_ms = jump,
+            "wall clock jumped; sample clock re-anchored"
+        );
+        self.progress
+            .clock_reanchors
+            .fetch_add(1, Ordering::Relaxed);
+        let (Some(from), None) = (before, self.time_tag) else {
+            return Flow::Continue;
+        };
+        self.progress.gaps.fetch_add(1, Ordering::Relaxed);
+        if self
+            .tx
+            .send(WriteCmd::Gap(clock_gap(from, t_ms, jump)))
+            .await
+            .is_err()
+        {
+            return Flow::Stop;
+        }
+        Flow::Continue
+    }
+
+    /// Reads every request of the plan into `batch`, stamped `t_ms`; the first failure's
+    /// description, if any (what was decoded before it stays in `batch`).
+    async fn read_all(
+        &mut self,
+        client: &mut ReadOnlyClient,
+        t_ms: i64,
+        shutdown: &mut Shutdown,
+    ) -> Option<String> {
+        self.batch.clear();
+        let request_timeout = self.request_timeout;
+        let plan = self.plan;
         for req in &plan.requests {
             let read = async {
                 match req.kind {
                     RegisterKind::Holding => {
-                        conn.read_holding_registers(
-                            req.slave,
-                            req.start,
-                            req.count,
-                            request_timeout,
-                        )
-                        .await
+                        client
+                            .read_holding_registers(
+                                req.slave,
+                                req.start,
+                                req.count,
+                                request_timeout,
+                            )
+                            .await
                     }
                     RegisterKind::Input => {
-                        conn.read_input_registers(req.slave, req.start, req.count, request_timeout)
+                        client
+                            .read_input_registers(req.slave, req.start, req.count, request_timeout)
                             .await
                     }
                 }
@@ -205,10 +344,10 @@ pub async fn poll_loop_with_clock(
                 r = read => r,
             };
             match result {
-                Ok(words) => decode_request(req, &words, stamp.t_ms, &mut batch),
+                Ok(words) => decode_request(req, &words, t_ms, &mut self.batch),
                 Err(e) => {
                     tracing::debug!(error = %e, "read failed");
-                    error = Some(format!(
+                    return Some(format!(
                         "read {} {}+{} from slave {}: {}",
                         req.kind,
                         req.start,
@@ -216,116 +355,140 @@ pub async fn poll_loop_with_clock(
                         req.slave,
                         e.stable_reason()
                     ));
-                    break;
                 }
             }
         }
-        if shutdown.is_triggered() && error.is_some() {
-            break;
-        }
-        let mut stamp_ms = stamp.t_ms;
-        if let (Some(tag), None) = (time_tag, &error) {
-            match plant_clock(&batch, tag) {
-                Ok(t) if last_plant_ms == Some(t) => {
-                    // The plant has not produced a new frame since the last poll: storing it
-                    // again would duplicate samples.
-                    progress.clock_stalls.fetch_add(1, Ordering::Relaxed);
-                    progress.polls_ok.fetch_add(1, Ordering::Relaxed);
-                    continue;
-                }
-                Ok(t) if last_plant_ms.is_some_and(|last| t < last) => {
-                    // A plant clock that steps back (a restarted simulator, a PLC clock set
-                    // back) would interleave new readings with stored ones: an outage until
-                    // it passes the last stored time, recorded as a gap.
-                    error = Some(format!(
-                        "plant clock went backwards from {} to {}",
-                        crate::time::fmt_ms(last_plant_ms.unwrap_or(t)),
-                        crate::time::fmt_ms(t)
-                    ));
-                }
-                Ok(t) => {
-                    for s in batch.iter_mut() {
-                        s.t_ms = t;
-                    }
-                    stamp_ms = t;
-                    last_plant_ms = Some(t);
-                }
-                Err(why) => error = Some(why),
+        None
+    }
+
+    /// The plant time of this poll's readings (re-stamping `batch` with it when new).
+    fn plant_time(&mut self, tag: TagId) -> PlantTime {
+        match plant_clock(&self.batch, tag) {
+            Ok(t) if self.last_plant_ms == Some(t) => PlantTime::Stalled,
+            // A plant clock that steps back (a restarted simulator, a PLC clock set back)
+            // would interleave new readings with stored ones: an outage until it passes the
+            // last stored time, recorded as a gap.
+            Ok(t) if self.last_plant_ms.is_some_and(|last| t < last) => {
+                PlantTime::Invalid(format!(
+                    "plant clock went backwards from {} to {}",
+                    crate::time::fmt_ms(self.last_plant_ms.unwrap_or(t)),
+                    crate::time::fmt_ms(t)
+                ))
             }
-        }
-        if time_tag.is_some() && error.is_some() {
-            // In plant time, a reading without a valid plant clock has no true time stamp:
-            // never store it under the local clock's.
-            batch.clear();
-            stamp_ms = last_plant_ms.unwrap_or(stamp_ms);
-        }
-        // Whatever was decoded before a failure is a valid reading at this instant: keep it.
-        let released = gate.apply(&batch);
-        if let Some(reason) = error {
-            // Drop the connection: a late reply must never be matched to the next request.
-            client = None;
-            fail(&mut outage, last_good_ms, stamp_ms, reason, &progress);
-            retry_at = Some(Instant::now() + backoff.next_delay());
-        } else {
-            if let Some(o) = outage.take() {
-                let gap = Gap {
-                    // An outage before the first good poll started on the local clock; in
-                    // plant time its start is unknown, so the gap is marked where it ended.
-                    start_ms: o.start_ms.min(stamp_ms),
-                    end_ms: stamp_ms,
-                    source: GAP_SOURCE.to_string(),
-                    reason: gap_reason(&o),
-                };
-                tracing::info!(
-                    seconds = (gap.end_ms - gap.start_ms) as f64 / 1000.0,
-                    reason = %gap.reason,
-                    "acquisition resumed"
-                );
-                progress.gaps.fetch_add(1, Ordering::Relaxed);
-                if tx.send(WriteCmd::Gap(gap)).await.is_err() {
-                    break;
+            Ok(t) => {
+                for s in self.batch.iter_mut() {
+                    s.t_ms = t;
                 }
+                self.last_plant_ms = Some(t);
+                PlantTime::At(t)
             }
-            backoff.reset();
-            retry_at = None;
-            last_good_ms = Some(stamp_ms);
-            progress.polls_ok.fetch_add(1, Ordering::Relaxed);
-        }
-        if !released.is_empty() {
-            count(&released, &progress);
-            if tx.send(WriteCmd::Samples(released)).await.is_err() {
-                tracing::error!("writer has stopped; ending acquisition");
-                break;
-            }
+            Err(why) => PlantTime::Invalid(why),
         }
     }
-    // The readings the spike rule still holds are valid: store them.
-    let rest = gate.finish();
-    if !rest.is_empty() {
-        count(&rest, &progress);
-        let _ = tx.send(WriteCmd::Samples(rest)).await;
-    }
-    // An outage still open at shutdown is recorded up to now, so the data shows it.
-    if let Some(o) = outage.take() {
-        // In plant time "now" is unknown once the plant stopped answering: the gap is marked
-        // from the last good reading.
-        let end_ms = if time_tag.is_some() {
-            o.start_ms
-        } else {
-            clock.now().t_ms
+
+    /// The back-off step: the failure is counted (opening an outage if none is open) and the
+    /// link stays down until the backoff delay has passed.
+    fn back_off(&mut self, now_ms: i64, reason: String) {
+        self.progress.failures.fetch_add(1, Ordering::Relaxed);
+        match &mut self.outage {
+            Some(o) => o.failures += 1,
+            None => {
+                tracing::warn!(%reason, "acquisition interrupted");
+                self.outage = Some(Outage {
+                    start_ms: self.last_good_ms.unwrap_or(now_ms),
+                    reason,
+                    failures: 1,
+                });
+            }
+        }
+        self.link = Link::Down {
+            retry_at: Some(Instant::now() + self.backoff.next_delay()),
         };
-        let gap = Gap {
-            start_ms: o.start_ms.min(end_ms),
-            end_ms,
-            source: GAP_SOURCE.to_string(),
-            reason: format!("{} (still down at shutdown)", gap_reason(&o)),
-        };
-        progress.gaps.fetch_add(1, Ordering::Relaxed);
-        let _ = tx.send(WriteCmd::Gap(gap)).await;
     }
-    // Dropping the client closes the socket; no generic `Client::call` is reachable here.
-    drop(client);
-    progress.snapshot()
+
+    /// A good poll at `stamp_ms`: an open outage is closed and recorded as a gap, the backoff
+    /// reset.
+    async fn resumed(&mut self, stamp_ms: i64) -> Flow {
+        if let Some(o) = self.outage.take() {
+            let gap = Gap {
+                // An outage before the first good poll started on the local clock; in plant
+                // time its start is unknown, so the gap is marked where it ended.
+                start_ms: o.start_ms.min(stamp_ms),
+                end_ms: stamp_ms,
+                source: GAP_SOURCE.to_string(),
+                reason: gap_reason(&o),
+            };
+            tracing::info!(
+                seconds = (gap.end_ms - gap.start_ms) as f64 / 1000.0,
+                reason = %gap.reason,
+                "acquisition resumed"
+            );
+            self.progress.gaps.fetch_add(1, Ordering::Relaxed);
+            if self.tx.send(WriteCmd::Gap(gap)).await.is_err() {
+                return Flow::Stop;
+            }
+        }
+        self.backoff.reset();
+        self.last_good_ms = Some(stamp_ms);
+        self.progress.polls_ok.fetch_add(1, Ordering::Relaxed);
+        Flow::Continue
+    }
+
+    /// Sends the gate's released samples to the writer (counted by quality).
+    async fn send_samples(&mut self, released: Vec<Sample>) -> Flow {
+        if released.is_empty() {
+            return Flow::Continue;
+        }
+        self.count(&released);
+        if self.tx.send(WriteCmd::Samples(released)).await.is_err() {
+            tracing::error!("writer has stopped; ending acquisition");
+            return Flow::Stop;
+        }
+        Flow::Continue
+    }
+
+    fn count(&self, released: &[Sample]) {
+        let mut c = crate::quality::QualityCounts::default();
+        for s in released {
+            c.add(s.quality);
+        }
+        let p = &self.progress;
+        p.samples
+            .fetch_add(released.len() as u64, Ordering::Relaxed);
+        p.flagged.fetch_add(c.flagged(), Ordering::Relaxed);
+        p.stuck.fetch_add(c.stuck, Ordering::Relaxed);
+        p.spike.fetch_add(c.spike, Ordering::Relaxed);
+    }
+
+    /// At shutdown (or when the writer went away): the readings the spike rule still holds
+    /// are stored, an outage still open is recorded up to now, the connection closed.
+    async fn finish(mut self) -> PollStats {
+        let rest = self.gate.finish();
+        if !rest.is_empty() {
+            self.count(&rest);
+            let _ = self.tx.send(WriteCmd::Samples(rest)).await;
+        }
+        if let Some(o) = self.outage.take() {
+            // In plant time "now" is unknown once the plant stopped answering: the gap is
+            // marked from the last good reading.
+            let end_ms = if self.time_tag.is_some() {
+                o.start_ms
+            } else {
+                self.clock.now().t_ms
+            };
+            let gap = Gap {
+                start_ms: o.start_ms.min(end_ms),
+                end_ms,
+                source: GAP_SOURCE.to_string(),
+                reason: format!("{} (still down at shutdown)", gap_reason(&o)),
+            };
+            self.progress.gaps.fetch_add(1, Ordering::Relaxed);
+            let _ = self.tx.send(WriteCmd::Gap(gap)).await;
+        }
+        // Dropping the client closes the socket; no generic `Client::call` is reachable here.
+        drop(self.link);
+        self.progress.snapshot()
+    }
 }
 
 /// Source name of the gaps that record a wall-clock step.

@@ -1,0 +1,87 @@
+//! The diagnosis task: drains the queue of closed start-ups (`worker::drain_pending`) on the
+//! blocking pool, one segment at a time, now, whenever the detector wakes it, and at least
+//! every `[diagnosis] poll_interval_ms`, until shutdown. Shutdown cancels a running fit, which
+//! stores nothing: the segment stays pending for the next start. Errors are logged and the
+//! drain retried; they never stop the daemon. Must not hold diagnosis or storage logic (that
+//! is `worker` and `diagnosis::assess`).
+
+use super::blocking::{BlockingError, BlockingStore};
+use crate::optim::Cancel;
+use crate::shutdown::Shutdown;
+use crate::store::StoreOptions;
+use crate::worker::{drain_pending, AfterResult, DrainReport, WorkerContext};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+use tokio::sync::Notify;
+
+/// The diagnosis task of the daemon (mini-redis shape: a small struct with its own `run`).
+pub struct DiagnosisTask {
+    pub db_path: PathBuf,
+    pub store_opts: StoreOptions,
+    pub ctx: Arc<WorkerContext>,
+    /// The detector wakes the worker through this when a segment closes.
+    pub wake: Arc<Notify>,
+    /// Called after each stored outcome (trends, washes, advice).
+    pub after_result: Option<AfterResult>,
+}
+
+impl DiagnosisTask {
+    pub fn with_after_result(mut self, f: AfterResult) -> Self {
+        self.after_result = Some(f);
+        self
+    }
+
+    /// Drains the queue now, then whenever woken (or every `poll_interval_ms`), until shutdown.
+    pub async fn run(self, shutdown: Shutdown) -> DrainReport {
+        let cancel = cancel_on(shutdown.clone());
+        let mut store = BlockingStore::new(self.db_path.clone(), self.store_opts);
+        let mut total = DrainReport::default();
+        let mut sd = shutdown;
+        let period = Duration::from_millis(self.ctx.settings.poll_interval_ms.max(100));
+        while !sd.is_triggered() {
+            let rep = self.drain(&mut store, &cancel).await;
+            total.diagnosed += rep.diagnosed;
+            total.undiagnosable += rep.undiagnosable;
+            total.cancelled |= rep.cancelled;
+            tokio::select! {
+                _ = sd.wait() => break,
+                _ = self.wake.notified() => {}
+                _ = tokio::time::sleep(period) => {}
+            }
+        }
+        total
+    }
+
+    /// One drain of the queue on the blocking pool; a failure is logged and counts nothing.
+    async fn drain(&self, store: &mut BlockingStore, cancel: &Cancel) -> DrainReport {
+        let ctx = Arc::clone(&self.ctx);
+        let c = cancel.clone();
+        let after = self.after_result.clone();
+        match store
+            .run(move |s| drain_pending(s, &ctx, &c, after.as_ref()))
+            .await
+        {
+            Ok(rep) => rep,
+            Err(BlockingError::Panicked(e)) => {
+                tracing::error!("diagnosis worker task failed: {e}");
+                DrainReport::default()
+            }
+            Err(e) => {
+                tracing::warn!("diagnosis worker: {e}");
+                DrainReport::default()
+            }
+        }
+    }
+}
+
+/// A cancel flag set when `shutdown` fires (it cancels a running fit).
+fn cancel_on(mut shutdown: Shutdown) -> Cancel {
+    let cancel = Cancel::new();
+    let c = cancel.clone();
+    tokio::spawn(async move {
+        shutdown.wait().await;
+        c.cancel();
+    });
+    cancel
+}

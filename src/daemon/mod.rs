@@ -1,0 +1,301 @@
+//! `gtwatch run`: the daemon as a supervisor of small tasks, each a struct with
+//! `run(self, shutdown)` (the mini-redis shape: the shutdown signal is a value, so `main` maps
+//! SIGTERM/SIGINT onto it and tests trigger it directly):
+//! - [`acquisition`]: the Modbus poll loop → bounded channel → [`writer`], the single writer of
+//!   samples and gaps, which batches inserts into transactions and ends once its senders have;
+//! - [`detector`]: scans for start-ups every `daemon.detect_interval_ms` and wakes the worker
+//!   when a scan closes a segment;
+//! - [`diagnosis`]: drains the queue of closed segments, one at a time; shutdown cancels a
+//!   running fit (nothing half-written);
+//! - [`supervisor`]: systemd readiness, watchdog and stopping notifications.
+//!
+//! Tasks that use the database outside the writer do so through `blocking::BlockingStore`
+//! (their own connection on the blocking pool, reopened when lost).
+//!
+//! [`run`] opens the store, starts the tasks and, once shutdown fires, stops them in order:
+//! stop polling (an open outage is recorded as a gap), close the channel, let the writer commit
+//! its last batch, then run the detector once more over everything stored. Errors in the
+//! detector or worker are logged and retried; they never stop acquisition. This module holds
+//! no business logic of its own.
+
+pub mod acquisition;
+mod blocking;
+pub mod detector;
+pub mod diagnosis;
+pub mod supervisor;
+pub mod writer;
+
+pub use acquisition::AcquisitionTask;
+pub use detector::{detector_store_options, DetectorTask, DETECTOR_CACHE_MIB};
+pub use diagnosis::DiagnosisTask;
+pub use supervisor::Supervisor;
+pub use writer::WriterTask;
+
+use crate::acquire::modbus::{PollProgress, PollStats};
+use crate::acquire::register_map::ModbusConfig;
+use crate::config::Config;
+use crate::detect::ScanReport;
+use crate::shutdown::Shutdown;
+use crate::store::{Gap, Store, StoreError, TagId, TagInfo, WriteCmd, WriterStats};
+use crate::worker::{AfterResult, DrainReport, WorkerContext};
+use blocking::{BlockingError, BlockingStore};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+use tokio::sync::{mpsc, Notify};
+use tokio::task::JoinHandle;
+
+/// Daemon failures that stop it (anything else is logged and survived).
+#[derive(Debug, thiserror::Error)]
+pub enum DaemonError {
+    #[error("opening the database: {0}")]
+    Store(#[from] StoreError),
+    #[error("register map: {0}")]
+    Plan(String),
+    #[error("writer task failed: {0}")]
+    Writer(String),
+}
+
+/// Options that are not configuration: how the daemon talks to its supervisor.
+#[derive(Clone, Default)]
+pub struct RunOptions {
+    /// Send sd_notify messages (READY, WATCHDOG, STOPPING). Off in tests.
+    pub systemd_notify: bool,
+    /// Shared progress counters (benchmarks and tests watch them); created if `None`.
+    pub progress: Option<Arc<PollProgress>>,
+    /// The diagnosis worker's engine and settings; `None`: no diagnosis in this run.
+    pub worker: Option<Arc<WorkerContext>>,
+    /// Called after each stored diagnosis outcome (trends, washes, advice).
+    pub after_result: Option<AfterResult>,
+}
+
+/// What the daemon did, returned at shutdown.
+#[derive(Debug, Clone, Default)]
+pub struct RunReport {
+    pub poll: PollStats,
+    pub writer: WriterStats,
+    /// Detector scans that succeeded / failed.
+    pub scans_ok: u64,
+    pub scans_failed: u64,
+    /// The final scan at shutdown.
+    pub last_scan: Option<ScanReport>,
+    /// What the diagnosis worker did.
+    pub diagnosis: DrainReport,
+}
+
+/// Runs the daemon until `shutdown` fires. `cfg` must have passed [`Config::check`].
+pub async fn run(
+    cfg: Config,
+    shutdown: Shutdown,
+    opts: RunOptions,
+) -> Result<RunReport, DaemonError> {
+    let opened = open_store(&cfg).await?;
+    tracing::info!(
+        plant = %cfg.plant.name,
+        db = %cfg.storage.path.display(),
+        tags = opened.tags.len(),
+        "gtwatch daemon starting"
+    );
+    let (tx, rx) = mpsc::channel::<WriteCmd>(cfg.daemon.queue_capacity.max(1));
+    let writer = tokio::spawn(
+        WriterTask {
+            store: opened.store,
+            rx,
+            cfg: cfg.storage.writer(),
+        }
+        .run(shutdown.clone()),
+    );
+    record_restart(&tx, &cfg, opened.last_stored_ms).await;
+    let progress = opts.progress.clone().unwrap_or_default();
+    let tasks = Running::start(&cfg, &opts, &opened.tags, tx, &progress, &shutdown, writer)?;
+    Supervisor {
+        systemd_notify: opts.systemd_notify,
+        progress: Arc::clone(&progress),
+        acquiring: tasks.acquisition.is_some(),
+    }
+    .run(shutdown)
+    .await;
+    tasks.stop(&progress).await
+}
+
+/// The writable store the writer will own, with what the start needs from it.
+struct Opened {
+    store: Store,
+    /// Tag ids of the register map's fields, in map order.
+    tags: Vec<TagId>,
+    /// Time of the newest stored sample of those tags (the previous run's last).
+    last_stored_ms: Option<i64>,
+}
+
+/// Opens the store (on the blocking pool), creates the register map's tags and finds the
+/// previous run's last sample.
+async fn open_store(cfg: &Config) -> Result<Opened, DaemonError> {
+    let mut blocking = BlockingStore::new(cfg.storage.path.clone(), cfg.storage.options());
+    let map = cfg.modbus.clone();
+    let (tags, last_stored_ms) = blocking
+        .run(move |store| {
+            let tags = ensure_tags(store, map.as_ref())?;
+            let last = store.last_sample_ms(&tags)?;
+            Ok::<_, StoreError>((tags, last))
+        })
+        .await
+        .map_err(|e| match e {
+            BlockingError::Open(e) | BlockingError::Work(e) => DaemonError::Store(e),
+            BlockingError::Panicked(e) => DaemonError::Writer(e.to_string()),
+        })?;
+    let store = blocking
+        .into_store()
+        .ok_or_else(|| DaemonError::Writer("the store connection was lost at start".into()))?;
+    Ok(Opened {
+        store,
+        tags,
+        last_stored_ms,
+    })
+}
+
+/// Whatever stopped the previous run (SIGTERM, kill -9, a crash, a reboot), the time between
+/// its last stored sample and this run's first one had no acquisition: a gap.
+async fn record_restart(tx: &mpsc::Sender<WriteCmd>, cfg: &Config, last_stored_ms: Option<i64>) {
+    if let (Some(last), Some(_)) = (last_stored_ms, &cfg.modbus) {
+        let _ = tx
+            .send(WriteCmd::GapUntilNextSample(Gap {
+                start_ms: last,
+                end_ms: last,
+                source: "daemon".to_string(),
+                reason: "daemon_restart".to_string(),
+            }))
+            .await;
+    }
+}
+
+/// The running tasks.
+struct Running {
+    acquisition: Option<JoinHandle<PollStats>>,
+    writer: JoinHandle<Result<WriterStats, StoreError>>,
+    detector: JoinHandle<DetectorTask>,
+    diagnosis: Option<JoinHandle<DrainReport>>,
+}
+
+impl Running {
+    /// Spawns acquisition (which takes `tx`), the detector and the diagnosis worker.
+    fn start(
+        cfg: &Config,
+        opts: &RunOptions,
+        tags: &[TagId],
+        tx: mpsc::Sender<WriteCmd>,
+        progress: &Arc<PollProgress>,
+        shutdown: &Shutdown,
+        writer: JoinHandle<Result<WriterStats, StoreError>>,
+    ) -> Result<Running, DaemonError> {
+        let acquisition = AcquisitionTask::from_config(cfg, tags, tx, Arc::clone(progress))?
+            .map(|task| tokio::spawn(task.run(shutdown.clone())));
+        let db_path: PathBuf = cfg.storage.path.clone();
+        let task_opts = detector_store_options(&cfg.storage.options());
+        let wake = Arc::new(Notify::new());
+        let detector = tokio::spawn(
+            DetectorTask::new(
+                db_path.clone(),
+                task_opts,
+                cfg.detector.clone(),
+                Duration::from_millis(cfg.daemon.detect_interval_ms),
+                Arc::clone(&wake),
+            )
+            .run(shutdown.clone()),
+        );
+        let diagnosis = match (cfg.diagnosis.enabled, opts.worker.clone()) {
+            (true, Some(ctx)) => Some(tokio::spawn(
+                DiagnosisTask {
+                    db_path,
+                    store_opts: task_opts,
+                    after_result: opts
+                        .after_result
+                        .clone()
+                        .or_else(|| Some(crate::advice::hook(Arc::clone(&ctx), cfg.wash))),
+                    ctx,
+                    wake,
+                }
+                .run(shutdown.clone()),
+            )),
+            _ => None,
+        };
+        Ok(Running {
+            acquisition,
+            writer,
+            detector,
+            diagnosis,
+        })
+    }
+
+    /// After shutdown: stop acquisition, let the writer commit its last batch, scan once more,
+    /// wait for the diagnosis worker.
+    async fn stop(self, progress: &PollProgress) -> Result<RunReport, DaemonError> {
+        let mut report = RunReport::default();
+        tracing::info!("shutting down: stopping acquisition");
+        if let Some(p) = self.acquisition {
+            report.poll = p.await.unwrap_or_else(|e| {
+                tracing::error!("acquisition task failed: {e}");
+                progress.snapshot()
+            });
+        }
+        report.writer = self
+            .writer
+            .await
+            .map_err(|e| DaemonError::Writer(e.to_string()))?
+            .map_err(|e| DaemonError::Writer(e.to_string()))?;
+        log_totals(&report);
+        // Final scan over everything stored; segments it closes stay pending for the next start.
+        match self.detector.await {
+            Ok(mut det) => {
+                report.last_scan = det.scan_once().await;
+                report.scans_ok = det.scans_ok;
+                report.scans_failed = det.scans_failed;
+            }
+            Err(e) => tracing::error!("detector task failed: {e}"),
+        }
+        if let Some(w) = self.diagnosis {
+            match w.await {
+                Ok(d) => report.diagnosis = d,
+                Err(e) => tracing::error!("diagnosis task failed: {e}"),
+            }
+        }
+        Ok(report)
+    }
+}
+
+/// The writer's and the poll loop's totals, logged at shutdown.
+fn log_totals(report: &RunReport) {
+    tracing::info!(
+        inserted = report.writer.samples_inserted,
+        gaps = report.writer.gaps,
+        write_errors = report.writer.write_errors,
+        samples_dropped = report.writer.samples_dropped,
+        "last batch committed"
+    );
+    tracing::info!(
+        polled = report.poll.samples,
+        flagged = report.poll.flagged,
+        stuck = report.poll.stuck,
+        spike = report.poll.spike,
+        out_of_range_or_bad = report
+            .poll
+            .flagged
+            .saturating_sub(report.poll.stuck + report.poll.spike),
+        "polled samples by quality code"
+    );
+}
+
+/// Tag ids for every register-map field, in map order (creating tags as needed).
+fn ensure_tags(store: &mut Store, map: Option<&ModbusConfig>) -> Result<Vec<TagId>, StoreError> {
+    let Some(map) = map else {
+        return Ok(Vec::new());
+    };
+    map.fields()
+        .map(|(_, f)| {
+            store.ensure_tag(&TagInfo {
+                name: f.name.clone(),
+                unit: f.unit.clone(),
+                signal: f.signal,
+            })
+        })
+        .collect()
+}

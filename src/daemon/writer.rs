@@ -1,0 +1,26 @@
+//! The writer task: the one owner of the daemon's writable connection for samples and gaps
+//! (`store::run_writer`), fed by acquisition over the bounded channel.
+//!
+//! Unlike the other tasks it does not stop when shutdown fires: acquisition sends its last
+//! samples and the gap of an outage still open after shutdown, so the writer runs until every
+//! sender is gone, commits what it holds and returns. Must not decide what to store (that is
+//! its senders') or hold SQL (that is the store's).
+
+use crate::shutdown::Shutdown;
+use crate::store::{run_writer, Store, StoreError, WriteCmd, WriterConfig, WriterStats};
+use tokio::sync::mpsc;
+
+/// The writer task (mini-redis shape: a small struct with its own `run`).
+pub struct WriterTask {
+    pub store: Store,
+    pub rx: mpsc::Receiver<WriteCmd>,
+    pub cfg: WriterConfig,
+}
+
+impl WriterTask {
+    /// Writes until the channel closes (after shutdown, once acquisition has ended).
+    /// `_shutdown` is taken for the tasks' common shape and deliberately not waited on.
+    pub async fn run(self, _shutdown: Shutdown) -> Result<WriterStats, StoreError> {
+        run_writer(self.store, self.rx, self.cfg).await
+    }
+}
