@@ -323,6 +323,8 @@ fn in_parallel<J: Sync, R: Send>(
 /// candidate instances `candidates`. Without a holdout the candidates are scored by blocked
 /// cross-validation ([`Scoring::BlockedCv`]). The fits after the baseline run in parallel on
 /// `cfg.threads` workers (all cores by default).
+// TODO(issue 27): split into named stages (baseline and aliases, screen, scoring, verdict).
+#[allow(clippy::too_many_lines)]
 pub fn analyse(
     engine: &Engine,
     rec: &Recording,
