@@ -6,61 +6,28 @@
 
 mod common;
 
-use gtwatch::detect::{scan, DetectorConfig};
-use gtwatch::engine::sensors::MeasurementOptions;
-use gtwatch::engine::simulation::run_scenario;
-use gtwatch::engine::{Engine, Scenario, Trace};
 use gtwatch::health::HealthParams;
-use gtwatch::quality::Quality;
-use gtwatch::signals::Signal;
-use gtwatch::store::{Sample, Store, TagInfo};
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+/// (diagnoses rows, undiagnosable rows, status of the one segment, integrity check)
+/// The start-up this test stores (see `common::store_startup`).
 fn store_startup(db: &Path) {
-    let engine = Engine::reference().expect("engine");
-    let h = HealthParams {
-        D_GC: 2.0,
-        D_EC: 0.8,
-        D_GT: 0.6,
-        D_ET: 0.4,
-        D_GP: 0.3,
-        D_EP: 0.4,
-    };
-    let (samples, _) =
-        run_scenario(&engine.model(&h), &Scenario::startup(engine.cfg())).expect("runs");
-    let o = MeasurementOptions {
-        lags: true,
-        noise: true,
-        bias: false,
-        seed: 3,
-    };
-    let t = Trace::from_truth(&engine, &samples, Some(&o));
-    let mut store = Store::open(db).expect("open");
-    let ids: Vec<i64> = Signal::ALL
-        .iter()
-        .map(|s| store.ensure_tag(&TagInfo::for_signal(*s)).expect("tag"))
-        .collect();
-    let mut batch = Vec::new();
-    for k in 0..t.len() {
-        for (i, s) in Signal::ALL.iter().enumerate() {
-            let v = t.measured[k][s.index()];
-            if v.is_finite() {
-                batch.push(Sample {
-                    tag: ids[i],
-                    t_ms: 1_700_000_000_000 + (t.t_s[k] * 1000.0).round() as i64,
-                    value: v,
-                    quality: Quality::Good,
-                });
-            }
-        }
-    }
-    store.insert_samples(&batch).expect("insert");
-    scan(&mut store, &DetectorConfig::default()).expect("scan");
+    common::store_startup(
+        db,
+        &HealthParams {
+            D_GC: 2.0,
+            D_EC: 0.8,
+            D_GT: 0.6,
+            D_ET: 0.4,
+            D_GP: 0.3,
+            D_EP: 0.4,
+        },
+        3,
+    );
 }
 
-/// (diagnoses rows, undiagnosable rows, status of the one segment, integrity check)
 fn state(db: &Path) -> (i64, i64, String, String) {
     let c = rusqlite::Connection::open(db).expect("open");
     let n = |sql: &str| -> i64 { c.query_row(sql, [], |r| r.get(0)).expect("count") };

@@ -245,3 +245,65 @@ pub fn sample_count(db: &rusqlite::Connection) -> u64 {
 pub fn polled_not_stored(polled: u64, db: &rusqlite::Connection) -> u64 {
     polled.saturating_sub(sample_count(db))
 }
+
+/// Uid of `nobody`: root ignores permission bits, so read-only tests run the binary as it.
+pub const NOBODY: u32 = 65_534;
+
+/// Whether this process runs as root (effective uid 0).
+pub fn running_as_root() -> bool {
+    let status = std::fs::read_to_string("/proc/self/status").expect("proc status");
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("Uid:"))
+        .and_then(|l| l.split_whitespace().nth(1))
+        .is_some_and(|euid| euid == "0")
+}
+
+/// Sets a file's or directory's permission bits.
+pub fn chmod(p: &Path, mode: u32) {
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(p, std::fs::Permissions::from_mode(mode)).expect("chmod");
+}
+
+/// One simulated start-up of the reference engine at `health` (noise seeded by `seed`), stored
+/// in `db` with good quality and detected: one closed segment, pending diagnosis.
+pub fn store_startup(db: &Path, health: &gtwatch::health::HealthParams, seed: u64) {
+    use gtwatch::detect::{scan, DetectorConfig};
+    use gtwatch::engine::sensors::MeasurementOptions;
+    use gtwatch::engine::simulation::run_scenario;
+    use gtwatch::engine::{Engine, Scenario, Trace};
+    use gtwatch::quality::Quality;
+    use gtwatch::signals::Signal;
+    use gtwatch::store::{Sample, Store, TagInfo};
+    let engine = Engine::reference().expect("engine");
+    let (samples, _) =
+        run_scenario(&engine.model(health), &Scenario::startup(engine.cfg())).expect("runs");
+    let o = MeasurementOptions {
+        lags: true,
+        noise: true,
+        bias: false,
+        seed,
+    };
+    let t = Trace::from_truth(&engine, &samples, Some(&o));
+    let mut store = Store::open(db).expect("open");
+    let ids: Vec<i64> = Signal::ALL
+        .iter()
+        .map(|s| store.ensure_tag(&TagInfo::for_signal(*s)).expect("tag"))
+        .collect();
+    let mut batch = Vec::new();
+    for k in 0..t.len() {
+        for (i, s) in Signal::ALL.iter().enumerate() {
+            let v = t.measured[k][s.index()];
+            if v.is_finite() {
+                batch.push(Sample {
+                    tag: ids[i],
+                    t_ms: 1_700_000_000_000 + (t.t_s[k] * 1000.0).round() as i64,
+                    value: v,
+                    quality: Quality::Good,
+                });
+            }
+        }
+    }
+    store.insert_samples(&batch).expect("insert");
+    scan(&mut store, &DetectorConfig::default()).expect("scan");
+}
