@@ -451,3 +451,48 @@ fn a_column_in_the_wrong_unit_is_named() {
         "{err}"
     );
 }
+
+/// A row the model has no steady point for (fuel 1 % of design: an idle point below what the
+/// maps reach) is left out with its reason, in JSON and text; the group is still diagnosed.
+#[test]
+fn a_row_without_a_steady_point_is_left_out_with_its_reason() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let snaps = dir.path().join("snapshots.csv");
+    write_snapshots(&snaps, &[("2026-01-10", HealthParams::HEALTHY)]);
+    let idle = alter_column(&snaps, "FUEL", |line, _| {
+        (line == 3).then(|| "0.01".to_string())
+    });
+    let csv = dir.path().join("idle.csv");
+    std::fs::write(&csv, idle.join("\n")).expect("write");
+    let map = "t1_k=T_inlet,p_amb_kpa=P_baro,n1_rpm=NGG,n2_rpm=NPT,t2_k=T_cdp,p2_kpa=P_cdp,\
+               t34_k=T_egt,p34_kpa=P_hpt,fuel_kg_s=FUEL,power_mw=MW";
+    let run = |json: bool| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_gtwatch"));
+        c.args(["diagnose", "--method", "steady", "--input"])
+            .arg(&csv)
+            .args(["--group-by", "day", "--map", map]);
+        if json {
+            c.arg("--json");
+        }
+        c.output().expect("runs")
+    };
+    let out = run(true);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
+    let g = &v["groups"][0];
+    assert_eq!(g["dropped_lines"], serde_json::json!([3]), "{g}");
+    let reason = g["dropped"][0]["reason"].as_str().expect("reason");
+    assert!(
+        reason.contains("no steady point") && reason.contains("idle or light-load"),
+        "{reason}"
+    );
+    let text = String::from_utf8_lossy(&run(false).stdout).to_string();
+    assert!(
+        text.contains("line 3 not used: the model has no steady point"),
+        "{text}"
+    );
+}

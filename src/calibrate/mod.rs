@@ -134,6 +134,8 @@ pub struct Calibration {
     pub rms_after: f64,
     /// Snapshot lines whose healthy solve failed (not used).
     pub dropped_lines: Vec<u64>,
+    /// The same rows with the reason each was left out.
+    pub dropped: Vec<crate::diagnosis::snapshot::DroppedRow>,
     /// How rows' ambient pressures were obtained, where not from an ambient column.
     pub assumptions: Vec<String>,
     pub lm_iterations: usize,
@@ -228,8 +230,12 @@ pub fn calibrate(
     let prepared = prepare(engine, rows);
     if prepared.points.is_empty() {
         return Err(CalibrateError::Data(format!(
-            "no snapshot could be solved on the healthy model (lines {:?})",
-            prepared.dropped_lines
+            "no snapshot could be solved on the healthy model (lines {:?}; first: {})",
+            prepared.dropped_lines,
+            prepared
+                .dropped
+                .first()
+                .map_or(String::new(), |d| d.reason.clone())
         )));
     }
     let pool = thread_pool(settings.threads).map_err(|e| CalibrateError::Optim(e.to_string()))?;
@@ -421,6 +427,7 @@ pub fn calibrate(
         rms_before: rms(&r0),
         rms_after: rms(&r1),
         dropped_lines: prepared.dropped_lines,
+        dropped: prepared.dropped,
         assumptions: prepared.assumptions,
         lm_iterations: iterations,
         lm_stop: stop,

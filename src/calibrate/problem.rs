@@ -22,7 +22,7 @@
 use super::candidates::{offset_key, Candidate};
 use super::startup::RestReading;
 use super::CalibrateError;
-use crate::diagnosis::snapshot::{steady_data, Snapshot};
+use crate::diagnosis::snapshot::{steady_data, DroppedRow, Snapshot};
 use crate::diagnosis::steady::{steady_reading, SteadyData};
 use crate::engine::load::PtLoadLaw;
 use crate::engine::sensors::noise_sigma;
@@ -85,6 +85,8 @@ pub struct CalibrationProblem {
 pub struct PreparedPoints {
     pub points: Vec<CalibrationPoint>,
     pub dropped_lines: Vec<u64>,
+    /// The same rows with the reason each was left out.
+    pub dropped: Vec<DroppedRow>,
     pub assumptions: Vec<String>,
     /// Whether some row's ambient pressure came from P1 through the model's inlet loss (which
     /// the data then cannot inform).
@@ -97,6 +99,7 @@ pub fn prepare(engine: &Engine, rows: &[Snapshot]) -> PreparedPoints {
     let mut out = PreparedPoints {
         points: Vec::new(),
         dropped_lines: Vec::new(),
+        dropped: Vec::new(),
         assumptions: Vec::new(),
         ambient_from_p1: false,
     };
@@ -105,12 +108,18 @@ pub fn prepare(engine: &Engine, rows: &[Snapshot]) -> PreparedPoints {
             out.ambient_from_p1 = true;
         }
         match steady_data(engine, &HealthParams::HEALTHY, r, i, &mut out.assumptions) {
-            Some(data) => out.points.push(CalibrationPoint {
+            Ok(data) => out.points.push(CalibrationPoint {
                 line: r.line,
                 source: r.group.clone(),
                 data,
             }),
-            None => out.dropped_lines.push(r.line),
+            Err(reason) => {
+                out.dropped_lines.push(r.line);
+                out.dropped.push(DroppedRow {
+                    line: r.line,
+                    reason,
+                });
+            }
         }
     }
     out

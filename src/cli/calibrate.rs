@@ -238,11 +238,8 @@ fn print_text(report: &Calibration, wall_s: f64) {
     for a in &report.assumptions {
         println!("note: {a}");
     }
-    if !report.dropped_lines.is_empty() {
-        println!(
-            "lines not used (healthy steady solve failed): {:?}",
-            report.dropped_lines
-        );
+    for d in &report.dropped {
+        println!("line {} not used: {}", d.line, d.reason);
     }
     println!(
         "RMS residual {:.2} σ → {:.2} σ ({} LM iteration(s), {} model runs, {:.1} s)",

@@ -65,6 +65,7 @@ pub fn run(
                     o.insert("group".into(), json!(g.group));
                     o.insert("lines".into(), json!(g.lines));
                     o.insert("dropped_lines".into(), json!(g.dropped_lines));
+                    o.insert("dropped".into(), json!(g.dropped));
                     o.insert("assumptions".into(), json!(g.assumptions));
                     o.insert("residual_table".into(), json!(g.residual_table));
                 }
@@ -92,6 +93,9 @@ pub fn run(
             println!("group {} (lines {:?})", g.group, g.lines);
             for s in &g.assumptions {
                 println!("  note: {s}");
+            }
+            for d in &g.dropped {
+                println!("  line {} not used: {}", d.line, d.reason);
             }
             print_text(Method::Steady, &g.result);
             if !g.residual_table.rows.is_empty() {

@@ -220,6 +220,8 @@ pub struct SnapshotGroup {
     pub lines: Vec<u64>,
     /// Rows whose healthy steady solve failed (dropped), by line.
     pub dropped_lines: Vec<u64>,
+    /// The same rows with the reason each was left out.
+    pub dropped: Vec<DroppedRow>,
     /// How each row's ambient pressure was obtained, when not from the ambient column.
     pub assumptions: Vec<String>,
     pub result: MethodResult,
@@ -274,15 +276,39 @@ pub struct FailedGroup {
     pub reason: String,
 }
 
-/// The steady point of one snapshot: inputs for the solver and the compared values with 1σ.
-/// `None` when its healthy solve fails.
+/// A snapshot row left out, and why.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DroppedRow {
+    pub line: u64,
+    pub reason: String,
+}
+
+/// Why the model has no steady point for `snap`, in words a plant engineer can act on.
+fn unsolved(engine: &Engine, snap: &Snapshot, e: &impl std::fmt::Display) -> String {
+    let design_fuel = engine.design().fuel_kg_s.max(1e-9);
+    let share = snap.fuel_kg_s / design_fuel;
+    let hint = if share < 0.25 {
+        format!(
+            " (fuel {:.3} kg/s is {:.0} % of the design fuel flow: an idle or light-load point \
+             the maps may not reach; leave it out or add maps that cover it)",
+            snap.fuel_kg_s,
+            100.0 * share
+        )
+    } else {
+        String::new()
+    };
+    format!("the model has no steady point for this row: {e}{hint}")
+}
+
+/// The steady point of one snapshot: inputs for the solver and the compared values with 1σ,
+/// or why its healthy solve fails.
 pub(crate) fn steady_data(
     engine: &Engine,
     base: &HealthParams,
     snap: &Snapshot,
     index: usize,
     assumptions: &mut Vec<String>,
-) -> Option<SteadyData> {
+) -> Result<SteadyData, String> {
     let cfg = engine.cfg();
     let mut inputs = SteadyInputs {
         t_amb_k: snap.t_amb_k,
@@ -301,7 +327,7 @@ pub(crate) fn steady_data(
             // Ambient from the measured compressor inlet pressure and the model's inlet loss.
             inputs.p_amb_kpa = p1;
             let m = engine.model_at(base, inputs.t_amb_k, inputs.p_amb_kpa);
-            let sp = solve(&m, &inputs, None).ok()?;
+            let sp = solve(&m, &inputs, None).map_err(|e| unsolved(engine, snap, &e))?;
             let ratio = sp.stations.p1_kpa / inputs.p_amb_kpa;
             if ratio.is_finite() && ratio > 0.5 {
                 inputs.p_amb_kpa = p1 / ratio;
@@ -317,7 +343,7 @@ pub(crate) fn steady_data(
         )),
     }
     let m = engine.model_at(base, inputs.t_amb_k, inputs.p_amb_kpa);
-    solve(&m, &inputs, None).ok()?;
+    solve(&m, &inputs, None).map_err(|e| unsolved(engine, snap, &e))?;
     let outputs = snap
         .values
         .iter()
@@ -329,7 +355,7 @@ pub(crate) fn steady_data(
         })
         .collect();
     let t = snap.time_s.unwrap_or(snap.line as f64);
-    Some(SteadyData {
+    Ok(SteadyData {
         label: format!("snapshot at line {}", snap.line),
         window: SteadyWindow {
             start: index,
@@ -371,10 +397,17 @@ pub fn diagnose_snapshots(
         let mut assumptions = Vec::new();
         let mut points = Vec::new();
         let mut dropped = Vec::new();
+        let mut dropped_rows = Vec::new();
         for (i, r) in &members {
             match steady_data(engine, &cfg.base, r, *i, &mut assumptions) {
-                Some(p) => points.push(p),
-                None => dropped.push(r.line),
+                Ok(p) => points.push(p),
+                Err(reason) => {
+                    dropped.push(r.line);
+                    dropped_rows.push(DroppedRow {
+                        line: r.line,
+                        reason,
+                    });
+                }
             }
         }
         let start = std::time::Instant::now();
@@ -398,6 +431,7 @@ pub fn diagnose_snapshots(
                     group: g,
                     lines,
                     dropped_lines: dropped,
+                    dropped: dropped_rows,
                     assumptions,
                     result,
                     residual_table,
