@@ -153,7 +153,15 @@ fn settings(adapt: bool) -> CalibrationSettings {
 
 fn calibrated(model: &Engine, rows: &[Snapshot], adapt: bool) -> Engine {
     let cands = default_candidates(model).expect("candidates");
+    let started = std::time::Instant::now();
     let (report, engine) = calibrate(model, rows, &[], cands, &settings(adapt)).expect("calibrate");
+    eprintln!(
+        "  calibration on {} points{}: {:.1} s wall, {} model runs",
+        rows.len(),
+        if adapt { " with adaptation" } else { "" },
+        started.elapsed().as_secs_f64(),
+        report.model_runs
+    );
     if adapt {
         if let Some(a) = &report.adaptation {
             for c in &a.components {
