@@ -31,6 +31,7 @@ pub mod startup;
 pub mod synthetic;
 
 use crate::diagnosis::residual_table::{Cell, ResidualTable};
+use crate::diagnosis::snapshot::lines_of;
 use crate::diagnosis::snapshot::Snapshot;
 use crate::engine::Engine;
 use crate::optim::lm::jacobian_unit;
@@ -134,7 +135,8 @@ pub struct Calibration {
     pub rms_after: f64,
     /// Snapshot lines whose healthy solve failed (not used).
     pub dropped_lines: Vec<u64>,
-    /// The same rows with the reason each was left out.
+    /// The same rows with the reason each was left out (`dropped_lines` stays in the report
+    /// for readers of its JSON).
     pub dropped: Vec<crate::diagnosis::snapshot::DroppedRow>,
     /// How rows' ambient pressures were obtained, where not from an ambient column.
     pub assumptions: Vec<String>,
@@ -231,7 +233,7 @@ pub fn calibrate(
     if prepared.points.is_empty() {
         return Err(CalibrateError::Data(format!(
             "no snapshot could be solved on the healthy model (lines {:?}; first: {})",
-            prepared.dropped_lines,
+            lines_of(&prepared.dropped),
             prepared
                 .dropped
                 .first()
@@ -426,7 +428,7 @@ pub fn calibrate(
         table,
         rms_before: rms(&r0),
         rms_after: rms(&r1),
-        dropped_lines: prepared.dropped_lines,
+        dropped_lines: lines_of(&prepared.dropped),
         dropped: prepared.dropped,
         assumptions: prepared.assumptions,
         lm_iterations: iterations,

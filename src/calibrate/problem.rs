@@ -84,8 +84,7 @@ pub struct CalibrationProblem {
 #[derive(Debug, Clone, PartialEq)]
 pub struct PreparedPoints {
     pub points: Vec<CalibrationPoint>,
-    pub dropped_lines: Vec<u64>,
-    /// The same rows with the reason each was left out.
+    /// Rows whose healthy solve failed, with the reason each was left out.
     pub dropped: Vec<DroppedRow>,
     pub assumptions: Vec<String>,
     /// Whether some row's ambient pressure came from P1 through the model's inlet loss (which
@@ -98,7 +97,6 @@ pub struct PreparedPoints {
 pub fn prepare(engine: &Engine, rows: &[Snapshot]) -> PreparedPoints {
     let mut out = PreparedPoints {
         points: Vec::new(),
-        dropped_lines: Vec::new(),
         dropped: Vec::new(),
         assumptions: Vec::new(),
         ambient_from_p1: false,
@@ -113,13 +111,10 @@ pub fn prepare(engine: &Engine, rows: &[Snapshot]) -> PreparedPoints {
                 source: r.group.clone(),
                 data,
             }),
-            Err(reason) => {
-                out.dropped_lines.push(r.line);
-                out.dropped.push(DroppedRow {
-                    line: r.line,
-                    reason,
-                });
-            }
+            Err(reason) => out.dropped.push(DroppedRow {
+                line: r.line,
+                reason,
+            }),
         }
     }
     out

@@ -64,7 +64,10 @@ pub fn run(
                 if let Some(o) = v.as_object_mut() {
                     o.insert("group".into(), json!(g.group));
                     o.insert("lines".into(), json!(g.lines));
-                    o.insert("dropped_lines".into(), json!(g.dropped_lines));
+                    o.insert(
+                        "dropped_lines".into(),
+                        json!(crate::diagnosis::snapshot::lines_of(&g.dropped)),
+                    );
                     o.insert("dropped".into(), json!(g.dropped));
                     o.insert("assumptions".into(), json!(g.assumptions));
                     o.insert("residual_table".into(), json!(g.residual_table));

@@ -218,9 +218,7 @@ pub struct SnapshotGroup {
     pub group: String,
     /// File lines of the rows pooled.
     pub lines: Vec<u64>,
-    /// Rows whose healthy steady solve failed (dropped), by line.
-    pub dropped_lines: Vec<u64>,
-    /// The same rows with the reason each was left out.
+    /// Rows whose healthy steady solve failed, with the reason each was left out.
     pub dropped: Vec<DroppedRow>,
     /// How each row's ambient pressure was obtained, when not from the ambient column.
     pub assumptions: Vec<String>,
@@ -281,6 +279,11 @@ pub struct FailedGroup {
 pub struct DroppedRow {
     pub line: u64,
     pub reason: String,
+}
+
+/// The file lines of `rows`.
+pub fn lines_of(rows: &[DroppedRow]) -> Vec<u64> {
+    rows.iter().map(|d| d.line).collect()
 }
 
 /// Why the model has no steady point for `snap`, in words a plant engineer can act on.
@@ -397,17 +400,13 @@ pub fn diagnose_snapshots(
         let mut assumptions = Vec::new();
         let mut points = Vec::new();
         let mut dropped = Vec::new();
-        let mut dropped_rows = Vec::new();
         for (i, r) in &members {
             match steady_data(engine, &cfg.base, r, *i, &mut assumptions) {
                 Ok(p) => points.push(p),
-                Err(reason) => {
-                    dropped.push(r.line);
-                    dropped_rows.push(DroppedRow {
-                        line: r.line,
-                        reason,
-                    });
-                }
+                Err(reason) => dropped.push(DroppedRow {
+                    line: r.line,
+                    reason,
+                }),
             }
         }
         let start = std::time::Instant::now();
@@ -430,8 +429,7 @@ pub fn diagnose_snapshots(
                 report.groups.push(SnapshotGroup {
                     group: g,
                     lines,
-                    dropped_lines: dropped,
-                    dropped: dropped_rows,
+                    dropped,
                     assumptions,
                     result,
                     residual_table,
@@ -443,7 +441,10 @@ pub fn diagnose_snapshots(
                 reason: if dropped.is_empty() {
                     e.to_string()
                 } else {
-                    format!("{e} (healthy steady solve failed on lines {dropped:?})")
+                    format!(
+                        "{e} (healthy steady solve failed on lines {:?})",
+                        lines_of(&dropped)
+                    )
                 },
             }),
         }

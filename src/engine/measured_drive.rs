@@ -18,7 +18,7 @@ use super::simulation::{Controller, Simulation, StartState, TruthSample, Watch};
 use super::state::{Actuator, Shaft};
 use super::trace::Trace;
 use crate::health::HealthParams;
-use crate::recording::Recording;
+use crate::recording::{Recording, REST_N1_RPM};
 use crate::signals::{Phase, Signal};
 use std::sync::Arc;
 
@@ -206,9 +206,6 @@ impl Controller for MeasuredDrive {
     }
 }
 
-/// GG speed below which a sample still shows the engine as it stood before the start, rpm.
-const START_WINDOW_N1_RPM: f64 = 100.0;
-
 /// The state a segment starts from, read from its samples before the GG rises out of rest:
 /// each shaft's first measured speed (0 where none is measured), and the hot section's
 /// temperature as its thermocouples show it at rest (T34, else T4; the mean over that window,
@@ -219,7 +216,7 @@ pub fn start_state_of(seg: &Recording, t_amb_k: f64) -> StartState {
     let n1 = seg.series(Signal::N1);
     let window = n1
         .iter()
-        .position(|v| v.is_finite() && *v > START_WINDOW_N1_RPM)
+        .position(|v| v.is_finite() && *v > REST_N1_RPM)
         .unwrap_or(n1.len())
         .max(1);
     let rest_values = |s: Signal| -> Vec<f64> {
@@ -330,7 +327,7 @@ mod tests {
         let rises = seg
             .series(Signal::N1)
             .iter()
-            .position(|v| *v > START_WINDOW_N1_RPM)
+            .position(|v| *v > REST_N1_RPM)
             .expect("the GG rises");
         for k in 0..rises {
             seg.set(k, Signal::N2, 950.0 - k as f64).expect("set");
