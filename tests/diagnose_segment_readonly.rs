@@ -12,7 +12,7 @@ mod common;
 use gtwatch::health::HealthParams;
 use std::os::unix::process::CommandExt;
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use common::{chmod, running_as_root, NOBODY};
@@ -166,35 +166,6 @@ fn diagnose_segment(db: &Path, cfg: &Path, segment: i64, as_nobody: bool) -> Str
     String::from_utf8(out.stdout).expect("utf-8")
 }
 
-fn sigterm(child: &mut Child) -> std::process::ExitStatus {
-    let ok = Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status()
-        .expect("kill");
-    assert!(ok.success());
-    let deadline = Instant::now() + Duration::from_secs(30);
-    loop {
-        if let Some(s) = child.try_wait().expect("wait") {
-            return s;
-        }
-        assert!(Instant::now() < deadline, "daemon did not stop in 30 s");
-        std::thread::sleep(Duration::from_millis(50));
-    }
-}
-
-fn listing(p: &Path) -> Vec<(String, u64)> {
-    let mut v: Vec<(String, u64)> = std::fs::read_dir(p)
-        .expect("ls")
-        .map(|e| {
-            let e = e.expect("entry");
-            let len = e.metadata().expect("meta").len();
-            (e.file_name().to_string_lossy().into_owned(), len)
-        })
-        .collect();
-    v.sort();
-    v
-}
-
 #[test]
 fn diagnose_segment_reproduces_the_stored_result_beside_a_daemon_and_on_a_read_only_file() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -244,17 +215,17 @@ fn diagnose_segment_reproduces_the_stored_result_beside_a_daemon_and_on_a_read_o
         "daemon still runs"
     );
     assert_eq!(beside, (rows.clone(), hash.clone()));
-    assert!(sigterm(&mut daemon).success());
+    assert!(common::sigterm(&mut daemon).success());
 
     // Directory and file read-only (and not ours when root): the same result again, and the
     // directory is left exactly as it was (no -wal, no -shm, no journal created).
     chmod(&db, 0o444);
     chmod(&dbdir, 0o555);
-    let before = listing(&dbdir);
+    let before = common::dir_listing(&dbdir);
     // The daemon closed cleanly: no -wal or -shm left, so SQLite has none to read through.
     assert_eq!(before.len(), 1, "{before:?}");
     let read_only = printed(&diagnose_segment(&db, &cfg, segment, true));
-    assert_eq!(listing(&dbdir), before);
+    assert_eq!(common::dir_listing(&dbdir), before);
     chmod(&dbdir, 0o755);
     chmod(&db, 0o644);
     assert_eq!(read_only, (rows, hash));

@@ -116,19 +116,6 @@ fn create_db(s: &Setup) {
     assert!(status.success());
 }
 
-fn dir_listing(p: &Path) -> Vec<(String, u64)> {
-    let mut v: Vec<(String, u64)> = std::fs::read_dir(p)
-        .expect("ls")
-        .map(|e| {
-            let e = e.expect("entry");
-            let len = e.metadata().expect("meta").len();
-            (e.file_name().to_string_lossy().into_owned(), len)
-        })
-        .collect();
-    v.sort();
-    v
-}
-
 fn commands(s: &Setup) -> Vec<(&'static str, Vec<&Path>)> {
     vec![
         (
@@ -159,7 +146,7 @@ fn immutable(db: &Path) -> rusqlite::Connection {
 }
 
 fn assert_fails_naming_the_db(s: &Setup, what: &str, class: &str) {
-    let before = dir_listing(&s.dbdir);
+    let before = common::dir_listing(&s.dbdir);
     let samples_before = if s.db.exists() {
         common::sample_count(&immutable(&s.db))
     } else {
@@ -187,7 +174,7 @@ fn assert_fails_naming_the_db(s: &Setup, what: &str, class: &str) {
             "{name}: {err}"
         );
         assert_eq!(
-            dir_listing(&s.dbdir),
+            common::dir_listing(&s.dbdir),
             before,
             "{name} changed the directory"
         );

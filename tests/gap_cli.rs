@@ -11,6 +11,17 @@ fn gtwatch() -> Command {
     Command::new(env!("CARGO_BIN_EXE_gtwatch"))
 }
 
+/// The one JSON document a successful `gtwatch gap … --json` prints.
+fn json_of(out: std::io::Result<std::process::Output>) -> serde_json::Value {
+    let out = out.expect("gap runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("one JSON document")
+}
+
 #[test]
 fn a_slow_t34_thermocouple_is_found_and_named() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -76,14 +87,8 @@ fn a_slow_t34_thermocouple_is_found_and_named() {
         .arg(&unit)
         .arg("--svg")
         .arg(&svg)
-        .output()
-        .expect("gap runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
+        .output();
+    let v = json_of(out);
     assert_ne!(v["baseline_fit_quality"], "good", "{}", v["summary"]);
     let worst = v["localisation"]
         .as_array()
@@ -162,18 +167,13 @@ fn an_inlet_thermometer_error_is_never_passed_off_as_none() {
     }
     let csv = dir.path().join("t1_high.csv");
     std::fs::write(&csv, altered).expect("write");
-    let out = gtwatch()
-        .args(["gap", "--input"])
-        .arg(&csv)
-        .args(["--json"])
-        .output()
-        .expect("gap runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let v = json_of(
+        gtwatch()
+            .args(["gap", "--input"])
+            .arg(&csv)
+            .args(["--json"])
+            .output(),
     );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
     let verdict = v["verdict"]["effect"].as_str().expect("verdict");
     assert!(
         verdict == "ambiguous" || verdict == "inlet_temperature",

@@ -9,9 +9,10 @@
 //! model started cold reads the warm metal as turbine degradation.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-use gtwatch::engine::sensors::MeasurementOptions;
+mod common;
+
 use gtwatch::engine::simulation::run_scenario;
-use gtwatch::engine::{Engine, Scenario, Trace};
+use gtwatch::engine::{Engine, Scenario};
 use gtwatch::health::{HealthParams, HEALTH_NAMES};
 use std::path::Path;
 use std::process::Command;
@@ -29,38 +30,18 @@ fn truth(seed: u64) -> HealthParams {
     }
 }
 
-const DAY_S: f64 = 86_400.0;
-const T0_S: f64 = 1.7e9;
-
 /// One operations log per seed, a day apart, with the given engine; written as one CSV.
 fn write_log(engine: &Engine, seeds: &[u64], csv: &Path) {
-    let mut all: Option<Trace> = None;
-    for (day, &seed) in seeds.iter().enumerate() {
-        let model = engine.model(&truth(seed));
-        let (samples, _) = run_scenario(&model, &Scenario::operations(engine.cfg())).expect("runs");
-        let o = MeasurementOptions {
-            lags: true,
-            noise: true,
-            bias: false,
-            seed,
-        };
-        let mut t = Trace::from_truth(engine, &samples, Some(&o));
-        let shift = T0_S + DAY_S * day as f64;
-        t.t_s.iter_mut().for_each(|x| *x += shift);
-        match &mut all {
-            None => all = Some(t),
-            Some(a) => {
-                a.t_s.extend(t.t_s);
-                a.phase.extend(t.phase);
-                a.truth.extend(t.truth);
-                a.measured.extend(t.measured);
-            }
-        }
-    }
-    let f = std::fs::File::create(csv).expect("create");
-    all.expect("trace")
-        .write_csv(std::io::BufWriter::new(f))
-        .expect("write");
+    let runs = seeds
+        .iter()
+        .map(|&seed| {
+            let model = engine.model(&truth(seed));
+            let (samples, _) =
+                run_scenario(&model, &Scenario::operations(engine.cfg())).expect("runs");
+            (samples, seed)
+        })
+        .collect();
+    common::write_daily_log(engine, runs, csv);
 }
 
 fn run(args: &[&str], cfg: &Path) -> serde_json::Value {
@@ -94,14 +75,7 @@ fn replay_and_check(engine_file: Option<&str>, seeds: &[u64]) {
     let csv = dir.path().join("ops.csv");
     write_log(&engine, seeds, &csv);
     let db = dir.path().join("h.db");
-    let mut cfg = include_str!("../config/gtwatch.toml")
-        .replace(
-            "path = \"/var/lib/gtwatch/gtwatch.db\"",
-            &format!("path = {:?}", db.display().to_string()),
-        )
-        .replace("time_column = \"time\"", "time_column = \"time_s\"")
-        .replace("time_format = \"iso8601\"", "time_format = \"epoch_s\"")
-        .replace("threads = 1", "threads = 2");
+    let mut cfg = common::replay_config_text(&db);
     if engine_file.is_some() {
         cfg = cfg.replace(
             "# engine_model = \"engine.toml\"",

@@ -4,9 +4,10 @@
 //! `gtwatch history --format json`.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-use gtwatch::engine::sensors::MeasurementOptions;
+mod common;
+
 use gtwatch::engine::simulation::run_scenario;
-use gtwatch::engine::{Engine, Scenario, Trace};
+use gtwatch::engine::{Engine, Scenario};
 use gtwatch::health::{HealthParams, HEALTH_NAMES};
 use std::process::Command;
 
@@ -27,43 +28,18 @@ fn replayed_daily_startups_each_get_a_method_b_result_near_truth() {
     let dir = tempfile::tempdir().expect("tempdir");
     let engine = Engine::reference().expect("engine");
     let days = 3;
-    let mut all: Option<Trace> = None;
-    for day in 0..days {
-        let model = engine.model(&truth(day));
-        let (samples, _) = run_scenario(&model, &Scenario::startup(engine.cfg())).expect("runs");
-        let o = MeasurementOptions {
-            lags: true,
-            noise: true,
-            bias: false,
-            seed: 40 + day as u64,
-        };
-        let mut t = Trace::from_truth(&engine, &samples, Some(&o));
-        let shift = 1.7e9 + 86_400.0 * day as f64;
-        t.t_s.iter_mut().for_each(|x| *x += shift);
-        match &mut all {
-            None => all = Some(t),
-            Some(a) => {
-                a.t_s.extend(t.t_s);
-                a.phase.extend(t.phase);
-                a.truth.extend(t.truth);
-                a.measured.extend(t.measured);
-            }
-        }
-    }
+    let runs = (0..days)
+        .map(|day| {
+            let model = engine.model(&truth(day));
+            let (samples, _) =
+                run_scenario(&model, &Scenario::startup(engine.cfg())).expect("runs");
+            (samples, 40 + day as u64)
+        })
+        .collect();
     let csv = dir.path().join("days.csv");
-    let f = std::fs::File::create(&csv).expect("create");
-    all.expect("trace")
-        .write_csv(std::io::BufWriter::new(f))
-        .expect("write");
+    common::write_daily_log(&engine, runs, &csv);
     let db = dir.path().join("h.db");
-    let cfg = include_str!("../config/gtwatch.toml")
-        .replace(
-            "path = \"/var/lib/gtwatch/gtwatch.db\"",
-            &format!("path = {:?}", db.display().to_string()),
-        )
-        .replace("time_column = \"time\"", "time_column = \"time_s\"")
-        .replace("time_format = \"iso8601\"", "time_format = \"epoch_s\"")
-        .replace("threads = 1", "threads = 2");
+    let cfg = common::replay_config_text(&db);
     let cfg_path = dir.path().join("gtwatch.toml");
     std::fs::write(&cfg_path, cfg).expect("config");
 

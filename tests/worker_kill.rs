@@ -81,25 +81,6 @@ fn start_until_diagnosing(cfg: &Path) -> Child {
     child
 }
 
-fn sigterm(child: &mut Child) -> std::process::ExitStatus {
-    let ok = Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status()
-        .expect("kill");
-    assert!(ok.success());
-    let deadline = Instant::now() + Duration::from_secs(30);
-    loop {
-        if let Some(s) = child.try_wait().expect("wait") {
-            return s;
-        }
-        assert!(
-            Instant::now() < deadline,
-            "daemon did not stop within 30 s of SIGTERM"
-        );
-        std::thread::sleep(Duration::from_millis(50));
-    }
-}
-
 #[test]
 fn kill_during_diagnosis_leaves_nothing_half_written_and_restart_resumes() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -132,7 +113,7 @@ fn kill_during_diagnosis_leaves_nothing_half_written_and_restart_resumes() {
     let mut d = start_until_diagnosing(&cfg);
     std::thread::sleep(Duration::from_millis(500));
     let t = Instant::now();
-    let status = sigterm(&mut d);
+    let status = common::sigterm(&mut d);
     assert!(status.success(), "{status:?}");
     assert!(t.elapsed() < Duration::from_secs(15), "{:?}", t.elapsed());
     assert_eq!(state(&db), (0, 0, "closed".into(), "ok".into()));
@@ -145,7 +126,7 @@ fn kill_during_diagnosis_leaves_nothing_half_written_and_restart_resumes() {
         std::thread::sleep(Duration::from_millis(200));
     }
     std::thread::sleep(Duration::from_millis(200));
-    assert!(sigterm(&mut d).success());
+    assert!(common::sigterm(&mut d).success());
     let (n, _, status, ok) = state(&db);
     assert!(n >= 1, "{n}");
     assert_eq!((status.as_str(), ok.as_str()), ("diagnosed", "ok"));

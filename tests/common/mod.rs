@@ -307,3 +307,90 @@ pub fn store_startup(db: &Path, health: &gtwatch::health::HealthParams, seed: u6
     store.insert_samples(&batch).expect("insert");
     scan(&mut store, &DetectorConfig::default()).expect("scan");
 }
+
+/// Sends SIGTERM to `child` and waits up to 30 s for it to exit.
+pub fn sigterm(child: &mut std::process::Child) -> std::process::ExitStatus {
+    use std::time::{Duration, Instant};
+    let ok = std::process::Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .expect("kill");
+    assert!(ok.success());
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        if let Some(s) = child.try_wait().expect("wait") {
+            return s;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "daemon did not stop within 30 s of SIGTERM"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// A directory's entries with their sizes, sorted: what a read-only run must leave as it was.
+pub fn dir_listing(p: &Path) -> Vec<(String, u64)> {
+    let mut v: Vec<(String, u64)> = std::fs::read_dir(p)
+        .expect("ls")
+        .map(|e| {
+            let e = e.expect("entry");
+            let len = e.metadata().expect("meta").len();
+            (e.file_name().to_string_lossy().into_owned(), len)
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+/// Start of the first day of a replayed test log, epoch s (2023-11-14).
+pub const LOG_T0_S: f64 = 1.7e9;
+
+/// Noisy, lagged instrument traces of `runs` (each a simulated run's true samples), one a day
+/// from [`LOG_T0_S`], written as one CSV log at `path` in the `simulate` layout.
+pub fn write_daily_log(
+    engine: &gtwatch::engine::Engine,
+    runs: Vec<(Vec<gtwatch::engine::TruthSample>, u64)>,
+    path: &Path,
+) {
+    use gtwatch::engine::sensors::MeasurementOptions;
+    use gtwatch::engine::Trace;
+    let mut all: Option<Trace> = None;
+    for (day, (samples, seed)) in runs.into_iter().enumerate() {
+        let o = MeasurementOptions {
+            lags: true,
+            noise: true,
+            bias: false,
+            seed,
+        };
+        let mut t = Trace::from_truth(engine, &samples, Some(&o));
+        let shift = LOG_T0_S + 86_400.0 * day as f64;
+        t.t_s.iter_mut().for_each(|x| *x += shift);
+        match &mut all {
+            None => all = Some(t),
+            Some(a) => {
+                a.t_s.extend(t.t_s);
+                a.phase.extend(t.phase);
+                a.truth.extend(t.truth);
+                a.measured.extend(t.measured);
+            }
+        }
+    }
+    let f = std::fs::File::create(path).expect("create");
+    all.expect("at least one run")
+        .write_csv(std::io::BufWriter::new(f))
+        .expect("write");
+}
+
+/// The shipped config for replaying such a log into `db`: epoch-second `time_s` column,
+/// diagnosis on 2 threads.
+pub fn replay_config_text(db: &Path) -> String {
+    include_str!("../../config/gtwatch.toml")
+        .replace(
+            "path = \"/var/lib/gtwatch/gtwatch.db\"",
+            &format!("path = {:?}", db.display().to_string()),
+        )
+        .replace("time_column = \"time\"", "time_column = \"time_s\"")
+        .replace("time_format = \"iso8601\"", "time_format = \"epoch_s\"")
+        .replace("threads = 1", "threads = 2")
+}
