@@ -24,7 +24,7 @@ use super::startup::RestReading;
 use super::CalibrateError;
 use crate::diagnosis::snapshot::{steady_data, DroppedRow, Snapshot};
 use crate::diagnosis::steady::{steady_reading, SteadyData};
-use crate::engine::load::PtLoadLaw;
+use crate::engine::load::PtLoad;
 use crate::engine::sensors::noise_sigma;
 use crate::engine::steady::{solve, SteadyPoint};
 use crate::engine::Engine;
@@ -254,7 +254,7 @@ impl CalibrationProblem {
             for &(s, v, sd) in &p.data.outputs {
                 out.push((steady_reading(&m, &sp, s) - v) / sd);
             }
-            if let (Some(lp), Some(law)) = (law_point, PtLoadLaw::of(&m)) {
+            if let (Some(lp), Some(law)) = (law_point, PtLoad::of(&m)) {
                 let n2 = law.speed_for_power_rpm(lp.power_w / 1e6);
                 out.push((n2 - inp.n2_rpm) / lp.sigma_rpm);
             }
@@ -362,7 +362,7 @@ fn solve_all(
 fn law_point(engine: &Engine, p: &CalibrationPoint) -> Option<LawPoint> {
     let inp = &p.data.inputs;
     let m = engine.model_at(&HealthParams::HEALTHY, inp.t_amb_k, inp.p_amb_kpa);
-    let law = PtLoadLaw::of(&m)?;
+    let law = PtLoad::of(&m)?;
     let omega = inp.n2_rpm * std::f64::consts::PI / 30.0;
     let find = |s: Signal| {
         p.data
@@ -376,12 +376,13 @@ fn law_point(engine: &Engine, p: &CalibrationPoint) -> Option<LawPoint> {
         (None, Some((v, sd))) => (v * 1e3 * omega, sd * 1e3 * omega),
         (None, None) => return None,
     };
-    if !(power_w > 0.0 && inp.n2_rpm > 0.0 && law.exponent > 0.0) {
+    let exponent = law.local_exponent(inp.n2_rpm);
+    if !(power_w > 0.0 && inp.n2_rpm > 0.0 && exponent > 0.0) {
         return None;
     }
-    // n = n_d (P/P_d)^(1/k): dn/n = dP/(k P).
+    // n = n_d (P/P_d)^(1/k): dn/n = dP/(k P), k the curve's local exponent.
     let sd_speed = noise_sigma(&engine.cfg().sensors, Signal::N2, inp.n2_rpm);
-    let sd_from_power = inp.n2_rpm * sd_w / (law.exponent * power_w);
+    let sd_from_power = inp.n2_rpm * sd_w / (exponent * power_w);
     let sigma_rpm = (sd_speed * sd_speed + sd_from_power * sd_from_power).sqrt();
     (sigma_rpm > 0.0).then_some(LawPoint { power_w, sigma_rpm })
 }

@@ -19,8 +19,10 @@ pub struct SteadyArgs {
     /// GG speed, rpm.
     #[arg(long)]
     pub n1_rpm: Option<f64>,
-    /// PT speed, rpm (default: synchronous). With an engine-file load law (`[load] mode =
-    /// "load_law"`) only the first guess: the speed follows the load.
+    /// PT speed, rpm, held exactly in every load mode (a measured point reproduced at its
+    /// measured speed). Without it: synchronous speed for a generator or a measured-speed
+    /// load, and with a load curve (`[load] mode = "load_law"` or `"table"`) the speed at
+    /// which the load absorbs what the engine delivers.
     #[arg(long)]
     pub n2_rpm: Option<f64>,
     /// Ambient temperature, K (default: the engine file's ambient).
@@ -76,12 +78,25 @@ pub fn run(a: SteadyArgs) -> anyhow::Result<ExitCode> {
         n2_rpm: a.n2_rpm.unwrap_or(cfg.design.pt_speed_rpm),
         demand,
     };
-    // The engine file's load mode decides the PT speed (generator: --n2-rpm or design).
-    let (p, _) = crate::engine::load::solve(&model, cfg.load.as_ref(), &inputs, None)?;
+    // A given --n2-rpm is held; otherwise the engine file's load mode decides the PT speed.
+    let (p, load_mw) = match a.n2_rpm {
+        Some(n2) => {
+            if !(n2.is_finite() && n2 > 0.0) {
+                anyhow::bail!("--n2-rpm {n2} must be a positive speed");
+            }
+            let (p, _, load) = crate::engine::load::solve_at_speed(&model, &inputs, None)?;
+            (p, load)
+        }
+        None => {
+            let (p, _) = crate::engine::load::solve(&model, cfg.load.as_ref(), &inputs, None)?;
+            (p, crate::engine::load::load_power_mw(&model, p.n2_rpm))
+        }
+    };
     if a.json {
         let mut v = serde_json::to_value(p)?;
         if let Some(o) = v.as_object_mut() {
             o.insert("health".into(), serde_json::to_value(health)?);
+            o.insert("load_power_mw".into(), serde_json::to_value(load_mw)?);
             o.insert(
                 "demand".into(),
                 serde_json::Value::String(format!("{demand:?}")),
@@ -101,6 +116,18 @@ pub fn run(a: SteadyArgs) -> anyhow::Result<ExitCode> {
             println!("{name:>8} {t:>10.1} {pr:>10.2}");
         }
         println!("n1 {:.0} rpm, n2 {:.0} rpm", p.n1_rpm, p.n2_rpm);
+        if let Some(l) = load_mw {
+            println!(
+                "the engine file's load absorbs {l:.3} MW at this PT speed (engine delivers \
+                 {:.3} MW{})",
+                p.power_mw,
+                if a.n2_rpm.is_some() {
+                    ": PT speed held at --n2-rpm"
+                } else {
+                    ""
+                }
+            );
+        }
         println!(
             "air {:.2} kg/s, fuel {:.4} kg/s, exhaust {:.2} kg/s, power {:.2} MW, heat rate {:.0} kJ/kWh",
             p.air_flow_kg_s, p.fuel_kg_s, p.pt_flow_kg_s, p.power_mw, p.heat_rate_kj_kwh

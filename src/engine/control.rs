@@ -137,6 +137,40 @@ impl Series {
     pub fn value(&self, t: f64) -> f64 {
         interp(&self.t_s, &self.value, t)
     }
+
+    /// Slope of the piecewise-linear series at `t`, per second (0 outside its span).
+    pub fn slope(&self, t: f64) -> f64 {
+        let (xs, ys) = (&self.t_s, &self.value);
+        if xs.len() < 2 || t < xs[0] || t >= xs[xs.len() - 1] {
+            return 0.0;
+        }
+        let i = xs.partition_point(|&v| v <= t) - 1;
+        (ys[i + 1] - ys[i]) / (xs[i + 1] - xs[i])
+    }
+
+    /// The series smoothed by a centred moving average over `window_s` (time-weighted by the
+    /// sample spacing is not needed: recordings are sampled at a fixed rate).
+    pub fn smoothed(&self, window_s: f64) -> Series {
+        let n = self.t_s.len();
+        let mut out = Vec::with_capacity(n);
+        let (mut lo, mut hi, mut sum) = (0usize, 0usize, 0.0);
+        for i in 0..n {
+            let t = self.t_s[i];
+            while hi < n && self.t_s[hi] <= t + 0.5 * window_s {
+                sum += self.value[hi];
+                hi += 1;
+            }
+            while self.t_s[lo] < t - 0.5 * window_s {
+                sum -= self.value[lo];
+                lo += 1;
+            }
+            out.push(sum / (hi - lo) as f64);
+        }
+        Series {
+            t_s: self.t_s.clone(),
+            value: out,
+        }
+    }
 }
 
 /// A controller set-point: a ramp, or a measured series to follow.

@@ -12,19 +12,24 @@
 //! between the plenum and the HPT. The exhaust back-pressure and inlet loss follow the flow.
 //! Pure functions of (time, state, drive): no I/O, no hidden state.
 
-use super::control::{Feedback, FuelCommand, StarterCommand};
+use super::control::{Feedback, FuelCommand, Series, StarterCommand};
 use super::effects::{Context, CoreView};
 pub use super::gas_path::Stations;
 use super::gas_path::{self, Adjust, CompressorSetting, GasPath, HotSection, Inputs};
-use super::load::PtLoadLaw;
+use super::load::PtLoad;
 use super::model::Model;
 pub use super::state::{
     Scales, State, FAR_SCALE, IX_FAR, IX_FUEL_I, IX_N1, IX_N2, IX_P2, IX_P34, IX_T3, NX_CORE,
 };
 use std::f64::consts::PI;
+use std::sync::Arc;
 
 /// Speed below which torques are computed from power at this speed (rad/s), avoiding 1/ω.
 const OMEGA_MIN: f64 = 2.0;
+
+/// Time constant with which the model's PT speed is pulled onto an imposed (measured) speed
+/// trace, s: short against the trace's own changes, long against the integrator's steps.
+const PT_SPEED_TRACKING_TAU_S: f64 = 0.2;
 
 /// Everything outside the engine that drives it during one integration step.
 #[derive(Debug, Clone, PartialEq)]
@@ -38,7 +43,12 @@ pub struct Drive {
     /// A mechanical load on the PT (`[load] mode = "load_law"`): while the PT is not locked it
     /// absorbs `P_law(n2)`, and the station table's `power_mw` is that power. `None`: generator
     /// (an unloaded PT until the breaker closes; the core arithmetic is then unchanged).
-    pub pt_load: Option<PtLoadLaw>,
+    pub pt_load: Option<PtLoad>,
+    /// The PT speed the load imposes (`[load] mode = "measured_speed"`: the measured trace of a
+    /// recorded start-up, smoothed): while the breaker is open the model's PT follows it,
+    /// `dn2/dt = dn2_meas/dt + (n2_meas − n2)/τ`, and the station table's `power_mw` is what
+    /// the load takes, `P_PT,net − J2 ω dω/dt`. `None`: the PT speed is a free state.
+    pub pt_speed: Option<Arc<Series>>,
     /// Flame on (fuel burns). Without flame, fuel flow is zero.
     pub flame: bool,
 }
@@ -102,6 +112,7 @@ pub fn warm_standstill_state(
             starter: StarterCommand::Off,
             pt_locked: false,
             pt_load: None,
+            pt_speed: None,
             flame: false,
         };
         let core = core_view(model, 0.0, &y, &rest);
@@ -141,6 +152,8 @@ struct CoreRhs<'a> {
     wf_metered: f64,
     wf: f64,
     starter_tq: f64,
+    /// Power the PT's load takes while the breaker is open, W.
+    load_w: f64,
 }
 
 impl CoreRhs<'_> {
@@ -150,11 +163,9 @@ impl CoreRhs<'_> {
         st.fuel_kg_s = self.wf_metered;
         st.fuel_burnt_kg_s = self.wf;
         if !drive.pt_locked {
-            // Open breaker: no electrical power; a mechanical load absorbs its law's power.
-            st.power_mw = match &drive.pt_load {
-                None => 0.0,
-                Some(law) => law.power_w(st.n2_rpm) / 1e6,
-            };
+            // Open breaker: no electrical power; a mechanical load absorbs its curve's power,
+            // a speed-setting load what the PT delivers beyond accelerating itself.
+            st.power_mw = self.load_w / 1e6;
         }
         st.starter_torque_n_m = self.starter_tq;
         st
@@ -268,20 +279,23 @@ fn core_rhs<R>(
         dn1 = 0.0;
     }
 
-    // PT shaft: locked to the grid once the breaker closes; static friction until break-away;
-    // a mechanical load (load law) brakes it with P_law(n2)/ω.
+    // PT shaft: locked to the grid once the breaker closes; following the speed a load sets;
+    // static friction until break-away; a mechanical load brakes it with P_load(n2)/ω.
     let w2r = n2.max(0.0) * PI / 30.0;
-    let dn2 = if drive.pt_locked {
-        0.0
+    let (dn2, load_w) = if drive.pt_locked {
+        (0.0, 0.0)
+    } else if let Some(trace) = &drive.pt_speed {
+        let dn2 = trace.slope(t) + (trace.value(t) - n2) / PT_SPEED_TRACKING_TAU_S;
+        let accel_w = c.pt_inertia * w2r * dn2 * PI / 30.0;
+        (dn2, gp.pt_net_w - accel_w)
     } else {
         let mut tq2 = pt_gas_torque - c.pt_loss_w(n2.max(0.0)) / w2r.max(OMEGA_MIN);
-        if let Some(law) = &drive.pt_load {
-            tq2 -= law.power_w(n2) / w2r.max(OMEGA_MIN);
-        }
+        let load_w = drive.pt_load.as_ref().map_or(0.0, |l| l.power_w(n2));
+        tq2 -= load_w / w2r.max(OMEGA_MIN);
         if n2 <= 0.5 && pt_gas_torque < c.pt_breakaway_nm {
-            0.0
+            (0.0, load_w)
         } else {
-            tq2 / c.pt_inertia * 30.0 / PI
+            (tq2 / c.pt_inertia * 30.0 / PI, load_w)
         }
     };
 
@@ -304,6 +318,7 @@ fn core_rhs<R>(
             wf_metered,
             wf,
             starter_tq,
+            load_w,
         },
     )
 }

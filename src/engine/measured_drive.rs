@@ -8,10 +8,10 @@
 //! controllers following the measured GG speed and power (closed loop, "demand" mode).
 //! Pure: no I/O.
 
-use super::config::EngineConfig;
+use super::config::{EngineConfig, LoadMode};
 use super::control::{Feedback, FuelCommand, FuelLimits, Loop, Series, Setpoint, StarterCommand};
 use super::dynamic::{Drive, Stations};
-use super::load::PtLoadLaw;
+use super::load::PtLoad;
 use super::model::{Engine, EngineError, Model};
 use super::sensors::MeasurementOptions;
 use super::simulation::{Controller, Simulation, StartState, TruthSample, Watch};
@@ -49,8 +49,10 @@ pub struct MeasuredDrive {
     k: usize,
     fuel_cmd: FuelCommand,
     pt_locked: bool,
-    /// The engine file's PT load law (`None`: generator).
-    pt_load: Option<PtLoadLaw>,
+    /// The engine file's PT load curve (`None`: generator or measured speed).
+    pt_load: Option<PtLoad>,
+    /// The measured PT speed the model follows (`[load] mode = "measured_speed"`), smoothed.
+    pt_speed: Option<Arc<Series>>,
     flame: bool,
     starter: StarterCommand,
 }
@@ -64,6 +66,32 @@ fn clean(t: &[f64], v: Vec<f64>) -> Series {
         .map(|(a, b)| (*a, b))
         .unzip();
     Series { t_s: ts, value: vs }
+}
+
+/// Window of the moving average applied to a measured PT speed before the model follows it, s:
+/// the model takes the load's power as `P_PT − J ω dω/dt`, and the derivative of raw speed
+/// noise would swamp it.
+const PT_SPEED_SMOOTHING_S: f64 = 1.0;
+/// The smoothing window in samples at least (a 1 Hz log: 5 s).
+const PT_SPEED_SMOOTHING_SAMPLES: f64 = 5.0;
+
+/// The measured PT speed the model must follow: with `[load] mode = "measured_speed"` and a
+/// recorded PT speed, its cleaned and smoothed series; otherwise `None`.
+fn measured_pt_speed(model: &Model, seg: &Recording) -> Option<Arc<Series>> {
+    let load = model.cfg().load.as_ref()?;
+    if load.mode != LoadMode::MeasuredSpeed {
+        return None;
+    }
+    let n2 = clean(seg.times(), seg.series(Signal::N2));
+    if n2.t_s.len() < 2 {
+        return None;
+    }
+    // At least five samples in the window, whatever the recording's rate.
+    let span = n2.t_s[n2.t_s.len() - 1] - n2.t_s[0];
+    let dt = span / (n2.t_s.len() - 1) as f64;
+    Some(Arc::new(n2.smoothed(
+        PT_SPEED_SMOOTHING_S.max(PT_SPEED_SMOOTHING_SAMPLES * dt),
+    )))
 }
 
 impl MeasuredDrive {
@@ -83,7 +111,8 @@ impl MeasuredDrive {
             k: 0,
             fuel_cmd: FuelCommand::Off,
             pt_locked: false,
-            pt_load: PtLoadLaw::of(model),
+            pt_load: PtLoad::of(model),
+            pt_speed: measured_pt_speed(model, seg),
             flame: false,
             starter: StarterCommand::Off,
         }
@@ -117,6 +146,7 @@ impl MeasuredDrive {
         };
         // A mechanical drive (load law) has no breaker: its PT speed follows the load throughout.
         let locked = self.pt_load.is_none()
+            && self.pt_speed.is_none()
             && matches!(ph, Phase::Loading | Phase::Steady | Phase::Unloading);
         if locked && !self.pt_locked {
             // The breaker closed: the grid holds the PT at synchronous speed from here on.
@@ -168,7 +198,8 @@ impl Controller for MeasuredDrive {
             fuel: self.fuel_cmd.clone(),
             starter: self.starter,
             pt_locked: self.pt_locked,
-            pt_load: self.pt_load,
+            pt_load: self.pt_load.clone(),
+            pt_speed: self.pt_speed.clone(),
             flame: self.flame,
         }
     }

@@ -25,7 +25,7 @@ use super::control::{
     Feedback, FuelCommand, FuelLimits, Loop, Ramp, Series, Setpoint, StarterCommand,
 };
 use super::dynamic::{Drive, Stations};
-use super::load::PtLoadLaw;
+use super::load::PtLoad;
 use super::model::Model;
 use super::simulation::{Controller, Watch};
 use super::state::{Actuator, Shaft};
@@ -150,7 +150,7 @@ pub struct Sequencer {
     fuel: FuelCommand,
     pt_locked: bool,
     /// The PT's mechanical load law (`None`: generator on a breaker).
-    pt_load: Option<PtLoadLaw>,
+    pt_load: Option<PtLoad>,
     flame: bool,
     events: Vec<Event>,
     next_event: usize,
@@ -170,7 +170,7 @@ impl Sequencer {
             starter_engaged: false,
             fuel: FuelCommand::Off,
             pt_locked: false,
-            pt_load: PtLoadLaw::of(model),
+            pt_load: PtLoad::of(model),
             flame: false,
             events,
             next_event: 0,
@@ -214,7 +214,8 @@ impl Sequencer {
             fuel: self.fuel.clone(),
             starter,
             pt_locked: self.pt_locked,
-            pt_load: self.pt_load,
+            pt_load: self.pt_load.clone(),
+            pt_speed: None,
             flame: self.flame,
         }
     }
@@ -365,7 +366,7 @@ impl Sequencer {
         let tol = 1e-6;
         let n1 = act.speed_rpm(Shaft::Gg);
         let n2 = act.speed_rpm(Shaft::Pt);
-        if let Some(law) = self.pt_load {
+        if let Some(law) = self.pt_load.clone() {
             if let Some(done) = self.mechanical_transition(t, act, st, &law, n2) {
                 return done;
             }
@@ -494,7 +495,7 @@ impl Sequencer {
         t: f64,
         act: &mut Actuator<'_>,
         st: &Stations,
-        law: &PtLoadLaw,
+        law: &PtLoad,
         n2: f64,
     ) -> Option<bool> {
         let q = self.cfg.sequence.clone();
@@ -544,7 +545,9 @@ impl Sequencer {
     /// Normal stop of a mechanical drive: the PT speed set-point ramps down to the minimum
     /// governed speed at the loading ramp's speed rate.
     fn mechanical_stop(&mut self, t: f64, act: &mut Actuator<'_>, st: &Stations) {
-        let Some(law) = self.pt_load else { return };
+        let Some(law) = self.pt_load.clone() else {
+            return;
+        };
         let q = &self.cfg.sequence;
         let n_min = law.speed_for_power_rpm(q.min_load_mw);
         let n_base = law.speed_for_power_rpm(q.base_load_mw);

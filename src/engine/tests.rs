@@ -27,6 +27,7 @@ impl Controller for Constant {
             starter: StarterCommand::Off,
             pt_locked: true,
             pt_load: None,
+            pt_speed: None,
             flame: true,
         }
     }

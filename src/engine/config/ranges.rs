@@ -71,6 +71,8 @@ const RANGES: &[(&str, ParamRange)] = &[
     ("design.fuel_lhv_j_per_kg", ParamRange::new(1.0e6, 2.0e8)),
     ("fuel.temperature_k", ParamRange::new(200.0, 800.0)),
     ("load.exponent", ParamRange::new(0.5, 5.0)),
+    ("load.speed_rpm", ParamRange::new(1.0, 100_000.0)),
+    ("load.power_mw", ParamRange::new(1.0e-4, 2000.0)),
     // Off-design adaptation (`config/adaptation.rs`): knots in relative corrected speed,
     // corrections as fractions, bounded as `maps::adapt` clamps them.
     ("adaptation.*.speed_knots", ParamRange::new(0.05, 2.0)),
