@@ -64,9 +64,9 @@ impl WriterHandle {
             Ok(()) => Ok(()),
             Err(mpsc::error::TrySendError::Closed(_)) => Err(gone()),
             Err(mpsc::error::TrySendError::Full(cmd)) => {
-                let t = Instant::now();
+                let t = self.full_wait_begins();
                 let r = self.tx.send(cmd).await.map_err(|_| gone());
-                self.note_full_wait(t);
+                self.full_wait_ends(t);
                 r
             }
         }
@@ -78,9 +78,9 @@ impl WriterHandle {
             Ok(()) => Ok(()),
             Err(mpsc::error::TrySendError::Closed(_)) => Err(gone()),
             Err(mpsc::error::TrySendError::Full(cmd)) => {
-                let t = Instant::now();
+                let t = self.full_wait_begins();
                 let r = self.tx.blocking_send(cmd).map_err(|_| gone());
-                self.note_full_wait(t);
+                self.full_wait_ends(t);
                 r
             }
         }
@@ -118,24 +118,26 @@ impl WriterHandle {
         self.pressure.full_waits.load(Ordering::Relaxed)
     }
 
-    /// Counts and (at the first and every power of two) logs one wait for room.
-    fn note_full_wait(&self, since: Instant) {
-        let waited_us = since.elapsed().as_micros() as u64;
-        let total_us = self
-            .pressure
-            .waited_us
-            .fetch_add(waited_us, Ordering::Relaxed)
-            + waited_us;
+    /// Counts and (at the first and every power of two) logs a wait for room as it begins.
+    fn full_wait_begins(&self) -> Instant {
         let n = self.pressure.full_waits.fetch_add(1, Ordering::Relaxed) + 1;
         if n.is_power_of_two() {
             tracing::warn!(
                 waits = n,
-                waited_ms = waited_us / 1000,
-                total_waited_ms = total_us / 1000,
+                total_waited_ms = self.pressure.waited_us.load(Ordering::Relaxed) / 1000,
                 capacity = self.tx.max_capacity(),
-                "writer channel full: the sender waited for the writer (back-pressure)"
+                "writer channel full: the sender waits for the writer (back-pressure)"
             );
         }
+        Instant::now()
+    }
+
+    /// Adds the time a wait for room took.
+    fn full_wait_ends(&self, since: Instant) {
+        let waited_us = since.elapsed().as_micros() as u64;
+        self.pressure
+            .waited_us
+            .fetch_add(waited_us, Ordering::Relaxed);
     }
 }
 

@@ -112,7 +112,7 @@ mod tests {
         let t = std::thread::spawn(move || {
             b.conn
                 .execute(
-                    "INSERT INTO washes (t_ms, kind, note) VALUES (1, 'x', '')",
+                    "INSERT INTO washes (t_ms, kind, note) VALUES (1, 'online', '')",
                     [],
                 )
                 .expect("insert after waiting")
