@@ -16,7 +16,7 @@
 //! one-writer daemon should never wait: `store::lock_waits`), `channel_full_waits` how often a
 //! sender waited for room in the writer's channel. With `--readers` (live mode) the real
 //! `gtwatch diagnose --segment` and `gtwatch report` run as separate processes against the live
-//! database during the measurement; their exit status, wall time and any "database is locked"
+//! database from half-way through the measurement; their exit status, wall time and any "database is locked"
 //! are reported under `readers`.
 //!
 //! Memory is VmRSS / VmHWM from /proc/self/status. Linux only. Must not be used as a test.
@@ -192,6 +192,8 @@ struct ReaderRun {
     wall_s: f64,
     /// Whether its output mentions "database is locked".
     locked: bool,
+    /// The first line it printed (what it did).
+    first_line: String,
 }
 
 /// Starts the read-only commands against the live database `db` (see `--readers`), each
@@ -214,6 +216,7 @@ fn start_readers(
     runs.into_iter()
         .map(|args| {
             let command = args.join(" ");
+            let t0 = Instant::now();
             let child = tokio::process::Command::new(&exe)
                 .args(&args)
                 .arg("--db")
@@ -224,7 +227,7 @@ fn start_readers(
                 .kill_on_drop(true)
                 .spawn()
                 .with_context(|| format!("starting gtwatch {command}"))?;
-            Ok(tokio::spawn(reader_run(command, Instant::now(), child)))
+            Ok(tokio::spawn(reader_run(command, t0, child)))
         })
         .collect()
 }
@@ -250,6 +253,13 @@ async fn reader_run(
         success: out.status.success(),
         wall_s,
         locked: text.contains("database is locked"),
+        first_line: text
+            .lines()
+            .next()
+            .unwrap_or_default()
+            .chars()
+            .take(160)
+            .collect(),
     })
 }
 
@@ -476,13 +486,16 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
         Instant::now(),
         progress.samples.load(Ordering::Relaxed),
     );
+    // Readers start half-way, when the worker has stored results for the report to show.
+    let half = Duration::from_secs(args.seconds) / 2;
+    tokio::time::sleep(half).await;
     let readers = if args.readers {
         let segment = (args.diagnose_startups > 0).then_some(1);
         start_readers(&db_path, &dir.path().join("report"), segment)?
     } else {
         Vec::new()
     };
-    tokio::time::sleep(Duration::from_secs(args.seconds)).await;
+    tokio::time::sleep(Duration::from_secs(args.seconds).saturating_sub(half)).await;
     let (c1, wall, s1) = (
         cpu_seconds()?,
         t0.elapsed().as_secs_f64(),
