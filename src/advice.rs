@@ -2,12 +2,17 @@
 //! detects, fits the fouling trend since the last wash and stores the recommendation.
 //!
 //! The one place where `trend` and `wash` (pure) meet the store; called by the diagnosis worker
-//! after each stored result and by `gtwatch wash advise`. Must not fit engine models or hold
-//! arithmetic of its own beyond arranging the points.
+//! after each stored result and by `gtwatch wash advise`. Reads through a [`Db`] and writes
+//! what one refresh found (detected washes, the recommendation) as one request
+//! ([`AdviceWrite`], one transaction; in the daemon through the one writer). Must not fit
+//! engine models or hold arithmetic of its own beyond arranging the points.
 
 use crate::engine::Engine;
 use crate::health::HEALTH_NAMES;
-use crate::store::{HistoryFilter, HistoryRow, Store, StoreError, DETECTED_PREFIX};
+use crate::store::{
+    AdviceWrite, Db, HistoryFilter, HistoryRow, NewRecommendation, NewWash, StoreError,
+    DETECTED_PREFIX,
+};
 use crate::trend::{detect_washes, fit_rate, CompressorPoint, RateFit, TrendPoint, WashDetection};
 use crate::wash::{advise, sensitivity, FoulingTrend, Sensitivity, WashAdvice, WashEconomics};
 use serde::Serialize;
@@ -64,11 +69,12 @@ fn sigma(r: &HistoryRow, p: &str) -> f64 {
 /// Recomputes trends and advice from the store, recording detected washes and the new
 /// recommendation (deterministic: "now" is the newest result's time, not the wall clock).
 pub fn refresh(
-    store: &mut Store,
+    db: &mut dyn Db,
     engine: &Engine,
     econ: &WashEconomics,
     detection: &WashDetection,
 ) -> Result<AdviceReport, AdviceError> {
+    let store = db.read();
     let rows: Vec<HistoryRow> = store
         .history(&HistoryFilter {
             method: Some("B".into()),
@@ -89,7 +95,7 @@ pub fn refresh(
             sigma_ec: sigma(r, "D_EC"),
         })
         .collect();
-    let mut detected_now = Vec::new();
+    let mut write = AdviceWrite::default();
     for k in detect_washes(&points, detection) {
         let (a, b) = (rows[k - 1].start_ms, rows[k].start_ms);
         if washes.iter().any(|w| w.t_ms > a && w.t_ms <= b) {
@@ -101,11 +107,17 @@ pub fn refresh(
             points[k - 1].d_gc, points[k].d_gc, rows[k - 1].segment_id, rows[k].segment_id
         );
         // Stamped just before the start-up that first shows the recovery.
-        let id = store.record_wash(b - 1, "offline", &note)?;
-        detected_now.push(id);
+        write.washes.push(NewWash {
+            t_ms: b - 1,
+            kind: "offline".into(),
+            note,
+        });
     }
-    let washes = store.washes()?;
-    let last_wash_ms = washes.iter().map(|w| w.t_ms).max();
+    let last_wash_ms = washes
+        .iter()
+        .map(|w| w.t_ms)
+        .chain(write.washes.iter().map(|w| w.t_ms))
+        .max();
     let since: Vec<&HistoryRow> = rows
         .iter()
         .filter(|r| last_wash_ms.is_none_or(|w| r.start_ms > w))
@@ -162,10 +174,20 @@ pub fn refresh(
                 "results": since.len(),
                 "last_wash_ms": last_wash_ms,
             });
-            store.insert_recommendation(now, "wash_offline", &adv.summary, &basis.to_string())?;
+            write.recommendation = Some(NewRecommendation {
+                t_ms: now,
+                kind: "wash_offline".into(),
+                message: adv.summary.clone(),
+                basis: basis.to_string(),
+            });
             (Some(adv), ms)
         }
         _ => (None, None),
+    };
+    let detected_now = if write == AdviceWrite::default() {
+        Vec::new()
+    } else {
+        db.write_advice(write)?
     };
     Ok(AdviceReport {
         last_wash_ms,
@@ -186,8 +208,8 @@ pub fn hook(
     ctx: std::sync::Arc<crate::worker::WorkerContext>,
     econ: WashEconomics,
 ) -> crate::worker::AfterResult {
-    std::sync::Arc::new(move |store: &mut Store, segment_id: i64, _outcome| {
-        match refresh(store, &ctx.engine, &econ, &WashDetection::default()) {
+    std::sync::Arc::new(move |db: &mut dyn Db, segment_id: i64, _outcome| {
+        match refresh(db, &ctx.engine, &econ, &WashDetection::default()) {
             Ok(r) => {
                 if let Some(a) = &r.advice {
                     tracing::info!(segment_id, "wash advice: {}", a.summary);

@@ -6,7 +6,9 @@
 //! concurrency 1); the fit itself runs on its own rayon pool of `[diagnosis] threads`, called
 //! from tokio's blocking pool, never on the async runtime. The optimiser's cancel flag is tied
 //! to the shutdown value: a cancelled fit stores nothing, and the segment stays pending. Each
-//! segment's outcome is written in one transaction (all or nothing on kill -9).
+//! segment's outcome is written as one request ([`NewOutcome`], one transaction: all or nothing
+//! on kill -9) through a [`Db`]: in the daemon that reads through the worker's read-only
+//! connection and writes through the one writer.
 //!
 //! What is diagnosable and the fits themselves are [`crate::diagnosis::assess`] (pure); this
 //! module reads a segment, calls it and stores the outcome ([`diagnose_segment`]).
@@ -21,7 +23,9 @@ use crate::diagnosis::DiagnosisConfig;
 use crate::engine::Engine;
 use crate::health::{HealthBounds, HEALTH_BOUNDS, HEALTH_NAMES};
 use crate::optim::Cancel;
-use crate::store::{NewDiagnosis, SegmentRecording, Store, StoreError, Undiagnosable};
+use crate::store::{
+    Db, NewDiagnosis, NewOutcome, SegmentRecording, Store, StoreError, Undiagnosable,
+};
 
 pub use crate::diagnosis::assess::residual_level;
 use serde::{Deserialize, Serialize};
@@ -224,8 +228,8 @@ pub enum SegmentOutcome {
 }
 
 /// Called after each stored outcome (segment id, outcome), on the worker's blocking thread,
-/// with the worker's writable store: the place to recompute trends, detected washes and advice.
-pub type AfterResult = Arc<dyn Fn(&mut Store, i64, &SegmentOutcome) + Send + Sync>;
+/// with the worker's [`Db`]: the place to recompute trends, detected washes and advice.
+pub type AfterResult = Arc<dyn Fn(&mut dyn Db, i64, &SegmentOutcome) + Send + Sync>;
 
 /// Reads one stored segment's data for [`assess`] (an error if there is no such segment).
 /// Takes `&Store`, so a [`crate::store::ReadStore`] serves as well.
@@ -297,21 +301,27 @@ pub fn failures(assessment: &Assessment) -> &[Undiagnosable] {
 /// Stores an assessment's outcome in one transaction (results and reasons, segment marked
 /// diagnosed); a cancelled assessment stores nothing and the segment stays pending.
 pub fn store_assessment(
-    store: &mut Store,
+    db: &mut dyn Db,
     ctx: &WorkerContext,
     segment_id: i64,
     assessment: &Assessment,
 ) -> Result<SegmentOutcome, StoreError> {
     let failures = failures(assessment).to_vec();
+    let outcome = |results| NewOutcome {
+        segment_id,
+        results,
+        failures: failures.clone(),
+        config_hash: ctx.config_hash.clone(),
+    };
     Ok(match assessment {
         Assessment::Cancelled => SegmentOutcome::Cancelled,
         Assessment::Undiagnosable(_) => {
-            store.insert_outcome(segment_id, &[], &failures, &ctx.config_hash)?;
+            db.write_outcome(outcome(Vec::new()))?;
             SegmentOutcome::Undiagnosable(failures)
         }
         Assessment::Diagnosed { .. } => {
             let rows = new_diagnoses(ctx, segment_id, assessment);
-            let ids = store.insert_outcome(segment_id, &rows, &failures, &ctx.config_hash)?;
+            let ids = db.write_outcome(outcome(rows))?;
             SegmentOutcome::Diagnosed { ids, failures }
         }
     })
@@ -319,14 +329,14 @@ pub fn store_assessment(
 
 /// The worker's step for one stored segment: read it, assess it, store the outcome.
 pub fn diagnose_segment(
-    store: &mut Store,
+    db: &mut dyn Db,
     ctx: &WorkerContext,
     segment_id: i64,
     cancel: &Cancel,
 ) -> Result<SegmentOutcome, StoreError> {
-    let rec = read_segment(store, segment_id)?;
+    let rec = read_segment(db.read(), segment_id)?;
     let assessment = assess_segment(ctx, &rec, cancel);
-    store_assessment(store, ctx, segment_id, &assessment)
+    store_assessment(db, ctx, segment_id, &assessment)
 }
 
 /// What a drain did.
@@ -339,7 +349,7 @@ pub struct DrainReport {
 
 /// Diagnoses every pending segment, oldest first, until the queue is empty or `cancel` is set.
 pub fn drain_pending(
-    store: &mut Store,
+    db: &mut dyn Db,
     ctx: &WorkerContext,
     cancel: &Cancel,
     after: Option<&AfterResult>,
@@ -350,11 +360,11 @@ pub fn drain_pending(
             rep.cancelled = true;
             return Ok(rep);
         }
-        let Some(seg) = store.pending_segments()?.into_iter().next() else {
+        let Some(seg) = db.read().pending_segments()?.into_iter().next() else {
             return Ok(rep);
         };
         tracing::info!(segment = seg.id, "diagnosing start-up");
-        let outcome = diagnose_segment(store, ctx, seg.id, cancel)?;
+        let outcome = diagnose_segment(db, ctx, seg.id, cancel)?;
         match &outcome {
             SegmentOutcome::Diagnosed { ids, failures } => {
                 rep.diagnosed += 1;
@@ -377,7 +387,7 @@ pub fn drain_pending(
         }
         // Hook point: trends, detected washes and advice are recomputed here.
         if let Some(f) = after {
-            f(store, seg.id, &outcome);
+            f(db, seg.id, &outcome);
         }
     }
 }

@@ -20,11 +20,10 @@
 
 mod common;
 
-use gtwatch::plantsim::{spawn_plant_sim, PlantSimHandle, ScriptedPlant, SimOptions};
-use std::io::{BufRead, Write};
+use common::daemon::{config_text, set, start_sim, Daemon};
+use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
-use std::sync::{Arc, Mutex};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 const POLL_MS: i64 = 10;
@@ -160,149 +159,18 @@ impl Fill {
     }
 }
 
-/// The daemon process with its stderr collected line by line; killed if still running when
-/// dropped (a failing test).
-struct Daemon {
-    child: Child,
-    log: Arc<Mutex<Vec<String>>>,
-}
-
-impl Daemon {
-    fn start(cfg: &Path) -> Daemon {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
-            .args(["run", "--config"])
-            .arg(cfg)
-            .env("RUST_LOG", "info")
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("daemon starts");
-        let stderr = child.stderr.take().expect("stderr");
-        let log = Arc::new(Mutex::new(Vec::new()));
-        let sink = Arc::clone(&log);
-        std::thread::spawn(move || {
-            for line in std::io::BufReader::new(stderr)
-                .lines()
-                .map_while(Result::ok)
-            {
-                sink.lock().expect("log").push(line);
-            }
-        });
-        Daemon { child, log }
-    }
-
-    fn count(&self, needle: &str) -> usize {
-        self.log
-            .lock()
-            .expect("log")
-            .iter()
-            .filter(|l| l.contains(needle))
-            .count()
-    }
-
-    /// Waits until the log holds `n` lines containing `needle`.
-    fn wait_log(&mut self, needle: &str, n: usize, within: Duration) {
-        let deadline = Instant::now() + within;
-        while self.count(needle) < n {
-            if let Some(s) = self.child.try_wait().expect("wait") {
-                panic!(
-                    "daemon exited ({s}) waiting for {needle:?}; log:\n{}",
-                    self.log.lock().expect("log").join("\n")
-                );
-            }
-            assert!(
-                Instant::now() < deadline,
-                "no {needle:?} (×{n}) within {within:?}; log:\n{}",
-                self.log.lock().expect("log").join("\n")
-            );
-            std::thread::sleep(Duration::from_millis(10));
-        }
-    }
-
-    fn assert_running(&mut self) {
-        assert!(
-            self.child.try_wait().expect("wait").is_none(),
-            "daemon died; log:\n{}",
-            self.log.lock().expect("log").join("\n")
-        );
-    }
-
-    fn sigterm(&mut self) -> std::process::ExitStatus {
-        common::sigterm(&mut self.child)
-    }
-}
-
-/// The reference config with one line replaced; the line must be there exactly once.
-fn set(text: String, old: &str, new: &str) -> String {
-    assert_eq!(
-        text.lines().filter(|l| *l == old).count(),
-        1,
-        "config/gtwatch.toml: expected the line {old:?} once"
-    );
-    text.lines()
-        .map(|l| if l == old { new } else { l })
-        .collect::<Vec<_>>()
-        .join("\n")
-}
-
+/// The test daemon's config (`common::daemon::config_text`) with a small batch and the
+/// database cap of `cap_mib`.
 fn write_config(dir: &Path, db: &Path, endpoint: &str, cap_mib: Option<u32>) -> PathBuf {
-    let mut t = include_str!("../config/gtwatch.toml").to_string();
-    t = set(
-        t,
-        "path = \"/var/lib/gtwatch/gtwatch.db\"",
-        &format!("path = {:?}", db.display().to_string()),
-    );
+    let mut t = config_text(db, endpoint, POLL_MS as u64);
     // A small batch bounds the writer's buffer (200 batches): a short fault overflows it.
     t = set(t, "batch_size = 5000", "batch_size = 5");
-    t = set(t, "flush_interval_ms = 1000", "flush_interval_ms = 50");
     t = set(
         t,
         "max_db_mib = 0",
         &format!("max_db_mib = {}", cap_mib.unwrap_or(0)),
     );
-    t = set(
-        t,
-        "poll_period_ms = 100",
-        &format!("poll_period_ms = {POLL_MS}"),
-    );
-    t = set(t, "connect_timeout_ms = 3000", "connect_timeout_ms = 500");
-    t = set(t, "request_timeout_ms = 1000", "request_timeout_ms = 300");
-    t = set(t, "backoff_initial_ms = 500", "backoff_initial_ms = 20");
-    t = set(t, "backoff_max_ms = 30000", "backoff_max_ms = 200");
-    t = set(t, "detect_interval_ms = 10000", "detect_interval_ms = 500");
-    t = set(t, "enabled = true", "enabled = false");
-    t = set(
-        t,
-        "endpoint = \"127.0.0.1:5020\"",
-        &format!("endpoint = {endpoint:?}"),
-    );
-    let p = dir.join("gtwatch.toml");
-    std::fs::write(&p, t).expect("config");
-    p
-}
-
-fn start_sim(rt: &tokio::runtime::Runtime) -> (PlantSimHandle, String) {
-    rt.block_on(async {
-        let map = common::reference_config().modbus.expect("map");
-        let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
-            .await
-            .expect("bind");
-        let addr = listener.local_addr().expect("addr").to_string();
-        let sim = spawn_plant_sim(
-            listener,
-            map,
-            Box::new(ScriptedPlant::demo(1.0)),
-            SimOptions {
-                speedup: 100.0,
-                tick: Some(Duration::from_millis(POLL_MS as u64)),
-                lockstep: false,
-            },
-            None,
-        )
-        .expect("plant-sim");
-        (sim, addr)
-    })
+    common::daemon::write_config(dir, &t)
 }
 
 /// Sample times of one tag (read-only connection; works on a full disk).
@@ -336,12 +204,8 @@ fn disk_full_cycles(fill: Fill, work: &Path) {
         Fill::Tmpfs { filler, .. } => filler.with_file_name("plant.db"),
         Fill::Cap { db } => db.clone(),
     };
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(1)
-        .enable_all()
-        .build()
-        .expect("runtime");
-    let (sim, addr) = start_sim(&rt);
+    let rt = common::daemon::sim_runtime();
+    let (sim, addr) = start_sim(&rt, POLL_MS as u64);
     let cfg = write_config(work, &db, &addr, fill.cap_mib());
     let mut d = Daemon::start(&cfg);
     d.wait_log("first poll succeeded", 1, Duration::from_secs(20));

@@ -8,12 +8,11 @@ use crate::acquire::modbus::PollStats;
 use crate::acquire::modbus::{poll_loop_with_clock, AcquisitionConfig, PollPlan, PollProgress};
 use crate::acquire::register_map::{ByteOrder, DataType, FieldSpec};
 use crate::signals::Signal;
-use crate::store::{Gap, Sample, WriteCmd};
+use crate::store::{writer_channel, Gap, Sample, WriteCmd};
 use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::Duration;
 use tokio::net::TcpListener;
-use tokio::sync::mpsc;
 use tokio::task::JoinHandle;
 use tokio_modbus::prelude::{ExceptionCode, Request, Response};
 use tokio_modbus::server::tcp::{accept_tcp_connection, Server};
@@ -89,7 +88,7 @@ pub async fn run_poll_loop(
 ) -> PollRun {
     let clock = clock
         .unwrap_or_else(|| SampleClock::new(Duration::from_millis(cfg.clock_jump_threshold_ms)));
-    let (tx, mut rx) = mpsc::channel(1024);
+    let (tx, mut rx) = writer_channel(1024);
     let (trigger, shutdown) = crate::shutdown::shutdown_channel();
     let progress = Arc::new(PollProgress::default());
     let p2 = Arc::clone(&progress);

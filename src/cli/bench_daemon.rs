@@ -11,7 +11,13 @@
 //!
 //! With `--diagnose-startups N` (live mode) N simulated start-ups are stored first and the
 //! diagnosis worker fits them while the daemon polls; the report's `jitter` is the spacing of
-//! the stored n1 time stamps minus the poll period (always reported).
+//! the stored n1 time stamps minus the poll period (always reported). `store_lock_waits` is how
+//! often any connection of the process waited for a database lock while the daemon ran (the
+//! one-writer daemon should never wait: `store::lock_waits`), `channel_full_waits` how often a
+//! sender waited for room in the writer's channel. With `--readers` (live mode) the real
+//! `gtwatch diagnose --segment` and `gtwatch report` run as separate processes against the live
+//! database from half-way through the measurement; their exit status, wall time and any "database is locked"
+//! are reported under `readers`.
 //!
 //! Memory is VmRSS / VmHWM from /proc/self/status. Linux only. Must not be used as a test.
 
@@ -61,6 +67,10 @@ pub struct BenchDaemonArgs {
     /// (one after the other) while the daemon polls; reports the poll jitter.
     #[arg(long, default_value_t = 0)]
     pub diagnose_startups: usize,
+    /// Live mode: meanwhile run `gtwatch diagnose --segment` (with --diagnose-startups) and
+    /// `gtwatch report` against the live database, as separate processes.
+    #[arg(long)]
+    pub readers: bool,
 }
 
 /// Process CPU time (user + system), s. /proc/self/stat fields 14 and 15, in USER_HZ (100 on
@@ -160,7 +170,108 @@ struct LiveReport {
     diagnosed: u64,
     /// Poll jitter: spacing of the stored n1 time stamps minus the poll period, ms.
     jitter: Jitter,
+    /// Database locks any connection of this process waited for while the daemon ran.
+    store_lock_waits: u64,
+    /// Time spent waiting for them, ms.
+    store_lock_waited_ms: u64,
+    /// Times a sender waited for room in the writer's channel.
+    channel_full_waits: u64,
+    /// Write requests the writer carried out (scans, outcomes, advice) and how many failed.
+    writer_requests: u64,
+    writer_request_errors: u64,
+    /// With `--readers`: the read-only commands run against the live database.
+    readers: Vec<ReaderRun>,
     note: &'static str,
+}
+
+/// One read-only command run beside the daemon (`--readers`).
+#[derive(Debug, Serialize)]
+struct ReaderRun {
+    command: String,
+    success: bool,
+    wall_s: f64,
+    /// Whether its output mentions "database is locked".
+    locked: bool,
+    /// The first line it printed (what it did).
+    first_line: String,
+}
+
+/// Starts the read-only commands against the live database `db` (see `--readers`), each
+/// watched by a task that reports how it went once it exits.
+fn start_readers(
+    db: &std::path::Path,
+    out: &std::path::Path,
+    segment: Option<i64>,
+) -> anyhow::Result<Vec<tokio::task::JoinHandle<anyhow::Result<ReaderRun>>>> {
+    let exe = std::env::current_exe().context("the gtwatch binary")?;
+    let mut runs: Vec<Vec<String>> = Vec::new();
+    if let Some(id) = segment {
+        runs.push(vec!["diagnose".into(), "--segment".into(), id.to_string()]);
+    }
+    runs.push(vec![
+        "report".into(),
+        "--out".into(),
+        out.display().to_string(),
+    ]);
+    runs.into_iter()
+        .map(|args| {
+            let command = args.join(" ");
+            let t0 = Instant::now();
+            let child = tokio::process::Command::new(&exe)
+                .args(&args)
+                .arg("--db")
+                .arg(db)
+                .stdin(std::process::Stdio::null())
+                .stdout(std::process::Stdio::piped())
+                .stderr(std::process::Stdio::piped())
+                .kill_on_drop(true)
+                .spawn()
+                .with_context(|| format!("starting gtwatch {command}"))?;
+            Ok(tokio::spawn(reader_run(command, t0, child)))
+        })
+        .collect()
+}
+
+/// Waits for one read-only command and reports how it went.
+async fn reader_run(
+    command: String,
+    t0: Instant,
+    child: tokio::process::Child,
+) -> anyhow::Result<ReaderRun> {
+    let out = child.wait_with_output().await?;
+    let wall_s = t0.elapsed().as_secs_f64();
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    if !out.status.success() {
+        tracing::warn!(%command, "read-only command failed: {}", text.trim());
+    }
+    Ok(ReaderRun {
+        command,
+        success: out.status.success(),
+        wall_s,
+        locked: text.contains("database is locked"),
+        first_line: text
+            .lines()
+            .next()
+            .unwrap_or_default()
+            .chars()
+            .take(160)
+            .collect(),
+    })
+}
+
+/// The reports of the read-only commands (each waited for).
+async fn finish_readers(
+    started: Vec<tokio::task::JoinHandle<anyhow::Result<ReaderRun>>>,
+) -> anyhow::Result<Vec<ReaderRun>> {
+    let mut runs = Vec::new();
+    for h in started {
+        runs.push(h.await??);
+    }
+    Ok(runs)
 }
 
 #[derive(Debug, Default, Serialize)]
@@ -354,7 +465,9 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
     } else {
         None
     };
+    let db_path = cfg.storage.path.clone();
     let progress = Arc::new(PollProgress::default());
+    let waits_before = crate::store::lock_waits();
     let (trigger, shutdown) = shutdown_channel();
     let task = tokio::spawn(daemon::run(
         cfg,
@@ -373,17 +486,28 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
         Instant::now(),
         progress.samples.load(Ordering::Relaxed),
     );
-    tokio::time::sleep(Duration::from_secs(args.seconds)).await;
+    // Readers start half-way, when the worker has stored results for the report to show.
+    let half = Duration::from_secs(args.seconds) / 2;
+    tokio::time::sleep(half).await;
+    let readers = if args.readers {
+        let segment = (args.diagnose_startups > 0).then_some(1);
+        start_readers(&db_path, &dir.path().join("report"), segment)?
+    } else {
+        Vec::new()
+    };
+    tokio::time::sleep(Duration::from_secs(args.seconds).saturating_sub(half)).await;
     let (c1, wall, s1) = (
         cpu_seconds()?,
         t0.elapsed().as_secs_f64(),
         progress.samples.load(Ordering::Relaxed),
     );
     let (rss, hwm) = memory_kib()?;
+    let readers = finish_readers(readers).await?;
     trigger.trigger();
     let report = task.await?.context("daemon")?;
+    let waits = crate::store::lock_waits();
     sim.stop().await?;
-    let jitter = poll_jitter(&dir.path().join("bench.db"), measure_from_ms, period_ms)?;
+    let jitter = poll_jitter(&db_path, measure_from_ms, period_ms)?;
     Ok(LiveReport {
         mode: "live",
         tags: args.tags,
@@ -399,6 +523,12 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
         samples_per_s: (s1 - s0) as f64 / wall,
         diagnosed: report.diagnosis.diagnosed,
         jitter,
+        store_lock_waits: waits.waits - waits_before.waits,
+        store_lock_waited_ms: waits.waited_ms - waits_before.waited_ms,
+        channel_full_waits: report.writer.channel_full_waits,
+        writer_requests: report.writer.requests,
+        writer_request_errors: report.writer.request_errors,
+        readers,
         note: "CPU includes the in-process plant-sim server",
     })
 }

@@ -1,6 +1,7 @@
 //! The in-process ingest rig shared by `bench daemon --day` and `bench soak`: a temporary
 //! database, the register map of a bench plant with `tags` tags, the daemon's writer task and
-//! a detector connection. Each frame is encoded into register blocks as a PLC would answer and
+//! a read-only detector connection whose scans are written through the writer, as in the
+//! daemon. Each frame is encoded into register blocks as a PLC would answer and
 //! decoded exactly as the poll loop does, with no Modbus server in between, so the figures are
 //! the store's, writer's and detector's at full speed. Benchmark plumbing only: no assertions.
 
@@ -12,11 +13,11 @@ use crate::daemon;
 use crate::detect::{self, DetectorConfig};
 use crate::plantsim::PlantFrame;
 use crate::store::{
-    spawn_writer, StorageConfig, Store, StoreError, TagInfo, WriteCmd, WriterStats,
+    spawn_writer, writer_channel, ReadStore, StorageConfig, Store, StoreError, TagInfo, ViaWriter,
+    WriteCmd, WriterHandle, WriterStats,
 };
 use anyhow::Context;
 use std::path::PathBuf;
-use tokio::sync::mpsc::Sender;
 use tokio::task::JoinHandle;
 
 /// See the module comment.
@@ -25,9 +26,9 @@ pub(super) struct IngestRig {
     pub db_path: PathBuf,
     plan: PollPlan,
     blocks: Vec<Vec<u16>>,
-    tx: Option<Sender<WriteCmd>>,
+    tx: Option<WriterHandle>,
     writer: Option<JoinHandle<Result<WriterStats, StoreError>>>,
-    det_store: Option<Store>,
+    det_store: Option<ReadStore>,
     /// Samples handed to the writer.
     pub samples: u64,
     pub scans: u64,
@@ -56,9 +57,9 @@ impl IngestRig {
             })
             .collect::<Result<Vec<_>, _>>()?;
         let plan = PollPlan::new(&map, &tag_ids).map_err(anyhow::Error::msg)?;
-        let (tx, rx) = tokio::sync::mpsc::channel(DaemonConfig::default().queue_capacity);
+        let (tx, rx) = writer_channel(DaemonConfig::default().queue_capacity);
         let writer = spawn_writer(store, rx, storage.writer());
-        let det_store = Store::open_with(
+        let det_store = Store::open_readonly_with(
             &storage.path,
             &daemon::detector_store_options(&storage.options()),
         )?;
@@ -106,18 +107,20 @@ impl IngestRig {
             .context("writer stopped")
     }
 
-    /// Flushes the writer, then runs one detector scan on the blocking pool.
+    /// Flushes the writer, then runs one detector scan on the blocking pool (read-only, written
+    /// through the writer).
     pub async fn scan(&mut self) -> anyhow::Result<()> {
-        let (ack_tx, ack_rx) = tokio::sync::oneshot::channel();
-        self.tx
-            .as_ref()
-            .context("writer closed")?
-            .send(WriteCmd::Flush(ack_tx))
-            .await?;
-        ack_rx.await.context("writer stopped before the flush")?;
-        let mut s = self.det_store.take().context("detector store")?;
+        let tx = self.tx.clone().context("writer closed")?;
+        tx.flush()
+            .await
+            .context("writer stopped before the flush")?;
+        let s = self.det_store.take().context("detector store")?;
         let (s, r) = tokio::task::spawn_blocking(move || {
-            let r = detect::scan(&mut s, &DetectorConfig::default());
+            let mut db = ViaWriter {
+                read: &s,
+                writer: &tx,
+            };
+            let r = detect::scan(&mut db, &DetectorConfig::default());
             (s, r)
         })
         .await?;

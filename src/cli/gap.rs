@@ -1,7 +1,9 @@
 //! `gtwatch gap`: where the model and this start-up disagree, which effect of the library
 //! explains it, and how far the gap shrinks with it (`src/gap`); `--list-effects` lists the
 //! library. Reads the CSV like `gtwatch diagnose`; prints text or one JSON document.
-//! Must not hold analysis logic of its own (that is `crate::gap`).
+//! With `--segment` it reads the stored start-up through a read-only handle and stores the
+//! result afterwards in one short write, so it runs beside the daemon. Must not hold analysis
+//! logic of its own (that is `crate::gap`) or a database handle across the analysis.
 
 use super::diagnose::FitArgs;
 use crate::diagnosis::csv_input::{parse_mapping, read_recording};
@@ -126,6 +128,7 @@ pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
     }
     let candidates = crate::gap::select(&a.effects).map_err(anyhow::Error::msg)?;
     let cfg = a.fit.config()?;
+    // With --segment: the database the result is stored in.
     let mut store = None;
     let (engine, rec, holdout) = match (&a.input, a.segment) {
         (Some(input), _) => {
@@ -141,7 +144,9 @@ pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
         }
         (None, Some(id)) => {
             let db = super::common::db_path(a.db.as_ref(), a.config.as_ref())?;
-            let s = crate::store::Store::open(&db)
+            // Read-only while the (long) analysis runs; the result is stored afterwards in one
+            // short write, also beside a running daemon.
+            let s = crate::store::Store::open_readonly(&db)
                 .with_context(|| format!("opening {}", db.display()))?;
             let stored = |seg: i64| -> anyhow::Result<Recording> {
                 let r = s
@@ -159,24 +164,27 @@ pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
                 Some(p) => super::load_engine(Some(p))?,
                 None => super::diagnose_stored::worker_context(a.config.as_deref())?.engine,
             };
-            store = Some(s);
+            drop(s);
+            store = Some(db);
             (engine, rec, holdout)
         }
         (None, None) => bail!("--input or --segment is required (or --list-effects)"),
     };
     let report = crate::gap::analyse(&engine, &rec, holdout.as_ref(), &candidates, &cfg)?;
-    if let (Some(s), Some(id)) = (store.as_mut(), a.segment) {
-        s.insert_gap_analysis(&crate::store::NewGapAnalysis {
-            segment_id: id,
-            holdout_segment_id: a.holdout_segment,
-            effect: report.verdict.effect.clone(),
-            shrinkage: report.verdict.shrinkage,
-            confidence: report.verdict.confidence,
-            baseline_fit_quality: report.baseline_fit_quality.as_str().into(),
-            normalised_residual: report.baseline_normalised_residual,
-            report_json: serde_json::to_string(&report)?,
-        })
-        .context("storing the gap analysis")?;
+    if let (Some(db), Some(id)) = (&store, a.segment) {
+        crate::store::Store::open(db)
+            .with_context(|| format!("opening {}", db.display()))?
+            .insert_gap_analysis(&crate::store::NewGapAnalysis {
+                segment_id: id,
+                holdout_segment_id: a.holdout_segment,
+                effect: report.verdict.effect.clone(),
+                shrinkage: report.verdict.shrinkage,
+                confidence: report.verdict.confidence,
+                baseline_fit_quality: report.baseline_fit_quality.as_str().into(),
+                normalised_residual: report.baseline_normalised_residual,
+                report_json: serde_json::to_string(&report)?,
+            })
+            .context("storing the gap analysis")?;
     }
     if let Some(path) = &a.svg {
         let title = format!(

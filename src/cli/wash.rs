@@ -3,7 +3,12 @@
 //! `advise` recomputes the trends and the advice from the stored history (recording washes the
 //! trend detects and the new recommendation) and explains it in plain words, or prints one JSON
 //! document with `--format json`. The arithmetic is `crate::advice` / `trend` / `wash`.
-//! Must not hold wash or trend arithmetic of its own.
+//!
+//! These commands write while the daemon may be running: each write is one short transaction
+//! (`record` and `confirm` one statement, `reject` its check and delete together, `advise` all
+//! it found at once), which waits for the daemon's writer to finish its current commit instead
+//! of failing with "database is locked". Must not hold wash or trend arithmetic of its own or
+//! keep a transaction open across anything slow.
 
 use super::common::{db_path, parse_cli_time};
 use super::diagnose_stored::{wash_economics, worker_context};
@@ -101,17 +106,11 @@ pub fn run(a: WashArgs) -> anyhow::Result<ExitCode> {
             }
             println!("wash {id} confirmed");
         }
-        WashCmd::Reject { db, id } => {
-            let mut store = open(&db)?;
-            match store.washes()?.into_iter().find(|w| w.id == id) {
-                Some(w) if w.is_detected() => {
-                    store.delete_wash(id)?;
-                    println!("detected wash {id} rejected");
-                }
-                Some(_) => bail!("wash {id} was recorded by an operator, not detected"),
-                None => bail!("no wash {id}"),
-            }
-        }
+        WashCmd::Reject { db, id } => match open(&db)?.reject_detected_wash(id)? {
+            Some(w) if w.is_detected() => println!("detected wash {id} rejected"),
+            Some(_) => bail!("wash {id} was recorded by an operator, not detected"),
+            None => bail!("no wash {id}"),
+        },
         WashCmd::Advise { db, format } => {
             let ctx = worker_context(db.config.as_deref())?;
             let econ = wash_economics(db.config.as_deref())?;

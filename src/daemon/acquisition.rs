@@ -1,22 +1,22 @@
 //! The acquisition task: the Modbus poll loop (`acquire::modbus::poll_loop`) sending samples
-//! and gaps to the writer over the bounded channel, until shutdown. Only built when
-//! `[acquisition] source = "modbus"` and a register map is configured. Must not touch the
-//! database (the writer owns it) or hold polling logic of its own.
+//! and gaps to the writer over the bounded channel, until shutdown. A full channel makes the
+//! loop wait (counted and logged by the `WriterHandle`): no sample is dropped for it. Only
+//! built when `[acquisition] source = "modbus"` and a register map is configured. Must not
+//! touch the database (the writer owns it) or hold polling logic of its own.
 
 use super::DaemonError;
 use crate::acquire::modbus::SourceKind;
 use crate::acquire::modbus::{poll_loop, AcquisitionConfig, PollPlan, PollProgress, PollStats};
 use crate::config::Config;
 use crate::shutdown::Shutdown;
-use crate::store::{TagId, WriteCmd};
+use crate::store::{TagId, WriterHandle};
 use std::sync::Arc;
-use tokio::sync::mpsc;
 
 /// The acquisition task (mini-redis shape: a small struct with its own `run`).
 pub struct AcquisitionTask {
     cfg: AcquisitionConfig,
     plan: PollPlan,
-    tx: mpsc::Sender<WriteCmd>,
+    tx: WriterHandle,
     progress: Arc<PollProgress>,
 }
 
@@ -27,7 +27,7 @@ impl AcquisitionTask {
     pub fn from_config(
         cfg: &Config,
         tags: &[TagId],
-        tx: mpsc::Sender<WriteCmd>,
+        tx: WriterHandle,
         progress: Arc<PollProgress>,
     ) -> Result<Option<AcquisitionTask>, DaemonError> {
         let (Some(map), SourceKind::Modbus) = (&cfg.modbus, cfg.acquisition.source) else {

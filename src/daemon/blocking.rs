@@ -2,13 +2,15 @@
 //! own connection on tokio's blocking pool, opening the connection first when it is missing
 //! (the first use, or lost because an earlier closure panicked).
 //!
-//! Every task that reads or writes the database outside the writer (the detector, the
-//! diagnosis worker, the start-up) goes through [`BlockingStore::run`] instead of repeating
-//! the take / spawn_blocking / reopen / put back dance. Must not decide what to do with an
-//! error (the task logs, counts or retries) and must never run store work on the async runtime.
+//! The start-up opens the writable connection with it ([`BlockingStore::writable`]) and hands
+//! it to the writer; the detector and the diagnosis worker read through read-only ones
+//! ([`BlockingStore::read_only`]) and write through the writer. All go through
+//! [`BlockingStore::run`] instead of repeating the take / spawn_blocking / reopen / put back
+//! dance. Must not decide what to do with an error (the task logs, counts or retries) and must
+//! never run store work on the async runtime.
 
-use crate::store::{Store, StoreError, StoreOptions};
-use std::path::PathBuf;
+use crate::store::{ReadStore, Store, StoreError, StoreOptions};
+use std::path::{Path, PathBuf};
 
 /// Why a piece of blocking store work gave no result.
 #[derive(Debug, thiserror::Error)]
@@ -24,38 +26,59 @@ pub enum BlockingError<E> {
     Panicked(tokio::task::JoinError),
 }
 
-/// A task's own connection, used only on the blocking pool.
+/// How a connection of kind `S` is opened.
+type Opener<S> = fn(&Path, &StoreOptions) -> Result<S, StoreError>;
+
+/// A task's own connection (a writable [`Store`] or a [`ReadStore`]), used only on the
+/// blocking pool.
 #[derive(Debug)]
-pub struct BlockingStore {
+pub struct BlockingStore<S = Store> {
     path: PathBuf,
     opts: StoreOptions,
-    store: Option<Store>,
+    open: Opener<S>,
+    store: Option<S>,
 }
 
-impl BlockingStore {
-    /// A connection to `path`, opened with `opts` on first use.
-    pub fn new(path: PathBuf, opts: StoreOptions) -> BlockingStore {
+impl BlockingStore<Store> {
+    /// A writable connection to `path`, opened with `opts` on first use (the writer's).
+    pub fn writable(path: PathBuf, opts: StoreOptions) -> BlockingStore<Store> {
         BlockingStore {
             path,
             opts,
+            open: Store::open_with,
             store: None,
         }
     }
+}
 
+impl BlockingStore<ReadStore> {
+    /// A read-only connection to `path`, opened with `opts` on first use.
+    pub fn read_only(path: PathBuf, opts: StoreOptions) -> BlockingStore<ReadStore> {
+        BlockingStore {
+            path,
+            opts,
+            open: Store::open_readonly_with,
+            store: None,
+        }
+    }
+}
+
+impl<S: Send + 'static> BlockingStore<S> {
     /// Runs `work` with the connection on the blocking pool (opening it if needed).
     pub async fn run<T, E, F>(&mut self, work: F) -> Result<T, BlockingError<E>>
     where
-        F: FnOnce(&mut Store) -> Result<T, E> + Send + 'static,
+        F: FnOnce(&mut S) -> Result<T, E> + Send + 'static,
         T: Send + 'static,
         E: Send + 'static,
     {
         let store = self.store.take();
         let path = self.path.clone();
         let opts = self.opts;
+        let open = self.open;
         let joined = tokio::task::spawn_blocking(move || {
             let mut store = match store {
                 Some(s) => s,
-                None => match Store::open_with(&path, &opts) {
+                None => match open(&path, &opts) {
                     Ok(s) => s,
                     Err(e) => return (None, Err(BlockingError::Open(e))),
                 },
@@ -74,7 +97,7 @@ impl BlockingStore {
     }
 
     /// The connection, if open (the start-up hands it to the writer).
-    pub fn into_store(self) -> Option<Store> {
+    pub fn into_store(self) -> Option<S> {
         self.store
     }
 }

@@ -1,13 +1,15 @@
 //! The detector task: scans new samples for start-up segments every
-//! `daemon.detect_interval_ms`, with its own connection on the blocking pool (SQLite WAL:
-//! readers and the writer do not block each other), and wakes the diagnosis worker when a scan
-//! closes a segment. Errors are counted and logged, never propagated: the detector must never
-//! stop acquisition. Must not hold detection logic (that is `detect`) or write samples.
+//! `daemon.detect_interval_ms` on the blocking pool, reading through its own read-only
+//! connection (SQLite WAL: readers and the writer do not block each other) and sending what a
+//! scan found to the one writer (`WriteCmd::Detection`, waiting for it to be committed), and
+//! wakes the diagnosis worker when a scan closes a segment. Errors are counted and logged,
+//! never propagated: the detector must never stop acquisition. Must not hold detection logic
+//! (that is `detect`), open a writable connection or write samples.
 
 use super::blocking::BlockingStore;
 use crate::detect::{self, DetectorConfig, ScanReport};
 use crate::shutdown::Shutdown;
-use crate::store::StoreOptions;
+use crate::store::{ReadStore, StoreOptions, ViaWriter, WriterHandle};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
@@ -28,7 +30,8 @@ pub fn detector_store_options(storage: &StoreOptions) -> StoreOptions {
 
 /// The detector task (mini-redis shape: a small struct with its own `run`).
 pub struct DetectorTask {
-    store: BlockingStore,
+    store: BlockingStore<ReadStore>,
+    writer: WriterHandle,
     cfg: DetectorConfig,
     interval: Duration,
     /// Notified after a scan that closed a segment.
@@ -39,15 +42,18 @@ pub struct DetectorTask {
 }
 
 impl DetectorTask {
+    /// Reads `db_path` read-only with `store_opts`, writes through `writer`.
     pub fn new(
         db_path: PathBuf,
         store_opts: StoreOptions,
+        writer: WriterHandle,
         cfg: DetectorConfig,
         interval: Duration,
         wake: Arc<Notify>,
     ) -> DetectorTask {
         DetectorTask {
-            store: BlockingStore::new(db_path, store_opts),
+            store: BlockingStore::read_only(db_path, store_opts),
+            writer,
             cfg,
             interval,
             wake,
@@ -59,7 +65,17 @@ impl DetectorTask {
     /// One pass on the blocking pool; errors are counted and logged.
     pub async fn scan_once(&mut self) -> Option<ScanReport> {
         let cfg = self.cfg.clone();
-        match self.store.run(move |s| detect::scan(s, &cfg)).await {
+        let writer = self.writer.clone();
+        let scan = move |read: &mut ReadStore| {
+            detect::scan(
+                &mut ViaWriter {
+                    read,
+                    writer: &writer,
+                },
+                &cfg,
+            )
+        };
+        match self.store.run(scan).await {
             Ok(rep) => {
                 self.scans_ok += 1;
                 if rep.segments_closed > 0 {

@@ -1,14 +1,16 @@
 //! The diagnosis task: drains the queue of closed start-ups (`worker::drain_pending`) on the
 //! blocking pool, one segment at a time, now, whenever the detector wakes it, and at least
-//! every `[diagnosis] poll_interval_ms`, until shutdown. Shutdown cancels a running fit, which
-//! stores nothing: the segment stays pending for the next start. Errors are logged and the
-//! drain retried; they never stop the daemon. Must not hold diagnosis or storage logic (that
-//! is `worker` and `diagnosis::assess`).
+//! every `[diagnosis] poll_interval_ms`, until shutdown. It reads through its own read-only
+//! connection and sends each outcome (and the wash advice the after-result hook computes) to
+//! the one writer, waiting for the commit. Shutdown cancels a running fit, which stores
+//! nothing: the segment stays pending for the next start. Errors are logged and the drain
+//! retried; they never stop the daemon. Must not hold diagnosis or storage logic (that is
+//! `worker` and `diagnosis::assess`) or open a writable connection.
 
 use super::blocking::{BlockingError, BlockingStore};
 use crate::optim::Cancel;
 use crate::shutdown::Shutdown;
-use crate::store::StoreOptions;
+use crate::store::{ReadStore, StoreOptions, ViaWriter, WriterHandle};
 use crate::worker::{drain_pending, AfterResult, DrainReport, WorkerContext};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -17,8 +19,11 @@ use tokio::sync::Notify;
 
 /// The diagnosis task of the daemon (mini-redis shape: a small struct with its own `run`).
 pub struct DiagnosisTask {
+    /// Read read-only with `store_opts`.
     pub db_path: PathBuf,
     pub store_opts: StoreOptions,
+    /// Where outcomes and advice are written.
+    pub writer: WriterHandle,
     pub ctx: Arc<WorkerContext>,
     /// The detector wakes the worker through this when a segment closes.
     pub wake: Arc<Notify>,
@@ -35,7 +40,7 @@ impl DiagnosisTask {
     /// Drains the queue now, then whenever woken (or every `poll_interval_ms`), until shutdown.
     pub async fn run(self, shutdown: Shutdown) -> DrainReport {
         let cancel = cancel_on(shutdown.clone());
-        let mut store = BlockingStore::new(self.db_path.clone(), self.store_opts);
+        let mut store = BlockingStore::read_only(self.db_path.clone(), self.store_opts);
         let mut total = DrainReport::default();
         let mut sd = shutdown;
         let period = Duration::from_millis(self.ctx.settings.poll_interval_ms.max(100));
@@ -54,14 +59,19 @@ impl DiagnosisTask {
     }
 
     /// One drain of the queue on the blocking pool; a failure is logged and counts nothing.
-    async fn drain(&self, store: &mut BlockingStore, cancel: &Cancel) -> DrainReport {
+    async fn drain(&self, store: &mut BlockingStore<ReadStore>, cancel: &Cancel) -> DrainReport {
         let ctx = Arc::clone(&self.ctx);
         let c = cancel.clone();
         let after = self.after_result.clone();
-        match store
-            .run(move |s| drain_pending(s, &ctx, &c, after.as_ref()))
-            .await
-        {
+        let writer = self.writer.clone();
+        let drain = move |read: &mut ReadStore| {
+            let mut db = ViaWriter {
+                read,
+                writer: &writer,
+            };
+            drain_pending(&mut db, &ctx, &c, after.as_ref())
+        };
+        match store.run(drain).await {
             Ok(rep) => rep,
             Err(BlockingError::Panicked(e)) => {
                 tracing::error!("diagnosis worker task failed: {e}");

@@ -1,22 +1,27 @@
 //! `gtwatch run`: the daemon as a supervisor of small tasks, each a struct with
 //! `run(self, shutdown)` (the mini-redis shape: the shutdown signal is a value, so `main` maps
 //! SIGTERM/SIGINT onto it and tests trigger it directly):
-//! - [`acquisition`]: the Modbus poll loop → bounded channel → [`writer`], the single writer of
-//!   samples and gaps, which batches inserts into transactions and ends once its senders have;
+//! - [`writer`]: the one owner of the writable connection. Every other task sends it typed
+//!   requests over one bounded channel (a `WriterHandle` each): samples and gaps, which it
+//!   batches into transactions, and a detector scan, a diagnosis outcome or the wash advice,
+//!   each committed in its own transaction and answered. It ends once every sender has;
+//! - [`acquisition`]: the Modbus poll loop → the writer; a full channel slows it (counted and
+//!   logged), it never drops a sample for it;
 //! - [`detector`]: scans for start-ups every `daemon.detect_interval_ms` and wakes the worker
 //!   when a scan closes a segment;
 //! - [`diagnosis`]: drains the queue of closed segments, one at a time; shutdown cancels a
 //!   running fit (nothing half-written);
 //! - [`supervisor`]: systemd readiness, watchdog and stopping notifications.
 //!
-//! Tasks that use the database outside the writer do so through `blocking::BlockingStore`
-//! (their own connection on the blocking pool, reopened when lost).
+//! The detector and the worker read through read-only connections of their own
+//! (`blocking::BlockingStore`, on the blocking pool, reopened when lost) and write only
+//! through the writer, so no two connections of the daemon ever wait for each other's lock.
 //!
 //! [`run`] opens the store, starts the tasks and, once shutdown fires, stops them in order:
-//! stop polling (an open outage is recorded as a gap), close the channel, let the writer commit
-//! its last batch, then run the detector once more over everything stored. Errors in the
-//! detector or worker are logged and retried; they never stop acquisition. This module holds
-//! no business logic of its own.
+//! stop polling (an open outage is recorded as a gap), have the writer commit what it holds,
+//! run the detector once more over everything stored, wait for the worker, then close the
+//! channel and let the writer finish. Errors in the detector or worker are logged and retried;
+//! they never stop acquisition. This module holds no business logic of its own.
 
 pub mod acquisition;
 mod blocking;
@@ -36,13 +41,15 @@ use crate::acquire::register_map::ModbusConfig;
 use crate::config::Config;
 use crate::detect::ScanReport;
 use crate::shutdown::Shutdown;
-use crate::store::{Gap, Store, StoreError, TagId, TagInfo, WriteCmd, WriterStats};
+use crate::store::{
+    writer_channel, Gap, Store, StoreError, TagId, TagInfo, WriteCmd, WriterHandle, WriterStats,
+};
 use crate::worker::{AfterResult, DrainReport, WorkerContext};
 use blocking::{BlockingError, BlockingStore};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
-use tokio::sync::{mpsc, Notify};
+use tokio::sync::Notify;
 use tokio::task::JoinHandle;
 
 /// Daemon failures that stop it (anything else is logged and survived).
@@ -96,7 +103,7 @@ pub async fn run(
         tags = opened.tags.len(),
         "gtwatch daemon starting"
     );
-    let (tx, rx) = mpsc::channel::<WriteCmd>(cfg.daemon.queue_capacity.max(1));
+    let (tx, rx) = writer_channel(cfg.daemon.queue_capacity);
     let writer = tokio::spawn(
         WriterTask {
             store: opened.store,
@@ -130,7 +137,7 @@ struct Opened {
 /// Opens the store (on the blocking pool), creates the register map's tags and finds the
 /// previous run's last sample.
 async fn open_store(cfg: &Config) -> Result<Opened, DaemonError> {
-    let mut blocking = BlockingStore::new(cfg.storage.path.clone(), cfg.storage.options());
+    let mut blocking = BlockingStore::writable(cfg.storage.path.clone(), cfg.storage.options());
     let map = cfg.modbus.clone();
     let (tags, last_stored_ms) = blocking
         .run(move |store| {
@@ -155,7 +162,7 @@ async fn open_store(cfg: &Config) -> Result<Opened, DaemonError> {
 
 /// Whatever stopped the previous run (SIGTERM, kill -9, a crash, a reboot), the time between
 /// its last stored sample and this run's first one had no acquisition: a gap.
-async fn record_restart(tx: &mpsc::Sender<WriteCmd>, cfg: &Config, last_stored_ms: Option<i64>) {
+async fn record_restart(tx: &WriterHandle, cfg: &Config, last_stored_ms: Option<i64>) {
     if let (Some(last), Some(_)) = (last_stored_ms, &cfg.modbus) {
         let _ = tx
             .send(WriteCmd::GapUntilNextSample(Gap {
@@ -172,23 +179,28 @@ async fn record_restart(tx: &mpsc::Sender<WriteCmd>, cfg: &Config, last_stored_m
 struct Running {
     acquisition: Option<JoinHandle<PollStats>>,
     writer: JoinHandle<Result<WriterStats, StoreError>>,
+    /// The daemon's own sender: flushes at shutdown, then dropped so the writer can end.
+    tx: WriterHandle,
+    /// How long the shutdown waits for the writer to commit what it holds.
+    flush_timeout: Duration,
     detector: JoinHandle<DetectorTask>,
     diagnosis: Option<JoinHandle<DrainReport>>,
 }
 
 impl Running {
-    /// Spawns acquisition (which takes `tx`), the detector and the diagnosis worker.
+    /// Spawns acquisition, the detector and the diagnosis worker, each with a clone of `tx`.
     fn start(
         cfg: &Config,
         opts: &RunOptions,
         tags: &[TagId],
-        tx: mpsc::Sender<WriteCmd>,
+        tx: WriterHandle,
         progress: &Arc<PollProgress>,
         shutdown: &Shutdown,
         writer: JoinHandle<Result<WriterStats, StoreError>>,
     ) -> Result<Running, DaemonError> {
-        let acquisition = AcquisitionTask::from_config(cfg, tags, tx, Arc::clone(progress))?
-            .map(|task| tokio::spawn(task.run(shutdown.clone())));
+        let acquisition =
+            AcquisitionTask::from_config(cfg, tags, tx.clone(), Arc::clone(progress))?
+                .map(|task| tokio::spawn(task.run(shutdown.clone())));
         let db_path: PathBuf = cfg.storage.path.clone();
         let task_opts = detector_store_options(&cfg.storage.options());
         let wake = Arc::new(Notify::new());
@@ -196,6 +208,7 @@ impl Running {
             DetectorTask::new(
                 db_path.clone(),
                 task_opts,
+                tx.clone(),
                 cfg.detector.clone(),
                 Duration::from_millis(cfg.daemon.detect_interval_ms),
                 Arc::clone(&wake),
@@ -207,6 +220,7 @@ impl Running {
                 DiagnosisTask {
                     db_path,
                     store_opts: task_opts,
+                    writer: tx.clone(),
                     after_result: opts
                         .after_result
                         .clone()
@@ -221,13 +235,15 @@ impl Running {
         Ok(Running {
             acquisition,
             writer,
+            tx,
+            flush_timeout: cfg.storage.writer().close_retry,
             detector,
             diagnosis,
         })
     }
 
-    /// After shutdown: stop acquisition, let the writer commit its last batch, scan once more,
-    /// wait for the diagnosis worker.
+    /// After shutdown: stop acquisition, have the writer commit what it holds, scan once more,
+    /// wait for the diagnosis worker, then let the writer finish.
     async fn stop(self, progress: &PollProgress) -> Result<RunReport, DaemonError> {
         let mut report = RunReport::default();
         tracing::info!("shutting down: stopping acquisition");
@@ -237,12 +253,13 @@ impl Running {
                 progress.snapshot()
             });
         }
-        report.writer = self
-            .writer
-            .await
-            .map_err(|e| DaemonError::Writer(e.to_string()))?
-            .map_err(|e| DaemonError::Writer(e.to_string()))?;
-        log_totals(&report);
+        // Everything acquisition sent is committed before the final scan reads it (bounded:
+        // a writer in a write-error episode answers only once the database takes writes).
+        match tokio::time::timeout(self.flush_timeout, self.tx.flush()).await {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => tracing::warn!("final flush: {e}"),
+            Err(_) => tracing::warn!("final flush: the writer did not commit in time"),
+        }
         // Final scan over everything stored; segments it closes stay pending for the next start.
         match self.detector.await {
             Ok(mut det) => {
@@ -258,6 +275,15 @@ impl Running {
                 Err(e) => tracing::error!("diagnosis task failed: {e}"),
             }
         }
+        let channel_full_waits = self.tx.channel_full_waits();
+        drop(self.tx);
+        report.writer = self
+            .writer
+            .await
+            .map_err(|e| DaemonError::Writer(e.to_string()))?
+            .map_err(|e| DaemonError::Writer(e.to_string()))?;
+        report.writer.channel_full_waits = channel_full_waits;
+        log_totals(&report);
         Ok(report)
     }
 }
@@ -269,6 +295,10 @@ fn log_totals(report: &RunReport) {
         gaps = report.writer.gaps,
         write_errors = report.writer.write_errors,
         samples_dropped = report.writer.samples_dropped,
+        requests = report.writer.requests,
+        request_errors = report.writer.request_errors,
+        channel_full_waits = report.writer.channel_full_waits,
+        store_lock_waits = crate::store::lock_waits().waits,
         "last batch committed"
     );
     tracing::info!(

@@ -1,10 +1,11 @@
-//! The writer task: the one owner of the daemon's writable connection for samples and gaps
-//! (`store::run_writer`), fed by acquisition over the bounded channel.
+//! The writer task: the one owner of the daemon's writable connection (`store::run_writer`).
+//! Acquisition sends it samples and gaps, the detector and the diagnosis worker their typed
+//! write requests (a scan, an outcome, the wash advice), all over the one bounded channel.
 //!
 //! Unlike the other tasks it does not stop when shutdown fires: acquisition sends its last
-//! samples and the gap of an outage still open after shutdown, so the writer runs until every
-//! sender is gone, commits what it holds and returns. Must not decide what to store (that is
-//! its senders') or hold SQL (that is the store's).
+//! samples and the gap of an outage still open after shutdown, the detector its final scan, so
+//! the writer runs until every sender is gone, commits what it holds and returns. Must not
+//! decide what to store (that is its senders') or hold SQL (that is the store's).
 
 use crate::shutdown::Shutdown;
 use crate::store::{run_writer, Store, StoreError, WriteCmd, WriterConfig, WriterStats};

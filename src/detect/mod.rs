@@ -1,9 +1,10 @@
 //! Start-up detection over the stored samples: reads what is not yet scanned, feeds the pure
-//! state machine in [`machine`], and stores segments, their phases and the resume point in one
-//! transaction.
+//! state machine in [`machine`], and writes segments, their phases and the resume point as one
+//! request ([`crate::store::ScanWrite`], one transaction) through a [`Db`].
 //!
-//! Same code path live (the daemon calls [`scan`] periodically from a blocking task) and after
-//! a replay. Resume rule: each scan restarts the machine a margin before the earliest of (the
+//! Same code path live (the daemon calls [`scan`] periodically from a blocking task, reading
+//! through its read-only connection and writing through the daemon's one writer) and after a
+//! replay (a store of its own). Resume rule: each scan restarts the machine a margin before the earliest of (the
 //! start of any open segment, the last scanned time, the oldest late-arriving sample), deletes
 //! the not-yet-diagnosed segments that start after that point and finds them again. The
 //! machine is deterministic, so a start interrupted by a daemon restart is found whole and
@@ -16,7 +17,7 @@ pub use machine::{Frame, Machine};
 use crate::config_problem::ConfigProblem;
 use crate::segment::SegmentRecord;
 use crate::signals::Signal;
-use crate::store::{Store, StoreError, TagId};
+use crate::store::{Db, ScanWrite, Store, StoreError, TagId};
 use serde::{Deserialize, Serialize};
 
 /// `[detector]` section: start-up detection thresholds (defaults from the daemon contract).
@@ -298,19 +299,32 @@ const CHUNK_MS: i64 = 6 * 3600 * 1000;
 /// Processes the samples not yet scanned and stores/updates segments (see the module comment).
 ///
 /// Returns an empty report when the input tags (n1, fuel flow, power) do not exist yet.
-pub fn scan(store: &mut Store, cfg: &DetectorConfig) -> Result<ScanReport, DetectError> {
+pub fn scan(db: &mut dyn Db, cfg: &DetectorConfig) -> Result<ScanReport, DetectError> {
+    let (mut report, write) = plan(db.read(), cfg)?;
+    if let Some(w) = write {
+        report.segments_written = db.write_scan(w)?;
+    }
+    Ok(report)
+}
+
+/// Reads and runs the machine: what a scan found and what it must write (`None`: nothing
+/// new). No writes.
+fn plan(
+    store: &Store,
+    cfg: &DetectorConfig,
+) -> Result<(ScanReport, Option<ScanWrite>), DetectError> {
     let mut report = ScanReport::default();
     let Some(tags) = resolve_tags(store, cfg)? else {
-        return Ok(report);
+        return Ok((report, None));
     };
     let st = store.detector_state()?;
     let margin_ms = (cfg.resume_margin_s * 1000.0) as i64;
     let (first, last) = store.tag_time_range(tags.n1)?;
     let (Some(first), Some(last)) = (first, last) else {
-        return Ok(report);
+        return Ok((report, None));
     };
     if st.rescan_from_ms.is_none() && st.scanned_to_ms.is_some_and(|s| s >= last) {
-        return Ok(report); // nothing new
+        return Ok((report, None)); // nothing new
     }
     // Segments starting before `resume` are stored already and stay as they are; the machine
     // starts earlier (at `from`) only to have context.
@@ -401,14 +415,13 @@ pub fn scan(store: &mut Store, cfg: &DetectorConfig) -> Result<ScanReport, Detec
     report.segments_open = u64::from(open.is_some());
     report.scanned_to_ms = scanned_to;
 
-    let records: Vec<SegmentRecord> = finished.into_iter().chain(open).collect();
-    report.segments_written = store.store_scan(
-        &records,
+    let write = ScanWrite {
+        records: finished.into_iter().chain(open).collect(),
         keep_from,
-        scanned_to.unwrap_or(last),
-        machine.last_fuel_off_ms().or(st.last_fuel_off_ms),
-    )?;
-    Ok(report)
+        scanned_to: scanned_to.unwrap_or(last),
+        last_fuel_off_ms: machine.last_fuel_off_ms().or(st.last_fuel_off_ms),
+    };
+    Ok((report, Some(write)))
 }
 
 #[cfg(test)]

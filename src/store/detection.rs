@@ -8,6 +8,16 @@ use super::{now_ms, StoreError, TagId};
 use crate::segment::SegmentRecord;
 use rusqlite::{params, OptionalExtension};
 
+/// What one detector scan writes ([`super::Store::store_scan`]): the segments it found, the
+/// time from which stored segments not found again are stale, and its new progress.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScanWrite {
+    pub records: Vec<SegmentRecord>,
+    pub keep_from: i64,
+    pub scanned_to: i64,
+    pub last_fuel_off_ms: Option<i64>,
+}
+
 /// Persistent detector progress (table `detector_state`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct ResumeState {
@@ -281,16 +291,16 @@ impl super::Store {
     /// start time; diagnosed ones left alone), deletes not-yet-diagnosed segments from
     /// `keep_from` on that were not found again, and advances the detector's progress.
     /// Returns how many segments were written.
-    pub fn store_scan(
-        &mut self,
-        records: &[SegmentRecord],
-        keep_from: i64,
-        scanned_to: i64,
-        last_fuel_off_ms: Option<i64>,
-    ) -> Result<u64, StoreError> {
+    pub fn store_scan(&mut self, scan: &ScanWrite) -> Result<u64, StoreError> {
+        let ScanWrite {
+            records,
+            keep_from,
+            scanned_to,
+            last_fuel_off_ms,
+        } = scan;
         // IMMEDIATE: the write lock up front, waiting up to the busy timeout. A deferred
         // transaction that reads first fails at once (SQLITE_BUSY) when another connection
-        // wrote meanwhile: the detector saw "database is locked" beside a busy writer.
+        // wrote meanwhile (a command writing beside the daemon's writer).
         let tx = self
             .conn
             .transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)?;

@@ -66,6 +66,17 @@ pub struct NewDiagnosis {
     pub gtwatch_version: String,
 }
 
+/// What the worker found for one segment, as one write ([`Store::store_outcome`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct NewOutcome {
+    pub segment_id: i64,
+    /// One per method that gave a result.
+    pub results: Vec<NewDiagnosis>,
+    /// Reasons for what could not be diagnosed.
+    pub failures: Vec<Undiagnosable>,
+    pub config_hash: String,
+}
+
 /// One row of `gtwatch history`.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct HistoryRow {
@@ -253,7 +264,7 @@ impl Store {
     ) -> Result<Vec<i64>, StoreError> {
         // IMMEDIATE: the write lock up front, waiting up to the busy timeout. A deferred
         // transaction that reads first fails at once (SQLITE_BUSY) when another connection
-        // wrote meanwhile: the detector saw "database is locked" beside a busy writer.
+        // wrote meanwhile (a command writing beside the daemon's writer).
         let tx = self
             .conn
             .transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)?;
@@ -318,6 +329,11 @@ impl Store {
         )?;
         tx.commit()?;
         Ok(ids)
+    }
+
+    /// [`Store::insert_outcome`] of one [`NewOutcome`]: the ids of the stored results.
+    pub fn store_outcome(&mut self, o: &NewOutcome) -> Result<Vec<i64>, StoreError> {
+        self.insert_outcome(o.segment_id, &o.results, &o.failures, &o.config_hash)
     }
 
     /// Reasons recorded for a segment: (method, reason, detail).

@@ -1,8 +1,14 @@
 //! The SQLite store: tags, samples, gaps, segments and the diagnosis tables.
 //!
 //! One [`Store`] wraps one `rusqlite::Connection`. The daemon owns exactly one writable store
-//! (the single writer, [`spawn_writer`]); admin and query commands open it read-only so they
-//! never block or disturb the writer. Schema lives in `migrations/` and is applied on open.
+//! (the single writer, [`spawn_writer`]): its other tasks read through read-only connections
+//! ([`Store::open_readonly_with`]) and hand their writes to the writer as typed requests
+//! ([`WriteCmd`], through a [`WriterHandle`]; [`Db`] is the one interface the detector, the
+//! worker and the wash advice write through, whether to a store of their own or to the
+//! daemon's writer). Query commands open the file read-only so they never block or disturb
+//! the writer; the few commands that write beside a running daemon (`wash`, a stored gap
+//! analysis) do so in short transactions. Every connection counts the times it waited for a
+//! lock ([`lock_waits`]). Schema lives in `migrations/` and is applied on open.
 //! This module must not know about Modbus, CSV or the detector's rules: it stores and fetches.
 //!
 //! Durability choice: `journal_mode=WAL` with `synchronous=NORMAL`. In WAL mode a committed
@@ -11,24 +17,33 @@
 //! back the last few transactions (never corrupt). Set `storage.synchronous = "full"` if the
 //! host may lose power without a UPS.
 
+mod channel;
+mod db;
 mod detection;
 mod diagnoses;
 mod gap;
+mod locks;
 pub use gap::{GapAnalysisRow, NewGapAnalysis};
 mod segments;
 mod washes;
 pub use segments::{PhaseRow, SampleRow, StartupRow};
-pub use washes::{RecommendationRow, WashRow, DETECTED_PREFIX};
+pub use washes::{
+    AdviceWrite, NewRecommendation, NewWash, RecommendationRow, WashRow, DETECTED_PREFIX,
+};
 mod schema;
 mod writer;
 
-pub use detection::ResumeState;
+pub use db::{Db, ViaWriter};
+pub use detection::{ResumeState, ScanWrite};
 pub use diagnoses::{
-    HistoryFilter, HistoryRow, NewDiagnosis, SegmentInfo, SegmentRecording, SignalQuality,
-    Undiagnosable,
+    HistoryFilter, HistoryRow, NewDiagnosis, NewOutcome, SegmentInfo, SegmentRecording,
+    SignalQuality, Undiagnosable,
 };
+pub use locks::{lock_waits, LockWaits};
 
-pub use writer::{run_writer, spawn_writer, WriteCmd, WriterConfig, WriterStats};
+pub use writer::{
+    run_writer, spawn_writer, writer_channel, WriteCmd, WriterConfig, WriterHandle, WriterStats,
+};
 
 use crate::config_problem::{check_range, Bounds, ConfigProblem};
 use crate::quality::Quality;
@@ -289,6 +304,15 @@ impl Default for StoreOptions {
     }
 }
 
+/// What [`Store::open_readonly`] uses: SQLite's default page cache (`cache_mib` 0) and a
+/// busy timeout of 5 s.
+const READONLY_OPTIONS: StoreOptions = StoreOptions {
+    cache_mib: 0,
+    synchronous: Synchronous::Normal,
+    busy_timeout_ms: 5000,
+    max_db_mib: 0,
+};
+
 /// The database. Not `Sync`: one owner at a time (the writer task, or a command).
 #[derive(Debug)]
 pub struct Store {
@@ -360,8 +384,7 @@ impl Store {
             }
         }
         let mut conn = Connection::open(path).map_err(open_err)?;
-        conn.busy_timeout(Duration::from_millis(opts.busy_timeout_ms))
-            .map_err(open_err)?;
+        locks::install(&conn, opts.busy_timeout_ms).map_err(open_err)?;
         // Switching a fresh file to WAL takes an exclusive lock and does not wait on the busy
         // handler: retry while another opener holds it (issue 12 #7, "database is locked").
         let wal_deadline =
@@ -373,6 +396,7 @@ impl Store {
                         && std::time::Instant::now() < wal_deadline =>
                 {
                     std::thread::sleep(Duration::from_millis(10));
+                    locks::count_wait(Duration::from_millis(10));
                 }
                 r => break r.map_err(open_err)?,
             }
@@ -421,11 +445,17 @@ impl Store {
     /// writing it, and none could start a WAL write in a directory we cannot write either
     /// without the `-wal` file appearing first.
     pub fn open_readonly(path: &Path) -> Result<ReadStore, StoreError> {
-        let conn = match Store::readonly_connection(path, false) {
+        Store::open_readonly_with(path, &READONLY_OPTIONS)
+    }
+
+    /// [`Store::open_readonly`] with the page cache and busy timeout of `opts` (the daemon's
+    /// tasks read with the `[storage]` settings; the other options do not apply to a reader).
+    pub fn open_readonly_with(path: &Path, opts: &StoreOptions) -> Result<ReadStore, StoreError> {
+        let conn = match Store::readonly_connection(path, false, opts) {
             Ok(conn) => conn,
             Err(e) if path.is_file() && !wal_file(path).exists() => {
                 tracing::debug!(path = %path.display(), "read-only open failed ({e}); retrying immutable");
-                Store::readonly_connection(path, true).map_err(|_| e)?
+                Store::readonly_connection(path, true, opts).map_err(|_| e)?
             }
             Err(e) => return Err(e),
         };
@@ -437,7 +467,11 @@ impl Store {
     }
 
     /// A read-only connection whose schema was checked; `immutable`: without locks or `-shm`.
-    fn readonly_connection(path: &Path, immutable: bool) -> Result<Connection, StoreError> {
+    fn readonly_connection(
+        path: &Path,
+        immutable: bool,
+        opts: &StoreOptions,
+    ) -> Result<Connection, StoreError> {
         let open_err = |source| StoreError::Open {
             path: path.to_path_buf(),
             source,
@@ -449,8 +483,14 @@ impl Store {
             Connection::open_with_flags(path, flags)
         }
         .map_err(open_err)?;
-        conn.busy_timeout(Duration::from_millis(5000))
+        locks::install(&conn, opts.busy_timeout_ms).map_err(open_err)?;
+        if opts.cache_mib > 0 {
+            conn.execute_batch(&format!(
+                "PRAGMA cache_size=-{};",
+                u64::from(opts.cache_mib) * 1024
+            ))
             .map_err(open_err)?;
+        }
         schema::check_readonly(&conn, path)?;
         Ok(conn)
     }

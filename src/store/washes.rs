@@ -4,7 +4,7 @@
 //! SQL only; what counts as a wash and when to wash next are decided in `trend` and `wash`.
 
 use super::{Store, StoreError};
-use rusqlite::params;
+use rusqlite::{params, OptionalExtension};
 use serde::Serialize;
 
 /// One stored wash.
@@ -27,6 +27,31 @@ impl WashRow {
 
 /// Note prefix of a wash detected as a recovery step in the health trend.
 pub const DETECTED_PREFIX: &str = "detected:";
+
+/// A wash to record.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NewWash {
+    pub t_ms: i64,
+    pub kind: String,
+    pub note: String,
+}
+
+/// A recommendation to store.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NewRecommendation {
+    pub t_ms: i64,
+    pub kind: String,
+    pub message: String,
+    pub basis: String,
+}
+
+/// What one refresh of the wash advice writes ([`Store::store_advice`]): the washes the trend
+/// detected and the new recommendation, if any.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct AdviceWrite {
+    pub washes: Vec<NewWash>,
+    pub recommendation: Option<NewRecommendation>,
+}
 
 /// One stored recommendation.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -55,6 +80,57 @@ impl Store {
             .conn
             .execute("DELETE FROM washes WHERE id = ?1", params![id])?
             > 0)
+    }
+
+    /// Removes a wash if the trend detected it, in one short transaction (the check and the
+    /// delete see the same file, also beside a running daemon): the wash as it was, if any.
+    pub fn reject_detected_wash(&mut self, id: i64) -> Result<Option<WashRow>, StoreError> {
+        let tx = self
+            .conn
+            .transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)?;
+        let row = tx
+            .query_row(
+                "SELECT id, t_ms, kind, note FROM washes WHERE id = ?1",
+                params![id],
+                |r| {
+                    Ok(WashRow {
+                        id: r.get(0)?,
+                        t_ms: r.get(1)?,
+                        kind: r.get(2)?,
+                        note: r.get(3)?,
+                    })
+                },
+            )
+            .optional()?;
+        if row.as_ref().is_some_and(WashRow::is_detected) {
+            tx.execute("DELETE FROM washes WHERE id = ?1", params![id])?;
+        }
+        tx.commit()?;
+        Ok(row)
+    }
+
+    /// Stores one refresh of the wash advice in one transaction: the detected washes (their
+    /// ids, in order) and the recommendation.
+    pub fn store_advice(&mut self, a: &AdviceWrite) -> Result<Vec<i64>, StoreError> {
+        let tx = self
+            .conn
+            .transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)?;
+        let mut ids = Vec::with_capacity(a.washes.len());
+        for w in &a.washes {
+            tx.execute(
+                "INSERT INTO washes (t_ms, kind, note) VALUES (?1, ?2, ?3)",
+                params![w.t_ms, w.kind, w.note],
+            )?;
+            ids.push(tx.last_insert_rowid());
+        }
+        if let Some(r) = &a.recommendation {
+            tx.execute(
+                "INSERT INTO recommendations (t_ms, kind, message, basis) VALUES (?1, ?2, ?3, ?4)",
+                params![r.t_ms, r.kind, r.message, r.basis],
+            )?;
+        }
+        tx.commit()?;
+        Ok(ids)
     }
 
     /// Marks a detected wash as confirmed by the operator (its note loses the detected prefix).

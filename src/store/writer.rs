@@ -1,9 +1,14 @@
-//! The single writer task: owns the writable [`Store`], batches samples into transactions.
+//! The single writer task: owns the writable [`Store`], batches samples into transactions and
+//! carries out the other tasks' typed write requests (a detector scan, a diagnosis outcome,
+//! the wash advice), each in its own transaction, answering each with its result.
 //!
 //! Flushes when the buffer reaches `batch_size` samples or when the oldest buffered sample has
 //! waited `flush_interval`; on `Flush` it commits and acknowledges; when the channel closes it
 //! commits what it holds and returns its statistics. SQLite work runs on the blocking pool so
-//! the async acquisition is never stalled by a commit. Must not decide what to store.
+//! the async acquisition is never stalled by a commit. Every committed batch is logged at debug
+//! level ("batch committed", with the newest sample time and the running total): what that
+//! line reports is on disk. Must not decide what to store. The senders' side of the channel
+//! (back-pressure, requests and their answers) is [`super::WriterHandle`].
 //!
 //! Write failures (disk full `SQLITE_FULL`, a read-only file or directory, I/O errors) do not
 //! stop the writer (issue 12 #2): the failed batch stays in memory (a transaction commits all or
@@ -16,10 +21,18 @@
 //! requests are answered once their data is committed. When the channel closes during an
 //! episode the writer retries for `close_retry` more (default 5 s), then returns the error.
 
-use super::{insert_samples_in, record_gap_in, Gap, Sample, Store, StoreError};
+use super::{
+    insert_samples_in, record_gap_in, AdviceWrite, Gap, NewOutcome, Sample, ScanWrite, Store,
+    StoreError,
+};
 use std::time::Duration;
 use tokio::sync::{mpsc, oneshot};
 use tokio::time::Instant;
+
+pub use super::channel::{writer_channel, WriterHandle};
+
+/// Where the writer answers a request: its result, once committed (or the error).
+pub type Reply<T> = oneshot::Sender<Result<T, StoreError>>;
 
 /// A request to the writer.
 #[derive(Debug)]
@@ -32,6 +45,23 @@ pub enum WriteCmd {
     /// samples arrive, record a gap from `start_ms` to the earliest of them (`end_ms` of the
     /// template is ignored). Used for the `daemon_restart` gap, also after kill -9.
     GapUntilNextSample(Gap),
+    /// Store one detector scan ([`Store::store_scan`]); answers with the segments written.
+    Detection {
+        scan: ScanWrite,
+        reply: Reply<u64>,
+    },
+    /// Store one segment's diagnosis outcome ([`Store::store_outcome`]); answers with the ids
+    /// of the results.
+    Diagnosis {
+        outcome: NewOutcome,
+        reply: Reply<Vec<i64>>,
+    },
+    /// Store one refresh of the wash advice ([`Store::store_advice`]); answers with the ids of
+    /// the detected washes.
+    Advice {
+        advice: AdviceWrite,
+        reply: Reply<Vec<i64>>,
+    },
 }
 
 /// Writer batching settings (from `[storage]`, see `StorageConfig::writer`).
@@ -83,6 +113,13 @@ pub struct WriterStats {
     /// Samples dropped because the buffer was full during a write-error episode (each span is
     /// recorded as a gap).
     pub samples_dropped: u64,
+    /// Write requests carried out (detector scans, diagnosis outcomes, wash advice).
+    pub requests: u64,
+    /// Write requests that failed (answered with the error; the sender logs and retries).
+    pub request_errors: u64,
+    /// Times a sender found the channel full and waited (back-pressure; counted by the
+    /// senders' [`WriterHandle`], filled in by whoever owns it).
+    pub channel_full_waits: u64,
 }
 
 struct Pending {
@@ -170,6 +207,12 @@ impl Writer {
                 self.stats.samples_duplicate += samples.len() as u64 - inserted;
                 self.stats.gaps += gaps.len() as u64;
                 self.stats.transactions += 1;
+                tracing::debug!(
+                    samples = samples.len(),
+                    through_ms = samples.iter().map(|s| s.t_ms).max().unwrap_or(0),
+                    inserted_total = self.stats.samples_inserted,
+                    "batch committed"
+                );
                 if let Some(f) = self.failing.take() {
                     tracing::warn!(
                         cause = %f.cause,
@@ -218,6 +261,42 @@ impl Writer {
                 Err(e)
             }
         }
+    }
+
+    /// Carries out one write request on the blocking pool, in its own transaction; pending
+    /// samples stay buffered. A failure is counted and answered; it starts no episode (the
+    /// sender decides whether to retry).
+    async fn apply<T: Send + 'static>(
+        &mut self,
+        work: impl FnOnce(&mut Store) -> Result<T, StoreError> + Send + 'static,
+    ) -> Result<T, StoreError> {
+        let mut store = self
+            .store
+            .take()
+            .ok_or_else(|| StoreError::Writer("store lost".to_string()))?;
+        let (store, result) = tokio::task::spawn_blocking(move || {
+            let r = work(&mut store);
+            (store, r)
+        })
+        .await
+        .map_err(|e| StoreError::Writer(e.to_string()))?;
+        self.store = Some(store);
+        self.stats.requests += 1;
+        if let Err(e) = &result {
+            self.stats.request_errors += 1;
+            tracing::warn!(cause = %error_chain(e), "write request failed");
+        }
+        result
+    }
+
+    /// Answers a request with its result (a sender that gave up waiting is not an error).
+    async fn answer<T: Send + 'static>(
+        &mut self,
+        reply: Reply<T>,
+        work: impl FnOnce(&mut Store) -> Result<T, StoreError> + Send + 'static,
+    ) {
+        let r = self.apply(work).await;
+        let _ = reply.send(r);
     }
 
     fn accept_samples(&mut self, batch: Vec<Sample>) {
@@ -326,6 +405,15 @@ pub async fn run_writer(
                 if w.failing.is_none() {
                     let _ = w.flush().await;
                 }
+            }
+            Some(WriteCmd::Detection { scan, reply }) => {
+                w.answer(reply, move |s| s.store_scan(&scan)).await;
+            }
+            Some(WriteCmd::Diagnosis { outcome, reply }) => {
+                w.answer(reply, move |s| s.store_outcome(&outcome)).await;
+            }
+            Some(WriteCmd::Advice { advice, reply }) => {
+                w.answer(reply, move |s| s.store_advice(&advice)).await;
             }
         }
     }

@@ -89,22 +89,34 @@ fn worker_diagnoses_a_stored_startup_and_shutdown_leaves_it_pending() {
         .enable_all()
         .build()
         .expect("runtime");
-    let task = DiagnosisTask {
-        db_path: dir.path().join("w.db"),
-        store_opts: StoreOptions::default(),
-        ctx: Arc::clone(&ctx),
-        wake: Arc::new(Notify::new()),
-        after_result: None,
-    };
+    let db_path = dir.path().join("w.db");
+    let task_ctx = Arc::clone(&ctx);
     let rep = rt.block_on(async move {
+        // The daemon's shape: the task reads read-only and writes through the one writer.
+        let (tx, rx) = crate::store::writer_channel(16);
+        let writer = crate::store::spawn_writer(
+            Store::open(&db_path).expect("writer's store"),
+            rx,
+            crate::store::WriterConfig::default(),
+        );
+        let task = DiagnosisTask {
+            db_path,
+            store_opts: StoreOptions::default(),
+            writer: tx,
+            ctx: task_ctx,
+            wake: Arc::new(Notify::new()),
+            after_result: None,
+        };
         let (trigger, shutdown) = shutdown_channel();
         let h = tokio::spawn(task.run(shutdown));
         tokio::time::sleep(Duration::from_millis(500)).await;
         trigger.trigger();
-        tokio::time::timeout(Duration::from_secs(60), h)
+        let rep = tokio::time::timeout(Duration::from_secs(60), h)
             .await
             .expect("worker stops soon after shutdown")
-            .expect("join")
+            .expect("join");
+        writer.await.expect("join").expect("writer");
+        rep
     });
     assert!(rep.cancelled, "{rep:?}");
     assert_eq!(rep.diagnosed, 0);

@@ -1,6 +1,8 @@
 //! Helpers shared by the daemon's end-to-end and fault tests.
 #![allow(dead_code)]
 
+pub mod daemon;
+
 use gtwatch::acquire::register_map::{DataType, FieldSpec, PLANT_TIME_FIELD};
 use gtwatch::config::Config;
 use gtwatch::plantsim::{PlantFrame, PlantModel, ScriptStep, ScriptTiming, ScriptedPlant};

@@ -21,11 +21,10 @@ use super::AcquisitionConfig;
 use crate::acquire::clock::SampleClock;
 use crate::acquire::register_map::RegisterKind;
 use crate::shutdown::Shutdown;
-use crate::store::{Gap, Sample, TagId, WriteCmd};
+use crate::store::{Gap, Sample, TagId, WriteCmd, WriterHandle};
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-use tokio::sync::mpsc;
 
 /// Source name recorded with gaps.
 pub const GAP_SOURCE: &str = "modbus";
@@ -40,12 +39,13 @@ struct Outage {
 }
 
 /// Runs the poll loop until `shutdown`: one poll per period, samples sent as one
-/// `WriteCmd::Samples` per poll, gaps as `WriteCmd::Gap`. Returns the final tallies. Ends early
-/// only if the writer has gone away (nothing could be stored).
+/// `WriteCmd::Samples` per poll, gaps as `WriteCmd::Gap`; a full channel makes it wait (the
+/// poll is late, no sample is dropped). Returns the final tallies. Ends early only if the
+/// writer has gone away (nothing could be stored).
 pub async fn poll_loop(
     cfg: &AcquisitionConfig,
     plan: &PollPlan,
-    tx: mpsc::Sender<WriteCmd>,
+    tx: WriterHandle,
     progress: Arc<PollProgress>,
     shutdown: Shutdown,
 ) -> PollStats {
@@ -60,7 +60,7 @@ pub async fn poll_loop(
 pub async fn poll_loop_with_clock(
     cfg: &AcquisitionConfig,
     plan: &PollPlan,
-    tx: mpsc::Sender<WriteCmd>,
+    tx: WriterHandle,
     progress: Arc<PollProgress>,
     mut shutdown: Shutdown,
     clock: SampleClock,
@@ -120,7 +120,7 @@ enum PlantTime {
 /// The poll loop's state between ticks.
 struct Poller<'a> {
     plan: &'a PollPlan,
-    tx: mpsc::Sender<WriteCmd>,
+    tx: WriterHandle,
     progress: Arc<PollProgress>,
     clock: SampleClock,
     connect_timeout: Duration,
@@ -140,7 +140,7 @@ impl<'a> Poller<'a> {
     fn new(
         cfg: &AcquisitionConfig,
         plan: &'a PollPlan,
-        tx: mpsc::Sender<WriteCmd>,
+        tx: WriterHandle,
         progress: Arc<PollProgress>,
         clock: SampleClock,
     ) -> Poller<'a> {
