@@ -68,6 +68,13 @@ pub struct DiagnosisSettings {
     /// stored with `fit_quality` at least "suspect" and named in the result.
     #[serde(skip_serializing_if = "is_default_bounds")]
     pub health_bounds: [f64; 2],
+    /// `gtwatch run` analyses the model–plant gap (`gtwatch gap`) of every start-up whose
+    /// Method B fit is not `good`, in the background once the diagnosis queue is empty, and
+    /// stores it for the report. Default true.
+    pub gap_on_poor_fit: bool,
+    /// Also analyse every n-th start-up that has a Method B result (a schedule; 0 = none).
+    /// Default 0.
+    pub gap_every_n: u32,
 }
 
 impl Default for DiagnosisSettings {
@@ -82,6 +89,8 @@ impl Default for DiagnosisSettings {
             poll_interval_ms: 60_000,
             min_good_fraction: 0.9,
             health_bounds: [HEALTH_BOUNDS.0, HEALTH_BOUNDS.1],
+            gap_on_poor_fit: true,
+            gap_every_n: 0,
         }
     }
 }
@@ -394,3 +403,5 @@ pub fn drain_pending(
 
 #[cfg(test)]
 mod tests;
+
+pub mod gap;

@@ -71,6 +71,10 @@ pub struct BenchDaemonArgs {
     /// `gtwatch report` against the live database, as separate processes.
     #[arg(long)]
     pub readers: bool,
+    /// Live mode: the daemon's background gap analysis also runs on every n-th diagnosed
+    /// start-up (`[diagnosis] gap_every_n`; 0: only on fits that are not good).
+    #[arg(long, default_value_t = 0)]
+    pub gap_every: u32,
 }
 
 /// Process CPU time (user + system), s. /proc/self/stat fields 14 and 15, in USER_HZ (100 on
@@ -168,6 +172,9 @@ struct LiveReport {
     samples_per_s: f64,
     /// Start-ups diagnosed during the run (with `--diagnose-startups`).
     diagnosed: u64,
+    /// Background gap analyses stored / yielded (cancelled) during the run.
+    gap_stored: u64,
+    gap_cancelled: u64,
     /// Poll jitter: spacing of the stored n1 time stamps minus the poll period, ms.
     jitter: Jitter,
     /// Database locks any connection of this process waited for while the daemon ran.
@@ -444,7 +451,10 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
         acquisition: Default::default(),
         modbus: Some(map),
         daemon: DaemonConfig::default(),
-        diagnosis: Default::default(),
+        diagnosis: crate::worker::DiagnosisSettings {
+            gap_every_n: args.gap_every,
+            ..Default::default()
+        },
         wash: Default::default(),
     };
     cfg.acquisition.poll_period_ms = period_ms;
@@ -522,6 +532,8 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
         samples: s1 - s0,
         samples_per_s: (s1 - s0) as f64 / wall,
         diagnosed: report.diagnosis.diagnosed,
+        gap_stored: report.gap.stored,
+        gap_cancelled: report.gap.cancelled,
         jitter,
         store_lock_waits: waits.waits - waits_before.waits,
         store_lock_waited_ms: waits.waited_ms - waits_before.waited_ms,

@@ -11,6 +11,7 @@ use crate::detect::{self, DetectorConfig, ScanReport};
 use crate::shutdown::Shutdown;
 use crate::store::{ReadStore, StoreOptions, ViaWriter, WriterHandle};
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::Notify;
@@ -36,6 +37,8 @@ pub struct DetectorTask {
     interval: Duration,
     /// Notified after a scan that closed a segment.
     wake: Arc<Notify>,
+    /// Segments closed so far (the gap task yields when it moves).
+    pub closed: Arc<AtomicU64>,
     /// Scans that succeeded / failed.
     pub scans_ok: u64,
     pub scans_failed: u64,
@@ -57,6 +60,7 @@ impl DetectorTask {
             cfg,
             interval,
             wake,
+            closed: Arc::new(AtomicU64::new(0)),
             scans_ok: 0,
             scans_failed: 0,
         }
@@ -84,6 +88,8 @@ impl DetectorTask {
                         open = rep.segments_open,
                         "start-up segments detected"
                     );
+                    self.closed
+                        .fetch_add(rep.segments_closed, Ordering::Relaxed);
                     self.wake.notify_one();
                 }
                 Some(rep)

@@ -27,12 +27,14 @@ pub mod acquisition;
 mod blocking;
 pub mod detector;
 pub mod diagnosis;
+pub mod gap;
 pub mod supervisor;
 pub mod writer;
 
 pub use acquisition::AcquisitionTask;
 pub use detector::{detector_store_options, DetectorTask, DETECTOR_CACHE_MIB};
 pub use diagnosis::DiagnosisTask;
+pub use gap::{GapTask, GapTaskReport};
 pub use supervisor::Supervisor;
 pub use writer::WriterTask;
 
@@ -88,6 +90,8 @@ pub struct RunReport {
     pub last_scan: Option<ScanReport>,
     /// What the diagnosis worker did.
     pub diagnosis: DrainReport,
+    /// What the background gap analysis did.
+    pub gap: GapTaskReport,
 }
 
 /// Runs the daemon until `shutdown` fires. `cfg` must have passed [`Config::check`].
@@ -185,6 +189,7 @@ struct Running {
     flush_timeout: Duration,
     detector: JoinHandle<DetectorTask>,
     diagnosis: Option<JoinHandle<DrainReport>>,
+    gap: Option<JoinHandle<GapTaskReport>>,
 }
 
 impl Running {
@@ -204,17 +209,34 @@ impl Running {
         let db_path: PathBuf = cfg.storage.path.clone();
         let task_opts = detector_store_options(&cfg.storage.options());
         let wake = Arc::new(Notify::new());
-        let detector = tokio::spawn(
-            DetectorTask::new(
-                db_path.clone(),
-                task_opts,
-                tx.clone(),
-                cfg.detector.clone(),
-                Duration::from_millis(cfg.daemon.detect_interval_ms),
-                Arc::clone(&wake),
-            )
-            .run(shutdown.clone()),
+        let det = DetectorTask::new(
+            db_path.clone(),
+            task_opts,
+            tx.clone(),
+            cfg.detector.clone(),
+            Duration::from_millis(cfg.daemon.detect_interval_ms),
+            Arc::clone(&wake),
         );
+        let closed = Arc::clone(&det.closed);
+        let detector = tokio::spawn(det.run(shutdown.clone()));
+        let gap = match (cfg.diagnosis.enabled, opts.worker.clone()) {
+            (true, Some(ctx)) if crate::worker::gap::selection(&ctx).is_some() => {
+                Some(tokio::spawn(
+                    GapTask {
+                        db_path: db_path.clone(),
+                        store_opts: task_opts,
+                        writer: tx.clone(),
+                        idle_period: Duration::from_millis(
+                            ctx.settings.poll_interval_ms.clamp(100, 10_000),
+                        ),
+                        ctx,
+                        closed,
+                    }
+                    .run(shutdown.clone()),
+                ))
+            }
+            _ => None,
+        };
         let diagnosis = match (cfg.diagnosis.enabled, opts.worker.clone()) {
             (true, Some(ctx)) => Some(tokio::spawn(
                 DiagnosisTask {
@@ -239,6 +261,7 @@ impl Running {
             flush_timeout: cfg.storage.writer().close_retry,
             detector,
             diagnosis,
+            gap,
         })
     }
 
@@ -273,6 +296,12 @@ impl Running {
             match w.await {
                 Ok(d) => report.diagnosis = d,
                 Err(e) => tracing::error!("diagnosis task failed: {e}"),
+            }
+        }
+        if let Some(g) = self.gap {
+            match g.await {
+                Ok(r) => report.gap = r,
+                Err(e) => tracing::error!("gap task failed: {e}"),
             }
         }
         let channel_full_waits = self.tx.channel_full_waits();

@@ -7,7 +7,9 @@
 //! for). The code that decides what to write (`detect`, `worker`, `advice`) is the same for
 //! both. Must not hold SQL (that is the store's other files) or decide what to write.
 
-use super::{AdviceWrite, NewOutcome, ScanWrite, Store, StoreError, WriteCmd, WriterHandle};
+use super::{
+    AdviceWrite, NewGapAnalysis, NewOutcome, ScanWrite, Store, StoreError, WriteCmd, WriterHandle,
+};
 
 /// Reads through [`Db::read`], writes through the typed requests below.
 pub trait Db {
@@ -19,6 +21,8 @@ pub trait Db {
     fn write_outcome(&mut self, outcome: NewOutcome) -> Result<Vec<i64>, StoreError>;
     /// One refresh of the wash advice ([`Store::store_advice`]): the ids of the washes.
     fn write_advice(&mut self, advice: AdviceWrite) -> Result<Vec<i64>, StoreError>;
+    /// One gap analysis ([`Store::insert_gap_analysis`]): its id.
+    fn write_gap_analysis(&mut self, analysis: NewGapAnalysis) -> Result<i64, StoreError>;
 }
 
 impl Db for Store {
@@ -36,6 +40,10 @@ impl Db for Store {
 
     fn write_advice(&mut self, advice: AdviceWrite) -> Result<Vec<i64>, StoreError> {
         self.store_advice(&advice)
+    }
+
+    fn write_gap_analysis(&mut self, analysis: NewGapAnalysis) -> Result<i64, StoreError> {
+        self.insert_gap_analysis(&analysis)
     }
 }
 
@@ -65,5 +73,12 @@ impl Db for ViaWriter<'_> {
     fn write_advice(&mut self, advice: AdviceWrite) -> Result<Vec<i64>, StoreError> {
         self.writer
             .blocking_request(|reply| WriteCmd::Advice { advice, reply })
+    }
+
+    fn write_gap_analysis(&mut self, analysis: NewGapAnalysis) -> Result<i64, StoreError> {
+        self.writer.blocking_request(|reply| WriteCmd::GapAnalysis {
+            analysis: Box::new(analysis),
+            reply,
+        })
     }
 }

@@ -53,7 +53,42 @@ fn row(r: &rusqlite::Row<'_>) -> rusqlite::Result<GapAnalysisRow> {
     })
 }
 
+/// Which start-ups the daemon's gap analysis looks at ([`Store::segments_for_gap`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GapSelection {
+    /// Start-ups whose Method B fit is stored as not `good`, or refused as `residual_too_high`.
+    pub not_good: bool,
+    /// Also every `every_n`-th start-up with a Method B result (by segment id; 0 = none).
+    pub every_n: u32,
+}
+
 impl Store {
+    /// Start-ups without a stored gap analysis that `sel` selects, oldest first, at most
+    /// `limit`.
+    pub fn segments_for_gap(
+        &self,
+        sel: GapSelection,
+        limit: usize,
+    ) -> Result<Vec<i64>, StoreError> {
+        let mut st = self.conn.prepare_cached(
+            "SELECT s.id FROM segments s
+             WHERE NOT EXISTS (SELECT 1 FROM gap_analyses a WHERE a.segment_id = s.id)
+               AND ((?1 AND (EXISTS (SELECT 1 FROM diagnoses d WHERE d.segment_id = s.id
+                                       AND d.method = 'B' AND d.fit_quality IS NOT NULL
+                                       AND d.fit_quality <> 'good')
+                             OR EXISTS (SELECT 1 FROM undiagnosable u
+                                        WHERE u.segment_id = s.id AND u.method = 'B'
+                                          AND u.reason = 'residual_too_high')))
+                    OR (?2 > 0 AND s.id % ?2 = 0
+                        AND EXISTS (SELECT 1 FROM diagnoses d WHERE d.segment_id = s.id
+                                      AND d.method = 'B')))
+             ORDER BY s.start_ms, s.id LIMIT ?3",
+        )?;
+        let limit = i64::try_from(limit).unwrap_or(i64::MAX);
+        let rows = st.query_map(params![sel.not_good, sel.every_n, limit], |r| r.get(0))?;
+        Ok(rows.collect::<Result<_, _>>()?)
+    }
+
     /// Stores one analysis; returns its id.
     pub fn insert_gap_analysis(&mut self, g: &NewGapAnalysis) -> Result<i64, StoreError> {
         self.conn.execute(

@@ -23,7 +23,7 @@ mod detection;
 mod diagnoses;
 mod gap;
 mod locks;
-pub use gap::{GapAnalysisRow, NewGapAnalysis};
+pub use gap::{GapAnalysisRow, GapSelection, NewGapAnalysis};
 mod segments;
 mod washes;
 pub use segments::{PhaseRow, SampleRow, StartupRow};

@@ -22,8 +22,8 @@
 //! episode the writer retries for `close_retry` more (default 5 s), then returns the error.
 
 use super::{
-    insert_samples_in, record_gap_in, AdviceWrite, Gap, NewOutcome, Sample, ScanWrite, Store,
-    StoreError,
+    insert_samples_in, record_gap_in, AdviceWrite, Gap, NewGapAnalysis, NewOutcome, Sample,
+    ScanWrite, Store, StoreError,
 };
 use std::time::Duration;
 use tokio::sync::{mpsc, oneshot};
@@ -61,6 +61,11 @@ pub enum WriteCmd {
     Advice {
         advice: AdviceWrite,
         reply: Reply<Vec<i64>>,
+    },
+    /// Store one gap analysis ([`Store::insert_gap_analysis`]); answers with its id.
+    GapAnalysis {
+        analysis: Box<NewGapAnalysis>,
+        reply: Reply<i64>,
     },
 }
 
@@ -414,6 +419,10 @@ pub async fn run_writer(
             }
             Some(WriteCmd::Advice { advice, reply }) => {
                 w.answer(reply, move |s| s.store_advice(&advice)).await;
+            }
+            Some(WriteCmd::GapAnalysis { analysis, reply }) => {
+                w.answer(reply, move |s| s.insert_gap_analysis(&analysis))
+                    .await;
             }
         }
     }

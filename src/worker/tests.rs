@@ -213,3 +213,51 @@ fn low_quality_segment_is_stored_undiagnosable() {
     assert_eq!(r[0].1, "low_quality");
     assert!(r[0].2.contains("fuel_kg_s"), "{r:?}");
 }
+
+/// The daemon's gap step (issue 23 item 4): nothing is analysed while a start-up waits for its
+/// diagnosis; a cancelled analysis stores nothing; a diagnosed start-up on the schedule
+/// (`gap_every_n = 1`) is analysed and stored once.
+#[test]
+fn gap_step_analyses_a_diagnosed_startup_once() {
+    use super::gap::{analyse_next, GapStep};
+    use std::collections::HashSet;
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut store = stored_startup(dir.path());
+    let ctx = WorkerContext::load(
+        None,
+        DiagnosisSettings {
+            threads: 2,
+            max_model_runs: 120,
+            gap_every_n: 1,
+            ..DiagnosisSettings::default()
+        },
+    )
+    .expect("context");
+    let none = HashSet::new();
+    let step = analyse_next(&mut store, &ctx, &Cancel::new(), &none).expect("step");
+    assert_eq!(step, GapStep::Idle, "the diagnosis queue comes first");
+    drain_pending(&mut store, &ctx, &Cancel::new(), None).expect("drain");
+    let seg = store
+        .history(&HistoryFilter::default())
+        .expect("history")
+        .first()
+        .expect("a result")
+        .segment_id;
+    let cancelled = Cancel::new();
+    cancelled.cancel();
+    let step = analyse_next(&mut store, &ctx, &cancelled, &none).expect("step");
+    assert_eq!(step, GapStep::Cancelled { segment_id: seg });
+    assert!(store.gap_analyses(seg).expect("rows").is_empty());
+    match analyse_next(&mut store, &ctx, &Cancel::new(), &none).expect("step") {
+        GapStep::Stored { segment_id, .. } => assert_eq!(segment_id, seg),
+        other => panic!("not stored: {other:?}"),
+    }
+    assert_eq!(store.gap_analyses(seg).expect("rows").len(), 1);
+    let step = analyse_next(&mut store, &ctx, &Cancel::new(), &none).expect("step");
+    assert_eq!(step, GapStep::Idle, "analysed once");
+    // The schedule off and the fit good: nothing selected.
+    let mut skip = HashSet::new();
+    skip.insert(seg);
+    let step = analyse_next(&mut store, &ctx, &Cancel::new(), &skip).expect("step");
+    assert_eq!(step, GapStep::Idle);
+}
