@@ -1,4 +1,5 @@
 use super::*;
+use crate::signals::Signal;
 use crate::store::Store;
 
 fn setup(csv: &str) -> (tempfile::TempDir, Store, PathBuf) {
