@@ -1,6 +1,7 @@
 //! Time stamps as text: parsing the formats logs and command lines use (ISO 8601 with or without
 //! an offset, Unix seconds, Unix milliseconds) to Unix epoch milliseconds, and formatting epoch
-//! milliseconds back as UTC text for messages, exports, charts and reports.
+//! milliseconds back as UTC text for messages, exports, charts and reports; and (`zone`) local
+//! wall-clock stamps of an IANA time zone to UTC instants.
 //!
 //! The one place for this: every other module (replay, acquisition messages, charts, reports,
 //! the commands) calls it rather than keeping a copy. Foundation floor: depends on no other
@@ -9,6 +10,9 @@
 
 use ::time::format_description::well_known::Rfc3339;
 use serde::{Deserialize, Serialize};
+
+mod zone;
+pub use zone::{zone_problem, LocalClock, StampError};
 
 /// How the time column is written.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize, Default)]
@@ -82,6 +86,29 @@ fn finite_ms(v: f64) -> Result<i64, String> {
 /// ISO 8601 date-time to epoch ms; `T` or a space between date and time; no offset = UTC.
 /// A bare date (`2024-03-01`) is midnight UTC.
 pub fn parse_iso8601_ms(s: &str) -> Result<i64, String> {
+    Ok(match parse_iso8601_stamp(s)? {
+        Stamp::Instant(t) => t,
+        Stamp::Local(dt) => local_as_utc_ms(dt),
+    })
+}
+
+/// An ISO 8601 text as written: an instant (it carried `Z` or an offset) or a local date-time
+/// without an offset, which only a time zone can place.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stamp {
+    /// Unix epoch ms.
+    Instant(i64),
+    /// Wall-clock date and time, no offset (a bare date is its midnight).
+    Local(::time::PrimitiveDateTime),
+}
+
+/// A local date-time read as if it were UTC, in epoch ms (the "no offset = UTC" rule).
+pub fn local_as_utc_ms(dt: ::time::PrimitiveDateTime) -> i64 {
+    (dt.assume_utc().unix_timestamp_nanos() / 1_000_000) as i64
+}
+
+/// ISO 8601 text to a [`Stamp`]; `T` or a space between date and time.
+pub fn parse_iso8601_stamp(s: &str) -> Result<Stamp, String> {
     use ::time::format_description::well_known::Iso8601;
     let s = s.trim();
     let owned;
@@ -91,15 +118,16 @@ pub fn parse_iso8601_ms(s: &str) -> Result<i64, String> {
     } else {
         s
     };
-    let to_ms = |t: ::time::OffsetDateTime| (t.unix_timestamp_nanos() / 1_000_000) as i64;
     if let Ok(t) = ::time::OffsetDateTime::parse(s, &Iso8601::DEFAULT) {
-        return Ok(to_ms(t));
+        return Ok(Stamp::Instant(
+            (t.unix_timestamp_nanos() / 1_000_000) as i64,
+        ));
     }
     if let Ok(t) = ::time::PrimitiveDateTime::parse(s, &Iso8601::DEFAULT) {
-        return Ok(to_ms(t.assume_utc()));
+        return Ok(Stamp::Local(t));
     }
     match ::time::Date::parse(s, &Iso8601::DEFAULT) {
-        Ok(d) => Ok(to_ms(d.midnight().assume_utc())),
+        Ok(d) => Ok(Stamp::Local(d.midnight())),
         Err(e) => Err(date_problem(s).unwrap_or_else(|| e.to_string())),
     }
 }

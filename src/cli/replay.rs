@@ -1,7 +1,8 @@
 //! `gtwatch replay --config FILE LOG.csv`: ingest a CSV log, then run the start-up detector.
 //!
 //! Exit status: 0 all rows stored; 1 an error (or `on_malformed = "stop"` hit a bad row);
-//! 3 replayed, but rows were rejected for their time stamps (see stderr / the JSON report).
+//! 3 replayed, but rows were rejected for their time stamps (out of order, implausible, or a
+//! local time the configured zone skips; see stderr / the JSON report).
 //! Must not parse CSV or detect start-ups itself: that is `ingest` and `detect`.
 
 use super::common::DataSections;
@@ -149,6 +150,14 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
                         log.display(),
                         report.rows_out_of_order,
                         report.rows_implausible_time
+                    );
+                    time_rejected = true;
+                }
+                if report.rows_nonexistent_time > 0 {
+                    eprintln!(
+                        "{}: {} rows with local times that do not exist in replay.time_zone (the spring gap) were not stored (exit status 3)",
+                        log.display(),
+                        report.rows_nonexistent_time
                     );
                     time_rejected = true;
                 }

@@ -1,4 +1,5 @@
 use super::*;
+use crate::signals::Signal;
 use crate::store::Store;
 
 fn setup(csv: &str) -> (tempfile::TempDir, Store, PathBuf) {
@@ -432,4 +433,43 @@ fn implausible_values_in_a_replayed_start_do_not_change_its_outcome() {
     assert_eq!(dirty.len(), 1, "{dirty:?}");
     assert_eq!(dirty[0].0, "completed", "{dirty:?}");
     assert_eq!(dirty[0].1, clean[0].1, "same start");
+}
+
+#[test]
+fn long_files_are_detected_planned_and_replayed_per_tag() {
+    let csv = "Tag,time,Value,Status\n\
+               n1_rpm,2024-03-01T00:00:00Z,100,Good\n\
+               comment,2024-03-01T00:00:00Z,1,Good\n\
+               power_mw,2024-03-01T00:00:00Z,1.5,Bad\n\
+               n1_rpm,2024-03-01T00:00:01Z,200,Good\n\
+               n1_rpm,2024-03-01T00:00:01Z,201,Good\n\
+               power_mw,2024-03-01T00:00:01Z,2.5,\n";
+    let (_d, mut store, path) = setup(csv);
+    let cfg = ReplayConfig::default();
+    let plan = plan_columns(&cfg, &path).expect("plan");
+    assert!(plan.long.is_some());
+    assert!(plan.feeds_tag("n1_rpm") && plan.feeds_tag("power_mw"));
+    assert_eq!(plan.ignored, vec!["comment".to_string()]);
+    let r = replay_file(&mut store, &cfg, &path, Progress::Silent).expect("replay");
+    assert_eq!(r.rows_read, 6);
+    assert_eq!(r.rows_out_of_order, 1, "n1 twice at 00:00:01");
+    assert_eq!(r.malformed[0].line, 6);
+    assert_eq!(r.samples_inserted, 4);
+    assert_eq!(r.quality.bad, 1, "status Bad");
+    assert_eq!(r.ignored_columns, vec!["comment".to_string()]);
+
+    let wide = ReplayConfig {
+        layout: Layout::Wide,
+        ..ReplayConfig::default()
+    };
+    assert!(matches!(
+        plan_columns(&wide, &path),
+        Err(ReplayError::NoColumns { .. })
+    ));
+    let mapped = ReplayConfig {
+        columns: [("GG_SPEED".to_string(), "n1".to_string())].into(),
+        ..ReplayConfig::default()
+    };
+    let e = plan_columns(&mapped, &path).expect_err("tag never occurs");
+    assert!(e.to_string().contains("GG_SPEED"), "{e}");
 }
