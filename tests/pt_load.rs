@@ -121,6 +121,21 @@ fn method(doc: &serde_json::Value, m: &str) -> ([f64; 6], String) {
     (out, verdict)
 }
 
+/// `gtwatch diagnose --method transient` of `csv` with `engine`: health and fit verdict.
+fn method_b(csv: &Path, engine: &Path) -> ([f64; 6], String) {
+    let doc = json(&[
+        "diagnose",
+        "--input",
+        csv.to_str().expect("path"),
+        "--engine",
+        engine.to_str().expect("path"),
+        "--method",
+        "transient",
+        "--json",
+    ]);
+    method(&doc, "transient")
+}
+
 #[test]
 fn method_b_follows_the_measured_pt_speed_of_an_unknown_load() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -144,17 +159,7 @@ fn method_b_follows_the_measured_pt_speed_of_an_unknown_load() {
             "--out",
             csv.to_str().expect("path"),
         ]);
-        let doc = json(&[
-            "diagnose",
-            "--input",
-            csv.to_str().expect("path"),
-            "--engine",
-            held.to_str().expect("path"),
-            "--method",
-            "transient",
-            "--json",
-        ]);
-        let (h, verdict) = method(&doc, "transient");
+        let (h, verdict) = method_b(&csv, &held);
         let err = h
             .iter()
             .zip(truth)
@@ -170,17 +175,6 @@ fn method_b_follows_the_measured_pt_speed_of_an_unknown_load() {
     }
     eprintln!("worst error with the measured PT speed: {worst:.3} points");
     // The cube law of the original file is the wrong load for the table unit: no good fit.
-    let csv = dir.path().join("start-3.csv");
-    let doc = json(&[
-        "diagnose",
-        "--input",
-        csv.to_str().expect("path"),
-        "--engine",
-        law.to_str().expect("path"),
-        "--method",
-        "transient",
-        "--json",
-    ]);
-    let (h, verdict) = method(&doc, "transient");
+    let (h, verdict) = method_b(&dir.path().join("start-3.csv"), &law);
     assert_ne!(verdict, "good", "the wrong load fitted: {h:?}");
 }
