@@ -289,7 +289,7 @@ mod tests {
             ("storage", 7),
             ("acquisition", 7),
             ("daemon", 2),
-            ("diagnosis", 11),
+            ("diagnosis", 12),
             ("quality", 2),
             ("wash", 7),
         ] {

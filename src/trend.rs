@@ -223,6 +223,63 @@ fn sigma_of_val(s: f64) -> f64 {
     }
 }
 
+/// A start-up whose health parameter left the unit's own trend (issue 23 item 3): what the
+/// trend of the previous diagnoses since the last wash predicts for it, and by how much more
+/// than their scatter and its uncertainty it differs.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct HealthStep {
+    /// Index of the parameter (`health::HEALTH_NAMES` order).
+    pub param: usize,
+    pub value: f64,
+    pub expected: f64,
+    /// The largest difference the trend allows, percent.
+    pub tolerance: f64,
+}
+
+/// Smallest step that counts, percent: below it a start-up is within the scatter a trend of
+/// real diagnoses shows.
+pub const MIN_STEP: f64 = 0.5;
+/// Steps are judged in units of the combined 1σ of the new value and the trend's prediction.
+const STEP_SIGMAS: f64 = 4.0;
+/// Diagnoses of the trend a step is judged against (the most recent ones since the wash).
+const STEP_WINDOW: usize = 8;
+
+/// The parameters of `current` that step away from the trend of `previous` (the same
+/// parameter's diagnoses since the last wash, oldest first; at least 3 are needed, else none).
+/// A compressor parameter (`recovers[i]`) that improves is left out: that is what a wash
+/// (recorded or not yet detected) does, and the wash advice judges it.
+pub fn steps_against_trend(
+    previous: &[[TrendPoint; 6]],
+    current: &[TrendPoint; 6],
+    recovers: [bool; 6],
+) -> Vec<HealthStep> {
+    let tail = &previous[previous.len().saturating_sub(STEP_WINDOW)..];
+    let mut out = Vec::new();
+    for k in 0..6 {
+        let points: Vec<TrendPoint> = tail.iter().map(|p| p[k]).collect();
+        let Ok(fit) = fit_rate(&points) else {
+            continue;
+        };
+        let cur = current[k];
+        let expected = fit.value_at(cur.t_days);
+        let mean_var =
+            points.iter().map(|p| sigma_of(p).powi(2)).sum::<f64>() / points.len() as f64;
+        let spread = fit.scatter.max(mean_var.sqrt());
+        let sigma = (sigma_of(&cur).powi(2) + spread.powi(2)).sqrt();
+        let tolerance = (STEP_SIGMAS * sigma).max(MIN_STEP);
+        let d = cur.value - expected;
+        if d.abs() > tolerance && !(recovers[k] && d < 0.0) {
+            out.push(HealthStep {
+                param: k,
+                value: cur.value,
+                expected,
+                tolerance,
+            });
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -325,5 +382,55 @@ mod tests {
                 "seed {seed}"
             );
         }
+    }
+
+    fn health_points(t: f64, values: [f64; 6]) -> [TrendPoint; 6] {
+        values.map(|value| TrendPoint {
+            t_days: t,
+            value,
+            sigma: 0.05,
+        })
+    }
+
+    /// A fouling trend with scatter: the next start-up on the trend is no step; a 1.5-point
+    /// step in the HP turbine is; a compressor that recovers (a wash) is not; with fewer than 3
+    /// previous diagnoses nothing is judged.
+    #[test]
+    fn a_step_against_the_trend_is_found_and_a_wash_is_not_one() {
+        let scatter = [0.03, -0.05, 0.04, -0.02, 0.05, -0.04, 0.01, 0.02];
+        let previous: Vec<[TrendPoint; 6]> = scatter
+            .iter()
+            .enumerate()
+            .map(|(i, e)| {
+                let t = i as f64;
+                health_points(
+                    t,
+                    [
+                        1.0 + 0.1 * t + e,
+                        0.5 + 0.05 * t - e,
+                        0.3 + e,
+                        0.2,
+                        0.1,
+                        0.0,
+                    ],
+                )
+            })
+            .collect();
+        let on_trend = health_points(8.0, [1.8, 0.9, 0.3, 0.2, 0.1, 0.0]);
+        let recovers = [true, true, false, false, false, false];
+        assert!(steps_against_trend(&previous, &on_trend, recovers).is_empty());
+        let stepped = health_points(8.0, [1.8, 0.9, 1.8, 0.2, 0.1, 0.0]);
+        let steps = steps_against_trend(&previous, &stepped, recovers);
+        assert_eq!(steps.len(), 1, "{steps:?}");
+        assert_eq!(steps[0].param, 2);
+        assert!((steps[0].expected - 0.3).abs() < 0.1, "{steps:?}");
+        let washed = health_points(8.0, [0.2, 0.1, 0.3, 0.2, 0.1, 0.0]);
+        assert!(steps_against_trend(&previous, &washed, recovers).is_empty());
+        let fouled_faster = health_points(8.0, [3.5, 0.9, 0.3, 0.2, 0.1, 0.0]);
+        assert_eq!(
+            steps_against_trend(&previous, &fouled_faster, recovers).len(),
+            1
+        );
+        assert!(steps_against_trend(&previous[..2], &stepped, recovers).is_empty());
     }
 }

@@ -72,6 +72,10 @@ pub struct DiagnosisSettings {
     /// Method B fit is not `good`, in the background once the diagnosis queue is empty, and
     /// stores it for the report. Default true.
     pub gap_on_poor_fit: bool,
+    /// Also analyse a start-up whose Method B health steps away from the unit's own trend
+    /// since the last wash (`trend::steps_against_trend`): an input instrument that changed is
+    /// more likely than the engine. Default true.
+    pub gap_on_health_step: bool,
     /// Also analyse every n-th start-up that has a Method B result (a schedule; 0 = none).
     /// Default 0.
     pub gap_every_n: u32,
@@ -90,6 +94,7 @@ impl Default for DiagnosisSettings {
             min_good_fraction: 0.9,
             health_bounds: [HEALTH_BOUNDS.0, HEALTH_BOUNDS.1],
             gap_on_poor_fit: true,
+            gap_on_health_step: true,
             gap_every_n: 0,
         }
     }

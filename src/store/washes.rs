@@ -203,39 +203,63 @@ mod tests {
 
     const DAY: i64 = 86_400_000;
 
+    /// A closed start-up at `start` with one `good` Method B result `health`; its segment id.
+    fn insert_result(store: &mut Store, start: i64, health: [f64; 6]) -> i64 {
+        store
+            .conn
+            .execute(
+                "INSERT INTO segments (kind, start_ms, end_ms, outcome, status, updated_at_ms)
+                 VALUES ('startup', ?1, ?2, 'completed', 'closed', 0)",
+                params![start, start + 900_000],
+            )
+            .unwrap();
+        let id = store.conn.last_insert_rowid();
+        let d = NewDiagnosis {
+            segment_id: id,
+            method: "B".into(),
+            health,
+            sigma: [0.05, 0.03, 0.05, 0.05, 0.05, 0.05],
+            objective: 1.0,
+            residual_level: 0.8,
+            fit_quality: "good".into(),
+            model_runs: 300,
+            wall_s: 5.0,
+            seed: 1,
+            config_hash: "h".into(),
+            gtwatch_version: "test".into(),
+        };
+        store.insert_outcome(id, &[d], &[], "h").unwrap();
+        id
+    }
+
     /// A history of daily Method B results: D_GC grows 0.1 %/day (D_EC a third of it), an
     /// offline wash on day 12 resets both; small alternating noise.
     fn fill(store: &mut Store) {
         let t0 = 1_700_000_000_000_i64;
         for day in 0..24_i64 {
-            let start = t0 + day * DAY;
-            store
-                .conn
-                .execute(
-                    "INSERT INTO segments (kind, start_ms, end_ms, outcome, status, updated_at_ms)
-                     VALUES ('startup', ?1, ?2, 'completed', 'closed', 0)",
-                    params![start, start + 900_000],
-                )
-                .unwrap();
-            let id = store.conn.last_insert_rowid();
             let age = if day < 12 { day } else { day - 12 } as f64;
             let noise = if day % 2 == 0 { 0.02 } else { -0.02 };
-            let d = NewDiagnosis {
-                segment_id: id,
-                method: "B".into(),
-                health: [0.1 * age + noise, 0.1 / 3.0 * age, 0.2, 0.1, 0.0, 0.0],
-                sigma: [0.05, 0.03, 0.05, 0.05, 0.05, 0.05],
-                objective: 1.0,
-                residual_level: 0.8,
-                fit_quality: "good".into(),
-                model_runs: 300,
-                wall_s: 5.0,
-                seed: 1,
-                config_hash: "h".into(),
-                gtwatch_version: "test".into(),
-            };
-            store.insert_outcome(id, &[d], &[], "h").unwrap();
+            let health = [0.1 * age + noise, 0.1 / 3.0 * age, 0.2, 0.1, 0.0, 0.0];
+            insert_result(store, t0 + day * DAY, health);
         }
+    }
+
+    /// The gap task's trigger (issue 23 items 3–4): the wash's recovery is no step; a day whose
+    /// HP-turbine flow jumps 1.5 points against its trend is selected, and only it.
+    #[test]
+    fn a_health_step_against_the_trend_is_selected_and_a_wash_is_not() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut store = Store::open(&dir.path().join("w.db")).unwrap();
+        fill(&mut store);
+        assert_eq!(crate::worker::gap::health_steps(&store).unwrap(), vec![]);
+        let t0 = 1_700_000_000_000_i64;
+        let stepped = insert_result(&mut store, t0 + 24 * DAY, [1.2, 0.4, 1.7, 0.1, 0.0, 0.0]);
+        insert_result(&mut store, t0 + 25 * DAY, [1.3, 0.43, 0.2, 0.1, 0.0, 0.0]);
+        let steps = crate::worker::gap::health_steps(&store).unwrap();
+        assert_eq!(steps.len(), 1, "{steps:?}");
+        assert_eq!(steps[0].0, stepped);
+        assert_eq!(steps[0].1.len(), 1, "{steps:?}");
+        assert_eq!(steps[0].1[0].param, 2);
     }
 
     #[test]

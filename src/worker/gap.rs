@@ -1,7 +1,8 @@
 //! The gap question inside the loop (issue 23 item 4): one step of the daemon's background gap
 //! analysis. It picks the oldest start-up that needs one — its Method B fit stored as not
-//! `good` or refused as `residual_too_high`, or every n-th start-up on a schedule
-//! (`[diagnosis] gap_on_poor_fit`, `gap_every_n`) — runs `gap::analyse` on it with the worker's
+//! `good` or refused as `residual_too_high`, its health stepping away from the unit's own
+//! trend since the last wash (`trend::steps_against_trend`), or every n-th start-up on a
+//! schedule (`[diagnosis] gap_on_poor_fit`, `gap_on_health_step`, `gap_every_n`) — runs `gap::analyse` on it with the worker's
 //! engine and fit settings, and writes the report through [`Db`]. It yields to the diagnosis
 //! queue: nothing starts while a closed start-up waits for its diagnosis, and a cancelled
 //! analysis (shutdown, or a new start-up closing) stores nothing and is redone later.
@@ -10,8 +11,12 @@
 //! when it runs (the daemon's gap task does).
 
 use super::WorkerContext;
+use crate::health::HEALTH_NAMES as NAMES;
 use crate::optim::Cancel;
-use crate::store::{Db, GapSelection, NewGapAnalysis, StoreError};
+use crate::store::{
+    Db, GapSelection, HistoryFilter, HistoryRow, NewGapAnalysis, Store, StoreError,
+};
+use crate::trend::{steps_against_trend, HealthStep, TrendPoint};
 use std::collections::HashSet;
 
 /// What one step did.
@@ -36,10 +41,74 @@ pub enum GapStep {
 /// The selection the settings ask for, `None` when the daemon runs no gap analysis.
 pub fn selection(ctx: &WorkerContext) -> Option<GapSelection> {
     let s = &ctx.settings;
-    (s.gap_on_poor_fit || s.gap_every_n > 0).then_some(GapSelection {
+    (s.gap_on_poor_fit || s.gap_on_health_step || s.gap_every_n > 0).then_some(GapSelection {
         not_good: s.gap_on_poor_fit,
         every_n: s.gap_every_n,
     })
+}
+
+/// Milliseconds per day.
+const MS_PER_DAY: f64 = 86_400_000.0;
+
+fn trend_points(row: &HistoryRow) -> [TrendPoint; 6] {
+    let t_days = row.start_ms as f64 / MS_PER_DAY;
+    NAMES.map(|n| TrendPoint {
+        t_days,
+        value: row.health.get(n).copied().unwrap_or(f64::NAN),
+        sigma: row.sigma.get(n).copied().unwrap_or(f64::NAN),
+    })
+}
+
+/// Start-ups whose `good` Method B health steps away from the trend of the good results
+/// before them since the same wash, oldest first, with their steps.
+pub fn health_steps(read: &Store) -> Result<Vec<(i64, Vec<HealthStep>)>, StoreError> {
+    let rows = read.history(&HistoryFilter {
+        method: Some("B".into()),
+        ..HistoryFilter::default()
+    })?;
+    // A wash recovers the compressor: its improvement is not a step.
+    let recovers = NAMES.map(|n| n == "D_GC" || n == "D_EC");
+    let mut out = Vec::new();
+    let mut window: Vec<[TrendPoint; 6]> = Vec::new();
+    let mut since_wash: Option<i64> = None;
+    for row in rows
+        .iter()
+        .filter(|r| r.fit_quality.as_deref() == Some("good"))
+    {
+        if row.wash_id_before != since_wash {
+            window.clear();
+            since_wash = row.wash_id_before;
+        }
+        let points = trend_points(row);
+        let steps = steps_against_trend(&window, &points, recovers);
+        if steps.is_empty() {
+            window.push(points);
+        } else {
+            // A stepped start-up is left out of the trend the next ones are judged against.
+            out.push((row.segment_id, steps));
+        }
+    }
+    Ok(out)
+}
+
+/// The next start-up to analyse (oldest first), outside `skip`.
+fn next_segment(
+    read: &Store,
+    ctx: &WorkerContext,
+    sel: GapSelection,
+    skip: &HashSet<i64>,
+) -> Result<Option<i64>, StoreError> {
+    let mut ids = read.segments_for_gap(sel, skip.len() + 1)?;
+    if ctx.settings.gap_on_health_step {
+        for (id, _) in health_steps(read)? {
+            if !skip.contains(&id) && read.gap_analyses(id)?.is_empty() {
+                ids.push(id);
+                break;
+            }
+        }
+    }
+    ids.sort_unstable();
+    Ok(ids.into_iter().find(|id| !skip.contains(id)))
 }
 
 /// Analyses the next start-up that needs it (skipping `skip`), if the diagnosis queue is empty.
@@ -55,8 +124,7 @@ pub fn analyse_next(
     if !db.read().pending_segments()?.is_empty() {
         return Ok(GapStep::Idle);
     }
-    let ids = db.read().segments_for_gap(sel, skip.len() + 1)?;
-    let Some(segment_id) = ids.into_iter().find(|id| !skip.contains(id)) else {
+    let Some(segment_id) = next_segment(db.read(), ctx, sel, skip)? else {
         return Ok(GapStep::Idle);
     };
     let failed = |reason: String| Ok(GapStep::Failed { segment_id, reason });
