@@ -28,7 +28,7 @@ use rand::{Rng, SeedableRng};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
-pub use super::truth::{expected, KINDS};
+pub use super::truth::{expected, input_instances, INPUT_KINDS, KINDS};
 
 /// Least signature of an analysed case, in noise σ (worst residual cell).
 pub const MIN_SIGNATURE_SIGMA: f64 = 3.0;
@@ -90,6 +90,18 @@ pub struct BenchRun {
     pub skipped: Vec<Skipped>,
 }
 
+/// An input-channel truth named by the verdict, or listed among the aliases of an
+/// `ambiguous` verdict.
+fn input_named(kind: &str, r: &GapReport) -> bool {
+    let names = input_instances(kind);
+    names.contains(&r.verdict.effect.as_str())
+        || (r.verdict.effect == super::AMBIGUOUS
+            && r.aliases
+                .aliases
+                .iter()
+                .any(|a| names.contains(&a.effect.as_str())))
+}
+
 fn max_error(h: &HealthParams, truth: &HealthParams) -> f64 {
     let (a, b) = (h.to_array(), truth.to_array());
     (0..6).map(|i| (a[i] - b[i]).abs()).fold(0.0, f64::max)
@@ -139,10 +151,12 @@ pub fn run_cases(
     cfg: &DiagnosisConfig,
     mut progress: impl FnMut(&Case),
 ) -> Result<BenchRun, DiagnosisError> {
-    if let Some(k) = only.iter().find(|k| !KINDS.contains(&k.as_str())) {
+    let known = |k: &str| KINDS.contains(&k) || INPUT_KINDS.contains(&k);
+    if let Some(k) = only.iter().find(|k| !known(k.as_str())) {
         return Err(DiagnosisError::Config(format!(
-            "unknown hidden truth {k:?}; known: {}",
-            KINDS.join(", ")
+            "unknown hidden truth {k:?}; known: {}, {}",
+            KINDS.join(", "),
+            INPUT_KINDS.join(", ")
         )));
     }
     let kinds: Vec<&str> = if only.is_empty() {
@@ -215,7 +229,8 @@ pub fn run_cases(
             // On a truth without an effect `ambiguous` is right too: it names nothing and says
             // an input instrument could hide behind the health.
             correct: r.verdict.effect == expected(kind)
-                || (expected(kind) == "none" && r.verdict.effect == super::AMBIGUOUS),
+                || (expected(kind) == "none" && r.verdict.effect == super::AMBIGUOUS)
+                || input_named(kind, &r),
             verdict: r.verdict.effect.clone(),
             shrinkage: r.verdict.shrinkage,
             train_shrinkage: winner.map(|w| w.train_shrinkage),
@@ -312,6 +327,10 @@ pub fn summarise(run: &BenchRun) -> serde_json::Value {
         })
         .collect();
     let bad: Vec<&Case> = cases.iter().filter(|c| c.error_before > 0.3).collect();
+    let inputs: Vec<&Case> = cases
+        .iter()
+        .filter(|c| INPUT_KINDS.contains(&c.kind.as_str()))
+        .collect();
     let identified: Vec<&Case> = in_lib.iter().copied().filter(|c| c.correct).collect();
     serde_json::json!({
         "cases": cases.len(),
@@ -352,6 +371,15 @@ pub fn summarise(run: &BenchRun) -> serde_json::Value {
         "max_analysis_wall_s": cases.iter().map(|c| c.analysis_wall_s).fold(0.0, f64::max),
         "fit_quality_flags_bad_cases": rate(&bad, |c| c.baseline_fit_quality != "good"),
         "fit_quality_flags_clean_cases": rate(&nulls, |c| c.baseline_fit_quality != "good"),
+        // Input-channel truths: the channel named, or `ambiguous` with it among the aliases;
+        // and the silent failures the acceptance forbids (`none` or a good fit that names
+        // nothing while the health is off by more than 0.3 points).
+        "input_cases": inputs.len(),
+        "input_named_or_aliased": rate(&inputs, |c| c.correct),
+        "input_silent_with_health_error": inputs
+            .iter()
+            .filter(|c| !c.correct && c.baseline_fit_quality == "good" && c.error_before > 0.3)
+            .count(),
         "confusion": confusion,
         "skipped": run.skipped,
     })

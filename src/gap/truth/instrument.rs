@@ -10,6 +10,13 @@
 //! - `p34_ripple`: a 0.2 Hz ripple of 1.5–3 % on P34 (not in the library). Magnitude: the
 //!   relative amplitude.
 //!
+//! Input channels (issue 23 item 5, the signals that drive the model; `bench gap --kinds`
+//! only, not in the default cycle): `fuel_scale` (the fuel meter reads 1.5–4 % high or low),
+//! `fuel_drift` (a meter drifting from 0 to 2–5 % through the start-up: not the library's
+//! constant factor), `t1_offset` (T1 reads 1.5–4 K high or low), `p1_offset` (P1 off by
+//! 0.5–1.5 kPa), `power_scale` (a power transducer ratio 1–3 % off). Magnitude: the relative
+//! error, or the offset in K / kPa.
+//!
 //! Pure: no I/O.
 
 use crate::diagnosis::DiagnosisError;
@@ -40,6 +47,26 @@ pub enum Alteration {
         amplitude: f64,
         hz: f64,
     },
+    /// The instrument reads `factor` × the true value.
+    Scale {
+        signal: Signal,
+        factor: f64,
+    },
+    /// The instrument's factor drifts linearly from 1 at the record's start to `1 + rel_end`
+    /// at its end.
+    Drift {
+        signal: Signal,
+        rel_end: f64,
+    },
+}
+
+/// A random sign.
+fn sign(rng: &mut impl Rng) -> f64 {
+    if rng.random_bool(0.5) {
+        1.0
+    } else {
+        -1.0
+    }
 }
 
 impl Alteration {
@@ -87,6 +114,40 @@ impl Alteration {
                     amplitude,
                 )
             }
+            "fuel_scale" | "power_scale" => {
+                let (signal, lo, hi) = if kind == "fuel_scale" {
+                    (Signal::FuelFlow, 0.015, 0.04)
+                } else {
+                    (Signal::Power, 0.01, 0.03)
+                };
+                let rel = sign(rng) * rng.random_range(lo..hi);
+                (
+                    Alteration::Scale {
+                        signal,
+                        factor: 1.0 + rel,
+                    },
+                    rel,
+                )
+            }
+            "fuel_drift" => {
+                let rel_end = rng.random_range(0.02..0.05);
+                (
+                    Alteration::Drift {
+                        signal: Signal::FuelFlow,
+                        rel_end,
+                    },
+                    rel_end,
+                )
+            }
+            "t1_offset" | "p1_offset" => {
+                let (signal, lo, hi) = if kind == "t1_offset" {
+                    (Signal::T1, 1.5, 4.0)
+                } else {
+                    (Signal::P1, 0.5, 1.5)
+                };
+                let offset = sign(rng) * rng.random_range(lo..hi);
+                (Alteration::Offset { signal, offset }, offset)
+            }
             _ => return None,
         })
     }
@@ -131,6 +192,25 @@ impl Alteration {
                     if let Some(v) = rec.value(k, signal) {
                         let r = 1.0 + amplitude * (2.0 * std::f64::consts::PI * hz * tt).sin();
                         rec.set(k, signal, v * r)?;
+                    }
+                }
+                Ok(())
+            }
+            Alteration::Scale { signal, factor } => {
+                for k in 0..rec.len() {
+                    if let Some(v) = rec.value(k, signal) {
+                        rec.set(k, signal, v * factor)?;
+                    }
+                }
+                Ok(())
+            }
+            Alteration::Drift { signal, rel_end } => {
+                let t = rec.times().to_vec();
+                let (t0, t1) = (t[0], t[t.len() - 1]);
+                let span = (t1 - t0).max(1e-9);
+                for (k, &tt) in t.iter().enumerate() {
+                    if let Some(v) = rec.value(k, signal) {
+                        rec.set(k, signal, v * (1.0 + rel_end * (tt - t0) / span))?;
                     }
                 }
                 Ok(())

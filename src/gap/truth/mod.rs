@@ -55,6 +55,28 @@ pub const KINDS: [&str; 13] = [
     "duct_fouling",
 ];
 
+/// Input-channel truths (issue 23 item 5): errors on the signals that drive the model. Run with
+/// `bench gap --kinds …`; not in the default cycle, so the 40-case benchmark is unchanged.
+pub const INPUT_KINDS: [&str; 5] = [
+    "fuel_scale",
+    "fuel_drift",
+    "t1_offset",
+    "p1_offset",
+    "power_scale",
+];
+
+/// Every verdict that names an input-channel truth correctly: its library instances (an
+/// `ambiguous` verdict is right when one of them is among its aliases). Empty for other kinds.
+pub fn input_instances(kind: &str) -> &'static [&'static str] {
+    match kind {
+        "fuel_scale" | "fuel_drift" => &["fuel_meter", "sensor_scale:fuel_kg_s"],
+        "t1_offset" => &["inlet_temperature", "sensor_bias:t1_k"],
+        "p1_offset" => &["sensor_bias:p1_kpa", "sensor_scale:p1_kpa"],
+        "power_scale" => &["sensor_scale:power_mw", "sensor_bias:power_mw"],
+        _ => &[],
+    }
+}
+
 /// The verdict a correct analysis gives for a hidden truth.
 pub fn expected(kind: &str) -> &'static str {
     match kind {
@@ -69,6 +91,10 @@ pub fn expected(kind: &str) -> &'static str {
         "clearance_nodes" => "tip_clearance",
         "duct_fouling" => "duct_loss",
         "p34_ripple" => "unexplained",
+        "fuel_scale" | "fuel_drift" => "fuel_meter",
+        "t1_offset" => "inlet_temperature",
+        "p1_offset" => "sensor_bias:p1_kpa",
+        "power_scale" => "sensor_scale:power_mw",
         _ => "none",
     }
 }
@@ -287,13 +313,16 @@ mod tests {
         };
         let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(1);
         let names = instance_names();
-        for kind in KINDS {
+        for kind in KINDS.into_iter().chain(INPUT_KINDS) {
             let d = draw(kind, &mut rng, &scale).expect(kind);
             let e = expected(kind);
             assert!(
                 matches!(e, "none" | "unexplained") || names.iter().any(|n| n == e),
                 "{kind} → {e}"
             );
+            for name in input_instances(kind) {
+                assert!(names.iter().any(|n| n == name), "{kind} → {name}");
+            }
             if let Hidden::Plant { effect, .. } = &d.hidden {
                 assert_eq!(effect.name(), kind);
                 assert!(REGISTRY.iter().all(|s| s.name != kind), "{kind} hidden");
