@@ -9,6 +9,7 @@
 //!   the endpoint's and the database's sample count are then equal, exactly.
 //!
 //! Without the `prometheus` binary on PATH the test fails and says how to install it.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 mod common;
 
