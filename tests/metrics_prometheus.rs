@@ -5,8 +5,9 @@
 //! - while the plant is polled, every value Prometheus stored lies between the daemon's own
 //!   `/metrics` values read just before and just after that scrape's time stamp (this test
 //!   reads the endpoint every 100 ms and keeps what it read);
-//! - once the plant-sim is stopped the sample counters stand still: Prometheus's latest value,
-//!   the endpoint's and the database's sample count are then equal, exactly.
+//! - once the plant-sim is stopped the sample counters stand still: Prometheus's latest value
+//!   of polls, samples polled, samples written and segments equals the endpoint's, and samples
+//!   written equals the database's sample count, exactly.
 //!
 //! Without the `prometheus` binary on PATH the test fails and says how to install it.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
@@ -292,6 +293,7 @@ fn prometheus_scrapes_the_daemon_and_stores_its_counters() {
         "gtwatch_polls_total",
         "gtwatch_samples_polled_total",
         "gtwatch_samples_written_total",
+        "gtwatch_segments_total",
     ] {
         let own = page_value(&page, series).expect(series);
         let (_, stored) = prom.latest(series).expect(series);
