@@ -42,6 +42,50 @@ pub struct Config {
     /// `[wash]`: prices and limits of the wash advice (see `wash::WashEconomics`).
     #[serde(default)]
     pub wash: crate::wash::WashEconomics,
+    /// `[metrics]`: the optional Prometheus endpoint.
+    #[serde(default)]
+    pub metrics: MetricsConfig,
+}
+
+/// `[metrics]`: the Prometheus endpoint (`GET /metrics`), off unless `listen` is set.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MetricsConfig {
+    /// Address and port to serve on, e.g. `"127.0.0.1:9464"` (an IP literal; port 0 = any
+    /// free port, logged). Absent: no endpoint.
+    pub listen: Option<String>,
+    /// Allow an address other than loopback. Off: the daemon sits beside a control system,
+    /// whose network must not gain a listening port by accident; a remote Prometheus should
+    /// scrape through a proxy or an SSH tunnel, or this is set deliberately.
+    pub allow_remote: bool,
+}
+
+impl MetricsConfig {
+    /// The address to serve on, if any (`None` also when `listen` does not parse: `validate`
+    /// reports that).
+    pub fn addr(&self) -> Option<std::net::SocketAddr> {
+        self.listen.as_deref().and_then(|l| l.parse().ok())
+    }
+
+    pub fn validate(&self) -> Vec<ConfigProblem> {
+        let Some(listen) = self.listen.as_deref() else {
+            return Vec::new();
+        };
+        match listen.parse::<std::net::SocketAddr>() {
+            Err(_) => vec![ConfigProblem::new(
+                "metrics.listen",
+                format!("'{listen}' is not an IP address and port such as \"127.0.0.1:9464\""),
+            )],
+            Ok(a) if !a.ip().is_loopback() && !self.allow_remote => vec![ConfigProblem::new(
+                "metrics.listen",
+                format!(
+                    "{a} is not a loopback address: the daemon runs beside a control system, so \
+                     the endpoint stays on 127.0.0.1/::1 unless metrics.allow_remote = true"
+                ),
+            )],
+            Ok(_) => Vec::new(),
+        }
+    }
 }
 
 /// `[plant]`: which machine this is and the engine model used to diagnose it.
@@ -182,6 +226,7 @@ impl Config {
         if let Err(e) = self.wash.validate() {
             p.push(ConfigProblem::new("wash", e));
         }
+        p.extend(self.metrics.validate());
         match (&self.modbus, self.acquisition.source) {
             (Some(m), _) => {
                 p.extend(m.check());
@@ -282,6 +327,7 @@ mod tests {
             crate::wash::WashEconomics::default(),
             "[wash]"
         );
+        assert_eq!(shipped.metrics, MetricsConfig::default(), "[metrics]");
         assert!(shipped.check().is_empty(), "{:?}", shipped.check());
         // Every key of those sections is written out in the file (none left to a hidden default).
         let table: toml::Table = toml::from_str(text).expect("toml");
@@ -304,6 +350,38 @@ mod tests {
                 t.keys().collect::<Vec<_>>()
             );
         }
+    }
+
+    /// `[metrics] listen` must be an IP and port; a non-loopback one needs `allow_remote`.
+    #[test]
+    fn metrics_listen_is_loopback_unless_allowed() {
+        let with = |extra: &str| {
+            Config::parse(&format!("{MINIMAL}\n[metrics]\n{extra}\n"), "x.toml")
+                .expect("parse")
+                .check()
+                .iter()
+                .map(|p| p.to_string())
+                .filter(|p| p.starts_with("metrics"))
+                .collect::<Vec<_>>()
+        };
+        assert!(with("listen = \"127.0.0.1:9464\"").is_empty());
+        assert!(with("listen = \"[::1]:0\"").is_empty());
+        let remote = with("listen = \"0.0.0.0:9464\"");
+        assert_eq!(remote.len(), 1, "{remote:?}");
+        assert!(remote[0].contains("metrics.listen") && remote[0].contains("allow_remote"));
+        assert!(with("listen = \"0.0.0.0:9464\"\nallow_remote = true").is_empty());
+        let bad = with("listen = \"localhost:9464\"");
+        assert!(
+            bad.len() == 1 && bad[0].contains("metrics.listen"),
+            "{bad:?}"
+        );
+        assert_eq!(
+            Config::parse(MINIMAL, "x.toml")
+                .expect("parse")
+                .metrics
+                .addr(),
+            None
+        );
     }
 
     /// Leaving out `[acquisition]` gives the documented 10 Hz poll.

@@ -26,6 +26,7 @@ pub mod gap;
 pub mod health;
 pub mod ingest;
 pub mod maps;
+pub mod metrics;
 pub mod optim;
 pub mod permissions;
 pub mod plantsim;

@@ -456,6 +456,7 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
             ..Default::default()
         },
         wash: Default::default(),
+        metrics: Default::default(),
     };
     cfg.acquisition.poll_period_ms = period_ms;
     let problems = cfg.check();

@@ -8,14 +8,56 @@
 //! `worker` and `diagnosis::assess`) or open a writable connection.
 
 use super::blocking::{BlockingError, BlockingStore};
+use crate::metrics::DurationHistogram;
 use crate::optim::Cancel;
 use crate::shutdown::Shutdown;
 use crate::store::{ReadStore, StoreOptions, ViaWriter, WriterHandle};
-use crate::worker::{drain_pending, AfterResult, DrainReport, WorkerContext};
+use crate::worker::{drain_pending, AfterResult, DrainReport, SegmentOutcome, WorkerContext};
 use std::path::PathBuf;
-use std::sync::Arc;
-use std::time::Duration;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 use tokio::sync::Notify;
+
+/// What the metrics endpoint reads of the diagnosis, live: start-ups diagnosed and found
+/// undiagnosable, the queue of closed start-ups waiting (read at the start of each drain and
+/// after each start-up) and the wall time of each start-up's diagnosis.
+#[derive(Debug, Default)]
+pub struct DiagnosisMeter {
+    pub diagnosed: AtomicU64,
+    pub undiagnosable: AtomicU64,
+    pub queue: AtomicU64,
+    pub durations: DurationHistogram,
+}
+
+impl DiagnosisMeter {
+    /// `inner` (the after-result hook) with the meter around it: counts the outcome, records
+    /// the time since the drain began or the previous start-up was done, and reads the queue.
+    fn around(self: &Arc<Self>, inner: Option<AfterResult>) -> AfterResult {
+        let meter = Arc::clone(self);
+        let mark = Mutex::new(Instant::now());
+        Arc::new(move |db, segment_id, outcome| {
+            let counter = match outcome {
+                SegmentOutcome::Diagnosed { .. } => &meter.diagnosed,
+                SegmentOutcome::Undiagnosable(_) => &meter.undiagnosable,
+                // Not stored and never handed to the hook (`drain_pending` returns first).
+                SegmentOutcome::Cancelled => return,
+            };
+            let began = mark.lock().map_or_else(|e| *e.into_inner(), |g| *g);
+            meter.durations.observe(began.elapsed());
+            counter.fetch_add(1, Ordering::Relaxed);
+            if let Some(f) = &inner {
+                f(db, segment_id, outcome);
+            }
+            if let Ok(p) = db.read().pending_segments() {
+                meter.queue.store(p.len() as u64, Ordering::Relaxed);
+            }
+            if let Ok(mut g) = mark.lock() {
+                *g = Instant::now();
+            }
+        })
+    }
+}
 
 /// The diagnosis task of the daemon (mini-redis shape: a small struct with its own `run`).
 pub struct DiagnosisTask {
@@ -39,13 +81,22 @@ impl DiagnosisTask {
 
     /// Drains the queue now, then whenever woken (or every `poll_interval_ms`), until shutdown.
     pub async fn run(self, shutdown: Shutdown) -> DrainReport {
+        self.run_metered(shutdown, None).await
+    }
+
+    /// [`DiagnosisTask::run`], keeping `meter` up to date.
+    pub async fn run_metered(
+        self,
+        shutdown: Shutdown,
+        meter: Option<Arc<DiagnosisMeter>>,
+    ) -> DrainReport {
         let cancel = cancel_on(shutdown.clone());
         let mut store = BlockingStore::read_only(self.db_path.clone(), self.store_opts);
         let mut total = DrainReport::default();
         let mut sd = shutdown;
         let period = Duration::from_millis(self.ctx.settings.poll_interval_ms.max(100));
         while !sd.is_triggered() {
-            let rep = self.drain(&mut store, &cancel).await;
+            let rep = self.drain(&mut store, &cancel, meter.as_ref()).await;
             total.diagnosed += rep.diagnosed;
             total.undiagnosable += rep.undiagnosable;
             total.cancelled |= rep.cancelled;
@@ -59,12 +110,27 @@ impl DiagnosisTask {
     }
 
     /// One drain of the queue on the blocking pool; a failure is logged and counts nothing.
-    async fn drain(&self, store: &mut BlockingStore<ReadStore>, cancel: &Cancel) -> DrainReport {
+    async fn drain(
+        &self,
+        store: &mut BlockingStore<ReadStore>,
+        cancel: &Cancel,
+        meter: Option<&Arc<DiagnosisMeter>>,
+    ) -> DrainReport {
         let ctx = Arc::clone(&self.ctx);
         let c = cancel.clone();
         let after = self.after_result.clone();
         let writer = self.writer.clone();
+        let meter = meter.cloned();
         let drain = move |read: &mut ReadStore| {
+            let after = match meter {
+                Some(m) => {
+                    if let Ok(p) = read.pending_segments() {
+                        m.queue.store(p.len() as u64, Ordering::Relaxed);
+                    }
+                    Some(m.around(after))
+                }
+                None => after,
+            };
             let mut db = ViaWriter {
                 read,
                 writer: &writer,

@@ -33,6 +33,22 @@ pub struct GapTaskReport {
     pub failed: u64,
 }
 
+/// The gap task's [`GapTaskReport`] as it goes, for the metrics endpoint.
+#[derive(Debug, Default)]
+pub struct GapCounters {
+    pub stored: AtomicU64,
+    pub cancelled: AtomicU64,
+    pub failed: AtomicU64,
+}
+
+impl GapCounters {
+    fn publish(&self, r: &GapTaskReport) {
+        self.stored.store(r.stored, Ordering::Relaxed);
+        self.cancelled.store(r.cancelled, Ordering::Relaxed);
+        self.failed.store(r.failed, Ordering::Relaxed);
+    }
+}
+
 /// The gap task (mini-redis shape: a small struct with its own `run`).
 pub struct GapTask {
     pub db_path: PathBuf,
@@ -43,6 +59,8 @@ pub struct GapTask {
     pub closed: Arc<AtomicU64>,
     /// Time between looks for work when there is none.
     pub idle_period: Duration,
+    /// The report so far, published after each step.
+    pub counters: Arc<GapCounters>,
 }
 
 impl GapTask {
@@ -83,6 +101,7 @@ impl GapTask {
                 }
                 Some(GapStep::Idle) | None => true,
             };
+            self.counters.publish(&report);
             if idle {
                 tokio::select! {
                     _ = shutdown.wait() => break,

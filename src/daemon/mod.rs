@@ -11,7 +11,9 @@
 //!   when a scan closes a segment;
 //! - [`diagnosis`]: drains the queue of closed segments, one at a time; shutdown cancels a
 //!   running fit (nothing half-written);
-//! - [`supervisor`]: systemd readiness, watchdog and stopping notifications.
+//! - [`supervisor`]: systemd readiness, watchdog and stopping notifications;
+//! - [`metrics`]: with `[metrics] listen`, the Prometheus endpoint, reading the other tasks'
+//!   live counters at each scrape.
 //!
 //! The detector and the worker read through read-only connections of their own
 //! (`blocking::BlockingStore`, on the blocking pool, reopened when lost) and write only
@@ -28,13 +30,15 @@ mod blocking;
 pub mod detector;
 pub mod diagnosis;
 pub mod gap;
+pub mod metrics;
 pub mod supervisor;
 pub mod writer;
 
 pub use acquisition::AcquisitionTask;
 pub use detector::{detector_store_options, DetectorTask, DETECTOR_CACHE_MIB};
-pub use diagnosis::DiagnosisTask;
-pub use gap::{GapTask, GapTaskReport};
+pub use diagnosis::{DiagnosisMeter, DiagnosisTask};
+pub use gap::{GapCounters, GapTask, GapTaskReport};
+pub use metrics::{Live, MetricsTask};
 pub use supervisor::Supervisor;
 pub use writer::WriterTask;
 
@@ -44,11 +48,13 @@ use crate::config::Config;
 use crate::detect::ScanReport;
 use crate::shutdown::Shutdown;
 use crate::store::{
-    writer_channel, Gap, Store, StoreError, TagId, TagInfo, WriteCmd, WriterHandle, WriterStats,
+    writer_channel, Gap, Store, StoreError, TagId, TagInfo, WriteCmd, WriterHandle, WriterProgress,
+    WriterStats,
 };
 use crate::worker::{AfterResult, DrainReport, WorkerContext};
 use blocking::{BlockingError, BlockingStore};
 use std::path::PathBuf;
+use std::sync::atomic::AtomicU64;
 use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::Notify;
@@ -108,17 +114,25 @@ pub async fn run(
         "gtwatch daemon starting"
     );
     let (tx, rx) = writer_channel(cfg.daemon.queue_capacity);
+    let writer_progress = Arc::new(WriterProgress::default());
     let writer = tokio::spawn(
         WriterTask {
             store: opened.store,
             rx,
             cfg: cfg.storage.writer(),
+            progress: Arc::clone(&writer_progress),
         }
         .run(shutdown.clone()),
     );
     record_restart(&tx, &cfg, opened.last_stored_ms).await;
     let progress = opts.progress.clone().unwrap_or_default();
     let tasks = Running::start(&cfg, &opts, &opened.tags, tx, &progress, &shutdown, writer)?;
+    let metrics = match cfg.metrics.addr() {
+        Some(addr) => MetricsTask::bind(addr, tasks.live(&progress, writer_progress))
+            .await
+            .map(|m| tokio::spawn(m.run(shutdown.clone()))),
+        None => None,
+    };
     Supervisor {
         systemd_notify: opts.systemd_notify,
         progress: Arc::clone(&progress),
@@ -126,7 +140,13 @@ pub async fn run(
     }
     .run(shutdown)
     .await;
-    tasks.stop(&progress).await
+    let report = tasks.stop(&progress).await;
+    if let Some(m) = metrics {
+        if let Err(e) = m.await {
+            tracing::error!("metrics task failed: {e}");
+        }
+    }
+    report
 }
 
 /// The writable store the writer will own, with what the start needs from it.
@@ -190,6 +210,10 @@ struct Running {
     detector: JoinHandle<DetectorTask>,
     diagnosis: Option<JoinHandle<DrainReport>>,
     gap: Option<JoinHandle<GapTaskReport>>,
+    /// Live counters of the detector, the diagnosis and the gap task (the metrics read them).
+    segments_closed: Arc<AtomicU64>,
+    diagnosis_meter: Option<Arc<DiagnosisMeter>>,
+    gap_counters: Arc<GapCounters>,
 }
 
 impl Running {
@@ -218,7 +242,9 @@ impl Running {
             Arc::clone(&wake),
         );
         let closed = Arc::clone(&det.closed);
+        let segments_closed = Arc::clone(&det.closed);
         let detector = tokio::spawn(det.run(shutdown.clone()));
+        let gap_counters = Arc::new(GapCounters::default());
         let gap = match (cfg.diagnosis.enabled, opts.worker.clone()) {
             (true, Some(ctx)) if crate::worker::gap::selection(&ctx).is_some() => {
                 Some(tokio::spawn(
@@ -231,10 +257,15 @@ impl Running {
                         ),
                         ctx,
                         closed,
+                        counters: Arc::clone(&gap_counters),
                     }
                     .run(shutdown.clone()),
                 ))
             }
+            _ => None,
+        };
+        let diagnosis_meter = match (cfg.diagnosis.enabled, &opts.worker) {
+            (true, Some(_)) => Some(Arc::new(DiagnosisMeter::default())),
             _ => None,
         };
         let diagnosis = match (cfg.diagnosis.enabled, opts.worker.clone()) {
@@ -250,7 +281,7 @@ impl Running {
                     ctx,
                     wake,
                 }
-                .run(shutdown.clone()),
+                .run_metered(shutdown.clone(), diagnosis_meter.clone()),
             )),
             _ => None,
         };
@@ -262,7 +293,21 @@ impl Running {
             detector,
             diagnosis,
             gap,
+            segments_closed,
+            diagnosis_meter,
+            gap_counters,
         })
+    }
+
+    /// The live counters the metrics endpoint reads.
+    fn live(&self, poll: &Arc<PollProgress>, writer: Arc<WriterProgress>) -> Live {
+        Live {
+            poll: Arc::clone(poll),
+            writer,
+            segments_closed: Arc::clone(&self.segments_closed),
+            diagnosis: self.diagnosis_meter.clone(),
+            gap: Arc::clone(&self.gap_counters),
+        }
     }
 
     /// After shutdown: stop acquisition, have the writer commit what it holds, scan once more,

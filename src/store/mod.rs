@@ -42,7 +42,8 @@ pub use diagnoses::{
 pub use locks::{lock_waits, LockWaits};
 
 pub use writer::{
-    run_writer, spawn_writer, writer_channel, WriteCmd, WriterConfig, WriterHandle, WriterStats,
+    run_writer, run_writer_with_progress, spawn_writer, writer_channel, WriteCmd, WriterConfig,
+    WriterHandle, WriterProgress, WriterStats,
 };
 
 use crate::config_problem::{check_range, Bounds, ConfigProblem};

@@ -25,6 +25,8 @@ use super::{
     insert_samples_in, record_gap_in, AdviceWrite, Gap, NewGapAnalysis, NewOutcome, Sample,
     ScanWrite, Store, StoreError,
 };
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::{mpsc, oneshot};
 use tokio::time::Instant;
@@ -125,6 +127,35 @@ pub struct WriterStats {
     /// Times a sender found the channel full and waited (back-pressure; counted by the
     /// senders' [`WriterHandle`], filled in by whoever owns it).
     pub channel_full_waits: u64,
+}
+
+/// The writer's running totals as atomics, updated after every command (and every timed
+/// flush), for readers that must not wait for the writer: the daemon's metrics endpoint.
+/// Mirrors the fields of [`WriterStats`] that a monitor watches.
+#[derive(Debug, Default)]
+pub struct WriterProgress {
+    pub samples_inserted: AtomicU64,
+    pub samples_duplicate: AtomicU64,
+    pub gaps: AtomicU64,
+    pub transactions: AtomicU64,
+    pub write_errors: AtomicU64,
+    pub samples_dropped: AtomicU64,
+    pub requests: AtomicU64,
+    pub request_errors: AtomicU64,
+}
+
+impl WriterProgress {
+    fn publish(&self, s: &WriterStats) {
+        let set = |a: &AtomicU64, v: u64| a.store(v, Ordering::Relaxed);
+        set(&self.samples_inserted, s.samples_inserted);
+        set(&self.samples_duplicate, s.samples_duplicate);
+        set(&self.gaps, s.gaps);
+        set(&self.transactions, s.transactions);
+        set(&self.write_errors, s.write_errors);
+        set(&self.samples_dropped, s.samples_dropped);
+        set(&self.requests, s.requests);
+        set(&self.request_errors, s.request_errors);
+    }
 }
 
 struct Pending {
@@ -339,8 +370,18 @@ impl Writer {
 /// commits what it holds and returns its statistics.
 pub async fn run_writer(
     store: Store,
+    rx: mpsc::Receiver<WriteCmd>,
+    cfg: WriterConfig,
+) -> Result<WriterStats, StoreError> {
+    run_writer_with_progress(store, rx, cfg, Arc::default()).await
+}
+
+/// [`run_writer`], publishing its running totals in `progress` as it goes.
+pub async fn run_writer_with_progress(
+    store: Store,
     mut rx: mpsc::Receiver<WriteCmd>,
     cfg: WriterConfig,
+    progress: Arc<WriterProgress>,
 ) -> Result<WriterStats, StoreError> {
     let mut w = Writer {
         store: Some(store),
@@ -356,6 +397,7 @@ pub async fn run_writer(
         open_gap: None,
     };
     loop {
+        progress.publish(&w.stats);
         // While failing, the next attempt is at the backoff time; otherwise at the flush
         // interval after the oldest buffered sample.
         let deadline = match &w.failing {
@@ -376,7 +418,9 @@ pub async fn run_writer(
             None => {
                 let give_up = Instant::now() + cfg.close_retry;
                 loop {
-                    match w.flush().await {
+                    let flushed = w.flush().await;
+                    progress.publish(&w.stats);
+                    match flushed {
                         Ok(()) => return Ok(w.stats),
                         Err(e) => {
                             let next = w.failing.as_ref().map_or(give_up, |f| f.next_try);

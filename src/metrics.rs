@@ -1,0 +1,208 @@
+//! The daemon's counters in the Prometheus text exposition format (OpenMetrics text 1.0, which
+//! Prometheus scrapes natively), written by the `prometheus-client` crate (the Prometheus
+//! organisation's own Rust client): [`Exposition::encode`] turns a [`Snapshot`] of counters the
+//! daemon already keeps, read at scrape time, plus the [`DurationHistogram`] of diagnosis
+//! times, into the page `GET /metrics` serves.
+//!
+//! What it is for: naming and describing the series (the README's "Metrics" list is this
+//! file's). What it must not do: count anything itself, decide anything, do I/O or hold a lock
+//! that a producer could wait on (the snapshot closure reads atomics; the histogram's lock is
+//! taken for one observation or one encode). The HTTP side is `daemon::metrics`.
+
+use prometheus_client::encoding::{DescriptorEncoder, EncodeMetric};
+use prometheus_client::metrics::counter::ConstCounter;
+use prometheus_client::metrics::gauge::ConstGauge;
+use prometheus_client::metrics::histogram::Histogram;
+use prometheus_client::metrics::MetricType;
+use prometheus_client::registry::{Registry, Unit};
+use std::sync::Arc;
+use std::time::Duration;
+
+/// The content type of [`Exposition::encode`]'s page.
+pub const CONTENT_TYPE: &str = "application/openmetrics-text; version=1.0.0; charset=utf-8";
+
+/// Prefix of every series.
+const PREFIX: &str = "gtwatch";
+
+/// The daemon's counters at one moment (totals since the daemon started, except the gauges).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Snapshot {
+    /// Polls in which every request succeeded.
+    pub polls_ok: u64,
+    /// Polls or connection attempts that failed.
+    pub polls_failed: u64,
+    /// Modbus connections made.
+    pub connects: u64,
+    /// Outages the acquisition recorded as gaps.
+    pub poll_gaps: u64,
+    /// Samples polled, and of them stored flagged (not good).
+    pub samples_polled: u64,
+    pub samples_flagged: u64,
+    /// Samples new to the database and committed by the writer.
+    pub samples_written: u64,
+    /// Gaps committed by the writer (outages, restarts, dropped buffers).
+    pub gaps_written: u64,
+    /// Failed commit attempts (each retried) and samples dropped by a full buffer.
+    pub write_errors: u64,
+    pub samples_dropped: u64,
+    /// Start-up segments the detector closed.
+    pub segments_closed: u64,
+    /// Start-ups diagnosed / found not diagnosable.
+    pub diagnosed: u64,
+    pub undiagnosable: u64,
+    /// Closed start-ups waiting for their diagnosis (gauge; `None`: no diagnosis in this run).
+    pub diagnosis_queue: Option<u64>,
+    /// Gap analyses stored, yielded (redone later), failed.
+    pub gap_stored: u64,
+    pub gap_cancelled: u64,
+    pub gap_failed: u64,
+}
+
+/// Wall time of each start-up's diagnosis (Method B and A, storing and the after-result hook
+/// included), seconds. Cheap to clone; clones share the buckets.
+#[derive(Debug, Clone)]
+pub struct DurationHistogram(Histogram);
+
+impl Default for DurationHistogram {
+    fn default() -> Self {
+        // 0.5 s … 512 s: a start-up takes ≈ 5 s on two cores, a slow machine or a long start-up
+        // a minute or more.
+        let buckets = prometheus_client::metrics::histogram::exponential_buckets(0.5, 2.0, 11);
+        DurationHistogram(Histogram::new(buckets))
+    }
+}
+
+impl DurationHistogram {
+    pub fn observe(&self, d: Duration) {
+        self.0.observe(d.as_secs_f64());
+    }
+}
+
+/// Where the snapshot comes from: read at every scrape.
+type Source = Arc<dyn Fn() -> Snapshot + Send + Sync>;
+
+/// The page's writer: a registry holding the counters' collector and the histogram.
+pub struct Exposition {
+    registry: Registry,
+}
+
+impl Exposition {
+    /// An exposition reading `source` at every scrape, with `durations` as the diagnosis
+    /// histogram.
+    pub fn new(
+        source: impl Fn() -> Snapshot + Send + Sync + 'static,
+        durations: &DurationHistogram,
+    ) -> Exposition {
+        let mut registry = Registry::with_prefix(PREFIX);
+        registry.register_with_unit(
+            "diagnosis_duration",
+            "Wall time of one start-up's diagnosis (both methods, stored)",
+            Unit::Seconds,
+            durations.0.clone(),
+        );
+        registry.register_collector(Box::new(Counters {
+            source: Arc::new(source),
+        }));
+        Exposition { registry }
+    }
+
+    /// The page, in the OpenMetrics text format ([`CONTENT_TYPE`]).
+    pub fn encode(&self) -> Result<String, std::fmt::Error> {
+        let mut out = String::new();
+        prometheus_client::encoding::text::encode(&mut out, &self.registry)?;
+        Ok(out)
+    }
+}
+
+/// The collector of the snapshot's counters and gauges.
+struct Counters {
+    source: Source,
+}
+
+impl std::fmt::Debug for Counters {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Counters")
+    }
+}
+
+/// (name without prefix and `_total`, help, value) of every counter in `s`.
+fn counters(s: &Snapshot) -> [(&'static str, &'static str, u64); 16] {
+    [
+        ("polls", "Modbus polls in which every request succeeded", s.polls_ok),
+        ("polls_failed", "Modbus polls or connection attempts that failed", s.polls_failed),
+        ("connects", "Modbus TCP connections made", s.connects),
+        ("poll_gaps", "Acquisition outages recorded as gaps", s.poll_gaps),
+        ("samples_polled", "Samples read from the plant", s.samples_polled),
+        ("samples_flagged", "Samples read and stored flagged (not good)", s.samples_flagged),
+        ("samples_written", "Samples new to the database, committed by the writer", s.samples_written),
+        ("gaps_written", "Gaps committed by the writer (outages, restarts, dropped buffers)", s.gaps_written),
+        ("write_errors", "Failed commit attempts of the writer (each retried)", s.write_errors),
+        ("samples_dropped", "Samples dropped because the writer's buffer was full while the database refused writes", s.samples_dropped),
+        ("segments", "Start-up segments the detector closed", s.segments_closed),
+        ("diagnosed", "Start-ups diagnosed", s.diagnosed),
+        ("undiagnosable", "Start-ups found not diagnosable (reasons stored)", s.undiagnosable),
+        ("gap_analyses", "Gap analyses stored", s.gap_stored),
+        ("gap_analyses_yielded", "Gap analyses cancelled to let a diagnosis run (redone later)", s.gap_cancelled),
+        ("gap_analyses_failed", "Gap analyses that failed", s.gap_failed),
+    ]
+}
+
+impl prometheus_client::collector::Collector for Counters {
+    fn encode(&self, mut encoder: DescriptorEncoder) -> Result<(), std::fmt::Error> {
+        let s = (self.source)();
+        for (name, help, value) in counters(&s) {
+            let m = encoder.encode_descriptor(name, help, None, MetricType::Counter)?;
+            ConstCounter::new(value).encode(m)?;
+        }
+        if let Some(depth) = s.diagnosis_queue {
+            let m = encoder.encode_descriptor(
+                "diagnosis_queue",
+                "Closed start-ups waiting for their diagnosis",
+                None,
+                MetricType::Gauge,
+            )?;
+            ConstGauge::new(i64::try_from(depth).unwrap_or(i64::MAX)).encode(m)?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn page_names_every_series_with_its_value() {
+        let h = DurationHistogram::default();
+        h.observe(Duration::from_millis(5600));
+        let e = Exposition::new(
+            || Snapshot {
+                polls_ok: 12,
+                samples_written: 340,
+                diagnosis_queue: Some(2),
+                ..Snapshot::default()
+            },
+            &h,
+        );
+        let page = e.encode().expect("encode");
+        for line in [
+            "# TYPE gtwatch_polls counter",
+            "gtwatch_polls_total 12",
+            "gtwatch_samples_written_total 340",
+            "gtwatch_polls_failed_total 0",
+            "gtwatch_diagnosis_queue 2",
+            "gtwatch_diagnosis_duration_seconds_count 1",
+            "gtwatch_diagnosis_duration_seconds_bucket{le=\"8.0\"} 1",
+            "# EOF",
+        ] {
+            assert!(page.lines().any(|l| l == line), "{line:?} missing:\n{page}");
+        }
+    }
+
+    #[test]
+    fn no_queue_gauge_without_diagnosis() {
+        let e = Exposition::new(Snapshot::default, &DurationHistogram::default());
+        let page = e.encode().expect("encode");
+        assert!(!page.contains("diagnosis_queue"), "{page}");
+    }
+}
