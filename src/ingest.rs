@@ -30,8 +30,8 @@ mod sink;
 pub use config::{Layout, OnMalformed, ReplayConfig};
 pub use plan::{plan_columns, ColumnPlan, LongFields};
 
-use crate::quality::{Quality, QualityConfig, QualityCounts};
-use crate::store::{Sample, Store, StoreError};
+use crate::quality::{QualityConfig, QualityCounts};
+use crate::store::{Store, StoreError};
 use crate::time::{fmt_ms, LocalClock, StampError, TimeFormat};
 use plan::{csv_reader, plan_from_reader};
 use serde::Serialize;
@@ -397,20 +397,7 @@ fn parse_cells(
             continue;
         };
         any_good |= parsed.is_ok();
-        let (value, quality, problem) = match parsed {
-            Ok(v) => (v, Quality::Good, None),
-            Err(why) => (0.0, Quality::Bad, Some(why)),
-        };
-        out.push(Cell {
-            column,
-            sample: Sample {
-                tag: c.tag,
-                t_ms: t,
-                value,
-                quality,
-            },
-            problem,
-        });
+        out.push(Cell::new(column, c.tag, t, parsed));
     }
     if !any_good && out.len() > first {
         let reason = out[first].problem.clone().unwrap_or_default();

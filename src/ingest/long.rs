@@ -17,7 +17,6 @@ use super::plan::{long_tag, LongFields};
 use super::sink::{Cell, RowProblem, Sink};
 use super::{field_count, next_record, row_time, OnMalformed, Reader, ReplayError, ReplayReport};
 use crate::quality::Quality;
-use crate::store::Sample;
 use crate::time::LocalClock;
 use std::collections::HashMap;
 use std::time::Instant;
@@ -161,27 +160,15 @@ fn long_cell(
         .status
         .and_then(|i| record.get(i))
         .unwrap_or_default();
-    let (value, quality, problem) = match parsed {
-        Ok(v) if status_is_good(status) => (v, Quality::Good, None),
-        Ok(v) => (
-            v,
-            Quality::Bad,
-            Some(format!(
-                "column '{}': status '{}' is not good",
-                c.name,
-                String::from_utf8_lossy(&status[..status.len().min(80)]).trim()
-            )),
-        ),
-        Err(why) => (0.0, Quality::Bad, Some(why)),
-    };
-    Some(Cell {
-        column,
-        sample: Sample {
-            tag: c.tag,
-            t_ms: t,
-            value,
-            quality,
-        },
-        problem,
-    })
+    let mut cell = Cell::new(column, c.tag, t, parsed);
+    if cell.problem.is_none() && !status_is_good(status) {
+        // A bad status keeps its value, flagged.
+        cell.sample.quality = Quality::Bad;
+        cell.problem = Some(format!(
+            "column '{}': status '{}' is not good",
+            c.name,
+            String::from_utf8_lossy(&status[..status.len().min(80)]).trim()
+        ));
+    }
+    Some(cell)
 }

@@ -37,6 +37,27 @@ pub(super) struct Cell {
     pub problem: Option<String>,
 }
 
+impl Cell {
+    /// The cell of `column` (tag `tag`) at `t_ms`: good with its value, or flagged bad with
+    /// value 0 (SQLite cannot hold NaN) and the reason.
+    pub fn new(column: usize, tag: TagId, t_ms: i64, parsed: Result<f64, String>) -> Cell {
+        let (value, quality, problem) = match parsed {
+            Ok(v) => (v, Quality::Good, None),
+            Err(why) => (0.0, Quality::Bad, Some(why)),
+        };
+        Cell {
+            column,
+            sample: Sample {
+                tag,
+                t_ms,
+                value,
+                quality,
+            },
+            problem,
+        }
+    }
+}
+
 /// What kind of problem made a row malformed (for the report's counters).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum RowProblemKind {

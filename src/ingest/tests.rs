@@ -1,4 +1,5 @@
 use super::*;
+use crate::quality::Quality;
 use crate::signals::Signal;
 use crate::store::Store;
 
