@@ -2,7 +2,9 @@
 //! [--format table|csv|json]`: the stored health results, one row per start-up and method.
 //!
 //! JSON is one array of objects (`segment_id`, `start_ms`, `start_utc`, `method`, `health`,
-//! `sigma`, `objective`, `residual_level`, `fit_quality`, `wash_id_before`). Reads the database
+//! `sigma`, `objective`, `residual_level`, `fit_quality`, `wash_id_before`, `gap_verdict`: the
+//! verdict of the start-up's newest stored gap analysis, which names an instrument when one
+//! explains the start-up). Reads the database
 //! read-only; the query is `Store::history`. Must not compute trends.
 
 use super::common::{db_path, parse_cli_time};
@@ -97,6 +99,7 @@ pub fn write_history(
                         "residual_level": r.residual_level,
                         "fit_quality": r.fit_quality,
                         "wash_id_before": r.wash_id_before,
+                        "gap_verdict": r.gap_verdict,
                     })
                 })
                 .collect();
@@ -109,7 +112,12 @@ pub fn write_history(
                 head.push(n);
                 head.push(s);
             }
-            head.extend(["residual_level", "fit_quality", "wash_id_before"]);
+            head.extend([
+                "residual_level",
+                "fit_quality",
+                "wash_id_before",
+                "gap_verdict",
+            ]);
             writeln!(out, "{}", head.join(","))?;
             for r in rows {
                 let mut cells = vec![
@@ -131,6 +139,7 @@ pub fn write_history(
                 );
                 cells.push(r.fit_quality.clone().unwrap_or_default());
                 cells.push(r.wash_id_before.map_or(String::new(), |v| v.to_string()));
+                cells.push(r.gap_verdict.clone().unwrap_or_default());
                 writeln!(out, "{}", cells.join(","))?;
             }
         }
@@ -139,7 +148,7 @@ pub fn write_history(
             for n in names {
                 write!(out, " {:>15}", format!("{n} ±1σ %"))?;
             }
-            writeln!(out, "  quality")?;
+            writeln!(out, "  quality  gap")?;
             for r in rows {
                 write!(
                     out,
@@ -151,7 +160,12 @@ pub fn write_history(
                     let s = r.sigma.get(*n).copied().unwrap_or(f64::NAN);
                     write!(out, " {:>15}", format!("{v:.2} ± {s:.2}"))?;
                 }
-                writeln!(out, "  {}", r.fit_quality.as_deref().unwrap_or("-"))?;
+                writeln!(
+                    out,
+                    "  {:<8} {}",
+                    r.fit_quality.as_deref().unwrap_or("-"),
+                    r.gap_verdict.as_deref().unwrap_or("")
+                )?;
             }
             if rows.is_empty() {
                 writeln!(out, "(no diagnoses stored)")?;

@@ -94,6 +94,9 @@ pub struct HistoryRow {
     pub fit_quality: Option<String>,
     /// The last wash (operator-recorded or detected) before this start-up, if any.
     pub wash_id_before: Option<i64>,
+    /// The verdict of the start-up's newest gap analysis, if one is stored (`fuel_meter`,
+    /// `inlet_temperature`: a step an instrument explains; `ambiguous`, `none`, …).
+    pub gap_verdict: Option<String>,
 }
 
 /// Filter of [`Store::history`].
@@ -359,7 +362,9 @@ impl Store {
                     d.sigma_gc, d.sigma_ec, d.sigma_gt, d.sigma_et, d.sigma_gp, d.sigma_ep,
                     d.objective, d.residual_level, d.fit_quality,
                     (SELECT w.id FROM washes w WHERE w.t_ms <= g.start_ms
-                      ORDER BY w.t_ms DESC, w.id DESC LIMIT 1)
+                      ORDER BY w.t_ms DESC, w.id DESC LIMIT 1),
+                    (SELECT a.effect FROM gap_analyses a WHERE a.segment_id = g.id
+                      ORDER BY a.created_at_ms DESC, a.id DESC LIMIT 1)
              FROM diagnoses d JOIN segments g ON g.id = d.segment_id
              WHERE (?1 IS NULL OR g.start_ms >= ?1) AND (?2 IS NULL OR g.start_ms <= ?2)
                AND (?3 IS NULL OR d.method = ?3)
@@ -386,6 +391,7 @@ impl Store {
                 residual_level: r.get(18)?,
                 fit_quality: r.get(19)?,
                 wash_id_before: r.get(20)?,
+                gap_verdict: r.get(21)?,
             })
         })?;
         Ok(rows.collect::<Result<_, _>>()?)

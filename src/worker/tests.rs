@@ -248,11 +248,21 @@ fn gap_step_analyses_a_diagnosed_startup_once() {
     let step = analyse_next(&mut store, &ctx, &cancelled, &none).expect("step");
     assert_eq!(step, GapStep::Cancelled { segment_id: seg });
     assert!(store.gap_analyses(seg).expect("rows").is_empty());
-    match analyse_next(&mut store, &ctx, &Cancel::new(), &none).expect("step") {
-        GapStep::Stored { segment_id, .. } => assert_eq!(segment_id, seg),
+    let verdict = match analyse_next(&mut store, &ctx, &Cancel::new(), &none).expect("step") {
+        GapStep::Stored {
+            segment_id, effect, ..
+        } => {
+            assert_eq!(segment_id, seg);
+            effect
+        }
         other => panic!("not stored: {other:?}"),
-    }
+    };
     assert_eq!(store.gap_analyses(seg).expect("rows").len(), 1);
+    // `history` shows the verdict beside the start-up's results.
+    let rows = store.history(&HistoryFilter::default()).expect("history");
+    assert!(rows
+        .iter()
+        .all(|r| r.gap_verdict.as_deref() == Some(verdict.as_str())));
     let step = analyse_next(&mut store, &ctx, &Cancel::new(), &none).expect("step");
     assert_eq!(step, GapStep::Idle, "analysed once");
     // The schedule off and the fit good: nothing selected.
