@@ -106,6 +106,17 @@ pub(super) struct Sink<'a> {
     last_log: Instant,
 }
 
+/// A sample the spike filter let go: counted by its quality and queued for the next batch.
+fn release(report: &mut ReplayReport, batch: &mut Vec<Sample>, tag: TagId, out: Point) {
+    report.quality.add(out.quality);
+    batch.push(Sample {
+        tag,
+        t_ms: out.t_ms,
+        value: out.value,
+        quality: out.quality,
+    });
+}
+
 impl<'a> Sink<'a> {
     pub fn new(
         store: &'a mut Store,
@@ -229,13 +240,7 @@ impl<'a> Sink<'a> {
                 quality: s.quality,
             };
             if let Some(out) = cq.spikes.push(p) {
-                self.report.quality.add(out.quality);
-                self.batch.push(Sample {
-                    tag: s.tag,
-                    t_ms: out.t_ms,
-                    value: out.value,
-                    quality: out.quality,
-                });
+                release(&mut self.report, &mut self.batch, s.tag, out);
             }
         }
     }
@@ -331,13 +336,7 @@ impl<'a> Sink<'a> {
     fn drain_held(&mut self) {
         for (c, cq) in self.columns.iter().zip(self.col_quality.iter_mut()) {
             if let Some(out) = cq.spikes.finish() {
-                self.report.quality.add(out.quality);
-                self.batch.push(Sample {
-                    tag: c.tag,
-                    t_ms: out.t_ms,
-                    value: out.value,
-                    quality: out.quality,
-                });
+                release(&mut self.report, &mut self.batch, c.tag, out);
             }
         }
     }
