@@ -59,13 +59,6 @@ pub struct AdviceReport {
     pub origin_ms: Option<i64>,
 }
 
-fn value(r: &HistoryRow, p: &str) -> f64 {
-    r.health.get(p).copied().unwrap_or(f64::NAN)
-}
-fn sigma(r: &HistoryRow, p: &str) -> f64 {
-    r.sigma.get(p).copied().unwrap_or(f64::NAN)
-}
-
 /// Recomputes trends and advice from the store, recording detected washes and the new
 /// recommendation (deterministic: "now" is the newest result's time, not the wall clock).
 pub fn refresh(
@@ -81,7 +74,7 @@ pub fn refresh(
             ..HistoryFilter::default()
         })?
         .into_iter()
-        .filter(|r| HEALTH_NAMES.iter().all(|p| value(r, p).is_finite()))
+        .filter(|r| HEALTH_NAMES.iter().all(|p| r.value(p).is_finite()))
         .collect();
     // Washes seen as recovery steps, unless a wash is already stored between the two results.
     let washes = store.washes()?;
@@ -89,10 +82,10 @@ pub fn refresh(
         .iter()
         .map(|r| CompressorPoint {
             t_days: r.start_ms as f64 / MS_PER_DAY,
-            d_gc: value(r, "D_GC"),
-            sigma_gc: sigma(r, "D_GC"),
-            d_ec: value(r, "D_EC"),
-            sigma_ec: sigma(r, "D_EC"),
+            d_gc: r.value("D_GC"),
+            sigma_gc: r.sigma_of("D_GC"),
+            d_ec: r.value("D_EC"),
+            sigma_ec: r.sigma_of("D_EC"),
         })
         .collect();
     let mut write = AdviceWrite::default();
@@ -131,8 +124,8 @@ pub fn refresh(
                 .iter()
                 .map(|r| TrendPoint {
                     t_days: (r.start_ms - origin_ms.unwrap_or(0)) as f64 / MS_PER_DAY,
-                    value: value(r, p),
-                    sigma: sigma(r, p),
+                    value: r.value(p),
+                    sigma: r.sigma_of(p),
                 })
                 .collect();
             match fit_rate(&pts) {

@@ -428,7 +428,7 @@ impl Watch<'_> {
                 if seen.results.insert(b.diagnosis_id) {
                     on_event(DemoEvent::Diagnosed {
                         day: d.day,
-                        d_gc: b.health.get("D_GC").copied().unwrap_or(f64::NAN),
+                        d_gc: b.value("D_GC"),
                         truth_gc: d.truth.D_GC,
                         fit_quality: b.fit_quality.clone().unwrap_or_default(),
                     });

@@ -108,6 +108,18 @@ pub struct HistoryFilter {
     pub method: Option<String>,
 }
 
+impl HistoryRow {
+    /// The result's value of health parameter `name`, percent (NaN when absent).
+    pub fn value(&self, name: &str) -> f64 {
+        self.health.get(name).copied().unwrap_or(f64::NAN)
+    }
+
+    /// Its 1σ, percent (NaN when not estimated).
+    pub fn sigma_of(&self, name: &str) -> f64 {
+        self.sigma.get(name).copied().unwrap_or(f64::NAN)
+    }
+}
+
 /// Samples taken before the segment's start as standstill context for the model.
 const CONTEXT_BEFORE_MS: i64 = 10_000;
 

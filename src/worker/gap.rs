@@ -54,8 +54,8 @@ fn trend_points(row: &HistoryRow) -> [TrendPoint; 6] {
     let t_days = row.start_ms as f64 / MS_PER_DAY;
     NAMES.map(|n| TrendPoint {
         t_days,
-        value: row.health.get(n).copied().unwrap_or(f64::NAN),
-        sigma: row.sigma.get(n).copied().unwrap_or(f64::NAN),
+        value: row.value(n),
+        sigma: row.sigma_of(n),
     })
 }
 
