@@ -148,8 +148,8 @@ impl Series {
         (ys[i + 1] - ys[i]) / (xs[i + 1] - xs[i])
     }
 
-    /// The series smoothed by a centred moving average over `window_s` (time-weighted by the
-    /// sample spacing is not needed: recordings are sampled at a fixed rate).
+    /// The series smoothed by a centred moving average over `window_s`: each value becomes the
+    /// plain mean of the samples within half the window either side (same times).
     pub fn smoothed(&self, window_s: f64) -> Series {
         let n = self.t_s.len();
         let mut out = Vec::with_capacity(n);

@@ -40,9 +40,10 @@ pub struct Drive {
     pub starter: StarterCommand,
     /// Breaker closed: the grid holds the PT at synchronous speed.
     pub pt_locked: bool,
-    /// A mechanical load on the PT (`[load] mode = "load_law"`): while the PT is not locked it
-    /// absorbs `P_law(n2)`, and the station table's `power_mw` is that power. `None`: generator
-    /// (an unloaded PT until the breaker closes; the core arithmetic is then unchanged).
+    /// A mechanical load on the PT (`[load] mode = "load_law"` or `"table"`): while the PT is
+    /// not locked it absorbs `P_load(n2)`, and the station table's `power_mw` is that power.
+    /// `None`: generator or measured speed (an unloaded PT until the breaker closes; the core
+    /// arithmetic is then unchanged).
     pub pt_load: Option<PtLoad>,
     /// The PT speed the load imposes (`[load] mode = "measured_speed"`: the measured trace of a
     /// recorded start-up, smoothed): while the breaker is open the model's PT follows it,

@@ -144,7 +144,8 @@ impl MeasuredDrive {
             },
             _ => StarterCommand::Off,
         };
-        // A mechanical drive (load law) has no breaker: its PT speed follows the load throughout.
+        // A mechanical drive (load curve or measured speed) has no breaker: its PT speed follows
+        // the load, or the measurement, throughout.
         let locked = self.pt_load.is_none()
             && self.pt_speed.is_none()
             && matches!(ph, Phase::Loading | Phase::Steady | Phase::Unloading);
