@@ -166,8 +166,9 @@ impl Chart {
     }
 
     /// The `<svg>` element. A chart with no finite data says so instead of drawing axes.
-    // TODO(issue 27): split into named stages.
-    #[allow(clippy::too_many_lines)]
+    ///
+    /// Drawn in layers, back to front: the grid and ticks, the frame, the markers, the series,
+    /// then the axis labels and the legend.
     pub fn render(&self) -> String {
         let (w, h) = (self.width, self.height);
         let mut s = String::new();
@@ -190,23 +191,155 @@ impl Chart {
             );
             return s;
         };
-        let pw = w - LEFT - RIGHT;
-        let ph = h - TOP - BOTTOM;
-        let sx = |x: f64| LEFT + (x - x0) / (x1 - x0) * pw;
-        let sy = |y: f64| TOP + (1.0 - (y - y0) / (y1 - y0)) * ph;
-        // Grid and ticks.
-        for t in ticks(y0, y1, 5) {
-            let y = sy(t);
+        let area = Area {
+            x0,
+            x1,
+            y0,
+            y1,
+            pw: w - LEFT - RIGHT,
+            ph: h - TOP - BOTTOM,
+        };
+        area.y_grid(&mut s);
+        area.x_grid(&mut s, self.x_axis);
+        area.frame(&mut s);
+        for m in &self.markers {
+            area.marker(&mut s, m);
+        }
+        for series in &self.series {
+            area.series(&mut s, series);
+        }
+        self.axis_labels(&mut s, &area);
+        self.legend(&mut s);
+        s.push_str("</svg>");
+        s
+    }
+
+    /// The x and y axis labels.
+    fn axis_labels(&self, s: &mut String, area: &Area) {
+        let _ = write!(
+            s,
+            r#"<text x="{:.1}" y="{:.1}" class="axis" text-anchor="middle">{}</text>"#,
+            LEFT + area.pw / 2.0,
+            self.height - 22.0,
+            esc(&self.x_label)
+        );
+        let _ = write!(
+            s,
+            r#"<text transform="translate(14,{:.1}) rotate(-90)" class="axis" text-anchor="middle">{}</text>"#,
+            TOP + area.ph / 2.0,
+            esc(&self.y_label)
+        );
+    }
+
+    /// The legend along the bottom: each labelled series' symbol and label.
+    fn legend(&self, s: &mut String) {
+        let mut lx = LEFT;
+        let ly = self.height - 6.0;
+        for series in &self.series {
+            let (label, color, kind) = match series {
+                Series::Line {
+                    label,
+                    color,
+                    dashed,
+                    ..
+                } => (label, *color, if *dashed { "dash" } else { "line" }),
+                Series::Markers {
+                    label,
+                    color,
+                    hollow,
+                    ..
+                } => (label, *color, if *hollow { "square" } else { "dot" }),
+            };
+            if label.is_empty() {
+                continue;
+            }
+            legend_symbol(s, kind, color, lx, ly);
+            let _ = write!(
+                s,
+                r#"<text x="{:.1}" y="{ly:.1}" class="legend">{}</text>"#,
+                lx + 18.0,
+                esc(label)
+            );
+            lx += 26.0 + 6.5 * label.chars().count() as f64;
+        }
+    }
+}
+
+/// A legend entry's symbol (`dot`, `square`, `dash` or a line) at (`lx`, `ly`).
+fn legend_symbol(s: &mut String, kind: &str, color: &str, lx: f64, ly: f64) {
+    match kind {
+        "dot" => {
+            let _ = write!(
+                s,
+                r#"<circle cx="{:.1}" cy="{:.1}" r="3.6" fill="{color}"/>"#,
+                lx + 6.0,
+                ly - 4.0
+            );
+        }
+        "square" => {
+            let _ = write!(
+                s,
+                r#"<rect x="{:.1}" y="{:.1}" width="7" height="7" fill="white" stroke="{color}"/>"#,
+                lx + 2.5,
+                ly - 7.5
+            );
+        }
+        _ => {
+            let _ = write!(
+                s,
+                r#"<line x1="{lx:.1}" y1="{:.1}" x2="{:.1}" y2="{:.1}" stroke="{color}" stroke-width="2"{}/>"#,
+                ly - 4.0,
+                lx + 14.0,
+                ly - 4.0,
+                if kind == "dash" {
+                    r#" stroke-dasharray="4 3""#
+                } else {
+                    ""
+                }
+            );
+        }
+    }
+}
+
+/// The plotting area of a chart with data: its data bounds and its size in pixels.
+struct Area {
+    x0: f64,
+    x1: f64,
+    y0: f64,
+    y1: f64,
+    /// Width and height of the plotting area, px.
+    pw: f64,
+    ph: f64,
+}
+
+impl Area {
+    fn sx(&self, x: f64) -> f64 {
+        LEFT + (x - self.x0) / (self.x1 - self.x0) * self.pw
+    }
+
+    fn sy(&self, y: f64) -> f64 {
+        TOP + (1.0 - (y - self.y0) / (self.y1 - self.y0)) * self.ph
+    }
+
+    /// Horizontal grid lines and the y ticks.
+    fn y_grid(&self, s: &mut String) {
+        for t in ticks(self.y0, self.y1, 5) {
+            let y = self.sy(t);
             let _ = write!(
                 s,
                 r#"<line x1="{LEFT}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" class="grid"/><text x="{:.1}" y="{:.1}" class="tick" text-anchor="end">{}</text>"#,
-                LEFT + pw,
+                LEFT + self.pw,
                 LEFT - 6.0,
                 y + 4.0,
-                fmt_num(t, y1 - y0)
+                fmt_num(t, self.y1 - self.y0)
             );
         }
-        let xt = match self.x_axis {
+    }
+
+    /// The x ticks' positions: whole days on a date axis.
+    fn x_ticks(&self, axis: XAxis) -> Vec<f64> {
+        let (x0, x1) = (self.x0, self.x1);
+        match axis {
             XAxis::Date => {
                 // Whole days.
                 let day = 86_400_000.0;
@@ -226,179 +359,119 @@ impl Chart {
                 v
             }
             XAxis::Seconds => ticks(x0, x1, 8),
-        };
-        for t in xt {
-            let x = sx(t);
+        }
+    }
+
+    /// Vertical grid lines and the x ticks.
+    fn x_grid(&self, s: &mut String, axis: XAxis) {
+        for t in self.x_ticks(axis) {
+            let x = self.sx(t);
             let _ = write!(
                 s,
                 r#"<line x1="{x:.1}" y1="{TOP}" x2="{x:.1}" y2="{:.1}" class="grid"/><text x="{x:.1}" y="{:.1}" class="tick" text-anchor="middle">{}</text>"#,
-                TOP + ph,
-                TOP + ph + 16.0,
-                fmt_tick(t, self.x_axis, x1 - x0)
+                TOP + self.ph,
+                TOP + self.ph + 16.0,
+                fmt_tick(t, axis, self.x1 - self.x0)
             );
         }
+    }
+
+    /// The frame, and the zero line when zero is inside the y range.
+    fn frame(&self, s: &mut String) {
+        let (pw, ph) = (self.pw, self.ph);
         let _ = write!(
             s,
             r#"<rect x="{LEFT}" y="{TOP}" width="{pw:.1}" height="{ph:.1}" class="frame"/>"#
         );
-        if y0 < 0.0 && y1 > 0.0 {
-            let y = sy(0.0);
+        if self.y0 < 0.0 && self.y1 > 0.0 {
+            let y = self.sy(0.0);
             let _ = write!(
                 s,
                 r#"<line x1="{LEFT}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" class="zero"/>"#,
                 LEFT + pw
             );
         }
-        // Markers.
-        for m in &self.markers {
-            let x = sx(m.x);
-            let _ = write!(
-                s,
-                r#"<line x1="{x:.1}" y1="{TOP}" x2="{x:.1}" y2="{:.1}" stroke="{}" stroke-width="1.5" stroke-dasharray="5 3"/><text x="{:.1}" y="{:.1}" class="marker" fill="{}">{}</text>"#,
-                TOP + ph,
-                m.color,
-                x + 3.0,
-                TOP + 12.0,
-                m.color,
-                esc(&m.label)
-            );
-        }
-        // Series.
-        for series in &self.series {
-            match series {
-                Series::Line {
-                    color,
-                    dashed,
-                    points,
-                    ..
-                } => {
-                    let d: Vec<String> = points
-                        .iter()
-                        .filter(|(x, y)| x.is_finite() && y.is_finite())
-                        .map(|&(x, y)| format!("{:.1},{:.1}", sx(x), sy(y)))
-                        .collect();
-                    if d.len() >= 2 {
-                        let _ = write!(
-                            s,
-                            r#"<polyline points="{}" fill="none" stroke="{color}" stroke-width="1.3"{}/>"#,
-                            d.join(" "),
-                            if *dashed {
-                                r#" stroke-dasharray="6 4""#
-                            } else {
-                                ""
-                            }
-                        );
-                    }
-                }
-                Series::Markers {
-                    color,
-                    hollow,
-                    points,
-                    ..
-                } => {
-                    for p in points.iter().filter(|p| p.x.is_finite() && p.y.is_finite()) {
-                        let (x, y) = (sx(p.x), sy(p.y));
-                        if let Some(sg) = p.sigma.filter(|v| v.is_finite() && *v > 0.0) {
-                            let _ = write!(
-                                s,
-                                r#"<line x1="{x:.1}" y1="{:.1}" x2="{x:.1}" y2="{:.1}" stroke="{color}" stroke-width="1"/>"#,
-                                sy(p.y - sg),
-                                sy(p.y + sg)
-                            );
-                        }
-                        if *hollow {
-                            let _ = write!(
-                                s,
-                                r#"<rect x="{:.1}" y="{:.1}" width="7" height="7" fill="white" stroke="{color}" stroke-width="1.4"/>"#,
-                                x - 3.5,
-                                y - 3.5
-                            );
-                        } else {
-                            let _ = write!(
-                                s,
-                                r#"<circle cx="{x:.1}" cy="{y:.1}" r="3.6" fill="{color}"/>"#
-                            );
-                        }
-                    }
-                }
-            }
-        }
-        // Axis labels and legend.
+    }
+
+    /// A vertical marker line with its label.
+    fn marker(&self, s: &mut String, m: &Marker) {
+        let x = self.sx(m.x);
         let _ = write!(
             s,
-            r#"<text x="{:.1}" y="{:.1}" class="axis" text-anchor="middle">{}</text>"#,
-            LEFT + pw / 2.0,
-            h - 22.0,
-            esc(&self.x_label)
+            r#"<line x1="{x:.1}" y1="{TOP}" x2="{x:.1}" y2="{:.1}" stroke="{}" stroke-width="1.5" stroke-dasharray="5 3"/><text x="{:.1}" y="{:.1}" class="marker" fill="{}">{}</text>"#,
+            TOP + self.ph,
+            m.color,
+            x + 3.0,
+            TOP + 12.0,
+            m.color,
+            esc(&m.label)
         );
-        let _ = write!(
-            s,
-            r#"<text transform="translate(14,{:.1}) rotate(-90)" class="axis" text-anchor="middle">{}</text>"#,
-            TOP + ph / 2.0,
-            esc(&self.y_label)
-        );
-        let mut lx = LEFT;
-        for series in &self.series {
-            let (label, color, kind) = match series {
-                Series::Line {
-                    label,
-                    color,
-                    dashed,
-                    ..
-                } => (label, *color, if *dashed { "dash" } else { "line" }),
-                Series::Markers {
-                    label,
-                    color,
-                    hollow,
-                    ..
-                } => (label, *color, if *hollow { "square" } else { "dot" }),
-            };
-            if label.is_empty() {
-                continue;
-            }
-            let ly = h - 6.0;
-            match kind {
-                "dot" => {
+    }
+
+    /// One series: a polyline, or points with their ±σ bars.
+    fn series(&self, s: &mut String, series: &Series) {
+        match series {
+            Series::Line {
+                color,
+                dashed,
+                points,
+                ..
+            } => {
+                let d: Vec<String> = points
+                    .iter()
+                    .filter(|(x, y)| x.is_finite() && y.is_finite())
+                    .map(|&(x, y)| format!("{:.1},{:.1}", self.sx(x), self.sy(y)))
+                    .collect();
+                if d.len() >= 2 {
                     let _ = write!(
                         s,
-                        r#"<circle cx="{:.1}" cy="{:.1}" r="3.6" fill="{color}"/>"#,
-                        lx + 6.0,
-                        ly - 4.0
-                    );
-                }
-                "square" => {
-                    let _ = write!(
-                        s,
-                        r#"<rect x="{:.1}" y="{:.1}" width="7" height="7" fill="white" stroke="{color}"/>"#,
-                        lx + 2.5,
-                        ly - 7.5
-                    );
-                }
-                _ => {
-                    let _ = write!(
-                        s,
-                        r#"<line x1="{lx:.1}" y1="{:.1}" x2="{:.1}" y2="{:.1}" stroke="{color}" stroke-width="2"{}/>"#,
-                        ly - 4.0,
-                        lx + 14.0,
-                        ly - 4.0,
-                        if kind == "dash" {
-                            r#" stroke-dasharray="4 3""#
+                        r#"<polyline points="{}" fill="none" stroke="{color}" stroke-width="1.3"{}/>"#,
+                        d.join(" "),
+                        if *dashed {
+                            r#" stroke-dasharray="6 4""#
                         } else {
                             ""
                         }
                     );
                 }
             }
+            Series::Markers {
+                color,
+                hollow,
+                points,
+                ..
+            } => {
+                for p in points.iter().filter(|p| p.x.is_finite() && p.y.is_finite()) {
+                    self.point(s, p, color, *hollow);
+                }
+            }
+        }
+    }
+
+    /// One point: its ±σ bar (when it has one), then a hollow square or a filled circle.
+    fn point(&self, s: &mut String, p: &Point, color: &str, hollow: bool) {
+        let (x, y) = (self.sx(p.x), self.sy(p.y));
+        if let Some(sg) = p.sigma.filter(|v| v.is_finite() && *v > 0.0) {
             let _ = write!(
                 s,
-                r#"<text x="{:.1}" y="{ly:.1}" class="legend">{}</text>"#,
-                lx + 18.0,
-                esc(label)
+                r#"<line x1="{x:.1}" y1="{:.1}" x2="{x:.1}" y2="{:.1}" stroke="{color}" stroke-width="1"/>"#,
+                self.sy(p.y - sg),
+                self.sy(p.y + sg)
             );
-            lx += 26.0 + 6.5 * label.chars().count() as f64;
         }
-        s.push_str("</svg>");
-        s
+        if hollow {
+            let _ = write!(
+                s,
+                r#"<rect x="{:.1}" y="{:.1}" width="7" height="7" fill="white" stroke="{color}" stroke-width="1.4"/>"#,
+                x - 3.5,
+                y - 3.5
+            );
+        } else {
+            let _ = write!(
+                s,
+                r#"<circle cx="{x:.1}" cy="{y:.1}" r="3.6" fill="{color}"/>"#
+            );
+        }
     }
 }
 

@@ -1,0 +1,770 @@
+//! The analysis itself, as a sequence of named stages ([`analyse`]): the baseline and its
+//! aliases, the first batch (seed refits, the baseline's folds or held-out start-up, the
+//! screen), the screen's ranking, the shortlist's scoring, the leader's refit and the verdict.
+
+use super::candidates::{fit_params, gate_instruments, worth_trying, Trial, Unscreened};
+use super::{
+    alias, Candidate, GapReport, GapVerdict, Scoring, SignalTraces, StageWalls, AMBIGUOUS,
+    CV_BLOCK_S, MIN_SHRINKAGE, SCREEN_BUDGET, SEED_REFITS, SHORTLIST, SHORTLIST_RATIO,
+};
+use crate::diagnosis::config::Blocks;
+use crate::diagnosis::fit_quality::Verdict;
+use crate::diagnosis::transient::{diagnose_transient, objective_for};
+use crate::diagnosis::{DiagnosisConfig, DiagnosisError, FitParam, MethodResult};
+use crate::engine::trace::Values;
+use crate::engine::Engine;
+use crate::health::HealthParams;
+use crate::recording::Recording;
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+fn bic(r: &MethodResult, k: usize) -> f64 {
+    let n = r.residuals.max(1) as f64;
+    n * (r.ssr / n).max(1e-300).ln() + k as f64 * n.ln()
+}
+
+/// `cfg` restricted to one fold of the blocked cross-validation.
+fn fold_cfg(cfg: &DiagnosisConfig, parity: u8) -> DiagnosisConfig {
+    let mut c = cfg.clone();
+    c.window.blocks = Some(Blocks {
+        length_s: CV_BLOCK_S,
+        parity,
+    });
+    c
+}
+
+/// One fit on one fold: its result and its sum of squares on the other fold.
+struct FoldFit {
+    fit: MethodResult,
+    test_ssr: f64,
+}
+
+fn fit_fold(
+    engine: &Engine,
+    rec: &Recording,
+    cfg: &DiagnosisConfig,
+    parity: u8,
+) -> Result<FoldFit, DiagnosisError> {
+    let fit = diagnose_transient(engine, rec, &fold_cfg(cfg, parity))?;
+    let test_ssr = objective_for(engine, rec, &fold_cfg(cfg, 1 - parity)).ssr(&fit.model_values);
+    Ok(FoldFit { fit, test_ssr })
+}
+
+/// What one candidate job returns: a fit on the whole start-up (holdout scoring) with the
+/// held-out start-up's SSR after the health refit, or a fit on one fold.
+enum CandidateFit {
+    Whole {
+        fit: MethodResult,
+        heldout_ssr: Option<f64>,
+    },
+    Fold(FoldFit),
+}
+
+/// Model runs of a full candidate fit with `extra` effect parameters: the baseline's budget and
+/// 100 more per parameter.
+fn candidate_runs(cfg: &DiagnosisConfig, extra: usize) -> usize {
+    cfg.max_model_runs + 100 * extra
+}
+
+/// `engine` with the effect parameters of `fit` set (the start of a refit from it).
+fn with_effect_params(engine: &Engine, fit: &MethodResult) -> Result<Engine, DiagnosisError> {
+    let mut e = engine.clone();
+    for (key, (v, _)) in effect_params(fit) {
+        e.set_param(&key, v)?;
+    }
+    Ok(e)
+}
+
+/// The effect parameters of a fit: name → (value, 1σ).
+fn effect_params(r: &MethodResult) -> BTreeMap<String, (f64, f64)> {
+    r.params
+        .iter()
+        .filter(|p| p.name.starts_with("effects."))
+        .map(|p| (p.name.clone(), (p.value, p.sigma)))
+        .collect()
+}
+
+fn mean_health(a: &HealthParams, b: &HealthParams) -> HealthParams {
+    let (a, b) = (a.to_array(), b.to_array());
+    HealthParams::from_array(std::array::from_fn(|i| 0.5 * (a[i] + b[i])))
+}
+
+fn worse(a: Verdict, b: Verdict) -> Verdict {
+    let rank = |v: Verdict| match v {
+        Verdict::Good => 0,
+        Verdict::Suspect => 1,
+        Verdict::Poor => 2,
+    };
+    if rank(a) >= rank(b) {
+        a
+    } else {
+        b
+    }
+}
+
+/// Runs `jobs` on `threads` worker threads, each fit single-threaded (a fit's result does not
+/// depend on its thread count, so the order of completion changes nothing), results in order.
+///
+/// Plain scoped threads take the jobs in the order given from a shared counter, so the longest
+/// jobs, listed first, start first and the workers finish together. Not a rayon pool: a fit
+/// runs on its own one-thread pool, and a rayon worker waiting for another pool steals its own
+/// pool's queued jobs meanwhile, which nests fits on one core and left the second idle (1.3 of
+/// 2 cores used in a measured analysis).
+fn in_parallel<J: Sync, R: Send>(
+    threads: usize,
+    jobs: &[J],
+    run: impl Fn(&J) -> R + Sync + Send,
+) -> Result<Vec<R>, DiagnosisError> {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let next = AtomicUsize::new(0);
+    let workers = threads.clamp(1, jobs.len().max(1));
+    let mut done: Vec<(usize, R)> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..workers)
+            .map(|_| {
+                scope.spawn(|| {
+                    let mut mine = Vec::new();
+                    loop {
+                        let i = next.fetch_add(1, Ordering::Relaxed);
+                        let Some(job) = jobs.get(i) else { break };
+                        mine.push((i, run(job)));
+                    }
+                    mine
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| {
+                h.join()
+                    .map_err(|_| DiagnosisError::Config("a gap analysis worker panicked".into()))
+            })
+            .collect::<Result<Vec<_>, _>>()
+            .map(|v| v.into_iter().flatten().collect())
+    })?;
+    done.sort_by_key(|(i, _)| *i);
+    Ok(done.into_iter().map(|(_, r)| r).collect())
+}
+
+/// Runs the analysis of `rec` (and `holdout`, a second start-up of the same unit) over the
+/// candidate instances `candidates`. Without a holdout the candidates are scored by blocked
+/// cross-validation ([`Scoring::BlockedCv`]). The fits after the baseline run in parallel on
+/// `cfg.threads` workers (all cores by default).
+///
+/// The stages, in order: the baseline fit and its aliases; the first batch (seed refits, the
+/// baseline's folds or held-out start-up, the screen); the shortlist's scoring; the leader's
+/// refit (cross-validation only); the verdict.
+pub fn analyse(
+    engine: &Engine,
+    rec: &Recording,
+    holdout: Option<&Recording>,
+    candidates: &[String],
+    cfg: &DiagnosisConfig,
+) -> Result<GapReport, DiagnosisError> {
+    let start = Instant::now();
+    let threads = cfg
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let single = DiagnosisConfig {
+        threads: Some(1),
+        ..cfg.clone()
+    };
+    let scoring = if holdout.is_some() {
+        Scoring::Holdout
+    } else {
+        Scoring::BlockedCv
+    };
+    let base = diagnose_transient(engine, rec, cfg)?;
+    // Input instruments the health may be hiding (one model run per parameter; a baseline that
+    // cannot be linearised has no alias analysis, which the report shows as an empty list).
+    let aliases = alias::aliases(engine, rec, &single, &base).unwrap_or_default();
+    let baseline_wall = start.elapsed().as_secs_f64();
+    let run = Run {
+        engine,
+        rec,
+        holdout,
+        cfg,
+        single,
+        threads,
+        scoring,
+        k_base: 6 + usize::from(cfg.fit_ambient_pressure),
+        base,
+    };
+    // Candidates are fitted where the residual shows a gap; a fit within noise whose health is
+    // implausible is a question for the aliases, which refitting cannot answer.
+    let mut fitted = if run.base.fit_quality.residual_verdict == Verdict::Good {
+        Fitted::none()
+    } else {
+        run.fit_candidates(candidates)?
+    };
+    fitted.stages.baseline = baseline_wall;
+    // The shortlist first, by score; then the rest of the screen, by its shrinkage.
+    fitted.candidates.sort_by(|a, b| {
+        b.shortlisted
+            .cmp(&a.shortlisted)
+            .then(b.score.total_cmp(&a.score))
+            .then(b.bic_gain.total_cmp(&a.bic_gain))
+    });
+    if scoring == Scoring::BlockedCv {
+        run.refit_leader(&mut fitted)?;
+    }
+    let verdict = run.verdict(&fitted.candidates, &aliases, fitted.optimiser_spread);
+    let worst_signal = run.worst_signal(&verdict, &fitted.models);
+    let base = run.base;
+    Ok(GapReport {
+        baseline_fit_quality: base.fit_quality.verdict,
+        baseline_normalised_residual: base.fit_quality.normalised_residual,
+        summary: base.fit_quality.summary.clone(),
+        localisation: base.localisation,
+        optimiser_spread: fitted.optimiser_spread,
+        scoring,
+        candidates: fitted.candidates,
+        unscreened: fitted.unscreened,
+        verdict,
+        aliases,
+        fits: fitted.fits,
+        threads,
+        wall_s: start.elapsed().as_secs_f64(),
+        stage_wall_s: fitted.stages,
+        worst_signal,
+    })
+}
+
+/// One analysis: its inputs, settings and baseline fit, which every stage reads.
+struct Run<'a> {
+    engine: &'a Engine,
+    rec: &'a Recording,
+    holdout: Option<&'a Recording>,
+    cfg: &'a DiagnosisConfig,
+    /// `cfg` on one thread (the fits run in parallel, each on one thread).
+    single: DiagnosisConfig,
+    threads: usize,
+    scoring: Scoring,
+    /// Parameters of the baseline fit (the health, and the ambient pressure when fitted).
+    k_base: usize,
+    base: MethodResult,
+}
+
+/// What fitting the candidates gives.
+struct Fitted {
+    candidates: Vec<Candidate>,
+    unscreened: Vec<Unscreened>,
+    /// Model values of each candidate fitted on the whole start-up, by name.
+    models: BTreeMap<String, Vec<Values>>,
+    /// The screen's fit of each candidate (the start of the leader's full refit).
+    screened: BTreeMap<String, MethodResult>,
+    optimiser_spread: f64,
+    /// Fits run so far, the baseline's included.
+    fits: usize,
+    stages: StageWalls,
+    /// When the last stage ended (the leader's refit is timed from here).
+    lap: Instant,
+}
+
+impl Fitted {
+    /// Nothing fitted: the baseline alone.
+    fn none() -> Self {
+        Self {
+            candidates: Vec::new(),
+            unscreened: Vec::new(),
+            models: BTreeMap::new(),
+            screened: BTreeMap::new(),
+            optimiser_spread: 0.0,
+            fits: 1,
+            stages: StageWalls::default(),
+            lap: Instant::now(),
+        }
+    }
+}
+
+/// A job of the first batch.
+#[derive(Clone, Copy)]
+enum BaseJob {
+    Seed(u64),
+    Holdout,
+    Fold(u8),
+    Screen(usize),
+}
+
+/// What a job of the first batch returns.
+enum BaseOut {
+    Fit(Result<FoldFit, DiagnosisError>),
+    Screen(Option<MethodResult>),
+}
+
+/// The first batch's results.
+struct FirstBatch {
+    /// Fits the batch ran.
+    jobs: usize,
+    optimiser_spread: f64,
+    /// The baseline's SSR on data its fits did not see (held-out start-up or other fold).
+    base_test: f64,
+    /// The baseline fitted on the held-out start-up, or on each fold.
+    base_folds: Vec<MethodResult>,
+    /// Each candidate's screen fit (`None` where its model failed on the data).
+    screens: Vec<Option<MethodResult>>,
+}
+
+/// A shortlist job: the candidate's index and the fold (`None`: the whole start-up).
+type ScoreJob = (usize, Option<u8>);
+
+impl Run<'_> {
+    /// Fits the candidates worth trying: the first batch, the screen's ranking, the
+    /// shortlist's scoring.
+    fn fit_candidates(&self, candidates: &[String]) -> Result<Fitted, DiagnosisError> {
+        let mut lap = Instant::now();
+        // The candidates worth trying, with their fit parameters.
+        let names: Vec<(String, Vec<FitParam>)> = candidates
+            .iter()
+            .filter(|c| worth_trying(c, &self.base.localisation))
+            .map(|c| (c.clone(), fit_params(c, self.rec)))
+            .filter(|(_, extra)| !extra.is_empty())
+            .collect();
+        // Instrument candidates: only the most promising by the linear screen are fitted.
+        let (names, unscreened) =
+            gate_instruments(self.engine, self.rec, &self.single, &self.base, names);
+        let first = self.first_batch(&names)?;
+        let mut stages = StageWalls {
+            screen: lap.elapsed().as_secs_f64(),
+            ..StageWalls::default()
+        };
+        lap = Instant::now();
+        let (shortlist, mut candidates) = self.rank_screen(&names, &first.screens);
+        let jobs = self.scoring_jobs(&shortlist, first.base_folds.len());
+        let done = self.score_shortlist(&names, &first, &jobs)?;
+        let fits = 1
+            + first.jobs
+            + jobs.len()
+            + usize::from(self.holdout.is_some()) * shortlist.len();
+        stages.scoring = lap.elapsed().as_secs_f64();
+        lap = Instant::now();
+        let mut by_name: BTreeMap<usize, Vec<CandidateFit>> = BTreeMap::new();
+        for (&(i, _), r) in jobs.iter().zip(done) {
+            // A candidate whose model fails on the data is no explanation of it.
+            match r {
+                Ok(f) => by_name.entry(i).or_default().push(f),
+                Err(_) => {
+                    by_name.insert(i, Vec::new());
+                }
+            }
+        }
+        let mut models = BTreeMap::new();
+        for (i, results) in by_name {
+            let screen = self.shrinkage(first.screens[i].as_ref()).unwrap_or(0.0);
+            let candidate = match (self.scoring, results.as_slice()) {
+                (Scoring::Holdout, [CandidateFit::Whole { fit, heldout_ssr }]) => {
+                    models.insert(names[i].effect.clone(), fit.model_values.clone());
+                    self.holdout_candidate(&names[i], screen, fit, *heldout_ssr, first.base_test)
+                }
+                (Scoring::BlockedCv, [CandidateFit::Fold(a), CandidateFit::Fold(b)]) => {
+                    self.cv_candidate(&names[i], screen, [a, b], &first)
+                }
+                _ => continue,
+            };
+            candidates.push(candidate);
+        }
+        let mut screened = BTreeMap::new();
+        for (i, fit) in first.screens.into_iter().enumerate() {
+            if let Some(fit) = fit {
+                screened.insert(names[i].effect.clone(), fit);
+            }
+        }
+        Ok(Fitted {
+            candidates,
+            unscreened,
+            models,
+            screened,
+            optimiser_spread: first.optimiser_spread,
+            fits,
+            stages,
+            lap,
+        })
+    }
+
+    /// 1 − SSR(fit)/SSR(baseline) of a fit (`None` without one).
+    fn shrinkage(&self, fit: Option<&MethodResult>) -> Option<f64> {
+        fit.map(|f| 1.0 - f.ssr / self.base.ssr.max(1e-300))
+    }
+
+    /// A screen fit's configuration: a reduced budget, from the baseline's health.
+    fn screen_cfg(&self, extra: &[FitParam]) -> DiagnosisConfig {
+        DiagnosisConfig {
+            extra_params: extra.to_vec(),
+            base: self.base.health,
+            max_model_runs: (candidate_runs(self.cfg, extra.len()) as f64 * SCREEN_BUDGET).ceil()
+                as usize,
+            lm_runs: (self.cfg.lm_runs as f64 * SCREEN_BUDGET).ceil() as usize,
+            ..self.single.clone()
+        }
+    }
+
+    /// A full candidate fit's configuration, from `start`.
+    fn cand_cfg(&self, extra: &[FitParam], start: HealthParams) -> DiagnosisConfig {
+        DiagnosisConfig {
+            extra_params: extra.to_vec(),
+            base: start,
+            max_model_runs: candidate_runs(self.cfg, extra.len()),
+            ..self.single.clone()
+        }
+    }
+
+    /// First batch, all independent of each other: what optimiser and noise variation alone do
+    /// to the residual (the baseline refitted with other seeds; a candidate's shrinkage must
+    /// exceed it); the baseline on the held-out start-up or on each fold; and the screen: every
+    /// candidate fitted on the whole start-up at a reduced budget from the baseline's health
+    /// (its start nest is the baseline itself, so a candidate never screens worse than the
+    /// baseline), ranked by how far it shrinks the residual there. The full-budget fits go
+    /// first so that the pool's workers finish together.
+    fn first_batch(&self, names: &[Trial]) -> Result<FirstBatch, DiagnosisError> {
+        let mut jobs: Vec<BaseJob> = (1..=SEED_REFITS).map(BaseJob::Seed).collect();
+        match self.scoring {
+            Scoring::Holdout => jobs.push(BaseJob::Holdout),
+            Scoring::BlockedCv => jobs.extend([BaseJob::Fold(0), BaseJob::Fold(1)]),
+        }
+        let mut by_size: Vec<usize> = (0..names.len()).collect();
+        by_size.sort_by_key(|&i| std::cmp::Reverse(names[i].params.len()));
+        jobs.extend(by_size.into_iter().map(BaseJob::Screen));
+        let done = in_parallel(self.threads, &jobs, |job| self.base_job(*job, names))?;
+        let mut ssrs = vec![self.base.ssr];
+        let mut base_test = 0.0;
+        let mut base_folds: Vec<MethodResult> = Vec::new();
+        let mut screens: Vec<Option<MethodResult>> = vec![None; names.len()];
+        for (job, r) in jobs.iter().zip(done) {
+            match (job, r) {
+                (BaseJob::Screen(i), BaseOut::Screen(f)) => screens[*i] = f,
+                (BaseJob::Seed(_), BaseOut::Fit(Ok(f))) => ssrs.push(f.fit.ssr),
+                (BaseJob::Seed(_), _) => {}
+                (_, BaseOut::Fit(Ok(f))) => {
+                    base_test += f.test_ssr;
+                    base_folds.push(f.fit);
+                }
+                // The baseline must be scorable: its error is the analysis's error.
+                (_, BaseOut::Fit(Err(e))) => return Err(e),
+                (_, BaseOut::Screen(_)) => {}
+            }
+        }
+        let lo = ssrs.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = ssrs.iter().copied().fold(0.0, f64::max);
+        Ok(FirstBatch {
+            jobs: jobs.len(),
+            optimiser_spread: ((hi - lo) / lo.max(1e-300)).clamp(0.0, 1.0),
+            base_test,
+            base_folds,
+            screens,
+        })
+    }
+
+    /// Runs one job of the first batch.
+    fn base_job(&self, job: BaseJob, names: &[Trial]) -> BaseOut {
+        let (engine, rec, single) = (self.engine, self.rec, &self.single);
+        match job {
+            BaseJob::Seed(k) => {
+                let seeded = DiagnosisConfig {
+                    seed: self.cfg.seed.wrapping_add(k),
+                    ..single.clone()
+                };
+                BaseOut::Fit(diagnose_transient(engine, rec, &seeded).map(|fit| FoldFit {
+                    fit,
+                    test_ssr: f64::NAN,
+                }))
+            }
+            BaseJob::Holdout => BaseOut::Fit(
+                self.holdout
+                    .ok_or_else(|| DiagnosisError::Config("no holdout".into()))
+                    .and_then(|h| diagnose_transient(engine, h, single))
+                    .map(|fit| FoldFit {
+                        test_ssr: fit.ssr,
+                        fit,
+                    }),
+            ),
+            BaseJob::Fold(p) => BaseOut::Fit(fit_fold(engine, rec, single, p)),
+            BaseJob::Screen(i) => BaseOut::Screen(
+                diagnose_transient(engine, rec, &self.screen_cfg(&names[i].params)).ok(),
+            ),
+        }
+    }
+
+    /// Ranks the screened candidates by their screen shrinkage: the shortlist (indices into
+    /// `names`) to score on held-out data, and the rest as candidates keeping their screen's
+    /// fit.
+    fn rank_screen(
+        &self,
+        names: &[Trial],
+        screens: &[Option<MethodResult>],
+    ) -> (Vec<usize>, Vec<Candidate>) {
+        let screen_shrinkage = |i: usize| self.shrinkage(screens[i].as_ref());
+        // Candidates whose model failed on the data are no explanation of it.
+        let mut ranked: Vec<usize> = (0..names.len()).filter(|&i| screens[i].is_some()).collect();
+        ranked.sort_by(|&a, &b| {
+            let (sa, sb) = (screen_shrinkage(a), screen_shrinkage(b));
+            sb.unwrap_or(0.0).total_cmp(&sa.unwrap_or(0.0))
+        });
+        let lead = ranked
+            .first()
+            .and_then(|&i| screen_shrinkage(i))
+            .unwrap_or(0.0);
+        let shortlist: Vec<usize> = ranked
+            .iter()
+            .copied()
+            .enumerate()
+            .take_while(|&(rank, i)| {
+                rank == 0
+                    || (rank < SHORTLIST
+                        && screen_shrinkage(i).unwrap_or(0.0) >= SHORTLIST_RATIO * lead)
+            })
+            .map(|(_, i)| i)
+            .collect();
+        let mut rest = Vec::new();
+        for &i in ranked.iter().skip(shortlist.len()) {
+            let Some(fit) = &screens[i] else { continue };
+            let train = 1.0 - fit.ssr / self.base.ssr.max(1e-300);
+            rest.push(Candidate {
+                effect: names[i].effect.clone(),
+                params: effect_params(fit),
+                screen_shrinkage: train,
+                shortlisted: false,
+                predicted_shrinkage: names[i].predicted,
+                train_shrinkage: train,
+                heldout_shrinkage: None,
+                bic_gain: bic(&self.base, self.k_base)
+                    - bic(fit, self.k_base + names[i].params.len()),
+                score: train,
+                health: fit.health,
+                fit_quality: fit.fit_quality.verdict,
+                normalised_residual: fit.fit_quality.normalised_residual,
+            });
+        }
+        (shortlist, rest)
+    }
+
+    /// The shortlist's scoring jobs: one per candidate (holdout), or one per candidate and fold
+    /// (cross-validation, when the baseline fitted both folds).
+    fn scoring_jobs(&self, shortlist: &[usize], base_folds: usize) -> Vec<ScoreJob> {
+        match self.scoring {
+            Scoring::Holdout => shortlist.iter().map(|&i| (i, None)).collect(),
+            Scoring::BlockedCv if base_folds == 2 => shortlist
+                .iter()
+                .flat_map(|&i| [(i, Some(0)), (i, Some(1))])
+                .collect(),
+            Scoring::BlockedCv => Vec::new(),
+        }
+    }
+
+    /// Third batch: the shortlist scored on data its fits did not see. Holdout: a full fit on
+    /// the whole start-up from the screen's solution, then the held-out start-up with its
+    /// effect parameters kept and the health refitted. Cross-validation: each fold fitted from
+    /// the baseline's fit of the same fold (which saw only that fold).
+    fn score_shortlist(
+        &self,
+        names: &[Trial],
+        first: &FirstBatch,
+        jobs: &[ScoreJob],
+    ) -> Result<Vec<Result<CandidateFit, DiagnosisError>>, DiagnosisError> {
+        in_parallel(
+            self.threads,
+            jobs,
+            |&(i, fold)| -> Result<CandidateFit, DiagnosisError> {
+                let extra = &names[i].params;
+                match fold {
+                    Some(p) => {
+                        let c_cfg = self.cand_cfg(extra, first.base_folds[usize::from(p)].health);
+                        fit_fold(self.engine, self.rec, &c_cfg, p).map(CandidateFit::Fold)
+                    }
+                    None => self.fit_whole(extra, first.screens[i].as_ref()),
+                }
+            },
+        )
+    }
+
+    /// A candidate fitted on the whole start-up from its screen's solution, and the held-out
+    /// start-up's SSR with its effect parameters kept and the health refitted.
+    fn fit_whole(
+        &self,
+        extra: &[FitParam],
+        screened: Option<&MethodResult>,
+    ) -> Result<CandidateFit, DiagnosisError> {
+        let screened = screened.ok_or_else(|| DiagnosisError::Config("not screened".into()))?;
+        let e = with_effect_params(self.engine, screened)?;
+        let fit = diagnose_transient(&e, self.rec, &self.cand_cfg(extra, screened.health))?;
+        let heldout_ssr = match self.holdout {
+            Some(h) => {
+                let e = with_effect_params(self.engine, &fit)?;
+                diagnose_transient(&e, h, &self.single).ok().map(|r| r.ssr)
+            }
+            None => None,
+        };
+        Ok(CandidateFit::Whole { fit, heldout_ssr })
+    }
+
+    /// A shortlisted candidate scored on the held-out start-up.
+    fn holdout_candidate(
+        &self,
+        trial: &Trial,
+        screen: f64,
+        fit: &MethodResult,
+        heldout_ssr: Option<f64>,
+        base_test: f64,
+    ) -> Candidate {
+        let train = 1.0 - fit.ssr / self.base.ssr.max(1e-300);
+        let heldout = heldout_ssr.map(|s| 1.0 - s / base_test.max(1e-300));
+        Candidate {
+            effect: trial.effect.clone(),
+            params: effect_params(fit),
+            screen_shrinkage: screen,
+            shortlisted: true,
+            predicted_shrinkage: trial.predicted,
+            train_shrinkage: train,
+            heldout_shrinkage: heldout,
+            bic_gain: bic(&self.base, self.k_base) - bic(fit, self.k_base + trial.params.len()),
+            score: heldout.unwrap_or(train),
+            health: fit.health,
+            fit_quality: fit.fit_quality.verdict,
+            normalised_residual: fit.fit_quality.normalised_residual,
+        }
+    }
+
+    /// A shortlisted candidate scored by two-fold cross-validation: the fold means.
+    fn cv_candidate(
+        &self,
+        trial: &Trial,
+        screen: f64,
+        [a, b]: [&FoldFit; 2],
+        first: &FirstBatch,
+    ) -> Candidate {
+        let (k_base, k) = (self.k_base, self.k_base + trial.params.len());
+        let base_folds = &first.base_folds;
+        let train_ssr = a.fit.ssr + b.fit.ssr;
+        let base_train = base_folds[0].ssr + base_folds[1].ssr;
+        let heldout = 1.0 - (a.test_ssr + b.test_ssr) / first.base_test.max(1e-300);
+        let (pa, pb) = (effect_params(&a.fit), effect_params(&b.fit));
+        let params = pa
+            .iter()
+            .map(|(key, (va, sa))| {
+                let (vb, sb) = pb.get(key).copied().unwrap_or((*va, *sa));
+                (key.clone(), (0.5 * (va + vb), 0.5 * (sa + sb)))
+            })
+            .collect();
+        Candidate {
+            effect: trial.effect.clone(),
+            params,
+            screen_shrinkage: screen,
+            shortlisted: true,
+            predicted_shrinkage: trial.predicted,
+            train_shrinkage: 1.0 - train_ssr / base_train.max(1e-300),
+            heldout_shrinkage: Some(heldout),
+            bic_gain: bic(&base_folds[0], k_base) + bic(&base_folds[1], k_base)
+                - bic(&a.fit, k)
+                - bic(&b.fit, k),
+            score: heldout,
+            health: mean_health(&a.fit.health, &b.fit.health),
+            fit_quality: worse(a.fit.fit_quality.verdict, b.fit.fit_quality.verdict),
+            normalised_residual: 0.5
+                * (a.fit.fit_quality.normalised_residual + b.fit.fit_quality.normalised_residual),
+        }
+    }
+
+    /// Cross-validated: the leader is refitted on the whole start-up, so its health, parameters
+    /// and fit quality are those of the complete data (the others keep their fold means).
+    fn refit_leader(&self, fitted: &mut Fitted) -> Result<(), DiagnosisError> {
+        let Some(best) = fitted.candidates.first_mut().filter(|b| b.shortlisted) else {
+            return Ok(());
+        };
+        // From the screen's solution: the full fit can only improve on it.
+        let (e, start) = match fitted.screened.get(&best.effect) {
+            Some(screen) => (with_effect_params(self.engine, screen)?, screen.health),
+            None => (self.engine.clone(), self.base.health),
+        };
+        let c_cfg = DiagnosisConfig {
+            extra_params: fit_params(&best.effect, self.rec),
+            max_model_runs: candidate_runs(self.cfg, best.params.len()),
+            base: start,
+            ..self.cfg.clone()
+        };
+        fitted.fits += 1;
+        if let Ok(fit) = diagnose_transient(&e, self.rec, &c_cfg) {
+            fitted
+                .models
+                .insert(best.effect.clone(), fit.model_values.clone());
+            best.params = effect_params(&fit);
+            best.health = fit.health;
+            best.fit_quality = fit.fit_quality.verdict;
+            best.normalised_residual = fit.fit_quality.normalised_residual;
+        }
+        fitted.stages.leader = fitted.lap.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    /// The verdict over the sorted candidates `out`.
+    fn verdict(&self, out: &[Candidate], aliases: &alias::Aliases, spread: f64) -> GapVerdict {
+        let base = &self.base;
+        if base.fit_quality.residual_verdict == Verdict::Good {
+            // Within noise: `none` only when no input instrument can hide behind the health.
+            return GapVerdict {
+                effect: if aliases.hidden().is_empty() {
+                    "none".into()
+                } else {
+                    AMBIGUOUS.into()
+                },
+                confidence: 0.0,
+                shrinkage: 0.0,
+                health_before: base.health,
+                health_after: base.health,
+            };
+        }
+        match out.first() {
+            Some(best)
+                if best.shortlisted
+                    && best.bic_gain > 0.0
+                    && best.score > spread
+                    && (best.score >= MIN_SHRINKAGE || best.fit_quality == Verdict::Good) =>
+            {
+                GapVerdict {
+                    effect: best.effect.clone(),
+                    confidence: out
+                        .get(1)
+                        .filter(|second| second.shortlisted)
+                        .map_or(best.score, |second| best.score - second.score.max(0.0))
+                        .clamp(0.0, 1.0),
+                    shrinkage: best.score,
+                    health_before: base.health,
+                    health_after: best.health,
+                }
+            }
+            _ => GapVerdict {
+                effect: "unexplained".into(),
+                confidence: 0.0,
+                shrinkage: out.first().map_or(0.0, |b| b.score.max(0.0)),
+                health_before: base.health,
+                health_after: base.health,
+            },
+        }
+    }
+
+    /// The worst signal of the baseline's residual map: measured, the baseline model, and the
+    /// verdict's model (when it names one fitted on the whole start-up).
+    fn worst_signal(
+        &self,
+        verdict: &GapVerdict,
+        models: &BTreeMap<String, Vec<Values>>,
+    ) -> Option<SignalTraces> {
+        let base = &self.base;
+        base.localisation
+            .iter()
+            .filter(|c| c.norm_error.is_finite())
+            .max_by(|a, b| a.norm_error.total_cmp(&b.norm_error))
+            .filter(|_| !base.model_values.is_empty())
+            .map(|c| {
+                let i = c.signal.index();
+                let column = |rows: &[Values]| rows.iter().map(|v| v[i]).collect::<Vec<f64>>();
+                SignalTraces {
+                    signal: c.signal,
+                    t_s: self.rec.times().to_vec(),
+                    measured: column(self.rec.rows()),
+                    before: column(&base.model_values),
+                    after: models
+                        .get(&verdict.effect)
+                        .filter(|m| !m.is_empty())
+                        .map(|m| (verdict.effect.clone(), column(m))),
+                }
+            })
+    }
+}
