@@ -37,7 +37,8 @@ use crate::engine::Engine;
 use crate::optim::lm::jacobian_unit;
 use crate::optim::{refine, thread_pool, JacobianOptions, LmOptions};
 use candidates::Candidate;
-use problem::{prepare, CalibrationProblem};
+use problem::{prepare, CalibrationProblem, PreparedPoints};
+use rayon::ThreadPool;
 use serde::Serialize;
 use startup::RestReading;
 
@@ -217,8 +218,10 @@ fn mean(v: &[f64]) -> f64 {
 /// Calibrates `engine` (the guesses) to the healthy snapshots `rows` and the pressure readings
 /// at rest `rest` (which inform instrument offsets only) over `candidates`.
 /// Returns the report and the calibrated engine.
-// TODO(issue 27): split into named stages.
-#[allow(clippy::too_many_lines)]
+///
+/// The steps: the points solved on the healthy model; which candidates the data identify (the
+/// Jacobian at the guesses); the fit of the identified set; the off-design adaptation when
+/// asked for; the report of the residuals before and after.
 pub fn calibrate(
     engine: &Engine,
     rows: &[Snapshot],
@@ -229,17 +232,7 @@ pub fn calibrate(
     if candidates.is_empty() {
         return Err(CalibrateError::Data("no candidate parameter to fit".into()));
     }
-    let prepared = prepare(engine, rows);
-    if prepared.points.is_empty() {
-        return Err(CalibrateError::Data(format!(
-            "no snapshot could be solved on the healthy model (lines {:?}; first: {})",
-            lines_of(&prepared.dropped),
-            prepared
-                .dropped
-                .first()
-                .map_or(String::new(), |d| d.reason.clone())
-        )));
-    }
+    let prepared = solvable_points(engine, rows)?;
     let pool = thread_pool(settings.threads).map_err(|e| CalibrateError::Optim(e.to_string()))?;
     let jac_opts = JacobianOptions::default()
         .with_step(1e-3)
@@ -252,51 +245,28 @@ pub fn calibrate(
     )?;
     let x0 = full.guesses();
     let r0 = full.residuals_at(&x0)?;
-    let u0 = crate::optim::Problem::bounds(&full).to_unit(&x0);
-    let (jac, failed, _) = jacobian_unit(&full, &u0, &r0, &jac_opts, &pool);
-    let names: Vec<String> = candidates.iter().map(|c| c.key.clone()).collect();
-    let mut verdicts = identify::identify(&jac, &names);
-    for (j, v) in verdicts.iter_mut().enumerate() {
-        if failed[j] {
-            v.identifiable = false;
-            v.sigma_fraction = None;
-            v.reason = "the model failed when it was varied within its interval".into();
-        }
-        if prepared.ambient_from_p1 && names[j] == "design.inlet_loss_frac" {
-            v.identifiable = false;
-            v.reason = "the ambient pressure was derived from P1 through this loss (no \
-                        ambient-pressure column), so the data cannot inform it"
-                .into();
-        }
-    }
+    let verdicts = identifiability(&full, &candidates, (&x0, &r0), &jac_opts, &pool, &prepared);
     // Fit the identified set (the others stay at their guesses in the engine).
     let chosen: Vec<usize> = (0..candidates.len())
         .filter(|&j| verdicts[j].identifiable)
         .collect();
     let mut fitted = x0.clone();
-    let (mut iterations, mut stop, mut runs) = (0, "nothing identifiable to fit".to_string(), 0);
-    if !chosen.is_empty() {
+    let lm = if chosen.is_empty() {
+        LmFit {
+            iterations: 0,
+            stop: "nothing identifiable to fit".to_string(),
+            runs: 0,
+        }
+    } else {
         let sub = CalibrationProblem::new(
             engine,
             prepared.points.clone(),
             rest.to_vec(),
             chosen.iter().map(|&j| candidates[j].clone()).collect(),
         )?;
-        let opts = LmOptions::default()
-            .with_jacobian(jac_opts)
-            .and_then(|o| o.with_max_iterations(settings.max_iterations.max(1)))
-            .and_then(|o| o.with_ftol(1e-8))
-            .and_then(|o| o.with_xtol(1e-7))
-            .map_err(|e| CalibrateError::Optim(e.to_string()))?;
-        let out = refine(&sub, &sub.guesses(), &opts, &pool)
-            .map_err(|e| CalibrateError::Optim(e.to_string()))?;
-        for (k, &j) in chosen.iter().enumerate() {
-            fitted[j] = out.x[k];
-        }
-        iterations = out.iterations;
-        stop = format!("{:?}", out.stop);
-        runs = sub.runs();
-    }
+        fit_identified(&sub, &chosen, &mut fitted, settings, jac_opts, &pool)?
+    };
+    let mut runs = lm.runs;
     let mut calibrated = full.engine_at(&fitted)?;
     let mut adaptation = None;
     if let Some(ad) = &settings.adapt {
@@ -320,47 +290,157 @@ pub fn calibrate(
         adaptation = Some(rep);
     }
     let r1 = residuals_of(&calibrated, &prepared.points, rest)?;
-    let params = candidates
-        .iter()
-        .zip(&verdicts)
-        .zip(&fitted)
-        .map(|((c, v), &x)| {
-            let at_bound = v.identifiable && on_bound(x, c.lower, c.upper);
-            let reason = if at_bound {
-                format!(
-                    "ended on its interval's bound ({x} in [{}, {}]): the data want a value \
-                     beyond the realistic interval. Check the data (units, an instrument \
-                     offset) or, if the unit really is that far from the file, widen it with \
-                     --params {}=LOW:HIGH",
-                    c.lower, c.upper, c.key
-                )
-            } else {
-                v.reason.clone()
-            };
-            ParamResult {
-                key: c.key.clone(),
-                guess: c.guess,
-                fitted: x,
-                sigma: v.sigma_fraction.map(|s| s * (c.upper - c.lower)),
-                lower: c.lower,
-                upper: c.upper,
-                identifiable: v.identifiable && !at_bound,
-                status: if at_bound {
-                    "at_bound"
-                } else if v.identifiable {
-                    "identified"
-                } else {
-                    "not_identifiable"
-                }
-                .into(),
-                reason,
-            }
-        })
-        .collect();
     let layout = full.layout();
+    let report = Calibration {
+        params: candidates
+            .iter()
+            .zip(&verdicts)
+            .zip(&fitted)
+            .map(|((c, v), &x)| param_result(c, v, x))
+            .collect(),
+        signals: signal_residuals(&layout, &r0, &r1),
+        points: point_residuals(full.points(), &layout, &r0, &r1),
+        table: residual_table(full.points(), &layout, &r1),
+        rms_before: rms(&r0),
+        rms_after: rms(&r1),
+        dropped_lines: lines_of(&prepared.dropped),
+        dropped: prepared.dropped,
+        assumptions: prepared.assumptions,
+        lm_iterations: lm.iterations,
+        lm_stop: lm.stop,
+        adaptation,
+        model_runs: full.runs() + runs,
+    };
+    Ok((report, calibrated))
+}
+
+/// The snapshots solved on the healthy model; an error when none could be.
+fn solvable_points(engine: &Engine, rows: &[Snapshot]) -> Result<PreparedPoints, CalibrateError> {
+    let prepared = prepare(engine, rows);
+    if prepared.points.is_empty() {
+        return Err(CalibrateError::Data(format!(
+            "no snapshot could be solved on the healthy model (lines {:?}; first: {})",
+            lines_of(&prepared.dropped),
+            prepared
+                .dropped
+                .first()
+                .map_or(String::new(), |d| d.reason.clone())
+        )));
+    }
+    Ok(prepared)
+}
+
+/// Which candidates the data identify, from the Jacobian at the guesses `x0` (residuals `r0`):
+/// a candidate whose model failed when varied is not, nor the inlet loss when the ambient
+/// pressure was derived from P1 through it.
+fn identifiability(
+    full: &CalibrationProblem,
+    candidates: &[Candidate],
+    (x0, r0): (&[f64], &[f64]),
+    jac_opts: &JacobianOptions,
+    pool: &ThreadPool,
+    prepared: &PreparedPoints,
+) -> Vec<identify::Verdict> {
+    let u0 = crate::optim::Problem::bounds(full).to_unit(x0);
+    let (jac, failed, _) = jacobian_unit(full, &u0, r0, jac_opts, pool);
+    let names: Vec<String> = candidates.iter().map(|c| c.key.clone()).collect();
+    let mut verdicts = identify::identify(&jac, &names);
+    for (j, v) in verdicts.iter_mut().enumerate() {
+        if failed[j] {
+            v.identifiable = false;
+            v.sigma_fraction = None;
+            v.reason = "the model failed when it was varied within its interval".into();
+        }
+        if prepared.ambient_from_p1 && names[j] == "design.inlet_loss_frac" {
+            v.identifiable = false;
+            v.reason = "the ambient pressure was derived from P1 through this loss (no \
+                        ambient-pressure column), so the data cannot inform it"
+                .into();
+        }
+    }
+    verdicts
+}
+
+/// The Levenberg–Marquardt fit of the identified set: its iterations, why it stopped, and its
+/// model runs.
+struct LmFit {
+    iterations: usize,
+    stop: String,
+    runs: usize,
+}
+
+/// Fits `sub` (the identified candidates, `chosen` indices into the full set) and writes the
+/// fitted values into `fitted`.
+fn fit_identified(
+    sub: &CalibrationProblem,
+    chosen: &[usize],
+    fitted: &mut [f64],
+    settings: &CalibrationSettings,
+    jac_opts: JacobianOptions,
+    pool: &ThreadPool,
+) -> Result<LmFit, CalibrateError> {
+    let opts = LmOptions::default()
+        .with_jacobian(jac_opts)
+        .and_then(|o| o.with_max_iterations(settings.max_iterations.max(1)))
+        .and_then(|o| o.with_ftol(1e-8))
+        .and_then(|o| o.with_xtol(1e-7))
+        .map_err(|e| CalibrateError::Optim(e.to_string()))?;
+    let out = refine(sub, &sub.guesses(), &opts, pool)
+        .map_err(|e| CalibrateError::Optim(e.to_string()))?;
+    for (k, &j) in chosen.iter().enumerate() {
+        fitted[j] = out.x[k];
+    }
+    Ok(LmFit {
+        iterations: out.iterations,
+        stop: format!("{:?}", out.stop),
+        runs: sub.runs(),
+    })
+}
+
+/// One candidate's outcome: fitted at `x` with the identifiability verdict `v`.
+fn param_result(c: &Candidate, v: &identify::Verdict, x: f64) -> ParamResult {
+    let at_bound = v.identifiable && on_bound(x, c.lower, c.upper);
+    let reason = if at_bound {
+        format!(
+            "ended on its interval's bound ({x} in [{}, {}]): the data want a value \
+             beyond the realistic interval. Check the data (units, an instrument \
+             offset) or, if the unit really is that far from the file, widen it with \
+             --params {}=LOW:HIGH",
+            c.lower, c.upper, c.key
+        )
+    } else {
+        v.reason.clone()
+    };
+    ParamResult {
+        key: c.key.clone(),
+        guess: c.guess,
+        fitted: x,
+        sigma: v.sigma_fraction.map(|s| s * (c.upper - c.lower)),
+        lower: c.lower,
+        upper: c.upper,
+        identifiable: v.identifiable && !at_bound,
+        status: if at_bound {
+            "at_bound"
+        } else if v.identifiable {
+            "identified"
+        } else {
+            "not_identifiable"
+        }
+        .into(),
+        reason,
+    }
+}
+
+/// Residuals before (`r0`) and after (`r1`) of each signal, in the order the layout first
+/// names them.
+fn signal_residuals(
+    layout: &[(usize, crate::signals::Signal)],
+    r0: &[f64],
+    r1: &[f64],
+) -> Vec<SignalResiduals> {
     let mut signals: Vec<SignalResiduals> = Vec::new();
     let mut order: Vec<crate::signals::Signal> = Vec::new();
-    for (_, s) in &layout {
+    for (_, s) in layout {
         if !order.contains(s) {
             order.push(*s);
         }
@@ -374,7 +454,7 @@ pub fn calibrate(
                 .map(|(_, v)| *v)
                 .collect()
         };
-        let (b, a) = (pick(&r0), pick(&r1));
+        let (b, a) = (pick(r0), pick(r1));
         signals.push(SignalResiduals {
             signal: s.to_string(),
             n: b.len(),
@@ -384,8 +464,17 @@ pub fn calibrate(
             rms_after: rms(&a),
         });
     }
-    let points = full
-        .points()
+    signals
+}
+
+/// Residuals before (`r0`) and after (`r1`) of each point.
+fn point_residuals(
+    points: &[problem::CalibrationPoint],
+    layout: &[(usize, crate::signals::Signal)],
+    r0: &[f64],
+    r1: &[f64],
+) -> Vec<PointResiduals> {
+    points
         .iter()
         .enumerate()
         .map(|(i, p)| {
@@ -400,41 +489,32 @@ pub fn calibrate(
             PointResiduals {
                 line: p.line,
                 source: p.source.clone(),
-                rms_before: rms(&pick(&r0)),
-                rms_after: rms(&pick(&r1)),
+                rms_before: rms(&pick(r0)),
+                rms_after: rms(&pick(r1)),
             }
         })
-        .collect();
-    let table = ResidualTable::from_cells(
-        &full
-            .points()
+        .collect()
+}
+
+/// The residuals after calibration, `r1`, as a table of every signal at every point.
+fn residual_table(
+    points: &[problem::CalibrationPoint],
+    layout: &[(usize, crate::signals::Signal)],
+    r1: &[f64],
+) -> ResidualTable {
+    ResidualTable::from_cells(
+        &points
             .iter()
             .map(|p| (p.line, p.data.operating_point()))
             .collect::<Vec<_>>(),
         &layout
             .iter()
-            .zip(&r1)
+            .zip(r1)
             .map(|(&(point, signal), &value)| Cell {
                 point,
                 signal,
                 value,
             })
             .collect::<Vec<_>>(),
-    );
-    let report = Calibration {
-        params,
-        signals,
-        points,
-        table,
-        rms_before: rms(&r0),
-        rms_after: rms(&r1),
-        dropped_lines: lines_of(&prepared.dropped),
-        dropped: prepared.dropped,
-        assumptions: prepared.assumptions,
-        lm_iterations: iterations,
-        lm_stop: stop,
-        adaptation,
-        model_runs: full.runs() + runs,
-    };
-    Ok((report, calibrated))
+    )
 }

@@ -105,86 +105,22 @@ fn read(path: &Path, map: &Option<String>) -> anyhow::Result<Recording> {
         .with_context(|| format!("reading {}", path.display()))
 }
 
-// TODO(issue 27): split into named stages.
-#[allow(clippy::too_many_lines)]
 pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
     if a.list_effects {
-        let list = crate::gap::list_effects();
-        if a.json {
-            println!("{}", serde_json::to_string_pretty(&list)?);
-        } else {
-            for e in crate::engine::effects::REGISTRY {
-                println!("{:16} {}", e.name, e.summary);
-                for p in e.params {
-                    println!(
-                        "  {:18} {} [{}, {}] default {}: {}",
-                        p.name, p.unit, p.min, p.max, p.default, p.doc
-                    );
-                }
-                println!("  signature: {}", e.signature);
-            }
-        }
+        print_effects(a.json)?;
         return Ok(ExitCode::SUCCESS);
     }
     let candidates = crate::gap::select(&a.effects).map_err(anyhow::Error::msg)?;
     let cfg = a.fit.config()?;
-    // With --segment: the database the result is stored in.
-    let mut store = None;
-    let (engine, rec, holdout) = match (&a.input, a.segment) {
-        (Some(input), _) => {
-            let holdout = match &a.holdout {
-                Some(p) => Some(read(p, &a.map)?),
-                None => None,
-            };
-            (
-                super::load_engine(a.engine.as_deref())?,
-                read(input, &a.map)?,
-                holdout,
-            )
-        }
-        (None, Some(id)) => {
-            let db = super::common::db_path(a.db.as_ref(), a.config.as_ref())?;
-            // Read-only while the (long) analysis runs; the result is stored afterwards in one
-            // short write, also beside a running daemon.
-            let s = crate::store::Store::open_readonly(&db)
-                .with_context(|| format!("opening {}", db.display()))?;
-            let stored = |seg: i64| -> anyhow::Result<Recording> {
-                let r = s
-                    .segment_recording(seg)?
-                    .with_context(|| format!("no segment {seg} in {}", db.display()))?;
-                r.recording
-                    .with_context(|| format!("segment {seg} cannot be analysed"))
-            };
-            let rec = stored(id)?;
-            let holdout = match a.holdout_segment {
-                Some(h) => Some(stored(h)?),
-                None => None,
-            };
-            let engine = match &a.engine {
-                Some(p) => super::load_engine(Some(p))?,
-                None => super::diagnose_stored::worker_context(a.config.as_deref())?.engine,
-            };
-            drop(s);
-            store = Some(db);
-            (engine, rec, holdout)
-        }
-        (None, None) => bail!("--input or --segment is required (or --list-effects)"),
-    };
+    let Inputs {
+        engine,
+        rec,
+        holdout,
+        store,
+    } = inputs(a)?;
     let report = crate::gap::analyse(&engine, &rec, holdout.as_ref(), &candidates, &cfg)?;
     if let (Some(db), Some(id)) = (&store, a.segment) {
-        crate::store::Store::open(db)
-            .with_context(|| format!("opening {}", db.display()))?
-            .insert_gap_analysis(&crate::store::NewGapAnalysis {
-                segment_id: id,
-                holdout_segment_id: a.holdout_segment,
-                effect: report.verdict.effect.clone(),
-                shrinkage: report.verdict.shrinkage,
-                confidence: report.verdict.confidence,
-                baseline_fit_quality: report.baseline_fit_quality.as_str().into(),
-                normalised_residual: report.baseline_normalised_residual,
-                report_json: serde_json::to_string(&report)?,
-            })
-            .context("storing the gap analysis")?;
+        store_result(db, id, a.holdout_segment, &report)?;
     }
     if let Some(path) = &a.svg {
         let title = format!(
@@ -208,6 +144,120 @@ pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
         println!("{}", serde_json::to_string_pretty(&v)?);
         return Ok(ExitCode::SUCCESS);
     }
+    print_report(&report);
+    if let Some(msg) = adopted {
+        println!("{msg}");
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `--list-effects`: the library's effects, as text or JSON.
+fn print_effects(json: bool) -> anyhow::Result<()> {
+    if json {
+        let list = crate::gap::list_effects();
+        println!("{}", serde_json::to_string_pretty(&list)?);
+        return Ok(());
+    }
+    for e in crate::engine::effects::REGISTRY {
+        println!("{:16} {}", e.name, e.summary);
+        for p in e.params {
+            println!(
+                "  {:18} {} [{}, {}] default {}: {}",
+                p.name, p.unit, p.min, p.max, p.default, p.doc
+            );
+        }
+        println!("  signature: {}", e.signature);
+    }
+    Ok(())
+}
+
+/// What the analysis runs on: the engine, the start-up, the held-out start-up, and (with
+/// `--segment`) the database the result is stored in.
+struct Inputs {
+    engine: crate::engine::Engine,
+    rec: Recording,
+    holdout: Option<Recording>,
+    store: Option<PathBuf>,
+}
+
+/// Reads the inputs from the CSV files (`--input`, `--holdout`) or the store (`--segment`).
+fn inputs(a: &GapArgs) -> anyhow::Result<Inputs> {
+    match (&a.input, a.segment) {
+        (Some(input), _) => {
+            let holdout = match &a.holdout {
+                Some(p) => Some(read(p, &a.map)?),
+                None => None,
+            };
+            Ok(Inputs {
+                engine: super::load_engine(a.engine.as_deref())?,
+                rec: read(input, &a.map)?,
+                holdout,
+                store: None,
+            })
+        }
+        (None, Some(id)) => stored_inputs(a, id),
+        (None, None) => bail!("--input or --segment is required (or --list-effects)"),
+    }
+}
+
+/// The inputs of `--segment id`: the stored start-ups, read through a read-only handle that
+/// is closed before the analysis.
+fn stored_inputs(a: &GapArgs, id: i64) -> anyhow::Result<Inputs> {
+    let db = super::common::db_path(a.db.as_ref(), a.config.as_ref())?;
+    // Read-only while the (long) analysis runs; the result is stored afterwards in one
+    // short write, also beside a running daemon.
+    let s = crate::store::Store::open_readonly(&db)
+        .with_context(|| format!("opening {}", db.display()))?;
+    let stored = |seg: i64| -> anyhow::Result<Recording> {
+        let r = s
+            .segment_recording(seg)?
+            .with_context(|| format!("no segment {seg} in {}", db.display()))?;
+        r.recording
+            .with_context(|| format!("segment {seg} cannot be analysed"))
+    };
+    let rec = stored(id)?;
+    let holdout = match a.holdout_segment {
+        Some(h) => Some(stored(h)?),
+        None => None,
+    };
+    let engine = match &a.engine {
+        Some(p) => super::load_engine(Some(p))?,
+        None => super::diagnose_stored::worker_context(a.config.as_deref())?.engine,
+    };
+    drop(s);
+    Ok(Inputs {
+        engine,
+        rec,
+        holdout,
+        store: Some(db),
+    })
+}
+
+/// Stores the analysis of segment `id` in one short write.
+fn store_result(
+    db: &Path,
+    id: i64,
+    holdout_segment: Option<i64>,
+    report: &crate::gap::GapReport,
+) -> anyhow::Result<()> {
+    crate::store::Store::open(db)
+        .with_context(|| format!("opening {}", db.display()))?
+        .insert_gap_analysis(&crate::store::NewGapAnalysis {
+            segment_id: id,
+            holdout_segment_id: holdout_segment,
+            effect: report.verdict.effect.clone(),
+            shrinkage: report.verdict.shrinkage,
+            confidence: report.verdict.confidence,
+            baseline_fit_quality: report.baseline_fit_quality.as_str().into(),
+            normalised_residual: report.baseline_normalised_residual,
+            report_json: serde_json::to_string(report)?,
+        })
+        .context("storing the gap analysis")?;
+    Ok(())
+}
+
+/// The report as text: the baseline, the candidates, the verdict and the aliases.
+fn print_report(report: &crate::gap::GapReport) {
     println!(
         "baseline fit: {} (normalised residual {:.2})",
         report.baseline_fit_quality.as_str(),
@@ -222,6 +272,26 @@ pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
             100.0 * report.optimiser_spread
         );
     }
+    print_candidates(report);
+    let v = &report.verdict;
+    println!(
+        "verdict: {} (shrinkage {:.0} %, confidence {:.2}) in {:.0} s ({} fits on {} threads)",
+        v.effect,
+        100.0 * v.shrinkage,
+        v.confidence,
+        report.wall_s,
+        report.fits,
+        report.threads
+    );
+    let (b, f) = (v.health_before.to_array(), v.health_after.to_array());
+    for (i, n) in crate::health::HEALTH_NAMES.iter().enumerate() {
+        println!("  {n:5} {:8.3} → {:8.3} %", b[i], f[i]);
+    }
+    print_aliases(&report.aliases);
+}
+
+/// The candidates with their scores, and those the linear screen left unfitted.
+fn print_candidates(report: &crate::gap::GapReport) {
     if !report.candidates.is_empty() {
         let how = match report.scoring {
             crate::gap::Scoring::Holdout => "the held-out start-up".to_string(),
@@ -255,25 +325,6 @@ pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
             list.join(", ")
         );
     }
-    let v = &report.verdict;
-    println!(
-        "verdict: {} (shrinkage {:.0} %, confidence {:.2}) in {:.0} s ({} fits on {} threads)",
-        v.effect,
-        100.0 * v.shrinkage,
-        v.confidence,
-        report.wall_s,
-        report.fits,
-        report.threads
-    );
-    let (b, f) = (v.health_before.to_array(), v.health_after.to_array());
-    for (i, n) in crate::health::HEALTH_NAMES.iter().enumerate() {
-        println!("  {n:5} {:8.3} → {:8.3} %", b[i], f[i]);
-    }
-    print_aliases(&report.aliases);
-    if let Some(msg) = adopted {
-        println!("{msg}");
-    }
-    Ok(ExitCode::SUCCESS)
 }
 
 /// The input instruments the health may hide, with the health each implies.
