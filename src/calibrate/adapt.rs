@@ -377,15 +377,33 @@ fn rms_of(engine: &Engine, ctx: Ctx) -> Result<f64, CalibrateError> {
 /// Adapts `engine` (design values already calibrated) to `points`; `design_keys` are the
 /// design values identified before, which stay free beside the curves while they remain
 /// identifiable. Returns the report and the adapted engine.
-// TODO(issue 27): split into named stages.
-#[allow(clippy::too_many_lines)]
+///
+/// The steps: the speed ranges the data cover; one knot per component at its lowest speed,
+/// keeping the curves the data identify, and its fit; the knots grown while every knot stays
+/// identified; the σ of the final knots and the report.
 pub fn adapt(
     engine: &Engine,
     design_keys: &[String],
     ctx: Ctx,
 ) -> Result<(AdaptReport, Engine), CalibrateError> {
-    let settings = ctx.settings;
     let rms_before = rms_of(engine, ctx)?;
+    let (ranges, max_level) = speed_ranges(engine, ctx)?;
+    let mut g = Growth::first_level(engine, design_keys, ctx, ranges, max_level)?;
+    if g.shape.keys().is_empty() {
+        let mut r = report(&g.shape, &g.ranges, g.not_fitted, g.knots_reason, &[], &[]);
+        r.rms_before = rms_before;
+        r.rms_after = rms_of(&g.current, ctx)?;
+        r.model_runs = g.runs;
+        return Ok((r, g.current));
+    }
+    g.fit_first()?;
+    while g.grow()? {}
+    g.finish(rms_before)
+}
+
+/// Each component's range of relative speeds in the data, and the most knots those speeds
+/// support (0 when they reach no lower than 0.97).
+fn speed_ranges(engine: &Engine, ctx: Ctx) -> Result<(Vec<[f64; 2]>, Vec<usize>), CalibrateError> {
     let speeds = relative_speeds(engine, ctx.points)?;
     let range = |v: &[f64]| {
         [
@@ -399,124 +417,225 @@ pub fn adapt(
         .zip(&ranges)
         .map(|(v, r)| {
             if r[0] < 0.97 {
-                max_knots_of(v, settings.max_knots)
+                max_knots_of(v, ctx.settings.max_knots)
             } else {
                 0
             }
         })
         .collect();
-    let mut runs = 0;
-    let mut steps: Vec<String> = Vec::new();
-    let mut not_fitted: [Vec<(String, String)>; 3] = Default::default();
-    let mut knots_reason: [String; 3] = Default::default();
-    // Level 1: every curve of every component with a speed range, one knot at its lowest speed.
-    let mut shape = Shape {
-        knots: Default::default(),
-        curves: Default::default(),
-    };
-    for (ci, name) in COMPONENTS.iter().enumerate() {
-        if max_level[ci] == 0 {
-            knots_reason[ci] = format!(
-                "the data's relative speeds ({:.3}…{:.3}) reach no lower than 0.97: no knot \
-                 below the design speed to fit (curves above it are not offered)",
-                ranges[ci][0], ranges[ci][1]
-            );
-            continue;
+    Ok((ranges, max_level))
+}
+
+/// The adaptation in progress: the shape fitted so far, the engine with it, and what the
+/// report will say.
+struct Growth<'a> {
+    ctx: Ctx<'a>,
+    ranges: Vec<[f64; 2]>,
+    /// The most knots each component's speeds support.
+    max_level: Vec<usize>,
+    shape: Shape,
+    current: Engine,
+    /// The design values still free beside the curves (identified at the last pass).
+    design_free: Vec<String>,
+    runs: usize,
+    steps: Vec<String>,
+    not_fitted: [Vec<(String, String)>; 3],
+    knots_reason: [String; 3],
+    /// Knots per component, and whether a component has stopped growing.
+    level: Vec<usize>,
+    frozen: [bool; 3],
+    /// σ of the keys at the last accepted growth's identifiability pass.
+    last_sigma: Vec<(String, Option<f64>)>,
+}
+
+impl<'a> Growth<'a> {
+    /// Level 1: every curve of every component with a speed range, one knot at its lowest
+    /// speed; the curves (and design values) the data do not identify are dropped.
+    fn first_level(
+        engine: &Engine,
+        design_keys: &[String],
+        ctx: Ctx<'a>,
+        ranges: Vec<[f64; 2]>,
+        max_level: Vec<usize>,
+    ) -> Result<Self, CalibrateError> {
+        let mut not_fitted: [Vec<(String, String)>; 3] = Default::default();
+        let mut knots_reason: [String; 3] = Default::default();
+        let mut shape = Shape {
+            knots: Default::default(),
+            curves: Default::default(),
+        };
+        for (ci, name) in COMPONENTS.iter().enumerate() {
+            if max_level[ci] == 0 {
+                knots_reason[ci] = format!(
+                    "the data's relative speeds ({:.3}…{:.3}) reach no lower than 0.97: no knot \
+                     below the design speed to fit (curves above it are not offered)",
+                    ranges[ci][0], ranges[ci][1]
+                );
+                continue;
+            }
+            shape.knots[ci] = knots(ranges[ci][0], 1);
+            shape.curves[ci] = curves_of(name)
+                .iter()
+                .map(|c| (c.to_string(), vec![0.0]))
+                .collect();
         }
-        shape.knots[ci] = knots(ranges[ci][0], 1);
-        shape.curves[ci] = curves_of(name)
-            .iter()
-            .map(|c| (c.to_string(), vec![0.0]))
-            .collect();
-    }
-    let base = engine
-        .with_config(with_shape(engine, &shape))
-        .map_err(|e| CalibrateError::Model(e.to_string()))?;
-    let mut keys: Vec<String> = design_keys.to_vec();
-    keys.extend(shape.keys());
-    let cands = candidates_for(&base, &keys)?;
-    let pass = identify_at(&base, &cands, ctx)?;
-    runs += pass.runs;
-    // Keep the identified curves.
-    for (ci, name) in COMPONENTS.iter().enumerate() {
-        let mut kept = Vec::new();
-        for (curve, values) in std::mem::take(&mut shape.curves[ci]) {
-            let k = key(name, &curve, 0);
-            match keys.iter().position(|x| *x == k) {
-                Some(j) if pass.identified[j] => kept.push((curve, values)),
-                Some(j) => not_fitted[ci].push((curve, pass.reasons[j].clone())),
-                None => {}
+        let base = engine
+            .with_config(with_shape(engine, &shape))
+            .map_err(|e| CalibrateError::Model(e.to_string()))?;
+        let mut keys: Vec<String> = design_keys.to_vec();
+        keys.extend(shape.keys());
+        let cands = candidates_for(&base, &keys)?;
+        let pass = identify_at(&base, &cands, ctx)?;
+        // Keep the identified curves.
+        for (ci, name) in COMPONENTS.iter().enumerate() {
+            let mut kept = Vec::new();
+            for (curve, values) in std::mem::take(&mut shape.curves[ci]) {
+                let k = key(name, &curve, 0);
+                match keys.iter().position(|x| *x == k) {
+                    Some(j) if pass.identified[j] => kept.push((curve, values)),
+                    Some(j) => not_fitted[ci].push((curve, pass.reasons[j].clone())),
+                    None => {}
+                }
+            }
+            shape.curves[ci] = kept;
+            if shape.curves[ci].is_empty() && max_level[ci] > 0 {
+                shape.knots[ci].clear();
+                knots_reason[ci] =
+                    "no curve of this component is identifiable from these data".into();
             }
         }
-        shape.curves[ci] = kept;
-        if shape.curves[ci].is_empty() && max_level[ci] > 0 {
-            shape.knots[ci].clear();
-            knots_reason[ci] = "no curve of this component is identifiable from these data".into();
-        }
-    }
-    let mut design_free: Vec<String> = design_keys
-        .iter()
-        .filter(|k| {
-            keys.iter()
-                .position(|x| x == *k)
-                .is_some_and(|j| pass.identified[j])
-        })
-        .cloned()
-        .collect();
-    let mut current = base
-        .with_config(with_shape(&base, &shape))
-        .map_err(|e| CalibrateError::Model(e.to_string()))?;
-    if shape.keys().is_empty() {
-        let mut r = report(&shape, &ranges, not_fitted, knots_reason, &[], &[]);
-        r.rms_before = rms_before;
-        r.rms_after = rms_of(&current, ctx)?;
-        r.model_runs = runs;
-        return Ok((r, current));
-    }
-    let mut all: Vec<String> = design_free.clone();
-    all.extend(shape.keys());
-    let (fitted, n, step) = fit(&current, candidates_for(&current, &all)?, &shape, ctx)?;
-    runs += n;
-    steps.push(format!("1 knot per component: {step}"));
-    current = fitted;
-    shape.read_back(&current);
-    // Grow the knots, component by component, while every knot stays identified.
-    let mut level: Vec<usize> = (0..3).map(|ci| shape.knots[ci].len()).collect();
-    let mut frozen = [false; 3];
-    let mut last_sigma: Vec<(String, Option<f64>)> = Vec::new();
-    loop {
-        let growing: Vec<usize> = (0..3)
-            .filter(|&ci| !frozen[ci] && !shape.curves[ci].is_empty() && level[ci] < max_level[ci])
+        let design_free: Vec<String> = design_keys
+            .iter()
+            .filter(|k| {
+                keys.iter()
+                    .position(|x| x == *k)
+                    .is_some_and(|j| pass.identified[j])
+            })
+            .cloned()
             .collect();
+        let current = base
+            .with_config(with_shape(&base, &shape))
+            .map_err(|e| CalibrateError::Model(e.to_string()))?;
+        Ok(Self {
+            ctx,
+            ranges,
+            max_level,
+            shape,
+            current,
+            design_free,
+            runs: pass.runs,
+            steps: Vec::new(),
+            not_fitted,
+            knots_reason,
+            level: Vec::new(),
+            frozen: [false; 3],
+            last_sigma: Vec::new(),
+        })
+    }
+
+    /// Fits the one-knot shape.
+    fn fit_first(&mut self) -> Result<(), CalibrateError> {
+        let mut all: Vec<String> = self.design_free.clone();
+        all.extend(self.shape.keys());
+        let cands = candidates_for(&self.current, &all)?;
+        let (fitted, n, step) = fit(&self.current, cands, &self.shape, self.ctx)?;
+        self.runs += n;
+        self.steps.push(format!("1 knot per component: {step}"));
+        self.current = fitted;
+        self.shape.read_back(&self.current);
+        self.level = (0..3).map(|ci| self.shape.knots[ci].len()).collect();
+        Ok(())
+    }
+
+    /// One knot more on every component still growing, kept (and fitted) where every knot
+    /// stays identified. `false` when nothing grew: the adaptation is complete.
+    fn grow(&mut self) -> Result<bool, CalibrateError> {
+        let growing: Vec<usize> = (0..3)
+            .filter(|&ci| {
+                !self.frozen[ci]
+                    && !self.shape.curves[ci].is_empty()
+                    && self.level[ci] < self.max_level[ci]
+            })
+            .collect();
+        self.freeze_full();
+        if growing.is_empty() {
+            return Ok(false);
+        }
+        let mut trial = self.shape.clone();
+        for &ci in &growing {
+            trial = trial.resampled(ci, knots(self.ranges[ci][0], self.level[ci] + 1));
+        }
+        let trial_engine = self
+            .current
+            .with_config(with_shape(&self.current, &trial))
+            .map_err(|e| CalibrateError::Model(e.to_string()))?;
+        let mut keys: Vec<String> = self.design_free.clone();
+        keys.extend(trial.keys());
+        let pass = identify_at(
+            &trial_engine,
+            &candidates_for(&trial_engine, &keys)?,
+            self.ctx,
+        )?;
+        self.runs += pass.runs;
+        let Some(next) = self.accepted(&growing, &trial, &keys, &pass) else {
+            return Ok(false);
+        };
+        self.design_free.retain(|k| {
+            keys.iter()
+                .position(|x| x == k)
+                .is_some_and(|j| pass.identified[j])
+        });
+        let start = self
+            .current
+            .with_config(with_shape(&self.current, &next))
+            .map_err(|e| CalibrateError::Model(e.to_string()))?;
+        let mut all: Vec<String> = self.design_free.clone();
+        all.extend(next.keys());
+        let (fitted, n, step) = fit(&start, candidates_for(&start, &all)?, &next, self.ctx)?;
+        self.runs += n;
+        self.steps.push(format!("knots {:?}: {step}", self.level));
+        self.current = fitted;
+        self.shape = next;
+        self.shape.read_back(&self.current);
+        self.last_sigma = keys
+            .iter()
+            .cloned()
+            .zip(pass.sigma.iter().copied())
+            .collect();
+        Ok(true)
+    }
+
+    /// Freezes each component that has as many knots as its speeds support.
+    fn freeze_full(&mut self) {
         for ci in 0..3 {
-            if !shape.curves[ci].is_empty() && level[ci] >= max_level[ci] && !frozen[ci] {
-                knots_reason[ci] = format!(
+            if !self.shape.curves[ci].is_empty()
+                && self.level[ci] >= self.max_level[ci]
+                && !self.frozen[ci]
+            {
+                self.knots_reason[ci] = format!(
                     "{} knot(s): as many as the data's {} distinct speeds below the design \
                      speed support (at most {})",
-                    level[ci],
-                    max_level[ci] + 1,
-                    settings.max_knots
+                    self.level[ci],
+                    self.max_level[ci] + 1,
+                    self.ctx.settings.max_knots
                 );
-                frozen[ci] = true;
+                self.frozen[ci] = true;
             }
         }
-        if growing.is_empty() {
-            break;
-        }
-        let mut trial = shape.clone();
-        for &ci in &growing {
-            trial = trial.resampled(ci, knots(ranges[ci][0], level[ci] + 1));
-        }
-        let trial_engine = current
-            .with_config(with_shape(&current, &trial))
-            .map_err(|e| CalibrateError::Model(e.to_string()))?;
-        let mut keys: Vec<String> = design_free.clone();
-        keys.extend(trial.keys());
-        let pass = identify_at(&trial_engine, &candidates_for(&trial_engine, &keys)?, ctx)?;
-        runs += pass.runs;
+    }
+
+    /// The shape with the growth of each `growing` component whose knots `pass` all
+    /// identifies (the others frozen, with the reason); `None` when none grew.
+    fn accepted(
+        &mut self,
+        growing: &[usize],
+        trial: &Shape,
+        keys: &[String],
+        pass: &Pass,
+    ) -> Option<Shape> {
         let mut accepted = false;
-        let mut next = shape.clone();
-        for &ci in &growing {
+        let mut next = self.shape.clone();
+        for &ci in growing {
             let name = COMPONENTS[ci];
             let bad: Vec<String> = trial.curves[ci]
                 .iter()
@@ -530,71 +649,64 @@ pub fn adapt(
             if bad.is_empty() {
                 next.knots[ci] = trial.knots[ci].clone();
                 next.curves[ci] = trial.curves[ci].clone();
-                level[ci] += 1;
+                self.level[ci] += 1;
                 accepted = true;
             } else {
-                frozen[ci] = true;
-                knots_reason[ci] = format!(
+                self.frozen[ci] = true;
+                self.knots_reason[ci] = format!(
                     "{} knot(s): at {} the identifiability analysis no longer identifies {}",
-                    level[ci],
-                    level[ci] + 1,
+                    self.level[ci],
+                    self.level[ci] + 1,
                     bad.join(", ")
                 );
             }
         }
-        if !accepted {
-            break;
-        }
-        design_free.retain(|k| {
-            keys.iter()
-                .position(|x| x == k)
-                .is_some_and(|j| pass.identified[j])
-        });
-        let start = current
-            .with_config(with_shape(&current, &next))
-            .map_err(|e| CalibrateError::Model(e.to_string()))?;
-        let mut all: Vec<String> = design_free.clone();
-        all.extend(next.keys());
-        let (fitted, n, step) = fit(&start, candidates_for(&start, &all)?, &next, ctx)?;
-        runs += n;
-        steps.push(format!("knots {:?}: {step}", level));
-        current = fitted;
-        shape = next;
-        shape.read_back(&current);
-        last_sigma = keys
+        accepted.then_some(next)
+    }
+
+    /// The report and the adapted engine. σ of the final knots: from the last
+    /// identifiability pass at the final count, else a pass now.
+    fn finish(mut self, rms_before: f64) -> Result<(AdaptReport, Engine), CalibrateError> {
+        let final_keys: Vec<String> = self
+            .design_free
             .iter()
             .cloned()
-            .zip(pass.sigma.iter().copied())
+            .chain(self.shape.keys())
             .collect();
+        let sigma: Vec<(String, Option<f64>)> = if final_keys
+            .iter()
+            .all(|k| self.last_sigma.iter().any(|(x, _)| x == k))
+        {
+            std::mem::take(&mut self.last_sigma)
+        } else {
+            let cands = candidates_for(&self.current, &final_keys)?;
+            let pass = identify_at(&self.current, &cands, self.ctx)?;
+            self.runs += pass.runs;
+            final_keys.iter().cloned().zip(pass.sigma).collect()
+        };
+        let bounds: Vec<(String, f64, f64)> = candidates_for(&self.current, &self.shape.keys())?
+            .into_iter()
+            .map(|c| {
+                let r = crate::engine::config::param_range(&c.key)
+                    .map_or((f64::NEG_INFINITY, f64::INFINITY), |r| (r.min, r.max));
+                (c.key, r.0, r.1)
+            })
+            .collect();
+        let mut r = report(
+            &self.shape,
+            &self.ranges,
+            self.not_fitted,
+            self.knots_reason,
+            &sigma,
+            &bounds,
+        );
+        r.rms_before = rms_before;
+        r.rms_after = rms_of(&self.current, self.ctx)?;
+        r.design_refitted = self.design_free;
+        r.model_runs = self.runs;
+        r.steps = self.steps;
+        Ok((r, self.current))
     }
-    // σ of the final knots: from the last identifiability pass at the final count, else a
-    // pass now.
-    let final_keys: Vec<String> = design_free.iter().cloned().chain(shape.keys()).collect();
-    let sigma: Vec<(String, Option<f64>)> = if final_keys
-        .iter()
-        .all(|k| last_sigma.iter().any(|(x, _)| x == k))
-    {
-        last_sigma
-    } else {
-        let pass = identify_at(&current, &candidates_for(&current, &final_keys)?, ctx)?;
-        runs += pass.runs;
-        final_keys.iter().cloned().zip(pass.sigma).collect()
-    };
-    let bounds: Vec<(String, f64, f64)> = candidates_for(&current, &shape.keys())?
-        .into_iter()
-        .map(|c| {
-            let r = crate::engine::config::param_range(&c.key)
-                .map_or((f64::NEG_INFINITY, f64::INFINITY), |r| (r.min, r.max));
-            (c.key, r.0, r.1)
-        })
-        .collect();
-    let mut r = report(&shape, &ranges, not_fitted, knots_reason, &sigma, &bounds);
-    r.rms_before = rms_before;
-    r.rms_after = rms_of(&current, ctx)?;
-    r.design_refitted = design_free;
-    r.model_runs = runs;
-    r.steps = steps;
-    Ok((r, current))
 }
 
 /// `engine`'s file with the adaptation section of `shape`.

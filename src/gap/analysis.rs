@@ -331,10 +331,8 @@ impl Run<'_> {
         let (shortlist, mut candidates) = self.rank_screen(&names, &first.screens);
         let jobs = self.scoring_jobs(&shortlist, first.base_folds.len());
         let done = self.score_shortlist(&names, &first, &jobs)?;
-        let fits = 1
-            + first.jobs
-            + jobs.len()
-            + usize::from(self.holdout.is_some()) * shortlist.len();
+        let fits =
+            1 + first.jobs + jobs.len() + usize::from(self.holdout.is_some()) * shortlist.len();
         stages.scoring = lap.elapsed().as_secs_f64();
         lap = Instant::now();
         let mut by_name: BTreeMap<usize, Vec<CandidateFit>> = BTreeMap::new();

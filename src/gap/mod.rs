@@ -42,11 +42,11 @@ pub mod linear;
 pub mod svg;
 pub mod truth;
 
+pub use analysis::analyse;
 pub use candidates::{
     fit_params, list_effects, select, Unscreened, CHANNEL_CELL_SIGMA, INSTRUMENT_SCREENS,
     LINEAR_MIN_SHRINKAGE,
 };
-pub use analysis::analyse;
 
 use crate::diagnosis::fit_quality::{ResidualCell, Verdict};
 use crate::health::HealthParams;
