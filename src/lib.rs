@@ -4,7 +4,8 @@
 //! `tests/architecture.rs`): the foundations (`thermo`, `maps`, `health`, `signals`, `optim`,
 //! and shared plain types such as `quality`, `segment`, `time`), the engine model, what is
 //! computed with it (`diagnosis`, `calibrate`, `gap`, `trend`, `wash`), the data floor (`store`,
-//! `ingest`, `acquire`, `detect`, …), the services (`worker`, `daemon`, `report`, …) and `cli`.
+//! `ingest`, `acquire`, `detect`, …), the services (`worker`, `daemon`, `report`, …), the
+//! benchmarks (`bench`) and `cli`.
 //! Code refers only to its own floor or below, never to a floor above, and no two modules refer
 //! to each other. The physics is pure: no I/O, no async, no globals, deterministic for a given
 //! seed. This file only declares the modules; it must not hold code of its own.
@@ -12,6 +13,7 @@
 
 pub mod acquire;
 pub mod advice;
+pub mod bench;
 pub mod calibrate;
 pub mod chart;
 pub mod cli;

@@ -5,16 +5,6 @@
 //! business logic.
 
 mod bench;
-mod bench_daemon;
-mod bench_diagnosis;
-mod bench_gap;
-mod bench_ingest;
-mod bench_month;
-mod bench_replay;
-mod bench_sim;
-mod bench_soak;
-mod bench_steady;
-mod bench_wash;
 mod calibrate;
 mod check_config;
 mod common;

@@ -2,23 +2,9 @@
 //! truth, diagnosed by both methods, printed in the paper's layout next to the truth.
 //! Must not diagnose anything itself: it prints what `diagnosis::bench::bench_wash` returns.
 
-use super::diagnose::FitArgs;
 use crate::diagnosis::bench::{bench_wash, WashRow};
-use clap::Args;
-use std::process::ExitCode;
-
-/// `gtwatch bench wash`
-#[derive(Debug, Clone, Args)]
-pub struct BenchWashArgs {
-    /// Engine TOML (default: the built-in reference engine).
-    #[arg(long)]
-    pub engine: Option<std::path::PathBuf>,
-    #[command(flatten)]
-    pub fit: FitArgs,
-    /// Print JSON.
-    #[arg(long)]
-    pub json: bool,
-}
+use crate::diagnosis::DiagnosisConfig;
+use crate::engine::Engine;
 
 fn line(
     time: &str,
@@ -42,14 +28,12 @@ fn line(
     );
 }
 
-/// Runs the bench.
-pub fn run(a: &BenchWashArgs) -> anyhow::Result<ExitCode> {
-    let engine = super::load_engine(a.engine.as_deref())?;
-    let cfg = a.fit.config()?;
-    let rep = bench_wash(&engine, a.fit.seed, &cfg)?;
-    if a.json {
+/// Runs the bench with the optimiser seed `seed` and `cfg`; JSON or the table on stdout.
+pub fn run(engine: &Engine, cfg: &DiagnosisConfig, seed: u64, json: bool) -> anyhow::Result<()> {
+    let rep = bench_wash(engine, seed, cfg)?;
+    if json {
         println!("{}", serde_json::to_string_pretty(&rep)?);
-        return Ok(ExitCode::SUCCESS);
+        return Ok(());
     }
     println!(
         "{:15} {:18} {:>7} {:>7} {:>8} {:>7} {:>7} {:>8} {:>7} {:>7}",
@@ -80,5 +64,5 @@ pub fn run(a: &BenchWashArgs) -> anyhow::Result<ExitCode> {
         }
     }
     println!("wall time (s): {:?}", rep.wall_s);
-    Ok(ExitCode::SUCCESS)
+    Ok(())
 }

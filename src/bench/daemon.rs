@@ -21,7 +21,7 @@
 //!
 //! Memory is VmRSS / VmHWM from /proc/self/status. Linux only. Must not be used as a test.
 
-use super::bench_ingest::IngestRig;
+use super::ingest::IngestRig;
 use crate::acquire::modbus::PollProgress;
 use crate::acquire::register_map::{
     ByteOrder, DataType, FieldSpec, ModbusConfig, RegisterKind, RequestSpec,

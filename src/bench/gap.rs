@@ -2,7 +2,7 @@
 //! identification, confusion matrix, false attribution on null cases, "unexplained" on
 //! out-of-library cases, shrinkage and health RMSE before/after. Progress on stderr, one JSON
 //! document on stdout.
-//! Must not hold the proof's logic: it parses flags and prints what `gap::bench` returns.
+//! Must not hold the proof's logic: it declares its flags and prints what `gap::bench` returns.
 
 use clap::Args;
 use std::process::ExitCode;

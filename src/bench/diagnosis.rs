@@ -1,34 +1,13 @@
 //! `gtwatch bench diagnosis`: accuracy of both methods on synthetic start-ups with known truth
 //! (per-parameter RMSE and maximum error, median wall time and model runs), optionally with the
 //! optimiser comparison at equal budget.
-//! Must not diagnose anything itself: the cases and fits are `diagnosis::bench`'s; this file parses
-//! flags and prints.
+//! Must not diagnose anything itself: the cases and fits are `diagnosis::bench`'s; this file prints
+//! them (the flags are `cli::bench`'s).
 
-use super::diagnose::FitArgs;
 use crate::diagnosis::bench::{bench_diagnosis, MethodStats};
-use crate::diagnosis::Optimiser;
+use crate::diagnosis::{DiagnosisConfig, Optimiser};
+use crate::engine::Engine;
 use crate::health::HEALTH_NAMES;
-use clap::Args;
-use std::process::ExitCode;
-
-/// `gtwatch bench diagnosis`
-#[derive(Debug, Clone, Args)]
-pub struct BenchDiagnosisArgs {
-    /// Number of health vectors.
-    #[arg(long, default_value_t = 20)]
-    pub cases: usize,
-    /// Also run Method B with cuckoo alone, cuckoo + LM, CMA-ES and DE at the same budget.
-    #[arg(long)]
-    pub compare: bool,
-    /// Engine TOML (default: the built-in reference engine).
-    #[arg(long)]
-    pub engine: Option<std::path::PathBuf>,
-    #[command(flatten)]
-    pub fit: FitArgs,
-    /// Print JSON.
-    #[arg(long)]
-    pub json: bool,
-}
 
 fn row(name: &str, s: &MethodStats) {
     let f = |m: &std::collections::BTreeMap<String, f64>| {
@@ -47,11 +26,17 @@ fn row(name: &str, s: &MethodStats) {
     );
 }
 
-/// Runs the bench.
-pub fn run(a: &BenchDiagnosisArgs) -> anyhow::Result<ExitCode> {
-    let engine = super::load_engine(a.engine.as_deref())?;
-    let cfg = a.fit.config()?;
-    let compare: Vec<Optimiser> = if a.compare {
+/// Runs the bench: `cases` health vectors drawn from `seed`, fitted with `cfg` (and, with
+/// `compare`, with each optimiser at the same budget); JSON or text on stdout.
+pub fn run(
+    engine: &Engine,
+    cfg: &DiagnosisConfig,
+    cases: usize,
+    seed: u64,
+    compare: bool,
+    json: bool,
+) -> anyhow::Result<()> {
+    let compare: Vec<Optimiser> = if compare {
         vec![
             Optimiser::Cuckoo,
             Optimiser::CuckooLm,
@@ -73,10 +58,10 @@ pub fn run(a: &BenchDiagnosisArgs) -> anyhow::Result<ExitCode> {
             }
         )
     };
-    let rep = bench_diagnosis(&engine, a.cases, a.fit.seed, &cfg, &compare, &mut progress)?;
-    if a.json {
+    let rep = bench_diagnosis(engine, cases, seed, cfg, &compare, &mut progress)?;
+    if json {
         println!("{}", serde_json::to_string_pretty(&rep)?);
-        return Ok(ExitCode::SUCCESS);
+        return Ok(());
     }
     println!(
         "{} cases, seed {}, optimiser {}, budget {} model runs",
@@ -96,5 +81,5 @@ pub fn run(a: &BenchDiagnosisArgs) -> anyhow::Result<ExitCode> {
         row(&format!("B with {}", c.optimiser.name()), &c.stats);
         println!("{:22} median objective {:.4}", "", c.median_objective);
     }
-    Ok(ExitCode::SUCCESS)
+    Ok(())
 }

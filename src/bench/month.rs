@@ -7,20 +7,19 @@
 //! detection, diagnosis of every start-up (Method B and A), wash advice. Reports the time of
 //! each stage and every Method B result against the implanted truth. Release build only.
 
-use super::diagnose_stored::diagnose_after_replay;
-use crate::detect::scan;
+use crate::detect::{scan, DetectorConfig};
 use crate::engine::Engine;
 use crate::health::HEALTH_NAMES;
 use crate::ingest::{replay_file, Progress, ReplayConfig};
 use crate::plantsim::fouling::{day_of, DAY_S};
 use crate::plantsim::{FoulingPlant, FoulingSchedule, PlantModel};
 use crate::signals::Signal;
-use crate::store::{HistoryFilter, Store};
+use crate::store::{HistoryFilter, StorageConfig, Store};
 use crate::time::fmt_ms;
 use anyhow::Context;
 use serde::Serialize;
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
@@ -68,7 +67,23 @@ struct MonthResult {
     per_day: Vec<DayResult>,
 }
 
-pub fn run(a: BenchMonthArgs) -> anyhow::Result<ExitCode> {
+/// The sections of the configuration file the month's replay reads, as the command line
+/// loads and checks them.
+pub struct Sections {
+    pub storage: StorageConfig,
+    pub replay: ReplayConfig,
+    pub detector: DetectorConfig,
+}
+
+/// What the month borrows from the command line, so that it runs exactly what `gtwatch
+/// replay` runs: loading a configuration file's sections, and diagnosing every pending
+/// start-up after a replay.
+pub struct Commands<'a> {
+    pub load_sections: &'a dyn Fn(&Path) -> anyhow::Result<Sections>,
+    pub diagnose_after_replay: &'a dyn Fn(&mut Store, &Path) -> anyhow::Result<()>,
+}
+
+pub fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<ExitCode> {
     let dir = a.keep.clone().unwrap_or_else(|| {
         std::env::temp_dir().join(format!("gtwatch-bench-month-{}", std::process::id()))
     });
@@ -126,7 +141,7 @@ pub fn run(a: BenchMonthArgs) -> anyhow::Result<ExitCode> {
     );
     let cfg_path = dir.join("gtwatch.toml");
     std::fs::write(&cfg_path, cfg_text)?;
-    let sections = super::common::DataSections::load(&cfg_path)?;
+    let sections = (commands.load_sections)(&cfg_path)?;
     let mut store = Store::open_with(&db, &sections.storage.options())?;
 
     // 3. Ingest, detect, diagnose: what `gtwatch replay` does, timed per stage.
@@ -136,7 +151,7 @@ pub fn run(a: BenchMonthArgs) -> anyhow::Result<ExitCode> {
     let s = scan(&mut store, &sections.detector).context("start-up detection")?;
     let detect_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    diagnose_after_replay(&mut store, &cfg_path, true)?;
+    (commands.diagnose_after_replay)(&mut store, &cfg_path)?;
     let diagnose_s = t.elapsed().as_secs_f64();
     let _ = s;
 

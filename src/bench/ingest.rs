@@ -5,7 +5,7 @@
 //! decoded exactly as the poll loop does, with no Modbus server in between, so the figures are
 //! the store's, writer's and detector's at full speed. Benchmark plumbing only: no assertions.
 
-use super::bench_daemon::{bench_map, tempfile_dir, TempDir};
+use super::daemon::{bench_map, tempfile_dir, TempDir};
 use crate::acquire::modbus::{decode_request, PollPlan};
 use crate::acquire::register_map::encode_field;
 use crate::config::DaemonConfig;

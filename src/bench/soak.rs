@@ -16,8 +16,8 @@
 //! is not in the loop (its cost is per start-up, see `bench diagnosis`).
 //! Linux only (/proc). A benchmark: never used as a test.
 
-use super::bench_daemon::memory_kib;
-use super::bench_ingest::IngestRig;
+use super::daemon::memory_kib;
+use super::ingest::IngestRig;
 use crate::daemon::detector_store_options;
 use crate::optim::Cancel;
 use crate::plantsim::{FoulingPlant, FoulingSchedule, PlantModel, ScriptedPlant};

@@ -8,26 +8,10 @@
 //! from the previous point of the sweep (as a load line or a batch of snapshots is solved).
 //! The JSON goes to stdout only; nothing else is printed there.
 
-use super::engine_args::EngineArgs;
 use crate::engine::steady::{solve_with_stats, SolveStats};
-use crate::engine::{Demand, SteadyInputs, SteadyPoint};
-use std::process::ExitCode;
+use crate::engine::{Demand, Engine, SteadyInputs, SteadyPoint};
+use crate::health::HealthParams;
 use std::time::Instant;
-
-#[derive(Debug, clap::Args)]
-pub struct BenchSteadyArgs {
-    #[command(flatten)]
-    pub engine: EngineArgs,
-    /// Number of operating points (load levels × ambient temperatures, rounded to the grid).
-    #[arg(long, default_value_t = 400)]
-    pub points: usize,
-    /// Lowest load, fraction of design power.
-    #[arg(long, default_value_t = 0.2)]
-    pub min_load: f64,
-    /// Print JSON (the only format; kept for symmetry with the other benches).
-    #[arg(long)]
-    pub json: bool,
-}
 
 /// Ambient temperatures of the grid, K.
 const AMBIENTS_K: [f64; 4] = [258.15, 273.15, 288.15, 313.15];
@@ -74,20 +58,22 @@ fn summary(pass: &Pass) -> serde_json::Value {
     })
 }
 
-pub fn run(a: BenchSteadyArgs) -> anyhow::Result<ExitCode> {
-    anyhow::ensure!(
-        a.min_load > 0.0 && a.min_load < 1.0,
-        "--min-load must be in (0, 1), got {}",
-        a.min_load
-    );
-    let engine = a.engine.engine()?;
-    let model = engine.model(&a.engine.health()?);
+/// Solves about `points` operating points of `engine` at `health` from `min_load` (fraction
+/// of design power, in (0, 1)) to full load, cold and warm; JSON on stdout. `false` when a
+/// point failed to solve.
+pub fn run(
+    engine: &Engine,
+    health: &HealthParams,
+    points: usize,
+    min_load: f64,
+) -> anyhow::Result<bool> {
+    let model = engine.model(health);
     let cfg = engine.cfg();
-    let loads = (a.points.max(AMBIENTS_K.len()) / AMBIENTS_K.len()).max(2);
+    let loads = (points.max(AMBIENTS_K.len()) / AMBIENTS_K.len()).max(2);
     let mut inputs = Vec::with_capacity(loads * AMBIENTS_K.len());
     for &t_amb_k in &AMBIENTS_K {
         for i in 0..loads {
-            let load = 1.0 - (1.0 - a.min_load) * i as f64 / (loads - 1) as f64;
+            let load = 1.0 - (1.0 - min_load) * i as f64 / (loads - 1) as f64;
             inputs.push(SteadyInputs {
                 t_amb_k,
                 p_amb_kpa: 101.325,
@@ -133,7 +119,7 @@ pub fn run(a: BenchSteadyArgs) -> anyhow::Result<ExitCode> {
         "bench": "steady",
         "engine": cfg.name,
         "points": inputs.len(),
-        "load_range": [a.min_load, 1.0],
+        "load_range": [min_load, 1.0],
         "ambient_k": AMBIENTS_K,
         "demand": "power at the design PT speed",
         "cold_from_design_point": summary(&cold),
@@ -141,9 +127,5 @@ pub fn run(a: BenchSteadyArgs) -> anyhow::Result<ExitCode> {
         "build": if cfg!(debug_assertions) { "debug" } else { "release" },
     });
     println!("{}", serde_json::to_string_pretty(&out)?);
-    Ok(if cold.failed + warm.failed == 0 {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::FAILURE
-    })
+    Ok(cold.failed + warm.failed == 0)
 }
