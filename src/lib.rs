@@ -32,7 +32,6 @@ pub mod metrics;
 pub mod optim;
 pub mod permissions;
 pub mod plantsim;
-pub mod plot;
 pub mod quality;
 pub mod query;
 pub mod recording;

@@ -36,14 +36,13 @@ const FLOORS: &[(&str, u8)] = &[
     // 1 — the engine model.
     ("engine", 1),
     // 2 — what is computed with the model: diagnosis, calibration, gap analysis, trends, wash
-    // economics, and the two SVG writers that draw their results.
+    // economics, and the SVG writer that draws their results.
     ("diagnosis", 2),
     ("calibrate", 2),
     ("gap", 2),
     ("trend", 2),
     ("wash", 2),
     ("chart", 2),
-    ("plot", 2),
     // 3 — data: the store (the one owner of SQL), getting data in (replay, acquisition, the
     // bad-value gate), start-up detection, the read-side queries, file-permission checks and
     // the shutdown signal the tasks share.

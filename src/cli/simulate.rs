@@ -88,7 +88,7 @@ pub fn run(a: SimulateArgs) -> anyhow::Result<ExitCode> {
             degraded.join(", ")
         };
         let title = format!("{} — {:?}, {health_text}", engine.cfg().name, a.scenario);
-        let svg = crate::plot::startup_svg(&trace, &title).map_err(anyhow::Error::msg)?;
+        let svg = crate::chart::startup::startup_svg(&trace, &title);
         std::fs::write(&path, svg).with_context(|| format!("writing {}", path.display()))?;
     }
     Ok(ExitCode::SUCCESS)

@@ -1,9 +1,12 @@
-//! A small SVG line-chart writer (the HTML report's charts, the gap analysis's before/after
-//! traces): axes with ticks and units, lines, points with ±σ bars, vertical event markers, a
-//! legend. Output is a self-contained `<svg>` string
-//! (no scripts, no external references), escaped where it carries text.
+//! The one SVG writer: a small line-chart writer (the HTML report's charts, the gap analysis's
+//! before/after traces, the simulated start-up's panels in [`startup`]): axes with ticks and
+//! units, lines, points with ±σ bars, vertical event markers, a legend. Output is a
+//! self-contained `<svg>` string (no scripts, no external references), escaped where it carries
+//! text.
 //!
 //! Pure string building: no I/O.
+
+pub mod startup;
 
 use std::fmt::Write;
 
