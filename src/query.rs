@@ -113,16 +113,7 @@ pub fn list_segments(
 }
 
 /// Phases shown as duration columns, in start-up order.
-const PHASE_COLUMNS: [Phase; 8] = [
-    Phase::Crank,
-    Phase::Purge,
-    Phase::LightOff,
-    Phase::Acceleration,
-    Phase::Idle,
-    Phase::Synchronisation,
-    Phase::Loading,
-    Phase::Steady,
-];
+const PHASE_COLUMNS: [Phase; 8] = Phase::STARTUP;
 
 impl SegmentSummary {
     /// Duration of a phase in seconds (`None` if absent or still running).

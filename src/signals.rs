@@ -201,6 +201,19 @@ impl Phase {
         Phase::Trip,
     ];
 
+    /// The phases of a start-up with the engine turning, in order: crank to steady (standstill
+    /// carries no information; unloading, shutdown and trip are not part of a start-up).
+    pub const STARTUP: [Phase; 8] = [
+        Phase::Crank,
+        Phase::Purge,
+        Phase::LightOff,
+        Phase::Acceleration,
+        Phase::Idle,
+        Phase::Synchronisation,
+        Phase::Loading,
+        Phase::Steady,
+    ];
+
     pub const fn name(self) -> &'static str {
         match self {
             Phase::Standstill => "standstill",

@@ -96,8 +96,8 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
     match cmd {
         BenchCmd::Replay(a) => bench::replay::run(a),
         BenchCmd::Sim(a) => {
-            let engine = a.engine.engine()?;
-            bench::sim::run(&engine, &a.engine.health()?, a.runs)?;
+            let (engine, health) = a.engine.load()?;
+            bench::sim::run(&engine, &health, a.runs)?;
             Ok(ExitCode::SUCCESS)
         }
         BenchCmd::Diagnosis(a) => {
@@ -122,8 +122,8 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
                 "--min-load must be in (0, 1), got {}",
                 a.min_load
             );
-            let engine = a.engine.engine()?;
-            let solved = bench::steady::run(&engine, &a.engine.health()?, a.points, a.min_load)?;
+            let (engine, health) = a.engine.load()?;
+            let solved = bench::steady::run(&engine, &health, a.points, a.min_load)?;
             Ok(if solved {
                 ExitCode::SUCCESS
             } else {

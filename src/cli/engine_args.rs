@@ -25,4 +25,11 @@ impl EngineArgs {
     pub fn health(&self) -> anyhow::Result<HealthParams> {
         self.health.parse::<HealthParams>().context("--health")
     }
+
+    /// The engine and the health vector the flags name (the engine first: its error is the
+    /// one reported when both are wrong). The preamble of every model command.
+    pub fn load(&self) -> anyhow::Result<(Engine, HealthParams)> {
+        let engine = self.engine()?;
+        Ok((engine, self.health()?))
+    }
 }

@@ -61,8 +61,7 @@ pub fn run(args: PlantSimArgs) -> anyhow::Result<ExitCode> {
     let plant: Box<dyn PlantModel> = match args.source {
         Source::Scripted => Box::new(ScriptedPlant::demo(period_s)),
         Source::Model => {
-            let engine = args.engine.engine()?;
-            let health = args.engine.health()?;
+            let (engine, health) = args.engine.load()?;
             // 400 cycles of the ≈ 1 h 20 min operations schedule: three weeks of plant.
             let model = crate::engine::plant::SimulatedPlant::new(
                 &engine, &health, period_s, 400, args.seed,

@@ -44,8 +44,7 @@ pub struct SimulateArgs {
 }
 
 pub fn run(a: SimulateArgs) -> anyhow::Result<ExitCode> {
-    let engine = a.engine.engine()?;
-    let health = a.engine.health()?;
+    let (engine, health) = a.engine.load()?;
     let model = engine.model(&health);
     let scenario = match a.scenario {
         ScenarioKind::Startup => Scenario::startup(engine.cfg()),

@@ -43,8 +43,7 @@ const MAX_SPEED_FRACTION: f64 = 1.1;
 const MAX_POWER_FRACTION: f64 = 1.5;
 
 pub fn run(a: SteadyArgs) -> anyhow::Result<ExitCode> {
-    let engine = a.engine.engine()?;
-    let health = a.engine.health()?;
+    let (engine, health) = a.engine.load()?;
     let cfg = engine.cfg();
     // Issue 12 #8: a demand outside what the engine can run (e.g. 210 % GG speed) gave a
     // "solution" from the extrapolated maps; refuse it instead.

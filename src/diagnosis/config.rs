@@ -111,20 +111,10 @@ impl Blocks {
 }
 
 impl Default for Window {
-    /// Every phase of a start-up with the engine turning: crank to steady. Standstill carries
-    /// no information; shutdown/trip/unloading are not part of a start-up.
+    /// Every phase of a start-up with the engine turning ([`Phase::STARTUP`]: crank to steady).
     fn default() -> Self {
         Window {
-            phases: vec![
-                Phase::Crank,
-                Phase::Purge,
-                Phase::LightOff,
-                Phase::Acceleration,
-                Phase::Idle,
-                Phase::Synchronisation,
-                Phase::Loading,
-                Phase::Steady,
-            ],
+            phases: Phase::STARTUP.to_vec(),
             t_from_s: None,
             t_to_s: None,
             blocks: None,
