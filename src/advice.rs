@@ -21,7 +21,7 @@ const MS_PER_DAY: f64 = 86_400_000.0;
 
 /// Why no advice could be made.
 #[derive(Debug, thiserror::Error)]
-pub enum AdviceError {
+pub(crate) enum AdviceError {
     #[error(transparent)]
     Store(#[from] StoreError),
     #[error("engine model at base load: {0}")]
@@ -30,7 +30,7 @@ pub enum AdviceError {
 
 /// One parameter's trend since the last wash.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct ParamTrend {
+pub(crate) struct ParamTrend {
     pub param: &'static str,
     /// `None` with `reason` when it could not be fitted (too few results, …).
     pub fit: Option<RateFit>,
@@ -39,7 +39,7 @@ pub struct ParamTrend {
 
 /// Everything `wash advise` shows.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct AdviceReport {
+pub(crate) struct AdviceReport {
     /// Unix ms of the last wash (recorded or detected), if any.
     pub last_wash_ms: Option<i64>,
     /// Washes detected (and recorded as such) by this refresh.
@@ -61,7 +61,7 @@ pub struct AdviceReport {
 
 /// Recomputes trends and advice from the store, recording detected washes and the new
 /// recommendation (deterministic: "now" is the newest result's time, not the wall clock).
-pub fn refresh(
+pub(crate) fn refresh(
     db: &mut dyn Db,
     engine: &Engine,
     econ: &WashEconomics,
@@ -197,7 +197,7 @@ pub fn refresh(
 
 /// The worker's after-result hook: refreshes trends and advice after each stored outcome.
 /// Errors are logged, never fatal to the worker (the advice is recomputed next time).
-pub fn hook(
+pub(crate) fn hook(
     ctx: std::sync::Arc<crate::worker::WorkerContext>,
     econ: WashEconomics,
 ) -> crate::worker::AfterResult {

@@ -32,7 +32,7 @@ impl fmt::Display for ConfigProblem {
 /// A numeric key's allowed range: `lo..=hi` in `unit` (`""` or e.g. `" ms"`), and why the
 /// upper bound exists (what a larger value would break).
 #[derive(Debug, Clone, Copy)]
-pub struct Bounds<'a> {
+pub(crate) struct Bounds<'a> {
     pub lo: u64,
     pub hi: u64,
     pub unit: &'a str,
@@ -40,7 +40,7 @@ pub struct Bounds<'a> {
 }
 
 /// Adds a problem if `value` is outside `b`, naming the key, the value and the bound.
-pub fn check_range(problems: &mut Vec<ConfigProblem>, key: &str, value: u64, b: Bounds<'_>) {
+pub(crate) fn check_range(problems: &mut Vec<ConfigProblem>, key: &str, value: u64, b: Bounds<'_>) {
     let Bounds { lo, hi, unit, why } = b;
     if value < lo {
         problems.push(ConfigProblem::new(

@@ -19,7 +19,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 /// The content type of [`Exposition::encode`]'s page.
-pub const CONTENT_TYPE: &str = "application/openmetrics-text; version=1.0.0; charset=utf-8";
+pub(crate) const CONTENT_TYPE: &str = "application/openmetrics-text; version=1.0.0; charset=utf-8";
 
 /// Prefix of every series.
 const PREFIX: &str = "gtwatch";
@@ -82,14 +82,14 @@ impl DurationHistogram {
 type Source = Arc<dyn Fn() -> Snapshot + Send + Sync>;
 
 /// The page's writer: a registry holding the counters' collector and the histogram.
-pub struct Exposition {
+pub(crate) struct Exposition {
     registry: Registry,
 }
 
 impl Exposition {
     /// An exposition reading `source` at every scrape, with `durations` as the diagnosis
     /// histogram.
-    pub fn new(
+    pub(crate) fn new(
         source: impl Fn() -> Snapshot + Send + Sync + 'static,
         durations: &DurationHistogram,
     ) -> Exposition {
@@ -107,7 +107,7 @@ impl Exposition {
     }
 
     /// The page, in the OpenMetrics text format ([`CONTENT_TYPE`]).
-    pub fn encode(&self) -> Result<String, std::fmt::Error> {
+    pub(crate) fn encode(&self) -> Result<String, std::fmt::Error> {
         let mut out = String::new();
         prometheus_client::encoding::text::encode(&mut out, &self.registry)?;
         Ok(out)

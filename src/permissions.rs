@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 
 /// What a path is to the daemon (named in messages).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Role {
+pub(crate) enum Role {
     Config,
     EngineFile,
     Database,
@@ -37,7 +37,7 @@ impl fmt::Display for Role {
 
 /// How bad a finding is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
-pub enum Severity {
+pub(crate) enum Severity {
     /// Allowed, but worth knowing (group-writable).
     Warning,
     /// The daemon refuses to start.
@@ -46,7 +46,7 @@ pub enum Severity {
 
 /// One permission problem.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Finding {
+pub(crate) struct Finding {
     pub path: PathBuf,
     pub role: Role,
     pub severity: Severity,
@@ -60,7 +60,7 @@ impl fmt::Display for Finding {
 }
 
 /// The user the checks are made for (the daemon's effective user).
-pub fn current_uid() -> u32 {
+pub(crate) fn current_uid() -> u32 {
     // The effective uid of this process is the owner of files it creates; reading it from a
     // file we just made would need I/O and a writable place, /proc/self is always there on
     // Linux and owned by the process's uid.
@@ -71,7 +71,7 @@ pub fn current_uid() -> u32 {
 ///
 /// A directory with the sticky bit (`/tmp`) is not treated as writable by others for the
 /// files in it: others cannot replace a file they do not own there.
-pub fn check_path(path: &Path, role: Role, uid: u32) -> Vec<Finding> {
+pub(crate) fn check_path(path: &Path, role: Role, uid: u32) -> Vec<Finding> {
     let mut out = Vec::new();
     if let Ok(meta) = std::fs::metadata(path) {
         judge(path, role, &meta, uid, &mut out);
@@ -137,7 +137,7 @@ fn judge(path: &Path, role: Role, meta: &std::fs::Metadata, uid: u32, out: &mut 
 }
 
 /// Every finding for the daemon's paths.
-pub fn check_daemon_paths(
+pub(crate) fn check_daemon_paths(
     config: &Path,
     engine_file: Option<&Path>,
     database: &Path,

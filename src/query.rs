@@ -12,7 +12,7 @@ use std::io::Write;
 
 /// One start-up as listed by `gtwatch segments`.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct SegmentSummary {
+pub(crate) struct SegmentSummary {
     pub id: i64,
     pub start_ms: i64,
     pub end_ms: Option<i64>,
@@ -45,7 +45,7 @@ pub enum ExportLayout {
 
 /// Query errors.
 #[derive(Debug, thiserror::Error)]
-pub enum QueryError {
+pub(crate) enum QueryError {
     #[error(transparent)]
     Store(#[from] StoreError),
     #[error(transparent)]
@@ -61,7 +61,7 @@ pub enum QueryError {
 }
 
 /// Start-ups whose start is at or after `since_ms` (all if `None`), oldest first.
-pub fn list_segments(
+pub(crate) fn list_segments(
     store: &Store,
     since_ms: Option<i64>,
 ) -> Result<Vec<SegmentSummary>, QueryError> {
@@ -117,7 +117,7 @@ const PHASE_COLUMNS: [Phase; 8] = Phase::STARTUP;
 
 impl SegmentSummary {
     /// Duration of a phase in seconds (`None` if absent or still running).
-    pub fn phase_s(&self, phase: Phase) -> Option<f64> {
+    pub(crate) fn phase_s(&self, phase: Phase) -> Option<f64> {
         self.phases
             .iter()
             .find(|p| p.phase == phase)
@@ -164,7 +164,7 @@ fn header() -> Vec<String> {
 }
 
 /// Writes segments as an aligned table, CSV or JSON. Times are ISO 8601 UTC; durations in s.
-pub fn write_segments(
+pub(crate) fn write_segments(
     segments: &[SegmentSummary],
     format: Format,
     out: &mut dyn Write,
@@ -209,7 +209,7 @@ pub fn write_segments(
 ///
 /// Wide: `time,t_ms,<tag>...`, one row per time stamp at which any of the tags has a sample;
 /// an empty cell means that tag has no sample at that time. Long: `time,t_ms,tag,value,quality`.
-pub fn export_csv(
+pub(crate) fn export_csv(
     store: &Store,
     tags: &[String],
     from_ms: i64,

@@ -27,7 +27,6 @@ use crate::store::{
     Db, NewDiagnosis, NewOutcome, SegmentRecording, Store, StoreError, Undiagnosable,
 };
 
-pub use crate::diagnosis::assess::residual_level;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
@@ -216,7 +215,7 @@ impl WorkerContext {
 }
 
 /// 64-bit FNV-1a over the parts (with a separator byte between them).
-pub fn fnv1a(parts: &[&[u8]]) -> u64 {
+pub(crate) fn fnv1a(parts: &[&[u8]]) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     for p in parts {
         for b in p.iter().chain(std::iter::once(&0xffu8)) {
@@ -243,18 +242,18 @@ pub enum SegmentOutcome {
 
 /// Called after each stored outcome (segment id, outcome), on the worker's blocking thread,
 /// with the worker's [`Db`]: the place to recompute trends, detected washes and advice.
-pub type AfterResult = Arc<dyn Fn(&mut dyn Db, i64, &SegmentOutcome) + Send + Sync>;
+pub(crate) type AfterResult = Arc<dyn Fn(&mut dyn Db, i64, &SegmentOutcome) + Send + Sync>;
 
 /// Reads one stored segment's data for [`assess`] (an error if there is no such segment).
 /// Takes `&Store`, so a [`crate::store::ReadStore`] serves as well.
-pub fn read_segment(store: &Store, segment_id: i64) -> Result<SegmentRecording, StoreError> {
+pub(crate) fn read_segment(store: &Store, segment_id: i64) -> Result<SegmentRecording, StoreError> {
     store
         .segment_recording(segment_id)?
         .ok_or_else(|| StoreError::Corrupt(format!("no segment {segment_id}")))
 }
 
 /// The assessment's view of a segment read from the store.
-pub fn segment_data(rec: &SegmentRecording) -> SegmentData<'_> {
+pub(crate) fn segment_data(rec: &SegmentRecording) -> SegmentData<'_> {
     SegmentData {
         outcome: &rec.segment.outcome,
         abort_cause: rec.segment.abort_cause.as_deref(),
@@ -266,7 +265,11 @@ pub fn segment_data(rec: &SegmentRecording) -> SegmentData<'_> {
 }
 
 /// Assesses a segment already read, with the context's engine and settings. No I/O.
-pub fn assess_segment(ctx: &WorkerContext, rec: &SegmentRecording, cancel: &Cancel) -> Assessment {
+pub(crate) fn assess_segment(
+    ctx: &WorkerContext,
+    rec: &SegmentRecording,
+    cancel: &Cancel,
+) -> Assessment {
     assess(
         &segment_data(rec),
         &ctx.engine,
@@ -276,7 +279,7 @@ pub fn assess_segment(ctx: &WorkerContext, rec: &SegmentRecording, cancel: &Canc
 }
 
 /// The `diagnoses` rows of an assessment (none unless it diagnosed the segment).
-pub fn new_diagnoses(
+pub(crate) fn new_diagnoses(
     ctx: &WorkerContext,
     segment_id: i64,
     assessment: &Assessment,
@@ -304,7 +307,7 @@ pub fn new_diagnoses(
 }
 
 /// The reasons an assessment found for what gave no result.
-pub fn failures(assessment: &Assessment) -> &[Undiagnosable] {
+pub(crate) fn failures(assessment: &Assessment) -> &[Undiagnosable] {
     match assessment {
         Assessment::Diagnosed { failures, .. } => failures,
         Assessment::Undiagnosable(f) => f,
@@ -314,7 +317,7 @@ pub fn failures(assessment: &Assessment) -> &[Undiagnosable] {
 
 /// Stores an assessment's outcome in one transaction (results and reasons, segment marked
 /// diagnosed); a cancelled assessment stores nothing and the segment stays pending.
-pub fn store_assessment(
+pub(crate) fn store_assessment(
     db: &mut dyn Db,
     ctx: &WorkerContext,
     segment_id: i64,
@@ -342,7 +345,7 @@ pub fn store_assessment(
 }
 
 /// The worker's step for one stored segment: read it, assess it, store the outcome.
-pub fn diagnose_segment(
+pub(crate) fn diagnose_segment(
     db: &mut dyn Db,
     ctx: &WorkerContext,
     segment_id: i64,
@@ -362,7 +365,7 @@ pub struct DrainReport {
 }
 
 /// Diagnoses every pending segment, oldest first, until the queue is empty or `cancel` is set.
-pub fn drain_pending(
+pub(crate) fn drain_pending(
     db: &mut dyn Db,
     ctx: &WorkerContext,
     cancel: &Cancel,
@@ -409,4 +412,4 @@ pub fn drain_pending(
 #[cfg(test)]
 mod tests;
 
-pub mod gap;
+pub(crate) mod gap;

@@ -19,7 +19,7 @@ use tokio_modbus::server::tcp::{accept_tcp_connection, Server};
 use tokio_modbus::server::Service;
 
 /// Serves `service` on 127.0.0.1 (port 0) until the returned task is aborted.
-pub async fn serve<S>(service: S) -> (SocketAddr, JoinHandle<()>)
+pub(crate) async fn serve<S>(service: S) -> (SocketAddr, JoinHandle<()>)
 where
     S: Service<Request = Request<'static>, Response = Response, Exception = ExceptionCode>
         + Clone
@@ -43,7 +43,7 @@ where
 }
 
 /// A plain u16 field (scale 1, no offset, no range of its own).
-pub fn u16_field(name: &str, address: u32, signal: Option<Signal>) -> FieldSpec {
+pub(crate) fn u16_field(name: &str, address: u32, signal: Option<Signal>) -> FieldSpec {
     FieldSpec {
         name: name.into(),
         address,
@@ -60,7 +60,7 @@ pub fn u16_field(name: &str, address: u32, signal: Option<Signal>) -> FieldSpec 
 
 /// When [`run_poll_loop`] triggers the shutdown.
 #[derive(Debug, Clone, Copy)]
-pub enum Until {
+pub(crate) enum Until {
     /// Once at least this many samples have been sent.
     Samples(usize),
     /// After this long.
@@ -69,7 +69,7 @@ pub enum Until {
 
 /// Everything one poll-loop run sent, in order, and its final tallies.
 #[derive(Debug)]
-pub struct PollRun {
+pub(crate) struct PollRun {
     pub samples: Vec<Sample>,
     pub gaps: Vec<Gap>,
     pub stats: PollStats,
@@ -79,7 +79,7 @@ pub struct PollRun {
 /// Runs the real poll loop with `clock` (`None`: the system clock) until `until`, then shuts
 /// it down and drains what it sent. `on_samples` sees the running sample count after every
 /// batch (a test steps a clock or a server from there).
-pub async fn run_poll_loop(
+pub(crate) async fn run_poll_loop(
     cfg: AcquisitionConfig,
     plan: PollPlan,
     clock: Option<SampleClock>,

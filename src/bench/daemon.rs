@@ -107,7 +107,7 @@ pub(super) fn memory_kib() -> anyhow::Result<(u64, u64)> {
 }
 
 /// A register map of `tags` f32 fields in holding-register requests of ≤ 60 fields.
-pub fn bench_map(tags: usize, endpoint: &str) -> ModbusConfig {
+pub(crate) fn bench_map(tags: usize, endpoint: &str) -> ModbusConfig {
     const SIGNALS: [Signal; 12] = [
         Signal::N1,
         Signal::N2,
@@ -403,7 +403,7 @@ struct DayReport {
     cache_mib: u32,
 }
 
-pub fn run(args: BenchDaemonArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(args: BenchDaemonArgs) -> anyhow::Result<ExitCode> {
     if args.tags == 0 || !(args.rate_hz > 0.0 && args.rate_hz <= 100.0) {
         bail!("--tags must be ≥ 1 and --rate-hz in (0, 100]");
     }

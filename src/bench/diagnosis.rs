@@ -28,7 +28,7 @@ fn row(name: &str, s: &MethodStats) {
 
 /// Runs the bench: `cases` health vectors drawn from `seed`, fitted with `cfg` (and, with
 /// `compare`, with each optimiser at the same budget); JSON or text on stdout.
-pub fn run(
+pub(crate) fn run(
     engine: &Engine,
     cfg: &DiagnosisConfig,
     cases: usize,

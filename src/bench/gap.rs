@@ -32,7 +32,7 @@ pub struct BenchGapArgs {
     pub json: bool,
 }
 
-pub fn run(a: BenchGapArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(a: BenchGapArgs) -> anyhow::Result<ExitCode> {
     let engine = crate::engine::Engine::reference()?;
     let cfg = crate::diagnosis::DiagnosisConfig {
         threads: a.threads,

@@ -37,7 +37,7 @@ pub(super) struct IngestRig {
 
 impl IngestRig {
     /// A fresh database `db_name` in a temporary directory, with `tags` tags.
-    pub fn new(tags: usize, cache_mib: u32, db_name: &str) -> anyhow::Result<IngestRig> {
+    pub(super) fn new(tags: usize, cache_mib: u32, db_name: &str) -> anyhow::Result<IngestRig> {
         let dir = tempfile_dir()?;
         let storage = StorageConfig {
             path: dir.path().join(db_name),
@@ -84,7 +84,12 @@ impl IngestRig {
 
     /// One poll: `frame` encoded into the register blocks (fields without a signal read
     /// `filler`), decoded at `t_ms` and handed to the writer.
-    pub async fn push(&mut self, frame: &PlantFrame, filler: f64, t_ms: i64) -> anyhow::Result<()> {
+    pub(super) async fn push(
+        &mut self,
+        frame: &PlantFrame,
+        filler: f64,
+        t_ms: i64,
+    ) -> anyhow::Result<()> {
         for (req, block) in self.plan.requests.iter().zip(self.blocks.iter_mut()) {
             for (_, f) in &req.fields {
                 let v = f.signal.map_or(filler, |s| frame.get(s));
@@ -109,7 +114,7 @@ impl IngestRig {
 
     /// Flushes the writer, then runs one detector scan on the blocking pool (read-only, written
     /// through the writer).
-    pub async fn scan(&mut self) -> anyhow::Result<()> {
+    pub(super) async fn scan(&mut self) -> anyhow::Result<()> {
         let tx = self.tx.clone().context("writer closed")?;
         tx.flush()
             .await
@@ -132,7 +137,7 @@ impl IngestRig {
     }
 
     /// Closes the writer's queue and waits for its last commit.
-    pub async fn close_writer(&mut self) -> anyhow::Result<()> {
+    pub(super) async fn close_writer(&mut self) -> anyhow::Result<()> {
         self.tx = None;
         if let Some(w) = self.writer.take() {
             w.await??;
@@ -141,7 +146,7 @@ impl IngestRig {
     }
 
     /// Closes the detector's connection.
-    pub fn close_detector(&mut self) {
+    pub(super) fn close_detector(&mut self) {
         self.det_store = None;
     }
 }

@@ -3,13 +3,13 @@
 //! (`cli::bench`) parses the flags and hands over what it loaded (engine, fit settings).
 //! Benchmarks are never tests: they time and measure, they assert nothing.
 
-pub mod daemon;
-pub mod diagnosis;
-pub mod gap;
+pub(crate) mod daemon;
+pub(crate) mod diagnosis;
+pub(crate) mod gap;
 mod ingest;
-pub mod month;
-pub mod replay;
-pub mod sim;
-pub mod soak;
-pub mod steady;
-pub mod wash;
+pub(crate) mod month;
+pub(crate) mod replay;
+pub(crate) mod sim;
+pub(crate) mod soak;
+pub(crate) mod steady;
+pub(crate) mod wash;

@@ -69,7 +69,7 @@ struct MonthResult {
 
 /// The sections of the configuration file the month's replay reads, as the command line
 /// loads and checks them.
-pub struct Sections {
+pub(crate) struct Sections {
     pub storage: StorageConfig,
     pub replay: ReplayConfig,
     pub detector: DetectorConfig,
@@ -78,12 +78,12 @@ pub struct Sections {
 /// What the month borrows from the command line, so that it runs exactly what `gtwatch
 /// replay` runs: loading a configuration file's sections, and diagnosing every pending
 /// start-up after a replay.
-pub struct Commands<'a> {
+pub(crate) struct Commands<'a> {
     pub load_sections: &'a dyn Fn(&Path) -> anyhow::Result<Sections>,
     pub diagnose_after_replay: &'a dyn Fn(&mut Store, &Path) -> anyhow::Result<()>,
 }
 
-pub fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<ExitCode> {
     let dir = a.keep.clone().unwrap_or_else(|| {
         std::env::temp_dir().join(format!("gtwatch-bench-month-{}", std::process::id()))
     });

@@ -57,7 +57,11 @@ fn pass(r: &crate::ingest::ReplayReport) -> PassResult {
 }
 
 /// Writes the synthetic log: a slow sine on every column so values differ row to row.
-pub fn write_synthetic_csv(path: &std::path::Path, rows: u64, tags: usize) -> anyhow::Result<()> {
+pub(crate) fn write_synthetic_csv(
+    path: &std::path::Path,
+    rows: u64,
+    tags: usize,
+) -> anyhow::Result<()> {
     let f = std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
     let mut w = std::io::BufWriter::with_capacity(1 << 20, f);
     let sigs = &Signal::ALL[..tags];
@@ -79,7 +83,7 @@ pub fn write_synthetic_csv(path: &std::path::Path, rows: u64, tags: usize) -> an
     Ok(())
 }
 
-pub fn run(args: BenchReplayArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(args: BenchReplayArgs) -> anyhow::Result<ExitCode> {
     anyhow::ensure!((1..=15).contains(&args.tags), "--tags must be 1..=15");
     let dir = tempfile_dir()?;
     let csv = dir.join("bench.csv");

@@ -8,7 +8,7 @@ use std::time::Instant;
 
 /// Times `runs` start-up simulations of `engine` at `health` (after one warm-up run); JSON on
 /// stdout.
-pub fn run(engine: &Engine, health: &HealthParams, runs: usize) -> anyhow::Result<()> {
+pub(crate) fn run(engine: &Engine, health: &HealthParams, runs: usize) -> anyhow::Result<()> {
     let model = engine.model(health);
     let scenario = Scenario::startup(engine.cfg());
     let (warm, _) = run_scenario(&model, &scenario)?;

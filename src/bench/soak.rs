@@ -128,7 +128,7 @@ struct SoakReport {
     per_day: Vec<DayPoint>,
 }
 
-pub fn run(args: BenchSoakArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(args: BenchSoakArgs) -> anyhow::Result<ExitCode> {
     if args.days == 0 || args.days > 3650 || args.tags == 0 || args.tags > 10_000 {
         bail!("--days must be in 1 … 3650 and --tags in 1 … 10000");
     }

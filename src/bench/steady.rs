@@ -61,7 +61,7 @@ fn summary(pass: &Pass) -> serde_json::Value {
 /// Solves about `points` operating points of `engine` at `health` from `min_load` (fraction
 /// of design power, in (0, 1)) to full load, cold and warm; JSON on stdout. `false` when a
 /// point failed to solve.
-pub fn run(
+pub(crate) fn run(
     engine: &Engine,
     health: &HealthParams,
     points: usize,

@@ -29,7 +29,12 @@ fn line(
 }
 
 /// Runs the bench with the optimiser seed `seed` and `cfg`; JSON or the table on stdout.
-pub fn run(engine: &Engine, cfg: &DiagnosisConfig, seed: u64, json: bool) -> anyhow::Result<()> {
+pub(crate) fn run(
+    engine: &Engine,
+    cfg: &DiagnosisConfig,
+    seed: u64,
+    json: bool,
+) -> anyhow::Result<()> {
     let rep = bench_wash(engine, seed, cfg)?;
     if json {
         println!("{}", serde_json::to_string_pretty(&rep)?);

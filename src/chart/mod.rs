@@ -6,13 +6,13 @@
 //!
 //! Pure string building: no I/O.
 
-pub mod startup;
+pub(crate) mod startup;
 
 use std::fmt::Write;
 
 /// The style rules the charts' classes need, for a page (inside `<style>`) or a standalone
 /// SVG document (inside `<svg><style>`).
-pub const STYLE: &str =
+pub(crate) const STYLE: &str =
     "svg text{font-family:sans-serif}svg .title{font-size:14px;font-weight:600}\
 svg .tick{font-size:11px;fill:#444}svg .axis{font-size:12px;fill:#333}\
 svg .legend{font-size:12px;fill:#333}svg .marker{font-size:11px}svg .grid{stroke:#e6e6e6}\
@@ -20,15 +20,15 @@ svg .frame{fill:none;stroke:#999}svg .zero{stroke:#999;stroke-dasharray:2 2}\
 svg .empty{font-size:14px;fill:#888}";
 
 /// Colours used consistently across charts.
-pub const BLUE: &str = "#1f5fa8";
-pub const ORANGE: &str = "#d9731a";
-pub const GREEN: &str = "#2a8a3e";
-pub const RED: &str = "#c0392b";
-pub const GREY: &str = "#777777";
+pub(crate) const BLUE: &str = "#1f5fa8";
+pub(crate) const ORANGE: &str = "#d9731a";
+pub(crate) const GREEN: &str = "#2a8a3e";
+pub(crate) const RED: &str = "#c0392b";
+pub(crate) const GREY: &str = "#777777";
 
 /// How the x axis is labelled.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum XAxis {
+pub(crate) enum XAxis {
     /// Unix milliseconds, labelled as dates (YYYY-MM-DD).
     Date,
     /// Seconds, labelled as numbers.
@@ -37,7 +37,7 @@ pub enum XAxis {
 
 /// A point with an optional symmetric error bar.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Point {
+pub(crate) struct Point {
     pub x: f64,
     pub y: f64,
     pub sigma: Option<f64>,
@@ -45,7 +45,7 @@ pub struct Point {
 
 /// One series.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Series {
+pub(crate) enum Series {
     Line {
         label: String,
         color: &'static str,
@@ -63,7 +63,7 @@ pub enum Series {
 
 /// A vertical marker line (e.g. a wash) with a short label.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Marker {
+pub(crate) struct Marker {
     pub x: f64,
     pub label: String,
     pub color: &'static str,
@@ -71,7 +71,7 @@ pub struct Marker {
 
 /// A chart to render.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Chart {
+pub(crate) struct Chart {
     pub title: String,
     pub y_label: String,
     pub x_label: String,
@@ -88,7 +88,7 @@ const TOP: f64 = 28.0;
 const BOTTOM: f64 = 58.0;
 
 /// Escapes text for XML content and attributes.
-pub fn esc(s: &str) -> String {
+pub(crate) fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
@@ -96,7 +96,7 @@ pub fn esc(s: &str) -> String {
 }
 
 /// "Nice" tick positions covering `[lo, hi]`, about `n` of them.
-pub fn ticks(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+pub(crate) fn ticks(lo: f64, hi: f64, n: usize) -> Vec<f64> {
     if !(lo.is_finite() && hi.is_finite()) || hi <= lo {
         return vec![lo];
     }
@@ -172,7 +172,7 @@ impl Chart {
     ///
     /// Drawn in layers, back to front: the grid and ticks, the frame, the markers, the series,
     /// then the axis labels and the legend.
-    pub fn render(&self) -> String {
+    pub(crate) fn render(&self) -> String {
         let (w, h) = (self.width, self.height);
         let mut s = String::new();
         let _ = write!(

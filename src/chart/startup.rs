@@ -90,7 +90,7 @@ fn panel(trace: &Trace, label: &str, signals: &[Signal], markers: Vec<Marker>) -
 }
 
 /// Renders the start-up traces as an SVG document.
-pub fn startup_svg(trace: &Trace, title: &str) -> String {
+pub(crate) fn startup_svg(trace: &Trace, title: &str) -> String {
     let runs = phase_runs(trace);
     let height = TITLE_HEIGHT + PANEL_HEIGHT * PANELS.len() as f64;
     let mut s = String::new();

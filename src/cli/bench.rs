@@ -92,7 +92,7 @@ pub struct BenchSteadyArgs {
     pub json: bool,
 }
 
-pub fn run(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
+pub(super) fn run(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
     match cmd {
         BenchCmd::Replay(a) => bench::replay::run(a),
         BenchCmd::Sim(a) => {

@@ -266,7 +266,7 @@ fn param_candidate(
     Ok(candidate_in(engine, key.trim(), parse(lo)?, parse(hi)?)?)
 }
 
-pub fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
+pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
     let start = Instant::now();
     let original = std::fs::read_to_string(&a.engine)
         .with_context(|| format!("reading engine file {}", a.engine.display()))?;

@@ -14,7 +14,7 @@ pub struct CheckConfigArgs {
 }
 
 /// The report printed by `check-config` (separate from printing so tests can check it).
-pub fn report(file: &std::path::Path) -> (bool, String) {
+pub(super) fn report(file: &std::path::Path) -> (bool, String) {
     let shown = file.display().to_string();
     let cfg = match Config::load(file) {
         Ok(c) => c,
@@ -83,7 +83,7 @@ pub fn report(file: &std::path::Path) -> (bool, String) {
     (true, out)
 }
 
-pub fn run(args: CheckConfigArgs) -> anyhow::Result<ExitCode> {
+pub(super) fn run(args: CheckConfigArgs) -> anyhow::Result<ExitCode> {
     let (ok, text) = report(&args.file);
     if ok {
         print!("{text}");

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 /// The sections of `gtwatch.toml` the data commands need.
 #[derive(Debug, Clone, Default, Deserialize)]
-pub struct DataSections {
+pub(super) struct DataSections {
     #[serde(default)]
     pub storage: StorageConfig,
     #[serde(default)]
@@ -26,7 +26,7 @@ pub struct DataSections {
 
 impl DataSections {
     /// Reads and checks the three sections; every problem names its key.
-    pub fn load(path: &Path) -> anyhow::Result<DataSections> {
+    pub(super) fn load(path: &Path) -> anyhow::Result<DataSections> {
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("reading config {}", path.display()))?;
         let value: toml::Table =
@@ -59,7 +59,7 @@ impl DataSections {
 }
 
 /// The database path from `--db`, else from `--config`'s `[storage].path`.
-pub fn db_path(db: Option<&PathBuf>, config: Option<&PathBuf>) -> anyhow::Result<PathBuf> {
+pub(super) fn db_path(db: Option<&PathBuf>, config: Option<&PathBuf>) -> anyhow::Result<PathBuf> {
     match (db, config) {
         (Some(db), _) => Ok(db.clone()),
         (None, Some(cfg)) => Ok(DataSections::load(cfg)?.storage.path),
@@ -69,7 +69,7 @@ pub fn db_path(db: Option<&PathBuf>, config: Option<&PathBuf>) -> anyhow::Result
 
 /// Parses a command-line time: ISO 8601 date-time (no offset = UTC), a date (midnight UTC),
 /// or `@SECONDS` since the Unix epoch.
-pub fn parse_cli_time(s: &str) -> anyhow::Result<i64> {
+pub(super) fn parse_cli_time(s: &str) -> anyhow::Result<i64> {
     if let Some(rest) = s.strip_prefix('@') {
         return crate::time::parse_time(rest.as_bytes(), crate::time::TimeFormat::EpochS)
             .map_err(|e| anyhow::anyhow!("'{s}': {e}"));

@@ -33,7 +33,7 @@ pub struct DemoArgs {
     pub json: bool,
 }
 
-pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
+pub(super) fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     let opts = DemoOptions {
         days: a.days,
         seed: a.seed,

@@ -80,7 +80,7 @@ pub struct FitArgs {
 }
 
 /// Parses `KEY=LOW:HIGH` into a named fit parameter.
-pub fn parse_fit_param(text: &str) -> anyhow::Result<FitParam> {
+pub(super) fn parse_fit_param(text: &str) -> anyhow::Result<FitParam> {
     let bad = |why: &str| anyhow::anyhow!("--fit-param `{text}`: {why} (expected KEY=LOW:HIGH)");
     let (key, range) = text.split_once('=').ok_or_else(|| bad("no `=`"))?;
     let (lo, hi) = range
@@ -181,7 +181,7 @@ pub struct DiagnoseArgs {
 }
 
 /// JSON of one method's result.
-pub fn result_json(r: &MethodResult) -> Value {
+pub(super) fn result_json(r: &MethodResult) -> Value {
     json!({
         "health": r.health_map(),
         "sigma": r.sigma,
@@ -259,7 +259,7 @@ pub(crate) fn print_text(m: Method, r: &MethodResult) {
 }
 
 /// Runs `gtwatch diagnose`.
-pub fn run(a: &DiagnoseArgs) -> anyhow::Result<ExitCode> {
+pub(super) fn run(a: &DiagnoseArgs) -> anyhow::Result<ExitCode> {
     if let Some(seg) = a.segment {
         let db = super::common::db_path(a.db.as_ref(), a.config.as_ref())?;
         super::diagnose_stored::run_segment(&db, a.config.as_deref(), seg)?;

@@ -16,7 +16,7 @@ use std::process::ExitCode;
 
 /// Whether `--method steady` should read `input` as snapshots: asked for (`--snapshots`,
 /// `--group-by`), or the file has no phase column (a start-up always has one).
-pub fn wants_snapshots(
+pub(super) fn wants_snapshots(
     a: &DiagnoseArgs,
     input: &Path,
     mapping: &HashMap<String, String>,
@@ -40,7 +40,7 @@ pub fn wants_snapshots(
 }
 
 /// Runs the snapshot diagnosis of `input`.
-pub fn run(
+pub(super) fn run(
     a: &DiagnoseArgs,
     input: &Path,
     engine: &Engine,

@@ -14,7 +14,7 @@ use anyhow::{bail, Context};
 use std::path::{Path, PathBuf};
 
 /// The worker's context from a config file (`None`: built-in engine, default settings).
-pub fn worker_context(config: Option<&Path>) -> anyhow::Result<WorkerContext> {
+pub(super) fn worker_context(config: Option<&Path>) -> anyhow::Result<WorkerContext> {
     let Some(path) = config else {
         return WorkerContext::load(None, DiagnosisSettings::default());
     };
@@ -50,7 +50,11 @@ pub fn worker_context(config: Option<&Path>) -> anyhow::Result<WorkerContext> {
 
 /// After a replay: diagnose every pending start-up (unless `[diagnosis] enabled = false`).
 /// The summary goes to stderr with `--json` (stdout holds the JSON report).
-pub fn diagnose_after_replay(store: &mut Store, config: &Path, json: bool) -> anyhow::Result<()> {
+pub(super) fn diagnose_after_replay(
+    store: &mut Store,
+    config: &Path,
+    json: bool,
+) -> anyhow::Result<()> {
     let ctx = worker_context(Some(config))?;
     if !ctx.settings.enabled {
         return Ok(());
@@ -92,7 +96,7 @@ pub fn diagnose_after_replay(store: &mut Store, config: &Path, json: bool) -> an
 /// settings; prints JSON of both methods' results (or the reasons). Stores nothing: the
 /// database is opened read-only ([`Store::open_readonly`]), so this works on a file nobody may
 /// write and beside a running daemon.
-pub fn run_segment(db: &Path, config: Option<&Path>, segment: i64) -> anyhow::Result<()> {
+pub(super) fn run_segment(db: &Path, config: Option<&Path>, segment: i64) -> anyhow::Result<()> {
     let ctx = worker_context(config)?;
     let store = Store::open_readonly(db).with_context(|| format!("opening {}", db.display()))?;
     if store.segment(segment)?.is_none() {
@@ -113,7 +117,7 @@ pub fn run_segment(db: &Path, config: Option<&Path>, segment: i64) -> anyhow::Re
 }
 
 /// The `[wash]` section of a config file (defaults without a file or section).
-pub fn wash_economics(config: Option<&Path>) -> anyhow::Result<crate::wash::WashEconomics> {
+pub(super) fn wash_economics(config: Option<&Path>) -> anyhow::Result<crate::wash::WashEconomics> {
     let Some(path) = config else {
         return Ok(crate::wash::WashEconomics::default());
     };

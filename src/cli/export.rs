@@ -34,7 +34,7 @@ pub struct ExportArgs {
     pub out: Option<PathBuf>,
 }
 
-pub fn run(args: ExportArgs) -> anyhow::Result<ExitCode> {
+pub(super) fn run(args: ExportArgs) -> anyhow::Result<ExitCode> {
     let path = db_path(args.db.as_ref(), args.config.as_ref())?;
     let from = parse_cli_time(&args.from)?;
     let to = parse_cli_time(&args.to)?;

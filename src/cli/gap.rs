@@ -105,7 +105,7 @@ fn read(path: &Path, map: &Option<String>) -> anyhow::Result<Recording> {
         .with_context(|| format!("reading {}", path.display()))
 }
 
-pub fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
+pub(super) fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
     if a.list_effects {
         print_effects(a.json)?;
         return Ok(ExitCode::SUCCESS);

@@ -68,7 +68,7 @@ fn params(asked: &[String]) -> anyhow::Result<Vec<&'static str>> {
 }
 
 /// Writes the rows in `format`, showing `names` only.
-pub fn write_history(
+pub(super) fn write_history(
     rows: &[HistoryRow],
     names: &[&str],
     format: Format,
@@ -175,7 +175,7 @@ pub fn write_history(
     Ok(())
 }
 
-pub fn run(args: HistoryArgs) -> anyhow::Result<ExitCode> {
+pub(super) fn run(args: HistoryArgs) -> anyhow::Result<ExitCode> {
     let path = db_path(args.db.as_ref(), args.config.as_ref())?;
     let names = params(&args.param)?;
     let filter = HistoryFilter {

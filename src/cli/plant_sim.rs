@@ -44,7 +44,7 @@ pub enum Source {
     Scripted,
 }
 
-pub fn run(args: PlantSimArgs) -> anyhow::Result<ExitCode> {
+pub(super) fn run(args: PlantSimArgs) -> anyhow::Result<ExitCode> {
     let cfg = Config::load(&args.config)?;
     let Some(map) = cfg.modbus else {
         bail!("{}: no [modbus] section to serve", args.config.display());

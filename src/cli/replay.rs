@@ -37,7 +37,7 @@ pub struct ReplayArgs {
 
 /// Exit status when every file was replayed but rows were rejected for their time stamps
 /// (out of order, duplicate, or implausibly far in the future): never silent.
-pub const EXIT_TIME_REJECTED: u8 = 3;
+pub(super) const EXIT_TIME_REJECTED: u8 = 3;
 
 /// Everything `replay --json` prints: exactly one JSON document.
 #[derive(Debug, serde::Serialize)]
@@ -79,7 +79,7 @@ fn detector_key(sig: Signal) -> &'static str {
     }
 }
 
-pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
+pub(super) fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
     let mut cfg = DataSections::load(&args.config)?;
     if let Some(db) = &args.db {
         cfg.storage.path = db.clone();

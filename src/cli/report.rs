@@ -52,7 +52,7 @@ fn plant_name(config: Option<&PathBuf>) -> anyhow::Result<String> {
         .to_string())
 }
 
-pub fn run(a: ReportArgs) -> anyhow::Result<ExitCode> {
+pub(super) fn run(a: ReportArgs) -> anyhow::Result<ExitCode> {
     let path = db_path(a.db.as_ref(), a.config.as_ref())?;
     let since = a.since.as_deref().map(parse_cli_time).transpose()?;
     let until = a.until.as_deref().map(parse_cli_time).transpose()?;

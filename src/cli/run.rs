@@ -56,7 +56,7 @@ fn refuse_unsafe_permissions(config: &std::path::Path, cfg: &Config) -> anyhow::
     }
 }
 
-pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
+pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     let cfg = Config::load_checked(&args.config)?;
     refuse_unsafe_permissions(&args.config, &cfg)?;
     let worker = if cfg.diagnosis.enabled {

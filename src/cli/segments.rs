@@ -22,7 +22,7 @@ pub struct SegmentsArgs {
     pub format: Format,
 }
 
-pub fn run(args: SegmentsArgs) -> anyhow::Result<ExitCode> {
+pub(super) fn run(args: SegmentsArgs) -> anyhow::Result<ExitCode> {
     let path = db_path(args.db.as_ref(), args.config.as_ref())?;
     let since = args.since.as_deref().map(parse_cli_time).transpose()?;
     let store = Store::open_readonly(&path)?;

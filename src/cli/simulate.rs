@@ -43,7 +43,7 @@ pub struct SimulateArgs {
     pub plot: Option<PathBuf>,
 }
 
-pub fn run(a: SimulateArgs) -> anyhow::Result<ExitCode> {
+pub(super) fn run(a: SimulateArgs) -> anyhow::Result<ExitCode> {
     let (engine, health) = a.engine.load()?;
     let model = engine.model(&health);
     let scenario = match a.scenario {

@@ -42,7 +42,7 @@ const MAX_SPEED_FRACTION: f64 = 1.1;
 /// Highest power demand, as a fraction of design power (cold-day output can exceed ISO rating).
 const MAX_POWER_FRACTION: f64 = 1.5;
 
-pub fn run(a: SteadyArgs) -> anyhow::Result<ExitCode> {
+pub(super) fn run(a: SteadyArgs) -> anyhow::Result<ExitCode> {
     let (engine, health) = a.engine.load()?;
     let cfg = engine.cfg();
     // Issue 12 #8: a demand outside what the engine can run (e.g. 210 % GG speed) gave a

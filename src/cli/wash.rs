@@ -88,7 +88,7 @@ fn open(db: &DbArgs) -> anyhow::Result<Store> {
 }
 
 /// Runs `gtwatch wash …`.
-pub fn run(a: WashArgs) -> anyhow::Result<ExitCode> {
+pub(super) fn run(a: WashArgs) -> anyhow::Result<ExitCode> {
     match a.cmd {
         WashCmd::Record { db, at, kind, note } => {
             let t = parse_cli_time(&at)?;

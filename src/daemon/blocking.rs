@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 
 /// Why a piece of blocking store work gave no result.
 #[derive(Debug, thiserror::Error)]
-pub enum BlockingError<E> {
+pub(super) enum BlockingError<E> {
     /// The connection could not be opened; the next run tries again.
     #[error("{0}")]
     Open(StoreError),
@@ -32,7 +32,7 @@ type Opener<S> = fn(&Path, &StoreOptions) -> Result<S, StoreError>;
 /// A task's own connection (a writable [`Store`] or a [`ReadStore`]), used only on the
 /// blocking pool.
 #[derive(Debug)]
-pub struct BlockingStore<S = Store> {
+pub(super) struct BlockingStore<S = Store> {
     path: PathBuf,
     opts: StoreOptions,
     open: Opener<S>,
@@ -41,7 +41,7 @@ pub struct BlockingStore<S = Store> {
 
 impl BlockingStore<Store> {
     /// A writable connection to `path`, opened with `opts` on first use (the writer's).
-    pub fn writable(path: PathBuf, opts: StoreOptions) -> BlockingStore<Store> {
+    pub(super) fn writable(path: PathBuf, opts: StoreOptions) -> BlockingStore<Store> {
         BlockingStore {
             path,
             opts,
@@ -53,7 +53,7 @@ impl BlockingStore<Store> {
 
 impl BlockingStore<ReadStore> {
     /// A read-only connection to `path`, opened with `opts` on first use.
-    pub fn read_only(path: PathBuf, opts: StoreOptions) -> BlockingStore<ReadStore> {
+    pub(super) fn read_only(path: PathBuf, opts: StoreOptions) -> BlockingStore<ReadStore> {
         BlockingStore {
             path,
             opts,
@@ -65,7 +65,7 @@ impl BlockingStore<ReadStore> {
 
 impl<S: Send + 'static> BlockingStore<S> {
     /// Runs `work` with the connection on the blocking pool (opening it if needed).
-    pub async fn run<T, E, F>(&mut self, work: F) -> Result<T, BlockingError<E>>
+    pub(super) async fn run<T, E, F>(&mut self, work: F) -> Result<T, BlockingError<E>>
     where
         F: FnOnce(&mut S) -> Result<T, E> + Send + 'static,
         T: Send + 'static,
@@ -97,7 +97,7 @@ impl<S: Send + 'static> BlockingStore<S> {
     }
 
     /// The connection, if open (the start-up hands it to the writer).
-    pub fn into_store(self) -> Option<S> {
+    pub(super) fn into_store(self) -> Option<S> {
         self.store
     }
 }

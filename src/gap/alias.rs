@@ -31,9 +31,9 @@ use crate::signals::Signal;
 use serde::Serialize;
 
 /// Share of a candidate's signature the health parameters must reproduce for it to hide.
-pub const HIDDEN_ABSORBED: f64 = 0.9;
+pub(crate) const HIDDEN_ABSORBED: f64 = 0.9;
 /// Shift of a health parameter (points) at the nominal error beyond which hiding matters.
-pub const HIDDEN_SHIFT: f64 = 0.3;
+pub(crate) const HIDDEN_SHIFT: f64 = 0.3;
 
 /// An input-instrument candidate: its instance, its parameter, the size of error a plant
 /// commonly has (the nominal, in the parameter's unit), and the signal it needs.
@@ -86,7 +86,7 @@ const INPUTS: [InputCandidate; 4] = [
 
 /// One input instrument the health parameters may be hiding.
 #[derive(Debug, Clone, Serialize)]
-pub struct Alias {
+pub(crate) struct Alias {
     /// The effect instance (`fuel_meter`, `inlet_temperature`, `sensor_scale:power_mw`).
     pub effect: String,
     /// Its parameter (`effects.fuel_meter.scale`).
@@ -114,7 +114,7 @@ pub struct Alias {
 
 /// The alias analysis of one baseline fit.
 #[derive(Debug, Clone, Serialize, Default)]
-pub struct Aliases {
+pub(crate) struct Aliases {
     /// [`crate::health::implausibility`] of the baseline's health: 0 when every estimate is
     /// plausible.
     pub implausibility: f64,
@@ -124,7 +124,7 @@ pub struct Aliases {
 
 impl Aliases {
     /// The hidden aliases' instance names.
-    pub fn hidden(&self) -> Vec<&str> {
+    pub(crate) fn hidden(&self) -> Vec<&str> {
         self.aliases
             .iter()
             .filter(|a| a.hidden)
@@ -135,7 +135,7 @@ impl Aliases {
 
 /// The aliases of `base` (Method B's fit of `rec` under `cfg`) among the input instruments the
 /// data have. Errors only when the baseline cannot be linearised.
-pub fn aliases(
+pub(crate) fn aliases(
     engine: &Engine,
     rec: &Recording,
     cfg: &DiagnosisConfig,

@@ -153,7 +153,7 @@ fn in_parallel<J: Sync, R: Send>(
 /// The stages, in order: the baseline fit and its aliases; the first batch (seed refits, the
 /// baseline's folds or held-out start-up, the screen); the shortlist's scoring; the leader's
 /// refit (cross-validation only); the verdict.
-pub fn analyse(
+pub(crate) fn analyse(
     engine: &Engine,
     rec: &Recording,
     holdout: Option<&Recording>,

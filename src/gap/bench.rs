@@ -28,16 +28,16 @@ use rand::{Rng, SeedableRng};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
-pub use super::truth::{expected, input_instances, INPUT_KINDS, KINDS};
+pub(crate) use super::truth::{expected, input_instances, INPUT_KINDS, KINDS};
 
 /// Least signature of an analysed case, in noise σ (worst residual cell).
-pub const MIN_SIGNATURE_SIGMA: f64 = 3.0;
+pub(crate) const MIN_SIGNATURE_SIGMA: f64 = 3.0;
 /// Draws of a truth's magnitudes before a case is skipped as below noise.
-pub const MAX_DRAWS: usize = 8;
+pub(crate) const MAX_DRAWS: usize = 8;
 
 /// One analysed case.
 #[derive(Debug, Clone, Serialize)]
-pub struct Case {
+pub(crate) struct Case {
     pub index: usize,
     pub kind: String,
     /// The truth's magnitude (unit per kind: see `gap::truth`).
@@ -76,7 +76,7 @@ pub struct Case {
 
 /// A case whose truth stayed below [`MIN_SIGNATURE_SIGMA`] in every draw (not analysed).
 #[derive(Debug, Clone, Serialize)]
-pub struct Skipped {
+pub(crate) struct Skipped {
     pub index: usize,
     pub kind: String,
     /// The largest signature drawn, σ.
@@ -85,7 +85,7 @@ pub struct Skipped {
 
 /// All cases of a run.
 #[derive(Debug, Clone, Default, Serialize)]
-pub struct BenchRun {
+pub(crate) struct BenchRun {
     pub cases: Vec<Case>,
     pub skipped: Vec<Skipped>,
 }
@@ -110,7 +110,7 @@ fn max_error(h: &HealthParams, truth: &HealthParams) -> f64 {
 /// The signature of a hidden truth: the worst residual cell (noise σ) between the plant's
 /// noise-free record `clean` and the core model at the true health replaying it, over the
 /// signals the diagnosis compares.
-pub fn signature_sigma(
+pub(crate) fn signature_sigma(
     engine: &Engine,
     health: &HealthParams,
     clean: &Recording,
@@ -142,7 +142,7 @@ pub fn signature_sigma(
 
 /// Runs `cases` cases (cycling through [`KINDS`], or through `only` when not empty) with all
 /// candidates; `holdout` adds a second start-up of each unit to score on.
-pub fn run_cases(
+pub(crate) fn run_cases(
     engine: &Engine,
     cases: usize,
     seed: u64,
@@ -291,7 +291,7 @@ fn health_rmse(cases: &[&Case], pick: impl Fn(&Case) -> HealthParams) -> BTreeMa
 }
 
 /// The summary the acceptance asks for (rates are `null` where no case counts).
-pub fn summarise(run: &BenchRun) -> serde_json::Value {
+pub(crate) fn summarise(run: &BenchRun) -> serde_json::Value {
     let cases = &run.cases;
     let in_lib: Vec<&Case> = cases
         .iter()

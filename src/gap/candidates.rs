@@ -18,7 +18,7 @@ use serde::Serialize;
 const BIAS_BOUND_FRACTION: f64 = 0.05;
 
 /// The instance names `selection` asks for: `all`, or a comma-separated list.
-pub fn select(selection: &str) -> Result<Vec<String>, String> {
+pub(crate) fn select(selection: &str) -> Result<Vec<String>, String> {
     let all = effects::instance_names();
     if selection.trim() == "all" {
         return Ok(all);
@@ -40,7 +40,7 @@ pub fn select(selection: &str) -> Result<Vec<String>, String> {
 }
 
 /// The fit parameters of one candidate instance, bounded for `rec`.
-pub fn fit_params(instance: &str, rec: &Recording) -> Vec<FitParam> {
+pub(crate) fn fit_params(instance: &str, rec: &Recording) -> Vec<FitParam> {
     let Some(spec) = effects::spec(instance) else {
         return Vec::new();
     };
@@ -80,19 +80,19 @@ pub(super) fn worth_trying(instance: &str, cells: &[ResidualCell]) -> bool {
 }
 
 /// Norm error (σ) of a residual cell that makes its channel's instrument effects candidates.
-pub const CHANNEL_CELL_SIGMA: f64 = 2.0;
+pub(crate) const CHANNEL_CELL_SIGMA: f64 = 2.0;
 
 /// Instrument candidates (`name:column`) fitted in the screen at most: the best of the linear
 /// screen's ranking ([`linear`](super::linear)). An instrument effect that explains the gap
 /// leads that ranking among its kind; fitting a dozen offsets on channels the gap merely spills
 /// into costs a third of an analysis and names nothing.
-pub const INSTRUMENT_SCREENS: usize = 3;
+pub(crate) const INSTRUMENT_SCREENS: usize = 3;
 /// Least shrinkage the linear screen must predict for an instrument candidate to be fitted.
-pub const LINEAR_MIN_SHRINKAGE: f64 = 0.02;
+pub(crate) const LINEAR_MIN_SHRINKAGE: f64 = 0.02;
 
 /// An instrument candidate the linear screen left out of the fitted screen.
 #[derive(Debug, Clone, Serialize)]
-pub struct Unscreened {
+pub(crate) struct Unscreened {
     pub effect: String,
     /// The linear screen's predicted shrinkage (fraction of the baseline's SSR).
     pub predicted_shrinkage: f64,
@@ -155,7 +155,7 @@ pub(super) fn gate_instruments(
 }
 
 /// The registry as a list (for `gtwatch gap --list-effects`).
-pub fn list_effects() -> serde_json::Value {
+pub(crate) fn list_effects() -> serde_json::Value {
     let rows: Vec<serde_json::Value> = effects::REGISTRY
         .iter()
         .map(|s| {

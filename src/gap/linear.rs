@@ -45,7 +45,7 @@ impl Linearised {
     /// Linearises `rec`'s baseline fit `base` under `cfg`, with `extra` parameters appended at
     /// their neutral values (0 clamped into their bounds). Errors when the baseline cannot be
     /// re-run or one of its parameters cannot be perturbed.
-    pub fn new(
+    pub(super) fn new(
         engine: &Engine,
         rec: &Recording,
         cfg: &DiagnosisConfig,
@@ -112,7 +112,7 @@ impl Linearised {
 
     /// The secant column of further parameter `i` (in `extra` order) over `step` from neutral:
     /// d(residual)/d(parameter). `None` when the perturbed run fails.
-    pub fn extra_column(&self, i: usize, step: f64) -> Option<DVector<f64>> {
+    pub(super) fn extra_column(&self, i: usize, step: f64) -> Option<DVector<f64>> {
         self.column_at(self.first_extra + i, step)
     }
 }
@@ -138,7 +138,7 @@ pub(super) fn project(cols: &[DVector<f64>], target: &DVector<f64>) -> (Vec<f64>
 /// `candidates` (instance name and its fit parameters), in order, for the baseline fit `base`
 /// of `rec` under `cfg`. A candidate whose perturbed run fails gets `None` (fit it to find
 /// out). Errors only when the baseline itself cannot be re-run.
-pub fn predicted_shrinkage(
+pub(crate) fn predicted_shrinkage(
     engine: &Engine,
     rec: &Recording,
     cfg: &DiagnosisConfig,
@@ -221,7 +221,7 @@ mod tests {
         let names = ["sensor_bias:p2_kpa", "sensor_bias:t4_k", "sensor_lag:t34_k"];
         let candidates: Vec<(String, Vec<FitParam>)> = names
             .iter()
-            .map(|n| (n.to_string(), crate::gap::fit_params(n, &rec)))
+            .map(|n| (n.to_string(), crate::gap::candidates::fit_params(n, &rec)))
             .collect();
         let predicted: Vec<f64> = predicted_shrinkage(&engine, &rec, &cfg, &base, &candidates)
             .expect("linear screen")

@@ -26,27 +26,25 @@
 //!    that the fit becomes `good` (the same yardstick as the baseline's); else `unexplained`.
 //!
 //! Instrument candidates (`sensor_lag:<column>`, `sensor_bias:<column>`) are tried only on
-//! channels the residual map points at, and of those only the [`INSTRUMENT_SCREENS`] best of
-//! the linear screen ([`linear`]: the shrinkage each would bring if the model were linear
-//! around the baseline, one model run per candidate) are fitted; engine effects always. Pure
+//! channels the residual map points at, and of those only the
+//! [`INSTRUMENT_SCREENS`](candidates::INSTRUMENT_SCREENS) best of the linear screen
+//! ([`linear`]: the shrinkage each would bring if the model were linear around the baseline,
+//! one model run per candidate) are fitted; engine effects always. Pure
 //! orchestration of the diagnosis: no I/O. After the baseline, the fits run in two parallel
 //! batches (seed refits, the baseline's folds or holdout and the screen; then the shortlist's
 //! scoring), one fit per worker thread, each single-threaded; results do not depend on the
 //! order.
 
-pub mod alias;
+pub(crate) mod alias;
 mod analysis;
-pub mod bench;
-pub mod candidates;
-pub mod linear;
-pub mod svg;
-pub mod truth;
+pub(crate) mod bench;
+pub(crate) mod candidates;
+pub(crate) mod linear;
+pub(crate) mod svg;
+pub(crate) mod truth;
 
-pub use analysis::analyse;
-pub use candidates::{
-    fit_params, list_effects, select, Unscreened, CHANNEL_CELL_SIGMA, INSTRUMENT_SCREENS,
-    LINEAR_MIN_SHRINKAGE,
-};
+pub(crate) use analysis::analyse;
+pub(crate) use candidates::{list_effects, select, Unscreened};
 
 use crate::diagnosis::fit_quality::{ResidualCell, Verdict};
 use crate::health::HealthParams;
@@ -56,27 +54,27 @@ use std::collections::BTreeMap;
 
 /// The verdict when the model fits within noise but an input instrument's error could hide
 /// behind the health (see [`GapReport::aliases`]): one start-up cannot tell them apart.
-pub const AMBIGUOUS: &str = "ambiguous";
+pub(crate) const AMBIGUOUS: &str = "ambiguous";
 
 /// Least shrinkage of the gap (fraction of the baseline SSR) a candidate must reach to be named.
-pub const MIN_SHRINKAGE: f64 = 0.3;
+pub(crate) const MIN_SHRINKAGE: f64 = 0.3;
 /// Extra baseline fits with other optimiser seeds that measure the optimiser's own spread.
-pub const SEED_REFITS: u64 = 2;
+pub(crate) const SEED_REFITS: u64 = 2;
 /// Candidates the screen passes on to be scored on held-out data. A candidate that explains
 /// the gap shrinks it on the fitted start-up too, and in the blind benchmark the truth's
 /// candidate was always first or second there; two keep one analysis under two minutes.
-pub const SHORTLIST: usize = 2;
+pub(crate) const SHORTLIST: usize = 2;
 /// Of those, only candidates whose screen shrinkage is at least this fraction of the leading
 /// candidate's: one that explains a small part of what the leader explains on the data it was
 /// fitted on does not overtake it on data it was not.
-pub const SHORTLIST_RATIO: f64 = 0.25;
+pub(crate) const SHORTLIST_RATIO: f64 = 0.25;
 /// A screening fit's budget (model runs, global and Levenberg–Marquardt) as a fraction of a full
 /// candidate fit's.
-pub const SCREEN_BUDGET: f64 = 0.5;
+pub(crate) const SCREEN_BUDGET: f64 = 0.5;
 
 /// One candidate's result.
 #[derive(Debug, Clone, Serialize)]
-pub struct Candidate {
+pub(crate) struct Candidate {
     pub effect: String,
     /// Fitted parameters: name → (value, 1σ).
     pub params: BTreeMap<String, (f64, f64)>,
@@ -104,7 +102,7 @@ pub struct Candidate {
 
 /// What the analysis concludes.
 #[derive(Debug, Clone, Serialize)]
-pub struct GapVerdict {
+pub(crate) struct GapVerdict {
     /// The winning effect's instance name, `unexplained`, or `none`.
     pub effect: String,
     /// Score margin of the winner over the runner-up (0…1; 0 for `none`/`unexplained`).
@@ -116,7 +114,7 @@ pub struct GapVerdict {
 
 /// The whole analysis.
 #[derive(Debug, Clone, Serialize)]
-pub struct GapReport {
+pub(crate) struct GapReport {
     pub baseline_fit_quality: Verdict,
     pub baseline_normalised_residual: f64,
     pub summary: String,
@@ -150,7 +148,7 @@ pub struct GapReport {
 
 /// Wall time of each stage of one analysis, s (0 for a stage that did not run).
 #[derive(Debug, Clone, Copy, Default, Serialize)]
-pub struct StageWalls {
+pub(crate) struct StageWalls {
     pub baseline: f64,
     pub screen: f64,
     pub scoring: f64,
@@ -160,7 +158,7 @@ pub struct StageWalls {
 /// One signal over the start-up: measured, the baseline model, and the model with the winning
 /// effect (when one is named).
 #[derive(Debug, Clone)]
-pub struct SignalTraces {
+pub(crate) struct SignalTraces {
     pub signal: Signal,
     pub t_s: Vec<f64>,
     pub measured: Vec<f64>,
@@ -172,12 +170,12 @@ pub struct SignalTraces {
 /// Length of one block of the blocked cross-validation, s: longer than the residuals'
 /// correlation (lags of a few to 25 s), short enough that both folds see every phase of a
 /// start-up.
-pub const CV_BLOCK_S: f64 = 30.0;
+pub(crate) const CV_BLOCK_S: f64 = 30.0;
 
 /// How the candidates were scored.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
-pub enum Scoring {
+pub(crate) enum Scoring {
     /// On a second start-up of the same unit: the effect's parameters fitted on the first are
     /// kept, the health vector refitted.
     Holdout,
@@ -190,7 +188,7 @@ pub enum Scoring {
 /// an `[effects."<name>"]` table holding the fitted parameters, headed by a comment saying
 /// where they came from. `None` when the verdict names no effect. The caller validates the
 /// result by loading it before writing it anywhere.
-pub fn adopted_engine_text(base: &str, report: &GapReport, source: &str) -> Option<String> {
+pub(crate) fn adopted_engine_text(base: &str, report: &GapReport, source: &str) -> Option<String> {
     let winner = report
         .candidates
         .iter()

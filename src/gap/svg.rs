@@ -36,7 +36,7 @@ fn esc(s: &str) -> String {
 }
 
 /// The heat-map of `cells` with `title` above it.
-pub fn heat_map(cells: &[ResidualCell], title: &str) -> String {
+pub(crate) fn heat_map(cells: &[ResidualCell], title: &str) -> String {
     let mut signals: Vec<Signal> = Vec::new();
     let mut phases: Vec<Phase> = Vec::new();
     for c in cells {
@@ -122,7 +122,7 @@ fn size_of(svg: &str) -> (f64, f64) {
 }
 
 /// The worst signal measured, modelled before and after the winning effect.
-pub fn traces_chart(tr: &SignalTraces) -> String {
+pub(crate) fn traces_chart(tr: &SignalTraces) -> String {
     let t0 = tr.t_s.first().copied().unwrap_or(0.0);
     let line = |label: String, color, dashed, ys: &[f64]| Series::Line {
         label,
@@ -157,7 +157,7 @@ pub fn traces_chart(tr: &SignalTraces) -> String {
 }
 
 /// The whole document: heat-map, then the worst signal's traces (when the report has them).
-pub fn document(report: &GapReport, title: &str) -> String {
+pub(crate) fn document(report: &GapReport, title: &str) -> String {
     let map = heat_map(&report.localisation, title);
     let (mw, mh) = size_of(&map);
     let chart = report.worst_signal.as_ref().map(traces_chart);

@@ -40,7 +40,7 @@ pub(super) struct Cell {
 impl Cell {
     /// The cell of `column` (tag `tag`) at `t_ms`: good with its value, or flagged bad with
     /// value 0 (SQLite cannot hold NaN) and the reason.
-    pub fn new(column: usize, tag: TagId, t_ms: i64, parsed: Result<f64, String>) -> Cell {
+    pub(super) fn new(column: usize, tag: TagId, t_ms: i64, parsed: Result<f64, String>) -> Cell {
         let (value, quality, problem) = match parsed {
             Ok(v) => (v, Quality::Good, None),
             Err(why) => (0.0, Quality::Bad, Some(why)),
@@ -76,7 +76,7 @@ pub(super) struct RowProblem {
 }
 
 impl RowProblem {
-    pub fn other(reason: String) -> RowProblem {
+    pub(super) fn other(reason: String) -> RowProblem {
         RowProblem {
             kind: RowProblemKind::Other,
             reason,
@@ -118,7 +118,7 @@ fn release(report: &mut ReplayReport, batch: &mut Vec<Sample>, tag: TagId, out: 
 }
 
 impl<'a> Sink<'a> {
-    pub fn new(
+    pub(super) fn new(
         store: &'a mut Store,
         cfg: &'a ReplayConfig,
         quality: &'a QualityConfig,
@@ -159,7 +159,7 @@ impl<'a> Sink<'a> {
     }
 
     /// Adds a replayed column feeding `info` (creating its tag); returns its index.
-    pub fn add_column(
+    pub(super) fn add_column(
         &mut self,
         index: usize,
         name: String,
@@ -183,7 +183,7 @@ impl<'a> Sink<'a> {
 
     /// Stores one well-formed row (all its cells share time `t`): records a gap before it if
     /// the previous row is too far back, classifies every value and queues the samples.
-    pub fn row(&mut self, t: i64, line: u64, cells: &mut Vec<Cell>) {
+    pub(super) fn row(&mut self, t: i64, line: u64, cells: &mut Vec<Cell>) {
         if let Some(p) = self.prev_t {
             if self.gap_threshold_ms > 0 && t - p > self.gap_threshold_ms {
                 self.gaps.push(Gap {
@@ -247,7 +247,7 @@ impl<'a> Sink<'a> {
 
     /// A malformed row: counted, reported, and with `on_malformed = "stop"` the end of the
     /// replay (what came before is committed first).
-    pub fn reject(&mut self, line: u64, problem: RowProblem) -> Result<(), ReplayError> {
+    pub(super) fn reject(&mut self, line: u64, problem: RowProblem) -> Result<(), ReplayError> {
         match problem.kind {
             RowProblemKind::OutOfOrder => self.report.rows_out_of_order += 1,
             RowProblemKind::Implausible => self.report.rows_implausible_time += 1,
@@ -284,7 +284,7 @@ impl<'a> Sink<'a> {
     }
 
     /// A read error of the file: what came before is committed, then the error.
-    pub fn io_error(&mut self, e: &csv::Error) -> ReplayError {
+    pub(super) fn io_error(&mut self, e: &csv::Error) -> ReplayError {
         self.drain_held();
         if let Err(err) = self.flush() {
             return err;
@@ -297,7 +297,7 @@ impl<'a> Sink<'a> {
 
     /// After each row: writes the batch once it is large, and shows progress (`pos`: byte
     /// offset reached in the file).
-    pub fn after_row(&mut self, pos: impl FnOnce() -> u64) -> Result<(), ReplayError> {
+    pub(super) fn after_row(&mut self, pos: impl FnOnce() -> u64) -> Result<(), ReplayError> {
         if self.batch.len() < self.cfg.transaction_samples {
             return Ok(());
         }
@@ -322,7 +322,7 @@ impl<'a> Sink<'a> {
     }
 
     /// End of file: writes what is held and returns the report.
-    pub fn finish(mut self, started: Instant) -> Result<ReplayReport, ReplayError> {
+    pub(super) fn finish(mut self, started: Instant) -> Result<ReplayReport, ReplayError> {
         self.drain_held();
         self.flush()?;
         if let Some(b) = self.bar.take() {

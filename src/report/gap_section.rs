@@ -8,10 +8,10 @@ use crate::time::fmt_ms;
 use std::fmt::Write;
 
 /// Rows shown at most.
-pub const MAX_ROWS: usize = 50;
+pub(super) const MAX_ROWS: usize = 50;
 
 /// The section's HTML.
-pub fn render(rows: &[GapAnalysisRow]) -> String {
+pub(super) fn render(rows: &[GapAnalysisRow]) -> String {
     let mut h = String::from("<h2>Model–plant gap</h2>");
     if rows.is_empty() {
         h.push_str(

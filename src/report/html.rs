@@ -28,7 +28,7 @@ const PARAM_TITLES: [&str; 6] = [
 ];
 
 /// The page (pure): its sections in order.
-pub fn render(d: &ReportData) -> String {
+pub(crate) fn render(d: &ReportData) -> String {
     let mut h = String::new();
     head(&mut h, d);
     advice_section(&mut h, d);

@@ -16,8 +16,8 @@ mod gap_section;
 mod html;
 mod read;
 
-pub use html::render;
-pub use read::gather;
+pub(crate) use html::render;
+pub(crate) use read::gather;
 
 use crate::engine::Engine;
 use crate::health::HealthParams;
@@ -31,7 +31,7 @@ use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// Signals whose traces the report shows (the outputs the transient fit compares).
-pub const TRACE_SIGNALS: [Signal; 8] = [
+pub(crate) const TRACE_SIGNALS: [Signal; 8] = [
     Signal::N1,
     Signal::N2,
     Signal::P2,
@@ -44,7 +44,7 @@ pub const TRACE_SIGNALS: [Signal; 8] = [
 
 /// Why no report could be written.
 #[derive(Debug, thiserror::Error)]
-pub enum ReportError {
+pub(crate) enum ReportError {
     #[error(transparent)]
     Store(#[from] StoreError),
     #[error(transparent)]
@@ -58,7 +58,7 @@ pub enum ReportError {
 
 /// What the page is about (the header).
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct ReportHeader {
+pub(crate) struct ReportHeader {
     pub plant: String,
     pub db_path: String,
     pub generated_utc: String,
@@ -67,7 +67,7 @@ pub struct ReportHeader {
 
 /// Measured and modelled values of one signal for the latest start-up.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct SignalTrace {
+pub(crate) struct SignalTrace {
     pub signal: String,
     pub unit: String,
     pub t_s: Vec<f64>,
@@ -79,7 +79,7 @@ pub struct SignalTrace {
 
 /// The latest diagnosed start-up, re-simulated with its stored health.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct LatestStartup {
+pub(crate) struct LatestStartup {
     pub segment_id: i64,
     pub start_utc: String,
     pub health: HealthParams,
@@ -92,7 +92,7 @@ pub struct LatestStartup {
 
 /// A start-up that was not diagnosed, with the reasons.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Undiagnosed {
+pub(crate) struct Undiagnosed {
     pub segment_id: i64,
     pub start_utc: String,
     pub outcome: String,
@@ -101,7 +101,7 @@ pub struct Undiagnosed {
 
 /// A fitted fouling trend line since the last wash.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct TrendLine {
+pub(crate) struct TrendLine {
     pub param: String,
     pub rate_per_day: f64,
     pub rate_sigma_per_day: f64,
@@ -112,7 +112,7 @@ pub struct TrendLine {
 
 /// Everything on the page.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct ReportData {
+pub(crate) struct ReportData {
     pub header: ReportHeader,
     pub history: Vec<HistoryRow>,
     pub washes: Vec<WashRow>,
@@ -128,7 +128,7 @@ pub struct ReportData {
 
 /// What `write_report` wrote.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct ReportSummary {
+pub(crate) struct ReportSummary {
     pub path: PathBuf,
     pub bytes: usize,
     pub startups: usize,
@@ -141,7 +141,7 @@ pub struct ReportSummary {
 }
 
 /// Gathers, renders and writes `out_dir/report.html`.
-pub fn write_report(
+pub(crate) fn write_report(
     store: &Store,
     engine: &Engine,
     header: ReportHeader,
@@ -172,7 +172,7 @@ pub fn write_report(
 }
 
 /// The header for a database at `db_path`, generated now.
-pub fn header_now(plant: &str, db_path: &Path) -> ReportHeader {
+pub(crate) fn header_now(plant: &str, db_path: &Path) -> ReportHeader {
     let now_ms = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_millis() as i64);

@@ -17,7 +17,7 @@ use crate::trend::{fit_rate, TrendPoint};
 const MS_PER_DAY: f64 = 86_400_000.0;
 
 /// Reads what the page shows. `since_ms`/`until_ms` limit the start-ups shown.
-pub fn gather(
+pub(crate) fn gather(
     store: &Store,
     engine: &Engine,
     header: ReportHeader,

@@ -39,10 +39,10 @@ const MIGRATION_LIST: &[M<'static>] = &[
 
 /// All migrations in order (for `rusqlite_migration`'s validation in tests).
 #[cfg(test)]
-pub const MIGRATIONS: Migrations<'static> = Migrations::from_slice(MIGRATION_LIST);
+pub(super) const MIGRATIONS: Migrations<'static> = Migrations::from_slice(MIGRATION_LIST);
 
 /// Schema version this build writes.
-pub fn latest_version() -> usize {
+pub(super) fn latest_version() -> usize {
     MIGRATION_SQL.len()
 }
 

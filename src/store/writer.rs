@@ -34,7 +34,7 @@ use tokio::time::Instant;
 pub use super::channel::{writer_channel, WriterHandle};
 
 /// Where the writer answers a request: its result, once committed (or the error).
-pub type Reply<T> = oneshot::Sender<Result<T, StoreError>>;
+pub(super) type Reply<T> = oneshot::Sender<Result<T, StoreError>>;
 
 /// A request to the writer.
 #[derive(Debug)]

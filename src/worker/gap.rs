@@ -21,7 +21,7 @@ use std::collections::HashSet;
 
 /// What one step did.
 #[derive(Debug, Clone, PartialEq)]
-pub enum GapStep {
+pub(crate) enum GapStep {
     /// Nothing to do (or start-ups wait for their diagnosis first).
     Idle,
     /// An analysis was stored.
@@ -39,7 +39,7 @@ pub enum GapStep {
 }
 
 /// The selection the settings ask for, `None` when the daemon runs no gap analysis.
-pub fn selection(ctx: &WorkerContext) -> Option<GapSelection> {
+pub(crate) fn selection(ctx: &WorkerContext) -> Option<GapSelection> {
     let s = &ctx.settings;
     (s.gap_on_poor_fit || s.gap_on_health_step || s.gap_every_n > 0).then_some(GapSelection {
         not_good: s.gap_on_poor_fit,
@@ -61,7 +61,7 @@ fn trend_points(row: &HistoryRow) -> [TrendPoint; 6] {
 
 /// Start-ups whose `good` Method B health steps away from the trend of the good results
 /// before them since the same wash, oldest first, with their steps.
-pub fn health_steps(read: &Store) -> Result<Vec<(i64, Vec<HealthStep>)>, StoreError> {
+pub(crate) fn health_steps(read: &Store) -> Result<Vec<(i64, Vec<HealthStep>)>, StoreError> {
     let rows = read.history(&HistoryFilter {
         method: Some("B".into()),
         ..HistoryFilter::default()
@@ -112,7 +112,7 @@ fn next_segment(
 }
 
 /// Analyses the next start-up that needs it (skipping `skip`), if the diagnosis queue is empty.
-pub fn analyse_next(
+pub(crate) fn analyse_next(
     db: &mut impl Db,
     ctx: &WorkerContext,
     cancel: &Cancel,

@@ -21,7 +21,7 @@ use rand::Rng;
 
 /// The smooth bleed schedule.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BleedSmooth {
+pub(crate) struct BleedSmooth {
     /// Bleed fraction fully open.
     pub fraction: f64,
     /// Corrected speed (fraction of design) where the valve is closed.
@@ -32,7 +32,7 @@ pub struct BleedSmooth {
 
 impl BleedSmooth {
     /// Draws a truth; returns it with its magnitude (`fraction`).
-    pub fn draw(rng: &mut impl Rng) -> (BleedSmooth, f64) {
+    pub(crate) fn draw(rng: &mut impl Rng) -> (BleedSmooth, f64) {
         let t = BleedSmooth {
             fraction: rng.random_range(0.03..0.12),
             close_at: rng.random_range(0.80..0.92),
@@ -42,7 +42,7 @@ impl BleedSmooth {
     }
 
     /// Valve opening (0 closed … 1 open) at corrected speed `nc` (fraction of design).
-    pub fn opening(&self, nc: f64) -> f64 {
+    pub(crate) fn opening(&self, nc: f64) -> f64 {
         super::falling_smoothstep(nc, self.close_at, self.span)
     }
 }

@@ -23,7 +23,7 @@ const T_SCALE_K: f64 = 1000.0;
 
 /// Two-time-constant casing and its clearance.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ClearanceNodes {
+pub(crate) struct ClearanceNodes {
     /// Efficiency change per kelvin of gas above the casing (fraction per K).
     pub per_k: f64,
     pub tau_shell_s: f64,
@@ -34,7 +34,7 @@ pub struct ClearanceNodes {
 
 impl ClearanceNodes {
     /// Draws a truth; returns it with its magnitude (%/100 K).
-    pub fn draw(rng: &mut impl Rng) -> (ClearanceNodes, f64) {
+    pub(crate) fn draw(rng: &mut impl Rng) -> (ClearanceNodes, f64) {
         let pct = -rng.random_range(0.5..2.0);
         let t = ClearanceNodes {
             per_k: pct / 100.0 / 100.0,
@@ -46,7 +46,7 @@ impl ClearanceNodes {
     }
 
     /// Casing temperature, K, from the node states.
-    pub fn casing_k(&self, x: &[f64]) -> f64 {
+    pub(crate) fn casing_k(&self, x: &[f64]) -> f64 {
         (self.w_shell * x[0] + (1.0 - self.w_shell) * x[1]) * T_SCALE_K
     }
 }

@@ -19,7 +19,7 @@ use rand::Rng;
 
 /// The fouled inlet filter and exhaust boiler.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DuctFouling {
+pub(crate) struct DuctFouling {
     /// Extra inlet loss at design flow, multiple of the file's loss.
     pub inlet_extra: f64,
     /// Extra exhaust back-pressure at design flow, multiple of the file's excess.
@@ -31,7 +31,7 @@ const R_MIN: f64 = 0.05;
 
 impl DuctFouling {
     /// Draws a truth; returns it with its magnitude (`inlet_extra`).
-    pub fn draw(rng: &mut impl Rng) -> (DuctFouling, f64) {
+    pub(crate) fn draw(rng: &mut impl Rng) -> (DuctFouling, f64) {
         let t = DuctFouling {
             inlet_extra: rng.random_range(0.6..2.0),
             exhaust_extra: rng.random_range(0.3..1.5),
@@ -40,7 +40,7 @@ impl DuctFouling {
     }
 
     /// The multipliers at corrected speed fraction `r`.
-    pub fn multipliers(&self, r: f64) -> DuctLosses {
+    pub(crate) fn multipliers(&self, r: f64) -> DuctLosses {
         let r = r.max(R_MIN);
         DuctLosses {
             inlet: 1.0 + self.inlet_extra / r,

@@ -24,17 +24,17 @@ use crate::engine::gas_path::Stations;
 use rand::Rng;
 
 /// Stages of the transport line.
-pub const LINE_STAGES: usize = 6;
+pub(crate) const LINE_STAGES: usize = 6;
 
 /// Power-loop gains of a plant with this fuel path (engine parameter, value).
-pub const PLANT_GAINS: [(&str, f64); 2] = [
+pub(crate) const PLANT_GAINS: [(&str, f64); 2] = [
     ("control.power_kp_kg_s_per_mw", 0.01),
     ("control.power_ki_kg_s_per_mw_s", 0.015),
 ];
 
 /// Transport line plus second-order valve.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FuelValve2 {
+pub(crate) struct FuelValve2 {
     pub delay_s: f64,
     /// Valve natural frequency, rad/s.
     pub omega: f64,
@@ -43,7 +43,7 @@ pub struct FuelValve2 {
 
 impl FuelValve2 {
     /// Draws a truth; returns it with its magnitude (mean delay, s).
-    pub fn draw(rng: &mut impl Rng) -> (FuelValve2, f64) {
+    pub(crate) fn draw(rng: &mut impl Rng) -> (FuelValve2, f64) {
         let delay_s = rng.random_range(0.6..2.5);
         let lag = rng.random_range(0.05..0.5);
         let zeta = rng.random_range(0.4..1.0);

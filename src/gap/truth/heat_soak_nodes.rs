@@ -26,14 +26,13 @@ use super::PlantScale;
 use crate::engine::effects::{Context, CoreView, Effect};
 use crate::engine::gas_path::Stations;
 use rand::Rng;
-use std::sync::Arc;
 
 /// Node temperatures are stored normalised by this, K.
 const T_SCALE_K: f64 = 1000.0;
 
 /// The three-node metal model.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HeatSoakNodes {
+pub(crate) struct HeatSoakNodes {
     /// Heat capacities of liner, HPT and casing nodes, J/K.
     pub cap_j_per_k: [f64; 3],
     /// Gas-to-liner and gas-to-HPT conductances, W/K.
@@ -45,7 +44,7 @@ pub struct HeatSoakNodes {
 impl HeatSoakNodes {
     /// Draws a truth for a start that burns `scale.fuel_heat_j` and raises T3 by
     /// `scale.t3_rise_k`; returns it with its magnitude (total capacity, kJ/K).
-    pub fn draw(rng: &mut impl Rng, scale: &PlantScale) -> (HeatSoakNodes, f64) {
+    pub(crate) fn draw(rng: &mut impl Rng, scale: &PlantScale) -> (HeatSoakNodes, f64) {
         let fraction = rng.random_range(0.01..0.05);
         let total = fraction * scale.fuel_heat_j / scale.t3_rise_k.max(100.0);
         let share_l = rng.random_range(0.15..0.3);
@@ -111,11 +110,6 @@ impl Effect for HeatSoakNodes {
         dx[1] = (q_h - q_hc) / c[1];
         dx[2] = (q_lc + q_hc) / c[2];
     }
-}
-
-/// The truth as a shareable effect.
-pub fn effect(t: HeatSoakNodes) -> Arc<dyn Effect> {
-    Arc::new(t)
 }
 
 #[cfg(test)]

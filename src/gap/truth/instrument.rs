@@ -26,7 +26,7 @@ use rand::Rng;
 
 /// A drawn alteration of the recorded signals.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Alteration {
+pub(crate) enum Alteration {
     /// Junction (τ₁) and shield (τ₂) paths, weighted 60/40.
     TwoPath {
         signal: Signal,
@@ -72,7 +72,7 @@ fn sign(rng: &mut impl Rng) -> f64 {
 impl Alteration {
     /// Draws the alteration of instrument truth `kind`, with its magnitude; `None` for a kind
     /// that is not an instrument truth.
-    pub fn draw(kind: &str, rng: &mut impl Rng) -> Option<(Alteration, f64)> {
+    pub(crate) fn draw(kind: &str, rng: &mut impl Rng) -> Option<(Alteration, f64)> {
         Some(match kind {
             "t34_two_path" | "t2_two_path" => {
                 let signal = if kind == "t34_two_path" {
@@ -153,7 +153,7 @@ impl Alteration {
     }
 
     /// Applies the alteration to `rec`.
-    pub fn apply(&self, rec: &mut Recording) -> Result<(), DiagnosisError> {
+    pub(crate) fn apply(&self, rec: &mut Recording) -> Result<(), DiagnosisError> {
         match *self {
             Alteration::TwoPath {
                 signal,

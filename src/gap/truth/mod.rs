@@ -17,13 +17,13 @@
 //! `EffectSet::from_instances`. Each file documents its form, magnitude range and signature.
 //! Pure: no I/O.
 
-pub mod bleed_smooth;
-pub mod clearance_nodes;
-pub mod duct_fouling;
-pub mod fuel_valve2;
-pub mod heat_soak_nodes;
-pub mod instrument;
-pub mod vigv_smooth;
+pub(crate) mod bleed_smooth;
+pub(crate) mod clearance_nodes;
+pub(crate) mod duct_fouling;
+pub(crate) mod fuel_valve2;
+pub(crate) mod heat_soak_nodes;
+pub(crate) mod instrument;
+pub(crate) mod vigv_smooth;
 
 use crate::diagnosis::DiagnosisError;
 use crate::engine::effects::{Effect, EffectSet};
@@ -39,7 +39,7 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 /// The hidden truths, in the order cases cycle through them.
-pub const KINDS: [&str; 13] = [
+pub(crate) const KINDS: [&str; 13] = [
     "none",
     "t34_two_path",
     "p2_bias",
@@ -57,7 +57,7 @@ pub const KINDS: [&str; 13] = [
 
 /// Input-channel truths (issue 23 item 5): errors on the signals that drive the model. Run with
 /// `bench gap --kinds …`; not in the default cycle, so the 40-case benchmark is unchanged.
-pub const INPUT_KINDS: [&str; 5] = [
+pub(crate) const INPUT_KINDS: [&str; 5] = [
     "fuel_scale",
     "fuel_drift",
     "t1_offset",
@@ -67,7 +67,7 @@ pub const INPUT_KINDS: [&str; 5] = [
 
 /// Every verdict that names an input-channel truth correctly: its library instances (an
 /// `ambiguous` verdict is right when one of them is among its aliases). Empty for other kinds.
-pub fn input_instances(kind: &str) -> &'static [&'static str] {
+pub(crate) fn input_instances(kind: &str) -> &'static [&'static str] {
     match kind {
         "fuel_scale" | "fuel_drift" => &["fuel_meter", "sensor_scale:fuel_kg_s"],
         "t1_offset" => &["inlet_temperature", "sensor_bias:t1_k"],
@@ -78,7 +78,7 @@ pub fn input_instances(kind: &str) -> &'static [&'static str] {
 }
 
 /// The verdict a correct analysis gives for a hidden truth.
-pub fn expected(kind: &str) -> &'static str {
+pub(crate) fn expected(kind: &str) -> &'static str {
     match kind {
         "t34_two_path" => "sensor_lag:t34_k",
         "t2_two_path" => "sensor_lag:t2_k",
@@ -100,14 +100,14 @@ pub fn expected(kind: &str) -> &'static str {
 }
 
 /// Whether the library holds a candidate for the truth (its expected verdict names an effect).
-pub fn in_library(kind: &str) -> bool {
+pub(crate) fn in_library(kind: &str) -> bool {
     !matches!(expected(kind), "none" | "unexplained")
 }
 
 /// Scales of the plant's start-up without a hidden effect, for magnitudes stated relative to
 /// it (heat soak: a share of the start's fuel heat).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PlantScale {
+pub(crate) struct PlantScale {
     /// Fuel heat released from light-off to the first steady-load sample, J.
     pub fuel_heat_j: f64,
     /// T3 at that sample above the T3 at rest, K.
@@ -116,7 +116,7 @@ pub struct PlantScale {
 
 impl PlantScale {
     /// The scales of a simulated start-up of `engine`.
-    pub fn of(engine: &Engine, samples: &[TruthSample]) -> PlantScale {
+    pub(crate) fn of(engine: &Engine, samples: &[TruthSample]) -> PlantScale {
         let consts = engine.model(&crate::health::HealthParams::HEALTHY).consts;
         let end = samples
             .iter()
@@ -136,7 +136,7 @@ impl PlantScale {
 
 /// A drawn hidden truth.
 #[derive(Debug, Clone)]
-pub enum Hidden {
+pub(crate) enum Hidden {
     /// The data as the core model simulates them.
     None,
     /// The recorded signals altered after the simulation.
@@ -150,14 +150,14 @@ pub enum Hidden {
 
 /// A drawn truth and its magnitude (unit per kind: see each truth's documentation).
 #[derive(Debug, Clone)]
-pub struct Drawn {
+pub(crate) struct Drawn {
     pub hidden: Hidden,
     pub magnitude: f64,
 }
 
 /// Draws hidden truth `kind` (magnitudes across REFERENCE §5's ranges); `None` for an unknown
 /// kind.
-pub fn draw(kind: &str, rng: &mut impl Rng, scale: &PlantScale) -> Option<Drawn> {
+pub(crate) fn draw(kind: &str, rng: &mut impl Rng, scale: &PlantScale) -> Option<Drawn> {
     let plant = |effect: Arc<dyn Effect>, magnitude: f64| Drawn {
         hidden: Hidden::Plant {
             effect,
@@ -213,7 +213,7 @@ pub fn draw(kind: &str, rng: &mut impl Rng, scale: &PlantScale) -> Option<Drawn>
 impl Hidden {
     /// The plant's true start-up with health `health`: the core model, with the hidden effect
     /// on when it is a plant effect. Returns the plant's engine (for its instruments) too.
-    pub fn simulate(
+    pub(crate) fn simulate(
         &self,
         engine: &Engine,
         health: &HealthParams,
@@ -242,7 +242,7 @@ impl Hidden {
 
     /// What the plant's instruments record of `samples` (default lags; noise when `noise`),
     /// with an instrument truth applied.
-    pub fn record(
+    pub(crate) fn record(
         &self,
         plant: &Engine,
         samples: &[TruthSample],
@@ -273,7 +273,7 @@ impl Hidden {
 /// efficiency change (%/100 K) of the tip clearance, the extra inlet loss (multiple of the
 /// file's) of the duct losses. `params` as a candidate reports them
 /// (`effects.<instance>.<param>` → (value, σ)).
-pub fn fitted_magnitude(effect: &str, params: &BTreeMap<String, (f64, f64)>) -> Option<f64> {
+pub(crate) fn fitted_magnitude(effect: &str, params: &BTreeMap<String, (f64, f64)>) -> Option<f64> {
     let p = |name: &str| params.get(&format!("effects.{effect}.{name}")).map(|v| v.0);
     let base = effect.split(':').next().unwrap_or(effect);
     match base {

@@ -19,7 +19,7 @@ use rand::Rng;
 
 /// The smooth vane-schedule offset.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct VigvSmooth {
+pub(crate) struct VigvSmooth {
     /// Flow change at low speed (fraction).
     pub flow_delta: f64,
     /// Efficiency change at low speed (fraction).
@@ -30,7 +30,7 @@ pub struct VigvSmooth {
 
 impl VigvSmooth {
     /// Draws a truth; returns it with its magnitude (flow change, %).
-    pub fn draw(rng: &mut impl Rng) -> (VigvSmooth, f64) {
+    pub(crate) fn draw(rng: &mut impl Rng) -> (VigvSmooth, f64) {
         let size = rng.random_range(0.04..0.10);
         let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
         let t = VigvSmooth {
@@ -43,7 +43,7 @@ impl VigvSmooth {
     }
 
     /// Share of the offset present at corrected speed `nc` (1 at low speed, 0 above `end`).
-    pub fn share(&self, nc: f64) -> f64 {
+    pub(crate) fn share(&self, nc: f64) -> f64 {
         super::falling_smoothstep(nc, self.end, self.span)
     }
 }
