@@ -57,7 +57,7 @@ pub struct SampleClock {
 }
 
 /// Current wall-clock time in Unix epoch milliseconds.
-pub fn wall_now_ms() -> i64 {
+pub(crate) fn wall_now_ms() -> i64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .map(|d| d.as_millis() as i64)

@@ -18,14 +18,14 @@ struct TagGate {
 }
 
 /// Per-tag checkers for one poll plan.
-pub struct Gate {
+pub(crate) struct Gate {
     tags: HashMap<TagId, TagGate>,
     n1_tag: Option<TagId>,
     counts: QualityCounts,
 }
 
 impl Gate {
-    pub fn new(plan: &PollPlan, quality: &QualityConfig) -> Gate {
+    pub(crate) fn new(plan: &PollPlan, quality: &QualityConfig) -> Gate {
         let mut tags = HashMap::new();
         let mut n1_tag = None;
         for (tag, f) in plan.requests.iter().flat_map(|r| r.fields.iter()) {
@@ -50,7 +50,7 @@ impl Gate {
 
     /// Classifies one poll's samples (all at one time); returns the samples released with
     /// their final quality (the previous poll's, for tags under the spike rule).
-    pub fn apply(&mut self, batch: &[Sample]) -> Vec<Sample> {
+    pub(crate) fn apply(&mut self, batch: &[Sample]) -> Vec<Sample> {
         let n1 = self.n1_tag.and_then(|t| {
             batch
                 .iter()
@@ -91,7 +91,7 @@ impl Gate {
     }
 
     /// Releases every held sample (end of acquisition).
-    pub fn finish(&mut self) -> Vec<Sample> {
+    pub(crate) fn finish(&mut self) -> Vec<Sample> {
         let mut out = Vec::new();
         for (tag, g) in self.tags.iter_mut() {
             if let Some(p) = g.spikes.finish() {
@@ -106,11 +106,6 @@ impl Gate {
         }
         out.sort_by_key(|s| (s.t_ms, s.tag));
         out
-    }
-
-    /// Samples released so far, per quality code.
-    pub fn counts(&self) -> QualityCounts {
-        self.counts
     }
 }
 

@@ -5,8 +5,8 @@
 //! the read-only poll loop. Nothing in this module may write to the control system: the only
 //! Modbus client type it exposes can issue read function codes (3 and 4) and nothing else.
 
-pub mod clock;
-pub mod gate;
+pub(crate) mod clock;
+pub(crate) mod gate;
 pub mod modbus;
 pub mod register_map;
 #[cfg(test)]

@@ -10,7 +10,7 @@ use toml_edit::{DocumentMut, Item, Value};
 
 /// A value to put at a dotted key.
 #[derive(Debug, Clone, PartialEq)]
-pub enum NewValue {
+pub(crate) enum NewValue {
     Number(f64),
     Text(String),
     /// A list of numbers (an `[adaptation]` curve or its knots).
@@ -56,7 +56,7 @@ fn sub_table<'d>(
 /// spacing, and `header` (comment lines without the `#`) put first. Every key must already be
 /// in the file as a value of the same kind (an error names the key otherwise), except an
 /// effect's number (`effects.<instance>.<param>`), whose table is added when missing.
-pub fn rewrite(
+pub(crate) fn rewrite(
     original: &str,
     path_name: &str,
     values: &[(String, NewValue)],

@@ -15,14 +15,14 @@ use serde::Serialize;
 
 /// Largest 1σ, as a fraction of the candidate's realistic interval, still called identified:
 /// the data then pin the value to an eighth of what was known before.
-pub const MAX_SIGMA_FRACTION: f64 = 0.125;
+pub(crate) const MAX_SIGMA_FRACTION: f64 = 0.125;
 /// Correlation beyond which two estimates are one combination, not two parameters (the
 /// diagnosis's threshold).
-pub const MAX_CORRELATION: f64 = 0.95;
+pub(crate) const MAX_CORRELATION: f64 = 0.95;
 
 /// The verdict for one candidate.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Verdict {
+pub(crate) struct Verdict {
     pub identifiable: bool,
     /// 1σ as a fraction of the interval: in the identified set for a member, alone otherwise
     /// (`None` when the data carry no information on it at all).
@@ -67,7 +67,7 @@ fn admissible(c: &DMatrix<f64>) -> bool {
 
 /// Verdicts for the candidates `names` from the Jacobian `jac` (residuals × candidates, the
 /// residuals in noise σ, each column per unit of the candidate's interval width).
-pub fn identify(jac: &DMatrix<f64>, names: &[String]) -> Vec<Verdict> {
+pub(crate) fn identify(jac: &DMatrix<f64>, names: &[String]) -> Vec<Verdict> {
     let n = jac.ncols();
     let f = jac.transpose() * jac;
     let mut chosen: Vec<usize> = Vec::new();

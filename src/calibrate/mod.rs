@@ -24,8 +24,8 @@
 
 pub mod adapt;
 pub mod candidates;
-pub mod edit;
-pub mod identify;
+pub(crate) mod edit;
+pub(crate) mod identify;
 pub mod problem;
 pub mod startup;
 pub mod synthetic;

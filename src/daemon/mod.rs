@@ -25,14 +25,14 @@
 //! channel and let the writer finish. Errors in the detector or worker are logged and retried;
 //! they never stop acquisition. This module holds no business logic of its own.
 
-pub mod acquisition;
+pub(crate) mod acquisition;
 mod blocking;
-pub mod detector;
-pub mod diagnosis;
-pub mod gap;
-pub mod metrics;
-pub mod supervisor;
-pub mod writer;
+pub(crate) mod detector;
+pub(crate) mod diagnosis;
+pub(crate) mod gap;
+pub(crate) mod metrics;
+pub(crate) mod supervisor;
+pub(crate) mod writer;
 
 pub use acquisition::AcquisitionTask;
 pub use detector::{detector_store_options, DetectorTask, DETECTOR_CACHE_MIB};

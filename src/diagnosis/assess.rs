@@ -18,7 +18,7 @@ use crate::signals::Signal;
 use serde::Serialize;
 
 /// Signals a start-up must have for either method.
-pub const REQUIRED: [Signal; 4] = [Signal::N1, Signal::FuelFlow, Signal::Power, Signal::T1];
+pub(crate) const REQUIRED: [Signal; 4] = [Signal::N1, Signal::FuelFlow, Signal::Power, Signal::T1];
 
 /// Fewest samples a segment's recording must have.
 const MIN_SAMPLES: usize = 20;
@@ -46,7 +46,7 @@ impl Undiagnosable {
 
 /// One segment's data as the assessment needs it, borrowed from wherever it was read.
 #[derive(Debug, Clone, Copy)]
-pub struct SegmentData<'a> {
+pub(crate) struct SegmentData<'a> {
     /// How the start-up ended: `completed`, `aborted` or `in_progress`.
     pub outcome: &'a str,
     /// Why an aborted start-up ended, if known.
@@ -74,7 +74,7 @@ pub struct AssessSettings {
 
 /// One method's accepted result.
 #[derive(Debug, Clone)]
-pub struct MethodEstimate {
+pub(crate) struct MethodEstimate {
     /// "B" (transient, the whole segment) or "A" (steady windows).
     pub method: &'static str,
     /// The objective per signal (mean |residual| in noise σ), at most the settings' maximum.
@@ -85,7 +85,7 @@ pub struct MethodEstimate {
 
 /// What the assessment of one segment found.
 #[derive(Debug, Clone)]
-pub enum Assessment {
+pub(crate) enum Assessment {
     /// At least one method gave a result; `failures` holds the reasons of one that did not.
     Diagnosed {
         estimates: Vec<MethodEstimate>,
@@ -98,14 +98,14 @@ pub enum Assessment {
 }
 
 /// Residual level of a result: the objective per signal (mean |residual| in noise σ).
-pub fn residual_level(r: &MethodResult) -> f64 {
+pub(crate) fn residual_level(r: &MethodResult) -> f64 {
     r.objective / r.signals.len().max(1) as f64
 }
 
 /// Assesses one segment: the data checks first (outcome, gaps, missing signals, data quality,
 /// recording), then both methods. Pure but for the methods' wall-time measurement; the same
 /// input gives bit-identical estimates.
-pub fn assess(
+pub(crate) fn assess(
     data: &SegmentData<'_>,
     engine: &Engine,
     settings: &AssessSettings,

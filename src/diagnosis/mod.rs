@@ -35,21 +35,21 @@
 //! The one exception is `wall_s` in the results, read from a monotonic clock for reporting; it
 //! never influences a computed value.
 
-pub mod assess;
+pub(crate) mod assess;
 pub mod bench;
 pub mod config;
 pub mod csv_input;
 pub mod fit_quality;
 pub mod identifiability;
-pub mod objective;
-pub mod params;
-pub mod periodic;
-pub mod residual_table;
-pub mod separability;
+pub(crate) mod objective;
+pub(crate) mod params;
+pub(crate) mod periodic;
+pub(crate) mod residual_table;
+pub(crate) mod separability;
 pub mod snapshot;
 pub mod steady;
 pub mod transient;
-pub mod units;
+pub(crate) mod units;
 
 pub use config::{DiagnosisConfig, Method, Optimiser, SteadyCriteria, Window};
 pub use params::{

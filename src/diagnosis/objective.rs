@@ -48,7 +48,7 @@ pub struct Objective {
 /// Minimum normalisation: the noise σ at this fraction of the largest |reading| of the signal in
 /// the window. Relative-noise channels have σ → 0 at zero reading (a GG at rest); without a
 /// floor one zero-speed sample would dominate the objective.
-pub const SIGMA_FLOOR_FRACTION: f64 = 0.1;
+pub(crate) const SIGMA_FLOOR_FRACTION: f64 = 0.1;
 
 impl Objective {
     /// Builds the objective over the samples `in_window[k] == true` of `measured` (at times

@@ -53,7 +53,7 @@ fn column_name<S: serde::Serializer>(s: &Signal, ser: S) -> Result<S::Ok, S::Err
 }
 
 /// The oscillations in `measured − model` (rows indexed like `t_s`) for `signals`.
-pub fn find(
+pub(crate) fn find(
     t_s: &[f64],
     measured: &[Values],
     model: &[Values],

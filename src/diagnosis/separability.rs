@@ -19,9 +19,9 @@ use serde::Serialize;
 
 /// Largest 1σ (points) of a parameter (or a combination) still called determined: the wash
 /// advice acts on changes of about half a point, which needs 2σ ≤ 0.5.
-pub const MAX_SIGMA: f64 = 0.25;
+pub(crate) const MAX_SIGMA: f64 = 0.25;
 /// Correlation beyond which two estimates are one combination, not two parameters.
-pub const MAX_CORRELATION: f64 = 0.95;
+pub(crate) const MAX_CORRELATION: f64 = 0.95;
 
 /// A determined combination `Σ wᵢ·Xᵢ` of confounded parameters.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -57,7 +57,7 @@ pub struct Separability {
 /// One fitted health parameter: its index in [`HEALTH_NAMES`], value, 1σ and its row of the
 /// correlation matrix over `params` (the same order).
 #[derive(Debug, Clone, PartialEq)]
-pub struct HealthEstimate {
+pub(crate) struct HealthEstimate {
     pub index: usize,
     pub value: f64,
     pub sigma: f64,
@@ -65,7 +65,7 @@ pub struct HealthEstimate {
 }
 
 /// Assesses the fitted health parameters (fixed ones are simply not listed in `params`).
-pub fn assess(params: &[HealthEstimate], signals: &[String]) -> Separability {
+pub(crate) fn assess(params: &[HealthEstimate], signals: &[String]) -> Separability {
     let n = params.len();
     let name = |k: usize| HEALTH_NAMES[params[k].index].to_string();
     // Finite σ: the data say something about the parameter, alone or in a combination.

@@ -13,7 +13,7 @@ use crate::signals::Signal;
 
 /// A column that looks like it is in another unit.
 #[derive(Debug, Clone, PartialEq)]
-pub struct UnitSuspect {
+pub(crate) struct UnitSuspect {
     pub signal: Signal,
     pub value: f64,
     /// The unit it looks like, e.g. "°C".
@@ -24,7 +24,7 @@ pub struct UnitSuspect {
 
 impl UnitSuspect {
     /// Plain words: "15.2 looks like °C (288.15 K): convert the column to K".
-    pub fn describe(&self) -> String {
+    pub(crate) fn describe(&self) -> String {
         let unit = unit_of(self.signal);
         let converted = if self.converted.is_finite() {
             format!(" ({:.4} {unit})", self.converted)
@@ -39,7 +39,7 @@ impl UnitSuspect {
 }
 
 /// The unit the model reads a signal in.
-pub fn unit_of(s: Signal) -> &'static str {
+pub(crate) fn unit_of(s: Signal) -> &'static str {
     match s {
         Signal::T1 | Signal::T2 | Signal::T3 | Signal::T34 | Signal::T4 => "K",
         Signal::P1 | Signal::P2 | Signal::P3 | Signal::P34 | Signal::P4 => "kPa",
@@ -72,7 +72,7 @@ const FUEL: [Conversion; 2] = [("kg/h", |v| v / 3600.0), ("t/h", |v| v / 3.6)];
 /// and passes; so does a P2 in MPa that would be a low but possible pressure ratio in bar.
 /// The first unit problem of one fired steady operating point (`values`: the row's signals;
 /// absent or non-finite ones are skipped). `None` when every present signal is consistent.
-pub fn check_fired_point(values: &[(Signal, f64)]) -> Option<UnitSuspect> {
+pub(crate) fn check_fired_point(values: &[(Signal, f64)]) -> Option<UnitSuspect> {
     let get = |s: Signal| {
         values
             .iter()

@@ -73,27 +73,27 @@ impl ShaftLosses {
 
 /// Highest fuel-air ratio the combustor gas may have (the engine's rich limit; the gas tables
 /// reach further, see `thermo::FAR_MAX`).
-pub const MAX_FAR: f64 = 0.065;
+pub(crate) const MAX_FAR: f64 = 0.065;
 
 /// ISO reference temperature and pressure for corrected quantities.
-pub const T_STD_K: f64 = 288.15;
-pub const P_STD_KPA: f64 = 101.325;
+pub(crate) const T_STD_K: f64 = 288.15;
+pub(crate) const P_STD_KPA: f64 = 101.325;
 
 /// Corrected speed N/√θ.
 #[inline]
-pub fn corrected_speed(n_rpm: f64, t_k: f64) -> f64 {
+pub(crate) fn corrected_speed(n_rpm: f64, t_k: f64) -> f64 {
     n_rpm / (t_k / T_STD_K).sqrt()
 }
 
 /// Physical flow from corrected flow: W = Wc·δ/√θ.
 #[inline]
-pub fn physical_flow(wc: f64, t_k: f64, p_kpa: f64) -> f64 {
+pub(crate) fn physical_flow(wc: f64, t_k: f64, p_kpa: f64) -> f64 {
     wc * (p_kpa / P_STD_KPA) / (t_k / T_STD_K).sqrt()
 }
 
 /// Compressor exit state.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CompressorStation {
+pub(crate) struct CompressorStation {
     pub w_kg_s: f64,
     pub wc_kg_s: f64,
     pub pr: f64,
@@ -108,7 +108,7 @@ pub struct CompressorStation {
 
 /// Compressor exit state from an already evaluated map point, at pressure ratio `pr` (the
 /// dynamic model: PR set by the plenum, map read once).
-pub fn compressor_from_op(
+pub(crate) fn compressor_from_op(
     t_in: f64,
     p_in_kpa: f64,
     pr: f64,
@@ -126,7 +126,7 @@ pub fn compressor_from_op(
 }
 
 /// Compressor on its map at a given β (steady solver: β is an unknown).
-pub fn compressor_at_beta(
+pub(crate) fn compressor_at_beta(
     comp: &ScaledCompressor,
     t_in: f64,
     p_in_kpa: f64,
@@ -178,7 +178,7 @@ fn compressor_finish(
 
 /// Turbine exit state.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TurbineStation {
+pub(crate) struct TurbineStation {
     pub w_kg_s: f64,
     pub wc_kg_s: f64,
     pub pr: f64,
@@ -190,7 +190,7 @@ pub struct TurbineStation {
 }
 
 /// Turbine on its map at expansion ratio `pr = p_in/p_out` (≥ 1 for expansion).
-pub fn turbine(
+pub(crate) fn turbine(
     turb: &ScaledTurbine,
     gas: &Gas,
     t_in: f64,
@@ -222,7 +222,7 @@ pub fn turbine(
 /// Combustor exit temperature from an adiabatic energy balance (steady state):
 /// W_air·h2 + W_f·(η_b·LHV + h_fuel) = (W_air + W_f)·h3 with sensible enthalpies referenced to
 /// 288.15 K, the products those of the engine's fuel ([`super::model::Constants::fuel_heat_w`]).
-pub fn combustor_exit_temperature(
+pub(crate) fn combustor_exit_temperature(
     c: &super::model::Constants,
     w_air: f64,
     h2: f64,

@@ -36,7 +36,7 @@ fn fuel_for_t3(cfg: &EngineConfig, fuel: &Fuel, w_total: f64, h2: f64, t3: f64) 
 /// Computes the design cycle; fails if no T3 in 900–2400 K meets the power. The compressor's
 /// map coordinates (β, surge margin) are left at 0: the map is scaled from this cycle, so the
 /// caller fills them in afterwards.
-pub fn design_cycle(cfg: &EngineConfig, fuel: &Fuel) -> Result<Stations, EngineError> {
+pub(crate) fn design_cycle(cfg: &EngineConfig, fuel: &Fuel) -> Result<Stations, EngineError> {
     let d = &cfg.design;
     let air = Gas::air();
     let t1 = cfg.ambient.temperature_k;

@@ -14,12 +14,12 @@
 
 use super::control::{Feedback, FuelCommand, Series, StarterCommand};
 use super::effects::{Context, CoreView};
-pub use super::gas_path::Stations;
+pub(crate) use super::gas_path::Stations;
 use super::gas_path::{self, Adjust, CompressorSetting, GasPath, HotSection, Inputs};
 use super::load::PtLoad;
 use super::model::Model;
-pub use super::state::{
-    Scales, State, FAR_SCALE, IX_FAR, IX_FUEL_I, IX_N1, IX_N2, IX_P2, IX_P34, IX_T3, NX_CORE,
+pub(crate) use super::state::{
+    Scales, State, FAR_SCALE, IX_FAR, IX_FUEL_I, IX_N1, IX_N2, IX_P2, IX_P34, IX_T3,
 };
 use std::f64::consts::PI;
 use std::sync::Arc;
@@ -87,14 +87,14 @@ fn core_view(model: &Model, t: f64, y: &State, drive: &Drive) -> CoreView {
 }
 
 /// The state of an engine at rest in ambient air (the model's layout: core and effect states).
-pub fn standstill_state(model: &Model, t_amb_k: f64, p_amb_kpa: f64) -> State {
+pub(crate) fn standstill_state(model: &Model, t_amb_k: f64, p_amb_kpa: f64) -> State {
     warm_standstill_state(model, t_amb_k, p_amb_kpa, t_amb_k)
 }
 
 /// The state of an engine at rest whose hot section (the gas in it and, for effects with metal
 /// states, the metal around it: at rest both are at one temperature) is at `hot_section_k`:
 /// ambient after a long stop, warmer soon after a run or a trip.
-pub fn warm_standstill_state(
+pub(crate) fn warm_standstill_state(
     model: &Model,
     t_amb_k: f64,
     p_amb_kpa: f64,
@@ -123,7 +123,7 @@ pub fn warm_standstill_state(
 }
 
 /// Evaluates the model: state derivatives (per second) and the station table.
-pub fn evaluate(model: &Model, t: f64, y: &State, drive: &Drive) -> (State, Stations) {
+pub(crate) fn evaluate(model: &Model, t: f64, y: &State, drive: &Drive) -> (State, Stations) {
     core_rhs(model, t, y, drive, |mut dy, rhs| {
         let st = rhs.stations(drive);
         rhs.effect_derivatives(model, y, &st, &mut dy);
@@ -134,7 +134,7 @@ pub fn evaluate(model: &Model, t: f64, y: &State, drive: &Drive) -> (State, Stat
 /// The state derivatives alone (per second): what the integrator calls. The same code as
 /// [`evaluate`], compiled separately so the station table it does not need is never built
 /// (unless an effect's derivatives read it).
-pub fn derivatives(model: &Model, t: f64, y: &State, drive: &Drive) -> State {
+pub(crate) fn derivatives(model: &Model, t: f64, y: &State, drive: &Drive) -> State {
     core_rhs(model, t, y, drive, |mut dy, rhs| {
         if rhs.core.is_some() {
             let st = rhs.stations(drive);

@@ -18,12 +18,12 @@ use crate::signals::{Signal, Values, NSIG};
 use crate::thermo::Gas;
 use std::f64::consts::PI;
 
-pub use super::cycle::MAX_FAR;
+pub(crate) use super::cycle::MAX_FAR;
 /// Below this fraction of design GG speed the compressor's flow and work fade linearly to zero:
 /// the maps' speed lines degenerate at standstill, and a machine at rest moves no air.
-pub const STANDSTILL_FADE: f64 = 0.02;
+pub(crate) const STANDSTILL_FADE: f64 = 0.02;
 /// PT speed fraction below which its gas torque is held at the value there (stall torque).
-pub const PT_STALL_FRACTION: f64 = 0.1;
+pub(crate) const PT_STALL_FRACTION: f64 = 0.1;
 
 /// The station table: every station and component quantity of the engine at one operating
 /// point, whether the design point, a steady point or an instant of a transient.
@@ -74,7 +74,7 @@ pub struct Stations {
 }
 
 /// The one station → signal mapping: the value a signal's instrument reads from a station table.
-pub fn signal_value(st: &Stations, s: Signal) -> f64 {
+pub(crate) fn signal_value(st: &Stations, s: Signal) -> f64 {
     match s {
         Signal::N1 => st.n1_rpm,
         Signal::N2 => st.n2_rpm,
@@ -99,12 +99,12 @@ pub fn signal_value(st: &Stations, s: Signal) -> f64 {
 /// Shaft torque at the PT coupling, kN·m, for `power_mw` delivered there at `n2_rpm`: what a
 /// torque meter on the coupling reads (power = torque × ω). Below 1 rpm the speed is held at
 /// 1 rpm: a shaft at rest transmits no power, and the reading must stay finite.
-pub fn torque_knm(power_mw: f64, n2_rpm: f64) -> f64 {
+pub(crate) fn torque_knm(power_mw: f64, n2_rpm: f64) -> f64 {
     power_mw * 1e3 / (n2_rpm.max(1.0) * PI / 30.0)
 }
 
 /// Every signal's value in a station table.
-pub fn values_of(st: &Stations) -> Values {
+pub(crate) fn values_of(st: &Stations) -> Values {
     let mut v = [0.0; NSIG];
     for s in Signal::ALL {
         v[s.index()] = signal_value(st, s);
@@ -115,13 +115,13 @@ pub fn values_of(st: &Stations) -> Values {
 /// The air reaching the combustor when `w_compressor_kg_s` leaves the compressor and the
 /// fraction `bleed` is bled overboard.
 #[inline]
-pub fn combustor_air(w_compressor_kg_s: f64, bleed: f64) -> f64 {
+pub(crate) fn combustor_air(w_compressor_kg_s: f64, bleed: f64) -> f64 {
     w_compressor_kg_s * (1.0 - bleed)
 }
 
 /// What fixes the compressor's operating point.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum CompressorSetting {
+pub(crate) enum CompressorSetting {
     /// The map's β line (steady matching: β is an unknown of the solver).
     Beta(f64),
     /// The delivery pressure a plenum holds, kPa (dynamic model: P2 is a state).
@@ -130,7 +130,7 @@ pub enum CompressorSetting {
 
 /// What fixes the hot section.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum HotSection<'g> {
+pub(crate) enum HotSection<'g> {
     /// An adiabatic burn of this fuel flow in the compressor's air (steady state).
     Burn { fuel_kg_s: f64 },
     /// The combustor plenum's gas temperature and gas (dynamic model states; the caller owns
@@ -140,7 +140,7 @@ pub enum HotSection<'g> {
 
 /// The operating inputs of one gas-path evaluation.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Inputs<'g> {
+pub(crate) struct Inputs<'g> {
     pub t_amb_k: f64,
     pub p_amb_kpa: f64,
     pub n1_rpm: f64,
@@ -153,7 +153,7 @@ pub struct Inputs<'g> {
 /// What enabled effects change in the gas path (see `effects`): extra bleed and component
 /// flow/efficiency multipliers.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Adjust {
+pub(crate) struct Adjust {
     pub extra_bleed: f64,
     pub deltas: ComponentDeltas,
     pub losses: DuctLosses,
@@ -161,7 +161,7 @@ pub struct Adjust {
 
 impl Adjust {
     /// No change (the core model).
-    pub const NONE: Adjust = Adjust {
+    pub(crate) const NONE: Adjust = Adjust {
         extra_bleed: 0.0,
         deltas: ComponentDeltas::NONE,
         losses: DuctLosses::NONE,
@@ -171,7 +171,7 @@ impl Adjust {
 /// One evaluation of the gas path: the station table and the intermediate quantities the
 /// dynamic model's balances and the steady solver's residuals need.
 #[derive(Debug, Clone, Copy)]
-pub struct GasPath {
+pub(crate) struct GasPath {
     /// The inputs' speeds, inlet temperature and duct pressure, for the station table.
     pub n1_rpm: f64,
     pub n2_rpm: f64,
@@ -213,7 +213,7 @@ impl GasPath {
     /// The station table (fuel and starter fields are the caller's to fill). Rendered on
     /// demand rather than stored: the integrator's right-hand side never needs it, and
     /// building it on every call cost a few per cent of a simulation.
-    pub fn stations(&self) -> Stations {
+    pub(crate) fn stations(&self) -> Stations {
         let (comp, hpt, pt) = (&self.compressor, &self.hpt, &self.pt);
         Stations {
             p_amb_kpa: self.p_amb_kpa,
@@ -256,7 +256,7 @@ impl GasPath {
 /// Evaluates the gas path on `model` (health applied) with `adjust` from the enabled effects
 /// (`None` when no effect is on: the core model alone, without even comparing deltas).
 #[inline(always)]
-pub fn evaluate(model: &Model, inp: &Inputs, adjust: Option<&Adjust>) -> GasPath {
+pub(crate) fn evaluate(model: &Model, inp: &Inputs, adjust: Option<&Adjust>) -> GasPath {
     let c = &model.consts;
     let (n1, n2, t1, p_amb) = (inp.n1_rpm, inp.n2_rpm, inp.t_amb_k, inp.p_amb_kpa);
     let adjusted;

@@ -20,7 +20,7 @@ const GAMMA: f64 = 1.0 + std::f64::consts::FRAC_1_SQRT_2;
 
 /// Largest system the integrator solves (the work arrays are fixed-size, so a step never
 /// allocates and the loops' bounds are known to the compiler).
-pub const MAX_DIM: usize = 16;
+pub(crate) const MAX_DIM: usize = 16;
 
 type Mat = [[f64; MAX_DIM]; MAX_DIM];
 
@@ -106,7 +106,7 @@ fn lu_solve(a: &Mat, piv: &[usize; MAX_DIM], d: impl Dim, x: &mut [f64; MAX_DIM]
 
 /// Result of one attempted step.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct StepResult<V> {
+pub(crate) struct StepResult<V> {
     pub y: V,
     /// Weighted RMS local error estimate; ≤ 1 means the step meets the tolerance.
     pub err: f64,
@@ -115,7 +115,7 @@ pub struct StepResult<V> {
 /// Integrator state: the reusable Jacobian and counters. The state vector is any vector of
 /// `f64` (`V` derefs to a slice) of at most [`MAX_DIM`] entries.
 #[derive(Debug, Clone)]
-pub struct Ros2 {
+pub(crate) struct Ros2 {
     n: usize,
     /// Jacobian (leading n×n block).
     jac: Box<Mat>,
@@ -135,7 +135,7 @@ pub struct Ros2 {
 }
 
 impl Ros2 {
-    pub fn new(rtol: f64, atol: f64) -> Self {
+    pub(crate) fn new(rtol: f64, atol: f64) -> Self {
         Ros2 {
             n: 0,
             jac: Box::new([[0.0; MAX_DIM]; MAX_DIM]),
@@ -152,7 +152,7 @@ impl Ros2 {
     }
 
     /// Forces a fresh Jacobian at the next step (after a discontinuity or a rejected step).
-    pub fn invalidate(&mut self) {
+    pub(crate) fn invalidate(&mut self) {
         self.jac_valid = false;
     }
 
@@ -185,7 +185,7 @@ impl Ros2 {
 
     /// One ROS2 step of size `h` from (t, y). Does not decide acceptance. `None` when the
     /// step fails (singular W, non-finite result, or more than [`MAX_DIM`] states).
-    pub fn step<V, F>(&mut self, f: &mut F, t: f64, y: &V, h: f64) -> Option<StepResult<V>>
+    pub(crate) fn step<V, F>(&mut self, f: &mut F, t: f64, y: &V, h: f64) -> Option<StepResult<V>>
     where
         V: Clone + Deref<Target = [f64]> + DerefMut,
         F: FnMut(f64, &V) -> V,
@@ -272,7 +272,7 @@ impl Ros2 {
 }
 
 /// Step-size factor after a step with error `err` (order-2 controller with safety margins).
-pub fn step_factor(err: f64) -> f64 {
+pub(crate) fn step_factor(err: f64) -> f64 {
     if err <= 1e-10 {
         return 3.0;
     }

@@ -37,7 +37,7 @@ pub enum DriveMode {
 /// Replays the phases of a segment: starter, ignition and breaker from the labels, fuel from the
 /// measurement or from PID loops following the measured speed and power.
 #[derive(Debug, Clone)]
-pub struct MeasuredDrive {
+pub(crate) struct MeasuredDrive {
     cfg: EngineConfig,
     t_s: Arc<Vec<f64>>,
     phase: Arc<Vec<Phase>>,
@@ -96,7 +96,7 @@ fn measured_pt_speed(model: &Model, seg: &Recording) -> Option<Arc<Series>> {
 
 impl MeasuredDrive {
     /// A controller replaying `seg` (its times must start at the simulation's time 0).
-    pub fn new(model: &Model, seg: &Recording, mode: DriveMode) -> MeasuredDrive {
+    pub(crate) fn new(model: &Model, seg: &Recording, mode: DriveMode) -> MeasuredDrive {
         let cfg = model.cfg();
         let t = seg.times();
         MeasuredDrive {
@@ -244,7 +244,7 @@ impl Controller for MeasuredDrive {
 /// never below ambient). After a long stop this is a cold engine at rest; soon after a run or a
 /// trip the power turbine is still coasting and the hot section is warm, and a model started
 /// cold would read the difference as degradation.
-pub fn start_state_of(seg: &Recording, t_amb_k: f64) -> StartState {
+pub(crate) fn start_state_of(seg: &Recording, t_amb_k: f64) -> StartState {
     let n1 = seg.series(Signal::N1);
     let window = n1
         .iter()
@@ -273,7 +273,7 @@ pub fn start_state_of(seg: &Recording, t_amb_k: f64) -> StartState {
 /// Simulates what the instruments would have recorded for `seg` on an engine with `health`.
 /// The result has the segment's sample times; its `measured` values include the sensor lags
 /// (no noise), its `truth` the model's true values.
-pub fn simulate_segment(
+pub(crate) fn simulate_segment(
     engine: &Engine,
     health: &HealthParams,
     seg: &Recording,

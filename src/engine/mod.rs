@@ -13,25 +13,25 @@
 //! Everything here is pure and deterministic; only `Engine::new` may read a map file.
 
 pub mod config;
-pub mod control;
-pub mod cycle;
-pub mod design;
-pub mod dynamic;
-pub mod effects;
-pub mod error;
-pub mod gas_path;
-pub mod integrator;
+pub(crate) mod control;
+pub(crate) mod cycle;
+pub(crate) mod design;
+pub(crate) mod dynamic;
+pub(crate) mod effects;
+pub(crate) mod error;
+pub(crate) mod gas_path;
+pub(crate) mod integrator;
 pub mod load;
-pub mod measured_drive;
-pub mod model;
-pub mod params;
-pub mod plant;
+pub(crate) mod measured_drive;
+pub(crate) mod model;
+pub(crate) mod params;
+pub(crate) mod plant;
 pub mod sensors;
-pub mod sequence;
+pub(crate) mod sequence;
 pub mod simulation;
-pub mod state;
+pub(crate) mod state;
 pub mod steady;
-pub mod trace;
+pub(crate) mod trace;
 
 pub use config::EngineConfig;
 pub use error::EngineError;

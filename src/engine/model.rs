@@ -14,7 +14,7 @@ use crate::thermo::Fuel;
 use std::path::Path;
 use std::sync::Arc;
 
-pub use super::error::EngineError;
+pub(crate) use super::error::EngineError;
 /// The design point as calibrated: the station table of the reference cycle.
 pub type DesignPoint = super::gas_path::Stations;
 

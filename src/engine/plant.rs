@@ -23,7 +23,7 @@ pub struct PlantSample {
 }
 
 /// The schedule repeated by the plant: one cycle of operations (see [`Scenario::operations`]).
-pub fn repeating_schedule(engine: &Engine, cycles: usize) -> (Vec<Event>, f64) {
+pub(crate) fn repeating_schedule(engine: &Engine, cycles: usize) -> (Vec<Event>, f64) {
     let one = Scenario::operations(engine.cfg());
     let period = match one.end {
         End::At(t) => t + engine.cfg().sequence.cooldown_s + 600.0,
@@ -49,7 +49,7 @@ pub fn repeating_schedule(engine: &Engine, cycles: usize) -> (Vec<Event>, f64) {
 
 /// One live instrument channel per signal (lags and default noise seeded by `seed`, no bias),
 /// sampled every `period_s`: what a simulated plant's readings pass through.
-pub fn live_channels(engine: &Engine, period_s: f64, seed: u64) -> Vec<OnlineChannel> {
+pub(crate) fn live_channels(engine: &Engine, period_s: f64, seed: u64) -> Vec<OnlineChannel> {
     let opts = MeasurementOptions {
         lags: true,
         noise: true,

@@ -11,19 +11,19 @@
 use std::ops::{Deref, DerefMut};
 
 /// Number of core states.
-pub const NX_CORE: usize = 7;
+pub(crate) const NX_CORE: usize = 7;
 /// Core state indices.
-pub const IX_P2: usize = 0;
-pub const IX_T3: usize = 1;
-pub const IX_P34: usize = 2;
-pub const IX_N1: usize = 3;
-pub const IX_N2: usize = 4;
-pub const IX_FUEL_I: usize = 5;
-pub const IX_FAR: usize = 6;
+pub(crate) const IX_P2: usize = 0;
+pub(crate) const IX_T3: usize = 1;
+pub(crate) const IX_P34: usize = 2;
+pub(crate) const IX_N1: usize = 3;
+pub(crate) const IX_N2: usize = 4;
+pub(crate) const IX_FUEL_I: usize = 5;
+pub(crate) const IX_FAR: usize = 6;
 /// Scale of the fuel-air-ratio state.
-pub const FAR_SCALE: f64 = 0.02;
+pub(crate) const FAR_SCALE: f64 = 0.02;
 /// Most states a model may have (core plus every effect's block): the integrator's limit.
-pub const MAX_STATES: usize = super::integrator::MAX_DIM;
+pub(crate) const MAX_STATES: usize = super::integrator::MAX_DIM;
 
 /// The state vector (normalised): a fixed-capacity vector whose length is the layout's.
 #[derive(Clone, Copy, PartialEq)]

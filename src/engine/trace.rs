@@ -4,7 +4,7 @@
 //! Column order follows [`Signal::ALL`]. Writing is to any `io::Write`; this module does not
 //! open files. Must not run the model: it holds and writes what a simulation produced.
 
-pub use super::gas_path::values_of;
+pub(crate) use super::gas_path::values_of;
 use super::model::Engine;
 use super::sensors::{self, MeasurementOptions};
 use super::simulation::TruthSample;
@@ -12,7 +12,7 @@ use crate::recording::{Recording, RecordingError};
 use crate::signals::{Phase, Signal};
 use std::io::Write;
 
-pub use crate::signals::{Values, NSIG};
+pub(crate) use crate::signals::{Values, NSIG};
 
 /// A sampled run.
 #[derive(Debug, Clone, PartialEq)]

@@ -21,7 +21,7 @@
 //! out.
 
 /// Largest correction a curve applies, either way (fraction).
-pub const MAX_FRACTION: f64 = 0.5;
+pub(crate) const MAX_FRACTION: f64 = 0.5;
 
 /// One modification curve over relative corrected speed, zero at the design speed.
 #[derive(Debug, Clone, PartialEq)]
@@ -100,7 +100,7 @@ impl SpeedCurve {
 }
 
 /// Span of relative speed over which a curve's end slope fades to zero beyond its outer knots.
-pub const FADE_SPAN: f64 = 0.1;
+pub(crate) const FADE_SPAN: f64 = 0.1;
 
 /// Distance travelled at a slope fading linearly from 1 to 0 over [`FADE_SPAN`], after `d`.
 #[inline]

@@ -23,11 +23,11 @@
 //! tensor-product cubic spline of [`spline`] (as GSPy/SciPy) when an engine file selects
 //! `maps.interpolation = "cubic"` (see [`compressor`], [`turbine`]).
 
-pub mod adapt;
+pub(crate) mod adapt;
 pub mod compressor;
 pub mod gasturb;
-pub mod scaled;
-pub mod spline;
+pub(crate) mod scaled;
+pub(crate) mod spline;
 pub mod turbine;
 
 pub use adapt::{ComponentAdaptation, SpeedCurve};

@@ -17,11 +17,11 @@
 use nalgebra::DMatrix;
 
 /// Most knots a cubic axis may have (evaluation keeps its row values on the stack).
-pub const MAX_KNOTS: usize = 64;
+pub(crate) const MAX_KNOTS: usize = 64;
 
 /// One axis of knots with its value → second-derivative weights.
 #[derive(Debug, Clone)]
-pub struct SplineAxis {
+pub(crate) struct SplineAxis {
     x: Vec<f64>,
     /// `n × n`, row-major: `M_j = Σ_k w[j n + k] v_k`.
     w: Vec<f64>,
@@ -30,7 +30,7 @@ pub struct SplineAxis {
 impl SplineAxis {
     /// The axis for strictly increasing knots `x`; `None` with fewer than 4 knots (a
     /// not-a-knot cubic needs 4), more than [`MAX_KNOTS`], or knots that are not increasing.
-    pub fn new(x: &[f64]) -> Option<SplineAxis> {
+    pub(crate) fn new(x: &[f64]) -> Option<SplineAxis> {
         let n = x.len();
         if !(4..=MAX_KNOTS).contains(&n) || x.windows(2).any(|p| p[1] <= p[0]) {
             return None;
@@ -67,18 +67,13 @@ impl SplineAxis {
     }
 
     /// Number of knots.
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.x.len()
-    }
-
-    /// Never empty (at least 4 knots).
-    pub fn is_empty(&self) -> bool {
-        false
     }
 
     /// The spline through `v(k)` at the knots, evaluated at `t` (end cubics continued outside).
     #[inline]
-    pub fn eval(&self, t: f64, v: impl Fn(usize) -> f64) -> f64 {
+    pub(crate) fn eval(&self, t: f64, v: impl Fn(usize) -> f64) -> f64 {
         let x = &self.x;
         let n = x.len();
         let j = if t <= x[1] {
@@ -103,7 +98,7 @@ impl SplineAxis {
 
 /// Tensor-product cubic spline on a (row key, column key) grid of values stored row-major.
 #[derive(Debug, Clone)]
-pub struct CubicGrid {
+pub(crate) struct CubicGrid {
     rows: SplineAxis,
     cols: SplineAxis,
 }
@@ -111,7 +106,7 @@ pub struct CubicGrid {
 impl CubicGrid {
     /// The grid of a map's speed lines × β keys, or the map error naming the map: what
     /// `with_cubic_interpolation` of the compressor and turbine maps need.
-    pub fn for_map(
+    pub(crate) fn for_map(
         title: &str,
         speeds: &[f64],
         betas: &[f64],
@@ -126,7 +121,7 @@ impl CubicGrid {
     }
 
     /// `None` unless both axes have 4 ..= [`MAX_KNOTS`] increasing keys.
-    pub fn new(row_keys: &[f64], col_keys: &[f64]) -> Option<CubicGrid> {
+    pub(crate) fn new(row_keys: &[f64], col_keys: &[f64]) -> Option<CubicGrid> {
         Some(CubicGrid {
             rows: SplineAxis::new(row_keys)?,
             cols: SplineAxis::new(col_keys)?,
@@ -135,7 +130,7 @@ impl CubicGrid {
 
     /// The interpolant of `values` (`rows × cols`, row-major) at (`r`, `c`).
     #[inline]
-    pub fn eval(&self, values: &[f64], r: f64, c: f64) -> f64 {
+    pub(crate) fn eval(&self, values: &[f64], r: f64, c: f64) -> f64 {
         let (n, m) = (self.rows.len(), self.cols.len());
         let mut along = [0.0; MAX_KNOTS];
         for (i, slot) in along.iter_mut().enumerate().take(n) {

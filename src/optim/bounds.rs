@@ -101,7 +101,7 @@ impl Bounds {
 /// Reflect a normalised coordinate into `[0, 1]` (mirror at 0 and 1, repeatedly for far-out
 /// values, i.e. a triangle wave of period 2). Identity on `[0, 1]`. A non-finite input (only
 /// possible from an overflowing Lévy step) maps to the centre 0.5 rather than to NaN.
-pub fn reflect_unit(v: f64) -> f64 {
+pub(crate) fn reflect_unit(v: f64) -> f64 {
     if (0.0..=1.0).contains(&v) {
         return v;
     }
@@ -114,7 +114,7 @@ pub fn reflect_unit(v: f64) -> f64 {
 }
 
 /// [`reflect_unit`] applied to every component.
-pub fn reflect_all(u: &mut [f64]) {
+pub(crate) fn reflect_all(u: &mut [f64]) {
     for v in u {
         *v = reflect_unit(*v);
     }

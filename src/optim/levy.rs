@@ -17,7 +17,7 @@ use rand_distr::StandardNormal;
 
 /// Γ(x) for real x > 0 by the Lanczos approximation (g = 7, 9 terms; ~1e-15 relative),
 /// with the reflection formula for x < 0.5.
-pub fn gamma(x: f64) -> f64 {
+pub(crate) fn gamma(x: f64) -> f64 {
     const G: f64 = 7.0;
     const C: [f64; 9] = [
         0.999_999_999_999_809_9,
@@ -45,7 +45,7 @@ pub fn gamma(x: f64) -> f64 {
 }
 
 /// Mantegna's σ_u for stability index β (Γ form).
-pub fn mantegna_sigma_u(beta: f64) -> f64 {
+pub(crate) fn mantegna_sigma_u(beta: f64) -> f64 {
     let num = gamma(1.0 + beta) * (std::f64::consts::PI * beta / 2.0).sin();
     let den = gamma((1.0 + beta) / 2.0) * beta * 2f64.powf((beta - 1.0) / 2.0);
     (num / den).powf(1.0 / beta)
@@ -53,7 +53,7 @@ pub fn mantegna_sigma_u(beta: f64) -> f64 {
 
 /// A Lévy step generator for a fixed β in (1, 2] (σ_u precomputed).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Levy {
+pub(crate) struct Levy {
     beta: f64,
     sigma_u: f64,
 }
@@ -61,7 +61,7 @@ pub struct Levy {
 impl Levy {
     /// Generator for stability index `beta`, which must lie in (1, 2] (Yang & Deb use 1.5;
     /// the paper's "1 < λ < 3" is the power-law exponent λ = 1 + β).
-    pub fn new(beta: f64) -> Result<Self, OptimError> {
+    pub(crate) fn new(beta: f64) -> Result<Self, OptimError> {
         if !(beta > 1.0 && beta <= 2.0) {
             return Err(setting("beta", "Lévy index must lie in (1, 2]"));
         }
@@ -71,18 +71,8 @@ impl Levy {
         })
     }
 
-    /// β.
-    pub fn beta(&self) -> f64 {
-        self.beta
-    }
-
-    /// σ_u.
-    pub fn sigma_u(&self) -> f64 {
-        self.sigma_u
-    }
-
     /// One step length (signed).
-    pub fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> f64 {
+    pub(crate) fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> f64 {
         let u: f64 = rng.sample::<f64, _>(StandardNormal) * self.sigma_u;
         let v: f64 = rng.sample(StandardNormal);
         u / v.abs().powf(1.0 / self.beta)

@@ -52,15 +52,15 @@
 //! For a [`ResidualProblem`] with more residuals than parameters, `uncertainty` then reports
 //! 1σ per parameter, the covariance and the correlation matrix at `local.x`.
 
-pub mod bounds;
-pub mod cmaes;
-pub mod cuckoo;
-pub mod de;
-pub mod levy;
-pub mod lm;
-pub mod problem;
+pub(crate) mod bounds;
+pub(crate) mod cmaes;
+pub(crate) mod cuckoo;
+pub(crate) mod de;
+pub(crate) mod levy;
+pub(crate) mod lm;
+pub(crate) mod problem;
 pub mod test_functions;
-pub mod uncertainty;
+pub(crate) mod uncertainty;
 
 pub use bounds::Bounds;
 pub use cmaes::CmaEs;

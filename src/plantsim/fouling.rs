@@ -23,11 +23,11 @@ use std::sync::atomic::{AtomicI64, Ordering};
 use std::sync::Arc;
 
 /// Seconds in a plant day.
-pub const DAY_S: f64 = 86_400.0;
+pub(crate) const DAY_S: f64 = 86_400.0;
 
 /// The plant day (0-based) a time falls on, for a plant whose day 0 starts at `epoch_ms`;
 /// `None` before it.
-pub fn day_of(t_ms: i64, epoch_ms: i64) -> Option<usize> {
+pub(crate) fn day_of(t_ms: i64, epoch_ms: i64) -> Option<usize> {
     let d = (t_ms - epoch_ms) as f64 / (DAY_S * 1000.0);
     (d >= 0.0).then(|| d.floor() as usize)
 }

@@ -15,10 +15,10 @@
 //! piecewise-linear stand-in), [`fouling`] (a plant that fouls day by day, one start a day, for
 //! `gtwatch demo`), [`server`] (the Modbus TCP server and its register image).
 
-pub mod fouling;
-pub mod model_source;
-pub mod scripted;
-pub mod server;
+pub(crate) mod fouling;
+pub(crate) mod model_source;
+pub(crate) mod scripted;
+pub(crate) mod server;
 
 pub use fouling::{FoulingPlant, FoulingSchedule};
 pub use model_source::ModelPlant;

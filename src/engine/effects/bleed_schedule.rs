@@ -16,7 +16,7 @@ use std::sync::Arc;
 const WIDTH: f64 = 0.02;
 
 /// Registry entry.
-pub static SPEC: EffectSpec = EffectSpec {
+pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "bleed_schedule",
     channels: Channels::Engine,
     summary: "compressor bleed valve open below a corrected GG speed",

@@ -16,7 +16,7 @@ use crate::signals::Signal;
 use std::sync::Arc;
 
 /// Registry entry.
-pub static SPEC: EffectSpec = EffectSpec {
+pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "duct_loss",
     channels: Channels::Engine,
     summary: "inlet and exhaust pressure losses other than the engine file's (filter, stack, HRSG)",

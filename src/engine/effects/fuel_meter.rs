@@ -14,7 +14,7 @@ use crate::signals::Signal;
 use std::sync::Arc;
 
 /// Registry entry.
-pub static SPEC: EffectSpec = EffectSpec {
+pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "fuel_meter",
     channels: Channels::Engine,
     summary: "the fuel-flow meter reads a factor (1 + scale) of the fuel that burns",

@@ -22,7 +22,7 @@ use std::sync::Arc;
 const STAGES: usize = 3;
 
 /// Registry entry.
-pub static SPEC: EffectSpec = EffectSpec {
+pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "fuel_system",
     channels: super::Channels::Engine,
     summary: "fuel-system transport delay and manifold lag between metered and burnt fuel",

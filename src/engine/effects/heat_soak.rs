@@ -17,7 +17,7 @@ use crate::signals::Signal;
 use std::sync::Arc;
 
 /// Registry entry.
-pub static SPEC: EffectSpec = EffectSpec {
+pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "heat_soak",
     channels: Channels::Engine,
     summary: "heat exchange between the combustor gas and a lumped hot-section metal node",

@@ -14,7 +14,7 @@ use crate::signals::Signal;
 use std::sync::Arc;
 
 /// Registry entry.
-pub static SPEC: EffectSpec = EffectSpec {
+pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "inlet_temperature",
     channels: Channels::Engine,
     summary: "the inlet thermometer T1 reads offset_k above the air the engine breathes",

@@ -28,9 +28,9 @@
 /// this folder and its name here.
 macro_rules! registry {
     ($($effect:ident),* $(,)?) => {
-        $(pub mod $effect;)*
+        $(pub(crate) mod $effect;)*
         /// Every effect gtwatch knows, in registry order.
-        pub static REGISTRY: &[EffectSpec] = &[$($effect::SPEC),*];
+        pub(crate) static REGISTRY: &[EffectSpec] = &[$($effect::SPEC),*];
     };
 }
 
@@ -56,7 +56,7 @@ use std::sync::Arc;
 
 /// A bounded parameter of an effect.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
-pub struct ParamSpec {
+pub(crate) struct ParamSpec {
     pub name: &'static str,
     pub unit: &'static str,
     pub default: f64,
@@ -69,7 +69,7 @@ pub struct ParamSpec {
 /// (named `name:column`, e.g. `sensor_lag:t34_k`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
-pub enum Channels {
+pub(crate) enum Channels {
     /// One instance, named by the effect's name.
     Engine,
     /// One per temperature channel the plant measures (T1, T2, T34, T4).
@@ -80,7 +80,7 @@ pub enum Channels {
 
 impl Channels {
     /// The signals an instance may address.
-    pub fn signals(self) -> Vec<Signal> {
+    pub(crate) fn signals(self) -> Vec<Signal> {
         match self {
             Channels::Engine => Vec::new(),
             Channels::Temperatures => vec![Signal::T1, Signal::T2, Signal::T34, Signal::T4],
@@ -95,7 +95,7 @@ impl Channels {
 
 /// A registry entry: what the effect is called, what it does, its parameters and how to build it.
 #[derive(Debug, Clone, Copy)]
-pub struct EffectSpec {
+pub(crate) struct EffectSpec {
     pub name: &'static str,
     /// One instance, or one per channel.
     pub channels: Channels,
@@ -138,7 +138,7 @@ fn resolve(instance: &str) -> Result<(&'static EffectSpec, Option<Signal>), Effe
 }
 
 /// Every instance name the registry offers (`fuel_system`, `sensor_lag:t34_k`, …).
-pub fn instance_names() -> Vec<String> {
+pub(crate) fn instance_names() -> Vec<String> {
     let mut out = Vec::new();
     for s in REGISTRY {
         match s.channels {
@@ -154,7 +154,7 @@ pub fn instance_names() -> Vec<String> {
 }
 
 /// The registry entry of an instance name (`fuel_system`, `sensor_lag:t34_k`).
-pub fn spec(instance: &str) -> Option<&'static EffectSpec> {
+pub(crate) fn spec(instance: &str) -> Option<&'static EffectSpec> {
     resolve(instance).ok().map(|(s, _)| s)
 }
 
@@ -274,11 +274,11 @@ pub trait Effect: Debug + Send + Sync {
 }
 
 /// Parameter values of one effect as the engine file states them.
-pub type EffectParams = BTreeMap<String, f64>;
+pub(crate) type EffectParams = BTreeMap<String, f64>;
 
 /// Errors building an effect from the engine file.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum EffectError {
+pub(crate) enum EffectError {
     #[error("unknown effect `{name}` (known: {known})")]
     Unknown { name: String, known: String },
     #[error("effect `{effect}` has no parameter `{param}` (it has: {known})")]
@@ -290,7 +290,7 @@ pub enum EffectError {
 }
 
 /// The range of `effects.<effect>.<param>`, if both exist.
-pub fn param_spec(effect: &str, param: &str) -> Option<&'static ParamSpec> {
+pub(crate) fn param_spec(effect: &str, param: &str) -> Option<&'static ParamSpec> {
     spec(effect)?.params.iter().find(|p| p.name == param)
 }
 
@@ -320,7 +320,7 @@ fn values_for(spec: &EffectSpec, given: &EffectParams) -> Result<Vec<f64>, Effec
 
 /// Checks the names in an `[effects]` section (values are range-checked with every other
 /// engine-file number).
-pub fn check(section: &BTreeMap<String, EffectParams>) -> Result<(), EffectError> {
+pub(crate) fn check(section: &BTreeMap<String, EffectParams>) -> Result<(), EffectError> {
     for (name, given) in section {
         let (s, _) = resolve(name)?;
         values_for(s, given)?;
@@ -330,7 +330,7 @@ pub fn check(section: &BTreeMap<String, EffectParams>) -> Result<(), EffectError
 
 /// The `[effects]` section with every enabled effect's parameters complete (defaults filled
 /// in), so each is addressable as a named parameter.
-pub fn complete(
+pub(crate) fn complete(
     section: &BTreeMap<String, EffectParams>,
 ) -> Result<BTreeMap<String, EffectParams>, EffectError> {
     check(section)?;
@@ -506,7 +506,7 @@ impl EffectSet {
 
 /// First-order lag derivative dx/dt = (u − x)/τ, with τ below `TAU_MIN_S` treated as
 /// `TAU_MIN_S` (a pass-through as fast as the integrator's tolerance allows). Shared by effects.
-pub fn lag_rate(u: f64, x: f64, tau_s: f64) -> f64 {
+pub(crate) fn lag_rate(u: f64, x: f64, tau_s: f64) -> f64 {
     (u - x) / tau_s.max(TAU_MIN_S)
 }
 
@@ -514,34 +514,34 @@ pub fn lag_rate(u: f64, x: f64, tau_s: f64) -> f64 {
 /// time constant: at ambient with the engine at rest, at T3 in steady operation. Shared by the
 /// effects whose metal lags the gas (`heat_soak`, `tip_clearance`).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MetalNode {
+pub(crate) struct MetalNode {
     pub tau_s: f64,
 }
 
 impl MetalNode {
     /// Normalisation of the node's state, K.
-    pub const T_SCALE_K: f64 = 1000.0;
+    pub(crate) const T_SCALE_K: f64 = 1000.0;
     /// The node's temperature, K, from its state.
-    pub fn temperature_k(x: f64) -> f64 {
+    pub(crate) fn temperature_k(x: f64) -> f64 {
         x * Self::T_SCALE_K
     }
     /// State at rest: the metal at the temperature of the still gas around it (ambient after a
     /// long stop, warmer in a restart soon after a run).
-    pub fn rest(core: &CoreView) -> f64 {
+    pub(crate) fn rest(core: &CoreView) -> f64 {
         core.t3_k.max(core.t_amb_k) / Self::T_SCALE_K
     }
     /// State in steady operation (at the gas temperature).
-    pub fn steady(stations: &Stations) -> f64 {
+    pub(crate) fn steady(stations: &Stations) -> f64 {
         stations.t3_k / Self::T_SCALE_K
     }
     /// d(state)/dt.
-    pub fn rate(&self, core: &CoreView, x: f64) -> f64 {
+    pub(crate) fn rate(&self, core: &CoreView, x: f64) -> f64 {
         lag_rate(core.t3_k / Self::T_SCALE_K, x, self.tau_s)
     }
 }
 
 /// Shortest time constant an effect state is given, s.
-pub const TAU_MIN_S: f64 = 1e-3;
+pub(crate) const TAU_MIN_S: f64 = 1e-3;
 
 #[cfg(test)]
 mod tests {

@@ -13,7 +13,7 @@ use crate::signals::Signal;
 use std::sync::Arc;
 
 /// Registry entry.
-pub static SPEC: EffectSpec = EffectSpec {
+pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "sensor_bias",
     channels: Channels::Measured,
     summary: "constant offset of one instrument",

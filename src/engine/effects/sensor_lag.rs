@@ -14,7 +14,7 @@ use crate::signals::Signal;
 use std::sync::Arc;
 
 /// Registry entry.
-pub static SPEC: EffectSpec = EffectSpec {
+pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "sensor_lag",
     channels: Channels::Temperatures,
     summary: "extra first-order lag of one temperature instrument",

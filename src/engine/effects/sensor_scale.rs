@@ -13,7 +13,7 @@ use crate::signals::Signal;
 use std::sync::Arc;
 
 /// Registry entry.
-pub static SPEC: EffectSpec = EffectSpec {
+pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "sensor_scale",
     channels: Channels::Measured,
     summary: "one instrument reads a factor (1 + scale) of the true value",

@@ -15,7 +15,7 @@ use crate::signals::Signal;
 use std::sync::Arc;
 
 /// Registry entry.
-pub static SPEC: EffectSpec = EffectSpec {
+pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "tip_clearance",
     channels: Channels::Engine,
     summary: "HPT efficiency change with the casing's thermal lag (tip clearance)",

@@ -18,7 +18,7 @@ use std::sync::Arc;
 const FADE: f64 = 0.2;
 
 /// Registry entry.
-pub static SPEC: EffectSpec = EffectSpec {
+pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "vigv_schedule",
     channels: Channels::Engine,
     summary: "compressor flow-capacity offset at low corrected speed (VIGV schedule)",
