@@ -31,32 +31,32 @@ pub(crate) enum AdviceError {
 /// One parameter's trend since the last wash.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub(crate) struct ParamTrend {
-    pub param: &'static str,
+    pub(crate) param: &'static str,
     /// `None` with `reason` when it could not be fitted (too few results, …).
-    pub fit: Option<RateFit>,
-    pub reason: Option<String>,
+    pub(crate) fit: Option<RateFit>,
+    pub(crate) reason: Option<String>,
 }
 
 /// Everything `wash advise` shows.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub(crate) struct AdviceReport {
     /// Unix ms of the last wash (recorded or detected), if any.
-    pub last_wash_ms: Option<i64>,
+    pub(crate) last_wash_ms: Option<i64>,
     /// Washes detected (and recorded as such) by this refresh.
-    pub detected_now: Vec<i64>,
+    pub(crate) detected_now: Vec<i64>,
     /// Method B results since the last wash.
-    pub results_since_wash: usize,
+    pub(crate) results_since_wash: usize,
     /// Trend of each health parameter, days counted from the last wash (or the first result).
-    pub trends: Vec<ParamTrend>,
-    pub sensitivity: Sensitivity,
+    pub(crate) trends: Vec<ParamTrend>,
+    pub(crate) sensitivity: Sensitivity,
     /// `None` when D_GC or D_EC has no trend yet.
-    pub advice: Option<WashAdvice>,
+    pub(crate) advice: Option<WashAdvice>,
     /// Unix ms advised for the next offline wash, when there is advice.
-    pub advised_ms: Option<i64>,
+    pub(crate) advised_ms: Option<i64>,
     /// Unix ms the trend is evaluated at (the newest result's start).
-    pub as_of_ms: Option<i64>,
+    pub(crate) as_of_ms: Option<i64>,
     /// Unix ms of day 0 of the trends: the last wash, else the first result since.
-    pub origin_ms: Option<i64>,
+    pub(crate) origin_ms: Option<i64>,
 }
 
 /// Recomputes trends and advice from the store, recording detected washes and the new

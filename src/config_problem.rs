@@ -33,10 +33,10 @@ impl fmt::Display for ConfigProblem {
 /// upper bound exists (what a larger value would break).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Bounds<'a> {
-    pub lo: u64,
-    pub hi: u64,
-    pub unit: &'a str,
-    pub why: &'a str,
+    pub(crate) lo: u64,
+    pub(crate) hi: u64,
+    pub(crate) unit: &'a str,
+    pub(crate) why: &'a str,
 }
 
 /// Adds a problem if `value` is outside `b`, naming the key, the value and the bound.

@@ -47,10 +47,10 @@ pub(crate) enum Severity {
 /// One permission problem.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub(crate) struct Finding {
-    pub path: PathBuf,
-    pub role: Role,
-    pub severity: Severity,
-    pub reason: String,
+    pub(crate) path: PathBuf,
+    pub(crate) role: Role,
+    pub(crate) severity: Severity,
+    pub(crate) reason: String,
 }
 
 impl fmt::Display for Finding {

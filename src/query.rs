@@ -13,15 +13,15 @@ use std::io::Write;
 /// One start-up as listed by `gtwatch segments`.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub(crate) struct SegmentSummary {
-    pub id: i64,
-    pub start_ms: i64,
-    pub end_ms: Option<i64>,
-    pub outcome: Outcome,
-    pub abort_cause: Option<AbortCause>,
-    pub status: String,
-    pub hot_restart: bool,
-    pub has_gap: bool,
-    pub phases: Vec<PhaseSpan>,
+    pub(crate) id: i64,
+    pub(crate) start_ms: i64,
+    pub(crate) end_ms: Option<i64>,
+    pub(crate) outcome: Outcome,
+    pub(crate) abort_cause: Option<AbortCause>,
+    pub(crate) status: String,
+    pub(crate) hot_restart: bool,
+    pub(crate) has_gap: bool,
+    pub(crate) phases: Vec<PhaseSpan>,
 }
 
 /// Output format of `segments`.

@@ -70,10 +70,10 @@ pub(crate) enum Until {
 /// Everything one poll-loop run sent, in order, and its final tallies.
 #[derive(Debug)]
 pub(crate) struct PollRun {
-    pub samples: Vec<Sample>,
-    pub gaps: Vec<Gap>,
-    pub stats: PollStats,
-    pub progress: Arc<PollProgress>,
+    pub(crate) samples: Vec<Sample>,
+    pub(crate) gaps: Vec<Gap>,
+    pub(crate) stats: PollStats,
+    pub(crate) progress: Arc<PollProgress>,
 }
 
 /// Runs the real poll loop with `clock` (`None`: the system clock) until `until`, then shuts

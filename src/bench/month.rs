@@ -70,17 +70,17 @@ struct MonthResult {
 /// The sections of the configuration file the month's replay reads, as the command line
 /// loads and checks them.
 pub(crate) struct Sections {
-    pub storage: StorageConfig,
-    pub replay: ReplayConfig,
-    pub detector: DetectorConfig,
+    pub(crate) storage: StorageConfig,
+    pub(crate) replay: ReplayConfig,
+    pub(crate) detector: DetectorConfig,
 }
 
 /// What the month borrows from the command line, so that it runs exactly what `gtwatch
 /// replay` runs: loading a configuration file's sections, and diagnosing every pending
 /// start-up after a replay.
 pub(crate) struct Commands<'a> {
-    pub load_sections: &'a dyn Fn(&Path) -> anyhow::Result<Sections>,
-    pub diagnose_after_replay: &'a dyn Fn(&mut Store, &Path) -> anyhow::Result<()>,
+    pub(crate) load_sections: &'a dyn Fn(&Path) -> anyhow::Result<Sections>,
+    pub(crate) diagnose_after_replay: &'a dyn Fn(&mut Store, &Path) -> anyhow::Result<()>,
 }
 
 pub(crate) fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<ExitCode> {

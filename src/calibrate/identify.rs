@@ -23,12 +23,12 @@ pub(crate) const MAX_CORRELATION: f64 = 0.95;
 /// The verdict for one candidate.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub(crate) struct Verdict {
-    pub identifiable: bool,
+    pub(crate) identifiable: bool,
     /// 1σ as a fraction of the interval: in the identified set for a member, alone otherwise
     /// (`None` when the data carry no information on it at all).
-    pub sigma_fraction: Option<f64>,
+    pub(crate) sigma_fraction: Option<f64>,
     /// Plain words: why it is fitted or kept at its guess.
-    pub reason: String,
+    pub(crate) reason: String,
 }
 
 /// Covariance of the columns `set` of `f = JᵀJ` (unit coordinates), or `None` when singular.

@@ -38,9 +38,9 @@ pub(crate) enum XAxis {
 /// A point with an optional symmetric error bar.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Point {
-    pub x: f64,
-    pub y: f64,
-    pub sigma: Option<f64>,
+    pub(crate) x: f64,
+    pub(crate) y: f64,
+    pub(crate) sigma: Option<f64>,
 }
 
 /// One series.
@@ -64,22 +64,22 @@ pub(crate) enum Series {
 /// A vertical marker line (e.g. a wash) with a short label.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Marker {
-    pub x: f64,
-    pub label: String,
-    pub color: &'static str,
+    pub(crate) x: f64,
+    pub(crate) label: String,
+    pub(crate) color: &'static str,
 }
 
 /// A chart to render.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Chart {
-    pub title: String,
-    pub y_label: String,
-    pub x_label: String,
-    pub x_axis: XAxis,
-    pub width: f64,
-    pub height: f64,
-    pub series: Vec<Series>,
-    pub markers: Vec<Marker>,
+    pub(crate) title: String,
+    pub(crate) y_label: String,
+    pub(crate) x_label: String,
+    pub(crate) x_axis: XAxis,
+    pub(crate) width: f64,
+    pub(crate) height: f64,
+    pub(crate) series: Vec<Series>,
+    pub(crate) markers: Vec<Marker>,
 }
 
 const LEFT: f64 = 64.0;

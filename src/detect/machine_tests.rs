@@ -34,21 +34,21 @@ impl Pl {
 /// A scripted trace: n1, fuel, power, n2 as functions of time (s).
 #[derive(Clone)]
 pub(crate) struct Script {
-    pub n1: Pl,
-    pub fuel: Pl,
-    pub power: Pl,
-    pub n2: Pl,
+    pub(crate) n1: Pl,
+    pub(crate) fuel: Pl,
+    pub(crate) power: Pl,
+    pub(crate) n2: Pl,
 }
 
 /// Times (s) of a normal start beginning at `t0` with the rotor at `n1_0`.
 pub(crate) struct StartTimes {
-    pub crank: f64,
-    pub purge_hold_end: f64,
-    pub accel: f64,
-    pub at_idle: f64,
-    pub breaker: f64,
-    pub ramp_start: f64,
-    pub at_load: f64,
+    pub(crate) crank: f64,
+    pub(crate) purge_hold_end: f64,
+    pub(crate) accel: f64,
+    pub(crate) at_idle: f64,
+    pub(crate) breaker: f64,
+    pub(crate) ramp_start: f64,
+    pub(crate) at_load: f64,
 }
 
 /// Appends a normal start to the point lists. Returns its key times.

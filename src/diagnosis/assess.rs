@@ -48,17 +48,17 @@ impl Undiagnosable {
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct SegmentData<'a> {
     /// How the start-up ended: `completed`, `aborted` or `in_progress`.
-    pub outcome: &'a str,
+    pub(crate) outcome: &'a str,
     /// Why an aborted start-up ended, if known.
-    pub abort_cause: Option<&'a str>,
+    pub(crate) abort_cause: Option<&'a str>,
     /// Whether a data gap lies inside the start-up.
-    pub has_gap: bool,
+    pub(crate) has_gap: bool,
     /// The segment's good samples on its own time axis (or why they make no recording).
-    pub recording: &'a Result<Recording, RecordingError>,
+    pub(crate) recording: &'a Result<Recording, RecordingError>,
     /// Signals with no good sample at all in the segment.
-    pub missing: &'a [Signal],
+    pub(crate) missing: &'a [Signal],
     /// Good and total sample counts per stored signal over the segment.
-    pub quality: &'a [SignalQuality],
+    pub(crate) quality: &'a [SignalQuality],
 }
 
 /// What [`assess`] needs besides the data and the engine.
@@ -76,11 +76,11 @@ pub struct AssessSettings {
 #[derive(Debug, Clone)]
 pub(crate) struct MethodEstimate {
     /// "B" (transient, the whole segment) or "A" (steady windows).
-    pub method: &'static str,
+    pub(crate) method: &'static str,
     /// The objective per signal (mean |residual| in noise σ), at most the settings' maximum.
-    pub residual_level: f64,
+    pub(crate) residual_level: f64,
     /// The fit itself: health, σ, objective, fit quality, model runs, wall time.
-    pub result: MethodResult,
+    pub(crate) result: MethodResult,
 }
 
 /// What the assessment of one segment found.

@@ -58,10 +58,10 @@ pub struct Separability {
 /// correlation matrix over `params` (the same order).
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct HealthEstimate {
-    pub index: usize,
-    pub value: f64,
-    pub sigma: f64,
-    pub correlation: Vec<f64>,
+    pub(crate) index: usize,
+    pub(crate) value: f64,
+    pub(crate) sigma: f64,
+    pub(crate) correlation: Vec<f64>,
 }
 
 /// Assesses the fitted health parameters (fixed ones are simply not listed in `params`).

@@ -14,12 +14,12 @@ use crate::signals::Signal;
 /// A column that looks like it is in another unit.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct UnitSuspect {
-    pub signal: Signal,
-    pub value: f64,
+    pub(crate) signal: Signal,
+    pub(crate) value: f64,
     /// The unit it looks like, e.g. "°C".
-    pub likely_unit: &'static str,
+    pub(crate) likely_unit: &'static str,
     /// The value converted from that unit into the expected one.
-    pub converted: f64,
+    pub(crate) converted: f64,
 }
 
 impl UnitSuspect {

@@ -94,16 +94,16 @@ pub(crate) fn physical_flow(wc: f64, t_k: f64, p_kpa: f64) -> f64 {
 /// Compressor exit state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct CompressorStation {
-    pub w_kg_s: f64,
-    pub wc_kg_s: f64,
-    pub pr: f64,
-    pub t_out_k: f64,
-    pub h_in: f64,
-    pub h_out: f64,
-    pub eff: f64,
-    pub beta: f64,
-    pub surge_margin_pct: f64,
-    pub power_w: f64,
+    pub(crate) w_kg_s: f64,
+    pub(crate) wc_kg_s: f64,
+    pub(crate) pr: f64,
+    pub(crate) t_out_k: f64,
+    pub(crate) h_in: f64,
+    pub(crate) h_out: f64,
+    pub(crate) eff: f64,
+    pub(crate) beta: f64,
+    pub(crate) surge_margin_pct: f64,
+    pub(crate) power_w: f64,
 }
 
 /// Compressor exit state from an already evaluated map point, at pressure ratio `pr` (the
@@ -179,14 +179,14 @@ fn compressor_finish(
 /// Turbine exit state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct TurbineStation {
-    pub w_kg_s: f64,
-    pub wc_kg_s: f64,
-    pub pr: f64,
-    pub t_out_k: f64,
-    pub h_in: f64,
-    pub h_out: f64,
-    pub eff: f64,
-    pub power_w: f64,
+    pub(crate) w_kg_s: f64,
+    pub(crate) wc_kg_s: f64,
+    pub(crate) pr: f64,
+    pub(crate) t_out_k: f64,
+    pub(crate) h_in: f64,
+    pub(crate) h_out: f64,
+    pub(crate) eff: f64,
+    pub(crate) power_w: f64,
 }
 
 /// Turbine on its map at expansion ratio `pr = p_in/p_out` (≥ 1 for expansion).

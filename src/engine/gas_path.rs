@@ -141,22 +141,22 @@ pub(crate) enum HotSection<'g> {
 /// The operating inputs of one gas-path evaluation.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Inputs<'g> {
-    pub t_amb_k: f64,
-    pub p_amb_kpa: f64,
-    pub n1_rpm: f64,
-    pub n2_rpm: f64,
-    pub p34_kpa: f64,
-    pub compressor: CompressorSetting,
-    pub hot: HotSection<'g>,
+    pub(crate) t_amb_k: f64,
+    pub(crate) p_amb_kpa: f64,
+    pub(crate) n1_rpm: f64,
+    pub(crate) n2_rpm: f64,
+    pub(crate) p34_kpa: f64,
+    pub(crate) compressor: CompressorSetting,
+    pub(crate) hot: HotSection<'g>,
 }
 
 /// What enabled effects change in the gas path (see `effects`): extra bleed and component
 /// flow/efficiency multipliers.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Adjust {
-    pub extra_bleed: f64,
-    pub deltas: ComponentDeltas,
-    pub losses: DuctLosses,
+    pub(crate) extra_bleed: f64,
+    pub(crate) deltas: ComponentDeltas,
+    pub(crate) losses: DuctLosses,
 }
 
 impl Adjust {
@@ -173,40 +173,40 @@ impl Adjust {
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct GasPath {
     /// The inputs' speeds, inlet temperature and duct pressure, for the station table.
-    pub n1_rpm: f64,
-    pub n2_rpm: f64,
-    pub t1_k: f64,
-    pub p34_kpa: f64,
+    pub(crate) n1_rpm: f64,
+    pub(crate) n2_rpm: f64,
+    pub(crate) t1_k: f64,
+    pub(crate) p34_kpa: f64,
     /// Ambient pressure, kPa (the inlet depression P_amb − P1 is a flow measure).
-    pub p_amb_kpa: f64,
+    pub(crate) p_amb_kpa: f64,
     /// Station pressures (compressor inlet after the inlet loss, exit, combustor exit, PT
     /// exit before the exhaust loss) and the combustor exit temperature.
-    pub p1_kpa: f64,
-    pub p2_kpa: f64,
-    pub p3_kpa: f64,
-    pub p4_kpa: f64,
-    pub t3_k: f64,
+    pub(crate) p1_kpa: f64,
+    pub(crate) p2_kpa: f64,
+    pub(crate) p3_kpa: f64,
+    pub(crate) p4_kpa: f64,
+    pub(crate) t3_k: f64,
     /// Fuel-air ratio of the combustor gas.
-    pub fuel_air_ratio: f64,
+    pub(crate) fuel_air_ratio: f64,
     /// Compressor exit state.
-    pub compressor: CompressorStation,
-    pub hpt: TurbineStation,
-    pub pt: TurbineStation,
+    pub(crate) compressor: CompressorStation,
+    pub(crate) hpt: TurbineStation,
+    pub(crate) pt: TurbineStation,
     /// Air the compressor delivers (after the standstill fade), kg/s.
-    pub w_compressor_kg_s: f64,
+    pub(crate) w_compressor_kg_s: f64,
     /// Air reaching the combustor (after bleed), kg/s.
-    pub w_combustor_air_kg_s: f64,
+    pub(crate) w_combustor_air_kg_s: f64,
     /// Gas leaving the combustor toward the HPT, kg/s: the burn's air plus fuel (steady), or
     /// the HPT map's flow (dynamic).
-    pub w_combustor_out_kg_s: f64,
+    pub(crate) w_combustor_out_kg_s: f64,
     /// Compressor shaft power (after the standstill fade), W.
-    pub compressor_power_w: f64,
+    pub(crate) compressor_power_w: f64,
     /// PT gas torque at the evaluated PT speed, N·m.
-    pub pt_gas_torque_n_m: f64,
+    pub(crate) pt_gas_torque_n_m: f64,
     /// PT power at the coupling, net of windage and bearings, W.
-    pub pt_net_w: f64,
+    pub(crate) pt_net_w: f64,
     /// GG shaft power balance without the starter: HPT less compressor and losses, W.
-    pub gg_net_w: f64,
+    pub(crate) gg_net_w: f64,
 }
 
 impl GasPath {

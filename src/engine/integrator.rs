@@ -107,9 +107,9 @@ fn lu_solve(a: &Mat, piv: &[usize; MAX_DIM], d: impl Dim, x: &mut [f64; MAX_DIM]
 /// Result of one attempted step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct StepResult<V> {
-    pub y: V,
+    pub(crate) y: V,
     /// Weighted RMS local error estimate; ≤ 1 means the step meets the tolerance.
-    pub err: f64,
+    pub(crate) err: f64,
 }
 
 /// Integrator state: the reusable Jacobian and counters. The state vector is any vector of
@@ -126,12 +126,12 @@ pub(crate) struct Ros2 {
     jac_valid: bool,
     steps_since_jac: usize,
     /// Refresh the Jacobian after this many steps.
-    pub jac_every: usize,
-    pub rtol: f64,
-    pub atol: f64,
+    pub(crate) jac_every: usize,
+    pub(crate) rtol: f64,
+    pub(crate) atol: f64,
     /// Right-hand-side evaluations so far (performance accounting).
-    pub rhs_evals: usize,
-    pub jac_evals: usize,
+    pub(crate) rhs_evals: usize,
+    pub(crate) jac_evals: usize,
 }
 
 impl Ros2 {

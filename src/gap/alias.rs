@@ -88,28 +88,28 @@ const INPUTS: [InputCandidate; 4] = [
 #[derive(Debug, Clone, Serialize)]
 pub(crate) struct Alias {
     /// The effect instance (`fuel_meter`, `inlet_temperature`, `sensor_scale:power_mw`).
-    pub effect: String,
+    pub(crate) effect: String,
     /// Its parameter (`effects.fuel_meter.scale`).
-    pub param: String,
-    pub unit: &'static str,
+    pub(crate) param: String,
+    pub(crate) unit: &'static str,
     /// The error size the shifts are given for.
-    pub nominal: f64,
+    pub(crate) nominal: f64,
     /// Share of the candidate's signature the health parameters reproduce (0 … 1).
-    pub absorbed: f64,
+    pub(crate) absorbed: f64,
     /// Estimate − truth of each health parameter for an error of `nominal`, points.
-    pub health_shift: HealthParams,
+    pub(crate) health_shift: HealthParams,
     /// The health the same data give if the instrument is off by `nominal`.
-    pub health_if_nominal: HealthParams,
+    pub(crate) health_if_nominal: HealthParams,
     /// Absorbed beyond [`HIDDEN_ABSORBED`] with a shift beyond [`HIDDEN_SHIFT`].
-    pub hidden: bool,
+    pub(crate) hidden: bool,
     /// When the baseline's health is implausible: the error of this instrument that makes it
     /// most plausible (`None`: the health is plausible, or this instrument does not help).
-    pub plausible_magnitude: Option<f64>,
+    pub(crate) plausible_magnitude: Option<f64>,
     /// The health at that error.
-    pub health_if_plausible: Option<HealthParams>,
+    pub(crate) health_if_plausible: Option<HealthParams>,
     /// Implausibility (sum of squared points beyond the margin) left at that error; the
     /// baseline's own is [`Aliases::implausibility`].
-    pub implausibility_left: Option<f64>,
+    pub(crate) implausibility_left: Option<f64>,
 }
 
 /// The alias analysis of one baseline fit.
@@ -117,9 +117,9 @@ pub(crate) struct Alias {
 pub(crate) struct Aliases {
     /// [`crate::health::implausibility`] of the baseline's health: 0 when every estimate is
     /// plausible.
-    pub implausibility: f64,
+    pub(crate) implausibility: f64,
     /// The candidates, those that restore plausibility best first, then by `absorbed`.
-    pub aliases: Vec<Alias>,
+    pub(crate) aliases: Vec<Alias>,
 }
 
 impl Aliases {

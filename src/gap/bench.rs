@@ -38,56 +38,56 @@ pub(crate) const MAX_DRAWS: usize = 8;
 /// One analysed case.
 #[derive(Debug, Clone, Serialize)]
 pub(crate) struct Case {
-    pub index: usize,
-    pub kind: String,
+    pub(crate) index: usize,
+    pub(crate) kind: String,
     /// The truth's magnitude (unit per kind: see `gap::truth`).
-    pub magnitude: f64,
+    pub(crate) magnitude: f64,
     /// The winning candidate's magnitude in the same unit, when one won.
-    pub fitted_magnitude: Option<f64>,
+    pub(crate) fitted_magnitude: Option<f64>,
     /// The truth's signature, noise σ (worst residual cell against the core model).
-    pub signature_sigma: f64,
+    pub(crate) signature_sigma: f64,
     /// Draws of the magnitudes it took to pass [`MIN_SIGNATURE_SIGMA`].
-    pub draws: usize,
-    pub truth: HealthParams,
-    pub verdict: String,
-    pub correct: bool,
+    pub(crate) draws: usize,
+    pub(crate) truth: HealthParams,
+    pub(crate) verdict: String,
+    pub(crate) correct: bool,
     /// The verdict's shrinkage (the winner's score: held-out when a holdout was analysed).
-    pub shrinkage: f64,
+    pub(crate) shrinkage: f64,
     /// The winner's shrinkage on the fitted start-up, and on the held-out one.
-    pub train_shrinkage: Option<f64>,
-    pub heldout_shrinkage: Option<f64>,
-    pub baseline_fit_quality: String,
-    pub error_before: f64,
-    pub error_after: f64,
-    pub health_before: HealthParams,
-    pub health_after: HealthParams,
+    pub(crate) train_shrinkage: Option<f64>,
+    pub(crate) heldout_shrinkage: Option<f64>,
+    pub(crate) baseline_fit_quality: String,
+    pub(crate) error_before: f64,
+    pub(crate) error_after: f64,
+    pub(crate) health_before: HealthParams,
+    pub(crate) health_after: HealthParams,
     /// Rank (1 = first) of the truth's expected candidate in the analysis's screen, and whether
     /// the screen passed it on to be scored (`None` for truths without a library candidate, or
     /// when the baseline fitted and nothing was screened; `false` also when the linear screen
     /// left it unfitted).
-    pub expected_screen_rank: Option<usize>,
-    pub expected_shortlisted: Option<bool>,
+    pub(crate) expected_screen_rank: Option<usize>,
+    pub(crate) expected_shortlisted: Option<bool>,
     /// The analysis's wall time, s, and the fits it ran.
-    pub analysis_wall_s: f64,
+    pub(crate) analysis_wall_s: f64,
     /// The analysis's wall time by stage, s.
-    pub stage_wall_s: super::StageWalls,
-    pub fits: usize,
+    pub(crate) stage_wall_s: super::StageWalls,
+    pub(crate) fits: usize,
 }
 
 /// A case whose truth stayed below [`MIN_SIGNATURE_SIGMA`] in every draw (not analysed).
 #[derive(Debug, Clone, Serialize)]
 pub(crate) struct Skipped {
-    pub index: usize,
-    pub kind: String,
+    pub(crate) index: usize,
+    pub(crate) kind: String,
     /// The largest signature drawn, σ.
-    pub best_signature_sigma: f64,
+    pub(crate) best_signature_sigma: f64,
 }
 
 /// All cases of a run.
 #[derive(Debug, Clone, Default, Serialize)]
 pub(crate) struct BenchRun {
-    pub cases: Vec<Case>,
-    pub skipped: Vec<Skipped>,
+    pub(crate) cases: Vec<Case>,
+    pub(crate) skipped: Vec<Skipped>,
 }
 
 /// An input-channel truth named by the verdict, or listed among the aliases of an

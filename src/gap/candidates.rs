@@ -93,9 +93,9 @@ pub(crate) const LINEAR_MIN_SHRINKAGE: f64 = 0.02;
 /// An instrument candidate the linear screen left out of the fitted screen.
 #[derive(Debug, Clone, Serialize)]
 pub(crate) struct Unscreened {
-    pub effect: String,
+    pub(crate) effect: String,
     /// The linear screen's predicted shrinkage (fraction of the baseline's SSR).
-    pub predicted_shrinkage: f64,
+    pub(crate) predicted_shrinkage: f64,
 }
 
 /// A candidate the analysis fits: its instance name, its fit parameters, and the linear

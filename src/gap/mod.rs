@@ -75,96 +75,96 @@ pub(crate) const SCREEN_BUDGET: f64 = 0.5;
 /// One candidate's result.
 #[derive(Debug, Clone, Serialize)]
 pub(crate) struct Candidate {
-    pub effect: String,
+    pub(crate) effect: String,
     /// Fitted parameters: name → (value, 1σ).
-    pub params: BTreeMap<String, (f64, f64)>,
+    pub(crate) params: BTreeMap<String, (f64, f64)>,
     /// 1 − SSR(candidate)/SSR(baseline) on the whole start-up in the screen (a reduced-budget
     /// fit from the baseline's health).
-    pub screen_shrinkage: f64,
+    pub(crate) screen_shrinkage: f64,
     /// Whether the screen ranked it among the [`SHORTLIST`] scored on held-out data. The
     /// others keep their screen's fit (`heldout_shrinkage` is `None`, `score` the screen's
     /// shrinkage) and cannot be named.
-    pub shortlisted: bool,
+    pub(crate) shortlisted: bool,
     /// The linear screen's predicted shrinkage (instrument candidates only; see [`linear`]).
-    pub predicted_shrinkage: Option<f64>,
+    pub(crate) predicted_shrinkage: Option<f64>,
     /// 1 − SSR(candidate)/SSR(baseline) on the fitted start-up.
-    pub train_shrinkage: f64,
+    pub(crate) train_shrinkage: f64,
     /// The same on the held-out start-up (`None` without one).
-    pub heldout_shrinkage: Option<f64>,
+    pub(crate) heldout_shrinkage: Option<f64>,
     /// BIC(baseline) − BIC(candidate): positive when the candidate is worth its parameters.
-    pub bic_gain: f64,
+    pub(crate) bic_gain: f64,
     /// The score the ranking uses: held-out shrinkage when available, else train shrinkage.
-    pub score: f64,
-    pub health: HealthParams,
-    pub fit_quality: Verdict,
-    pub normalised_residual: f64,
+    pub(crate) score: f64,
+    pub(crate) health: HealthParams,
+    pub(crate) fit_quality: Verdict,
+    pub(crate) normalised_residual: f64,
 }
 
 /// What the analysis concludes.
 #[derive(Debug, Clone, Serialize)]
 pub(crate) struct GapVerdict {
     /// The winning effect's instance name, `unexplained`, or `none`.
-    pub effect: String,
+    pub(crate) effect: String,
     /// Score margin of the winner over the runner-up (0…1; 0 for `none`/`unexplained`).
-    pub confidence: f64,
-    pub shrinkage: f64,
-    pub health_before: HealthParams,
-    pub health_after: HealthParams,
+    pub(crate) confidence: f64,
+    pub(crate) shrinkage: f64,
+    pub(crate) health_before: HealthParams,
+    pub(crate) health_after: HealthParams,
 }
 
 /// The whole analysis.
 #[derive(Debug, Clone, Serialize)]
 pub(crate) struct GapReport {
-    pub baseline_fit_quality: Verdict,
-    pub baseline_normalised_residual: f64,
-    pub summary: String,
-    pub localisation: Vec<ResidualCell>,
+    pub(crate) baseline_fit_quality: Verdict,
+    pub(crate) baseline_normalised_residual: f64,
+    pub(crate) summary: String,
+    pub(crate) localisation: Vec<ResidualCell>,
     /// How far the baseline's residual moves between fits with different optimiser seeds
     /// ((max − min)/min of the SSR over [`SEED_REFITS`] + 1 fits): a candidate must shrink
     /// the gap by more than this to be named (0 when the baseline fits).
-    pub optimiser_spread: f64,
+    pub(crate) optimiser_spread: f64,
     /// How the candidates were scored.
-    pub scoring: Scoring,
-    pub candidates: Vec<Candidate>,
+    pub(crate) scoring: Scoring,
+    pub(crate) candidates: Vec<Candidate>,
     /// Instrument candidates worth trying that the linear screen left unfitted.
-    pub unscreened: Vec<Unscreened>,
-    pub verdict: GapVerdict,
+    pub(crate) unscreened: Vec<Unscreened>,
+    pub(crate) verdict: GapVerdict,
     /// Input instruments (fuel meter, T1, power) whose error the health parameters would
     /// absorb, with the health each would imply ([`alias`]).
-    pub aliases: alias::Aliases,
+    pub(crate) aliases: alias::Aliases,
     /// Diagnosis fits the analysis ran, on how many worker threads, and its wall time, s.
-    pub fits: usize,
-    pub threads: usize,
-    pub wall_s: f64,
+    pub(crate) fits: usize,
+    pub(crate) threads: usize,
+    pub(crate) wall_s: f64,
     /// Wall time of each stage, s: the baseline fit, the first batch (seed refits, the
     /// baseline's folds or held-out start-up, the screen), the shortlist's scoring, and the
     /// leader's refit on the whole start-up (cross-validation only).
-    pub stage_wall_s: StageWalls,
+    pub(crate) stage_wall_s: StageWalls,
     /// The worst signal of the baseline's residual map: measured, modelled before and after
     /// the winning effect (for the SVG; not serialised).
     #[serde(skip)]
-    pub worst_signal: Option<SignalTraces>,
+    pub(crate) worst_signal: Option<SignalTraces>,
 }
 
 /// Wall time of each stage of one analysis, s (0 for a stage that did not run).
 #[derive(Debug, Clone, Copy, Default, Serialize)]
 pub(crate) struct StageWalls {
-    pub baseline: f64,
-    pub screen: f64,
-    pub scoring: f64,
-    pub leader: f64,
+    pub(crate) baseline: f64,
+    pub(crate) screen: f64,
+    pub(crate) scoring: f64,
+    pub(crate) leader: f64,
 }
 
 /// One signal over the start-up: measured, the baseline model, and the model with the winning
 /// effect (when one is named).
 #[derive(Debug, Clone)]
 pub(crate) struct SignalTraces {
-    pub signal: Signal,
-    pub t_s: Vec<f64>,
-    pub measured: Vec<f64>,
-    pub before: Vec<f64>,
+    pub(crate) signal: Signal,
+    pub(crate) t_s: Vec<f64>,
+    pub(crate) measured: Vec<f64>,
+    pub(crate) before: Vec<f64>,
     /// The winner's model and its name.
-    pub after: Option<(String, Vec<f64>)>,
+    pub(crate) after: Option<(String, Vec<f64>)>,
 }
 
 /// Length of one block of the blocked cross-validation, s: longer than the residuals'

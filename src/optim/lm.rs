@@ -402,10 +402,10 @@ pub(crate) mod tests {
 
     /// y(t) = A exp(−k t) + c sampled at 40 points on [0, 5], residuals (model − y) / σ.
     pub(crate) struct ExpDecay {
-        pub t: Vec<f64>,
-        pub y: Vec<f64>,
-        pub noise: f64,
-        pub bounds: Bounds,
+        pub(crate) t: Vec<f64>,
+        pub(crate) y: Vec<f64>,
+        pub(crate) noise: f64,
+        pub(crate) bounds: Bounds,
     }
 
     pub(crate) const TRUTH: [f64; 3] = [2.0, 0.7, 0.3];

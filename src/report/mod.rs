@@ -59,85 +59,85 @@ pub(crate) enum ReportError {
 /// What the page is about (the header).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub(crate) struct ReportHeader {
-    pub plant: String,
-    pub db_path: String,
-    pub generated_utc: String,
-    pub version: String,
+    pub(crate) plant: String,
+    pub(crate) db_path: String,
+    pub(crate) generated_utc: String,
+    pub(crate) version: String,
 }
 
 /// Measured and modelled values of one signal for the latest start-up.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub(crate) struct SignalTrace {
-    pub signal: String,
-    pub unit: String,
-    pub t_s: Vec<f64>,
-    pub measured: Vec<f64>,
-    pub model: Vec<f64>,
+    pub(crate) signal: String,
+    pub(crate) unit: String,
+    pub(crate) t_s: Vec<f64>,
+    pub(crate) measured: Vec<f64>,
+    pub(crate) model: Vec<f64>,
     /// RMS of measured − model over the samples where both exist.
-    pub rms_residual: f64,
+    pub(crate) rms_residual: f64,
 }
 
 /// The latest diagnosed start-up, re-simulated with its stored health.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub(crate) struct LatestStartup {
-    pub segment_id: i64,
-    pub start_utc: String,
-    pub health: HealthParams,
-    pub fit_quality: Option<String>,
-    pub residual_level: Option<f64>,
-    pub traces: Vec<SignalTrace>,
+    pub(crate) segment_id: i64,
+    pub(crate) start_utc: String,
+    pub(crate) health: HealthParams,
+    pub(crate) fit_quality: Option<String>,
+    pub(crate) residual_level: Option<f64>,
+    pub(crate) traces: Vec<SignalTrace>,
     /// Why the model could not be re-run, if it could not.
-    pub problem: Option<String>,
+    pub(crate) problem: Option<String>,
 }
 
 /// A start-up that was not diagnosed, with the reasons.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub(crate) struct Undiagnosed {
-    pub segment_id: i64,
-    pub start_utc: String,
-    pub outcome: String,
-    pub reasons: Vec<String>,
+    pub(crate) segment_id: i64,
+    pub(crate) start_utc: String,
+    pub(crate) outcome: String,
+    pub(crate) reasons: Vec<String>,
 }
 
 /// A fitted fouling trend line since the last wash.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub(crate) struct TrendLine {
-    pub param: String,
-    pub rate_per_day: f64,
-    pub rate_sigma_per_day: f64,
+    pub(crate) param: String,
+    pub(crate) rate_per_day: f64,
+    pub(crate) rate_sigma_per_day: f64,
     /// End points (Unix ms, percent).
-    pub from: (f64, f64),
-    pub to: (f64, f64),
+    pub(crate) from: (f64, f64),
+    pub(crate) to: (f64, f64),
 }
 
 /// Everything on the page.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub(crate) struct ReportData {
-    pub header: ReportHeader,
-    pub history: Vec<HistoryRow>,
-    pub washes: Vec<WashRow>,
-    pub trends: Vec<TrendLine>,
-    pub latest: Option<LatestStartup>,
-    pub gaps: Vec<Gap>,
-    pub undiagnosed: Vec<Undiagnosed>,
+    pub(crate) header: ReportHeader,
+    pub(crate) history: Vec<HistoryRow>,
+    pub(crate) washes: Vec<WashRow>,
+    pub(crate) trends: Vec<TrendLine>,
+    pub(crate) latest: Option<LatestStartup>,
+    pub(crate) gaps: Vec<Gap>,
+    pub(crate) undiagnosed: Vec<Undiagnosed>,
     /// Stored gap analyses of the period's start-ups, newest first.
-    pub gap_analyses: Vec<GapAnalysisRow>,
-    pub startups: usize,
-    pub advice: Option<RecommendationRow>,
+    pub(crate) gap_analyses: Vec<GapAnalysisRow>,
+    pub(crate) startups: usize,
+    pub(crate) advice: Option<RecommendationRow>,
 }
 
 /// What `write_report` wrote.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub(crate) struct ReportSummary {
-    pub path: PathBuf,
-    pub bytes: usize,
-    pub startups: usize,
-    pub diagnoses: usize,
-    pub washes: usize,
-    pub gaps: usize,
-    pub undiagnosed: usize,
-    pub latest_segment: Option<i64>,
-    pub advice: Option<String>,
+    pub(crate) path: PathBuf,
+    pub(crate) bytes: usize,
+    pub(crate) startups: usize,
+    pub(crate) diagnoses: usize,
+    pub(crate) washes: usize,
+    pub(crate) gaps: usize,
+    pub(crate) undiagnosed: usize,
+    pub(crate) latest_segment: Option<i64>,
+    pub(crate) advice: Option<String>,
 }
 
 /// Gathers, renders and writes `out_dir/report.html`.

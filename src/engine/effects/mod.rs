@@ -57,12 +57,12 @@ use std::sync::Arc;
 /// A bounded parameter of an effect.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub(crate) struct ParamSpec {
-    pub name: &'static str,
-    pub unit: &'static str,
-    pub default: f64,
-    pub min: f64,
-    pub max: f64,
-    pub doc: &'static str,
+    pub(crate) name: &'static str,
+    pub(crate) unit: &'static str,
+    pub(crate) default: f64,
+    pub(crate) min: f64,
+    pub(crate) max: f64,
+    pub(crate) doc: &'static str,
 }
 
 /// Which instances of an effect exist: one for the engine, or one per measured channel
@@ -96,17 +96,17 @@ impl Channels {
 /// A registry entry: what the effect is called, what it does, its parameters and how to build it.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct EffectSpec {
-    pub name: &'static str,
+    pub(crate) name: &'static str,
     /// One instance, or one per channel.
-    pub channels: Channels,
+    pub(crate) channels: Channels,
     /// One line: what the effect models.
-    pub summary: &'static str,
+    pub(crate) summary: &'static str,
     /// Where the effect shows in the data (its signature), for the gap analysis and the user.
-    pub signature: &'static str,
-    pub params: &'static [ParamSpec],
+    pub(crate) signature: &'static str,
+    pub(crate) params: &'static [ParamSpec],
     /// Builds the effect from a complete, validated parameter set (in `params` order) and, for
     /// per-channel effects, its channel.
-    pub build: fn(&[f64], Option<Signal>) -> Arc<dyn Effect>,
+    pub(crate) build: fn(&[f64], Option<Signal>) -> Arc<dyn Effect>,
 }
 
 /// An effect instance name split into the registry entry and its channel.
@@ -515,7 +515,7 @@ pub(crate) fn lag_rate(u: f64, x: f64, tau_s: f64) -> f64 {
 /// effects whose metal lags the gas (`heat_soak`, `tip_clearance`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct MetalNode {
-    pub tau_s: f64,
+    pub(crate) tau_s: f64,
 }
 
 impl MetalNode {

@@ -23,11 +23,11 @@ use rand::Rng;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct BleedSmooth {
     /// Bleed fraction fully open.
-    pub fraction: f64,
+    pub(crate) fraction: f64,
     /// Corrected speed (fraction of design) where the valve is closed.
-    pub close_at: f64,
+    pub(crate) close_at: f64,
     /// Corrected-speed span of the closure.
-    pub span: f64,
+    pub(crate) span: f64,
 }
 
 impl BleedSmooth {

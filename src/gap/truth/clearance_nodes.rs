@@ -25,11 +25,11 @@ const T_SCALE_K: f64 = 1000.0;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct ClearanceNodes {
     /// Efficiency change per kelvin of gas above the casing (fraction per K).
-    pub per_k: f64,
-    pub tau_shell_s: f64,
-    pub tau_flange_s: f64,
+    pub(crate) per_k: f64,
+    pub(crate) tau_shell_s: f64,
+    pub(crate) tau_flange_s: f64,
     /// Weight of the shell in the casing temperature.
-    pub w_shell: f64,
+    pub(crate) w_shell: f64,
 }
 
 impl ClearanceNodes {

@@ -21,9 +21,9 @@ use rand::Rng;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct DuctFouling {
     /// Extra inlet loss at design flow, multiple of the file's loss.
-    pub inlet_extra: f64,
+    pub(crate) inlet_extra: f64,
     /// Extra exhaust back-pressure at design flow, multiple of the file's excess.
-    pub exhaust_extra: f64,
+    pub(crate) exhaust_extra: f64,
 }
 
 /// Least flow proxy: keeps the laminar term finite at standstill (where the loss is nil anyway).

@@ -35,10 +35,10 @@ pub(crate) const PLANT_GAINS: [(&str, f64); 2] = [
 /// Transport line plus second-order valve.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct FuelValve2 {
-    pub delay_s: f64,
+    pub(crate) delay_s: f64,
     /// Valve natural frequency, rad/s.
-    pub omega: f64,
-    pub zeta: f64,
+    pub(crate) omega: f64,
+    pub(crate) zeta: f64,
 }
 
 impl FuelValve2 {

@@ -34,11 +34,11 @@ const T_SCALE_K: f64 = 1000.0;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct HeatSoakNodes {
     /// Heat capacities of liner, HPT and casing nodes, J/K.
-    pub cap_j_per_k: [f64; 3],
+    pub(crate) cap_j_per_k: [f64; 3],
     /// Gas-to-liner and gas-to-HPT conductances, W/K.
-    pub ha_w_per_k: [f64; 2],
+    pub(crate) ha_w_per_k: [f64; 2],
     /// Liner-to-casing and HPT-to-casing conductances, W/K.
-    pub k_w_per_k: [f64; 2],
+    pub(crate) k_w_per_k: [f64; 2],
 }
 
 impl HeatSoakNodes {

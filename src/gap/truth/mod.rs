@@ -109,9 +109,9 @@ pub(crate) fn in_library(kind: &str) -> bool {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct PlantScale {
     /// Fuel heat released from light-off to the first steady-load sample, J.
-    pub fuel_heat_j: f64,
+    pub(crate) fuel_heat_j: f64,
     /// T3 at that sample above the T3 at rest, K.
-    pub t3_rise_k: f64,
+    pub(crate) t3_rise_k: f64,
 }
 
 impl PlantScale {
@@ -151,8 +151,8 @@ pub(crate) enum Hidden {
 /// A drawn truth and its magnitude (unit per kind: see each truth's documentation).
 #[derive(Debug, Clone)]
 pub(crate) struct Drawn {
-    pub hidden: Hidden,
-    pub magnitude: f64,
+    pub(crate) hidden: Hidden,
+    pub(crate) magnitude: f64,
 }
 
 /// Draws hidden truth `kind` (magnitudes across REFERENCE §5's ranges); `None` for an unknown

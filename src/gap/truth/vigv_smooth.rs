@@ -21,11 +21,11 @@ use rand::Rng;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct VigvSmooth {
     /// Flow change at low speed (fraction).
-    pub flow_delta: f64,
+    pub(crate) flow_delta: f64,
     /// Efficiency change at low speed (fraction).
-    pub eff_delta: f64,
-    pub end: f64,
-    pub span: f64,
+    pub(crate) eff_delta: f64,
+    pub(crate) end: f64,
+    pub(crate) span: f64,
 }
 
 impl VigvSmooth {
