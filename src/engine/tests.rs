@@ -341,3 +341,60 @@ fn startup_is_bit_for_bit_the_pre_refactor_model() {
         assert_eq!(&startup_bits(*idx, &s), bits, "sample {idx}");
     }
 }
+
+/// Issue 22 item 5: the PT approaches synchronous speed as a unit's does. From the moment the
+/// PT governor takes over until the breaker closes: overshoot under 0.5 %, the last 10 s within
+/// 0.2 %, and the GG speed rises once (to accelerate the PT) and then settles without a second
+/// peak.
+#[test]
+fn pt_approaches_synchronous_speed_damped() {
+    let engine = Engine::reference().expect("engine");
+    let cfg = engine.cfg();
+    let model = engine.model(&HealthParams::HEALTHY);
+    let (s, _) = run_scenario(&model, &Scenario::startup(cfg)).expect("runs");
+    let sync = cfg.design.pt_speed_rpm;
+    let k_load = s
+        .iter()
+        .position(|x| x.phase == Phase::Loading)
+        .expect("loading");
+    let t_load = s[k_load].t_s;
+    let k_sync = s
+        .iter()
+        .position(|x| x.phase == Phase::Synchronisation)
+        .expect("synchronisation");
+    let k_idle = s.iter().position(|x| x.phase == Phase::Idle).expect("idle");
+    // The governor takes over `idle_hold_s` after idle is reached.
+    let t_gov = s[k_idle].t_s + cfg.sequence.idle_hold_s;
+    let before: Vec<&super::simulation::TruthSample> = s[k_idle..k_load]
+        .iter()
+        .filter(|x| x.t_s >= t_gov)
+        .collect();
+    let overshoot = before
+        .iter()
+        .map(|x| x.stations.n2_rpm / sync - 1.0)
+        .fold(f64::NEG_INFINITY, f64::max);
+    assert!(overshoot < 0.005, "PT overshoot {:.3} %", overshoot * 100.0);
+    let slip_last_10 = before
+        .iter()
+        .filter(|x| x.t_s >= t_load - 10.0)
+        .map(|x| (x.stations.n2_rpm / sync - 1.0).abs())
+        .fold(0.0, f64::max);
+    assert!(slip_last_10 < 0.002, "slip {:.3} %", slip_last_10 * 100.0);
+    assert!(k_sync < k_load);
+    let n1: Vec<f64> = before.iter().map(|x| x.stations.n1_rpm).collect();
+    // Peaks: local maxima standing 0.3 % above the lowest point on either side before the
+    // trace climbs higher (prominence).
+    let peaks = (1..n1.len().saturating_sub(1))
+        .filter(|&i| n1[i] >= n1[i - 1] && n1[i] > n1[i + 1])
+        .filter(|&i| {
+            let left = n1[..i].iter().rev().take_while(|&&v| v <= n1[i]);
+            let right = n1[i + 1..].iter().take_while(|&&v| v <= n1[i]);
+            let lo = left.chain(right).fold(n1[i], |a, &b| a.min(b));
+            n1[i] - lo > 0.003 * n1[i]
+        })
+        .count();
+    assert!(
+        peaks <= 1,
+        "GG speed peaks {peaks} times before the breaker closes"
+    );
+}
