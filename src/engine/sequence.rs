@@ -443,7 +443,10 @@ impl Sequencer {
                 // starved and the governor does not ring around synchronous speed.
                 let approach =
                     Approach::new(t, n2, sync, q.pt_accel_rate_rpm_s, q.pt_approach_tau_s);
-                let sync_at = approach.time_at(0.99 * sync);
+                // The sequence logic runs on a controller scan: the synchroniser is enabled at the
+                // first scan after the set-point passes 99 %, so the breaker's timing does not
+                // move with the last rpm of the PT's speed at hand-over.
+                let sync_at = (approach.time_at(0.99 * sync) / SCAN_S).ceil() * SCAN_S;
                 let cmd = self.pid(Loop::PtSpeed, Setpoint::Approach(approach));
                 self.switch_fuel(t, act, st, cmd);
                 self.mode = Mode::PtApproach { sync_at };
@@ -626,6 +629,8 @@ impl Controller for Sequencer {
 
 /// Rate at which the set-point takes the minimum (block) load when the breaker closes, MW/s.
 const BLOCK_LOAD_RATE_MW_S: f64 = 1.0;
+/// The sequence logic's scan period, s: timers it starts from a state begin on this grid.
+const SCAN_S: f64 = 0.1;
 
 /// How far ahead of the GG speed the acceleration reference starts, rpm.
 const ACCEL_REFERENCE_LEAD_RPM: f64 = 150.0;
