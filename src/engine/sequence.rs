@@ -137,14 +137,13 @@ enum Mode {
         until: f64,
     },
     PtGovern,
-    /// Generator: the PT governor follows its approach to synchronous speed; the synchroniser
-    /// is enabled at `sync_at`, when the set-point reaches 99 % (a time, not a threshold of the
-    /// state, so the breaker's timing does not hang on the integrator's error).
-    PtApproach {
-        sync_at: f64,
-    },
+    /// Generator: the PT governor approaches synchronous speed and the synchroniser closes the
+    /// breaker at `until` once the slip allows; the phase reads Idle until `announced` (the PT
+    /// within 1 % of synchronous speed, where a unit's synchroniser starts matching), then
+    /// Synchronisation.
     Sync {
         until: f64,
+        announced: bool,
     },
     Loading {
         ramp_done_at: f64,
@@ -207,7 +206,10 @@ impl Sequencer {
             Mode::Purge { .. } => Phase::Purge,
             Mode::Coast | Mode::Ignition { .. } => Phase::LightOff,
             Mode::Accel => Phase::Acceleration,
-            Mode::Idle { .. } | Mode::PtGovern | Mode::PtApproach { .. } => Phase::Idle,
+            Mode::Idle { .. } | Mode::PtGovern => Phase::Idle,
+            Mode::Sync {
+                announced: false, ..
+            } => Phase::Idle,
             Mode::Sync { .. } => Phase::Synchronisation,
             Mode::Loading { .. } => Phase::Loading,
             Mode::Steady => Phase::Steady,
@@ -247,8 +249,7 @@ impl Sequencer {
             Mode::Purge { until }
             | Mode::Ignition { until }
             | Mode::Idle { until }
-            | Mode::Sync { until }
-            | Mode::PtApproach { sync_at: until }
+            | Mode::Sync { until, .. }
             | Mode::Cooldown { until } => Some(until),
             Mode::Loading { ramp_done_at } | Mode::Unloading { ramp_done_at } => Some(ramp_done_at),
             _ => None,
@@ -285,6 +286,9 @@ impl Sequencer {
                 w
             }
             Mode::PtGovern => vec![n2(0.99 * self.pt_governor_target_rpm(), true)],
+            Mode::Sync {
+                announced: false, ..
+            } => vec![n2(0.99 * self.pt_governor_target_rpm(), true)],
             Mode::Coastdown { .. } => vec![n1(q.rest_speed_rpm, false)],
             _ => Vec::new(),
         }
@@ -443,27 +447,35 @@ impl Sequencer {
                 // starved and the governor does not ring around synchronous speed.
                 let approach =
                     Approach::new(t, n2, sync, q.pt_accel_rate_rpm_s, q.pt_approach_tau_s);
-                // The sequence logic runs on a controller scan: the synchroniser is enabled at the
-                // first scan after the set-point passes 99 %, so the breaker's timing does not
-                // move with the last rpm of the PT's speed at hand-over.
-                let sync_at = (approach.time_at(0.99 * sync) / SCAN_S).ceil() * SCAN_S;
+                // The synchroniser's timer runs from the set-point passing 99 %, taken at the
+                // sequence logic's next scan: a time the approach fixes at hand-over, not where
+                // the integrator places a crossing on the slow end of the approach (every
+                // millisecond there moves the whole loading that follows).
+                let armed = (approach.time_at(0.99 * sync) / SCAN_S).ceil() * SCAN_S;
                 let cmd = self.pid(Loop::PtSpeed, Setpoint::Approach(approach));
                 self.switch_fuel(t, act, st, cmd);
-                self.mode = Mode::PtApproach { sync_at };
-            }
-            Mode::PtApproach { sync_at } if t >= sync_at - 1e-9 => {
                 self.mode = Mode::Sync {
-                    until: sync_at + q.sync_s,
+                    until: armed + q.sync_s,
+                    announced: false,
                 };
             }
-            Mode::Sync { until }
+            Mode::Sync {
+                until,
+                announced: false,
+            } if n2 >= 0.99 * sync * (1.0 - tol) => {
+                self.mode = Mode::Sync {
+                    until,
+                    announced: true,
+                };
+            }
+            Mode::Sync { until, .. }
                 if t >= until + q.sync_timeout_s
                     && (n2 / sync - 1.0).abs() * 100.0 > q.sync_slip_pct =>
             {
                 // The synchroniser never saw the slip within its window: the start is aborted.
                 self.cut_fuel(true);
             }
-            Mode::Sync { until }
+            Mode::Sync { until, .. }
                 if t >= until - 1e-9 && (n2 / sync - 1.0).abs() * 100.0 <= q.sync_slip_pct =>
             {
                 // Breaker closes: the grid holds the PT at synchronous speed from now on.
@@ -600,7 +612,7 @@ impl Sequencer {
         match self.mode {
             Mode::Loading { ramp_done_at } => t >= ramp_done_at - 1e-9,
             // The synchroniser waits for the slip once its time has passed.
-            Mode::Sync { until } => t >= until - 1e-9,
+            Mode::Sync { until, .. } => t >= until - 1e-9,
             _ => false,
         }
     }
@@ -629,7 +641,8 @@ impl Controller for Sequencer {
 
 /// Rate at which the set-point takes the minimum (block) load when the breaker closes, MW/s.
 const BLOCK_LOAD_RATE_MW_S: f64 = 1.0;
-/// The sequence logic's scan period, s: timers it starts from a state begin on this grid.
+/// The sequence logic's scan period, s: a timer it starts from a computed time begins on this
+/// grid.
 const SCAN_S: f64 = 0.1;
 
 /// How far ahead of the GG speed the acceleration reference starts, rpm.
