@@ -458,8 +458,17 @@ impl Machine {
         if let Some((slope, icpt)) = line_fit(&ramp) {
             if slope > 0.0 && ramp.len() >= 3 {
                 let t_knee = (level - icpt) / slope;
-                // Nearest sample to the knee, within a few samples of the coarse start.
-                let hi = (s + 4).min(self.hist.len());
+                // Nearest sample to the knee, within a few samples of the coarse start. With
+                // noisy power the band is wide (4σ) and the coarse start can come early by the
+                // time the ramp takes to cross it: the search reaches that far past it.
+                let dt_ms = (ramp[ramp.len() - 1].0 - ramp[0].0) / (ramp.len() - 1) as f64;
+                let crossing = (band / (slope * dt_ms)).ceil();
+                let reach = if crossing.is_finite() {
+                    (crossing as usize + 1).clamp(4, 12)
+                } else {
+                    4
+                };
+                let hi = (s + reach).min(self.hist.len());
                 let cand = self.hist[s.saturating_sub(2).max(li)..hi]
                     .iter()
                     .min_by(|p, q| {

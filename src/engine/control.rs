@@ -173,10 +173,73 @@ impl Series {
     }
 }
 
-/// A controller set-point: a ramp, or a measured series to follow.
+/// A ramp at `rate` from `v0` at `t0` that blends, with the same slope, into an exponential
+/// approach to `target`: `v(t) = target − rate·τ·e^{−(t−t1)/τ}` after the hand-over at `t1`,
+/// where the remaining error is `rate·τ`. Continuous in value and slope (a PT governor's
+/// set-point: the acceleration the PT is asked for fades out instead of stopping).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Approach {
+    t0: f64,
+    v0: f64,
+    rate: f64,
+    t1: f64,
+    /// Remaining error at the hand-over, `target − v(t1)` (≥ 0).
+    gap: f64,
+    target: f64,
+}
+
+impl Approach {
+    /// From `v0` at `t0` up to `target`: at `rate` (> 0) until `rate·tau` below the target, then
+    /// exponentially with time constant `tau` (at once when already closer than that; `tau = 0`:
+    /// the plain ramp).
+    pub fn new(t0: f64, v0: f64, target: f64, rate: f64, tau: f64) -> Approach {
+        let rate = rate.abs().max(1e-9);
+        let knee = (target - rate * tau.max(0.0)).max(v0).min(target);
+        Approach {
+            t0,
+            v0,
+            rate,
+            t1: t0 + (knee - v0).max(0.0) / rate,
+            gap: target - knee,
+            target,
+        }
+    }
+
+    /// The first time the set-point reaches `v` (`t0` when it starts above; infinite when `v`
+    /// is at or beyond the target, which the exponential never reaches).
+    pub fn time_at(&self, v: f64) -> f64 {
+        if v <= self.v0 {
+            return self.t0;
+        }
+        let knee = self.target - self.gap;
+        if v <= knee {
+            return self.t0 + (v - self.v0) / self.rate;
+        }
+        if v >= self.target {
+            return f64::INFINITY;
+        }
+        let tau = self.gap / self.rate;
+        self.t1 - tau * ((self.target - v) / self.gap).ln()
+    }
+
+    pub fn value(&self, t: f64) -> f64 {
+        if t <= self.t1 {
+            return self.v0 + self.rate * (t - self.t0).max(0.0);
+        }
+        if self.gap <= 0.0 {
+            return self.target;
+        }
+        // The exponential's time constant gives the ramp's slope at the hand-over.
+        let tau = self.gap / self.rate;
+        self.target - self.gap * (-(t - self.t1) / tau).exp()
+    }
+}
+
+/// A controller set-point: a ramp, a smooth approach, or a measured series to follow.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Setpoint {
     Ramp(Ramp),
+    Approach(Approach),
     Series(Arc<Series>),
 }
 
@@ -184,6 +247,7 @@ impl Setpoint {
     pub fn value(&self, t: f64) -> f64 {
         match self {
             Setpoint::Ramp(r) => r.value(t),
+            Setpoint::Approach(a) => a.value(t),
             Setpoint::Series(s) => s.value(t),
         }
     }

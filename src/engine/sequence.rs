@@ -22,7 +22,7 @@
 
 use super::config::EngineConfig;
 use super::control::{
-    Feedback, FuelCommand, FuelLimits, Loop, Ramp, Series, Setpoint, StarterCommand,
+    Approach, Feedback, FuelCommand, FuelLimits, Loop, Ramp, Series, Setpoint, StarterCommand,
 };
 use super::dynamic::{Drive, Stations};
 use super::load::PtLoad;
@@ -125,21 +125,41 @@ impl Scenario {
 enum Mode {
     Standstill,
     Crank,
-    Purge { until: f64 },
+    Purge {
+        until: f64,
+    },
     Coast,
-    Ignition { until: f64 },
+    Ignition {
+        until: f64,
+    },
     Accel,
-    Idle { until: f64 },
+    Idle {
+        until: f64,
+    },
     PtGovern,
-    Sync { until: f64 },
-    Loading { ramp_done_at: f64 },
+    /// Generator: the PT governor approaches synchronous speed and the synchroniser closes the
+    /// breaker at `until` once the slip allows; the phase reads Idle until `announced` (the PT
+    /// within 1 % of synchronous speed, where a unit's synchroniser starts matching), then
+    /// Synchronisation.
+    Sync {
+        until: f64,
+        announced: bool,
+    },
+    Loading {
+        ramp_done_at: f64,
+    },
     Steady,
-    Unloading { ramp_done_at: f64 },
-    Cooldown { until: f64 },
-    Coastdown { trip: bool },
+    Unloading {
+        ramp_done_at: f64,
+    },
+    Cooldown {
+        until: f64,
+    },
+    Coastdown {
+        trip: bool,
+    },
 }
 
-/// A speed threshold the sequencer waits for.
 /// The discrete controller.
 #[derive(Debug, Clone)]
 pub struct Sequencer {
@@ -187,6 +207,9 @@ impl Sequencer {
             Mode::Coast | Mode::Ignition { .. } => Phase::LightOff,
             Mode::Accel => Phase::Acceleration,
             Mode::Idle { .. } | Mode::PtGovern => Phase::Idle,
+            Mode::Sync {
+                announced: false, ..
+            } => Phase::Idle,
             Mode::Sync { .. } => Phase::Synchronisation,
             Mode::Loading { .. } => Phase::Loading,
             Mode::Steady => Phase::Steady,
@@ -226,7 +249,7 @@ impl Sequencer {
             Mode::Purge { until }
             | Mode::Ignition { until }
             | Mode::Idle { until }
-            | Mode::Sync { until }
+            | Mode::Sync { until, .. }
             | Mode::Cooldown { until } => Some(until),
             Mode::Loading { ramp_done_at } | Mode::Unloading { ramp_done_at } => Some(ramp_done_at),
             _ => None,
@@ -263,6 +286,9 @@ impl Sequencer {
                 w
             }
             Mode::PtGovern => vec![n2(0.99 * self.pt_governor_target_rpm(), true)],
+            Mode::Sync {
+                announced: false, ..
+            } => vec![n2(0.99 * self.pt_governor_target_rpm(), true)],
             Mode::Coastdown { .. } => vec![n1(q.rest_speed_rpm, false)],
             _ => Vec::new(),
         }
@@ -415,27 +441,43 @@ impl Sequencer {
                 };
             }
             Mode::Idle { until } if t >= until - 1e-9 => {
-                // The PT governor takes over: a PT speed ramp from wherever the PT has got to, at a
-                // sixth of the rate over the last 5 %, so the PT's acceleration power (≈ 2 MW at
-                // full rate) fades out instead of vanishing, and the GG is not starved.
-                let r = q.pt_accel_rate_rpm_s;
-                let knee = (0.95 * sync).max(n2);
-                let t1 = t + (knee - n2) / r;
-                let t2 = t1 + (sync - knee) / (r / 6.0);
-                let series = Series {
-                    t_s: vec![t, t1, t2],
-                    value: vec![n2, knee, sync],
-                };
-                let cmd = self.pid(Loop::PtSpeed, Setpoint::Series(Arc::new(series)));
+                // The PT governor takes over: a PT speed ramp from wherever the PT has got to,
+                // blending into an exponential approach to synchronous speed, so the PT's
+                // acceleration power (≈ 2 MW at full rate) fades out smoothly, the GG is not
+                // starved and the governor does not ring around synchronous speed.
+                let approach =
+                    Approach::new(t, n2, sync, q.pt_accel_rate_rpm_s, q.pt_approach_tau_s);
+                // The synchroniser's timer runs from the set-point passing 99 %, taken at the
+                // sequence logic's next scan: a time the approach fixes at hand-over, not where
+                // the integrator places a crossing on the slow end of the approach (every
+                // millisecond there moves the whole loading that follows).
+                let armed = (approach.time_at(0.99 * sync) / SCAN_S).ceil() * SCAN_S;
+                let cmd = self.pid(Loop::PtSpeed, Setpoint::Approach(approach));
                 self.switch_fuel(t, act, st, cmd);
-                self.mode = Mode::PtGovern;
-            }
-            Mode::PtGovern if n2 >= 0.99 * sync * (1.0 - tol) => {
                 self.mode = Mode::Sync {
-                    until: t + q.sync_s,
+                    until: armed + q.sync_s,
+                    announced: false,
                 };
             }
-            Mode::Sync { until } if t >= until - 1e-9 => {
+            Mode::Sync {
+                until,
+                announced: false,
+            } if n2 >= 0.99 * sync * (1.0 - tol) => {
+                self.mode = Mode::Sync {
+                    until,
+                    announced: true,
+                };
+            }
+            Mode::Sync { until, .. }
+                if t >= until + q.sync_timeout_s
+                    && (n2 / sync - 1.0).abs() * 100.0 > q.sync_slip_pct =>
+            {
+                // The synchroniser never saw the slip within its window: the start is aborted.
+                self.cut_fuel(true);
+            }
+            Mode::Sync { until, .. }
+                if t >= until - 1e-9 && (n2 / sync - 1.0).abs() * 100.0 <= q.sync_slip_pct =>
+            {
                 // Breaker closes: the grid holds the PT at synchronous speed from now on.
                 self.pt_locked = true;
                 act.set_speed_rpm(Shaft::Pt, sync);
@@ -567,7 +609,12 @@ impl Sequencer {
 
     /// Whether `update` must be called after every step (conditions that are not thresholds).
     pub fn polls(&self, t: f64) -> bool {
-        matches!(self.mode, Mode::Loading { ramp_done_at } if t >= ramp_done_at - 1e-9)
+        match self.mode {
+            Mode::Loading { ramp_done_at } => t >= ramp_done_at - 1e-9,
+            // The synchroniser waits for the slip once its time has passed.
+            Mode::Sync { until, .. } => t >= until - 1e-9,
+            _ => false,
+        }
     }
 }
 
@@ -594,6 +641,9 @@ impl Controller for Sequencer {
 
 /// Rate at which the set-point takes the minimum (block) load when the breaker closes, MW/s.
 const BLOCK_LOAD_RATE_MW_S: f64 = 1.0;
+/// The sequence logic's scan period, s: a timer it starts from a computed time begins on this
+/// grid.
+const SCAN_S: f64 = 0.1;
 
 /// How far ahead of the GG speed the acceleration reference starts, rpm.
 const ACCEL_REFERENCE_LEAD_RPM: f64 = 150.0;

@@ -253,6 +253,18 @@ fn default_load_exponent() -> f64 {
     3.0
 }
 
+fn default_pt_approach_tau_s() -> f64 {
+    10.0
+}
+
+fn default_sync_slip_pct() -> f64 {
+    0.25
+}
+
+fn default_sync_timeout_s() -> f64 {
+    120.0
+}
+
 /// Shafts, volumes and losses.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -328,6 +340,18 @@ pub struct SequenceConfig {
     pub pt_accel_rate_rpm_s: f64,
     /// Time the synchroniser needs at synchronous speed before closing the breaker, s.
     pub sync_s: f64,
+    /// Time constant of the PT speed set-point's final approach to synchronous speed, s: the
+    /// ramp at `pt_accel_rate_rpm_s` blends into an exponential approach with the same slope,
+    /// so the PT's acceleration power fades out smoothly and the governor does not overshoot.
+    #[serde(default = "default_pt_approach_tau_s")]
+    pub pt_approach_tau_s: f64,
+    /// The synchroniser closes the breaker only while the PT slip is within this, % of
+    /// synchronous speed (after `sync_s`); a start that cannot synchronise within
+    /// `sync_timeout_s` more is tripped.
+    #[serde(default = "default_sync_slip_pct")]
+    pub sync_slip_pct: f64,
+    #[serde(default = "default_sync_timeout_s")]
+    pub sync_timeout_s: f64,
     pub min_load_mw: f64,
     pub warmup_s: f64,
     pub base_load_mw: f64,
