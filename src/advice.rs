@@ -1,12 +1,16 @@
 //! Wash advice from the stored history: reads Method B results, records washes the trend
 //! detects, fits the fouling trend since the last wash and stores the recommendation.
 //!
+//! Results whose start-up a stored gap analysis explains by an instrument's error are set aside
+//! ([`SetAside`]): a step an instrument made must not move the advice.
+//!
 //! The one place where `trend` and `wash` (pure) meet the store; called by the diagnosis worker
 //! after each stored result and by `gtwatch wash advise`. Reads through a [`Db`] and writes
 //! what one refresh found (detected washes, the recommendation) as one request
 //! ([`AdviceWrite`], one transaction; in the daemon through the one writer). Must not fit
 //! engine models or hold arithmetic of its own beyond arranging the points.
 
+use crate::engine::effects::is_instrument;
 use crate::engine::Engine;
 use crate::health::HEALTH_NAMES;
 use crate::store::{
@@ -37,9 +41,24 @@ pub(crate) struct ParamTrend {
     pub(crate) reason: Option<String>,
 }
 
+/// A Method B result the trends leave out: its start-up's newest gap analysis names an
+/// instrument's error (a fuel meter, an inlet thermometer, a sensor), so its health is the
+/// instrument's as much as the engine's. A step such a start-up shows neither moves the fouling
+/// trend nor counts as a wash.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub(crate) struct SetAside {
+    pub(crate) segment_id: i64,
+    /// Start of the start-up, Unix ms.
+    pub(crate) start_ms: i64,
+    /// The instrument effect the gap analysis named (e.g. `fuel_meter`, `sensor_bias:p2_kpa`).
+    pub(crate) effect: String,
+}
+
 /// Everything `wash advise` shows.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub(crate) struct AdviceReport {
+    /// Results left out of the trends because an instrument explains their start-up.
+    pub(crate) set_aside: Vec<SetAside>,
     /// Unix ms of the last wash (recorded or detected), if any.
     pub(crate) last_wash_ms: Option<i64>,
     /// Washes detected (and recorded as such) by this refresh.
@@ -68,13 +87,21 @@ pub(crate) fn refresh(
     detection: &WashDetection,
 ) -> Result<AdviceReport, AdviceError> {
     let store = db.read();
-    let rows: Vec<HistoryRow> = store
+    let (set_aside, rows): (Vec<HistoryRow>, Vec<HistoryRow>) = store
         .history(&HistoryFilter {
             method: Some("B".into()),
             ..HistoryFilter::default()
         })?
         .into_iter()
         .filter(|r| HEALTH_NAMES.iter().all(|p| r.value(p).is_finite()))
+        .partition(|r| r.gap_verdict.as_deref().is_some_and(is_instrument));
+    let set_aside: Vec<SetAside> = set_aside
+        .into_iter()
+        .map(|r| SetAside {
+            segment_id: r.segment_id,
+            start_ms: r.start_ms,
+            effect: r.gap_verdict.unwrap_or_default(),
+        })
         .collect();
     // Washes seen as recovery steps, unless a wash is already stored between the two results.
     let washes = store.washes()?;
@@ -183,6 +210,7 @@ pub(crate) fn refresh(
         db.write_advice(write)?
     };
     Ok(AdviceReport {
+        set_aside,
         last_wash_ms,
         detected_now,
         results_since_wash: since.len(),

@@ -126,6 +126,14 @@ pub(super) fn run(a: WashArgs) -> anyhow::Result<ExitCode> {
                             .map_or("none recorded".into(), fmt_ms_rfc3339),
                         r.results_since_wash
                     );
+                    for a in &r.set_aside {
+                        println!(
+                            "set aside: start-up {} at {} (its gap analysis names the instrument error {})",
+                            a.segment_id,
+                            fmt_ms_rfc3339(a.start_ms),
+                            a.effect
+                        );
+                    }
                     for id in &r.detected_now {
                         println!("detected a wash (id {id}): confirm or reject it with `gtwatch wash confirm|reject {id}`");
                     }

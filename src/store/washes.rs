@@ -307,4 +307,62 @@ mod tests {
         crate::advice::refresh(&mut store, &engine, &econ, &WashDetection::default()).unwrap();
         assert_eq!(store.washes().unwrap().len(), 1);
     }
+
+    /// Issue 23 item 4: a start-up whose stored gap analysis names an instrument's error is set
+    /// aside by the wash advice, so the step that instrument made does not move the advice; the
+    /// same step without the analysis does.
+    #[test]
+    fn a_step_an_instrument_explains_does_not_move_the_advice() {
+        let engine = Engine::reference().unwrap();
+        let econ = WashEconomics::default();
+        let t0 = 1_700_000_000_000_i64;
+        // Day 24 reads 2 points of compressor fouling too many (a fuel meter reading high);
+        // `analysed`: its gap analysis is stored, naming the meter.
+        let advice_with = |step: bool, analysed: bool| {
+            let dir = tempfile::tempdir().unwrap();
+            let mut store = Store::open(&dir.path().join("w.db")).unwrap();
+            fill(&mut store);
+            let extra = if step { 2.0 } else { 0.0 };
+            let seg = insert_result(&mut store, t0 + 24 * DAY, [1.2 + extra, 0.4 + extra / 3.0, 0.2, 0.1, 0.0, 0.0]);
+            if analysed {
+                store
+                    .insert_gap_analysis(&crate::store::NewGapAnalysis {
+                        segment_id: seg,
+                        holdout_segment_id: None,
+                        effect: "fuel_meter".into(),
+                        shrinkage: 0.8,
+                        confidence: 0.6,
+                        baseline_fit_quality: "good".into(),
+                        normalised_residual: 1.1,
+                        report_json: "{}".into(),
+                    })
+                    .unwrap();
+            }
+            insert_result(&mut store, t0 + 25 * DAY, [1.32, 0.43, 0.2, 0.1, 0.0, 0.0]);
+            let r = crate::advice::refresh(&mut store, &engine, &econ, &WashDetection::default())
+                .unwrap();
+            (r, seg)
+        };
+        let (clean, _) = advice_with(false, false);
+        let (explained, seg) = advice_with(true, true);
+        let (unexplained, _) = advice_with(true, false);
+        let days = |r: &crate::advice::AdviceReport| r.advised_ms.unwrap() as f64 / DAY as f64;
+        assert_eq!(explained.set_aside.len(), 1);
+        assert_eq!(explained.set_aside[0].segment_id, seg);
+        assert_eq!(explained.set_aside[0].effect, "fuel_meter");
+        assert_eq!(explained.results_since_wash, clean.results_since_wash - 1);
+        assert!(unexplained.set_aside.is_empty());
+        assert!(
+            (days(&explained) - days(&clean)).abs() <= 1.0,
+            "set aside: {:.2} d vs {:.2} d without the step",
+            days(&explained),
+            days(&clean)
+        );
+        assert!(
+            (days(&unexplained) - days(&clean)).abs() > 1.0,
+            "the step alone must move the advice for this test to mean anything: {:.2} d vs {:.2} d",
+            days(&unexplained),
+            days(&clean)
+        );
+    }
 }

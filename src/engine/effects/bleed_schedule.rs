@@ -18,6 +18,7 @@ const WIDTH: f64 = 0.02;
 /// Registry entry.
 pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "bleed_schedule",
+    instrument: false,
     channels: Channels::Engine,
     summary: "compressor bleed valve open below a corrected GG speed",
     signature: "below the closing speed: P2 low, T34/T4 high and slower acceleration for the \

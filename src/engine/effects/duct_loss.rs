@@ -18,6 +18,7 @@ use std::sync::Arc;
 /// Registry entry.
 pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "duct_loss",
+    instrument: false,
     channels: Channels::Engine,
     summary: "inlet and exhaust pressure losses other than the engine file's (filter, stack, HRSG)",
     signature: "level offsets growing with air flow, none at crank: P2/P34 low and T34 high for \

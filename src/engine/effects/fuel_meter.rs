@@ -16,6 +16,7 @@ use std::sync::Arc;
 /// Registry entry.
 pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "fuel_meter",
+    instrument: true,
     channels: Channels::Engine,
     summary: "the fuel-flow meter reads a factor (1 + scale) of the fuel that burns",
     signature: "every output hot or cold for the fuel given, in proportion to the fuel flow; \

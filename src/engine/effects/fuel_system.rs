@@ -24,6 +24,7 @@ const STAGES: usize = 3;
 /// Registry entry.
 pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "fuel_system",
+    instrument: false,
     channels: super::Channels::Engine,
     summary: "fuel-system transport delay and manifold lag between metered and burnt fuel",
     signature: "recorded fuel flow leads the gas-path response (T3, T34, P2, speeds, power) \

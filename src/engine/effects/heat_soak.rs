@@ -19,6 +19,7 @@ use std::sync::Arc;
 /// Registry entry.
 pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "heat_soak",
+    instrument: false,
     channels: Channels::Engine,
     summary: "heat exchange between the combustor gas and a lumped hot-section metal node",
     signature: "gas path cooler than the model during light-off and acceleration (T34, T4 low, \

@@ -16,6 +16,7 @@ use std::sync::Arc;
 /// Registry entry.
 pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "inlet_temperature",
+    instrument: true,
     channels: Channels::Engine,
     summary: "the inlet thermometer T1 reads offset_k above the air the engine breathes",
     signature: "outputs off as on a warmer or colder day, from rest to load (T2, T34 most); \

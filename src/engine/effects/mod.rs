@@ -97,6 +97,10 @@ impl Channels {
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct EffectSpec {
     pub(crate) name: &'static str,
+    /// Whether the effect is an instrument's error (what a channel or an input meter reads)
+    /// rather than the engine's own behaviour. A start-up whose gap analysis names an instrument
+    /// reports a health the instrument distorted: the wash advice sets it aside.
+    pub(crate) instrument: bool,
     /// One instance, or one per channel.
     pub(crate) channels: Channels,
     /// One line: what the effect models.
@@ -107,6 +111,13 @@ pub(crate) struct EffectSpec {
     /// Builds the effect from a complete, validated parameter set (in `params` order) and, for
     /// per-channel effects, its channel.
     pub(crate) build: fn(&[f64], Option<Signal>) -> Arc<dyn Effect>,
+}
+
+/// Whether `instance` (an effect's instance name, e.g. `fuel_meter` or `sensor_bias:p2_kpa`)
+/// is an instrument's error. `false` for names that are not effects (`none`, `ambiguous`,
+/// `unexplained`).
+pub(crate) fn is_instrument(instance: &str) -> bool {
+    resolve(instance).is_ok_and(|(spec, _)| spec.instrument)
 }
 
 /// An effect instance name split into the registry entry and its channel.

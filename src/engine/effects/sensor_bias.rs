@@ -15,6 +15,7 @@ use std::sync::Arc;
 /// Registry entry.
 pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "sensor_bias",
+    instrument: true,
     channels: Channels::Measured,
     summary: "constant offset of one instrument",
     signature: "a constant residual on that channel in every phase, at rest as much as at load",

@@ -16,6 +16,7 @@ use std::sync::Arc;
 /// Registry entry.
 pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "sensor_lag",
+    instrument: true,
     channels: Channels::Temperatures,
     summary: "extra first-order lag of one temperature instrument",
     signature: "that channel trails the model in proportion to its rate of change (lag-like \

@@ -15,6 +15,7 @@ use std::sync::Arc;
 /// Registry entry.
 pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "sensor_scale",
+    instrument: true,
     channels: Channels::Measured,
     summary: "one instrument reads a factor (1 + scale) of the true value",
     signature: "a residual on that channel in proportion to its reading, largest at load",

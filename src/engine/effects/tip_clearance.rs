@@ -17,6 +17,7 @@ use std::sync::Arc;
 /// Registry entry.
 pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "tip_clearance",
+    instrument: false,
     channels: Channels::Engine,
     summary: "HPT efficiency change with the casing's thermal lag (tip clearance)",
     signature: "HPT work off the model while the gas leads the casing temperature (acceleration, \

@@ -20,6 +20,7 @@ const FADE: f64 = 0.2;
 /// Registry entry.
 pub(crate) static SPEC: EffectSpec = EffectSpec {
     name: "vigv_schedule",
+    instrument: false,
     channels: Channels::Engine,
     summary: "compressor flow-capacity offset at low corrected speed (VIGV schedule)",
     signature: "air flow, P2 and T34 off the model at low corrected GG speed (crank to early \
