@@ -316,41 +316,53 @@ mod tests {
         let engine = Engine::reference().unwrap();
         let econ = WashEconomics::default();
         let t0 = 1_700_000_000_000_i64;
-        // Day 24 reads 2 points of compressor fouling too many (a fuel meter reading high);
-        // `analysed`: its gap analysis is stored, naming the meter.
+        // From day 24 on, a fuel meter reading high makes every start-up look 2 points more
+        // fouled; `analysed`: the gap task analysed those start-ups and stored the meter.
         let advice_with = |step: bool, analysed: bool| {
             let dir = tempfile::tempdir().unwrap();
             let mut store = Store::open(&dir.path().join("w.db")).unwrap();
             fill(&mut store);
             let extra = if step { 2.0 } else { 0.0 };
-            let seg = insert_result(&mut store, t0 + 24 * DAY, [1.2 + extra, 0.4 + extra / 3.0, 0.2, 0.1, 0.0, 0.0]);
-            if analysed {
-                store
-                    .insert_gap_analysis(&crate::store::NewGapAnalysis {
-                        segment_id: seg,
-                        holdout_segment_id: None,
-                        effect: "fuel_meter".into(),
-                        shrinkage: 0.8,
-                        confidence: 0.6,
-                        baseline_fit_quality: "good".into(),
-                        normalised_residual: 1.1,
-                        report_json: "{}".into(),
-                    })
-                    .unwrap();
+            let mut stepped = Vec::new();
+            for day in 24..28_i64 {
+                let age = (day - 12) as f64;
+                let health = [
+                    0.1 * age + extra,
+                    0.1 / 3.0 * age + extra / 3.0,
+                    0.2,
+                    0.1,
+                    0.0,
+                    0.0,
+                ];
+                let seg = insert_result(&mut store, t0 + day * DAY, health);
+                stepped.push(seg);
+                if analysed {
+                    store
+                        .insert_gap_analysis(&crate::store::NewGapAnalysis {
+                            segment_id: seg,
+                            holdout_segment_id: None,
+                            effect: "fuel_meter".into(),
+                            shrinkage: 0.8,
+                            confidence: 0.6,
+                            baseline_fit_quality: "good".into(),
+                            normalised_residual: 1.1,
+                            report_json: "{}".into(),
+                        })
+                        .unwrap();
+                }
             }
-            insert_result(&mut store, t0 + 25 * DAY, [1.32, 0.43, 0.2, 0.1, 0.0, 0.0]);
             let r = crate::advice::refresh(&mut store, &engine, &econ, &WashDetection::default())
                 .unwrap();
-            (r, seg)
+            (r, stepped)
         };
         let (clean, _) = advice_with(false, false);
-        let (explained, seg) = advice_with(true, true);
+        let (explained, stepped) = advice_with(true, true);
         let (unexplained, _) = advice_with(true, false);
         let days = |r: &crate::advice::AdviceReport| r.advised_ms.unwrap() as f64 / DAY as f64;
-        assert_eq!(explained.set_aside.len(), 1);
-        assert_eq!(explained.set_aside[0].segment_id, seg);
-        assert_eq!(explained.set_aside[0].effect, "fuel_meter");
-        assert_eq!(explained.results_since_wash, clean.results_since_wash - 1);
+        let aside: Vec<i64> = explained.set_aside.iter().map(|a| a.segment_id).collect();
+        assert_eq!(aside, stepped);
+        assert!(explained.set_aside.iter().all(|a| a.effect == "fuel_meter"));
+        assert_eq!(explained.results_since_wash, clean.results_since_wash - 4);
         assert!(unexplained.set_aside.is_empty());
         assert!(
             (days(&explained) - days(&clean)).abs() <= 1.0,
