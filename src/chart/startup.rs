@@ -10,6 +10,8 @@ use crate::signals::{Phase, Signal};
 use std::fmt::Write;
 
 const WIDTH: f64 = 1200.0;
+/// The plot area's width within [`WIDTH`] (the chart's left and right margins taken off).
+const PLOT_WIDTH_PX: f64 = WIDTH - 80.0;
 const PANEL_HEIGHT: f64 = 270.0;
 /// Height of the document's title line above the panels.
 const TITLE_HEIGHT: f64 = 36.0;
@@ -42,7 +44,8 @@ fn phase_runs(trace: &Trace) -> Vec<(Phase, f64, f64)> {
 }
 
 /// A marker at the start of every phase after the first; named (on the top panel only) where
-/// the phase lasts long enough for its name to fit, more than 4 % of the start-up.
+/// the phase lasts long enough for its name to fit before the next marker (11 px type, about
+/// 6.5 px a character, across the panel's plot width).
 fn phase_markers(runs: &[(Phase, f64, f64)], named: bool) -> Vec<Marker> {
     let t0 = runs.first().map_or(0.0, |r| r.1);
     let t1 = runs.last().map_or(1.0, |r| r.2).max(t0 + 1.0);
@@ -50,7 +53,9 @@ fn phase_markers(runs: &[(Phase, f64, f64)], named: bool) -> Vec<Marker> {
         .skip(1)
         .map(|(p, a, b)| Marker {
             x: *a,
-            label: if named && b - a > 0.04 * (t1 - t0) {
+            label: if named
+                && (b - a) / (t1 - t0) * PLOT_WIDTH_PX >= 6.5 * p.name().len() as f64 + 8.0
+            {
                 p.name().to_string()
             } else {
                 String::new()
