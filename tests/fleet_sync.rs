@@ -223,7 +223,28 @@ fn three_units_sync_into_one_centre_and_a_second_sync_sends_nothing() {
             assert_eq!(s["applied"], 0, "second sync of {unit} changed {s}");
         }
     }
+    // A detected wash confirmed and a recorded one removed at the edge: the centre follows.
+    let db_a = dir.path().join("gt-a.db");
+    rusqlite::Connection::open(&db_a)
+        .expect("sqlite")
+        .execute_batch(
+            "UPDATE washes SET note = 'confirmed; step' WHERE note LIKE 'detected:%';
+             DELETE FROM washes WHERE note = 'recorded';",
+        )
+        .expect("confirm and reject");
+    let r = sync_lib(&db_a, &FleetConfig::new("gt-a", &url)).expect("sync");
+    let w = r
+        .streams
+        .iter()
+        .find(|s| s.table == "washes")
+        .expect("washes");
+    assert_eq!((w.sent, w.removed), (1, 1), "{w:?}");
+    assert_eq!(r.total_sent(), 1, "{r:?}");
     let mut centre = Centre::connect_existing(&url, Duration::from_secs(5)).expect("centre");
+    let notes = centre
+        .query_text("SELECT note FROM washes WHERE unit_id = 'gt-a'")
+        .expect("notes");
+    assert_eq!(notes, vec![vec![Some("confirmed; step".to_string())]]);
     for (unit, _) in units {
         let edge = edge_counts(&dir.path().join(format!("{unit}.db")));
         let central = centre_counts(&mut centre, unit);
@@ -446,4 +467,96 @@ fn a_refusing_centre_is_a_clear_error_and_the_marks_stay() {
         .expect("count")
         .get(0);
     assert_eq!(after, counts_before);
+}
+
+/// The daemon with `[fleet]`: it syncs its database into the centre (marks written through
+/// its one writer); a second daemon pointed at a centre that is not there keeps running,
+/// counts its failed syncs and stops at once on shutdown.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_daemon_syncs_and_a_missing_centre_does_not_hold_it() {
+    use gtwatch::acquire::modbus::SourceKind;
+    use gtwatch::daemon::{self, RunOptions};
+    // The synchronous PostgreSQL client must not run on the async runtime.
+    let (pg, url) = tokio::task::spawn_blocking(|| {
+        let pg = PgServer::start();
+        let url = pg.create_db("fleet_d");
+        (pg, url)
+    })
+    .await
+    .expect("pg");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let db = dir.path().join("edge.db");
+    build_edge(&db, 2, 1_700_000_000_000);
+    let config = |fleet_url: &str| {
+        let mut c = common::reference_config();
+        c.storage.path = db.clone();
+        c.acquisition.source = SourceKind::None;
+        c.modbus = None;
+        c.diagnosis.enabled = false;
+        let mut f = FleetConfig::new("gt-daemon", fleet_url);
+        f.interval_s = 1;
+        f.timeout_s = 2;
+        c.fleet = Some(f);
+        assert_eq!(c.check(), vec![], "test config is valid");
+        c
+    };
+
+    let (trigger, shutdown) = gtwatch::shutdown::shutdown_channel();
+    let d = tokio::spawn(daemon::run(config(&url), shutdown, RunOptions::default()));
+    let edge = edge_counts(&db);
+    let t0 = Instant::now();
+    loop {
+        let u = url.clone();
+        let central = tokio::task::spawn_blocking(move || {
+            Centre::connect_existing(&u, Duration::from_secs(5))
+                .ok()
+                .map(|mut c| centre_counts(&mut c, "gt-daemon"))
+        })
+        .await
+        .expect("join");
+        if central.as_ref() == Some(&edge) {
+            break;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(30),
+            "{central:?} vs {edge:?}"
+        );
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    }
+    eprintln!("FLEET-DAEMON synced in {:.2} s", t0.elapsed().as_secs_f64());
+    trigger.trigger();
+    let report = d.await.expect("join").expect("daemon ran");
+    assert!(report.sync.syncs_ok >= 1, "{:?}", report.sync);
+    assert_eq!(report.sync.syncs_failed, 0, "{:?}", report.sync);
+    let m = marks(&db);
+    assert!(
+        m.iter()
+            .any(|m| m.stream == "samples" && m.sent == edge[6].1),
+        "{m:?}"
+    );
+
+    // A centre that is not there (a closed port): failures counted, shutdown prompt.
+    let closed = {
+        let l = std::net::TcpListener::bind("127.0.0.1:0").expect("bind");
+        l.local_addr().expect("addr").port()
+    };
+    let dead = pg
+        .url_with(PG_USER, PG_PASSWORD, "fleet_d")
+        .replace(&pg.port.to_string(), &closed.to_string());
+    let (trigger, shutdown) = gtwatch::shutdown::shutdown_channel();
+    let d = tokio::spawn(daemon::run(config(&dead), shutdown, RunOptions::default()));
+    tokio::time::sleep(Duration::from_millis(1500)).await;
+    let t_stop = Instant::now();
+    trigger.trigger();
+    let report = d.await.expect("join").expect("daemon ran");
+    eprintln!(
+        "FLEET-DAEMON dead centre: {:?}, shutdown in {:.2} s",
+        report.sync,
+        t_stop.elapsed().as_secs_f64()
+    );
+    assert!(report.sync.syncs_failed >= 1, "{:?}", report.sync);
+    assert_eq!(report.sync.syncs_ok, 0);
+    assert!(t_stop.elapsed() < Duration::from_secs(5));
+    assert_eq!(marks(&db), m, "marks moved without a centre");
+    drop(pg);
 }

@@ -66,9 +66,18 @@ impl SyncTask {
             let state = conns.take().unwrap_or_default();
             let (db, opts, cfg) = (self.db_path.clone(), self.store_opts, self.cfg.clone());
             let (writer, stop2) = (self.writer.clone(), Arc::clone(&stop));
+            // The PostgreSQL client blocks (also when dropped): it lives on the blocking pool
+            // only, and is dropped there when a sync fails.
             let job = tokio::task::spawn_blocking(move || {
                 let mut state = state;
                 let r = round(&mut state, &db, &opts, writer, &cfg, &stop2);
+                if let Err(e) = &r {
+                    // A lost or refusing centre is reconnected next time.
+                    state.centre = None;
+                    if matches!(e, FleetError::Edge(_)) {
+                        state.store = None;
+                    }
+                }
                 (state, r)
             });
             let outcome = tokio::select! {
@@ -90,12 +99,7 @@ impl SyncTask {
                     backoff = FIRST_BACKOFF.min(interval);
                     interval
                 }
-                Some(Ok((mut state, Err(e)))) => {
-                    // A lost or refusing centre is reconnected next time.
-                    state.centre = None;
-                    if matches!(e, FleetError::Edge(_)) {
-                        state.store = None;
-                    }
+                Some(Ok((state, Err(e)))) => {
                     conns = Some(state);
                     self.failed(&crate::fleet::error_chain(&e));
                     let w = backoff.max(interval.min(MAX_BACKOFF));
@@ -107,6 +111,9 @@ impl SyncTask {
                 _ = shutdown.wait() => break,
                 _ = tokio::time::sleep(wait) => {}
             }
+        }
+        if let Some(c) = conns {
+            let _ = tokio::task::spawn_blocking(move || drop(c)).await;
         }
         SyncTaskReport {
             syncs_ok: self.counters.syncs_ok.load(Ordering::Relaxed),
