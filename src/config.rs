@@ -45,6 +45,9 @@ pub struct Config {
     /// `[metrics]`: the optional Prometheus endpoint.
     #[serde(default)]
     pub metrics: MetricsConfig,
+    /// `[fleet]`: the optional sync to a central PostgreSQL (see `fleet::FleetConfig`).
+    #[serde(default)]
+    pub fleet: Option<crate::fleet::FleetConfig>,
 }
 
 /// `[metrics]`: the Prometheus endpoint (`GET /metrics`), off unless `listen` is set.
@@ -227,6 +230,9 @@ impl Config {
             p.push(ConfigProblem::new("wash", e));
         }
         p.extend(self.metrics.validate());
+        if let Some(f) = &self.fleet {
+            p.extend(f.validate());
+        }
         match (&self.modbus, self.acquisition.source) {
             (Some(m), _) => {
                 p.extend(m.check());
@@ -328,6 +334,7 @@ mod tests {
             "[wash]"
         );
         assert_eq!(shipped.metrics, MetricsConfig::default(), "[metrics]");
+        assert_eq!(shipped.fleet, None, "[fleet] is off unless configured");
         assert!(shipped.check().is_empty(), "{:?}", shipped.check());
         // Every key of those sections is written out in the file (none left to a hidden default).
         let table: toml::Table = toml::from_str(text).expect("toml");
@@ -381,6 +388,48 @@ mod tests {
                 .metrics
                 .addr(),
             None
+        );
+    }
+
+    /// `[fleet]`: absent in the shipped file (no sync); bad values name the key and why.
+    #[test]
+    fn fleet_section_is_checked_key_by_key() {
+        let with = |extra: &str| {
+            Config::parse(&format!("{MINIMAL}\n[fleet]\n{extra}\n"), "x.toml")
+                .expect("parse")
+                .check()
+                .iter()
+                .map(|p| p.to_string())
+                .filter(|p| p.starts_with("fleet"))
+                .collect::<Vec<_>>()
+        };
+        let good = "unit_id = \"gt-1\"\npostgres_url = \"postgresql://u:p@127.0.0.1:5432/fleet\"";
+        assert!(with(good).is_empty(), "{:?}", with(good));
+        let cfg = Config::parse(&format!("{MINIMAL}\n[fleet]\n{good}\n"), "x.toml").expect("parse");
+        let f = cfg.fleet.expect("fleet");
+        assert_eq!(
+            (f.interval_s, f.send_samples, f.batch_rows),
+            (60, true, 5000)
+        );
+        assert!(Config::parse(MINIMAL, "x.toml")
+            .expect("parse")
+            .fleet
+            .is_none());
+        let bad = with(
+            "unit_id = \"gt 1\"\npostgres_url = \"postgresql://u@h:notaport/x\"\ninterval_s = 0\nbatch_rows = 0",
+        );
+        assert_eq!(bad.len(), 4, "{bad:?}");
+        for key in [
+            "fleet.unit_id",
+            "fleet.postgres_url",
+            "fleet.interval_s",
+            "fleet.batch_rows",
+        ] {
+            assert!(bad.iter().any(|p| p.contains(key)), "{key}: {bad:?}");
+        }
+        assert!(bad.iter().any(|p| p.contains("contains ' '")), "{bad:?}");
+        assert!(
+            Config::parse(&format!("{MINIMAL}\n[fleet]\nunit_id = \"x\"\n"), "x.toml").is_err()
         );
     }
 

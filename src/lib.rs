@@ -24,6 +24,7 @@ pub mod demo;
 pub mod detect;
 pub mod diagnosis;
 pub mod engine;
+pub mod fleet;
 pub(crate) mod gap;
 pub mod health;
 pub mod ingest;

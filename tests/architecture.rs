@@ -45,7 +45,8 @@ const FLOORS: &[(&str, u8)] = &[
     ("chart", 2),
     // 3 — data: the store (the one owner of SQL), getting data in (replay, acquisition, the
     // bad-value gate), start-up detection, the read-side queries, file-permission checks and
-    // the shutdown signal the tasks share.
+    // the shutdown signal the tasks share, and the fleet sync of what the store holds to a
+    // central PostgreSQL.
     ("store", 3),
     ("ingest", 3),
     ("acquire", 3),
@@ -53,6 +54,7 @@ const FLOORS: &[(&str, u8)] = &[
     ("query", 3),
     ("permissions", 3),
     ("shutdown", 3),
+    ("fleet", 3),
     // 4 — services built from the floors below: the diagnosis worker, wash advice, the report,
     // the daemon, the plant simulator, the demo, and the configuration file that assembles
     // every task's section.

@@ -457,6 +457,7 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
         },
         wash: Default::default(),
         metrics: Default::default(),
+        fleet: None,
     };
     cfg.acquisition.poll_period_ms = period_ms;
     let problems = cfg.check();

@@ -23,6 +23,7 @@ mod run;
 mod segments;
 mod simulate;
 mod steady;
+mod sync;
 mod wash;
 
 use clap::{Parser, Subcommand};
@@ -71,6 +72,12 @@ pub enum Command {
     CheckConfig(check_config::CheckConfigArgs),
     /// Serve a simulated plant over Modbus TCP (tests and commissioning).
     PlantSim(plant_sim::PlantSimArgs),
+    /// Send this unit's start-ups, results, washes, advice and start-up samples to the fleet's
+    /// central PostgreSQL once (what the daemon does every `[fleet] interval_s`).
+    Sync(sync::SyncArgs),
+    /// The fleet's central database: `fleet status` lists units, last sync, rows per table.
+    #[command(subcommand)]
+    Fleet(sync::FleetCmd),
     /// Benchmarks that print JSON.
     #[command(subcommand)]
     Bench(bench::BenchCmd),
@@ -103,6 +110,8 @@ pub fn main() -> ExitCode {
         Command::Run(a) => run::run(a),
         Command::CheckConfig(a) => check_config::run(a),
         Command::PlantSim(a) => plant_sim::run(a),
+        Command::Sync(a) => sync::run_sync(&a),
+        Command::Fleet(c) => sync::run_fleet(&c),
         Command::Bench(b) => bench::run(b),
     };
     match result {

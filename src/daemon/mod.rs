@@ -12,6 +12,8 @@
 //! - [`diagnosis`]: drains the queue of closed segments, one at a time; shutdown cancels a
 //!   running fit (nothing half-written);
 //! - [`supervisor`]: systemd readiness, watchdog and stopping notifications;
+//! - [`sync`]: with `[fleet]`, the fleet sync to a central PostgreSQL every `interval_s`; a
+//!   centre that is down or refusing is logged, counted and retried, never waited for;
 //! - [`metrics`]: with `[metrics] listen`, the Prometheus endpoint, reading the other tasks'
 //!   live counters at each scrape.
 //!
@@ -32,6 +34,7 @@ pub(crate) mod diagnosis;
 pub(crate) mod gap;
 pub(crate) mod metrics;
 pub(crate) mod supervisor;
+pub(crate) mod sync;
 pub(crate) mod writer;
 
 pub use acquisition::AcquisitionTask;
@@ -40,6 +43,7 @@ pub use diagnosis::{DiagnosisMeter, DiagnosisTask};
 pub use gap::{GapCounters, GapTask, GapTaskReport};
 pub use metrics::{Live, MetricsTask};
 pub use supervisor::Supervisor;
+pub use sync::{SyncCounters, SyncTask, SyncTaskReport};
 pub use writer::WriterTask;
 
 use crate::acquire::modbus::{PollProgress, PollStats};
@@ -98,6 +102,8 @@ pub struct RunReport {
     pub diagnosis: DrainReport,
     /// What the background gap analysis did.
     pub gap: GapTaskReport,
+    /// What the fleet sync did (`[fleet]`).
+    pub sync: SyncTaskReport,
 }
 
 /// Runs the daemon until `shutdown` fires. `cfg` must have passed [`Config::check`].
@@ -210,6 +216,7 @@ struct Running {
     detector: JoinHandle<DetectorTask>,
     diagnosis: Option<JoinHandle<DrainReport>>,
     gap: Option<JoinHandle<GapTaskReport>>,
+    sync: Option<JoinHandle<SyncTaskReport>>,
     /// Live counters of the detector, the diagnosis and the gap task (the metrics read them).
     segments_closed: Arc<AtomicU64>,
     diagnosis_meter: Option<Arc<DiagnosisMeter>>,
@@ -264,6 +271,18 @@ impl Running {
             }
             _ => None,
         };
+        let sync = cfg.fleet.clone().map(|fleet| {
+            tokio::spawn(
+                SyncTask {
+                    db_path: db_path.clone(),
+                    store_opts: task_opts,
+                    writer: tx.clone(),
+                    cfg: fleet,
+                    counters: Arc::new(SyncCounters::default()),
+                }
+                .run(shutdown.clone()),
+            )
+        });
         let diagnosis_meter = match (cfg.diagnosis.enabled, &opts.worker) {
             (true, Some(_)) => Some(Arc::new(DiagnosisMeter::default())),
             _ => None,
@@ -293,6 +312,7 @@ impl Running {
             detector,
             diagnosis,
             gap,
+            sync,
             segments_closed,
             diagnosis_meter,
             gap_counters,
@@ -347,6 +367,12 @@ impl Running {
             match g.await {
                 Ok(r) => report.gap = r,
                 Err(e) => tracing::error!("gap task failed: {e}"),
+            }
+        }
+        if let Some(s) = self.sync {
+            match s.await {
+                Ok(r) => report.sync = r,
+                Err(e) => tracing::error!("fleet sync task failed: {e}"),
             }
         }
         let channel_full_waits = self.tx.channel_full_waits();

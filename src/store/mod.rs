@@ -21,6 +21,12 @@ mod channel;
 mod db;
 mod detection;
 mod diagnoses;
+mod fleet;
+pub use fleet::{
+    ColKind, FleetColumn, FleetCursor, FleetMark, FleetRows, FleetSamples, FleetTable, FleetWindow,
+    FLEET_DIAGNOSES, FLEET_GAP_ANALYSES, FLEET_PHASE_COLUMNS, FLEET_RECOMMENDATIONS,
+    FLEET_SEGMENTS, FLEET_WASHES,
+};
 mod gap;
 mod locks;
 pub use gap::{GapAnalysisRow, GapSelection, NewGapAnalysis};

@@ -27,6 +27,10 @@ const MIGRATION_SQL: &[(&str, &str)] = &[
         "0004_gap_analyses.sql",
         include_str!("../../migrations/0004_gap_analyses.sql"),
     ),
+    (
+        "0005_fleet_sync.sql",
+        include_str!("../../migrations/0005_fleet_sync.sql"),
+    ),
 ];
 
 #[cfg(test)]
@@ -35,6 +39,7 @@ const MIGRATION_LIST: &[M<'static>] = &[
     M::up(MIGRATION_SQL[1].1),
     M::up(MIGRATION_SQL[2].1),
     M::up(MIGRATION_SQL[3].1),
+    M::up(MIGRATION_SQL[4].1),
 ];
 
 /// All migrations in order (for `rusqlite_migration`'s validation in tests).

@@ -69,6 +69,12 @@ pub enum WriteCmd {
         analysis: Box<NewGapAnalysis>,
         reply: Reply<i64>,
     },
+    /// Store one fleet-sync high-water mark ([`Store::save_fleet_mark`]), sent once the
+    /// centre committed the batch it covers.
+    FleetMark {
+        mark: super::FleetMark,
+        reply: Reply<()>,
+    },
 }
 
 /// Writer batching settings (from `[storage]`, see `StorageConfig::writer`).
@@ -467,6 +473,9 @@ pub async fn run_writer_with_progress(
             Some(WriteCmd::GapAnalysis { analysis, reply }) => {
                 w.answer(reply, move |s| s.insert_gap_analysis(&analysis))
                     .await;
+            }
+            Some(WriteCmd::FleetMark { mark, reply }) => {
+                w.answer(reply, move |s| s.save_fleet_mark(&mark)).await;
             }
         }
     }

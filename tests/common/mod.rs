@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 pub mod daemon;
+pub mod postgres;
 
 use gtwatch::acquire::register_map::{DataType, FieldSpec, PLANT_TIME_FIELD};
 use gtwatch::config::Config;
