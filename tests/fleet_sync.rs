@@ -158,6 +158,13 @@ fn gtwatch(args: &[&str]) -> std::process::Output {
         .expect("run gtwatch")
 }
 
+/// `gtwatch sync --db DB --unit UNIT --postgres-url URL [extra…]`.
+fn gtwatch_sync(db: &str, unit: &str, url: &str, extra: &[&str]) -> std::process::Output {
+    let mut args = vec!["sync", "--db", db, "--unit", unit, "--postgres-url", url];
+    args.extend_from_slice(extra);
+    gtwatch(&args)
+}
+
 /// One sync through the library: rows read through a read-only connection, marks written
 /// through the edge's own store (as `gtwatch sync` does).
 fn sync_lib(path: &Path, cfg: &FleetConfig) -> Result<gtwatch::fleet::SyncReport, FleetError> {
@@ -177,16 +184,7 @@ fn three_units_sync_into_one_centre_and_a_second_sync_sends_nothing() {
         let db = dir.path().join(format!("{unit}.db"));
         build_edge(&db, *n, 1_700_000_000_000 + k as i64 * 10 * DAY_MS);
         let t0 = Instant::now();
-        let out = gtwatch(&[
-            "sync",
-            "--db",
-            db.to_str().expect("utf8"),
-            "--unit",
-            unit,
-            "--postgres-url",
-            &url,
-            "--json",
-        ]);
+        let out = gtwatch_sync(db.to_str().expect("utf8"), unit, &url, &["--json"]);
         let wall = t0.elapsed().as_secs_f64();
         assert!(
             out.status.success(),
@@ -206,16 +204,7 @@ fn three_units_sync_into_one_centre_and_a_second_sync_sends_nothing() {
             wall
         );
         // The second sync sends nothing new.
-        let again = gtwatch(&[
-            "sync",
-            "--db",
-            db.to_str().expect("utf8"),
-            "--unit",
-            unit,
-            "--postgres-url",
-            &url,
-            "--json",
-        ]);
+        let again = gtwatch_sync(db.to_str().expect("utf8"), unit, &url, &["--json"]);
         assert!(again.status.success());
         let r2: serde_json::Value = serde_json::from_slice(&again.stdout).expect("json");
         for s in r2["streams"].as_array().expect("streams") {
@@ -379,15 +368,7 @@ fn a_refusing_centre_is_a_clear_error_and_the_marks_stay() {
 
     // Wrong password: the command fails naming the centre and the cause, never the password.
     let wrong = pg.url_with(PG_USER, "not-the-password", "fleet_c");
-    let out = gtwatch(&[
-        "sync",
-        "--db",
-        db_s,
-        "--unit",
-        "gt-c",
-        "--postgres-url",
-        &wrong,
-    ]);
+    let out = gtwatch_sync(db_s, "gt-c", &wrong, &[]);
     let err = String::from_utf8_lossy(&out.stderr);
     eprintln!("FLEET-REFUSE wrong password: {}", err.trim());
     assert!(!out.status.success());
@@ -442,15 +423,7 @@ fn a_refusing_centre_is_a_clear_error_and_the_marks_stay() {
         "{err}"
     );
     assert!(err.to_string().contains("upgrade gtwatch"), "{err}");
-    let out = gtwatch(&[
-        "sync",
-        "--db",
-        db_s,
-        "--unit",
-        "gt-c",
-        "--postgres-url",
-        &url,
-    ]);
+    let out = gtwatch_sync(db_s, "gt-c", &url, &[]);
     assert!(!out.status.success());
     assert!(
         String::from_utf8_lossy(&out.stderr).contains("schema version 99"),

@@ -331,13 +331,7 @@ impl Store {
             .query_row(
                 "SELECT id, start_ms, end_ms FROM segments WHERE id = ?1",
                 [id],
-                |r| {
-                    Ok(FleetWindow {
-                        segment_id: r.get(0)?,
-                        start_ms: r.get(1)?,
-                        end_ms: r.get(2)?,
-                    })
-                },
+                fleet_window_row,
             )
             .optional()?)
     }
@@ -350,13 +344,7 @@ impl Store {
             .query_row(
                 "SELECT id, start_ms, end_ms FROM segments WHERE id > ?1 ORDER BY id LIMIT 1",
                 [after_id],
-                |r| {
-                    Ok(FleetWindow {
-                        segment_id: r.get(0)?,
-                        start_ms: r.get(1)?,
-                        end_ms: r.get(2)?,
-                    })
-                },
+                fleet_window_row,
             )
             .optional()?)
     }
@@ -483,4 +471,13 @@ impl Store {
         out.push(("samples", n));
         Ok(out)
     }
+}
+
+/// A [`FleetWindow`] from a `SELECT id, start_ms, end_ms FROM segments` row.
+fn fleet_window_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<FleetWindow> {
+    Ok(FleetWindow {
+        segment_id: r.get(0)?,
+        start_ms: r.get(1)?,
+        end_ms: r.get(2)?,
+    })
 }
