@@ -174,6 +174,90 @@ fn sync_lib(path: &Path, cfg: &FleetConfig) -> Result<gtwatch::fleet::SyncReport
     sync_once(&read, &mut marks, &mut centre, cfg, &AtomicBool::new(false))
 }
 
+/// `gtwatch fleet history` (issue 25 item 2): the centre's results of each unit, with and
+/// without `--unit`, are the edge's own `gtwatch history` (segment, start, method, every
+/// parameter and σ, fit quality, gap verdict).
+fn fleet_history_equals_each_edges_history(url: &str, dir: &Path, units: &[&str]) {
+    let json = |out: std::process::Output| -> Vec<serde_json::Value> {
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice::<serde_json::Value>(&out.stdout)
+            .expect("json")
+            .as_array()
+            .expect("array")
+            .clone()
+    };
+    let all = json(gtwatch(&[
+        "fleet",
+        "history",
+        "--postgres-url",
+        url,
+        "--format",
+        "json",
+    ]));
+    let key = |r: &serde_json::Value| {
+        serde_json::json!([
+            r["segment_id"],
+            r["start_ms"],
+            r["method"],
+            r["health"],
+            r["sigma"],
+            r["fit_quality"],
+            r["gap_verdict"]
+        ])
+    };
+    let mut total = 0;
+    for unit in units {
+        let db = dir.join(format!("{unit}.db"));
+        let edge = json(gtwatch(&[
+            "history",
+            "--db",
+            db.to_str().expect("utf8"),
+            "--format",
+            "json",
+        ]));
+        let one = json(gtwatch(&[
+            "fleet",
+            "history",
+            "--postgres-url",
+            url,
+            "--unit",
+            unit,
+            "--format",
+            "json",
+        ]));
+        assert!(!edge.is_empty(), "{unit}: no results at the edge");
+        assert_eq!(
+            one.iter().map(key).collect::<Vec<_>>(),
+            edge.iter().map(key).collect::<Vec<_>>(),
+            "{unit}: centre vs edge history"
+        );
+        assert!(one.iter().all(|r| r["unit_id"] == *unit));
+        let from_all: Vec<_> = all
+            .iter()
+            .filter(|r| r["unit_id"] == *unit)
+            .map(key)
+            .collect();
+        assert_eq!(from_all, one.iter().map(key).collect::<Vec<_>>());
+        total += edge.len();
+    }
+    assert_eq!(
+        all.len(),
+        total,
+        "the fleet history holds every unit's results once"
+    );
+    let csv = gtwatch(&["fleet", "history", "--postgres-url", url, "--format", "csv"]);
+    let text = String::from_utf8_lossy(&csv.stdout);
+    assert_eq!(text.lines().count(), total + 1, "{text}");
+    assert!(
+        text.starts_with("unit_id,segment_id,start_utc,method,D_GC,sigma_D_GC"),
+        "{text}"
+    );
+}
+
 #[test]
 fn three_units_sync_into_one_centre_and_a_second_sync_sends_nothing() {
     let pg = PgServer::start();
@@ -258,6 +342,7 @@ fn three_units_sync_into_one_centre_and_a_second_sync_sends_nothing() {
     let table = gtwatch(&["fleet", "status", "--postgres-url", &url]);
     let text = String::from_utf8_lossy(&table.stdout);
     assert!(text.contains("gt-b") && text.contains("samples"), "{text}");
+    fleet_history_equals_each_edges_history(&url, dir.path(), &["gt-a", "gt-b", "gt-c"]);
     eprintln!("{text}");
 }
 

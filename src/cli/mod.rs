@@ -14,6 +14,7 @@ mod diagnose_snapshots;
 mod diagnose_stored;
 pub(crate) mod engine_args;
 mod export;
+mod fleet_history;
 mod gap;
 mod history;
 mod plant_sim;

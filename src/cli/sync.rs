@@ -1,5 +1,6 @@
 //! `gtwatch sync` (one fleet sync of this unit's database to the central PostgreSQL) and
-//! `gtwatch fleet status` (the units at a centre, their last sync and rows per table).
+//! `gtwatch fleet status` (the units at a centre, their last sync and rows per table);
+//! `gtwatch fleet history` is in `fleet_history`.
 //! Must not hold SQL or decide what is sent (`crate::fleet` does).
 
 use crate::config::Config;
@@ -40,6 +41,8 @@ pub struct SyncArgs {
 pub enum FleetCmd {
     /// The units at a centre: last sync and rows per table.
     Status(StatusArgs),
+    /// Every unit's health results at the centre (as `history` shows one unit's).
+    History(super::fleet_history::FleetHistoryArgs),
 }
 
 #[derive(Debug, clap::Args)]
@@ -130,6 +133,7 @@ fn print_report(r: &SyncReport) {
 
 pub(super) fn run_fleet(cmd: &FleetCmd) -> anyhow::Result<ExitCode> {
     match cmd {
+        FleetCmd::History(a) => super::fleet_history::run(a),
         FleetCmd::Status(a) => {
             let mut centre = Centre::connect_existing(&a.postgres_url, Duration::from_secs(30))?;
             let units = fleet_status(&mut centre)?;

@@ -50,7 +50,7 @@ impl std::fmt::Debug for Centre {
     }
 }
 
-fn centre_err(centre: &str, what: &str) -> impl FnOnce(postgres::Error) -> FleetError {
+pub(super) fn centre_err(centre: &str, what: &str) -> impl FnOnce(postgres::Error) -> FleetError {
     let centre = centre.to_string();
     let what = what.to_string();
     move |source| FleetError::Centre {

@@ -16,9 +16,11 @@
 //! is an error returned to the caller, which logs, counts and retries.
 
 pub mod centre;
+pub mod history;
 pub mod sync;
 
 pub use centre::{fleet_status, Centre, UnitStatus};
+pub use history::{fleet_history, FleetHistoryFilter, FleetHistoryRow};
 pub use sync::{sync_once, MarkSink, StreamReport, SyncReport};
 
 use crate::config_problem::{check_range, Bounds, ConfigProblem};

@@ -1,0 +1,146 @@
+//! `gtwatch fleet history --postgres-url URL [--unit ID] [--method A|B]
+//! [--format table|csv|json]`: every unit's health results at the centre, one row per start-up
+//! and method, as `gtwatch history` shows one unit's.
+//!
+//! JSON is one array of objects (`unit_id`, `segment_id` (the edge's), `start_ms`,
+//! `start_utc`, `method`, `health`, `sigma`, `residual_level`, `fit_quality`, `gap_verdict`).
+//! Reads the centre only; the query is `fleet::fleet_history`. Must not compute trends.
+
+use super::history::MethodFilter;
+use crate::fleet::{fleet_history, Centre, FleetHistoryFilter, FleetHistoryRow};
+use crate::health::HEALTH_NAMES;
+use crate::query::Format;
+use crate::time::fmt_ms_rfc3339;
+use std::io::Write;
+use std::process::ExitCode;
+use std::time::Duration;
+
+#[derive(Debug, clap::Args)]
+pub struct FleetHistoryArgs {
+    /// Central database, e.g. postgresql://gtwatch:secret@127.0.0.1:5432/fleet.
+    #[arg(long)]
+    pub postgres_url: String,
+    /// Only this unit.
+    #[arg(long)]
+    pub unit: Option<String>,
+    /// Only this method (A steady-state, B transient).
+    #[arg(long, value_enum, ignore_case = true)]
+    pub method: Option<MethodFilter>,
+    #[arg(long, value_enum, default_value_t = Format::Table)]
+    pub format: Format,
+}
+
+pub(super) fn run(args: &FleetHistoryArgs) -> anyhow::Result<ExitCode> {
+    let mut centre = Centre::connect_existing(&args.postgres_url, Duration::from_secs(30))?;
+    let filter = FleetHistoryFilter {
+        unit_id: args.unit.clone(),
+        method: args.method.map(|m| match m {
+            MethodFilter::A => "A".to_string(),
+            MethodFilter::B => "B".to_string(),
+        }),
+    };
+    let rows = fleet_history(&mut centre, &filter)?;
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    match args.format {
+        Format::Json => write_json(&mut out, &rows)?,
+        Format::Csv => write_csv(&mut out, &rows)?,
+        Format::Table => write_table(&mut out, &rows)?,
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn write_json(out: &mut impl Write, rows: &[FleetHistoryRow]) -> anyhow::Result<()> {
+    let docs: Vec<serde_json::Value> = rows
+        .iter()
+        .map(|r| {
+            serde_json::json!({
+                "unit_id": r.unit_id,
+                "segment_id": r.segment_id,
+                "start_ms": r.start_ms,
+                "start_utc": fmt_ms_rfc3339(r.start_ms),
+                "method": r.method,
+                "health": r.health,
+                "sigma": r.sigma,
+                "residual_level": r.residual_level,
+                "fit_quality": r.fit_quality,
+                "gap_verdict": r.gap_verdict,
+            })
+        })
+        .collect();
+    writeln!(out, "{}", serde_json::to_string_pretty(&docs)?)?;
+    Ok(())
+}
+
+/// A value to 4 decimals, or an empty cell.
+fn cell(v: Option<&f64>) -> String {
+    v.map_or(String::new(), |v| format!("{v:.4}"))
+}
+
+fn write_csv(out: &mut impl Write, rows: &[FleetHistoryRow]) -> anyhow::Result<()> {
+    let mut head: Vec<String> = vec!["unit_id".into(), "segment_id".into(), "start_utc".into()];
+    head.push("method".into());
+    for n in HEALTH_NAMES {
+        head.push(n.to_string());
+        head.push(format!("sigma_{n}"));
+    }
+    head.extend(["residual_level", "fit_quality", "gap_verdict"].map(String::from));
+    writeln!(out, "{}", head.join(","))?;
+    for r in rows {
+        let mut cells = vec![
+            r.unit_id.clone(),
+            r.segment_id.to_string(),
+            fmt_ms_rfc3339(r.start_ms),
+            r.method.clone(),
+        ];
+        for n in HEALTH_NAMES {
+            cells.push(cell(r.health.get(n)));
+            cells.push(cell(r.sigma.get(n)));
+        }
+        cells.push(
+            r.residual_level
+                .map_or(String::new(), |v| format!("{v:.3}")),
+        );
+        cells.push(r.fit_quality.clone().unwrap_or_default());
+        cells.push(r.gap_verdict.clone().unwrap_or_default());
+        writeln!(out, "{}", cells.join(","))?;
+    }
+    Ok(())
+}
+
+fn write_table(out: &mut impl Write, rows: &[FleetHistoryRow]) -> anyhow::Result<()> {
+    write!(
+        out,
+        "{:<16} {:>7}  {:<24} {:<2}",
+        "unit", "segment", "start (UTC)", "m"
+    )?;
+    for n in HEALTH_NAMES {
+        write!(out, " {:>15}", format!("{n} ±1σ %"))?;
+    }
+    writeln!(out, "  quality  gap")?;
+    for r in rows {
+        write!(
+            out,
+            "{:<16} {:>7}  {:<24} {:<2}",
+            r.unit_id,
+            r.segment_id,
+            fmt_ms_rfc3339(r.start_ms),
+            r.method
+        )?;
+        for n in HEALTH_NAMES {
+            let v = r.health.get(n).copied().unwrap_or(f64::NAN);
+            let s = r.sigma.get(n).copied().unwrap_or(f64::NAN);
+            write!(out, " {:>15}", format!("{v:.2} ± {s:.2}"))?;
+        }
+        writeln!(
+            out,
+            "  {:<8} {}",
+            r.fit_quality.as_deref().unwrap_or("-"),
+            r.gap_verdict.as_deref().unwrap_or("")
+        )?;
+    }
+    if rows.is_empty() {
+        writeln!(out, "(no results at the centre)")?;
+    }
+    Ok(())
+}

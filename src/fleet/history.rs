@@ -1,0 +1,90 @@
+//! The fleet's health history, read from the centre: every unit's stored results, one row per
+//! start-up and method, with the newest gap verdict of its start-up (`gtwatch fleet history`,
+//! the central counterpart of `gtwatch history`).
+//!
+//! Reads only; must not compute trends or write to the centre.
+
+use super::centre::{centre_err, Centre};
+use super::FleetError;
+use crate::health::HEALTH_NAMES;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// One central result.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FleetHistoryRow {
+    pub unit_id: String,
+    /// The start-up's segment id at its edge.
+    pub segment_id: i64,
+    /// Start of the start-up, Unix ms.
+    pub start_ms: i64,
+    pub method: String,
+    /// Health parameter → estimate, percent.
+    pub health: BTreeMap<String, f64>,
+    /// Health parameter → 1σ, where the edge stored one.
+    pub sigma: BTreeMap<String, f64>,
+    pub residual_level: Option<f64>,
+    pub fit_quality: Option<String>,
+    /// The effect named by the start-up's newest gap analysis, if one was synced.
+    pub gap_verdict: Option<String>,
+}
+
+/// Which results to read.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct FleetHistoryFilter {
+    /// One unit only.
+    pub unit_id: Option<String>,
+    /// One method only (`A` or `B`).
+    pub method: Option<String>,
+}
+
+/// The central results, by unit, start time and method.
+pub fn fleet_history(
+    centre: &mut Centre,
+    f: &FleetHistoryFilter,
+) -> Result<Vec<FleetHistoryRow>, FleetError> {
+    let name = centre.name.clone();
+    let rows = centre
+        .client
+        .query(
+            "SELECT d.unit_id, d.segment_id, s.start_ms, d.method,
+                    d.d_gc, d.d_ec, d.d_gt, d.d_et, d.d_gp, d.d_ep,
+                    d.sigma_gc, d.sigma_ec, d.sigma_gt, d.sigma_et, d.sigma_gp, d.sigma_ep,
+                    d.residual_level, d.fit_quality,
+                    (SELECT g.effect FROM gap_analyses g
+                      WHERE g.unit_id = d.unit_id AND g.segment_id = d.segment_id
+                      ORDER BY g.created_at_ms DESC, g.edge_id DESC LIMIT 1)
+             FROM diagnoses d
+             JOIN segments s ON s.unit_id = d.unit_id AND s.edge_id = d.segment_id
+             WHERE ($1::text IS NULL OR d.unit_id = $1)
+               AND ($2::text IS NULL OR d.method = $2)
+             ORDER BY d.unit_id, s.start_ms, d.method, d.edge_id",
+            &[&f.unit_id, &f.method],
+        )
+        .map_err(centre_err(&name, "reading the fleet's results"))?;
+    let mut out = Vec::with_capacity(rows.len());
+    for r in &rows {
+        let mut health = BTreeMap::new();
+        let mut sigma = BTreeMap::new();
+        for (i, n) in HEALTH_NAMES.iter().enumerate() {
+            if let Some(v) = r.get::<_, Option<f64>>(4 + i) {
+                health.insert((*n).to_string(), v);
+            }
+            if let Some(s) = r.get::<_, Option<f64>>(10 + i) {
+                sigma.insert((*n).to_string(), s);
+            }
+        }
+        out.push(FleetHistoryRow {
+            unit_id: r.get(0),
+            segment_id: r.get::<_, Option<i64>>(1).unwrap_or(-1),
+            start_ms: r.get::<_, Option<i64>>(2).unwrap_or(0),
+            method: r.get::<_, Option<String>>(3).unwrap_or_default(),
+            health,
+            sigma,
+            residual_level: r.get(16),
+            fit_quality: r.get(17),
+            gap_verdict: r.get(18),
+        });
+    }
+    Ok(out)
+}
