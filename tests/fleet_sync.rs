@@ -343,6 +343,31 @@ fn three_units_sync_into_one_centre_and_a_second_sync_sends_nothing() {
     let text = String::from_utf8_lossy(&table.stdout);
     assert!(text.contains("gt-b") && text.contains("samples"), "{text}");
     fleet_history_equals_each_edges_history(&url, dir.path(), &["gt-a", "gt-b", "gt-c"]);
+    // The fleet report: one page naming every unit, its trend drawn, nothing loaded from
+    // elsewhere.
+    let out_dir = dir.path().join("fleet-report");
+    let out = gtwatch(&[
+        "fleet",
+        "report",
+        "--postgres-url",
+        &url,
+        "--out",
+        out_dir.to_str().expect("utf8"),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let page = std::fs::read_to_string(out_dir.join("fleet.html")).expect("fleet.html");
+    for unit in ["gt-a", "gt-b", "gt-c"] {
+        assert!(page.contains(unit), "{unit} missing from the fleet report");
+    }
+    assert_eq!(page.matches("<svg").count(), 3, "one trend per unit");
+    assert!(
+        !page.contains("http://") && !page.contains("https://") && !page.contains("src="),
+        "the page refers to something outside itself"
+    );
     eprintln!("{text}");
 }
 

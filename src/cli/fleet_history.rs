@@ -5,13 +5,20 @@
 //! JSON is one array of objects (`unit_id`, `segment_id` (the edge's), `start_ms`,
 //! `start_utc`, `method`, `health`, `sigma`, `residual_level`, `fit_quality`, `gap_verdict`).
 //! Reads the centre only; the query is `fleet::fleet_history`. Must not compute trends.
+//!
+//! Also `gtwatch fleet report --postgres-url URL --out DIR`: `DIR/fleet.html`, the page
+//! `report::fleet` builds from the centre's results, washes and advice.
 
 use super::history::MethodFilter;
-use crate::fleet::{fleet_history, Centre, FleetHistoryFilter, FleetHistoryRow};
+use crate::fleet::{
+    fleet_advice, fleet_history, fleet_washes, Centre, FleetHistoryFilter, FleetHistoryRow,
+};
 use crate::health::HEALTH_NAMES;
 use crate::query::Format;
 use crate::time::fmt_ms_rfc3339;
+use anyhow::Context;
 use std::io::Write;
+use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
 
@@ -28,6 +35,38 @@ pub struct FleetHistoryArgs {
     pub method: Option<MethodFilter>,
     #[arg(long, value_enum, default_value_t = Format::Table)]
     pub format: Format,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct FleetReportArgs {
+    /// Central database, e.g. postgresql://gtwatch:secret@127.0.0.1:5432/fleet.
+    #[arg(long)]
+    pub postgres_url: String,
+    /// Folder for `fleet.html` (created when missing).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+pub(super) fn run_report(args: &FleetReportArgs) -> anyhow::Result<ExitCode> {
+    let mut centre = Centre::connect_existing(&args.postgres_url, Duration::from_secs(30))?;
+    let rows = fleet_history(&mut centre, &FleetHistoryFilter::default())?;
+    let washes = fleet_washes(&mut centre)?;
+    let advice = fleet_advice(&mut centre)?;
+    let page = crate::report::fleet::fleet_html(&centre.name, &rows, &washes, &advice);
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let path = args.out.join("fleet.html");
+    std::fs::write(&path, &page).with_context(|| format!("writing {}", path.display()))?;
+    let units: std::collections::BTreeSet<&str> = rows.iter().map(|r| r.unit_id.as_str()).collect();
+    println!(
+        "wrote {} ({} KB): {} unit(s), {} result(s), {} wash(es)",
+        path.display(),
+        page.len().div_ceil(1024),
+        units.len(),
+        rows.len(),
+        washes.len()
+    );
+    Ok(ExitCode::SUCCESS)
 }
 
 pub(super) fn run(args: &FleetHistoryArgs) -> anyhow::Result<ExitCode> {

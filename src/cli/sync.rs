@@ -43,6 +43,8 @@ pub enum FleetCmd {
     Status(StatusArgs),
     /// Every unit's health results at the centre (as `history` shows one unit's).
     History(super::fleet_history::FleetHistoryArgs),
+    /// One self-contained HTML page: units ranked by fouling rate, washes due, every trend.
+    Report(super::fleet_history::FleetReportArgs),
 }
 
 #[derive(Debug, clap::Args)]
@@ -134,6 +136,7 @@ fn print_report(r: &SyncReport) {
 pub(super) fn run_fleet(cmd: &FleetCmd) -> anyhow::Result<ExitCode> {
     match cmd {
         FleetCmd::History(a) => super::fleet_history::run(a),
+        FleetCmd::Report(a) => super::fleet_history::run_report(a),
         FleetCmd::Status(a) => {
             let mut centre = Centre::connect_existing(&a.postgres_url, Duration::from_secs(30))?;
             let units = fleet_status(&mut centre)?;

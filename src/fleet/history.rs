@@ -88,3 +88,67 @@ pub fn fleet_history(
     }
     Ok(out)
 }
+
+/// A wash stored at the centre.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FleetWash {
+    pub unit_id: String,
+    /// Unix ms.
+    pub t_ms: i64,
+    pub kind: String,
+}
+
+/// A unit's newest wash recommendation at the centre.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FleetAdvice {
+    pub unit_id: String,
+    /// Unix ms the advice was made for (the unit's newest result).
+    pub t_ms: i64,
+    pub message: String,
+    /// The advice's basis as the edge stored it (JSON: trend, advice, economics).
+    pub basis: String,
+}
+
+/// Every wash at the centre, by unit and time.
+pub fn fleet_washes(centre: &mut Centre) -> Result<Vec<FleetWash>, FleetError> {
+    let name = centre.name.clone();
+    let rows = centre
+        .client
+        .query(
+            "SELECT unit_id, t_ms, kind FROM washes WHERE t_ms IS NOT NULL
+             ORDER BY unit_id, t_ms, edge_id",
+            &[],
+        )
+        .map_err(centre_err(&name, "reading the fleet's washes"))?;
+    Ok(rows
+        .iter()
+        .map(|r| FleetWash {
+            unit_id: r.get(0),
+            t_ms: r.get(1),
+            kind: r.get::<_, Option<String>>(2).unwrap_or_default(),
+        })
+        .collect())
+}
+
+/// Each unit's newest offline-wash recommendation.
+pub fn fleet_advice(centre: &mut Centre) -> Result<Vec<FleetAdvice>, FleetError> {
+    let name = centre.name.clone();
+    let rows = centre
+        .client
+        .query(
+            "SELECT DISTINCT ON (unit_id) unit_id, t_ms, message, basis FROM recommendations
+             WHERE kind = 'wash_offline' AND t_ms IS NOT NULL
+             ORDER BY unit_id, t_ms DESC, edge_id DESC",
+            &[],
+        )
+        .map_err(centre_err(&name, "reading the fleet's wash advice"))?;
+    Ok(rows
+        .iter()
+        .map(|r| FleetAdvice {
+            unit_id: r.get(0),
+            t_ms: r.get(1),
+            message: r.get::<_, Option<String>>(2).unwrap_or_default(),
+            basis: r.get::<_, Option<String>>(3).unwrap_or_default(),
+        })
+        .collect())
+}

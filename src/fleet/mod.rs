@@ -20,7 +20,10 @@ pub mod history;
 pub mod sync;
 
 pub use centre::{fleet_status, Centre, UnitStatus};
-pub use history::{fleet_history, FleetHistoryFilter, FleetHistoryRow};
+pub use history::{
+    fleet_advice, fleet_history, fleet_washes, FleetAdvice, FleetHistoryFilter, FleetHistoryRow,
+    FleetWash,
+};
 pub use sync::{sync_once, MarkSink, StreamReport, SyncReport};
 
 use crate::config_problem::{check_range, Bounds, ConfigProblem};

@@ -12,6 +12,7 @@
 //! sections), `charts` (the health and trace charts), `gap_section` (the model–plant gap table).
 
 mod charts;
+pub(crate) mod fleet;
 mod gap_section;
 mod html;
 mod read;
