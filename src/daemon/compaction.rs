@@ -95,3 +95,87 @@ impl CompactionTask {
         report
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::quality::Quality;
+    use crate::shutdown::shutdown_channel;
+    use crate::store::{spawn_writer, writer_channel, Sample, Store, TagInfo, WriterConfig};
+
+    /// The task archives old samples through the writer, keeps recent ones hot, and stops on
+    /// shutdown; the writer keeps taking samples meanwhile.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn the_task_archives_old_samples_through_the_writer() {
+        let dir = tempfile::tempdir().unwrap_or_else(|e| unreachable!("{e}"));
+        let path = dir.path().join("c.db");
+        let mut store = Store::open(&path).unwrap_or_else(|e| unreachable!("{e}"));
+        let tag = store
+            .ensure_tag(&TagInfo {
+                name: "x".into(),
+                unit: String::new(),
+                signal: None,
+            })
+            .unwrap_or_else(|e| unreachable!("{e}"));
+        let now = now_ms();
+        let old: Vec<Sample> = (0..20_000i64)
+            .map(|i| Sample {
+                tag,
+                t_ms: now - 10 * 86_400_000 + i * 10_000,
+                value: i as f64 * 0.5,
+                quality: Quality::Good,
+            })
+            .collect();
+        store
+            .insert_samples(&old)
+            .unwrap_or_else(|e| unreachable!("{e}"));
+        let (handle, rx) = writer_channel(16);
+        let writer = spawn_writer(store, rx, WriterConfig::default());
+        let (trigger, shutdown) = shutdown_channel();
+        let task = tokio::spawn(
+            CompactionTask {
+                writer: handle.clone(),
+                after: Duration::from_secs(86_400),
+                first_delay: Duration::ZERO,
+                period: Duration::from_secs(3600),
+            }
+            .run(shutdown),
+        );
+        let fresh = Sample {
+            tag,
+            t_ms: now,
+            value: 1.0,
+            quality: Quality::Good,
+        };
+        handle
+            .send(WriteCmd::Samples(vec![fresh]))
+            .await
+            .unwrap_or_else(|e| unreachable!("{e}"));
+        let deadline = tokio::time::Instant::now() + Duration::from_secs(30);
+        let archived = loop {
+            let a = Store::open_readonly(&path)
+                .and_then(|s| s.archive_stats())
+                .unwrap_or_else(|e| unreachable!("{e}"));
+            if a.samples > 0 || tokio::time::Instant::now() > deadline {
+                break a;
+            }
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        };
+        trigger.trigger();
+        let report = task.await.unwrap_or_else(|e| unreachable!("{e}"));
+        handle.flush().await.unwrap_or_else(|e| unreachable!("{e}"));
+        drop(handle);
+        let _ = writer.await;
+        assert!(archived.samples > 0, "nothing archived");
+        let s = Store::open_readonly(&path).unwrap_or_else(|e| unreachable!("{e}"));
+        let all = s
+            .tag_samples_between(tag, i64::MIN, i64::MAX)
+            .unwrap_or_else(|e| unreachable!("{e}"));
+        assert_eq!(all.len(), old.len() + 1);
+        assert!(all
+            .iter()
+            .zip(&old)
+            .all(|(a, b)| a.t_ms == b.t_ms && a.value == b.value));
+        assert_eq!(report.failures, 0);
+    }
+}
