@@ -5,7 +5,9 @@
 //! an offline wash midway; `time` column in ISO 8601, the shipped `[replay]` defaults), then
 //! replays it with the shipped configuration into a fresh database: ingest, start-up
 //! detection, diagnosis of every start-up (Method B and A), wash advice. Reports the time of
-//! each stage and every Method B result against the implanted truth. Release build only.
+//! each stage and every Method B result against the implanted truth. Then compacts the whole
+//! month into the archive tier (`Store::compact`) and reports the bytes per stored sample
+//! before and after, and the compaction time (README "Storage tiers"). Release build only.
 
 use crate::detect::{scan, DetectorConfig};
 use crate::engine::Engine;
@@ -64,7 +66,68 @@ struct MonthResult {
     startups_found: usize,
     method_b_results: usize,
     max_abs_error: f64,
+    storage: StorageResult,
     per_day: Vec<DayResult>,
+}
+
+/// The database's size per stored sample before and after compacting the month.
+#[derive(Debug, Serialize)]
+struct StorageResult {
+    samples: i64,
+    /// Pages in use (page count − free pages) × page size, per sample, after the replay.
+    bytes_per_sample_hot: f64,
+    compact_s: f64,
+    chunks: u64,
+    samples_archived: u64,
+    /// The chunks' blobs alone, per archived sample.
+    blob_bytes_per_sample: f64,
+    /// Pages in use per sample after compaction (the freed pages are reused by new rows).
+    bytes_per_sample_compacted: f64,
+    vacuum_s: f64,
+    /// The file's size after `VACUUM`, per sample.
+    file_bytes_per_sample_vacuumed: f64,
+    /// Every sample read back from both tiers equals the one stored before, bit for bit.
+    read_back_identical: bool,
+}
+
+/// Every sample of every tag, as the store reads it (both tiers).
+fn all_samples(store: &Store) -> anyhow::Result<Vec<(i64, i64, u64, i64)>> {
+    let mut out = Vec::new();
+    for t in store.tags()? {
+        for s in store.tag_samples_between(t.id, i64::MIN, i64::MAX)? {
+            out.push((t.id, s.t_ms, s.value.to_bits(), s.quality));
+        }
+    }
+    Ok(out)
+}
+
+/// Compacts everything before `before_ms`, then vacuums, measuring each step.
+fn compact_and_measure(store: &mut Store, before_ms: i64) -> anyhow::Result<StorageResult> {
+    let before = all_samples(store)?;
+    let samples = store.sample_count()?;
+    let per = |bytes: u64| bytes as f64 / samples.max(1) as f64;
+    let hot = store.used_bytes()?.0;
+    let t = Instant::now();
+    let c = store.compact(before_ms, crate::store::DEFAULT_MAX_CHUNK_SAMPLES)?;
+    let compact_s = t.elapsed().as_secs_f64();
+    let compacted = store.used_bytes()?.0;
+    let t = Instant::now();
+    store.vacuum()?;
+    let vacuum_s = t.elapsed().as_secs_f64();
+    let vacuumed = store.used_bytes()?.1;
+    let after = all_samples(store)?;
+    Ok(StorageResult {
+        samples,
+        bytes_per_sample_hot: per(hot),
+        compact_s,
+        chunks: c.chunks,
+        samples_archived: c.samples,
+        blob_bytes_per_sample: c.blob_bytes as f64 / c.samples.max(1) as f64,
+        bytes_per_sample_compacted: per(compacted),
+        vacuum_s,
+        file_bytes_per_sample_vacuumed: per(vacuumed),
+        read_back_identical: before == after,
+    })
 }
 
 /// The sections of the configuration file the month's replay reads, as the command line
@@ -154,6 +217,7 @@ pub(crate) fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<Exit
     (commands.diagnose_after_replay)(&mut store, &cfg_path)?;
     let diagnose_s = t.elapsed().as_secs_f64();
     let _ = s;
+    let storage = compact_and_measure(&mut store, epoch_ms + (end_s * 1000.0) as i64)?;
 
     // 4. Results against the truth.
     let segments = crate::query::list_segments(&store, None)?;
@@ -194,6 +258,7 @@ pub(crate) fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<Exit
         startups_found: segments.len(),
         method_b_results: history.len(),
         max_abs_error: per_day.iter().map(|d| d.max_abs_error).fold(0.0, f64::max),
+        storage,
         per_day,
     };
     drop(store);

@@ -24,6 +24,7 @@ mod run;
 mod segments;
 mod simulate;
 mod steady;
+mod store;
 mod sync;
 mod wash;
 
@@ -79,6 +80,9 @@ pub enum Command {
     /// The fleet's central database: `fleet status` lists units, last sync, rows per table.
     #[command(subcommand)]
     Fleet(sync::FleetCmd),
+    /// The database's storage tiers: `store compact` archives old samples.
+    #[command(subcommand)]
+    Store(store::StoreCmd),
     /// Benchmarks that print JSON.
     #[command(subcommand)]
     Bench(bench::BenchCmd),
@@ -113,6 +117,7 @@ pub fn main() -> ExitCode {
         Command::PlantSim(a) => plant_sim::run(a),
         Command::Sync(a) => sync::run_sync(&a),
         Command::Fleet(c) => sync::run_fleet(&c),
+        Command::Store(c) => store::run(c),
         Command::Bench(b) => bench::run(b),
     };
     match result {

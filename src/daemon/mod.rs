@@ -14,6 +14,8 @@
 //! - [`supervisor`]: systemd readiness, watchdog and stopping notifications;
 //! - [`sync`]: with `[fleet]`, the fleet sync to a central PostgreSQL every `interval_s`; a
 //!   centre that is down or refusing is logged, counted and retried, never waited for;
+//! - [`compaction`]: with `[storage] compact_after_hours` > 0 (default 24), has the writer
+//!   archive older samples every hour (`WriteCmd::Compact`, a few chunks per request);
 //! - [`metrics`]: with `[metrics] listen`, the Prometheus endpoint, reading the other tasks'
 //!   live counters at each scrape.
 //!
@@ -29,6 +31,7 @@
 
 pub(crate) mod acquisition;
 mod blocking;
+pub(crate) mod compaction;
 pub(crate) mod detector;
 pub(crate) mod diagnosis;
 pub(crate) mod gap;
@@ -38,6 +41,7 @@ pub(crate) mod sync;
 pub(crate) mod writer;
 
 pub use acquisition::AcquisitionTask;
+pub use compaction::{CompactionReport, CompactionTask};
 pub use detector::{detector_store_options, DetectorTask, DETECTOR_CACHE_MIB};
 pub use diagnosis::{DiagnosisMeter, DiagnosisTask};
 pub use gap::{GapCounters, GapTask, GapTaskReport};
@@ -104,6 +108,8 @@ pub struct RunReport {
     pub gap: GapTaskReport,
     /// What the fleet sync did (`[fleet]`).
     pub sync: SyncTaskReport,
+    /// What the compaction task archived (`[storage] compact_after_hours`).
+    pub compaction: CompactionReport,
 }
 
 /// Runs the daemon until `shutdown` fires. `cfg` must have passed [`Config::check`].
@@ -217,6 +223,7 @@ struct Running {
     diagnosis: Option<JoinHandle<DrainReport>>,
     gap: Option<JoinHandle<GapTaskReport>>,
     sync: Option<JoinHandle<SyncTaskReport>>,
+    compaction: Option<JoinHandle<CompactionReport>>,
     /// Live counters of the detector, the diagnosis and the gap task (the metrics read them).
     segments_closed: Arc<AtomicU64>,
     diagnosis_meter: Option<Arc<DiagnosisMeter>>,
@@ -283,6 +290,12 @@ impl Running {
                 .run(shutdown.clone()),
             )
         });
+        let compaction = (cfg.storage.compact_after_hours > 0).then(|| {
+            tokio::spawn(
+                CompactionTask::new(tx.clone(), cfg.storage.compact_after_hours)
+                    .run(shutdown.clone()),
+            )
+        });
         let diagnosis_meter = match (cfg.diagnosis.enabled, &opts.worker) {
             (true, Some(_)) => Some(Arc::new(DiagnosisMeter::default())),
             _ => None,
@@ -313,6 +326,7 @@ impl Running {
             diagnosis,
             gap,
             sync,
+            compaction,
             segments_closed,
             diagnosis_meter,
             gap_counters,
@@ -373,6 +387,12 @@ impl Running {
             match s.await {
                 Ok(r) => report.sync = r,
                 Err(e) => tracing::error!("fleet sync task failed: {e}"),
+            }
+        }
+        if let Some(c) = self.compaction {
+            match c.await {
+                Ok(r) => report.compaction = r,
+                Err(e) => tracing::error!("compaction task failed: {e}"),
             }
         }
         let channel_full_waits = self.tx.channel_full_waits();

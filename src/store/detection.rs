@@ -104,26 +104,23 @@ fn last_fuel_off_before(
     window_ms: i64,
     threshold: f64,
 ) -> Result<Option<i64>, StoreError> {
-    let on: Option<i64> = conn.query_row(
-        "SELECT MAX(t_ms) FROM samples WHERE tag_id = ?1 AND quality = 0
-           AND t_ms < ?2 AND t_ms >= ?3 AND value > ?4",
-        params![
-            fuel,
-            before_ms,
-            before_ms.saturating_sub(window_ms),
-            threshold
-        ],
-        |r| r.get(0),
+    // Both tiers, through the one read of samples: the good fuel samples of the window.
+    let good = super::archive::read_samples(
+        conn,
+        fuel,
+        before_ms.saturating_sub(window_ms),
+        before_ms.saturating_sub(1),
+        true,
     )?;
-    let Some(on) = on else {
+    let Some(on) = good
+        .iter()
+        .rev()
+        .find(|s| s.value > threshold)
+        .map(|s| s.t_ms)
+    else {
         return Ok(None);
     };
-    Ok(conn.query_row(
-        "SELECT MIN(t_ms) FROM samples WHERE tag_id = ?1 AND quality = 0
-           AND t_ms > ?2 AND t_ms < ?3",
-        params![fuel, on, before_ms],
-        |r| r.get(0),
-    )?)
+    Ok(good.iter().map(|s| s.t_ms).find(|&t| t > on))
 }
 
 /// Reads one tag's samples in `[from, to)`, time-ordered.
@@ -133,12 +130,14 @@ fn read_tag(
     from: i64,
     to: i64,
 ) -> Result<Vec<(i64, f64)>, StoreError> {
-    let mut stmt = conn.prepare_cached(
-        // Only good samples: a flagged (bad or out-of-range) value must never steer the detector.
-        "SELECT t_ms, value FROM samples WHERE tag_id = ?1 AND t_ms >= ?2 AND t_ms < ?3 AND quality = 0 ORDER BY t_ms",
-    )?;
-    let rows = stmt.query_map(params![tag, from, to], |r| Ok((r.get(0)?, r.get(1)?)))?;
-    Ok(rows.collect::<Result<Vec<_>, _>>()?)
+    if to <= from {
+        return Ok(Vec::new());
+    }
+    // Only good samples: a flagged (bad or out-of-range) value must never steer the detector.
+    Ok(super::archive::read_samples(conn, tag, from, to - 1, true)?
+        .into_iter()
+        .map(|s| (s.t_ms, s.value))
+        .collect())
 }
 
 /// Inserts or updates a segment keyed by its start time; a diagnosed segment is left alone.
@@ -271,20 +270,12 @@ impl super::Store {
     /// Time of the first good sample of a tag at or after `from` (the detector jumps over empty
     /// stretches with it instead of walking fixed chunks up to a far-away stamp).
     pub fn next_good_sample_ms(&self, tag: TagId, from: i64) -> Result<Option<i64>, StoreError> {
-        Ok(self.conn.query_row(
-            "SELECT MIN(t_ms) FROM samples WHERE tag_id = ?1 AND t_ms >= ?2 AND quality = 0",
-            params![tag, from],
-            |r| r.get(0),
-        )?)
+        super::archive::first_sample_from(&self.conn, tag, from, true)
     }
 
     /// First and last sample time of a tag (any quality).
     pub fn tag_time_range(&self, tag: TagId) -> Result<(Option<i64>, Option<i64>), StoreError> {
-        Ok(self.conn.query_row(
-            "SELECT MIN(t_ms), MAX(t_ms) FROM samples WHERE tag_id = ?1",
-            params![tag],
-            |r| Ok((r.get(0)?, r.get(1)?)),
-        )?)
+        super::archive::time_range(&self.conn, tag)
     }
 
     /// Writes one scan's result in one transaction: the segments found (inserted or updated by

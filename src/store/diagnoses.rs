@@ -203,12 +203,12 @@ impl Store {
             return Err(StoreError::UnknownTag("n1 (no tag has signal n1)".into()));
         };
         let read = |tag: i64| -> Result<Vec<(i64, f64)>, StoreError> {
-            let mut st = self.conn.prepare_cached(
-                "SELECT t_ms, value FROM samples WHERE tag_id = ?1 AND t_ms >= ?2 AND t_ms <= ?3
-                   AND quality = 0 ORDER BY t_ms",
-            )?;
-            let rows = st.query_map(params![tag, from, end_ms], |r| Ok((r.get(0)?, r.get(1)?)))?;
-            Ok(rows.collect::<Result<_, _>>()?)
+            Ok(
+                super::archive::read_samples(&self.conn, tag, from, end_ms, true)?
+                    .into_iter()
+                    .map(|s| (s.t_ms, s.value))
+                    .collect(),
+            )
         };
         let axis: Vec<i64> = read(n1_tag)?.into_iter().map(|(t, _)| t).collect();
         let index: HashMap<i64, usize> = axis.iter().enumerate().map(|(i, t)| (*t, i)).collect();
@@ -220,19 +220,11 @@ impl Store {
                 missing.push(sig);
                 continue;
             };
-            let (total, good): (i64, i64) = self
-                .conn
-                .prepare_cached(
-                    "SELECT COUNT(*), COALESCE(SUM(quality = 0), 0) FROM samples
-                 WHERE tag_id = ?1 AND t_ms >= ?2 AND t_ms <= ?3",
-                )?
-                .query_row(params![tag, seg.start_ms, end_ms], |r| {
-                    Ok((r.get(0)?, r.get(1)?))
-                })?;
+            let all = super::archive::read_samples(&self.conn, tag, seg.start_ms, end_ms, false)?;
             quality.push(SignalQuality {
                 signal: sig,
-                good: good.max(0) as u64,
-                total: total.max(0) as u64,
+                good: all.iter().filter(|s| s.quality == 0).count() as u64,
+                total: all.len() as u64,
             });
             let mut any = false;
             for (t, v) in read(tag)? {

@@ -365,10 +365,6 @@ impl Store {
             let rows = st.query_map([after.0], |r| Ok((r.get(0)?, r.get(1)?)))?;
             rows.collect::<Result<_, _>>()?
         };
-        let mut st = self.conn.prepare_cached(
-            "SELECT t_ms, value, quality FROM samples WHERE tag_id = ?1 AND t_ms > ?2 AND t_ms <= ?3
-             ORDER BY t_ms LIMIT ?4",
-        )?;
         let mut out = FleetSamples::default();
         for (tag, name) in tags {
             let room = limit.saturating_sub(out.len());
@@ -380,13 +376,19 @@ impl Store {
             } else {
                 start_ms - 1
             };
-            let mut rows = st.query(params![tag, from, end_ms, room as i64])?;
-            while let Some(r) = rows.next()? {
+            let rows = super::archive::read_samples(
+                &self.conn,
+                tag,
+                from.saturating_add(1),
+                end_ms,
+                false,
+            )?;
+            for s in rows.into_iter().take(room) {
                 out.tag_ids.push(tag);
                 out.tags.push(name.clone());
-                out.t_ms.push(r.get(0)?);
-                out.values.push(r.get(1)?);
-                out.quality.push(r.get(2)?);
+                out.t_ms.push(s.t_ms);
+                out.values.push(s.value);
+                out.quality.push(s.quality);
             }
         }
         Ok(out)
@@ -468,6 +470,14 @@ impl Store {
             [],
             |r| r.get(0),
         )?;
+        let windows: Vec<(i64, i64)> = {
+            let mut st = self
+                .conn
+                .prepare_cached("SELECT start_ms, end_ms FROM segments WHERE end_ms IS NOT NULL")?;
+            let rows = st.query_map([], |r| Ok((r.get(0)?, r.get(1)?)))?;
+            rows.collect::<Result<_, _>>()?
+        };
+        let n = n + super::archive::count_archived_in(&self.conn, &windows)?;
         out.push(("samples", n));
         Ok(out)
     }

@@ -17,6 +17,7 @@
 //! back the last few transactions (never corrupt). Set `storage.synchronous = "full"` if the
 //! host may lose power without a UPS.
 
+pub mod archive;
 mod channel;
 mod db;
 mod detection;
@@ -39,6 +40,7 @@ pub use washes::{
 mod schema;
 mod writer;
 
+pub use archive::{ArchiveStats, CompactStats, CHUNK_SPAN_MS, DEFAULT_MAX_CHUNK_SAMPLES};
 pub use db::{Db, ViaWriter};
 pub use detection::{ResumeState, ScanWrite};
 pub use diagnoses::{
@@ -195,6 +197,10 @@ pub struct StorageConfig {
     /// raised and the daemon restarted). A file already larger than the cap is capped at its
     /// current size.
     pub max_db_mib: u32,
+    /// The daemon archives samples older than this many hours (README "Storage tiers"):
+    /// compressed per-tag chunks in the same file, read back transparently. Default 24;
+    /// 0 = off (everything stays in the hot tier).
+    pub compact_after_hours: u32,
 }
 
 impl Default for StorageConfig {
@@ -207,6 +213,7 @@ impl Default for StorageConfig {
             synchronous: Synchronous::Normal,
             busy_timeout_ms: 5000,
             max_db_mib: 0,
+            compact_after_hours: 24,
         }
     }
 }
@@ -262,6 +269,17 @@ impl StorageConfig {
                 hi: 8 * 1024 * 1024,
                 unit: " MiB",
                 why: "0 (no cap) … 8 TiB",
+            },
+        );
+        check_range(
+            &mut p,
+            "storage.compact_after_hours",
+            u64::from(self.compact_after_hours),
+            Bounds {
+                lo: 0,
+                hi: 24 * 3650,
+                unit: " h",
+                why: "0 (off) … 10 years",
             },
         );
         if self.cache_mib == 0 || self.cache_mib > 16 * 1024 {
@@ -642,11 +660,9 @@ impl Store {
         Ok(rows.collect::<Result<Vec<_>, _>>()?)
     }
 
-    /// Number of stored samples (all tags).
+    /// Number of stored samples (all tags, both tiers).
     pub fn sample_count(&self) -> Result<i64, StoreError> {
-        Ok(self
-            .conn
-            .query_row("SELECT COUNT(*) FROM samples", [], |r| r.get(0))?)
+        archive::count_all(&self.conn)
     }
 
     /// `PRAGMA integrity_check`; `Ok("ok")` when the file is sound.
@@ -657,7 +673,8 @@ impl Store {
     }
 }
 
-/// Inserts within an open transaction; returns how many rows were new.
+/// Inserts within an open transaction; returns how many rows were new. A sample whose (tag,
+/// time) is already stored, hot or archived, is left as it is (README "Storage tiers").
 pub(crate) fn insert_samples_in(conn: &Connection, batch: &[Sample]) -> Result<usize, StoreError> {
     // Sorted by (tag, time) the inserts append to each tag's run of the primary-key B-tree
     // instead of hopping between tags row by row: several times faster for large batches.
@@ -670,12 +687,16 @@ pub(crate) fn insert_samples_in(conn: &Connection, batch: &[Sample]) -> Result<u
     }
     let mut inserted = 0usize;
     let mut min_t = i64::MAX;
+    let mut archived = archive::ArchivedTimes::default();
     {
         let mut stmt = conn.prepare_cached(
             "INSERT OR IGNORE INTO samples (tag_id, t_ms, value, quality) VALUES (?1, ?2, ?3, ?4)",
         )?;
         for &i in &order {
             let s = &batch[i as usize];
+            if archived.contains(conn, s.tag, s.t_ms)? {
+                continue;
+            }
             stmt.raw_bind_parameter(1, s.tag)?;
             stmt.raw_bind_parameter(2, s.t_ms)?;
             stmt.raw_bind_parameter(3, s.value)?;

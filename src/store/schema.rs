@@ -31,6 +31,10 @@ const MIGRATION_SQL: &[(&str, &str)] = &[
         "0005_fleet_sync.sql",
         include_str!("../../migrations/0005_fleet_sync.sql"),
     ),
+    (
+        "0006_archive.sql",
+        include_str!("../../migrations/0006_archive.sql"),
+    ),
 ];
 
 #[cfg(test)]
@@ -40,6 +44,7 @@ const MIGRATION_LIST: &[M<'static>] = &[
     M::up(MIGRATION_SQL[2].1),
     M::up(MIGRATION_SQL[3].1),
     M::up(MIGRATION_SQL[4].1),
+    M::up(MIGRATION_SQL[5].1),
 ];
 
 /// All migrations in order (for `rusqlite_migration`'s validation in tests).

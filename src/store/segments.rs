@@ -2,8 +2,7 @@
 //! and the demo (`crate::query` formats them). The store owns the SQL; nothing here writes.
 
 use super::diagnoses::{segment_row, SEGMENT_COLS};
-use super::{SegmentInfo, Store, StoreError};
-use rusqlite::params;
+use super::{archive, SegmentInfo, Store, StoreError};
 
 /// One start-up as stored: the segment (the worker's [`SegmentInfo`]) and whether it was a
 /// hot restart.
@@ -64,35 +63,21 @@ impl Store {
 
     /// The latest stored sample time (any quality) over `tags`, if any.
     pub fn last_sample_ms(&self, tags: &[i64]) -> Result<Option<i64>, StoreError> {
-        let mut st = self
-            .conn
-            .prepare_cached("SELECT MAX(t_ms) FROM samples WHERE tag_id = ?1")?;
         let mut last: Option<i64> = None;
-        for t in tags {
-            let m: Option<i64> = st.query_row([t], |r| r.get(0))?;
-            last = last.max(m);
+        for &t in tags {
+            last = last.max(archive::time_range(&self.conn, t)?.1);
         }
         Ok(last)
     }
 
-    /// Every stored sample of `tag_id` with `from_ms ≤ t ≤ to_ms`, in time order (any quality).
+    /// Every stored sample of `tag_id` with `from_ms ≤ t ≤ to_ms`, in time order (any quality),
+    /// from both tiers.
     pub fn tag_samples_between(
         &self,
         tag_id: i64,
         from_ms: i64,
         to_ms: i64,
     ) -> Result<Vec<SampleRow>, StoreError> {
-        let mut st = self.conn.prepare_cached(
-            "SELECT t_ms, value, quality FROM samples WHERE tag_id = ?1 AND t_ms BETWEEN ?2 AND ?3
-             ORDER BY t_ms",
-        )?;
-        let rows = st.query_map(params![tag_id, from_ms, to_ms], |r| {
-            Ok(SampleRow {
-                t_ms: r.get(0)?,
-                value: r.get(1)?,
-                quality: r.get(2)?,
-            })
-        })?;
-        Ok(rows.collect::<Result<_, _>>()?)
+        archive::read_samples(&self.conn, tag_id, from_ms, to_ms, false)
     }
 }

@@ -75,6 +75,16 @@ pub enum WriteCmd {
         mark: super::FleetMark,
         reply: Reply<()>,
     },
+    /// Archive up to `max_chunks` chunks of samples older than `before_ms`
+    /// ([`Store::compact_some`], one transaction per chunk); answers with what it moved (0
+    /// chunks: nothing left to archive). The daemon's compaction task sends it repeatedly, so
+    /// the writer never holds the samples of acquisition back for long.
+    Compact {
+        before_ms: i64,
+        max_chunk_samples: usize,
+        max_chunks: u64,
+        reply: Reply<super::CompactStats>,
+    },
 }
 
 /// Writer batching settings (from `[storage]`, see `StorageConfig::writer`).
@@ -476,6 +486,21 @@ pub async fn run_writer_with_progress(
             }
             Some(WriteCmd::FleetMark { mark, reply }) => {
                 w.answer(reply, move |s| s.save_fleet_mark(&mark)).await;
+            }
+            Some(WriteCmd::Compact {
+                before_ms,
+                max_chunk_samples,
+                max_chunks,
+                reply,
+            }) => {
+                w.answer(reply, move |s| {
+                    let done = s.compact_some(before_ms, max_chunk_samples, max_chunks)?;
+                    if done.chunks == 0 {
+                        s.incremental_vacuum()?;
+                    }
+                    Ok(done)
+                })
+                .await;
             }
         }
     }
