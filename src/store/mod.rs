@@ -617,7 +617,11 @@ impl Store {
         if batch.is_empty() {
             return Ok(0);
         }
-        let tx = self.conn.transaction()?;
+        // Immediate: the insert first reads the archive's coverage, and a deferred transaction
+        // that read before it wrote cannot wait for another writer (SQLITE_BUSY at once).
+        let tx = self
+            .conn
+            .transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)?;
         let inserted = insert_samples_in(&tx, batch)?;
         tx.commit()?;
         Ok(inserted)
@@ -629,7 +633,11 @@ impl Store {
         batch: &[Sample],
         gaps: &[Gap],
     ) -> Result<usize, StoreError> {
-        let tx = self.conn.transaction()?;
+        // Immediate: the insert first reads the archive's coverage, and a deferred transaction
+        // that read before it wrote cannot wait for another writer (SQLITE_BUSY at once).
+        let tx = self
+            .conn
+            .transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)?;
         let inserted = insert_samples_in(&tx, batch)?;
         for g in gaps {
             record_gap_in(&tx, g)?;

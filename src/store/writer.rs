@@ -522,7 +522,11 @@ fn error_chain(e: &StoreError) -> String {
 }
 
 fn commit(store: &mut Store, samples: &[Sample], gaps: &[Gap]) -> Result<usize, StoreError> {
-    let tx = store.conn_mut().transaction()?;
+    // Immediate: the sample inserts read the archive's coverage before they write, and a
+    // deferred transaction that read first cannot wait for another writer (SQLITE_BUSY at once).
+    let tx = store
+        .conn_mut()
+        .transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)?;
     let n = insert_samples_in(&tx, samples)?;
     for g in gaps {
         record_gap_in(&tx, g)?;
