@@ -9,7 +9,7 @@
 //! Also `gtwatch fleet report --postgres-url URL --out DIR`: `DIR/fleet.html`, the page
 //! `report::fleet` builds from the centre's results, washes and advice.
 
-use super::history::MethodFilter;
+use super::history::{health_csv_cells, write_health_cells, write_quality_and_gap, MethodFilter};
 use crate::fleet::{
     fleet_advice, fleet_history, fleet_washes, Centre, FleetHistoryFilter, FleetHistoryRow,
 };
@@ -89,7 +89,7 @@ pub(super) fn run(args: &FleetHistoryArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn write_json(out: &mut impl Write, rows: &[FleetHistoryRow]) -> anyhow::Result<()> {
+fn write_json(out: &mut dyn Write, rows: &[FleetHistoryRow]) -> anyhow::Result<()> {
     let docs: Vec<serde_json::Value> = rows
         .iter()
         .map(|r| {
@@ -111,12 +111,7 @@ fn write_json(out: &mut impl Write, rows: &[FleetHistoryRow]) -> anyhow::Result<
     Ok(())
 }
 
-/// A value to 4 decimals, or an empty cell.
-fn cell(v: Option<&f64>) -> String {
-    v.map_or(String::new(), |v| format!("{v:.4}"))
-}
-
-fn write_csv(out: &mut impl Write, rows: &[FleetHistoryRow]) -> anyhow::Result<()> {
+fn write_csv(out: &mut dyn Write, rows: &[FleetHistoryRow]) -> anyhow::Result<()> {
     let mut head: Vec<String> = vec!["unit_id".into(), "segment_id".into(), "start_utc".into()];
     head.push("method".into());
     for n in HEALTH_NAMES {
@@ -132,10 +127,7 @@ fn write_csv(out: &mut impl Write, rows: &[FleetHistoryRow]) -> anyhow::Result<(
             fmt_ms_rfc3339(r.start_ms),
             r.method.clone(),
         ];
-        for n in HEALTH_NAMES {
-            cells.push(cell(r.health.get(n)));
-            cells.push(cell(r.sigma.get(n)));
-        }
+        cells.extend(health_csv_cells(&r.health, &r.sigma, &HEALTH_NAMES));
         cells.push(
             r.residual_level
                 .map_or(String::new(), |v| format!("{v:.3}")),
@@ -147,7 +139,7 @@ fn write_csv(out: &mut impl Write, rows: &[FleetHistoryRow]) -> anyhow::Result<(
     Ok(())
 }
 
-fn write_table(out: &mut impl Write, rows: &[FleetHistoryRow]) -> anyhow::Result<()> {
+fn write_table(out: &mut dyn Write, rows: &[FleetHistoryRow]) -> anyhow::Result<()> {
     write!(
         out,
         "{:<16} {:>7}  {:<24} {:<2}",
@@ -166,17 +158,8 @@ fn write_table(out: &mut impl Write, rows: &[FleetHistoryRow]) -> anyhow::Result
             fmt_ms_rfc3339(r.start_ms),
             r.method
         )?;
-        for n in HEALTH_NAMES {
-            let v = r.health.get(n).copied().unwrap_or(f64::NAN);
-            let s = r.sigma.get(n).copied().unwrap_or(f64::NAN);
-            write!(out, " {:>15}", format!("{v:.2} ± {s:.2}"))?;
-        }
-        writeln!(
-            out,
-            "  {:<8} {}",
-            r.fit_quality.as_deref().unwrap_or("-"),
-            r.gap_verdict.as_deref().unwrap_or("")
-        )?;
+        write_health_cells(out, &r.health, &r.sigma, &HEALTH_NAMES)?;
+        write_quality_and_gap(out, r.fit_quality.as_deref(), r.gap_verdict.as_deref())?;
     }
     if rows.is_empty() {
         writeln!(out, "(no results at the centre)")?;

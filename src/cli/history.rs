@@ -12,6 +12,7 @@ use crate::health::HEALTH_NAMES;
 use crate::query::Format;
 use crate::store::{HistoryFilter, HistoryRow, Store};
 use anyhow::bail;
+use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -65,6 +66,48 @@ fn params(asked: &[String]) -> anyhow::Result<Vec<&'static str>> {
         }
     }
     Ok(out)
+}
+
+/// A result's CSV cells for `names`: value and σ each to 4 decimals, empty where absent.
+pub(super) fn health_csv_cells(
+    health: &BTreeMap<String, f64>,
+    sigma: &BTreeMap<String, f64>,
+    names: &[&str],
+) -> Vec<String> {
+    let cell = |v: Option<&f64>| v.map_or(String::new(), |v| format!("{v:.4}"));
+    names
+        .iter()
+        .flat_map(|n| [cell(health.get(*n)), cell(sigma.get(*n))])
+        .collect()
+}
+
+/// A result's table cells for `names`: `value ± σ` (NaN where absent).
+pub(super) fn write_health_cells(
+    out: &mut dyn Write,
+    health: &BTreeMap<String, f64>,
+    sigma: &BTreeMap<String, f64>,
+    names: &[&str],
+) -> std::io::Result<()> {
+    for n in names {
+        let v = health.get(*n).copied().unwrap_or(f64::NAN);
+        let s = sigma.get(*n).copied().unwrap_or(f64::NAN);
+        write!(out, " {:>15}", format!("{v:.2} ± {s:.2}"))?;
+    }
+    Ok(())
+}
+
+/// The end of a result's table row: its fit quality and gap verdict.
+pub(super) fn write_quality_and_gap(
+    out: &mut dyn Write,
+    fit_quality: Option<&str>,
+    gap_verdict: Option<&str>,
+) -> std::io::Result<()> {
+    writeln!(
+        out,
+        "  {:<8} {}",
+        fit_quality.unwrap_or("-"),
+        gap_verdict.unwrap_or("")
+    )
 }
 
 /// Writes the rows in `format`, showing `names` only.
@@ -125,14 +168,7 @@ pub(super) fn write_history(
                     r.start_utc.clone(),
                     r.method.clone(),
                 ];
-                for n in names {
-                    cells.push(
-                        r.health
-                            .get(*n)
-                            .map_or(String::new(), |v| format!("{v:.4}")),
-                    );
-                    cells.push(r.sigma.get(*n).map_or(String::new(), |v| format!("{v:.4}")));
-                }
+                cells.extend(health_csv_cells(&r.health, &r.sigma, names));
                 cells.push(
                     r.residual_level
                         .map_or(String::new(), |v| format!("{v:.3}")),
@@ -155,17 +191,8 @@ pub(super) fn write_history(
                     "{:>7}  {:<24} {:<2}",
                     r.segment_id, r.start_utc, r.method
                 )?;
-                for n in names {
-                    let v = r.health.get(*n).copied().unwrap_or(f64::NAN);
-                    let s = r.sigma.get(*n).copied().unwrap_or(f64::NAN);
-                    write!(out, " {:>15}", format!("{v:.2} ± {s:.2}"))?;
-                }
-                writeln!(
-                    out,
-                    "  {:<8} {}",
-                    r.fit_quality.as_deref().unwrap_or("-"),
-                    r.gap_verdict.as_deref().unwrap_or("")
-                )?;
+                write_health_cells(out, &r.health, &r.sigma, names)?;
+                write_quality_and_gap(out, r.fit_quality.as_deref(), r.gap_verdict.as_deref())?;
             }
             if rows.is_empty() {
                 writeln!(out, "(no diagnoses stored)")?;
