@@ -206,8 +206,10 @@ mod tests {
         ];
         let n = values.len();
         let c = Columns {
-            t_ms: (0..n as i64)
-                .map(|i| i64::MIN + i * (i64::MAX / 8))
+            // Spread over the whole i64 range, from i64::MIN up; computed in
+            // i128 so the test itself cannot overflow (CI runs with overflow checks).
+            t_ms: (0..n as i128)
+                .map(|i| (i128::from(i64::MIN) + i * (i128::from(u64::MAX) / n as i128)) as i64)
                 .collect(),
             values,
             quality: (0..n).map(|i| (i % 5) as u8).collect(),
