@@ -100,6 +100,11 @@ impl Default for DiagnosisSettings {
 }
 
 impl DiagnosisSettings {
+    /// The health search limits, as every parameter's interval.
+    pub fn bounds(&self) -> HealthBounds {
+        HealthBounds::all(self.health_bounds[0], self.health_bounds[1])
+    }
+
     /// Problems with this section; keys are prefixed `diagnosis.`.
     pub fn validate(&self) -> Vec<ConfigProblem> {
         let mut p = Vec::new();
@@ -162,7 +167,7 @@ impl DiagnosisSettings {
                 poor_level: self.good_residual_level.max(2.5),
                 ..Default::default()
             },
-            health_bounds: HealthBounds::all(self.health_bounds[0], self.health_bounds[1]),
+            health_bounds: self.bounds(),
             ..DiagnosisConfig::default()
         }
     }

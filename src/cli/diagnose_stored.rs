@@ -72,6 +72,7 @@ pub(super) fn diagnose_after_replay(
             &ctx.engine,
             &econ,
             &crate::trend::WashDetection::default(),
+            &ctx.settings.bounds(),
         )
         .context("wash advice")?;
         if let Some(a) = &r.advice {

@@ -94,6 +94,8 @@ pub(crate) struct Alias {
     pub(crate) unit: &'static str,
     /// The error size the shifts are given for.
     pub(crate) nominal: f64,
+    /// Largest error of this instrument taken as credible, ± in `unit` (the search range).
+    pub(crate) max_magnitude: f64,
     /// Share of the candidate's signature the health parameters reproduce (0 … 1).
     pub(crate) absorbed: f64,
     /// Estimate − truth of each health parameter for an error of `nominal`, points.
@@ -214,6 +216,7 @@ pub(crate) fn aliases(
             param: format!("effects.{}.{}", c.effect, c.param),
             unit: c.unit,
             nominal: c.nominal,
+            max_magnitude: c.range,
             absorbed,
             health_shift: HealthParams::from_array(shift),
             health_if_nominal: HealthParams::from_array(at(c.nominal)),

@@ -40,6 +40,7 @@ mod analysis;
 pub(crate) mod bench;
 pub(crate) mod candidates;
 pub(crate) mod linear;
+pub(crate) mod sequence;
 pub(crate) mod svg;
 pub(crate) mod truth;
 

@@ -112,6 +112,15 @@ impl Store {
         Ok(self.conn.last_insert_rowid())
     }
 
+    /// The whole report (JSON) of a segment's newest analysis, if it has one.
+    pub fn newest_gap_report_json(&self, segment_id: i64) -> Result<Option<String>, StoreError> {
+        let mut st = self.conn.prepare_cached(
+            "SELECT report_json FROM gap_analyses WHERE segment_id = ?1 ORDER BY id DESC LIMIT 1",
+        )?;
+        let mut rows = st.query_map(params![segment_id], |r| r.get::<_, String>(0))?;
+        Ok(rows.next().transpose()?)
+    }
+
     /// The analyses of a segment, newest first.
     pub fn gap_analyses(&self, segment_id: i64) -> Result<Vec<GapAnalysisRow>, StoreError> {
         let mut st = self.conn.prepare_cached(&format!(

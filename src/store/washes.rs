@@ -269,8 +269,14 @@ mod tests {
         fill(&mut store);
         let engine = Engine::reference().unwrap();
         let econ = WashEconomics::default();
-        let r =
-            crate::advice::refresh(&mut store, &engine, &econ, &WashDetection::default()).unwrap();
+        let r = crate::advice::refresh(
+            &mut store,
+            &engine,
+            &econ,
+            &WashDetection::default(),
+            &crate::health::HealthBounds::default(),
+        )
+        .unwrap();
         // The wash is found between day 11 and day 12, and only there.
         let washes = store.washes().unwrap();
         assert_eq!(washes.len(), 1, "{washes:?}");
@@ -304,7 +310,14 @@ mod tests {
             Some(washes[0].t_ms + (stored_days * DAY as f64).round() as i64)
         );
         // A second refresh records no second wash.
-        crate::advice::refresh(&mut store, &engine, &econ, &WashDetection::default()).unwrap();
+        crate::advice::refresh(
+            &mut store,
+            &engine,
+            &econ,
+            &WashDetection::default(),
+            &crate::health::HealthBounds::default(),
+        )
+        .unwrap();
         assert_eq!(store.washes().unwrap().len(), 1);
     }
 
@@ -351,8 +364,14 @@ mod tests {
                         .unwrap();
                 }
             }
-            let r = crate::advice::refresh(&mut store, &engine, &econ, &WashDetection::default())
-                .unwrap();
+            let r = crate::advice::refresh(
+                &mut store,
+                &engine,
+                &econ,
+                &WashDetection::default(),
+                &crate::health::HealthBounds::default(),
+            )
+            .unwrap();
             (r, stepped)
         };
         let (clean, _) = advice_with(false, false);
