@@ -295,4 +295,104 @@ mod tests {
             .all(|(a, b)| a.t_ms == b.t_ms && a.value == b.value));
         assert_eq!(report.failures, 0);
     }
+
+    /// With `raw_days`, the task rolls up old steady samples through the writer (compaction
+    /// off here), keeps a start-up's samples raw, and leaves nothing for a second run.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn the_task_rolls_up_old_steady_samples_through_the_writer() {
+        use crate::segment::{Outcome, SegmentRecord};
+        use crate::store::{RetentionPolicy, ScanWrite};
+        let dir = tempfile::tempdir().unwrap_or_else(|e| unreachable!("{e}"));
+        let path = dir.path().join("r.db");
+        let mut store = Store::open(&path).unwrap_or_else(|e| unreachable!("{e}"));
+        let tag = store
+            .ensure_tag(&TagInfo {
+                name: "x".into(),
+                unit: String::new(),
+                signal: None,
+            })
+            .unwrap_or_else(|e| unreachable!("{e}"));
+        let now = now_ms();
+        let t0 = (now - 10 * 86_400_000) / 60_000 * 60_000;
+        let old: Vec<Sample> = (0..7200i64)
+            .map(|i| Sample {
+                tag,
+                t_ms: t0 + i * 1000,
+                value: i as f64,
+                quality: Quality::Good,
+            })
+            .collect();
+        store
+            .insert_samples(&old)
+            .unwrap_or_else(|e| unreachable!("{e}"));
+        // A start-up in the second half hour; the detector has scanned everything.
+        store
+            .store_scan(&ScanWrite {
+                records: vec![SegmentRecord {
+                    start_ms: t0 + 1_800_000,
+                    end_ms: Some(t0 + 1_860_000),
+                    outcome: Outcome::Completed,
+                    abort_cause: None,
+                    hot_restart: false,
+                    has_gap: false,
+                    phases: Vec::new(),
+                }],
+                keep_from: t0,
+                scanned_to: now,
+                last_fuel_off_ms: None,
+            })
+            .unwrap_or_else(|e| unreachable!("{e}"));
+        let (handle, rx) = writer_channel(16);
+        let writer = spawn_writer(store, rx, WriterConfig::default());
+        let (trigger, shutdown) = shutdown_channel();
+        let policy = RetentionPolicy {
+            raw_days: 1,
+            segment_margin_s: 60,
+        };
+        let task = tokio::spawn(
+            CompactionTask {
+                writer: handle.clone(),
+                after: None,
+                retention: Some(policy),
+                first_delay: Duration::ZERO,
+                period: Duration::from_secs(3600),
+            }
+            .run(shutdown),
+        );
+        // Kept raw: [t0 + 29 min, t0 + 33 min): the segment ± 60 s is [29:00, 32:00], and
+        // the sample at 32:00 keeps its whole minute.
+        let kept = 240usize;
+        let deadline = tokio::time::Instant::now() + Duration::from_secs(30);
+        loop {
+            let n = Store::open_readonly(&path)
+                .and_then(|s| s.sample_count())
+                .unwrap_or_else(|e| unreachable!("{e}"));
+            if n as usize == kept || tokio::time::Instant::now() > deadline {
+                break;
+            }
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        trigger.trigger();
+        let report = task.await.unwrap_or_else(|e| unreachable!("{e}"));
+        handle.flush().await.unwrap_or_else(|e| unreachable!("{e}"));
+        drop(handle);
+        let _ = writer.await;
+        assert_eq!(report.rolled_up, (old.len() - kept) as u64);
+        assert_eq!(report.failures, 0);
+        let mut s = Store::open(&path).unwrap_or_else(|e| unreachable!("{e}"));
+        let rows = s
+            .tag_samples_between(tag, i64::MIN, i64::MAX)
+            .unwrap_or_else(|e| unreachable!("{e}"));
+        assert_eq!(rows.len(), kept);
+        assert_eq!(rows[0].t_ms, t0 + 29 * 60_000);
+        let outlook = s
+            .storage_stats(now, &policy)
+            .unwrap_or_else(|e| unreachable!("{e}"));
+        assert_eq!(outlook.rollups.rows, 120 - 4);
+        assert_eq!(outlook.rollups.samples, (old.len() - kept) as u64);
+        let again = s
+            .apply_retention(now, &policy)
+            .unwrap_or_else(|e| unreachable!("{e}"));
+        assert_eq!(again.batches, 0);
+    }
 }

@@ -331,3 +331,45 @@ fn retention_is_off_at_raw_days_0_and_before_the_detector_scanned() {
     assert_eq!(all.samples_rolled_up, samples.len() as u64);
     assert_eq!(store.sample_count().unwrap_or(-1), 0);
 }
+
+#[test]
+fn bad_retention_settings_name_their_key() {
+    use super::super::StorageConfig;
+    let keys =
+        |c: StorageConfig| -> Vec<String> { c.validate().into_iter().map(|p| p.key).collect() };
+    assert!(keys(StorageConfig::default()).is_empty());
+    assert_eq!(
+        StorageConfig::default().raw_days,
+        0,
+        "raw forever by default"
+    );
+    assert_eq!(
+        keys(StorageConfig {
+            raw_days: 40_000,
+            ..StorageConfig::default()
+        }),
+        ["storage.raw_days"]
+    );
+    assert_eq!(
+        keys(StorageConfig {
+            segment_margin_s: 8 * 86_400,
+            ..StorageConfig::default()
+        }),
+        ["storage.segment_margin_s"]
+    );
+    // Rolled up before archived: refused, naming raw_days.
+    assert_eq!(
+        keys(StorageConfig {
+            raw_days: 1,
+            compact_after_hours: 48,
+            ..StorageConfig::default()
+        }),
+        ["storage.raw_days"]
+    );
+    assert!(keys(StorageConfig {
+        raw_days: 2,
+        compact_after_hours: 48,
+        ..StorageConfig::default()
+    })
+    .is_empty());
+}
