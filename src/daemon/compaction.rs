@@ -24,7 +24,7 @@ pub const FIRST_DELAY: Duration = Duration::from_secs(300);
 /// Chunks per writer request.
 const CHUNKS_PER_REQUEST: u64 = 4;
 /// Retention batches (one tag's 6 h window each) per writer request.
-const RETAIN_BATCHES_PER_REQUEST: u64 = 2;
+const RETAIN_BATCHES_PER_REQUEST: u64 = 4;
 
 /// The compaction task (mini-redis shape: a small struct with its own `run`).
 pub struct CompactionTask {
