@@ -322,6 +322,30 @@ fn build_retention_db(db: &Path) {
     drop(store);
 }
 
+/// `gtwatch store stats --json` with the policy `retain_cmd` uses.
+fn stats_json(db: &Path) -> serde_json::Value {
+    let out = Command::new(BIN)
+        .args([
+            "store",
+            "stats",
+            "--raw-days",
+            "1",
+            "--segment-margin-s",
+            "600",
+            "--json",
+            "--db",
+        ])
+        .arg(db)
+        .output()
+        .expect("stats");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("one JSON document")
+}
+
 fn retain_cmd(db: &Path) -> Command {
     let mut c = Command::new(BIN);
     c.args([
@@ -351,11 +375,25 @@ fn retention_survives_kill_9_at_random_moments() {
     let orig = contents(&original);
     let work = dir.path().join("work.db");
     copy_db(&original, &work);
+    let planned = stats_json(&work);
     let t = Instant::now();
     assert!(retain_cmd(&work).status().expect("run").success());
     let full = t.elapsed();
     let want_raw = contents(&work);
     let want_roll = rollups(&work);
+    // `store stats` foretold the run and accounts for its result.
+    let rolled = (orig.len() - want_raw.len()) as u64;
+    assert_eq!(planned["next_retention"]["samples"].as_u64(), Some(rolled));
+    let after = stats_json(&work);
+    assert_eq!(after["rollups"]["samples"].as_u64(), Some(rolled));
+    assert_eq!(
+        after["rollups"]["rows"].as_u64(),
+        Some(want_roll.len() as u64)
+    );
+    let raw_after =
+        after["hot"]["samples"].as_u64().unwrap() + after["archive"]["samples"].as_u64().unwrap();
+    assert_eq!(raw_after, want_raw.len() as u64);
+    assert_eq!(after["next_retention"]["samples"].as_u64(), Some(0));
     assert!(!want_roll.is_empty() && want_raw.len() < orig.len() / 2);
     assert!(want_raw.len() > 4 * 1500, "the start-up ± margin stays raw");
 
