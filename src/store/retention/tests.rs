@@ -373,3 +373,77 @@ fn bad_retention_settings_name_their_key() {
     })
     .is_empty());
 }
+
+/// A raw sample that reaches an already rolled-up minute behind ingest's back (ingest itself
+/// skips such samples) is merged into the minute's row: counts added, mean weighted, min,
+/// max and last as if the minute had been rolled up whole.
+#[test]
+fn a_late_raw_sample_is_merged_into_its_minute() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| unreachable!("{e}"));
+    let mut store = Store::open(&dir.path().join("m.db")).unwrap_or_else(|e| unreachable!("{e}"));
+    let tag = store
+        .ensure_tag(&TagInfo {
+            name: "x".into(),
+            unit: String::new(),
+            signal: None,
+        })
+        .unwrap_or_else(|e| unreachable!("{e}"));
+    // One minute: 1.0, 2.0, 3.0 at 0, 10, 20 s; later 10.0 at 30 s and -4.0 (bad) at 40 s.
+    let first: Vec<Sample> = [(0, 1.0), (10, 2.0), (20, 3.0)]
+        .iter()
+        .map(|&(s, v)| Sample {
+            tag,
+            t_ms: BASE + s * 1000,
+            value: v,
+            quality: Quality::Good,
+        })
+        .collect();
+    store
+        .insert_samples(&first)
+        .unwrap_or_else(|e| unreachable!("{e}"));
+    store
+        .store_scan(&ScanWrite {
+            records: Vec::new(),
+            keep_from: BASE,
+            scanned_to: BASE + 2 * DAY,
+            last_fuel_off_ms: None,
+        })
+        .unwrap_or_else(|e| unreachable!("{e}"));
+    let policy = RetentionPolicy {
+        raw_days: 1,
+        segment_margin_s: 0,
+    };
+    let now = BASE + 10 * DAY;
+    store
+        .apply_retention(now, &policy)
+        .unwrap_or_else(|e| unreachable!("{e}"));
+    store
+        .conn()
+        .execute_batch(&format!(
+            "INSERT INTO samples (tag_id, t_ms, value, quality) VALUES
+             ({tag}, {}, 10.0, 0), ({tag}, {}, -4.0, 2)",
+            BASE + 30_000,
+            BASE + 40_000
+        ))
+        .unwrap_or_else(|e| unreachable!("{e}"));
+    let done = store
+        .apply_retention(now, &policy)
+        .unwrap_or_else(|e| unreachable!("{e}"));
+    assert_eq!(done.samples_rolled_up, 2);
+    let got = stored_rollups(&store, tag);
+    assert_eq!(
+        got.into_iter().collect::<Vec<_>>(),
+        [(
+            BASE,
+            Expected {
+                n_good: 4,
+                n_all: 5,
+                min: Some(1.0),
+                mean: Some(4.0),
+                max: Some(10.0),
+                last: Some(10.0),
+            }
+        )]
+    );
+    assert_eq!(store.sample_count().unwrap_or(-1), 0);
+}
