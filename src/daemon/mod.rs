@@ -110,7 +110,8 @@ pub struct RunReport {
     pub gap: GapTaskReport,
     /// What the fleet sync did (`[fleet]`).
     pub sync: SyncTaskReport,
-    /// What the compaction task archived (`[storage] compact_after_hours`).
+    /// What the compaction task archived, rolled up and vacuumed (`[storage]
+    /// compact_after_hours`, `raw_days`).
     pub compaction: CompactionReport,
 }
 
