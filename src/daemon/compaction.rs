@@ -1,14 +1,20 @@
 //! The compaction task (`[storage] compact_after_hours`, default 24; 0 = off): every
-//! [`PERIOD`] it has the writer archive samples older than that many hours (README "Storage
+//! [`PERIOD`] it has the writer archive samples older than that many hours, then, with
+//! `[storage] raw_days` > 0, roll up steady samples older than that into 1-minute roll-ups
+//! (retention), then return freed pages to the file system in bounded steps (README "Storage
 //! tiers").
 //!
-//! It goes through the one writer (`WriteCmd::Compact`), a few chunks per request, each chunk
-//! its own transaction: the daemon keeps one writable connection, and acquisition's batches
-//! are committed between two requests instead of waiting for a whole compaction. Must not
-//! hold SQL.
+//! It goes through the one writer (`WriteCmd::Compact`, `WriteCmd::Retain`,
+//! `WriteCmd::IncrementalVacuum`), a few chunks, batches or pages per request, each its own
+//! transaction: the daemon keeps one writable connection, and acquisition's batches are
+//! committed between two requests instead of waiting for a whole compaction. Must not hold
+//! SQL.
 
 use crate::shutdown::Shutdown;
-use crate::store::{now_ms, CompactStats, WriteCmd, WriterHandle, DEFAULT_MAX_CHUNK_SAMPLES};
+use crate::store::{
+    now_ms, RetentionPolicy, StorageConfig, WriteCmd, WriterHandle, DEFAULT_MAX_CHUNK_SAMPLES,
+    VACUUM_STEP_PAGES,
+};
 use std::time::Duration;
 
 /// Time between two compactions.
@@ -17,12 +23,16 @@ pub const PERIOD: Duration = Duration::from_secs(3600);
 pub const FIRST_DELAY: Duration = Duration::from_secs(300);
 /// Chunks per writer request.
 const CHUNKS_PER_REQUEST: u64 = 4;
+/// Retention batches (one tag's 6 h window each) per writer request.
+const RETAIN_BATCHES_PER_REQUEST: u64 = 4;
 
 /// The compaction task (mini-redis shape: a small struct with its own `run`).
 pub struct CompactionTask {
     pub writer: WriterHandle,
-    /// Samples older than this are archived.
-    pub after: Duration,
+    /// Samples older than this are archived (None: compaction off).
+    pub after: Option<Duration>,
+    /// Retention (None: off).
+    pub retention: Option<RetentionPolicy>,
     pub first_delay: Duration,
     pub period: Duration,
 }
@@ -32,20 +42,43 @@ pub struct CompactionTask {
 pub struct CompactionReport {
     pub chunks: u64,
     pub samples: u64,
+    /// Raw samples replaced by roll-ups.
+    pub rolled_up: u64,
+    /// Pages returned to the file system.
+    pub vacuumed_pages: u64,
     pub failures: u64,
 }
 
+/// What one writer request did: `units` samples archived or rolled up, or pages freed (0:
+/// nothing left), and for compaction the chunks written.
+struct Done {
+    units: u64,
+    chunks: u64,
+}
+
+/// One kind of repeated writer request: how to ask, and how much an answer did (0: done).
+enum Step {
+    Compact(i64),
+    Retain(i64, RetentionPolicy),
+    Vacuum,
+}
+
 impl CompactionTask {
-    pub fn new(writer: WriterHandle, compact_after_hours: u32) -> CompactionTask {
-        CompactionTask {
+    /// The task for `[storage]`, or None when both compaction and retention are off.
+    pub fn from_config(writer: WriterHandle, storage: &StorageConfig) -> Option<CompactionTask> {
+        let after = (storage.compact_after_hours > 0)
+            .then(|| Duration::from_secs(u64::from(storage.compact_after_hours) * 3600));
+        let retention = (storage.raw_days > 0).then(|| storage.retention());
+        (after.is_some() || retention.is_some()).then_some(CompactionTask {
             writer,
-            after: Duration::from_secs(u64::from(compact_after_hours) * 3600),
+            after,
+            retention,
             first_delay: FIRST_DELAY,
             period: PERIOD,
-        }
+        })
     }
 
-    /// Compacts every `period` until shutdown.
+    /// Compacts, retains and vacuums every `period` until shutdown.
     pub async fn run(self, mut shutdown: Shutdown) -> CompactionReport {
         let mut report = CompactionReport::default();
         let mut wait = self.first_delay;
@@ -55,44 +88,127 @@ impl CompactionTask {
                 _ = tokio::time::sleep(wait) => {}
             }
             wait = self.period;
-            let before_ms = now_ms() - i64::try_from(self.after.as_millis()).unwrap_or(i64::MAX);
-            let mut round = CompactStats::default();
-            loop {
-                let answer = tokio::select! {
-                    _ = shutdown.wait() => return report,
-                    a = self.writer.request(|reply| WriteCmd::Compact {
+            let now = now_ms();
+            let mut steps = Vec::new();
+            if let Some(after) = self.after {
+                steps.push(Step::Compact(
+                    now - i64::try_from(after.as_millis()).unwrap_or(i64::MAX),
+                ));
+            }
+            if let Some(policy) = self.retention {
+                steps.push(Step::Retain(now, policy));
+            }
+            steps.push(Step::Vacuum);
+            for step in steps {
+                if !self.repeat(&step, &mut report, &mut shutdown).await {
+                    return report;
+                }
+            }
+        }
+        report
+    }
+
+    /// Sends `step` until an answer says nothing is left; false on shutdown.
+    async fn repeat(
+        &self,
+        step: &Step,
+        report: &mut CompactionReport,
+        shutdown: &mut Shutdown,
+    ) -> bool {
+        let mut done_total = 0u64;
+        let mut chunks = 0u64;
+        loop {
+            let answer = tokio::select! {
+                _ = shutdown.wait() => return false,
+                a = self.request(step) => a,
+            };
+            match answer {
+                Ok(Done { units: 0, .. }) => break,
+                Ok(d) => {
+                    done_total += d.units;
+                    chunks += d.chunks;
+                }
+                Err(e) => {
+                    report.failures += 1;
+                    tracing::warn!("storage maintenance failed (retried next period): {e}");
+                    break;
+                }
+            }
+        }
+        match step {
+            Step::Compact(_) => {
+                report.samples += done_total;
+                report.chunks += chunks;
+                if done_total > 0 {
+                    tracing::info!(chunks, samples = done_total, "archived old samples");
+                }
+            }
+            Step::Retain(..) => {
+                report.rolled_up += done_total;
+                if done_total > 0 {
+                    tracing::info!(samples = done_total, "rolled up old steady samples");
+                }
+            }
+            Step::Vacuum => report.vacuumed_pages += done_total,
+        }
+        true
+    }
+
+    /// One request and what it did.
+    async fn request(&self, step: &Step) -> Result<Done, crate::store::StoreError> {
+        match *step {
+            Step::Compact(before_ms) => {
+                let done = self
+                    .writer
+                    .request(|reply| WriteCmd::Compact {
                         before_ms,
                         max_chunk_samples: DEFAULT_MAX_CHUNK_SAMPLES,
                         max_chunks: CHUNKS_PER_REQUEST,
                         reply,
-                    }) => a,
-                };
-                match answer {
-                    Ok(done) if done.chunks == 0 => break,
-                    Ok(done) => {
-                        round.chunks += done.chunks;
-                        round.samples += done.samples;
-                        round.blob_bytes += done.blob_bytes;
-                    }
-                    Err(e) => {
-                        report.failures += 1;
-                        tracing::warn!("compaction failed (retried next period): {e}");
-                        break;
-                    }
-                }
+                    })
+                    .await?;
+                Ok(Done {
+                    units: if done.chunks == 0 {
+                        0
+                    } else {
+                        done.samples.max(1)
+                    },
+                    chunks: done.chunks,
+                })
             }
-            report.chunks += round.chunks;
-            report.samples += round.samples;
-            if round.chunks > 0 {
-                tracing::info!(
-                    chunks = round.chunks,
-                    samples = round.samples,
-                    blob_bytes = round.blob_bytes,
-                    "archived old samples"
-                );
+            Step::Retain(now_ms, policy) => {
+                let done = self
+                    .writer
+                    .request(|reply| WriteCmd::Retain {
+                        now_ms,
+                        policy,
+                        max_batches: RETAIN_BATCHES_PER_REQUEST,
+                        reply,
+                    })
+                    .await?;
+                Ok(Done {
+                    units: if done.batches == 0 {
+                        0
+                    } else {
+                        done.samples_rolled_up.max(1)
+                    },
+                    chunks: 0,
+                })
+            }
+            Step::Vacuum => {
+                let pages = self
+                    .writer
+                    .request(|reply| WriteCmd::IncrementalVacuum {
+                        max_pages: VACUUM_STEP_PAGES,
+                        reply,
+                    })
+                    .await?;
+                Ok(Done {
+                    units: pages,
+                    chunks: 0,
+                })
             }
         }
-        report
     }
 }
 
@@ -135,7 +251,8 @@ mod tests {
         let task = tokio::spawn(
             CompactionTask {
                 writer: handle.clone(),
-                after: Duration::from_secs(86_400),
+                after: Some(Duration::from_secs(86_400)),
+                retention: None,
                 first_delay: Duration::ZERO,
                 period: Duration::from_secs(3600),
             }
@@ -177,5 +294,105 @@ mod tests {
             .zip(&old)
             .all(|(a, b)| a.t_ms == b.t_ms && a.value == b.value));
         assert_eq!(report.failures, 0);
+    }
+
+    /// With `raw_days`, the task rolls up old steady samples through the writer (compaction
+    /// off here), keeps a start-up's samples raw, and leaves nothing for a second run.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn the_task_rolls_up_old_steady_samples_through_the_writer() {
+        use crate::segment::{Outcome, SegmentRecord};
+        use crate::store::{RetentionPolicy, ScanWrite};
+        let dir = tempfile::tempdir().unwrap_or_else(|e| unreachable!("{e}"));
+        let path = dir.path().join("r.db");
+        let mut store = Store::open(&path).unwrap_or_else(|e| unreachable!("{e}"));
+        let tag = store
+            .ensure_tag(&TagInfo {
+                name: "x".into(),
+                unit: String::new(),
+                signal: None,
+            })
+            .unwrap_or_else(|e| unreachable!("{e}"));
+        let now = now_ms();
+        let t0 = (now - 10 * 86_400_000) / 60_000 * 60_000;
+        let old: Vec<Sample> = (0..7200i64)
+            .map(|i| Sample {
+                tag,
+                t_ms: t0 + i * 1000,
+                value: i as f64,
+                quality: Quality::Good,
+            })
+            .collect();
+        store
+            .insert_samples(&old)
+            .unwrap_or_else(|e| unreachable!("{e}"));
+        // A start-up in the second half hour; the detector has scanned everything.
+        store
+            .store_scan(&ScanWrite {
+                records: vec![SegmentRecord {
+                    start_ms: t0 + 1_800_000,
+                    end_ms: Some(t0 + 1_860_000),
+                    outcome: Outcome::Completed,
+                    abort_cause: None,
+                    hot_restart: false,
+                    has_gap: false,
+                    phases: Vec::new(),
+                }],
+                keep_from: t0,
+                scanned_to: now,
+                last_fuel_off_ms: None,
+            })
+            .unwrap_or_else(|e| unreachable!("{e}"));
+        let (handle, rx) = writer_channel(16);
+        let writer = spawn_writer(store, rx, WriterConfig::default());
+        let (trigger, shutdown) = shutdown_channel();
+        let policy = RetentionPolicy {
+            raw_days: 1,
+            segment_margin_s: 60,
+        };
+        let task = tokio::spawn(
+            CompactionTask {
+                writer: handle.clone(),
+                after: None,
+                retention: Some(policy),
+                first_delay: Duration::ZERO,
+                period: Duration::from_secs(3600),
+            }
+            .run(shutdown),
+        );
+        // Kept raw: [t0 + 29 min, t0 + 33 min): the segment ± 60 s is [29:00, 32:00], and
+        // the sample at 32:00 keeps its whole minute.
+        let kept = 240usize;
+        let deadline = tokio::time::Instant::now() + Duration::from_secs(30);
+        loop {
+            let n = Store::open_readonly(&path)
+                .and_then(|s| s.sample_count())
+                .unwrap_or_else(|e| unreachable!("{e}"));
+            if n as usize == kept || tokio::time::Instant::now() > deadline {
+                break;
+            }
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        trigger.trigger();
+        let report = task.await.unwrap_or_else(|e| unreachable!("{e}"));
+        handle.flush().await.unwrap_or_else(|e| unreachable!("{e}"));
+        drop(handle);
+        let _ = writer.await;
+        assert_eq!(report.rolled_up, (old.len() - kept) as u64);
+        assert_eq!(report.failures, 0);
+        let mut s = Store::open(&path).unwrap_or_else(|e| unreachable!("{e}"));
+        let rows = s
+            .tag_samples_between(tag, i64::MIN, i64::MAX)
+            .unwrap_or_else(|e| unreachable!("{e}"));
+        assert_eq!(rows.len(), kept);
+        assert_eq!(rows[0].t_ms, t0 + 29 * 60_000);
+        let outlook = s
+            .storage_stats(now, &policy)
+            .unwrap_or_else(|e| unreachable!("{e}"));
+        assert_eq!(outlook.rollups.rows, 120 - 4);
+        assert_eq!(outlook.rollups.samples, (old.len() - kept) as u64);
+        let again = s
+            .apply_retention(now, &policy)
+            .unwrap_or_else(|e| unreachable!("{e}"));
+        assert_eq!(again.batches, 0);
     }
 }

@@ -14,8 +14,10 @@
 //! - [`supervisor`]: systemd readiness, watchdog and stopping notifications;
 //! - [`sync`]: with `[fleet]`, the fleet sync to a central PostgreSQL every `interval_s`; a
 //!   centre that is down or refusing is logged, counted and retried, never waited for;
-//! - [`compaction`]: with `[storage] compact_after_hours` > 0 (default 24), has the writer
-//!   archive older samples every hour (`WriteCmd::Compact`, a few chunks per request);
+//! - [`compaction`]: with `[storage] compact_after_hours` > 0 (default 24) or `raw_days` > 0,
+//!   has the writer archive older samples every hour (`WriteCmd::Compact`, a few chunks per
+//!   request), roll up steady samples older than `raw_days` (`WriteCmd::Retain`) and return
+//!   freed pages to the file system (`WriteCmd::IncrementalVacuum`);
 //! - [`metrics`]: with `[metrics] listen`, the Prometheus endpoint, reading the other tasks'
 //!   live counters at each scrape.
 //!
@@ -108,7 +110,8 @@ pub struct RunReport {
     pub gap: GapTaskReport,
     /// What the fleet sync did (`[fleet]`).
     pub sync: SyncTaskReport,
-    /// What the compaction task archived (`[storage] compact_after_hours`).
+    /// What the compaction task archived, rolled up and vacuumed (`[storage]
+    /// compact_after_hours`, `raw_days`).
     pub compaction: CompactionReport,
 }
 
@@ -290,12 +293,8 @@ impl Running {
                 .run(shutdown.clone()),
             )
         });
-        let compaction = (cfg.storage.compact_after_hours > 0).then(|| {
-            tokio::spawn(
-                CompactionTask::new(tx.clone(), cfg.storage.compact_after_hours)
-                    .run(shutdown.clone()),
-            )
-        });
+        let compaction = CompactionTask::from_config(tx.clone(), &cfg.storage)
+            .map(|task| tokio::spawn(task.run(shutdown.clone())));
         let diagnosis_meter = match (cfg.diagnosis.enabled, &opts.worker) {
             (true, Some(_)) => Some(Arc::new(DiagnosisMeter::default())),
             _ => None,

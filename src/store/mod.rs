@@ -37,8 +37,12 @@ pub use segments::{PhaseRow, SampleRow, StartupRow};
 pub use washes::{
     AdviceWrite, NewRecommendation, NewWash, RecommendationRow, WashRow, DETECTED_PREFIX,
 };
+mod retention;
 mod schema;
+mod stats;
 mod writer;
+pub use retention::{RetainStats, RetentionOutlook, RetentionPolicy, MINUTE_MS, VACUUM_STEP_PAGES};
+pub use stats::{FileStats, StoreStats, TierStats};
 
 pub use archive::{ArchiveStats, CompactStats, CHUNK_SPAN_MS, DEFAULT_MAX_CHUNK_SAMPLES};
 pub use db::{Db, ViaWriter};
@@ -201,6 +205,13 @@ pub struct StorageConfig {
     /// compressed per-tag chunks in the same file, read back transparently. Default 24;
     /// 0 = off (everything stays in the hot tier).
     pub compact_after_hours: u32,
+    /// Steady operation is kept at full resolution this many days, then replaced by 1-minute
+    /// roll-ups (table `rollups_1m`, view `samples_1m`; README "Storage tiers"). Default 0 =
+    /// keep every raw sample forever.
+    pub raw_days: u32,
+    /// Samples within this many seconds of a start-up segment stay raw forever, whatever
+    /// `raw_days` says. Default 600.
+    pub segment_margin_s: u32,
 }
 
 impl Default for StorageConfig {
@@ -214,6 +225,8 @@ impl Default for StorageConfig {
             busy_timeout_ms: 5000,
             max_db_mib: 0,
             compact_after_hours: 24,
+            raw_days: 0,
+            segment_margin_s: 600,
         }
     }
 }
@@ -282,6 +295,40 @@ impl StorageConfig {
                 why: "0 (off) … 10 years",
             },
         );
+        check_range(
+            &mut p,
+            "storage.raw_days",
+            u64::from(self.raw_days),
+            Bounds {
+                lo: 0,
+                hi: 36_500,
+                unit: " days",
+                why: "0 (keep raw forever) … 100 years",
+            },
+        );
+        check_range(
+            &mut p,
+            "storage.segment_margin_s",
+            u64::from(self.segment_margin_s),
+            Bounds {
+                lo: 0,
+                hi: 7 * 86_400,
+                unit: " s",
+                why: "0 … 7 days around each start-up",
+            },
+        );
+        if self.raw_days > 0
+            && self.compact_after_hours > 0
+            && u64::from(self.raw_days) * 24 < u64::from(self.compact_after_hours)
+        {
+            p.push(ConfigProblem::new(
+                "storage.raw_days",
+                format!(
+                    "{} days is shorter than storage.compact_after_hours ({} h): samples would be rolled up before they are archived; raise raw_days or lower compact_after_hours",
+                    self.raw_days, self.compact_after_hours
+                ),
+            ));
+        }
         if self.cache_mib == 0 || self.cache_mib > 16 * 1024 {
             p.push(ConfigProblem::new(
                 "storage.cache_mib",
@@ -299,6 +346,14 @@ impl StorageConfig {
             max_buffered: 0,
             retry_initial: Duration::from_millis(250),
             close_retry: Duration::from_secs(5),
+        }
+    }
+
+    /// The retention policy of this section (`raw_days` 0: off).
+    pub fn retention(&self) -> RetentionPolicy {
+        RetentionPolicy {
+            raw_days: self.raw_days,
+            segment_margin_s: self.segment_margin_s,
         }
     }
 
@@ -410,6 +465,16 @@ impl Store {
         }
         let mut conn = Connection::open(path).map_err(open_err)?;
         locks::install(&conn, opts.busy_timeout_ms).map_err(open_err)?;
+        // A new file frees the pages that compaction and retention empty (`PRAGMA
+        // incremental_vacuum`). Only possible before the first table exists; an existing file
+        // keeps its mode until `gtwatch store vacuum` (README "Storage tiers").
+        let tables: i64 = conn
+            .query_row("SELECT COUNT(*) FROM sqlite_master", [], |r| r.get(0))
+            .map_err(open_err)?;
+        if tables == 0 {
+            conn.execute_batch("PRAGMA auto_vacuum = INCREMENTAL;")
+                .map_err(open_err)?;
+        }
         // Switching a fresh file to WAL takes an exclusive lock and does not wait on the busy
         // handler: retry while another opener holds it (issue 12 #7, "database is locked").
         let wal_deadline =
@@ -696,13 +761,14 @@ pub(crate) fn insert_samples_in(conn: &Connection, batch: &[Sample]) -> Result<u
     let mut inserted = 0usize;
     let mut min_t = i64::MAX;
     let mut archived = archive::ArchivedTimes::default();
+    let mut rolled = retention::RolledUpMinutes::default();
     {
         let mut stmt = conn.prepare_cached(
             "INSERT OR IGNORE INTO samples (tag_id, t_ms, value, quality) VALUES (?1, ?2, ?3, ?4)",
         )?;
         for &i in &order {
             let s = &batch[i as usize];
-            if archived.contains(conn, s.tag, s.t_ms)? {
+            if archived.contains(conn, s.tag, s.t_ms)? || rolled.contains(conn, s.tag, s.t_ms)? {
                 continue;
             }
             stmt.raw_bind_parameter(1, s.tag)?;

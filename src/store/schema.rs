@@ -35,6 +35,10 @@ const MIGRATION_SQL: &[(&str, &str)] = &[
         "0006_archive.sql",
         include_str!("../../migrations/0006_archive.sql"),
     ),
+    (
+        "0007_rollups.sql",
+        include_str!("../../migrations/0007_rollups.sql"),
+    ),
 ];
 
 #[cfg(test)]
@@ -45,6 +49,7 @@ const MIGRATION_LIST: &[M<'static>] = &[
     M::up(MIGRATION_SQL[3].1),
     M::up(MIGRATION_SQL[4].1),
     M::up(MIGRATION_SQL[5].1),
+    M::up(MIGRATION_SQL[6].1),
 ];
 
 /// All migrations in order (for `rusqlite_migration`'s validation in tests).

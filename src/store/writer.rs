@@ -85,6 +85,22 @@ pub enum WriteCmd {
         max_chunks: u64,
         reply: Reply<super::CompactStats>,
     },
+    /// Roll up at most `max_batches` batches of steady samples older than the policy's
+    /// `raw_days` ([`Store::apply_retention_some`], one transaction per batch); answers with
+    /// what it did (0 batches: nothing left).
+    Retain {
+        now_ms: i64,
+        policy: super::RetentionPolicy,
+        max_batches: u64,
+        reply: Reply<super::RetainStats>,
+    },
+    /// Return at most `max_pages` free pages to the file system
+    /// ([`Store::incremental_vacuum_step`]); answers with the pages freed (0: none left, or
+    /// the file is not in `auto_vacuum = INCREMENTAL` mode).
+    IncrementalVacuum {
+        max_pages: u32,
+        reply: Reply<u64>,
+    },
 }
 
 /// Writer batching settings (from `[storage]`, see `StorageConfig::writer`).
@@ -494,13 +510,24 @@ pub async fn run_writer_with_progress(
                 reply,
             }) => {
                 w.answer(reply, move |s| {
-                    let done = s.compact_some(before_ms, max_chunk_samples, max_chunks)?;
-                    if done.chunks == 0 {
-                        s.incremental_vacuum()?;
-                    }
-                    Ok(done)
+                    s.compact_some(before_ms, max_chunk_samples, max_chunks)
                 })
                 .await;
+            }
+            Some(WriteCmd::Retain {
+                now_ms,
+                policy,
+                max_batches,
+                reply,
+            }) => {
+                w.answer(reply, move |s| {
+                    s.apply_retention_some(now_ms, &policy, max_batches)
+                })
+                .await;
+            }
+            Some(WriteCmd::IncrementalVacuum { max_pages, reply }) => {
+                w.answer(reply, move |s| s.incremental_vacuum_step(max_pages))
+                    .await;
             }
         }
     }

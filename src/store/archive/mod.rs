@@ -61,7 +61,7 @@ impl From<codec::CodecError> for StoreError {
 }
 
 /// Decodes one `archive_chunks` row (`n, codec, t_blob, v_blob, q_blob`).
-fn decode_row(r: &rusqlite::Row<'_>) -> Result<Columns, StoreError> {
+pub(super) fn decode_row(r: &rusqlite::Row<'_>) -> Result<Columns, StoreError> {
     let n: i64 = r.get(0)?;
     let codec: i64 = r.get(1)?;
     if codec != CODEC_PCO_V1 {
@@ -464,8 +464,11 @@ impl Store {
     /// the file, and the write lock throughout: for `gtwatch store compact --vacuum`, not the
     /// daemon).
     pub fn vacuum(&mut self) -> Result<(), StoreError> {
+        // A file made before auto_vacuum = INCREMENTAL switches to it here: the mode of an
+        // existing file changes only with a VACUUM (README "Storage tiers").
         // In WAL mode VACUUM writes the new pages to the WAL: checkpoint so the file shrinks now.
-        self.conn.execute_batch("VACUUM;")?;
+        self.conn
+            .execute_batch("PRAGMA auto_vacuum = INCREMENTAL; VACUUM;")?;
         self.conn
             .query_row("PRAGMA wal_checkpoint(TRUNCATE)", [], |_| Ok(()))?;
         Ok(())
