@@ -1,5 +1,5 @@
 //! Aliases: errors on the instruments that *drive* the model — the fuel meter, the inlet
-//! thermometer T1, the power transducer, the ambient-pressure reading — that the six health
+//! thermometer T1, the inlet pressure P1, the power transducer — that the six health
 //! parameters absorb.
 //!
 //! Such an error leaves hardly any residual: the fit moves the health vector until the model
@@ -49,7 +49,7 @@ struct InputCandidate {
     range: f64,
 }
 
-const INPUTS: [InputCandidate; 4] = [
+const INPUTS: [InputCandidate; 5] = [
     InputCandidate {
         effect: "fuel_meter",
         param: "scale",
@@ -65,6 +65,16 @@ const INPUTS: [InputCandidate; 4] = [
         unit: "K",
         needs: Signal::T1,
         range: 6.0,
+    },
+    // P1 sets the ambient pressure Method B fits (at rest, where the engine's state is known),
+    // so its error enters as a bias of that channel.
+    InputCandidate {
+        effect: "sensor_bias:p1_kpa",
+        param: "offset",
+        nominal: 0.8,
+        unit: "kPa",
+        needs: Signal::P1,
+        range: 3.0,
     },
     InputCandidate {
         effect: "sensor_scale:power_mw",

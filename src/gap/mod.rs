@@ -41,6 +41,7 @@ pub(crate) mod bench;
 pub(crate) mod candidates;
 pub(crate) mod linear;
 pub(crate) mod sequence;
+pub(crate) mod sequence_bench;
 pub(crate) mod svg;
 pub(crate) mod truth;
 

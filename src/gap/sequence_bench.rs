@@ -1,0 +1,290 @@
+//! Blind proof of the sequence attribution (`gtwatch bench gap --sequence N`, issue 23 item 5):
+//! a unit's start-ups a day apart on a compressor fouling trend, each fitted by Method B on its
+//! own, with an input-channel error the tool is not told of appearing at start-up
+//! [`ONSET`] — the fuel meter, T1, P1 or the power transducer, in the forms of
+//! [`super::truth`]'s instrument kinds (a constant factor, a meter drifting through each
+//! start-up, an offset) — or, as controls, an HP-turbine step the engine itself makes, or
+//! nothing at all.
+//!
+//! What the daemon would do is done here: the first start-up that leaves the trend
+//! ([`super::sequence::onset`]) gets the gap analysis's alias signatures
+//! ([`super::alias::aliases`]), and the sequence is attributed with them
+//! ([`super::sequence::attribute_at`]). A case is right when the verdict names one of the true
+//! channel's instances (or is `ambiguous` with it among the candidates); on a control, when no
+//! instrument is named. For named cases the corrected health of the stepped start-ups is
+//! compared with the truth.
+//!
+//! Seeds and settings fixed before the cases are drawn. Pure: no I/O.
+
+use super::alias::aliases;
+use super::sequence::{self, SeqPoint, SequenceVerdict, Signature};
+use super::truth::{self, Hidden, PlantScale};
+use crate::diagnosis::transient::diagnose_transient;
+use crate::diagnosis::{DiagnosisConfig, DiagnosisError};
+use crate::engine::Engine;
+use crate::health::{HealthBounds, HealthParams, HEALTH_NAMES};
+use crate::recording::Recording;
+use rand::{Rng, SeedableRng};
+use serde::Serialize;
+
+pub(crate) use super::truth::{input_instances, INPUT_KINDS};
+
+/// Index of the first start-up with the hidden error.
+pub(crate) const ONSET: usize = 4;
+/// The controls: the engine's own step, and nothing.
+pub(crate) const CONTROL_KINDS: [&str; 2] = ["turbine_step", "none"];
+
+/// One sequence.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct SequenceCase {
+    pub(crate) index: usize,
+    pub(crate) kind: String,
+    pub(crate) start_ups: usize,
+    /// The hidden error's magnitude (as `truth` draws it; the step in points for
+    /// `turbine_step`).
+    pub(crate) magnitude: f64,
+    /// The first start-up that left the trend, if any.
+    pub(crate) onset: Option<usize>,
+    /// `instrument:<effect>`, `ambiguous:<candidates>`, `health_step:<explanation>`,
+    /// `no_step`, or `not_found` (no start-up left the trend).
+    pub(crate) verdict: String,
+    pub(crate) correct: bool,
+    /// The named instrument's fitted error (its unit) and 1σ.
+    pub(crate) fitted_magnitude: Option<f64>,
+    pub(crate) fitted_magnitude_sigma: Option<f64>,
+    /// Largest |estimate − truth| over the start-ups from [`ONSET`] on, as fitted and as
+    /// corrected (equal when nothing was corrected), points.
+    pub(crate) error_fitted: f64,
+    pub(crate) error_corrected: f64,
+    pub(crate) wall_s: f64,
+}
+
+/// The unit's true health at start-up `j`: a compressor fouling at `rate` per day, the rest
+/// constant; `turbine` is added to D_GT from [`ONSET`] on for the `turbine_step` control.
+fn true_health(base: [f64; 6], rate: f64, j: usize, turbine: f64) -> [f64; 6] {
+    let mut h = base;
+    h[0] += rate * j as f64;
+    h[1] += 0.4 * rate * j as f64;
+    if j >= ONSET {
+        h[2] += turbine;
+    }
+    h
+}
+
+/// Runs `cases` sequences of `start_ups` each, cycling through `kinds` (default: the five
+/// input kinds, then the two controls).
+pub(crate) fn run_sequences(
+    engine: &Engine,
+    cases: usize,
+    start_ups: usize,
+    seed: u64,
+    only: &[String],
+    cfg: &DiagnosisConfig,
+    mut progress: impl FnMut(&SequenceCase),
+) -> Result<Vec<SequenceCase>, DiagnosisError> {
+    let known = |k: &str| INPUT_KINDS.contains(&k) || CONTROL_KINDS.contains(&k);
+    if let Some(k) = only.iter().find(|k| !known(k.as_str())) {
+        return Err(DiagnosisError::Config(format!(
+            "unknown sequence truth {k:?}; known: {}, {}",
+            INPUT_KINDS.join(", "),
+            CONTROL_KINDS.join(", ")
+        )));
+    }
+    if start_ups < ONSET + 2 {
+        return Err(DiagnosisError::Config(format!(
+            "a sequence needs at least {} start-ups (the error appears at start-up {})",
+            ONSET + 2,
+            ONSET + 1
+        )));
+    }
+    let kinds: Vec<&str> = if only.is_empty() {
+        INPUT_KINDS.iter().chain(&CONTROL_KINDS).copied().collect()
+    } else {
+        only.iter().map(String::as_str).collect()
+    };
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+    let mut out = Vec::new();
+    for index in 0..cases {
+        let kind = kinds[index % kinds.len()];
+        let c = one_sequence(engine, index, kind, start_ups, &mut rng, cfg)?;
+        progress(&c);
+        out.push(c);
+    }
+    Ok(out)
+}
+
+fn one_sequence(
+    engine: &Engine,
+    index: usize,
+    kind: &str,
+    start_ups: usize,
+    rng: &mut impl Rng,
+    cfg: &DiagnosisConfig,
+) -> Result<SequenceCase, DiagnosisError> {
+    let started = std::time::Instant::now();
+    let base: [f64; 6] = std::array::from_fn(|i| {
+        if i < 2 {
+            rng.random_range(0.0..1.0)
+        } else {
+            rng.random_range(0.0..1.5)
+        }
+    });
+    let rate = rng.random_range(0.1..0.3);
+    let (hidden, magnitude, turbine) = match kind {
+        "none" => (Hidden::None, 0.0, 0.0),
+        "turbine_step" => {
+            let step = -rng.random_range(1.0..2.0);
+            (Hidden::None, step, step)
+        }
+        _ => {
+            let (_, core) = Hidden::None.simulate(engine, &HealthParams::from_array(base))?;
+            let scale = PlantScale::of(engine, &core);
+            let d = truth::draw(kind, rng, &scale).ok_or_else(|| {
+                DiagnosisError::Config(format!("hidden truth {kind:?} cannot be drawn"))
+            })?;
+            (d.hidden, d.magnitude, 0.0)
+        }
+    };
+    let mut recs: Vec<Recording> = Vec::new();
+    let mut fits = Vec::new();
+    let mut truths = Vec::new();
+    for j in 0..start_ups {
+        let h = true_health(base, rate, j, turbine);
+        let hid = if j >= ONSET { &hidden } else { &Hidden::None };
+        let (plant, samples) = hid.simulate(engine, &HealthParams::from_array(h))?;
+        let noise_seed = 7_000 + 100 * index as u64 + j as u64;
+        let rec = hid.record(&plant, &samples, noise_seed, true)?;
+        fits.push(diagnose_transient(engine, &rec, cfg)?);
+        recs.push(rec);
+        truths.push(h);
+    }
+    let bounds = HealthBounds::default();
+    let points: Vec<SeqPoint> = fits
+        .iter()
+        .enumerate()
+        .map(|(j, f)| {
+            let health = f.health.to_array();
+            SeqPoint {
+                t_days: j as f64,
+                health,
+                sigma: std::array::from_fn(|i| {
+                    f.sigma.get(HEALTH_NAMES[i]).copied().unwrap_or(0.0)
+                }),
+                at_limit: std::array::from_fn(|i| {
+                    let (lo, hi) = bounds.of(i);
+                    health[i] <= lo + 0.01 || health[i] >= hi - 0.01
+                }),
+            }
+        })
+        .collect();
+    let error = |pts: &[SeqPoint]| -> f64 {
+        pts.iter()
+            .zip(&truths)
+            .skip(ONSET)
+            .flat_map(|(p, t)| p.health.iter().zip(t).map(|(a, b)| (a - b).abs()))
+            .fold(0.0, f64::max)
+    };
+    let error_fitted = error(&points);
+    let recovers = HEALTH_NAMES.map(|n| n == "D_GC" || n == "D_EC");
+    let onset = sequence::onset(&points, recovers);
+    let (verdict, correct, fitted, corrected) = match onset {
+        None => ("not_found".to_string(), false, None, points.clone()),
+        Some(k) => {
+            let signatures: Vec<Signature> = aliases(engine, &recs[k], cfg, &fits[k])
+                .map(|a| {
+                    a.aliases
+                        .iter()
+                        .map(|x| Signature {
+                            effect: x.effect.clone(),
+                            unit: x.unit.to_string(),
+                            nominal: x.nominal,
+                            shift: x.health_shift.to_array(),
+                            max_magnitude: x.max_magnitude,
+                        })
+                        .collect()
+                })
+                .unwrap_or_default();
+            let a = sequence::attribute_at(&points, k, &signatures);
+            let names = input_instances(kind);
+            let (v, ok, fitted) = match &a.verdict {
+                SequenceVerdict::Instrument {
+                    effect,
+                    magnitude,
+                    magnitude_sigma,
+                    ..
+                } => (
+                    format!("instrument:{effect}"),
+                    names.contains(&effect.as_str()),
+                    Some((*magnitude, *magnitude_sigma)),
+                ),
+                SequenceVerdict::Ambiguous { candidates } => (
+                    format!("ambiguous:{}", candidates.join("|")),
+                    candidates.iter().any(|c| names.contains(&c.as_str())),
+                    None,
+                ),
+                SequenceVerdict::HealthStep { explanation } => {
+                    (format!("health_step:{explanation}"), names.is_empty(), None)
+                }
+                SequenceVerdict::NoStep => ("no_step".to_string(), names.is_empty(), None),
+            };
+            (v, ok, fitted, a.corrected(&points))
+        }
+    };
+    // A control is right when no instrument is named (a step not found is right for `none`).
+    let correct = correct || (onset.is_none() && kind == "none");
+    Ok(SequenceCase {
+        index,
+        kind: kind.into(),
+        start_ups,
+        magnitude,
+        onset,
+        verdict,
+        correct,
+        fitted_magnitude: fitted.map(|f| f.0),
+        fitted_magnitude_sigma: fitted.map(|f| f.1),
+        error_fitted,
+        error_corrected: error(&corrected),
+        wall_s: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// The summary: attribution rate over input-channel sequences, false attribution on the
+/// controls, and the health error before and after the correction.
+pub(crate) fn summarise(cases: &[SequenceCase]) -> serde_json::Value {
+    let inputs: Vec<&SequenceCase> = cases
+        .iter()
+        .filter(|c| INPUT_KINDS.contains(&c.kind.as_str()))
+        .collect();
+    let controls: Vec<&SequenceCase> = cases
+        .iter()
+        .filter(|c| CONTROL_KINDS.contains(&c.kind.as_str()))
+        .collect();
+    let rate = |v: &[&SequenceCase], f: &dyn Fn(&SequenceCase) -> bool| -> Option<f64> {
+        (!v.is_empty()).then(|| v.iter().filter(|c| f(c)).count() as f64 / v.len() as f64)
+    };
+    let named: Vec<&SequenceCase> = inputs
+        .iter()
+        .copied()
+        .filter(|c| c.correct && c.verdict.starts_with("instrument:"))
+        .collect();
+    let max = |v: &[&SequenceCase], f: &dyn Fn(&SequenceCase) -> f64| {
+        v.iter().map(|c| f(c)).fold(0.0, f64::max)
+    };
+    let mut walls: Vec<f64> = cases.iter().map(|c| c.wall_s).collect();
+    walls.sort_by(f64::total_cmp);
+    let median_wall = walls.get(walls.len() / 2).copied();
+    serde_json::json!({
+        "sequences": cases.len(),
+        "onset_index": ONSET,
+        "input_sequences": inputs.len(),
+        "input_attributed": rate(&inputs, &|c| c.correct),
+        "input_named": rate(&inputs, &|c| c.correct && c.verdict.starts_with("instrument:")),
+        "input_step_not_found": rate(&inputs, &|c| c.onset.is_none()),
+        "control_sequences": controls.len(),
+        "control_instrument_named": rate(&controls, &|c| c.verdict.starts_with("instrument:")),
+        "named_max_error_fitted": max(&named, &|c| c.error_fitted),
+        "named_max_error_corrected": max(&named, &|c| c.error_corrected),
+        "named_corrected_within_0_3": rate(&named, &|c| c.error_corrected <= 0.3),
+        "median_wall_s": median_wall,
+    })
+}
