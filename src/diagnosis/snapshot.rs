@@ -290,6 +290,12 @@ pub fn lines_of(rows: &[DroppedRow]) -> Vec<u64> {
 fn unsolved(engine: &Engine, snap: &Snapshot, e: &impl std::fmt::Display) -> String {
     let design_fuel = engine.design().fuel_kg_s.max(1e-9);
     let share = snap.fuel_kg_s / design_fuel;
+    let e = e.to_string();
+    let e = e.strip_prefix("steady-state solver: ").unwrap_or(&e);
+    if e.contains("running point at") {
+        // The solver walked the running line to its end: that is the reason, said already.
+        return format!("no operating point of the model: {e}");
+    }
     let hint = if share < 0.25 {
         format!(
             " (fuel {:.3} kg/s is {:.0} % of the design fuel flow: an idle or light-load point \
@@ -301,6 +307,19 @@ fn unsolved(engine: &Engine, snap: &Snapshot, e: &impl std::fmt::Display) -> Str
         String::new()
     };
     format!("the model has no steady point for this row: {e}{hint}")
+}
+
+/// A fit-quality summary in a snapshot's terms: snapshots have no start-up phases, so a
+/// residual cell "t34_k during steady_load" is "t34_k over the snapshots".
+fn snapshot_words(summary: &str) -> String {
+    let mut text = summary.replace(
+        "spread over signals and phases",
+        "spread over signals and snapshots",
+    );
+    for p in crate::signals::Phase::ALL {
+        text = text.replace(&format!(" during {p}:"), " over the snapshots:");
+    }
+    text
 }
 
 /// The steady point of one snapshot: inputs for the solver and the compared values with 1σ,
@@ -409,6 +428,22 @@ pub fn diagnose_snapshots(
                 }),
             }
         }
+        if points.is_empty() {
+            // Nothing left to fit: the rows' own reasons are the group's.
+            let reasons: Vec<String> = dropped
+                .iter()
+                .map(|d| format!("line {}: {}", d.line, d.reason))
+                .collect();
+            report.failed.push(FailedGroup {
+                group: g,
+                lines,
+                reason: format!(
+                    "no snapshot of the group could be solved ({})",
+                    reasons.join("; ")
+                ),
+            });
+            continue;
+        }
         let start = std::time::Instant::now();
         let outcome = SteadyProblem::new(engine, points, &cfg).and_then(|mut problem| {
             let out = fit(&mut problem, &cfg, &pool)?;
@@ -426,6 +461,7 @@ pub fn diagnose_snapshots(
         match outcome {
             Ok((mut result, residual_table)) => {
                 result.wall_s = start.elapsed().as_secs_f64();
+                result.fit_quality.summary = snapshot_words(&result.fit_quality.summary);
                 report.groups.push(SnapshotGroup {
                     group: g,
                     lines,
@@ -514,6 +550,19 @@ mod tests {
             csv.push('\n');
         }
         csv
+    }
+
+    #[test]
+    fn fit_summary_speaks_of_snapshots_not_phases() {
+        assert_eq!(
+            snapshot_words("normalised residual 3.10, spread over signals and phases"),
+            "normalised residual 3.10, spread over signals and snapshots"
+        );
+        let phase = crate::signals::Phase::ALL[0];
+        assert_eq!(
+            snapshot_words(&format!("largest: t34_k during {phase}: offset (4.0 σ)")),
+            "largest: t34_k over the snapshots: offset (4.0 σ)"
+        );
     }
 
     #[test]
