@@ -38,9 +38,13 @@ const WRITTEN: [Signal; 8] = [
     Signal::Torque,
 ];
 
-/// GG speeds of the rows: idle below the fold (4 100 rpm, fuel ≈ 0.088 kg/s; the fold lies
-/// between 4 400 and 4 700 rpm at ISO), then light and part load. The PT runs at 6 500 rpm.
-const N1_RPM: [f64; 7] = [4100.0, 5400.0, 6000.0, 6800.0, 7600.0, 8300.0, 8900.0];
+/// GG speeds of the rows: idle below the fold (4 100 rpm, fuel ≈ 0.088 kg/s; the running
+/// line's fuel flow has a local maximum near 4 400 rpm and a minimum near 4 650 rpm at ISO),
+/// inside the fold (4 330 rpm: its fuel flow has three running points, the measured GG speed
+/// says which), then light and part load. The PT runs at 6 500 rpm.
+const N1_RPM: [f64; 8] = [
+    4100.0, 4330.0, 5400.0, 6000.0, 6800.0, 7600.0, 8300.0, 8900.0,
+];
 
 /// A noise-free healthy row per speed (`averaging` → ∞: what the instruments read exactly),
 /// then one row with a fuel flow no running point of the model has.
@@ -69,7 +73,7 @@ fn csv(engine: &Engine) -> (String, Vec<f64>) {
         }
         text.push('\n');
     }
-    // Below light-load range: a copy of the idle row with a tenth of its fuel (file line 9).
+    // Below light-load range: a copy of the idle row with a tenth of its fuel (file line 10).
     let idle = text.lines().nth(1).expect("idle row").to_string();
     let mut cells: Vec<String> = idle.split(',').map(str::to_string).collect();
     cells[4] = format!("{}", fuels[0] / 10.0);
@@ -84,8 +88,23 @@ fn idle_snapshots_are_solved_and_a_row_below_the_model_is_refused_by_line() {
     let (text, fuels) = csv(&engine);
     // The idle row's fuel is below the running line's local minimum near the fold.
     assert!(fuels[0] < 0.0914, "idle fuel {}", fuels[0]);
+    // The fold row's fuel has another running point: the solver alone lands on it.
+    let m = engine.model_at(&HealthParams::HEALTHY, 285.0, 100.7);
+    let alone = SteadyInputs {
+        t_amb_k: 285.0,
+        p_amb_kpa: 100.7,
+        n2_rpm: 6500.0,
+        demand: Demand::FuelKgS(fuels[1]),
+    };
+    let other = solve(&m, &alone, None).expect("fuel solve");
+    assert!(
+        (other.n1_rpm - N1_RPM[1]).abs() > 200.0,
+        "fuel {} has one running point only, at {} rpm",
+        fuels[1],
+        other.n1_rpm
+    );
     let rows = read_snapshots(text.as_bytes(), &HashMap::new(), Some("test")).expect("rows");
-    assert_eq!(rows.len(), 8);
+    assert_eq!(rows.len(), 9);
     assert_eq!(
         rows[0].line, 2,
         "the first data row is file line 2 (header = 1)"
@@ -98,9 +117,9 @@ fn idle_snapshots_are_solved_and_a_row_below_the_model_is_refused_by_line() {
     let report = diagnose_snapshots(&engine, &rows, &cfg).expect("diagnosis");
     assert!(report.failed.is_empty(), "{:?}", report.failed);
     let g = &report.groups[0];
-    assert_eq!(g.lines, (2..=9).collect::<Vec<u64>>());
+    assert_eq!(g.lines, (2..=10).collect::<Vec<u64>>());
     assert_eq!(g.dropped.len(), 1, "{:?}", g.dropped);
-    assert_eq!(g.dropped[0].line, 9);
+    assert_eq!(g.dropped[0].line, 10);
     assert!(
         g.dropped[0]
             .reason
@@ -110,20 +129,20 @@ fn idle_snapshots_are_solved_and_a_row_below_the_model_is_refused_by_line() {
     );
     // Diagnosed one by one, the refused row's group fails with the row's own reason.
     let single = read_snapshots(text.as_bytes(), &HashMap::new(), None).expect("rows");
-    let alone = diagnose_snapshots(&engine, &single[7..], &cfg).expect("runs");
+    let alone = diagnose_snapshots(&engine, &single[8..], &cfg).expect("runs");
     assert!(alone.groups.is_empty());
-    assert_eq!(alone.failed[0].lines, vec![9]);
+    assert_eq!(alone.failed[0].lines, vec![10]);
     assert!(
         alone.failed[0]
             .reason
-            .contains("line 9: no operating point of the model: fuel"),
+            .contains("line 10: no operating point of the model: fuel"),
         "{}",
         alone.failed[0].reason
     );
     // Every other row, idle included, is in the fit, and the healthy unit is found healthy.
     assert_eq!(
         g.residual_table.rows.len(),
-        7,
+        8,
         "{:?}",
         g.residual_table.rows
     );
@@ -165,14 +184,14 @@ fn cli_lists_the_refused_row_by_file_line_and_speaks_of_snapshots() {
     };
     let doc: serde_json::Value = serde_json::from_str(&run(true)).expect("json");
     let g = &doc["groups"][0];
-    assert_eq!(g["lines"], serde_json::json!([2, 3, 4, 5, 6, 7, 8, 9]));
-    assert_eq!(g["dropped_lines"], serde_json::json!([9]));
+    assert_eq!(g["lines"], serde_json::json!([2, 3, 4, 5, 6, 7, 8, 9, 10]));
+    assert_eq!(g["dropped_lines"], serde_json::json!([10]));
     assert!(g["dropped"][0]["reason"]
         .as_str()
         .is_some_and(|r| r.contains("lowest running point")));
     assert!(g.get("steady_windows_s").is_none(), "{g}");
     let out = run(false);
-    assert!(out.contains("line 9 not used"), "{out}");
+    assert!(out.contains("line 10 not used"), "{out}");
     assert!(out.contains("steady snapshots (Method A)"), "{out}");
     for word in ["start-up", "steady window", "steady point at"] {
         assert!(!out.contains(word), "{word:?} in:\n{out}");

@@ -364,9 +364,7 @@ pub(crate) fn steady_data(
             snap.line, inputs.p_amb_kpa
         )),
     }
-    let m = engine.model_at(base, inputs.t_amb_k, inputs.p_amb_kpa);
-    solve(&m, &inputs, None).map_err(|e| unsolved(engine, snap, &e))?;
-    let outputs = snap
+    let outputs: Vec<(Signal, f64, f64)> = snap
         .values
         .iter()
         // P1 became the ambient pressure when no ambient column exists: not also compared.
@@ -377,7 +375,12 @@ pub(crate) fn steady_data(
         })
         .collect();
     let t = snap.time_s.unwrap_or(snap.line as f64);
-    Ok(SteadyData {
+    let n1_hint_rpm = snap
+        .values
+        .iter()
+        .find(|(s, v)| *s == Signal::N1 && *v > 0.0)
+        .map(|(_, v)| *v);
+    let data = SteadyData {
         label: format!("snapshot at line {}", snap.line),
         window: SteadyWindow {
             start: index,
@@ -387,7 +390,11 @@ pub(crate) fn steady_data(
         },
         inputs,
         outputs,
-    })
+        n1_hint_rpm,
+    };
+    let m = engine.model_at(base, inputs.t_amb_k, inputs.p_amb_kpa);
+    data.solve_on(&m).map_err(|e| unsolved(engine, snap, &e))?;
+    Ok(data)
 }
 
 /// Diagnoses every group of `rows` (see the module docs). The ambient pressure is an input of
