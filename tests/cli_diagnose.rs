@@ -452,8 +452,9 @@ fn a_column_in_the_wrong_unit_is_named() {
     );
 }
 
-/// A row the model has no steady point for (fuel 1 % of design: an idle point below what the
-/// maps reach) is left out with its reason, in JSON and text; the group is still diagnosed.
+/// A row the model has no steady point for (fuel 1 % of design, below the lowest fuel the
+/// model's running line reaches) is left out with that reason, by file line (header = line 1),
+/// in JSON and text; the group is still diagnosed.
 #[test]
 fn a_row_without_a_steady_point_is_left_out_with_its_reason() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -487,12 +488,12 @@ fn a_row_without_a_steady_point_is_left_out_with_its_reason() {
     assert_eq!(g["dropped_lines"], serde_json::json!([3]), "{g}");
     let reason = g["dropped"][0]["reason"].as_str().expect("reason");
     assert!(
-        reason.contains("no steady point") && reason.contains("idle or light-load"),
+        reason.contains("fuel 0.010 kg/s is below the model's lowest running point at"),
         "{reason}"
     );
     let text = String::from_utf8_lossy(&run(false).stdout).to_string();
     assert!(
-        text.contains("line 3 not used: the model has no steady point"),
+        text.contains("line 3 not used: no operating point of the model: fuel 0.010 kg/s"),
         "{text}"
     );
 }

@@ -204,9 +204,15 @@ pub(super) fn result_json(r: &MethodResult) -> Value {
 }
 
 pub(crate) fn print_text(m: Method, r: &MethodResult) {
+    print_text_of(m.name(), "this start-up", m, r);
+}
+
+/// [`print_text`] with the title of the method line and what was fitted ("this start-up",
+/// "these snapshots") named in words.
+pub(crate) fn print_text_of(title: &str, subject: &str, m: Method, r: &MethodResult) {
     println!(
         "{} (Method {}): objective {:.4}, {} model runs, {:.2} s",
-        m.name(),
+        title,
         if m == Method::Transient { "B" } else { "A" },
         r.objective,
         r.model_runs,
@@ -225,7 +231,7 @@ pub(crate) fn print_text(m: Method, r: &MethodResult) {
         }
     );
     if q.verdict != crate::diagnosis::fit_quality::Verdict::Good {
-        println!("  the model does not fit this start-up: the health below absorbs the mismatch");
+        println!("  the model does not fit {subject}: the health below absorbs the mismatch");
     }
     if !r.separability.statement.is_empty() {
         println!("  separability: {}", r.separability.statement);

@@ -2,8 +2,12 @@
 //! operating point (performance tests, historian averages), diagnosed per row or per
 //! `--group-by` group (`diagnosis::snapshot`). Prints text or one JSON document.
 //! Must not open the database or store results: it reads a file and prints.
+//!
+//! Line numbers, everywhere (text, JSON `lines`, `dropped_lines`, `dropped[].line`,
+//! `failed[].lines`, the residual table's `line`, and the reader's error messages) are file
+//! lines with the header as line 1: the first data row is line 2.
 
-use super::diagnose::{print_text, result_json, DiagnoseArgs};
+use super::diagnose::{print_text_of, result_json, DiagnoseArgs};
 use crate::diagnosis::snapshot::{diagnose_snapshots, read_snapshots};
 use crate::diagnosis::{DiagnosisConfig, Method};
 use crate::engine::Engine;
@@ -62,6 +66,8 @@ pub(super) fn run(
             .map(|g| {
                 let mut v = result_json(&g.result);
                 if let Some(o) = v.as_object_mut() {
+                    // A snapshot is a point, not a window of a start-up: its lines say where.
+                    o.remove("steady_windows_s");
                     o.insert("group".into(), json!(g.group));
                     o.insert("lines".into(), json!(g.lines));
                     o.insert(
@@ -100,7 +106,12 @@ pub(super) fn run(
             for d in &g.dropped {
                 println!("  line {} not used: {}", d.line, d.reason);
             }
-            print_text(Method::Steady, &g.result);
+            print_text_of(
+                "steady snapshots",
+                "these snapshots",
+                Method::Steady,
+                &g.result,
+            );
             if !g.residual_table.rows.is_empty() {
                 println!("  residuals per row (model − measured, in noise σ):");
                 for l in g.residual_table.render().lines() {

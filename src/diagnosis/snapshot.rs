@@ -290,6 +290,12 @@ pub fn lines_of(rows: &[DroppedRow]) -> Vec<u64> {
 fn unsolved(engine: &Engine, snap: &Snapshot, e: &impl std::fmt::Display) -> String {
     let design_fuel = engine.design().fuel_kg_s.max(1e-9);
     let share = snap.fuel_kg_s / design_fuel;
+    let e = e.to_string();
+    let e = e.strip_prefix("steady-state solver: ").unwrap_or(&e);
+    if e.contains("running point at") {
+        // The solver walked the running line to its end: that is the reason, said already.
+        return format!("no operating point of the model: {e}");
+    }
     let hint = if share < 0.25 {
         format!(
             " (fuel {:.3} kg/s is {:.0} % of the design fuel flow: an idle or light-load point \
@@ -301,6 +307,19 @@ fn unsolved(engine: &Engine, snap: &Snapshot, e: &impl std::fmt::Display) -> Str
         String::new()
     };
     format!("the model has no steady point for this row: {e}{hint}")
+}
+
+/// A fit-quality summary in a snapshot's terms: snapshots have no start-up phases, so a
+/// residual cell "t34_k during steady_load" is "t34_k over the snapshots".
+fn snapshot_words(summary: &str) -> String {
+    let mut text = summary.replace(
+        "spread over signals and phases",
+        "spread over signals and snapshots",
+    );
+    for p in crate::signals::Phase::ALL {
+        text = text.replace(&format!(" during {p}:"), " over the snapshots:");
+    }
+    text
 }
 
 /// The steady point of one snapshot: inputs for the solver and the compared values with 1σ,
@@ -345,9 +364,7 @@ pub(crate) fn steady_data(
             snap.line, inputs.p_amb_kpa
         )),
     }
-    let m = engine.model_at(base, inputs.t_amb_k, inputs.p_amb_kpa);
-    solve(&m, &inputs, None).map_err(|e| unsolved(engine, snap, &e))?;
-    let outputs = snap
+    let outputs: Vec<(Signal, f64, f64)> = snap
         .values
         .iter()
         // P1 became the ambient pressure when no ambient column exists: not also compared.
@@ -358,7 +375,12 @@ pub(crate) fn steady_data(
         })
         .collect();
     let t = snap.time_s.unwrap_or(snap.line as f64);
-    Ok(SteadyData {
+    let n1_hint_rpm = snap
+        .values
+        .iter()
+        .find(|(s, v)| *s == Signal::N1 && *v > 0.0)
+        .map(|(_, v)| *v);
+    let data = SteadyData {
         label: format!("snapshot at line {}", snap.line),
         window: SteadyWindow {
             start: index,
@@ -368,7 +390,11 @@ pub(crate) fn steady_data(
         },
         inputs,
         outputs,
-    })
+        n1_hint_rpm,
+    };
+    let m = engine.model_at(base, inputs.t_amb_k, inputs.p_amb_kpa);
+    data.solve_on(&m).map_err(|e| unsolved(engine, snap, &e))?;
+    Ok(data)
 }
 
 /// Diagnoses every group of `rows` (see the module docs). The ambient pressure is an input of
@@ -409,6 +435,22 @@ pub fn diagnose_snapshots(
                 }),
             }
         }
+        if points.is_empty() {
+            // Nothing left to fit: the rows' own reasons are the group's.
+            let reasons: Vec<String> = dropped
+                .iter()
+                .map(|d| format!("line {}: {}", d.line, d.reason))
+                .collect();
+            report.failed.push(FailedGroup {
+                group: g,
+                lines,
+                reason: format!(
+                    "no snapshot of the group could be solved ({})",
+                    reasons.join("; ")
+                ),
+            });
+            continue;
+        }
         let start = std::time::Instant::now();
         let outcome = SteadyProblem::new(engine, points, &cfg).and_then(|mut problem| {
             let out = fit(&mut problem, &cfg, &pool)?;
@@ -426,6 +468,7 @@ pub fn diagnose_snapshots(
         match outcome {
             Ok((mut result, residual_table)) => {
                 result.wall_s = start.elapsed().as_secs_f64();
+                result.fit_quality.summary = snapshot_words(&result.fit_quality.summary);
                 report.groups.push(SnapshotGroup {
                     group: g,
                     lines,
@@ -514,6 +557,19 @@ mod tests {
             csv.push('\n');
         }
         csv
+    }
+
+    #[test]
+    fn fit_summary_speaks_of_snapshots_not_phases() {
+        assert_eq!(
+            snapshot_words("normalised residual 3.10, spread over signals and phases"),
+            "normalised residual 3.10, spread over signals and snapshots"
+        );
+        let phase = crate::signals::Phase::ALL[0];
+        assert_eq!(
+            snapshot_words(&format!("largest: t34_k during {phase}: offset (4.0 σ)")),
+            "largest: t34_k over the snapshots: offset (4.0 σ)"
+        );
     }
 
     #[test]

@@ -174,9 +174,26 @@ pub struct SteadyData {
     pub inputs: SteadyInputs,
     /// Compared outputs: (signal, window mean, 1σ of the mean).
     pub outputs: Vec<(Signal, f64, f64)>,
+    /// The measured GG speed, rpm, when it says which running point the demand means: near
+    /// idle one fuel flow can have several (the running line folds), and the healthy solve
+    /// then starts on the one at this speed. `None`: the solver's own choice (Method A).
+    pub n1_hint_rpm: Option<f64>,
 }
 
 impl SteadyData {
+    /// The healthy (or `m`'s) steady point of this data, started at the measured GG speed's
+    /// running point when there is a hint (see [`SteadyData::n1_hint_rpm`]).
+    pub fn solve_on(&self, m: &Model) -> Result<SteadyPoint, crate::engine::EngineError> {
+        let start = self.n1_hint_rpm.and_then(|n1| {
+            let at_speed = SteadyInputs {
+                demand: Demand::N1Rpm(n1),
+                ..self.inputs
+            };
+            solve(m, &at_speed, None).ok()
+        });
+        solve(m, &self.inputs, start.as_ref())
+    }
+
     /// The operating point in words, for tables: measured power (else torque, else GG speed)
     /// and the demand (fuel flow, power or speed).
     pub fn operating_point(&self) -> String {
@@ -249,6 +266,7 @@ pub fn average_windows(
                 demand: Demand::FuelKgS(fuel),
             },
             outputs,
+            n1_hint_rpm: None,
         });
     }
     out
@@ -278,7 +296,7 @@ impl SteadyProblem {
         let mut guesses = Vec::new();
         for p in points {
             let m = engine.model_at(&cfg.base, p.inputs.t_amb_k, p.inputs.p_amb_kpa);
-            if let Ok(g) = solve(&m, &p.inputs, None) {
+            if let Ok(g) = p.solve_on(&m) {
                 kept.push(p);
                 guesses.push(g);
             }

@@ -5,7 +5,9 @@
 //! fuel flow; one of them is fixed or replaced by the demand. Residuals: HPT flow compatibility,
 //! PT flow compatibility, GG work balance, and (for a power demand) the power. Newton's method
 //! with a finite-difference Jacobian and backtracking; far off-design demands are reached by
-//! continuation from the design point. Pure: no I/O.
+//! continuation from the design point, and past a fold of the demand (near idle the fuel flow
+//! is not monotone in GG speed) by walking the running line in GG speed. A demand beyond every
+//! running point is refused with the extreme point reached. Pure: no I/O.
 
 use super::effects::CoreView;
 use super::gas_path::{self, Adjust, CompressorSetting, HotSection, Inputs, Stations};
@@ -354,18 +356,159 @@ fn solve_counted(
             Err(e) => {
                 ds *= 0.5;
                 if ds < 1e-3 {
-                    return Err(EngineError::NoSteadySolution(format!(
-                        "no operating point for {:?} at {:.2} K, {:.3} kPa: continuation stopped at {:.1} % of the way ({e})",
-                        inp.demand,
-                        inp.t_amb_k,
-                        inp.p_amb_kpa,
-                        s * 100.0
-                    )));
+                    // The demand has a turning point on the way (near idle the fuel flow is
+                    // not monotone in GG speed): walk the running line in speed instead.
+                    return along_speed(model, inp, x, stats).map_err(|w| {
+                        EngineError::NoSteadySolution(match w {
+                            Walk::OutOfRange(why) => format!(
+                                "{why}, at {:.2} K, {:.3} kPa, PT {:.0} rpm",
+                                inp.t_amb_k, inp.p_amb_kpa, inp.n2_rpm
+                            ),
+                            Walk::Failed(why) => format!(
+                                "no operating point for {:?} at {:.2} K, {:.3} kPa: continuation \
+                                 stopped at {:.1} % of the way ({e}), and along the running line \
+                                 in GG speed: {why}",
+                                inp.demand,
+                                inp.t_amb_k,
+                                inp.p_amb_kpa,
+                                s * 100.0
+                            ),
+                        })
+                    });
                 }
             }
         }
     }
     Ok(evaluate(model, inp, &x).point)
+}
+
+/// The demand's quantity at a solved point (fuel flow or power), with its name and unit.
+fn demand_quantity(d: Demand, p: &SteadyPoint) -> (f64, &'static str, &'static str) {
+    match d {
+        Demand::FuelKgS(_) => (p.fuel_kg_s, "fuel", "kg/s"),
+        Demand::PowerMw(_) => (p.power_mw, "power", "MW"),
+        Demand::N1Rpm(_) => (p.n1_rpm, "GG speed", "rpm"),
+    }
+}
+
+/// Why the walk along the running line found no point.
+enum Walk {
+    /// The demand lies beyond every running point the model has (the reason names the end).
+    OutOfRange(String),
+    /// A solve on the way failed.
+    Failed(String),
+}
+
+/// Lowest and highest GG speed the running-line walk tries, as fractions of design speed.
+const WALK_N1_RANGE: (f64, f64) = (0.1, 1.25);
+
+/// Speed-continuation: the fuel flow (or power) of the running line is not monotone in GG
+/// speed everywhere — near idle, where the compressor leaves its lowest speed line for the
+/// sub-idle extension, the fuel flow has a local minimum and maximum, a fold where continuation
+/// in the fuel demand cannot pass. GG speed is monotone along the running line, so this walks
+/// it in speed from `x` (a solved point) towards the target, until the demand's quantity
+/// crosses the target, then solves the demand from the nearer side of that crossing (the
+/// crossing nearest `x` is the one taken). When the walk reaches the end of what the model
+/// runs at without crossing, the reason names the extreme point reached.
+fn along_speed(
+    model: &Model,
+    inp: &SteadyInputs,
+    x: Unknowns,
+    stats: &mut SolveStats,
+) -> Result<SteadyPoint, Walk> {
+    let target = demand_value(inp.demand);
+    let n1d = model.consts.n1_design;
+    let value = |u: &Unknowns| demand_quantity(inp.demand, &evaluate(model, inp, u).point).0;
+    let v0 = value(&x);
+    // Fuel and power rise with speed on the running line's whole: walk down for a lower target.
+    let down = target < v0;
+    let (mut prev_x, mut prev_v) = (x, v0);
+    // The point with the demand's quantity nearest the target (the end of the model's range).
+    let mut extreme = (v0, x.0[0] * n1d);
+    let mut step = 0.02_f64;
+    loop {
+        let n1 = prev_x.0[0] + if down { -step } else { step };
+        if !(WALK_N1_RANGE.0..=WALK_N1_RANGE.1).contains(&n1) {
+            break;
+        }
+        let sub = SteadyInputs {
+            demand: Demand::N1Rpm(n1 * n1d),
+            ..*inp
+        };
+        stats.continuation_steps += 1;
+        let Ok(xn) = newton(model, &sub, prev_x, stats) else {
+            step *= 0.5;
+            if step < 1e-4 {
+                break;
+            }
+            continue;
+        };
+        let vn = value(&xn);
+        if (down && vn < extreme.0) || (!down && vn > extreme.0) {
+            extreme = (vn, n1 * n1d);
+        }
+        if (vn - target) * (prev_v - target) <= 0.0 {
+            return solve_in_bracket(model, inp, (prev_x, prev_v), (xn, vn), stats)
+                .map_err(Walk::Failed);
+        }
+        (prev_x, prev_v) = (xn, vn);
+        step = (step * 1.5).min(0.05);
+    }
+    let (_, name, unit) = demand_quantity(inp.demand, &evaluate(model, inp, &x).point);
+    let side = if down { "below" } else { "above" };
+    let end = if down { "lowest" } else { "highest" };
+    Err(Walk::OutOfRange(format!(
+        "{name} {target:.3} {unit} is {side} the model's {end} running point at {:.3} {unit} \
+         (N1 {:.0} rpm)",
+        extreme.0, extreme.1
+    )))
+}
+
+/// Solves the demand between two solved running-line points whose quantities bracket the
+/// target: bisection in GG speed narrows the bracket, then Newton on the demand itself.
+fn solve_in_bracket(
+    model: &Model,
+    inp: &SteadyInputs,
+    a: (Unknowns, f64),
+    b: (Unknowns, f64),
+    stats: &mut SolveStats,
+) -> Result<SteadyPoint, String> {
+    let target = demand_value(inp.demand);
+    let n1d = model.consts.n1_design;
+    let (mut a, mut b) = (a, b);
+    let mut last = String::from("no bisection step");
+    for _ in 0..40 {
+        // Newton on the demand from the bracket end nearer the target.
+        let near = if (a.1 - target).abs() <= (b.1 - target).abs() {
+            a.0
+        } else {
+            b.0
+        };
+        match newton(model, inp, near, stats) {
+            Ok(x) => {
+                let n1 = x.0[0];
+                let (lo, hi) = (a.0 .0[0].min(b.0 .0[0]), a.0 .0[0].max(b.0 .0[0]));
+                // Accept only the crossing inside the bracket (not another branch's).
+                if n1 >= lo - 1e-9 && n1 <= hi + 1e-9 {
+                    return Ok(evaluate(model, inp, &x).point);
+                }
+            }
+            Err(e) => last = e,
+        }
+        let mid = 0.5 * (a.0 .0[0] + b.0 .0[0]);
+        let sub = SteadyInputs {
+            demand: Demand::N1Rpm(mid * n1d),
+            ..*inp
+        };
+        let xm = newton(model, &sub, a.0, stats)?;
+        let vm = demand_quantity(inp.demand, &evaluate(model, inp, &xm).point).0;
+        if (vm - target) * (a.1 - target) <= 0.0 {
+            b = (xm, vm);
+        } else {
+            a = (xm, vm);
+        }
+    }
+    Err(format!("the running-line crossing was not solved ({last})"))
 }
 
 #[cfg(test)]
@@ -481,6 +624,65 @@ mod tests {
             a.air_flow_kg_s,
             b.air_flow_kg_s
         );
+    }
+
+    fn md22() -> Engine {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("config/engine_md22.toml");
+        Engine::new(crate::engine::EngineConfig::load(&path).expect("md22 loads")).expect("md22")
+    }
+
+    /// Near idle the md22 running line's fuel flow is not monotone in GG speed (a local
+    /// minimum of 0.0942 kg/s near 4 650 rpm, a maximum of 0.0953 kg/s near 4 400 rpm, where
+    /// the compressor leaves its lowest speed line): continuation in the fuel demand stalls at
+    /// that fold, the walk in speed passes it. The point found is checked against the N1
+    /// solve at its own speed (truth: the same running line, solved without a fold).
+    #[test]
+    fn idle_fuel_below_a_fold_of_the_running_line_solves() {
+        let e = md22();
+        let m = e.model(&HealthParams::HEALTHY);
+        let inp = SteadyInputs {
+            n2_rpm: 6500.0,
+            ..iso(Demand::FuelKgS(0.09))
+        };
+        let p = solve(&m, &inp, None).expect("idle fuel solves");
+        assert!((p.fuel_kg_s - 0.09).abs() < 1e-9, "fuel {}", p.fuel_kg_s);
+        assert!(p.n1_rpm > 3700.0 && p.n1_rpm < 4200.0, "n1 {}", p.n1_rpm);
+        assert!(p.hpt_flow_error_kg_s.abs() < 1e-6 && p.gg_power_error_w.abs() < 1.0);
+        let at_speed = SteadyInputs {
+            demand: Demand::N1Rpm(p.n1_rpm),
+            ..inp
+        };
+        let q = solve(&m, &at_speed, None).expect("same speed solves");
+        assert!(
+            (q.fuel_kg_s - 0.09).abs() < 1e-6,
+            "fuel at n1 {}",
+            q.fuel_kg_s
+        );
+        assert!(
+            (q.t4_k - p.t4_k).abs() < 1e-3,
+            "T4 {} vs {}",
+            q.t4_k,
+            p.t4_k
+        );
+    }
+
+    /// A fuel flow below anything the model runs at is refused with the lowest running point.
+    #[test]
+    fn fuel_below_the_lowest_running_point_is_refused_with_it() {
+        let e = md22();
+        let m = e.model(&HealthParams::HEALTHY);
+        let inp = SteadyInputs {
+            n2_rpm: 6500.0,
+            ..iso(Demand::FuelKgS(0.002))
+        };
+        let err = solve(&m, &inp, None)
+            .expect_err("below the model's range")
+            .to_string();
+        assert!(
+            err.contains("fuel 0.002 kg/s is below the model's lowest running point at"),
+            "{err}"
+        );
+        assert!(err.contains("(N1 "), "{err}");
     }
 
     /// The solve cost reported for `bench steady`: a cold solve takes Newton iterations, each
