@@ -56,6 +56,20 @@ pub struct Snapshot {
     pub gap_stored: u64,
     pub gap_cancelled: u64,
     pub gap_failed: u64,
+    /// The fleet sync's counters (`None`: no `[fleet]` in this run).
+    pub fleet: Option<FleetSnapshot>,
+}
+
+/// The fleet sync's counters at one moment.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct FleetSnapshot {
+    /// Syncs that committed at the centre, and failed ones (each retried with backoff).
+    pub syncs_ok: u64,
+    pub syncs_failed: u64,
+    /// Rows sent over all syncs.
+    pub rows_sent: u64,
+    /// Unix ms of the last successful sync (0: none yet).
+    pub last_ok_ms: u64,
 }
 
 /// Wall time of each start-up's diagnosis (Method B and A, storing and the after-result hook
@@ -154,6 +168,36 @@ impl prometheus_client::collector::Collector for Counters {
             let m = encoder.encode_descriptor(name, help, None, MetricType::Counter)?;
             ConstCounter::new(value).encode(m)?;
         }
+        if let Some(f) = s.fleet {
+            for (name, help, value) in [
+                (
+                    "fleet_syncs",
+                    "Fleet syncs committed at the centre",
+                    f.syncs_ok,
+                ),
+                (
+                    "fleet_syncs_failed",
+                    "Fleet syncs that failed (retried with backoff)",
+                    f.syncs_failed,
+                ),
+                (
+                    "fleet_rows_sent",
+                    "Rows sent to the fleet centre",
+                    f.rows_sent,
+                ),
+            ] {
+                let m = encoder.encode_descriptor(name, help, None, MetricType::Counter)?;
+                ConstCounter::new(value).encode(m)?;
+            }
+            // A timestamp gauge, so an alert can say "no sync for an hour": time() - this.
+            let m = encoder.encode_descriptor(
+                "fleet_last_sync_timestamp_seconds",
+                "Unix time of the last fleet sync committed at the centre (0: none yet)",
+                None,
+                MetricType::Gauge,
+            )?;
+            ConstGauge::new(i64::try_from(f.last_ok_ms / 1000).unwrap_or(i64::MAX)).encode(m)?;
+        }
         if let Some(depth) = s.diagnosis_queue {
             let m = encoder.encode_descriptor(
                 "diagnosis_queue",
@@ -180,6 +224,12 @@ mod tests {
                 polls_ok: 12,
                 samples_written: 340,
                 diagnosis_queue: Some(2),
+                fleet: Some(FleetSnapshot {
+                    syncs_ok: 3,
+                    syncs_failed: 1,
+                    rows_sent: 35_047,
+                    last_ok_ms: 1_764_000_000_123,
+                }),
                 ..Snapshot::default()
             },
             &h,
@@ -191,6 +241,11 @@ mod tests {
             "gtwatch_samples_written_total 340",
             "gtwatch_polls_failed_total 0",
             "gtwatch_diagnosis_queue 2",
+            "# TYPE gtwatch_fleet_syncs counter",
+            "gtwatch_fleet_syncs_total 3",
+            "gtwatch_fleet_syncs_failed_total 1",
+            "gtwatch_fleet_rows_sent_total 35047",
+            "gtwatch_fleet_last_sync_timestamp_seconds 1764000000",
             "gtwatch_diagnosis_duration_seconds_count 1",
             "gtwatch_diagnosis_duration_seconds_bucket{le=\"8.0\"} 1",
             "# EOF",

@@ -39,6 +39,8 @@ pub struct Live {
     /// `None`: no diagnosis in this run.
     pub diagnosis: Option<Arc<DiagnosisMeter>>,
     pub gap: Arc<GapCounters>,
+    /// `None`: no `[fleet]` in this run.
+    pub sync: Option<Arc<super::SyncCounters>>,
 }
 
 impl Live {
@@ -66,6 +68,12 @@ impl Live {
             gap_stored: get(&self.gap.stored),
             gap_cancelled: get(&self.gap.cancelled),
             gap_failed: get(&self.gap.failed),
+            fleet: self.sync.as_deref().map(|f| crate::metrics::FleetSnapshot {
+                syncs_ok: get(&f.syncs_ok),
+                syncs_failed: get(&f.syncs_failed),
+                rows_sent: get(&f.rows_sent),
+                last_ok_ms: get(&f.last_ok_ms),
+            }),
         }
     }
 
@@ -204,6 +212,7 @@ mod tests {
             segments_closed: Arc::default(),
             diagnosis: Some(Arc::default()),
             gap: Arc::default(),
+            sync: Some(Arc::default()),
         }
     }
 
@@ -228,7 +237,20 @@ mod tests {
         let h = tokio::spawn(task.run(shutdown));
         live.poll.polls_ok.store(41, Ordering::Relaxed);
         live.writer.samples_inserted.store(1234, Ordering::Relaxed);
+        if let Some(sync) = &live.sync {
+            sync.syncs_ok.store(2, Ordering::Relaxed);
+            sync.rows_sent.store(35_047, Ordering::Relaxed);
+        }
         let page = get(addr, "/metrics").await;
+        assert!(page.contains("\ngtwatch_fleet_syncs_total 2\n"), "{page}");
+        assert!(
+            page.contains("\ngtwatch_fleet_rows_sent_total 35047\n"),
+            "{page}"
+        );
+        assert!(
+            page.contains("\ngtwatch_fleet_syncs_failed_total 0\n"),
+            "{page}"
+        );
         assert!(page.starts_with("HTTP/1.1 200 OK\r\n"), "{page}");
         assert!(page.contains("\ngtwatch_polls_total 41\n"), "{page}");
         assert!(

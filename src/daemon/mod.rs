@@ -231,6 +231,7 @@ struct Running {
     segments_closed: Arc<AtomicU64>,
     diagnosis_meter: Option<Arc<DiagnosisMeter>>,
     gap_counters: Arc<GapCounters>,
+    sync_counters: Option<Arc<SyncCounters>>,
 }
 
 impl Running {
@@ -281,18 +282,26 @@ impl Running {
             }
             _ => None,
         };
-        let sync = cfg.fleet.clone().map(|fleet| {
-            tokio::spawn(
-                SyncTask {
-                    db_path: db_path.clone(),
-                    store_opts: task_opts,
-                    writer: tx.clone(),
-                    cfg: fleet,
-                    counters: Arc::new(SyncCounters::default()),
-                }
-                .run(shutdown.clone()),
-            )
-        });
+        let sync_counters = cfg
+            .fleet
+            .as_ref()
+            .map(|_| Arc::new(SyncCounters::default()));
+        let sync = cfg
+            .fleet
+            .clone()
+            .zip(sync_counters.clone())
+            .map(|(fleet, counters)| {
+                tokio::spawn(
+                    SyncTask {
+                        db_path: db_path.clone(),
+                        store_opts: task_opts,
+                        writer: tx.clone(),
+                        cfg: fleet,
+                        counters,
+                    }
+                    .run(shutdown.clone()),
+                )
+            });
         let compaction = CompactionTask::from_config(tx.clone(), &cfg.storage)
             .map(|task| tokio::spawn(task.run(shutdown.clone())));
         let diagnosis_meter = match (cfg.diagnosis.enabled, &opts.worker) {
@@ -329,6 +338,7 @@ impl Running {
             segments_closed,
             diagnosis_meter,
             gap_counters,
+            sync_counters,
         })
     }
 
@@ -340,6 +350,7 @@ impl Running {
             segments_closed: Arc::clone(&self.segments_closed),
             diagnosis: self.diagnosis_meter.clone(),
             gap: Arc::clone(&self.gap_counters),
+            sync: self.sync_counters.clone(),
         }
     }
 
