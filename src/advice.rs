@@ -257,20 +257,13 @@ pub(crate) fn refresh(
 }
 
 fn seq_point(r: &HistoryRow, bounds: &HealthBounds) -> SeqPoint {
-    let health: [f64; 6] = std::array::from_fn(|i| r.value(HEALTH_NAMES[i]));
-    SeqPoint {
-        t_days: r.start_ms as f64 / MS_PER_DAY,
-        health,
-        sigma: std::array::from_fn(|i| r.sigma_of(HEALTH_NAMES[i])),
-        at_limit: std::array::from_fn(|i| {
-            let (lo, hi) = bounds.of(i);
-            health[i] <= lo + LIMIT_TOL || health[i] >= hi - LIMIT_TOL
-        }),
-    }
+    SeqPoint::new(
+        r.start_ms as f64 / MS_PER_DAY,
+        std::array::from_fn(|i| r.value(HEALTH_NAMES[i])),
+        std::array::from_fn(|i| r.sigma_of(HEALTH_NAMES[i])),
+        bounds,
+    )
 }
-
-/// How close to a search limit an estimate counts as on it, percent.
-const LIMIT_TOL: f64 = 0.01;
 
 /// The detected (unconfirmed) washes that lie just before the onset of a step the sequence
 /// attributes to an instrument: the recovery they saw was the instrument's.
@@ -343,7 +336,7 @@ fn attribute_since(
 ) -> Result<(Option<StepAttribution>, Vec<SeqPoint>), StoreError> {
     let points: Vec<SeqPoint> = since.iter().map(|r| seq_point(r, bounds)).collect();
     // A wash recovers the compressor: its improvement is not a step.
-    let recovers = HEALTH_NAMES.map(|n| n == "D_GC" || n == "D_EC");
+    let recovers = crate::trend::RECOVERED_BY_WASH;
     let Some(k) = sequence::onset(&points, recovers) else {
         return Ok((None, points));
     };
@@ -555,14 +548,13 @@ mod tests {
         let points: Vec<SeqPoint> = fits
             .iter()
             .enumerate()
-            .map(|(j, f)| SeqPoint {
-                t_days: (T0 + j as i64 * DAY) as f64 / DAY as f64,
-                health: f.health.to_array(),
-                sigma: [0.05; 6],
-                at_limit: f
-                    .health
-                    .to_array()
-                    .map(|v| v <= HealthBounds::default().lower[0] + LIMIT_TOL),
+            .map(|(j, f)| {
+                SeqPoint::new(
+                    (T0 + j as i64 * DAY) as f64 / DAY as f64,
+                    f.health.to_array(),
+                    [0.05; 6],
+                    &HealthBounds::default(),
+                )
             })
             .collect();
         let mut worst = 0.0_f64;

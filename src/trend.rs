@@ -236,6 +236,10 @@ pub struct HealthStep {
     pub tolerance: f64,
 }
 
+/// The parameters a wash recovers (`HEALTH_NAMES` order: D_GC and D_EC): their improvement is
+/// a wash, not a step against the trend ([`steps_against_trend`]'s `recovers`).
+pub const RECOVERED_BY_WASH: [bool; 6] = [true, true, false, false, false, false];
+
 /// Smallest step that counts, percent: below it a start-up is within the scatter a trend of
 /// real diagnoses shows.
 pub const MIN_STEP: f64 = 0.5;
@@ -417,7 +421,7 @@ mod tests {
             })
             .collect();
         let on_trend = health_points(8.0, [1.8, 0.9, 0.3, 0.2, 0.1, 0.0]);
-        let recovers = [true, true, false, false, false, false];
+        let recovers = RECOVERED_BY_WASH;
         assert!(steps_against_trend(&previous, &on_trend, recovers).is_empty());
         let stepped = health_points(8.0, [1.8, 0.9, 1.8, 0.2, 0.1, 0.0]);
         let steps = steps_against_trend(&previous, &stepped, recovers);

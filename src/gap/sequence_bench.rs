@@ -163,18 +163,12 @@ fn one_sequence(
         .iter()
         .enumerate()
         .map(|(j, f)| {
-            let health = f.health.to_array();
-            SeqPoint {
-                t_days: j as f64,
-                health,
-                sigma: std::array::from_fn(|i| {
-                    f.sigma.get(HEALTH_NAMES[i]).copied().unwrap_or(0.0)
-                }),
-                at_limit: std::array::from_fn(|i| {
-                    let (lo, hi) = bounds.of(i);
-                    health[i] <= lo + 0.01 || health[i] >= hi - 0.01
-                }),
-            }
+            SeqPoint::new(
+                j as f64,
+                f.health.to_array(),
+                std::array::from_fn(|i| f.sigma.get(HEALTH_NAMES[i]).copied().unwrap_or(0.0)),
+                &bounds,
+            )
         })
         .collect();
     let error = |pts: &[SeqPoint]| -> f64 {
@@ -185,7 +179,7 @@ fn one_sequence(
             .fold(0.0, f64::max)
     };
     let error_fitted = error(&points);
-    let recovers = HEALTH_NAMES.map(|n| n == "D_GC" || n == "D_EC");
+    let recovers = crate::trend::RECOVERED_BY_WASH;
     let onset = sequence::onset(&points, recovers);
     let (verdict, correct, fitted, corrected) = match onset {
         None => ("not_found".to_string(), false, None, points.clone()),

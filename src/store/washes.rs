@@ -203,6 +203,22 @@ mod tests {
 
     const DAY: i64 = 86_400_000;
 
+    /// The wash advice refreshed with the default detection and health limits.
+    fn refresh_advice(
+        store: &mut Store,
+        engine: &Engine,
+        econ: &WashEconomics,
+    ) -> crate::advice::AdviceReport {
+        crate::advice::refresh(
+            store,
+            engine,
+            econ,
+            &WashDetection::default(),
+            &crate::health::HealthBounds::default(),
+        )
+        .unwrap()
+    }
+
     /// A closed start-up at `start` with one `good` Method B result `health`; its segment id.
     fn insert_result(store: &mut Store, start: i64, health: [f64; 6]) -> i64 {
         store
@@ -269,14 +285,7 @@ mod tests {
         fill(&mut store);
         let engine = Engine::reference().unwrap();
         let econ = WashEconomics::default();
-        let r = crate::advice::refresh(
-            &mut store,
-            &engine,
-            &econ,
-            &WashDetection::default(),
-            &crate::health::HealthBounds::default(),
-        )
-        .unwrap();
+        let r = refresh_advice(&mut store, &engine, &econ);
         // The wash is found between day 11 and day 12, and only there.
         let washes = store.washes().unwrap();
         assert_eq!(washes.len(), 1, "{washes:?}");
@@ -310,14 +319,7 @@ mod tests {
             Some(washes[0].t_ms + (stored_days * DAY as f64).round() as i64)
         );
         // A second refresh records no second wash.
-        crate::advice::refresh(
-            &mut store,
-            &engine,
-            &econ,
-            &WashDetection::default(),
-            &crate::health::HealthBounds::default(),
-        )
-        .unwrap();
+        refresh_advice(&mut store, &engine, &econ);
         assert_eq!(store.washes().unwrap().len(), 1);
     }
 
@@ -364,14 +366,7 @@ mod tests {
                         .unwrap();
                 }
             }
-            let r = crate::advice::refresh(
-                &mut store,
-                &engine,
-                &econ,
-                &WashDetection::default(),
-                &crate::health::HealthBounds::default(),
-            )
-            .unwrap();
+            let r = refresh_advice(&mut store, &engine, &econ);
             (r, stepped)
         };
         let (clean, _) = advice_with(false, false);

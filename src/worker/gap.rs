@@ -67,7 +67,7 @@ pub(crate) fn health_steps(read: &Store) -> Result<Vec<(i64, Vec<HealthStep>)>, 
         ..HistoryFilter::default()
     })?;
     // A wash recovers the compressor: its improvement is not a step.
-    let recovers = NAMES.map(|n| n == "D_GC" || n == "D_EC");
+    let recovers = crate::trend::RECOVERED_BY_WASH;
     let mut out = Vec::new();
     let mut window: Vec<[TrendPoint; 6]> = Vec::new();
     let mut since_wash: Option<i64> = None;

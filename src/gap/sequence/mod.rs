@@ -28,7 +28,7 @@
 //! analysis's aliases (linearised at that start-up's fit), the points from stored Method B
 //! results. Must not decide what a plant does with the verdict (that is `advice`).
 
-use crate::health::HEALTH_NAMES;
+use crate::health::{HealthBounds, HEALTH_NAMES};
 use crate::trend::{steps_against_trend, TrendPoint};
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
@@ -54,6 +54,29 @@ pub(crate) struct SeqPoint {
     /// Estimates that ended on their search limit: censored (the unlimited estimate lies
     /// beyond), so they take no part in the joint fit.
     pub(crate) at_limit: [bool; 6],
+}
+
+/// How close to a search limit an estimate counts as on it (censored), percent.
+pub(crate) const LIMIT_TOL: f64 = 0.01;
+
+impl SeqPoint {
+    /// A result at `t_days`, each estimate censored when it sits on its interval of `bounds`.
+    pub(crate) fn new(
+        t_days: f64,
+        health: [f64; 6],
+        sigma: [f64; 6],
+        bounds: &HealthBounds,
+    ) -> SeqPoint {
+        SeqPoint {
+            t_days,
+            health,
+            sigma,
+            at_limit: std::array::from_fn(|i| {
+                let (lo, hi) = bounds.of(i);
+                health[i] <= lo + LIMIT_TOL || health[i] >= hi - LIMIT_TOL
+            }),
+        }
+    }
 }
 
 /// How an instrument's error moves the health estimate: `shift` per `nominal` error.

@@ -65,12 +65,7 @@ fn an_instrument_step_is_named_sized_and_corrected() {
     let (mut ss, mut count, mut worst) = (0.0, 0.0, 0.0_f64);
     for seed in 0..50 {
         let (pts, truth) = sequence(seed, 4, step);
-        let a = attribute(
-            &pts,
-            &[fuel(), t1()],
-            [true, true, false, false, false, false],
-        )
-        .expect("a step");
+        let a = attribute(&pts, &[fuel(), t1()], crate::trend::RECOVERED_BY_WASH).expect("a step");
         assert_eq!(a.onset, 4, "seed {seed}");
         if let SequenceVerdict::Instrument {
             effect,
@@ -111,12 +106,7 @@ fn a_component_fault_is_not_blamed_on_an_instrument() {
     let mut wrong = 0;
     for seed in 0..50 {
         let (pts, _) = sequence(seed, 4, [0.0, 0.0, -1.5, 0.0, 0.0, 0.0]);
-        let a = attribute(
-            &pts,
-            &[fuel(), t1()],
-            [true, true, false, false, false, false],
-        )
-        .expect("a step");
+        let a = attribute(&pts, &[fuel(), t1()], crate::trend::RECOVERED_BY_WASH).expect("a step");
         match &a.verdict {
             SequenceVerdict::HealthStep { explanation } => {
                 assert_eq!(explanation, "step:D_GT", "seed {seed}");
@@ -136,7 +126,7 @@ fn a_lone_outlier_is_no_step() {
     for (i, v) in fuel().shift.iter().enumerate() {
         pts[4].health[i] += v * 1.5;
     }
-    let a = attribute(&pts, &[fuel()], [true, true, false, false, false, false])
+    let a = attribute(&pts, &[fuel()], crate::trend::RECOVERED_BY_WASH)
         .expect("the outlier leaves the trend");
     assert_eq!(a.onset, 4);
     assert!(

@@ -245,6 +245,22 @@ pub(crate) fn count_archived_in(
     Ok(count)
 }
 
+/// `sql`'s single value (a `MAX(…)` over one tag's rows, `?1` the tag) for `tag`, queried once
+/// per tag and kept in `cache` for the rest of an ingest transaction.
+pub(super) fn tag_max_cached(
+    cache: &mut HashMap<TagId, Option<i64>>,
+    conn: &Connection,
+    sql: &str,
+    tag: TagId,
+) -> Result<Option<i64>, StoreError> {
+    if let Some(v) = cache.get(&tag) {
+        return Ok(*v);
+    }
+    let v: Option<i64> = conn.prepare_cached(sql)?.query_row([tag], |r| r.get(0))?;
+    cache.insert(tag, v);
+    Ok(v)
+}
+
 /// During one ingest transaction: which (tag, time) pairs are already archived. Looks only at
 /// chunks that can hold the time (none for live data newer than the archive).
 #[derive(Default)]
@@ -260,16 +276,12 @@ impl ArchivedTimes {
         tag: TagId,
         t: i64,
     ) -> Result<bool, StoreError> {
-        let end = match self.archive_end.get(&tag) {
-            Some(e) => *e,
-            None => {
-                let e: Option<i64> = conn
-                    .prepare_cached("SELECT MAX(t_end_ms) FROM archive_chunks WHERE tag_id = ?1")?
-                    .query_row([tag], |r| r.get(0))?;
-                self.archive_end.insert(tag, e);
-                e
-            }
-        };
+        let end = tag_max_cached(
+            &mut self.archive_end,
+            conn,
+            "SELECT MAX(t_end_ms) FROM archive_chunks WHERE tag_id = ?1",
+            tag,
+        )?;
         if end.is_none_or(|e| t > e) {
             return Ok(false);
         }

@@ -28,7 +28,7 @@
 
 use super::archive::{self, codec, CHUNK_SPAN_MS};
 use super::{Store, StoreError, TagId};
-use rusqlite::{params, Connection, TransactionBehavior};
+use rusqlite::{params, Connection, OptionalExtension, TransactionBehavior};
 use std::collections::{BTreeSet, HashMap};
 
 /// One minute, the roll-up period.
@@ -543,16 +543,12 @@ impl RolledUpMinutes {
         tag: TagId,
         t: i64,
     ) -> Result<bool, StoreError> {
-        let newest = match self.newest.get(&tag) {
-            Some(n) => *n,
-            None => {
-                let n: Option<i64> = conn
-                    .prepare_cached("SELECT MAX(t_ms) FROM rollups_1m WHERE tag_id = ?1")?
-                    .query_row([tag], |r| r.get(0))?;
-                self.newest.insert(tag, n);
-                n
-            }
-        };
+        let newest = archive::tag_max_cached(
+            &mut self.newest,
+            conn,
+            "SELECT MAX(t_ms) FROM rollups_1m WHERE tag_id = ?1",
+            tag,
+        )?;
         let minute = floor_minute(t);
         if newest.is_none_or(|n| minute > n) {
             return Ok(false);
@@ -560,10 +556,7 @@ impl RolledUpMinutes {
         let found: Option<i64> = conn
             .prepare_cached("SELECT 1 FROM rollups_1m WHERE tag_id = ?1 AND t_ms = ?2")?
             .query_row(params![tag, minute], |r| r.get(0))
-            .or_else(|e| match e {
-                rusqlite::Error::QueryReturnedNoRows => Ok(None),
-                e => Err(e),
-            })?;
+            .optional()?;
         Ok(found.is_some())
     }
 }
