@@ -11,11 +11,14 @@
 //! cross-talk |ρ| ≤ 0.3, each level within 0.5 points, every fit `good`.
 //!
 //! What this version reaches and asserts (measured figures in the README, "Calibrating to your
-//! unit"): the adapted model's left-out error at most a third of the design calibration's (mean)
-//! and half of it (worst signal); the healthy baseline within 0.3 points of zero; D_GC, D_GT,
-//! D_ET ranked at ρ ≥ 0.85; and no level off by more than 0.5 points is called `good`. The
-//! 0.3 % / 0.95 floors are not met yet: speed-only curves follow the operating line, not the
-//! shape of the maps across it.
+//! unit"): on the three left-out loads CI runs, mean |error| ≤ 0.6 % and no signal beyond 1.5 %
+//! (measured 0.47 % / 1.10 %), and at most a third / half of the design calibration's; the
+//! healthy baseline `good` within 0.3 points of zero; D_GC, D_EC and D_ET ranked at ρ ≥ 0.9,
+//! D_GT at ρ ≥ 0.8; and no level off by more than 0.5 points is called `good`. Not met yet: the
+//! 0.3 % / 1 % floors (the lowest and the full load, left out, are extrapolations: 1.2 % and
+//! 1.1 %), ρ ≥ 0.95 for D_GT and the cross-talk (compressor fouling read as −0.3…−0.8 points of
+//! D_GT), and `good` fits on the degraded grid: curves of speed alone follow the operating
+//! line, not how the unit's maps differ across it, where degradation moves the points.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use gtwatch::calibrate::adapt::AdaptSettings;
@@ -253,6 +256,12 @@ fn adapted_md22_predicts_left_out_loads_of_a_foreign_unit() {
     );
     // Floors this version meets (the issue asks 0.3 % mean and 1 % worst; see the module doc).
     assert!(
+        avg(&means[1]) <= 0.6 && worst_signal[1] <= 1.5,
+        "adapted: mean {:.3} %, worst {:.3} %",
+        avg(&means[1]),
+        worst_signal[1]
+    );
+    assert!(
         avg(&means[1]) < avg(&means[0]) / 3.0,
         "adapted mean {:.3} % against design-only {:.3} %",
         avg(&means[1]),
@@ -285,10 +294,8 @@ fn adapted_md22_diagnoses_a_foreign_unit() {
     let report = diagnose_snapshots(&adapted, &rows, &cfg).expect("diagnosis");
     let g = &report.groups[0];
     let baseline = g.result.health.to_array();
-    eprintln!(
-        "healthy baseline: {baseline:.3?} quality {:?}",
-        g.result.fit_quality.verdict
-    );
+    let baseline_quality = format!("{:?}", g.result.fit_quality.verdict).to_lowercase();
+    eprintln!("healthy baseline: {baseline:.3?} quality {baseline_quality}");
 
     // A grid of degradation at all 9 loads: compressor fouling, HP-turbine wear, both.
     let levels = 15;
@@ -343,12 +350,16 @@ fn adapted_md22_diagnoses_a_foreign_unit() {
          on compressor-only levels {cross_t:.3}; {good} of {levels} fits good"
     );
     // Floors this version meets (the issue asks ρ ≥ 0.95 for all four, |cross| ≤ 0.3, each
-    // level within 0.5 points, every fit good; D_EC and the cross-talk are not met yet, and the
-    // fits say so: a model adapted along the operating line only misses how the unit's maps
-    // change across it, which degradation moves the points into).
-    for p in [0, 2, 3] {
-        assert!(rho[p] >= 0.85, "{}: ρ {:.3}", HEALTH_NAMES[p], rho[p]);
+    // level within 0.5 points, every fit good; D_GT's rank and the cross-talk are not met yet,
+    // and the fits say so: a model adapted along the operating line only misses how the unit's
+    // maps change across it, which degradation moves the points into).
+    for (p, floor) in [(0, 0.9), (1, 0.9), (2, 0.8), (3, 0.9)] {
+        assert!(rho[p] >= floor, "{}: ρ {:.3}", HEALTH_NAMES[p], rho[p]);
     }
+    assert_eq!(
+        baseline_quality, "good",
+        "the healthy baseline on the adapted model"
+    );
     for (p, v) in baseline.iter().enumerate() {
         assert!(v.abs() <= 0.3, "baseline {} = {v:.3}", HEALTH_NAMES[p]);
     }
