@@ -58,6 +58,26 @@ pub struct Snapshot {
     pub gap_failed: u64,
     /// The fleet sync's counters (`None`: no `[fleet]` in this run).
     pub fleet: Option<FleetSnapshot>,
+    /// The storage maintenance's counters (`None`: compaction and retention off).
+    pub compaction: Option<CompactionSnapshot>,
+}
+
+/// The storage maintenance task's totals at one moment (compaction, retention, vacuum).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct CompactionSnapshot {
+    /// Periods whose compaction, retention and vacuum all ran to the end.
+    pub runs: u64,
+    /// Archive chunks written and the samples they took from the hot tier.
+    pub chunks: u64,
+    pub samples_archived: u64,
+    /// Raw samples replaced by 1-minute roll-ups.
+    pub samples_rolled_up: u64,
+    /// Pages returned to the file system by incremental vacuum.
+    pub pages_vacuumed: u64,
+    /// Maintenance steps that failed (retried next period).
+    pub failures: u64,
+    /// Unix ms when the last run finished (0: none yet).
+    pub last_run_ms: u64,
 }
 
 /// The fleet sync's counters at one moment.
@@ -198,6 +218,50 @@ impl prometheus_client::collector::Collector for Counters {
             )?;
             ConstGauge::new(i64::try_from(f.last_ok_ms / 1000).unwrap_or(i64::MAX)).encode(m)?;
         }
+        if let Some(c) = s.compaction {
+            for (name, help, value) in [
+                (
+                    "storage_maintenance_runs",
+                    "Storage maintenance periods that ran to the end (compaction, retention, vacuum)",
+                    c.runs,
+                ),
+                (
+                    "archive_chunks",
+                    "Archive chunks written by compaction",
+                    c.chunks,
+                ),
+                (
+                    "samples_archived",
+                    "Samples moved from the hot tier into archive chunks",
+                    c.samples_archived,
+                ),
+                (
+                    "samples_rolled_up",
+                    "Raw steady samples replaced by 1-minute roll-ups (retention)",
+                    c.samples_rolled_up,
+                ),
+                (
+                    "pages_vacuumed",
+                    "Database pages returned to the file system by incremental vacuum",
+                    c.pages_vacuumed,
+                ),
+                (
+                    "storage_maintenance_failures",
+                    "Storage maintenance steps that failed (retried next period)",
+                    c.failures,
+                ),
+            ] {
+                let m = encoder.encode_descriptor(name, help, None, MetricType::Counter)?;
+                ConstCounter::new(value).encode(m)?;
+            }
+            let m = encoder.encode_descriptor(
+                "storage_maintenance_last_run_timestamp_seconds",
+                "Unix time the last storage maintenance run finished (0: none yet)",
+                None,
+                MetricType::Gauge,
+            )?;
+            ConstGauge::new(i64::try_from(c.last_run_ms / 1000).unwrap_or(i64::MAX)).encode(m)?;
+        }
         if let Some(depth) = s.diagnosis_queue {
             let m = encoder.encode_descriptor(
                 "diagnosis_queue",
@@ -230,6 +294,15 @@ mod tests {
                     rows_sent: 35_047,
                     last_ok_ms: 1_764_000_000_123,
                 }),
+                compaction: Some(CompactionSnapshot {
+                    runs: 2,
+                    chunks: 48,
+                    samples_archived: 1_234_567,
+                    samples_rolled_up: 86_400,
+                    pages_vacuumed: 4096,
+                    failures: 1,
+                    last_run_ms: 1_764_003_600_999,
+                }),
                 ..Snapshot::default()
             },
             &h,
@@ -246,6 +319,14 @@ mod tests {
             "gtwatch_fleet_syncs_failed_total 1",
             "gtwatch_fleet_rows_sent_total 35047",
             "gtwatch_fleet_last_sync_timestamp_seconds 1764000000",
+            "# TYPE gtwatch_storage_maintenance_runs counter",
+            "gtwatch_storage_maintenance_runs_total 2",
+            "gtwatch_archive_chunks_total 48",
+            "gtwatch_samples_archived_total 1234567",
+            "gtwatch_samples_rolled_up_total 86400",
+            "gtwatch_pages_vacuumed_total 4096",
+            "gtwatch_storage_maintenance_failures_total 1",
+            "gtwatch_storage_maintenance_last_run_timestamp_seconds 1764003600",
             "gtwatch_diagnosis_duration_seconds_count 1",
             "gtwatch_diagnosis_duration_seconds_bucket{le=\"8.0\"} 1",
             "# EOF",

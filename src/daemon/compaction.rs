@@ -15,6 +15,8 @@ use crate::store::{
     now_ms, RetentionPolicy, StorageConfig, WriteCmd, WriterHandle, DEFAULT_MAX_CHUNK_SAMPLES,
     VACUUM_STEP_PAGES,
 };
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 use std::time::Duration;
 
 /// Time between two compactions.
@@ -35,6 +37,8 @@ pub struct CompactionTask {
     pub retention: Option<RetentionPolicy>,
     pub first_delay: Duration,
     pub period: Duration,
+    /// The task's [`CompactionReport`] as it goes, for the metrics endpoint.
+    pub counters: Arc<CompactionCounters>,
 }
 
 /// What the compaction task did over the daemon's run.
@@ -47,6 +51,31 @@ pub struct CompactionReport {
     /// Pages returned to the file system.
     pub vacuumed_pages: u64,
     pub failures: u64,
+}
+
+/// The compaction task's totals as it goes (the metrics endpoint reads them at each scrape).
+#[derive(Debug, Default)]
+pub struct CompactionCounters {
+    /// Maintenance runs finished (compaction, retention and vacuum, each period).
+    pub runs: AtomicU64,
+    pub chunks: AtomicU64,
+    pub samples: AtomicU64,
+    pub rolled_up: AtomicU64,
+    pub vacuumed_pages: AtomicU64,
+    pub failures: AtomicU64,
+    /// Unix ms when the last run finished (0: none yet).
+    pub last_run_ms: AtomicU64,
+}
+
+impl CompactionCounters {
+    fn publish(&self, r: &CompactionReport) {
+        self.chunks.store(r.chunks, Ordering::Relaxed);
+        self.samples.store(r.samples, Ordering::Relaxed);
+        self.rolled_up.store(r.rolled_up, Ordering::Relaxed);
+        self.vacuumed_pages
+            .store(r.vacuumed_pages, Ordering::Relaxed);
+        self.failures.store(r.failures, Ordering::Relaxed);
+    }
 }
 
 /// What one writer request did: `units` samples archived or rolled up, or pages freed (0:
@@ -75,6 +104,7 @@ impl CompactionTask {
             retention,
             first_delay: FIRST_DELAY,
             period: PERIOD,
+            counters: Arc::default(),
         })
     }
 
@@ -100,10 +130,16 @@ impl CompactionTask {
             }
             steps.push(Step::Vacuum);
             for step in steps {
-                if !self.repeat(&step, &mut report, &mut shutdown).await {
+                let going_on = self.repeat(&step, &mut report, &mut shutdown).await;
+                self.counters.publish(&report);
+                if !going_on {
                     return report;
                 }
             }
+            self.counters.runs.fetch_add(1, Ordering::Relaxed);
+            self.counters
+                .last_run_ms
+                .store(u64::try_from(now_ms()).unwrap_or(0), Ordering::Relaxed);
         }
         report
     }
@@ -248,6 +284,7 @@ mod tests {
         let (handle, rx) = writer_channel(16);
         let writer = spawn_writer(store, rx, WriterConfig::default());
         let (trigger, shutdown) = shutdown_channel();
+        let counters = Arc::new(CompactionCounters::default());
         let task = tokio::spawn(
             CompactionTask {
                 writer: handle.clone(),
@@ -255,6 +292,7 @@ mod tests {
                 retention: None,
                 first_delay: Duration::ZERO,
                 period: Duration::from_secs(3600),
+                counters: Arc::clone(&counters),
             }
             .run(shutdown),
         );
@@ -294,6 +332,13 @@ mod tests {
             .zip(&old)
             .all(|(a, b)| a.t_ms == b.t_ms && a.value == b.value));
         assert_eq!(report.failures, 0);
+        // The metrics read the same totals the task reports.
+        let get = |a: &AtomicU64| a.load(Ordering::Relaxed);
+        assert_eq!(get(&counters.samples), report.samples);
+        assert_eq!(get(&counters.chunks), report.chunks);
+        assert!(report.samples > 0 && report.chunks > 0);
+        // Shutdown may come before the period's vacuum step ends: at most one run finished.
+        assert!(get(&counters.runs) <= 1);
     }
 
     /// With `raw_days`, the task rolls up old steady samples through the writer (compaction
@@ -356,6 +401,7 @@ mod tests {
                 retention: Some(policy),
                 first_delay: Duration::ZERO,
                 period: Duration::from_secs(3600),
+                counters: Arc::default(),
             }
             .run(shutdown),
         );

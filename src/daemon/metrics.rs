@@ -41,6 +41,8 @@ pub struct Live {
     pub gap: Arc<GapCounters>,
     /// `None`: no `[fleet]` in this run.
     pub sync: Option<Arc<super::SyncCounters>>,
+    /// `None`: compaction and retention off in this run.
+    pub compaction: Option<Arc<super::CompactionCounters>>,
 }
 
 impl Live {
@@ -74,6 +76,18 @@ impl Live {
                 rows_sent: get(&f.rows_sent),
                 last_ok_ms: get(&f.last_ok_ms),
             }),
+            compaction: self
+                .compaction
+                .as_deref()
+                .map(|c| crate::metrics::CompactionSnapshot {
+                    runs: get(&c.runs),
+                    chunks: get(&c.chunks),
+                    samples_archived: get(&c.samples),
+                    samples_rolled_up: get(&c.rolled_up),
+                    pages_vacuumed: get(&c.vacuumed_pages),
+                    failures: get(&c.failures),
+                    last_run_ms: get(&c.last_run_ms),
+                }),
         }
     }
 
@@ -213,6 +227,7 @@ mod tests {
             diagnosis: Some(Arc::default()),
             gap: Arc::default(),
             sync: Some(Arc::default()),
+            compaction: Some(Arc::default()),
         }
     }
 
@@ -241,7 +256,14 @@ mod tests {
             sync.syncs_ok.store(2, Ordering::Relaxed);
             sync.rows_sent.store(35_047, Ordering::Relaxed);
         }
+        if let Some(c) = &live.compaction {
+            c.samples.store(777, Ordering::Relaxed);
+        }
         let page = get(addr, "/metrics").await;
+        assert!(
+            page.contains("\ngtwatch_samples_archived_total 777\n"),
+            "{page}"
+        );
         assert!(page.contains("\ngtwatch_fleet_syncs_total 2\n"), "{page}");
         assert!(
             page.contains("\ngtwatch_fleet_rows_sent_total 35047\n"),

@@ -43,7 +43,7 @@ pub(crate) mod sync;
 pub(crate) mod writer;
 
 pub use acquisition::AcquisitionTask;
-pub use compaction::{CompactionReport, CompactionTask};
+pub use compaction::{CompactionCounters, CompactionReport, CompactionTask};
 pub use detector::{detector_store_options, DetectorTask, DETECTOR_CACHE_MIB};
 pub use diagnosis::{DiagnosisMeter, DiagnosisTask};
 pub use gap::{GapCounters, GapTask, GapTaskReport};
@@ -232,6 +232,7 @@ struct Running {
     diagnosis_meter: Option<Arc<DiagnosisMeter>>,
     gap_counters: Arc<GapCounters>,
     sync_counters: Option<Arc<SyncCounters>>,
+    compaction_counters: Option<Arc<CompactionCounters>>,
 }
 
 impl Running {
@@ -302,8 +303,11 @@ impl Running {
                     .run(shutdown.clone()),
                 )
             });
-        let compaction = CompactionTask::from_config(tx.clone(), &cfg.storage)
-            .map(|task| tokio::spawn(task.run(shutdown.clone())));
+        let compaction_task = CompactionTask::from_config(tx.clone(), &cfg.storage);
+        let compaction_counters = compaction_task
+            .as_ref()
+            .map(|task| Arc::clone(&task.counters));
+        let compaction = compaction_task.map(|task| tokio::spawn(task.run(shutdown.clone())));
         let diagnosis_meter = match (cfg.diagnosis.enabled, &opts.worker) {
             (true, Some(_)) => Some(Arc::new(DiagnosisMeter::default())),
             _ => None,
@@ -339,6 +343,7 @@ impl Running {
             diagnosis_meter,
             gap_counters,
             sync_counters,
+            compaction_counters,
         })
     }
 
@@ -351,6 +356,7 @@ impl Running {
             diagnosis: self.diagnosis_meter.clone(),
             gap: Arc::clone(&self.gap_counters),
             sync: self.sync_counters.clone(),
+            compaction: self.compaction_counters.clone(),
         }
     }
 
