@@ -1,4 +1,4 @@
-//! A foreign engine (issue 22 item 6): a "true" unit made differently from the engine file that
+//! Foreign engines (issue 22 item 6): a "true" unit made differently from the engine file that
 //! is calibrated to it — GSPy's map family instead of md22's, variable inlet guide vanes closing
 //! at low speed, another design point, a controllable-pitch-propeller load whose PT speed
 //! follows a combinator schedule (`tests/data/foreign/aero25_truth.toml`). The user's steps:
@@ -19,6 +19,12 @@
 //! 1.1 %), ρ ≥ 0.95 for D_GT and D_EC and the cross-talk (compressor fouling read as up to −0.9
 //! points of D_GT), and `good` fits on the degraded grid: curves of speed alone follow the operating
 //! line, not how the unit's maps differ across it, where degradation moves the points.
+//!
+//! A second foreign unit (`tests/data/foreign/pyc30_truth.toml`: pyCycle's map family, its own
+//! VIGV schedule, PR 17, 30 MW), with the same settings, meets the issue's floors but two:
+//! leave-one-load-out over all 9 loads 0.19 % mean (≤ 0.3 %), interior loads within 1 % (the
+//! extrapolated lowest load 1.3 %: asserted ≤ 1.5 %); the grid ranked at ρ 0.98 for all four,
+//! every level within 0.5 points, no compressor cross-talk; the fits say `suspect` for 11 of 15.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use gtwatch::calibrate::adapt::AdaptSettings;
@@ -41,8 +47,31 @@ fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// A foreign unit: its engine file, and the power its combinator schedule calls 100 %.
+#[derive(Debug, Clone, Copy)]
+struct Unit {
+    file: &'static str,
+    design_mw: f64,
+}
+
+/// GSPy maps, VIGVs closing below 92 %, PR 21, 25 MW.
+const AERO25: Unit = Unit {
+    file: "tests/data/foreign/aero25_truth.toml",
+    design_mw: 25.0,
+};
+
+/// pyCycle maps, VIGVs closing below 90 %, PR 17, 30 MW.
+const PYC30: Unit = Unit {
+    file: "tests/data/foreign/pyc30_truth.toml",
+    design_mw: 30.0,
+};
+
 fn truth_engine() -> Engine {
-    let path = root().join("tests/data/foreign/aero25_truth.toml");
+    unit_engine(AERO25)
+}
+
+fn unit_engine(unit: Unit) -> Engine {
+    let path = root().join(unit.file);
     Engine::new(EngineConfig::load(&path).expect("truth loads")).expect("truth calibrates")
 }
 
@@ -61,19 +90,22 @@ const INSTRUMENTS: [Signal; 8] = [
 /// Samples behind each averaged row (a 100-s steady window at 1 Hz).
 const AVERAGING: f64 = 100.0;
 
-const DESIGN_MW: f64 = 25.0;
 const DESIGN_N2: f64 = 6100.0;
 
 /// 9 loads from 30 % to 100 %, ambient 278–298 K and 99–102 kPa, shuffled by `level`; the PT
 /// speed of the propeller's combinator schedule for each.
 fn loads(level: usize) -> (Vec<OperatingPoint>, Vec<f64>) {
+    loads_of(AERO25.design_mw, level)
+}
+
+fn loads_of(design_mw: f64, level: usize) -> (Vec<OperatingPoint>, Vec<f64>) {
     let pts: Vec<OperatingPoint> = (0..9)
         .map(|k| {
             let j = (k + 4 * level) % 9;
             OperatingPoint {
                 t_amb_k: 278.0 + 20.0 * j as f64 / 8.0,
                 p_amb_kpa: 99.0 + 3.0 * ((j * 5) % 9) as f64 / 8.0,
-                power_mw: DESIGN_MW * (0.3 + 0.7 * k as f64 / 8.0),
+                power_mw: design_mw * (0.3 + 0.7 * k as f64 / 8.0),
             }
         })
         .collect();
@@ -81,7 +113,7 @@ fn loads(level: usize) -> (Vec<OperatingPoint>, Vec<f64>) {
     let n2 = pts
         .iter()
         .map(|p| {
-            let f = p.power_mw / DESIGN_MW;
+            let f = p.power_mw / design_mw;
             DESIGN_N2 * (0.70 + 0.30 * ((f - 0.3) / 0.7).clamp(0.0, 1.0).powf(0.8))
         })
         .collect();
@@ -89,7 +121,16 @@ fn loads(level: usize) -> (Vec<OperatingPoint>, Vec<f64>) {
 }
 
 fn rows_of(truth: &Engine, health: [f64; 6], level: usize, group: &str) -> Vec<Snapshot> {
-    let (pts, n2) = loads(level);
+    rows_at(truth, loads(level), health, level, group)
+}
+
+fn rows_at(
+    truth: &Engine,
+    (pts, n2): (Vec<OperatingPoint>, Vec<f64>),
+    health: [f64; 6],
+    level: usize,
+    group: &str,
+) -> Vec<Snapshot> {
     let csv = snapshot_csv_at_speeds(
         truth,
         &HealthParams::from_array(health),
@@ -108,6 +149,10 @@ fn rows_of(truth: &Engine, health: [f64; 6], level: usize, group: &str) -> Vec<S
 /// ratio P2/P1, power from torque × speed, both speeds; the air flow is the datasheet's (3 %
 /// off the truth, which nobody knows).
 fn user_model(full_load: &Snapshot) -> Engine {
+    user_model_with(full_load, 70.0 * 1.03)
+}
+
+fn user_model_with(full_load: &Snapshot, datasheet_flow: f64) -> Engine {
     let path = root().join("config/engine_md22.toml");
     let md22 = Engine::new(EngineConfig::load(&path).expect("md22")).expect("md22");
     let v = |s: Signal| {
@@ -124,7 +169,7 @@ fn user_model(full_load: &Snapshot) -> Engine {
     cfg.design.power_mw = v(Signal::Torque) * omega / 1e3;
     cfg.design.gg_speed_rpm = v(Signal::N1);
     cfg.design.pt_speed_rpm = full_load.n2_rpm;
-    cfg.design.exhaust_flow_kg_s = 70.0 * 1.03;
+    cfg.design.exhaust_flow_kg_s = datasheet_flow;
     // A propeller on a combinator: the PT speed is measured, a load law does not hold.
     cfg.load = None;
     md22.with_config(cfg).expect("user model")
@@ -390,4 +435,131 @@ fn grid(i: usize) -> [f64; 6] {
         1 => [0.0, 0.0, t[0], t[1], 0.0, 0.0],
         _ => [c[0], c[1], t[0], t[1], 0.0, 0.0],
     }
+}
+
+/// A second foreign unit, of another map family again (pyCycle's axi5 compressor and lpt2269
+/// turbines, tests/data/reference/pycycle_maps/), with the settings tuned on the first: the
+/// middle load left out of an adapted calibration, and the healthy baseline diagnosed on the
+/// model adapted to all 9 loads.
+#[test]
+fn adapted_md22_fits_a_second_foreign_unit() {
+    let truth = unit_engine(PYC30);
+    let rows = rows_at(&truth, loads_of(PYC30.design_mw, 0), [0.0; 6], 0, "healthy");
+    let full = rows
+        .iter()
+        .max_by(|a, b| a.n2_rpm.total_cmp(&b.n2_rpm))
+        .expect("full load");
+    // The datasheet's flow 3 % off the truth's 88 kg/s, as for the first unit.
+    let model = user_model_with(full, 88.0 * 0.97);
+    // [design only, adapted] × [mean, worst] per left-out load.
+    let mut table: Vec<[[f64; 2]; 2]> = Vec::new();
+    for k in 0..rows.len() {
+        let train: Vec<Snapshot> = rows
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| *i != k)
+            .map(|(_, r)| r.clone())
+            .collect();
+        let mut cells = [[f64::NAN; 2]; 2];
+        for (m, adapt) in [false, true].into_iter().enumerate() {
+            let e = calibrated(&model, &train, adapt);
+            let err = errors_pct(&e, &rows[k]).expect("left-out row solves");
+            let mean = err.iter().map(|(_, x)| x.abs()).sum::<f64>() / err.len() as f64;
+            let worst = err.iter().map(|(_, x)| x.abs()).fold(0.0, f64::max);
+            eprintln!(
+                "pyc30 left out line {} (adapt {adapt}): mean {mean:.3} %, worst {worst:.3} % {:?}",
+                rows[k].line,
+                err.iter()
+                    .map(|(s, x)| format!("{s} {x:+.3}"))
+                    .collect::<Vec<_>>()
+            );
+            cells[m] = [mean, worst];
+        }
+        table.push(cells);
+    }
+    eprintln!("pyc30 left-out line | design only: mean / worst % | adapted: mean / worst %");
+    for (k, c) in table.iter().enumerate() {
+        eprintln!(
+            "{:>10} | {:6.3} / {:6.3} | {:6.3} / {:6.3}",
+            rows[k].line, c[0][0], c[0][1], c[1][0], c[1][1]
+        );
+    }
+    let mean_of = |m: usize| table.iter().map(|c| c[m][0]).sum::<f64>() / table.len() as f64;
+    let worst_of =
+        |m: usize, ks: std::ops::Range<usize>| ks.map(|k| table[k][m][1]).fold(0.0, f64::max);
+    eprintln!(
+        "pyc30 all loads: design only mean {:.3} %, adapted mean {:.3} %, worst {:.3} % \
+         (interior {:.3} %)",
+        mean_of(0),
+        mean_of(1),
+        worst_of(1, 0..table.len()),
+        worst_of(1, 1..table.len() - 1)
+    );
+    // The issue's floors on this unit: mean ≤ 0.3 %, and no signal beyond 1 % on the interior
+    // loads (the lowest and the full load, left out, are extrapolations: 1.5 % there).
+    assert!(mean_of(1) <= 0.3, "adapted mean {:.3} %", mean_of(1));
+    assert!(mean_of(1) < mean_of(0) / 5.0);
+    assert!(worst_of(1, 1..table.len() - 1) <= 1.0);
+    assert!(worst_of(1, 0..table.len()) <= 1.5);
+
+    let adapted = calibrated(&model, &rows, true);
+    let cfg = DiagnosisConfig {
+        max_model_runs: 1500,
+        threads: Some(2),
+        ..DiagnosisConfig::default()
+    };
+    let report = diagnose_snapshots(&adapted, &rows, &cfg).expect("diagnosis");
+    let g = &report.groups[0];
+    let baseline = g.result.health.to_array();
+    let quality = format!("{:?}", g.result.fit_quality.verdict).to_lowercase();
+    eprintln!("pyc30 healthy baseline: {baseline:.3?} quality {quality}");
+    assert_eq!(quality, "good");
+    assert!(baseline.iter().all(|v| v.abs() <= 0.3), "{baseline:?}");
+
+    // The same degradation grid as the first unit's, at all 9 loads.
+    let levels = 15;
+    let mut rows_all = Vec::new();
+    for i in 0..levels {
+        let loads = loads_of(PYC30.design_mw, i + 1);
+        rows_all.extend(rows_at(
+            &truth,
+            loads,
+            grid(i),
+            i + 1,
+            &format!("level{i:02}"),
+        ));
+    }
+    let report = diagnose_snapshots(&adapted, &rows_all, &cfg).expect("diagnosis");
+    assert!(report.failed.is_empty(), "{:?}", report.failed);
+    let est: Vec<[f64; 6]> = report
+        .groups
+        .iter()
+        .map(|g| g.result.health.to_array())
+        .collect();
+    let truths: Vec<[f64; 6]> = (0..levels).map(grid).collect();
+    let column = |v: &[[f64; 6]], p: usize| v.iter().map(|x| x[p]).collect::<Vec<f64>>();
+    let mut good = 0;
+    for (i, e) in est.iter().enumerate() {
+        let q = format!("{:?}", report.groups[i].result.fit_quality.verdict).to_lowercase();
+        good += usize::from(q == "good");
+        eprintln!("pyc30 level {i:2} truth {:?} est {e:+.2?} {q}", truths[i]);
+    }
+    for p in 0..4 {
+        let rho = spearman(&column(&est, p), &column(&truths, p));
+        let worst = (0..levels)
+            .map(|i| (est[i][p] - truths[i][p]).abs())
+            .fold(0.0, f64::max);
+        eprintln!(
+            "pyc30 {}: Spearman {rho:.3}, worst error {worst:.3} points",
+            HEALTH_NAMES[p]
+        );
+        // The issue's floors: ρ ≥ 0.95, each level within 0.5 points.
+        assert!(rho >= 0.95, "{}: ρ {rho:.3}", HEALTH_NAMES[p]);
+        assert!(worst <= 0.5, "{}: worst {worst:.3}", HEALTH_NAMES[p]);
+    }
+    // Cross-talk: the compressor estimate on the turbine-only levels stays near zero.
+    for i in (0..levels).filter(|&i| truths[i][0] == 0.0) {
+        assert!(est[i][0].abs() <= 0.3, "level {i}: D_GC {:.3}", est[i][0]);
+    }
+    eprintln!("pyc30: {good} of {levels} fits good");
 }

@@ -163,6 +163,15 @@ fn knots(lo: f64, count: usize) -> Vec<f64> {
         .collect()
 }
 
+/// Least spacing of knots (relative speed): the engine file refuses a knot within 0.01 of the
+/// design anchor, and [`knots`] puts the last one a spacing below it.
+const MIN_KNOT_SPACING: f64 = 0.015;
+
+/// The most knots [`knots`] can spread from `lo` with [`MIN_KNOT_SPACING`] (at least 1).
+fn knots_that_fit(lo: f64) -> usize {
+    (((1.0 - lo) / MIN_KNOT_SPACING).floor() as usize).max(1)
+}
+
 /// Distinct speeds (to 0.005) below 0.99 in `speeds`.
 fn distinct_speeds(speeds: &[f64]) -> usize {
     let mut v: Vec<i64> = speeds
@@ -440,7 +449,7 @@ fn speed_ranges(engine: &Engine, ctx: Ctx) -> Result<SpeedRanges, CalibrateError
         .zip(&ranges)
         .map(|(v, r)| {
             if r[0] < 0.97 {
-                max_knots_of(v, ctx.settings.max_knots)
+                max_knots_of(v, ctx.settings.max_knots).min(knots_that_fit(r[0]))
             } else {
                 0
             }
@@ -845,6 +854,21 @@ mod tests {
         assert_eq!(knots(0.7, 1), vec![0.7]);
         let k = knots(0.7, 3);
         assert!((k[1] - 0.8).abs() < 1e-12 && (k[2] - 0.9).abs() < 1e-12);
+    }
+
+    #[test]
+    fn knots_keep_clear_of_the_design_anchor() {
+        // Data from 0.95 up: 6 knots would put the last at 0.9917, which the engine file
+        // refuses (within 0.01 of the anchor).
+        let n = knots_that_fit(0.95);
+        assert_eq!(n, 3);
+        let k = knots(0.95, n);
+        assert!(
+            k.iter().all(|x| 1.0 - x >= MIN_KNOT_SPACING - 1e-12),
+            "{k:?}"
+        );
+        assert_eq!(knots_that_fit(0.969), 2);
+        assert_eq!(knots_that_fit(0.99), 1);
     }
 
     #[test]
