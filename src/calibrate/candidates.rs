@@ -166,16 +166,34 @@ pub fn candidate(engine: &Engine, key: &str) -> Result<Candidate, CalibrateError
         key: key.to_string(),
         reason,
     };
-    if key.starts_with("effects.") || key.starts_with("sensors.") {
+    if key.starts_with("sensors.") {
         return Err(bad(
-            "not a design parameter (effects and sensor settings are not calibrated here; \
-             instrument offsets: --offsets)"
+            "not a design parameter (sensor settings are not calibrated; instrument offsets: \
+             --offsets)"
                 .into(),
         ));
     }
     let guess = engine.get_param(key).map_err(|e| bad(e.to_string()))?;
     let range = param_range(key)
         .ok_or_else(|| bad("has no allowed range (not a tunable number)".into()))?;
+    if key.starts_with("effects.") {
+        // An effect's parameter (a VIGV schedule, a bleed, a clearance…; the effect is enabled
+        // with its defaults when the file has none): no datasheet value to spread around, so
+        // its realistic interval is the library's whole range (`--params KEY=LOW:HIGH` narrows).
+        if !(range.min < guess && guess < range.max) {
+            return Err(bad(format!(
+                "the value {guess} is on the edge of the library's range {}…{}: set it inside \
+                 first, or give an interval",
+                range.min, range.max
+            )));
+        }
+        return Ok(Candidate {
+            key: key.to_string(),
+            guess,
+            lower: range.min,
+            upper: range.max,
+        });
+    }
     let half = match spread_of(key) {
         Spread::Absolute(d) => d,
         Spread::Relative(f) => f * guess.abs(),
@@ -319,12 +337,16 @@ mod tests {
         }
         for key in [
             "sensors.t4.bias",
-            "effects.fuel_system.lag_s",
+            "effects.no_such_effect.x",
+            "effects.vigv_schedule.nope",
             "design.nope",
             "name",
         ] {
             let err = candidate(&e, key).expect_err(key);
             assert!(err.to_string().contains(key), "{err}");
         }
+        // An effect's parameter: its default (the file has no VIGV) within the library's range.
+        let v = candidate(&e, "effects.vigv_schedule.flow_delta_pct").expect("vigv");
+        assert_eq!((v.lower, v.guess, v.upper), (-15.0, -3.0, 15.0));
     }
 }
