@@ -374,7 +374,7 @@ pub(crate) fn hook(
     ctx: std::sync::Arc<crate::worker::WorkerContext>,
     econ: WashEconomics,
 ) -> crate::worker::AfterResult {
-    std::sync::Arc::new(move |db: &mut dyn Db, segment_id: i64, _outcome| {
+    std::sync::Arc::new(move |db: &mut dyn Db, segment_id: i64, _outcome, _wall| {
         match refresh(
             db,
             &ctx.engine,

@@ -2,13 +2,20 @@
 //! segment and Method A on its steady windows, or a recorded reason why not.
 //!
 //! The queue is the database (`Store::pending_segments`: closed segments without a result or
-//! reason), so a restarted daemon picks up what was pending. One segment at a time (bounded
-//! concurrency 1); the fit itself runs on its own rayon pool of `[diagnosis] threads`, called
-//! from tokio's blocking pool, never on the async runtime. The optimiser's cancel flag is tied
-//! to the shutdown value: a cancelled fit stores nothing, and the segment stays pending. Each
-//! segment's outcome is written as one request ([`NewOutcome`], one transaction: all or nothing
-//! on kill -9) through a [`Db`]: in the daemon that reads through the worker's read-only
-//! connection and writes through the one writer.
+//! reason), so a restarted daemon picks up what was pending. `[diagnosis] threads` is how many
+//! cores a drain uses: with a backlog (a replay of months of logs, a daemon that was down) up
+//! to that many start-ups are fitted at once, each on its own scoped thread and one core; a
+//! start-up alone in the queue gets all of them for its fit (one fit's threads wait for each
+//! other at every generation, and its serial parts leave the other cores idle; independent fits
+//! never wait for each other). The results do not depend on this: a fit is a
+//! pure function of its data, settings and seed, whatever its thread count, and outcomes are
+//! stored in queue order, so the rows are those of one-at-a-time diagnosis. The drain runs on
+//! tokio's blocking pool in the daemon, never on the async runtime. The optimiser's cancel
+//! flag is tied to the shutdown value: a cancelled fit stores nothing, and the segment (and any
+//! after it) stays pending. Each segment's outcome is written as one request ([`NewOutcome`],
+//! one transaction: all or nothing on kill -9) through a [`Db`], from the drain's own thread
+//! only (the fit threads never touch the database): in the daemon that reads through the
+//! worker's read-only connection and writes through the one writer.
 //!
 //! What is diagnosable and the fits themselves are [`crate::diagnosis::assess`] (pure); this
 //! module reads a segment, calls it and stores the outcome ([`diagnose_segment`]).
@@ -28,7 +35,9 @@ use crate::store::{
 };
 
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 /// Serialised settings leave the default health bounds out, so the configuration hash of
 /// results stored before the key existed stays the same.
@@ -42,7 +51,9 @@ fn is_default_bounds(b: &[f64; 2]) -> bool {
 pub struct DiagnosisSettings {
     /// Diagnose closed start-ups in `gtwatch run` and `gtwatch replay`. Default true.
     pub enabled: bool,
-    /// Threads of one fit. Default 1 (the daemon's 2 cores also poll and write).
+    /// Cores the diagnosis uses: start-ups of a backlog fitted at once (one core each), or the
+    /// threads of a lone start-up's fit. Results do not depend on it. Default 1 (the daemon's
+    /// 2 cores also poll and write); a replay of a long log gains from idle cores.
     pub threads: usize,
     /// Seed of the global optimiser. Default 1.
     pub seed: u64,
@@ -245,9 +256,12 @@ pub enum SegmentOutcome {
     Cancelled,
 }
 
-/// Called after each stored outcome (segment id, outcome), on the worker's blocking thread,
-/// with the worker's [`Db`]: the place to recompute trends, detected washes and advice.
-pub(crate) type AfterResult = Arc<dyn Fn(&mut dyn Db, i64, &SegmentOutcome) + Send + Sync>;
+/// Called after each stored outcome (segment id, outcome, that start-up's own wall time:
+/// reading its data, both fits and storing, not the time it waited for an earlier start-up's
+/// turn), in queue order, on the drain's thread with the worker's [`Db`]: the place to
+/// recompute trends, detected washes and advice.
+pub(crate) type AfterResult =
+    Arc<dyn Fn(&mut dyn Db, i64, &SegmentOutcome, Duration) + Send + Sync>;
 
 /// Reads one stored segment's data for [`assess`] (an error if there is no such segment).
 /// Takes `&Store`, so a [`crate::store::ReadStore`] serves as well.
@@ -275,12 +289,19 @@ pub(crate) fn assess_segment(
     rec: &SegmentRecording,
     cancel: &Cancel,
 ) -> Assessment {
-    assess(
-        &segment_data(rec),
-        &ctx.engine,
-        &ctx.settings.assess_settings(),
-        cancel,
-    )
+    assess_segment_on(ctx, rec, cancel, ctx.settings.threads)
+}
+
+/// [`assess_segment`] with each fit on `threads` threads. The result does not depend on them.
+pub(crate) fn assess_segment_on(
+    ctx: &WorkerContext,
+    rec: &SegmentRecording,
+    cancel: &Cancel,
+    threads: usize,
+) -> Assessment {
+    let mut settings = ctx.settings.assess_settings();
+    settings.fit.threads = Some(threads.max(1));
+    assess(&segment_data(rec), &ctx.engine, &settings, cancel)
 }
 
 /// The `diagnoses` rows of an assessment (none unless it diagnosed the segment).
@@ -369,48 +390,239 @@ pub struct DrainReport {
     pub cancelled: bool,
 }
 
+/// One start-up a drain handed to a fit thread, on its way back.
+struct Finished {
+    /// Place in the drain's order (the order the segments were taken from the queue).
+    seq: u64,
+    segment_id: i64,
+    /// The assessment, or the panic of the thread that made it.
+    assessment: std::thread::Result<Assessment>,
+    /// Reading its data and fitting it.
+    wall: Duration,
+}
+
+/// Sets a cancel flag when dropped: however a drain ends (done, store error, panic), no fit it
+/// started keeps a core busy for a result nobody will store.
+struct CancelOnDrop<'a>(&'a Cancel);
+
+impl Drop for CancelOnDrop<'_> {
+    fn drop(&mut self) {
+        self.0.cancel();
+    }
+}
+
+/// How often a drain waiting for its fits looks at the caller's cancel flag.
+const CANCEL_POLL: Duration = Duration::from_millis(50);
+
 /// Diagnoses every pending segment, oldest first, until the queue is empty or `cancel` is set.
+///
+/// Up to `[diagnosis] threads` segments are fitted at once, each on a scoped thread of its own
+/// (not a rayon pool: a fit builds its own pool, and a rayon worker waiting on another pool
+/// runs that pool's queued jobs, which nests fits on one core). A segment taken while others
+/// wait gets one core; the last one waiting gets every core still free, so a lone start-up
+/// (the daemon's everyday case) is fitted on all `threads` as before. A fit's result does not
+/// depend on its thread count (`optim`: random numbers drawn before each parallel evaluation,
+/// results collected in order), so this changes no stored number.
+///
+/// Everything touching `db` stays on the calling thread: reading each segment's data, and
+/// storing each outcome (one transaction) followed by `after`, strictly in queue order, so the
+/// rows, their ids and what the hook sees are those of one-at-a-time diagnosis. A cancelled
+/// fit stores nothing, and nothing after it in the order is stored either: those segments stay
+/// pending, as a one-at-a-time drain would have left them.
 pub(crate) fn drain_pending(
     db: &mut dyn Db,
     ctx: &WorkerContext,
     cancel: &Cancel,
     after: Option<&AfterResult>,
 ) -> Result<DrainReport, StoreError> {
-    let mut rep = DrainReport::default();
-    loop {
-        if cancel.is_cancelled() {
-            rep.cancelled = true;
-            return Ok(rep);
-        }
-        let Some(seg) = db.read().pending_segments()?.into_iter().next() else {
-            return Ok(rep);
+    // The fits' own flag: set from `cancel` by the waiting loop, and when the drain ends.
+    let stop = Cancel::new();
+    std::thread::scope(|scope| {
+        let _stop_fits = CancelOnDrop(&stop);
+        let (tx, rx) = std::sync::mpsc::channel::<Finished>();
+        let mut d = Drain {
+            ctx,
+            cancel,
+            stop: &stop,
+            cores: ctx.settings.threads.max(1),
+            in_flight: BTreeMap::new(),
+            done: BTreeMap::new(),
+            next_seq: 0,
+            next_store: 0,
+            stopped: false,
+            rep: DrainReport::default(),
         };
-        tracing::info!(segment = seg.id, "diagnosing start-up");
-        let outcome = diagnose_segment(db, ctx, seg.id, cancel)?;
-        match &outcome {
-            SegmentOutcome::Diagnosed { ids, failures } => {
-                rep.diagnosed += 1;
-                tracing::info!(
-                    segment = seg.id,
-                    results = ids.len(),
-                    failed_methods = failures.len(),
-                    "start-up diagnosed"
-                );
+        // Look at the queue at the start and whenever a fit came back (cores freed), not at
+        // every cancel check: a start-up closing meanwhile waits for the next free core.
+        let mut look = true;
+        loop {
+            if !d.stopped && cancel.is_cancelled() {
+                d.stop();
             }
-            SegmentOutcome::Undiagnosable(f) => {
-                rep.undiagnosable += 1;
-                let reasons: Vec<&str> = f.iter().map(|x| x.reason.as_str()).collect();
-                tracing::info!(segment = seg.id, reasons = ?reasons, "start-up not diagnosable");
+            if !d.stopped && look {
+                d.dispatch(db, scope, &tx)?;
             }
-            SegmentOutcome::Cancelled => {
-                rep.cancelled = true;
-                return Ok(rep);
+            if d.in_flight.is_empty() {
+                // Nothing running: the queue is empty, or the drain stopped and every fit it
+                // started has come back.
+                return Ok(d.rep);
+            }
+            match rx.recv_timeout(CANCEL_POLL) {
+                Ok(f) => {
+                    d.in_flight.remove(&f.seq);
+                    d.done.insert(f.seq, f);
+                    d.store_ready(db, after)?;
+                    look = true;
+                }
+                // `tx` lives here, so the channel cannot disconnect; a timeout just re-checks
+                // the cancel flag.
+                Err(_) => look = false,
             }
         }
-        // Hook point: trends, detected washes and advice are recomputed here.
-        if let Some(f) = after {
-            f(db, seg.id, &outcome);
+    })
+}
+
+/// The state of one [`drain_pending`].
+struct Drain<'a> {
+    ctx: &'a WorkerContext,
+    cancel: &'a Cancel,
+    stop: &'a Cancel,
+    /// `[diagnosis] threads`: cores the fits of this drain may use together.
+    cores: usize,
+    /// seq → (segment id, cores its fit uses).
+    in_flight: BTreeMap<u64, (i64, usize)>,
+    /// Fits back but not yet stored (an earlier one is still running), by seq.
+    done: BTreeMap<u64, Finished>,
+    next_seq: u64,
+    /// The seq whose outcome is stored next.
+    next_store: u64,
+    /// Cancelled: nothing more is started or stored.
+    stopped: bool,
+    rep: DrainReport,
+}
+
+impl<'a> Drain<'a> {
+    fn stop(&mut self) {
+        self.stopped = true;
+        self.rep.cancelled = true;
+        self.stop.cancel();
+    }
+
+    /// Starts fits of pending segments not yet taken while cores are free.
+    fn dispatch<'scope>(
+        &mut self,
+        db: &mut dyn Db,
+        scope: &'scope std::thread::Scope<'scope, '_>,
+        tx: &std::sync::mpsc::Sender<Finished>,
+    ) -> Result<(), StoreError>
+    where
+        'a: 'scope,
+    {
+        let mut used: usize = self.in_flight.values().map(|(_, n)| n).sum();
+        if used >= self.cores {
+            return Ok(());
         }
+        let taken: std::collections::HashSet<i64> = self
+            .in_flight
+            .values()
+            .map(|(id, _)| *id)
+            .chain(self.done.values().map(|f| f.segment_id))
+            .collect();
+        let waiting: Vec<i64> = db
+            .read()
+            .pending_segments()?
+            .into_iter()
+            .map(|s| s.id)
+            .filter(|id| !taken.contains(id))
+            .collect();
+        for (k, &segment_id) in waiting.iter().enumerate() {
+            let free = self.cores - used;
+            if free == 0 {
+                break;
+            }
+            // One core each while more wait; the last one waiting takes what is left.
+            let threads = if k + 1 == waiting.len() { free } else { 1 };
+            let began = Instant::now();
+            let rec = read_segment(db.read(), segment_id)?;
+            tracing::info!(segment = segment_id, threads, "diagnosing start-up");
+            let seq = self.next_seq;
+            self.next_seq += 1;
+            self.in_flight.insert(seq, (segment_id, threads));
+            used += threads;
+            let (ctx, stop, tx) = (self.ctx, self.stop, tx.clone());
+            scope.spawn(move || {
+                let assessment = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    assess_segment_on(ctx, &rec, stop, threads)
+                }));
+                // The receiver is gone only when the drain already ended (an error or a
+                // panic): nobody wants this result then.
+                let _ = tx.send(Finished {
+                    seq,
+                    segment_id,
+                    assessment,
+                    wall: began.elapsed(),
+                });
+            });
+        }
+        Ok(())
+    }
+
+    /// Stores the outcomes that are next in order, each followed by the hook.
+    fn store_ready(
+        &mut self,
+        db: &mut dyn Db,
+        after: Option<&AfterResult>,
+    ) -> Result<(), StoreError> {
+        while let Some(f) = self.done.remove(&self.next_store) {
+            self.next_store += 1;
+            // A shutdown stores nothing more, even a fit that finished before its flag
+            // reached it (as `assess` reports a fit that ends after the flag as cancelled).
+            if !self.stopped && self.cancel.is_cancelled() {
+                self.stop();
+            }
+            if self.stopped {
+                continue;
+            }
+            let assessment = match f.assessment {
+                Ok(a) => a,
+                Err(panic) => {
+                    // As when the fit ran on the drain's own thread: the drain panics (the
+                    // daemon logs it and drains again later); the other fits are stopped.
+                    self.stop.cancel();
+                    std::panic::resume_unwind(panic);
+                }
+            };
+            let stored = Instant::now();
+            let outcome = store_assessment(db, self.ctx, f.segment_id, &assessment)?;
+            let wall = f.wall + stored.elapsed();
+            let seg = f.segment_id;
+            match &outcome {
+                SegmentOutcome::Diagnosed { ids, failures } => {
+                    self.rep.diagnosed += 1;
+                    tracing::info!(
+                        segment = seg,
+                        results = ids.len(),
+                        failed_methods = failures.len(),
+                        wall_s = wall.as_secs_f64(),
+                        "start-up diagnosed"
+                    );
+                }
+                SegmentOutcome::Undiagnosable(u) => {
+                    self.rep.undiagnosable += 1;
+                    let reasons: Vec<&str> = u.iter().map(|x| x.reason.as_str()).collect();
+                    tracing::info!(segment = seg, reasons = ?reasons, "start-up not diagnosable");
+                }
+                SegmentOutcome::Cancelled => {
+                    self.stop();
+                    continue;
+                }
+            }
+            // Hook point: trends, detected washes and advice are recomputed here.
+            if let Some(h) = after {
+                h(db, seg, &outcome, wall);
+            }
+        }
+        Ok(())
     }
 }
 

@@ -1,4 +1,4 @@
-//! `gtwatch bench month [--days N] [--seed S] [--keep DIR] [--json]`: a month of plant data
+//! `gtwatch bench month [--days N] [--seed S] [--threads N] [--keep DIR] [--json]`: a month of plant data
 //! through the product the way a plant engineer replays a historian export.
 //!
 //! Writes a 1 Hz CSV log of the fouling plant (one start-up a day, noise and sensor lags,
@@ -36,6 +36,10 @@ pub struct BenchMonthArgs {
     /// Keep the log, config and database in DIR (default: a temporary directory).
     #[arg(long)]
     pub keep: Option<PathBuf>,
+    /// `[diagnosis] threads` of the replay's configuration: cores the diagnosis of the backlog
+    /// uses (default: the shipped configuration's, 1).
+    #[arg(long)]
+    pub threads: Option<usize>,
     /// Print JSON only.
     #[arg(long)]
     pub json: bool,
@@ -55,6 +59,8 @@ struct DayResult {
 struct MonthResult {
     bench: &'static str,
     days: usize,
+    /// `[diagnosis] threads` of the replay.
+    diagnosis_threads: usize,
     rows: u64,
     samples_inserted: u64,
     csv_bytes: u64,
@@ -197,11 +203,19 @@ pub(crate) fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<Exit
 
     // 2. The shipped configuration, pointed at this database.
     let shipped = include_str!("../../config/gtwatch.toml");
-    let cfg_text = shipped.replacen(
+    let mut cfg_text = shipped.replacen(
         "path = \"/var/lib/gtwatch/gtwatch.db\"",
         &format!("path = \"{}\"", db.display()),
         1,
     );
+    if let Some(n) = a.threads {
+        // The shipped file sets the key once, in `[diagnosis]`.
+        anyhow::ensure!(
+            cfg_text.matches("\nthreads = 1\n").count() == 1,
+            "the shipped configuration no longer sets `threads = 1` once"
+        );
+        cfg_text = cfg_text.replacen("\nthreads = 1\n", &format!("\nthreads = {n}\n"), 1);
+    }
     let cfg_path = dir.join("gtwatch.toml");
     std::fs::write(&cfg_path, cfg_text)?;
     let sections = (commands.load_sections)(&cfg_path)?;
@@ -247,6 +261,7 @@ pub(crate) fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<Exit
     let result = MonthResult {
         bench: "month",
         days: a.days,
+        diagnosis_threads: a.threads.unwrap_or(1),
         rows,
         samples_inserted: rep.samples_inserted,
         csv_bytes: std::fs::metadata(&log).map(|m| m.len()).unwrap_or(0),

@@ -1,6 +1,7 @@
 //! The diagnosis task: drains the queue of closed start-ups (`worker::drain_pending`) on the
-//! blocking pool, one segment at a time, now, whenever the detector wakes it, and at least
-//! every `[diagnosis] poll_interval_ms`, until shutdown. It reads through its own read-only
+//! blocking pool (a backlog on up to `[diagnosis] threads` cores, each fit on a scoped thread
+//! the drain starts there, never on the async runtime), now, whenever the detector wakes it,
+//! and at least every `[diagnosis] poll_interval_ms`, until shutdown. It reads through its own read-only
 //! connection and sends each outcome (and the wash advice the after-result hook computes) to
 //! the one writer, waiting for the commit. Shutdown cancels a running fit, which stores
 //! nothing: the segment stays pending for the next start. Errors are logged and the drain
@@ -15,8 +16,8 @@ use crate::store::{ReadStore, StoreOptions, ViaWriter, WriterHandle};
 use crate::worker::{drain_pending, AfterResult, DrainReport, SegmentOutcome, WorkerContext};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::sync::Arc;
+use std::time::Duration;
 use tokio::sync::Notify;
 
 /// What the metrics endpoint reads of the diagnosis, live: start-ups diagnosed and found
@@ -32,28 +33,23 @@ pub struct DiagnosisMeter {
 
 impl DiagnosisMeter {
     /// `inner` (the after-result hook) with the meter around it: counts the outcome, records
-    /// the time since the drain began or the previous start-up was done, and reads the queue.
+    /// the start-up's own wall time (several may be fitted at once) and reads the queue.
     fn around(self: &Arc<Self>, inner: Option<AfterResult>) -> AfterResult {
         let meter = Arc::clone(self);
-        let mark = Mutex::new(Instant::now());
-        Arc::new(move |db, segment_id, outcome| {
+        Arc::new(move |db, segment_id, outcome, wall| {
             let counter = match outcome {
                 SegmentOutcome::Diagnosed { .. } => &meter.diagnosed,
                 SegmentOutcome::Undiagnosable(_) => &meter.undiagnosable,
                 // Not stored and never handed to the hook (`drain_pending` returns first).
                 SegmentOutcome::Cancelled => return,
             };
-            let began = mark.lock().map_or_else(|e| *e.into_inner(), |g| *g);
-            meter.durations.observe(began.elapsed());
+            meter.durations.observe(wall);
             counter.fetch_add(1, Ordering::Relaxed);
             if let Some(f) = &inner {
-                f(db, segment_id, outcome);
+                f(db, segment_id, outcome, wall);
             }
             if let Ok(p) = db.read().pending_segments() {
                 meter.queue.store(p.len() as u64, Ordering::Relaxed);
-            }
-            if let Ok(mut g) = mark.lock() {
-                *g = Instant::now();
             }
         })
     }

@@ -127,8 +127,11 @@ pub enum EvalError {
     Short { got: usize, want: usize },
 }
 
-/// Tally of failed evaluations by reason (at most [`FailureLog::MAX_REASONS`] distinct texts are
-/// kept; further ones are counted under "other").
+/// Tally of failed evaluations by reason (the summary names the [`FailureLog::MAX_REASONS`]
+/// most frequent texts and counts the rest under "other"). Every distinct text is counted
+/// (at most one per evaluation, so bounded by the fit's budget) and the cut is made only in the
+/// summary: which texts are named must not depend on the order parallel evaluations failed in,
+/// or a stored reason would depend on the fit's thread count.
 #[derive(Debug, Default)]
 pub struct FailureLog {
     total: AtomicUsize,
@@ -152,20 +155,28 @@ impl FailureLog {
     pub fn record(&self, e: &EvalError) {
         self.total.fetch_add(1, Ordering::Relaxed);
         if let Ok(mut m) = self.reasons.lock() {
-            let key = e.to_string();
-            if m.contains_key(&key) || m.len() < Self::MAX_REASONS {
-                *m.entry(key).or_insert(0) += 1;
-            } else {
-                *m.entry("other".into()).or_insert(0) += 1;
-            }
+            *m.entry(e.to_string()).or_insert(0) += 1;
         }
     }
 
-    /// The tally so far.
+    /// The tally so far: the most frequent texts (ties in text order), the rest as "other".
     pub fn summary(&self) -> Failures {
+        let all = self.reasons.lock().map(|m| m.clone()).unwrap_or_default();
+        let mut by_count: Vec<(String, usize)> = all.into_iter().collect();
+        // Stable sort of a text-ordered list: equal counts stay in text order.
+        by_count.sort_by_key(|e| std::cmp::Reverse(e.1));
+        let mut reasons = BTreeMap::new();
+        for (k, (text, n)) in by_count.into_iter().enumerate() {
+            let key = if k < Self::MAX_REASONS {
+                text
+            } else {
+                "other".into()
+            };
+            *reasons.entry(key).or_insert(0) += n;
+        }
         Failures {
             count: self.total.load(Ordering::Relaxed),
-            reasons: self.reasons.lock().map(|m| m.clone()).unwrap_or_default(),
+            reasons,
         }
     }
 }
@@ -462,5 +473,23 @@ mod tests {
         assert_eq!(s.count, 24);
         assert_eq!(s.reasons.len(), FailureLog::MAX_REASONS + 1);
         assert!(s.reasons["other"] > 0);
+    }
+
+    /// Parallel evaluations fail in any order: the summary must not show which came first.
+    #[test]
+    fn failure_log_summary_does_not_depend_on_the_order() {
+        let errors: Vec<EvalError> = (0..30)
+            .map(|i| EvalError::Model(format!("t = {}", i % 12)))
+            .collect();
+        let (forward, backward) = (FailureLog::default(), FailureLog::default());
+        errors.iter().for_each(|e| forward.record(e));
+        errors.iter().rev().for_each(|e| backward.record(e));
+        let s = forward.summary();
+        assert_eq!(s, backward.summary());
+        assert_eq!(s.count, 30);
+        assert_eq!(s.reasons.len(), FailureLog::MAX_REASONS + 1);
+        // t = 0 … 5 failed three times, t = 6 … 11 twice: the six most frequent are named.
+        assert_eq!(s.reasons["engine model: t = 0"], 3);
+        assert_eq!(s.reasons.values().sum::<usize>(), 30);
     }
 }

@@ -130,7 +130,7 @@ fn worker_diagnoses_a_stored_startup_and_shutdown_leaves_it_pending() {
     // Restart: the pending segment is diagnosed, Method B within 0.5 points of the truth.
     let calls = Arc::new(std::sync::atomic::AtomicUsize::new(0));
     let c2 = Arc::clone(&calls);
-    let after: AfterResult = Arc::new(move |_s, id, _o| {
+    let after: AfterResult = Arc::new(move |_s, id, _o, _w| {
         assert_eq!(id, seg);
         c2.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
     });
@@ -270,4 +270,245 @@ fn gap_step_analyses_a_diagnosed_startup_once() {
     skip.insert(seg);
     let step = analyse_next(&mut store, &ctx, &Cancel::new(), &skip).expect("step");
     assert_eq!(step, GapStep::Idle);
+}
+
+/// `days` noisy simulated start-ups, one a day (each at its own health, noise seed 40 + day),
+/// stored at 1 Hz in `db` and detected: `days` closed segments pending diagnosis.
+fn stored_daily_startups(db: &std::path::Path, days: usize) -> Store {
+    let engine = Engine::reference().expect("engine");
+    let mut store = Store::open(db).expect("open");
+    let ids: Vec<i64> = Signal::ALL
+        .iter()
+        .map(|s| store.ensure_tag(&TagInfo::for_signal(*s)).expect("tag"))
+        .collect();
+    for day in 0..days {
+        let d = day as f64;
+        let health = HealthParams {
+            D_GC: 1.0 + d,
+            D_EC: 0.4 + 0.35 * d,
+            D_GT: 0.5 + 0.2 * d,
+            D_ET: 0.3 + 0.2 * d,
+            D_GP: 0.2 + 0.1 * d,
+            D_EP: 0.3 + 0.1 * d,
+        };
+        let model = engine.model(&health);
+        let (samples, _) = run_scenario(&model, &Scenario::startup(engine.cfg())).expect("runs");
+        let o = MeasurementOptions {
+            lags: true,
+            noise: true,
+            bias: false,
+            seed: 40 + day as u64,
+        };
+        let t = Trace::from_truth(&engine, &samples, Some(&o));
+        let t0_ms = 1_700_000_000_000 + 86_400_000 * day as i64;
+        let mut batch = Vec::new();
+        for k in 0..t.len() {
+            for (i, s) in Signal::ALL.iter().enumerate() {
+                let v = t.measured[k][s.index()];
+                if v.is_finite() {
+                    batch.push(Sample {
+                        tag: ids[i],
+                        t_ms: t0_ms + (t.t_s[k] * 1000.0).round() as i64,
+                        value: v,
+                        quality: Quality::Good,
+                    });
+                }
+            }
+        }
+        store.insert_samples(&batch).expect("insert");
+    }
+    scan(&mut store, &DetectorConfig::default()).expect("scan");
+    store
+}
+
+/// Every stored number of the diagnosis but wall times, creation times and the configuration
+/// hash (which holds `threads`): rows in id order, floats as bits.
+type Stored = (
+    Vec<(
+        i64,
+        i64,
+        String,
+        Vec<Option<u64>>,
+        i64,
+        Option<String>,
+        Option<i64>,
+    )>,
+    Vec<(i64, Option<String>, String, String)>,
+    Vec<(i64, String)>,
+);
+
+fn stored_outcomes(store: &mut Store) -> Stored {
+    let c = store.conn_mut();
+    let mut st = c
+        .prepare(
+            "SELECT id, segment_id, method, d_gc, d_ec, d_gt, d_et, d_gp, d_ep, sigma_gc,
+                    sigma_ec, sigma_gt, sigma_et, sigma_gp, sigma_ep, objective, residual_level,
+                    model_runs, fit_quality, seed
+             FROM diagnoses ORDER BY id",
+        )
+        .expect("prepare");
+    let diagnoses = st
+        .query_map([], |r| {
+            let nums = (3..17)
+                .map(|i| r.get::<_, Option<f64>>(i).map(|v| v.map(f64::to_bits)))
+                .collect::<Result<Vec<_>, _>>()?;
+            Ok((
+                r.get(0)?,
+                r.get(1)?,
+                r.get(2)?,
+                nums,
+                r.get(17)?,
+                r.get(18)?,
+                r.get(19)?,
+            ))
+        })
+        .expect("query")
+        .collect::<Result<Vec<_>, _>>()
+        .expect("rows");
+    let mut st = c
+        .prepare("SELECT segment_id, method, reason, detail FROM undiagnosable ORDER BY id")
+        .expect("prepare");
+    let reasons = st
+        .query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?)))
+        .expect("query")
+        .collect::<Result<Vec<_>, _>>()
+        .expect("rows");
+    let mut st = c
+        .prepare("SELECT id, status FROM segments ORDER BY id")
+        .expect("prepare");
+    let segments = st
+        .query_map([], |r| Ok((r.get(0)?, r.get(1)?)))
+        .expect("query")
+        .collect::<Result<Vec<_>, _>>()
+        .expect("rows");
+    (diagnoses, reasons, segments)
+}
+
+fn small_ctx(threads: usize) -> WorkerContext {
+    WorkerContext::load(
+        None,
+        DiagnosisSettings {
+            threads,
+            max_model_runs: 120,
+            ..DiagnosisSettings::default()
+        },
+    )
+    .expect("context")
+}
+
+/// Issue 24 item 4: a backlog diagnosed on 2 cores (two start-ups fitted at once) stores
+/// exactly what one-at-a-time diagnosis on 1 core stores — every health value, σ, objective,
+/// fit quality, reason and row id — and the after-result hook sees every outcome, in the same
+/// order. A cancel mid-backlog stores a prefix of the queue and leaves the rest pending.
+#[test]
+fn backlog_on_two_cores_stores_what_one_core_stores() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let base = dir.path().join("base.db");
+    let mut store = stored_daily_startups(&base, 4);
+    let pending: Vec<i64> = store
+        .pending_segments()
+        .expect("pending")
+        .iter()
+        .map(|s| s.id)
+        .collect();
+    assert_eq!(pending.len(), 4, "{pending:?}");
+    // The second start-up tripped: a reason, not a result, in the middle of the queue.
+    store
+        .conn_mut()
+        .execute(
+            "UPDATE segments SET outcome = 'aborted', abort_cause = 'trip' WHERE id = ?1",
+            [pending[1]],
+        )
+        .expect("update");
+    store
+        .conn_mut()
+        .execute_batch("PRAGMA wal_checkpoint(TRUNCATE)")
+        .expect("checkpoint");
+    drop(store);
+
+    let run = |name: &str, threads: usize| {
+        let path = dir.path().join(name);
+        std::fs::copy(&base, &path).expect("copy");
+        let mut store = Store::open(&path).expect("open");
+        let seen = Arc::new(std::sync::Mutex::new(Vec::new()));
+        let s2 = Arc::clone(&seen);
+        let after: AfterResult = Arc::new(move |_db, id, outcome, _wall| {
+            let kind = match outcome {
+                SegmentOutcome::Diagnosed { .. } => "diagnosed",
+                SegmentOutcome::Undiagnosable(_) => "undiagnosable",
+                SegmentOutcome::Cancelled => "cancelled",
+            };
+            s2.lock().expect("lock").push((id, kind));
+        });
+        let t = std::time::Instant::now();
+        let rep = drain_pending(
+            &mut store,
+            &small_ctx(threads),
+            &Cancel::new(),
+            Some(&after),
+        )
+        .expect("drain");
+        eprintln!(
+            "{threads} thread(s): {rep:?} in {:.1} s",
+            t.elapsed().as_secs_f64()
+        );
+        assert_eq!((rep.diagnosed, rep.undiagnosable), (3, 1), "{rep:?}");
+        assert!(store.pending_segments().expect("pending").is_empty());
+        let seen = seen.lock().expect("lock").clone();
+        (stored_outcomes(&mut store), seen)
+    };
+    let (one, seen_one) = run("one.db", 1);
+    let (two, seen_two) = run("two.db", 2);
+    assert_eq!(
+        one.0.iter().filter(|d| d.2 == "B").count(),
+        3,
+        "a Method B result per completed start-up: {:?}",
+        one.0
+    );
+    assert_eq!(one.1.len(), 1, "{:?}", one.1);
+    assert_eq!(one.1[0].2, "aborted");
+    assert_eq!(one, two, "stored outcomes differ between 1 and 2 threads");
+    assert_eq!(seen_one.len(), 4);
+    assert_eq!(
+        seen_one.iter().map(|s| s.0).collect::<Vec<_>>(),
+        pending,
+        "the hook sees the queue in order"
+    );
+    assert_eq!(seen_one, seen_two);
+
+    // Cancelled while two fits run: what is stored is a prefix of the queue (never a later
+    // start-up before an earlier one), the rest stays pending, the drain says cancelled.
+    let path = dir.path().join("cancel.db");
+    std::fs::copy(&base, &path).expect("copy");
+    let mut store = Store::open(&path).expect("open");
+    let cancel = Cancel::new();
+    let c2 = cancel.clone();
+    let t = std::time::Instant::now();
+    let rep = std::thread::scope(|s| {
+        s.spawn(move || {
+            std::thread::sleep(Duration::from_millis(300));
+            c2.cancel();
+        });
+        drain_pending(&mut store, &small_ctx(2), &cancel, None).expect("drain")
+    });
+    assert!(rep.cancelled, "{rep:?}");
+    assert!(
+        t.elapsed() < Duration::from_secs(20),
+        "cancel took {:?}",
+        t.elapsed()
+    );
+    let left: Vec<i64> = store
+        .pending_segments()
+        .expect("pending")
+        .iter()
+        .map(|s| s.id)
+        .collect();
+    assert!(!left.is_empty(), "cancelled before the backlog was done");
+    assert!(pending.ends_with(&left), "{left:?} of {pending:?}");
+    let done = pending.len() - left.len();
+    assert_eq!(
+        (rep.diagnosed + rep.undiagnosable) as usize,
+        done,
+        "{rep:?}"
+    );
 }
