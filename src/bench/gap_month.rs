@@ -6,8 +6,9 @@
 //! The plant ([`FoulingPlant`], no wash): one start-up a day on a compressor fouling trend; from
 //! start-up `meter_from` on, the fuel meter reads `meter_scale` × the fuel flow (applied to the
 //! recorded `fuel_kg_s` column only — the engine burns what it burns); on day `poor_day` the
-//! plant's model carries an engine effect the diagnosis does not model (default: a slow fuel
-//! system, `fuel_system` delay 3 s + lag 3 s). The same frames are also written without the
+//! plant's model carries an engine effect the diagnosis does not model (default: heat soak,
+//! `heat_soak` 3 kW/K with a 300 s time constant: the hot section's metal takes heat from the
+//! gas through the start). The same frames are also written without the
 //! meter error (the clean month).
 //!
 //! Three databases, each filled by the product's own replay path (the command line's
@@ -62,9 +63,9 @@ pub struct BenchGapMonthArgs {
     pub poor_day: Option<usize>,
     /// The engine effect of that start-up, as an engine file's `[effects.NAME]` table:
     /// `NAME` and `key=value` parameters.
-    #[arg(long, default_value = "fuel_system")]
+    #[arg(long, default_value = "heat_soak")]
     pub poor_effect: String,
-    #[arg(long, value_delimiter = ',', default_value = "delay_s=3,lag_s=3")]
+    #[arg(long, value_delimiter = ',', default_value = "ua_kw_per_k=3,tau_s=300")]
     pub poor_params: Vec<String>,
     /// Compressor fouling, D_GC points per day (D_EC a third of it).
     #[arg(long, default_value_t = 0.1)]
@@ -75,6 +76,9 @@ pub struct BenchGapMonthArgs {
     /// `[diagnosis] max_model_runs` (default: the shipped configuration's).
     #[arg(long)]
     pub max_model_runs: Option<usize>,
+    /// `[diagnosis] threads` (default: the shipped configuration's, 1).
+    #[arg(long)]
+    pub threads: Option<usize>,
     /// Skip the baseline (the faulty month without gap settings): no latency comparison.
     #[arg(long)]
     pub no_baseline: bool,
@@ -150,6 +154,7 @@ struct GapMonthResult {
     poor_effect: String,
     gc_per_day: f64,
     max_model_runs: Option<usize>,
+    threads: Option<usize>,
     rows: u64,
     generate_s: f64,
     ingest_s: f64,
@@ -161,8 +166,12 @@ struct GapMonthResult {
     start_ups: Vec<StartUp>,
     /// Start-ups with a stored gap analysis, and the verdicts.
     analysed: BTreeMap<usize, Vec<String>>,
-    /// The sequence named the fuel meter (the instrument step's attribution).
+    /// The fuel meter was named for the step: the first start-up with the meter error has its
+    /// own analysis naming `fuel_meter`, or the joint fit of the sequence names it.
     instrument_named: bool,
+    /// Start-ups before the meter's step whose result the advice set aside as an
+    /// instrument's (a false attribution).
+    set_aside_before_step: Vec<usize>,
     /// The poor start-up's analysis named the plant's effect.
     poor_explained: bool,
     /// Advice: the faulty month with the gap analyses, the same without (baseline), the clean
@@ -265,7 +274,7 @@ fn write_logs(
 
 /// The shipped configuration pointed at `db`, with the bench's budget and, unless `gap`, the
 /// gap settings off.
-fn config_text(db: &Path, max_model_runs: Option<usize>, gap: bool) -> anyhow::Result<String> {
+fn config_text(a: &BenchGapMonthArgs, db: &Path, gap: bool) -> anyhow::Result<String> {
     let mut text = include_str!("../../config/gtwatch.toml").to_string();
     let mut set = |from: &str, to: &str| -> anyhow::Result<()> {
         ensure!(
@@ -279,7 +288,10 @@ fn config_text(db: &Path, max_model_runs: Option<usize>, gap: bool) -> anyhow::R
         "path = \"/var/lib/gtwatch/gtwatch.db\"",
         &format!("path = \"{}\"", db.display()),
     )?;
-    if let Some(n) = max_model_runs {
+    if let Some(n) = a.threads {
+        set("threads = 1", &format!("threads = {n}"))?;
+    }
+    if let Some(n) = a.max_model_runs {
         set("max_model_runs = 400", &format!("max_model_runs = {n}"))?;
     }
     if !gap {
@@ -386,6 +398,15 @@ fn latencies(run: &Run, s: &Sections) -> anyhow::Result<BTreeMap<i64, (f64, f64)
         .collect())
 }
 
+/// The days of the start-ups `segments`.
+fn result_days(start_ups: &[StartUp], segments: &[i64]) -> Vec<usize> {
+    start_ups
+        .iter()
+        .filter(|s| segments.contains(&s.segment_id))
+        .map(|s| s.day)
+        .collect()
+}
+
 fn mean(v: impl Iterator<Item = f64>) -> f64 {
     let (n, s) = v.fold((0usize, 0.0), |(n, s), x| (n + 1, s + x));
     if n == 0 {
@@ -458,7 +479,7 @@ pub(crate) fn run(a: BenchGapMonthArgs, commands: &Commands) -> anyhow::Result<E
     );
     let write_cfg = |name: &str, db: &Path, gap: bool| -> anyhow::Result<PathBuf> {
         let p = dir.join(name);
-        std::fs::write(&p, config_text(db, a.max_model_runs, gap)?)?;
+        std::fs::write(&p, config_text(&a, db, gap)?)?;
         Ok(p)
     };
     let faulty_cfg = write_cfg("faulty.toml", &faulty_db, true)?;
@@ -601,7 +622,14 @@ pub(crate) fn run(a: BenchGapMonthArgs, commands: &Commands) -> anyhow::Result<E
     let poor_explained = analysed
         .get(&poor_day)
         .is_some_and(|v| v.last().is_some_and(|e| *e == poor_name));
-    let instrument_named = advice.step_verdict.as_deref() == Some("instrument:fuel_meter");
+    let instrument_named = advice.step_verdict.as_deref() == Some("instrument:fuel_meter")
+        || analysed
+            .get(&meter_from)
+            .is_some_and(|v| v.last().is_some_and(|e| e == "fuel_meter"));
+    let set_aside_before_step: Vec<usize> = result_days(&start_ups, &advice.set_aside)
+        .into_iter()
+        .filter(|d| *d < meter_from)
+        .collect();
     let result = GapMonthResult {
         bench: "gap-month",
         days: a.days,
@@ -611,6 +639,7 @@ pub(crate) fn run(a: BenchGapMonthArgs, commands: &Commands) -> anyhow::Result<E
         poor_effect: poor_name,
         gc_per_day: a.gc_per_day,
         max_model_runs: a.max_model_runs,
+        threads: a.threads,
         rows,
         generate_s,
         ingest_s,
@@ -621,6 +650,7 @@ pub(crate) fn run(a: BenchGapMonthArgs, commands: &Commands) -> anyhow::Result<E
         start_ups,
         analysed,
         instrument_named,
+        set_aside_before_step,
         poor_explained,
         advice_shift_days: shift(&advice),
         advice_shift_baseline_days: advice_baseline.as_ref().and_then(shift),
