@@ -345,7 +345,9 @@ fn advice_of(commands: &Commands, run: &Run, s: &Sections) -> anyhow::Result<Adv
     let mut store = Store::open_with(&run.db, &s.storage.options())?;
     let r: AdviceReport = (commands.advise)(&mut store, &run.cfg)?;
     let day_of_seg = |id: i64| -> anyhow::Result<Option<usize>> {
-        Ok(store.segment(id)?.and_then(|g| day_of(g.start_ms, EPOCH_MS)))
+        Ok(store
+            .segment(id)?
+            .and_then(|g| day_of(g.start_ms, EPOCH_MS)))
     };
     let (step_verdict, step_onset_day, instrument_magnitude) = match &r.step {
         None => (None, None, None),
@@ -428,8 +430,110 @@ fn copy_db(from: &Path, to: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-pub(crate) fn run(a: BenchGapMonthArgs, commands: &Commands) -> anyhow::Result<ExitCode> {
-    let wall = Instant::now();
+/// Each start-up of the faulty month as stored: its fit, its analyses, its latencies.
+fn start_ups_of(
+    store: &Store,
+    schedule: &FoulingSchedule,
+    meter_from: usize,
+    poor_day: usize,
+    lat: &BTreeMap<i64, (f64, f64)>,
+    lat_base: &BTreeMap<i64, (f64, f64)>,
+) -> anyhow::Result<Vec<StartUp>> {
+    let segments = crate::query::list_segments(store, None)?;
+    let history = store.history(&HistoryFilter {
+        method: Some("B".into()),
+        ..HistoryFilter::default()
+    })?;
+    let mut start_ups = Vec::new();
+    for g in &segments {
+        let Some(day) = day_of(g.start_ms, EPOCH_MS) else {
+            continue;
+        };
+        let b = history.iter().find(|h| h.segment_id == g.id);
+        let truth = schedule.health_on(day).to_array();
+        let max_abs_error = b.map(|h| {
+            HEALTH_NAMES
+                .iter()
+                .enumerate()
+                .map(|(i, n)| (h.value(n) - truth[i]).abs())
+                .fold(0.0f64, f64::max)
+        });
+        // Oldest first.
+        let mut verdicts: Vec<String> = store
+            .gap_analyses(g.id)?
+            .into_iter()
+            .map(|r| r.effect)
+            .collect();
+        verdicts.reverse();
+        start_ups.push(StartUp {
+            segment_id: g.id,
+            day,
+            start_utc: fmt_ms(g.start_ms),
+            meter_error: day >= meter_from,
+            poor_effect: day == poor_day,
+            fit_quality: b.and_then(|h| h.fit_quality.clone()),
+            undiagnosable: store
+                .undiagnosable_reasons(g.id)?
+                .into_iter()
+                .map(|(_, reason, _)| reason)
+                .collect(),
+            max_abs_error,
+            gap_verdicts: verdicts,
+            latency_s: lat.get(&g.id).map(|v| v.0),
+            method_b_wall_s: lat.get(&g.id).map(|v| v.1),
+            latency_baseline_s: lat_base.get(&g.id).map(|v| v.0),
+            method_b_wall_baseline_s: lat_base.get(&g.id).map(|v| v.1),
+        });
+    }
+    Ok(start_ups)
+}
+
+/// Whether every Method B result was stored before the first gap analysis started (what the
+/// daemon's priority rule promises; the start is its storing time less its wall time).
+fn diagnoses_before_gap(store: &Store, after: &AfterReplay) -> anyhow::Result<bool> {
+    let first = after.gap.as_ref().and_then(|g| g.stored.first());
+    let Some(first) = first else {
+        return Ok(true);
+    };
+    let started_ms = store
+        .gap_analyses(first.segment_id)?
+        .iter()
+        .find(|r| r.id == first.analysis_id)
+        .map(|r| r.created_at_ms - (first.wall_s * 1000.0) as i64);
+    let last_b_ms = store
+        .diagnosis_timings()?
+        .iter()
+        .map(|t| t.created_at_ms)
+        .max();
+    Ok(match (started_ms, last_b_ms) {
+        (Some(g), Some(b)) => b <= g,
+        _ => true,
+    })
+}
+
+/// The latencies of the start-ups without an analysis, with and without the gap settings.
+fn latency_summary(start_ups: &[StartUp], diagnoses_before_gap: bool) -> Latency {
+    let both: Vec<&StartUp> = start_ups
+        .iter()
+        .filter(|s| s.gap_verdicts.is_empty())
+        .filter(|s| s.latency_s.is_some() && s.latency_baseline_s.is_some())
+        .collect();
+    Latency {
+        compared: both.len(),
+        mean_s: mean(both.iter().filter_map(|s| s.latency_s)),
+        baseline_mean_s: mean(both.iter().filter_map(|s| s.latency_baseline_s)),
+        max_abs_diff_s: both
+            .iter()
+            .filter_map(|s| Some((s.latency_s? - s.latency_baseline_s?).abs()))
+            .fold(0.0, f64::max),
+        method_b_wall_mean_s: mean(both.iter().filter_map(|s| s.method_b_wall_s)),
+        method_b_wall_baseline_mean_s: mean(both.iter().filter_map(|s| s.method_b_wall_baseline_s)),
+        diagnoses_before_gap,
+    }
+}
+
+/// The meter's first day and the poor start-up's day, checked.
+fn days_of(a: &BenchGapMonthArgs) -> anyhow::Result<(usize, usize)> {
     ensure!(a.days >= 3, "--days must be at least 3");
     let meter_from = a.meter_from.unwrap_or(a.days * 2 / 3);
     let poor_day = a.poor_day.unwrap_or((a.days / 3).max(1));
@@ -441,6 +545,12 @@ pub(crate) fn run(a: BenchGapMonthArgs, commands: &Commands) -> anyhow::Result<E
         a.meter_scale.is_finite() && a.meter_scale > 0.0,
         "--meter-scale must be positive"
     );
+    Ok((meter_from, poor_day))
+}
+
+pub(crate) fn run(a: BenchGapMonthArgs, commands: &Commands) -> anyhow::Result<ExitCode> {
+    let wall = Instant::now();
+    let (meter_from, poor_day) = days_of(&a)?;
     let dir = a.keep.clone().unwrap_or_else(|| {
         std::env::temp_dir().join(format!("gtwatch-bench-gap-month-{}", std::process::id()))
     });
@@ -504,84 +614,17 @@ pub(crate) fn run(a: BenchGapMonthArgs, commands: &Commands) -> anyhow::Result<E
 
     // 4. What the product stored.
     let store = Store::open_with(&faulty_db, &sections.storage.options())?;
-    let segments = crate::query::list_segments(&store, None)?;
-    let history = store.history(&HistoryFilter {
-        method: Some("B".into()),
-        ..HistoryFilter::default()
-    })?;
     let lat = latencies(&faulty, &sections)?;
     let lat_base = match &baseline {
         Some((run, s)) => latencies(run, s)?,
         None => BTreeMap::new(),
     };
-    let mut start_ups = Vec::new();
+    let start_ups = start_ups_of(&store, &schedule, meter_from, poor_day, &lat, &lat_base)?;
     let mut analysed: BTreeMap<usize, Vec<String>> = BTreeMap::new();
-    for g in &segments {
-        let Some(day) = day_of(g.start_ms, EPOCH_MS) else {
-            continue;
-        };
-        let b = history.iter().find(|h| h.segment_id == g.id);
-        let truth = schedule.health_on(day).to_array();
-        let max_abs_error = b.map(|h| {
-            HEALTH_NAMES
-                .iter()
-                .enumerate()
-                .map(|(i, n)| (h.value(n) - truth[i]).abs())
-                .fold(0.0f64, f64::max)
-        });
-        // Oldest first.
-        let mut verdicts: Vec<String> = store
-            .gap_analyses(g.id)?
-            .into_iter()
-            .map(|r| r.effect)
-            .collect();
-        verdicts.reverse();
-        if !verdicts.is_empty() {
-            analysed.insert(day, verdicts.clone());
-        }
-        start_ups.push(StartUp {
-            segment_id: g.id,
-            day,
-            start_utc: fmt_ms(g.start_ms),
-            meter_error: day >= meter_from,
-            poor_effect: day == poor_day,
-            fit_quality: b.and_then(|h| h.fit_quality.clone()),
-            undiagnosable: store
-                .undiagnosable_reasons(g.id)?
-                .into_iter()
-                .map(|(_, reason, _)| reason)
-                .collect(),
-            max_abs_error,
-            gap_verdicts: verdicts,
-            latency_s: lat.get(&g.id).map(|v| v.0),
-            method_b_wall_s: lat.get(&g.id).map(|v| v.1),
-            latency_baseline_s: lat_base.get(&g.id).map(|v| v.0),
-            method_b_wall_baseline_s: lat_base.get(&g.id).map(|v| v.1),
-        });
+    for s in start_ups.iter().filter(|s| !s.gap_verdicts.is_empty()) {
+        analysed.insert(s.day, s.gap_verdicts.clone());
     }
-    // The first gap analysis started when the last one of the faulty run had been stored minus
-    // its wall time; every Method B result must have been stored before.
-    let first_gap_start_ms = store
-        .gap_analyses_between(i64::MIN, i64::MAX, usize::MAX)?
-        .iter()
-        .map(|r| r.created_at_ms)
-        .min();
-    let first_gap_wall_ms = faulty
-        .after
-        .gap
-        .as_ref()
-        .and_then(|g| {
-            g.stored
-                .iter()
-                .min_by_key(|d| d.analysis_id)
-                .map(|d| (d.wall_s * 1000.0) as i64)
-        })
-        .unwrap_or(0);
-    let last_b_ms = store
-        .diagnosis_timings()?
-        .iter()
-        .map(|t| t.created_at_ms)
-        .max();
+    let before_gap = diagnoses_before_gap(&store, &faulty.after)?;
     drop(store);
 
     let advice = advice_of(commands, &faulty, &sections)?;
@@ -594,30 +637,9 @@ pub(crate) fn run(a: BenchGapMonthArgs, commands: &Commands) -> anyhow::Result<E
         (Some(p), Some(q)) => Some((p - q).abs()),
         _ => None,
     };
-    let latency = baseline.as_ref().map(|_| {
-        let both: Vec<&StartUp> = start_ups
-            .iter()
-            .filter(|s| s.gap_verdicts.is_empty())
-            .filter(|s| s.latency_s.is_some() && s.latency_baseline_s.is_some())
-            .collect();
-        Latency {
-            compared: both.len(),
-            mean_s: mean(both.iter().filter_map(|s| s.latency_s)),
-            baseline_mean_s: mean(both.iter().filter_map(|s| s.latency_baseline_s)),
-            max_abs_diff_s: both
-                .iter()
-                .filter_map(|s| Some((s.latency_s? - s.latency_baseline_s?).abs()))
-                .fold(0.0, f64::max),
-            method_b_wall_mean_s: mean(both.iter().filter_map(|s| s.method_b_wall_s)),
-            method_b_wall_baseline_mean_s: mean(
-                both.iter().filter_map(|s| s.method_b_wall_baseline_s),
-            ),
-            diagnoses_before_gap: match (first_gap_start_ms, last_b_ms) {
-                (Some(g), Some(b)) => b <= g - first_gap_wall_ms,
-                _ => true,
-            },
-        }
-    });
+    let latency = baseline
+        .as_ref()
+        .map(|_| latency_summary(&start_ups, before_gap));
     let poor_name = a.poor_effect.clone();
     let poor_explained = analysed
         .get(&poor_day)
