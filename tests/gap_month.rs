@@ -76,7 +76,10 @@ fn a_replayed_month_gets_its_gap_analyses_unasked_and_the_meter_step_leaves_the_
     let poor = verdicts(POOR_DAY);
     assert!(!poor.is_empty(), "the poor start-up was not analysed");
     let onset = verdicts(METER_FROM);
-    assert!(!onset.is_empty(), "the meter's first start-up was not analysed");
+    assert!(
+        !onset.is_empty(),
+        "the meter's first start-up was not analysed"
+    );
     assert!(
         r["poor_explained"].as_bool().expect("poor_explained"),
         "the poor start-up's analysis named {poor:?}, not fuel_system"

@@ -9,6 +9,7 @@
 //! sample is still a true reading at its plant time. Pure: no I/O, no clock.
 
 use super::{PlantFrame, PlantModel};
+use crate::engine::effects::EffectSet;
 use crate::engine::plant::live_channels;
 use crate::engine::sensors::OnlineChannel;
 use crate::engine::trace::{values_of, Values, NSIG};
@@ -16,7 +17,6 @@ use crate::engine::{
     sequence::{Command, End, Event, Scenario},
     simulation::Simulation,
 };
-use crate::engine::effects::EffectSet;
 use crate::engine::{Engine, EngineError};
 use crate::health::HealthParams;
 use crate::signals::Phase;

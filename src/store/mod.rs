@@ -49,8 +49,7 @@ pub use db::{Db, ViaWriter};
 pub use detection::{ResumeState, ScanWrite};
 pub use diagnoses::{
     DiagnosisTiming, HistoryFilter, HistoryRow, NewDiagnosis, NewOutcome, SegmentInfo,
-    SegmentRecording,
-    SignalQuality, Undiagnosable,
+    SegmentRecording, SignalQuality, Undiagnosable,
 };
 pub use locks::{lock_waits, LockWaits};
 
