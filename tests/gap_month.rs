@@ -37,6 +37,7 @@ fn a_replayed_month_gets_its_gap_analyses_unasked_and_the_meter_step_leaves_the_
             "--threads",
             "2",
             "--no-baseline",
+            "--clean-without-gap",
             "--json",
             "--keep",
         ])

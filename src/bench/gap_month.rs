@@ -82,6 +82,11 @@ pub struct BenchGapMonthArgs {
     /// Skip the baseline (the faulty month without gap settings): no latency comparison.
     #[arg(long)]
     pub no_baseline: bool,
+    /// Replay the clean month without the gap settings: its only analysis would be the poor
+    /// start-up's, which has no Method B result and so cannot move the advice (saves that
+    /// analysis' time in a short test).
+    #[arg(long)]
+    pub clean_without_gap: bool,
     /// Keep the logs, configurations and databases in DIR (default: a temporary directory).
     #[arg(long)]
     pub keep: Option<PathBuf>,
@@ -594,7 +599,7 @@ pub(crate) fn run(a: BenchGapMonthArgs, commands: &Commands) -> anyhow::Result<E
     };
     let faulty_cfg = write_cfg("faulty.toml", &faulty_db, true)?;
     let baseline_cfg = write_cfg("baseline.toml", &baseline_db, false)?;
-    let clean_cfg = write_cfg("clean.toml", &clean_db, true)?;
+    let clean_cfg = write_cfg("clean.toml", &clean_db, !a.clean_without_gap)?;
 
     // 3. Ingest and detect once per log; the baseline starts from a copy of the faulty month's
     // database as detection left it.
