@@ -228,7 +228,12 @@ pub(crate) fn refresh(
             write.recommendation = Some(NewRecommendation {
                 t_ms: now,
                 kind: "wash_offline".into(),
-                message: adv.summary.clone(),
+                // The stored message is what the report shows: a step an instrument made (or may
+                // have made) is part of what the advice rests on.
+                message: match &step {
+                    Some(st) => format!("{} {}.", adv.summary, step_line(st)),
+                    None => adv.summary.clone(),
+                },
                 basis: basis.to_string(),
             });
             (Some(adv), ms)
@@ -254,6 +259,50 @@ pub(crate) fn refresh(
         as_of_ms,
         origin_ms,
     })
+}
+
+/// One line saying what the joint fit of the start-ups since the last wash made of the first
+/// step in their health.
+pub(crate) fn step_line(step: &StepAttribution) -> String {
+    use crate::gap::sequence::SequenceVerdict as V;
+    let head = format!(
+        "step from start-up {} at {} ({} of {} start-ups since the wash from it on): ",
+        step.onset_segment_id,
+        crate::time::fmt_ms_rfc3339(step.onset_ms),
+        step.from_onset,
+        step.start_ups
+    );
+    let tail = match &step.attribution.verdict {
+        V::NoStep => "not persistent (the start-ups after it are back on the trend)".to_string(),
+        V::Instrument {
+            effect,
+            unit,
+            magnitude,
+            magnitude_sigma,
+        } => {
+            let (m, s, u) = if unit == "fraction" {
+                (magnitude * 100.0, magnitude_sigma * 100.0, "%")
+            } else {
+                (*magnitude, *magnitude_sigma, unit.as_str())
+            };
+            format!(
+                "the instrument {effect} is off by {m:+.2} ± {s:.2} {u}; the trends use the health corrected for it"
+            )
+        }
+        V::Ambiguous { candidates } => format!(
+            "ambiguous between {} (health used as measured)",
+            candidates.join(", ")
+        ),
+        V::HealthStep { explanation } => format!(
+            "the engine's ({explanation}){}",
+            if step.signatures_from_segment.is_none() {
+                "; no stored gap analysis gave the instruments' signatures"
+            } else {
+                ""
+            }
+        ),
+    };
+    head + &tail
 }
 
 fn seq_point(r: &HistoryRow, bounds: &HealthBounds) -> SeqPoint {

@@ -6,6 +6,7 @@
 pub(crate) mod daemon;
 pub(crate) mod diagnosis;
 pub(crate) mod gap;
+pub(crate) mod gap_month;
 mod ingest;
 pub(crate) mod month;
 pub(crate) mod replay;

@@ -146,10 +146,13 @@ pub(crate) struct Sections {
 
 /// What the month borrows from the command line, so that it runs exactly what `gtwatch
 /// replay` runs: loading a configuration file's sections, and diagnosing every pending
-/// start-up after a replay.
+/// start-up after a replay (then the gap analyses the configuration asks for).
 pub(crate) struct Commands<'a> {
     pub(crate) load_sections: &'a dyn Fn(&Path) -> anyhow::Result<Sections>,
-    pub(crate) diagnose_after_replay: &'a dyn Fn(&mut Store, &Path) -> anyhow::Result<()>,
+    pub(crate) diagnose_after_replay:
+        &'a dyn Fn(&mut Store, &Path) -> anyhow::Result<crate::worker::gap::AfterReplay>,
+    /// The wash advice as `gtwatch wash advise` refreshes and shows it.
+    pub(crate) advise: &'a dyn Fn(&mut Store, &Path) -> anyhow::Result<crate::advice::AdviceReport>,
 }
 
 pub(crate) fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<ExitCode> {

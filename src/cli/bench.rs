@@ -21,6 +21,9 @@ pub enum BenchCmd {
     Wash(BenchWashArgs),
     /// A month of 1 Hz plant data replayed: ingest, detection and diagnosis times, accuracy.
     Month(bench::month::BenchMonthArgs),
+    /// Issue 23's acceptance: a replayed month with an instrument step and a poorly fitting
+    /// start-up; gap analyses stored unasked, the advice, and the diagnosis latency.
+    GapMonth(bench::gap_month::BenchGapMonthArgs),
     /// Blind proof of the gap analysis: hidden effects unlike the library's forms.
     Gap(bench::gap::BenchGapArgs),
     /// Daemon CPU (live polling of a simulated plant) or memory after a simulated day (--day).
@@ -113,7 +116,8 @@ pub(super) fn run(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         BenchCmd::Daemon(a) => bench::daemon::run(a),
-        BenchCmd::Month(a) => month(a),
+        BenchCmd::Month(a) => with_commands(|c| bench::month::run(a, c)),
+        BenchCmd::GapMonth(a) => with_commands(|c| bench::gap_month::run(a, c)),
         BenchCmd::Gap(a) => bench::gap::run(a),
         BenchCmd::Soak(a) => bench::soak::run(a),
         BenchCmd::Steady(a) => {
@@ -133,9 +137,12 @@ pub(super) fn run(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
     }
 }
 
-/// `gtwatch bench month`, with the configuration loaded and the start-ups diagnosed as
-/// `gtwatch replay` does.
-fn month(a: bench::month::BenchMonthArgs) -> anyhow::Result<ExitCode> {
+/// `gtwatch bench month|gap-month`, with the configuration loaded, the start-ups diagnosed
+/// (and gap-analysed) as `gtwatch replay` does and the advice refreshed as `gtwatch wash advise`
+/// does.
+fn with_commands(
+    f: impl FnOnce(&bench::month::Commands) -> anyhow::Result<ExitCode>,
+) -> anyhow::Result<ExitCode> {
     let load_sections = |path: &std::path::Path| {
         let s = super::common::DataSections::load(path)?;
         Ok(bench::month::Sections {
@@ -147,11 +154,20 @@ fn month(a: bench::month::BenchMonthArgs) -> anyhow::Result<ExitCode> {
     let diagnose_after_replay = |store: &mut crate::store::Store, config: &std::path::Path| {
         super::diagnose_stored::diagnose_after_replay(store, config, true)
     };
-    bench::month::run(
-        a,
-        &bench::month::Commands {
-            load_sections: &load_sections,
-            diagnose_after_replay: &diagnose_after_replay,
-        },
-    )
+    let advise = |store: &mut crate::store::Store, config: &std::path::Path| {
+        let ctx = super::diagnose_stored::worker_context(Some(config))?;
+        let econ = super::diagnose_stored::wash_economics(Some(config))?;
+        Ok(crate::advice::refresh(
+            store,
+            &ctx.engine,
+            &econ,
+            &crate::trend::WashDetection::default(),
+            &ctx.settings.bounds(),
+        )?)
+    };
+    f(&bench::month::Commands {
+        load_sections: &load_sections,
+        diagnose_after_replay: &diagnose_after_replay,
+        advise: &advise,
+    })
 }

@@ -6,6 +6,7 @@
 
 use crate::optim::Cancel;
 use crate::store::Store;
+use crate::worker::gap::{self, AfterReplay};
 use crate::worker::{
     assess_segment, drain_pending, failures, new_diagnoses, read_segment, DiagnosisSettings,
     WorkerContext,
@@ -48,24 +49,65 @@ pub(super) fn worker_context(config: Option<&Path>) -> anyhow::Result<WorkerCont
     WorkerContext::load(engine.as_deref(), settings)
 }
 
-/// After a replay: diagnose every pending start-up (unless `[diagnosis] enabled = false`).
-/// The summary goes to stderr with `--json` (stdout holds the JSON report).
+/// After a replay: diagnose every pending start-up (unless `[diagnosis] enabled = false`), then
+/// ask the gap question of the start-ups the daemon's gap task would pick (`gap_on_poor_fit`,
+/// `gap_on_health_step`, `gap_every_n`; `worker::gap` selects), then refresh the wash advice so a
+/// step an instrument explains is attributed to it. The gap analyses start only once the
+/// diagnosis queue is empty, as in the daemon, so they never delay a diagnosis. The summary goes
+/// to stderr with `--json` (stdout holds the JSON report).
 pub(super) fn diagnose_after_replay(
     store: &mut Store,
     config: &Path,
     json: bool,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<AfterReplay> {
     let ctx = worker_context(Some(config))?;
+    let mut out = AfterReplay::default();
     if !ctx.settings.enabled {
-        return Ok(());
+        return Ok(out);
     }
-    let pending = store.pending_segments()?.len();
-    if pending == 0 {
-        return Ok(());
+    let say = |line: String| {
+        if json {
+            eprintln!("{line}");
+        } else {
+            println!("{line}");
+        }
+    };
+    if !store.pending_segments()?.is_empty() {
+        let t = std::time::Instant::now();
+        let rep = drain_pending(store, &ctx, &Cancel::new(), None).context("diagnosis")?;
+        out.diagnosed = rep.diagnosed;
+        out.undiagnosable = rep.undiagnosable;
+        out.diagnose_s = t.elapsed().as_secs_f64();
+        say(format!(
+            "diagnosis: {} start-ups diagnosed, {} not diagnosable, {:.1} s",
+            rep.diagnosed, rep.undiagnosable, out.diagnose_s
+        ));
     }
-    let t = std::time::Instant::now();
-    let rep = drain_pending(store, &ctx, &Cancel::new(), None).context("diagnosis")?;
-    if rep.diagnosed > 0 {
+    if gap::selection(&ctx).is_some() {
+        let t = std::time::Instant::now();
+        let run = gap::analyse_until_idle(store, &ctx, &Cancel::new()).context("gap analysis")?;
+        out.gap_s = t.elapsed().as_secs_f64();
+        for (segment_id, reason) in &run.failed {
+            eprintln!("gap analysis of segment {segment_id} failed: {reason}");
+        }
+        if !run.stored.is_empty() || !run.failed.is_empty() {
+            let verdicts: Vec<String> = run
+                .stored
+                .iter()
+                .map(|d| format!("segment {} {}", d.segment_id, d.effect))
+                .collect();
+            say(format!(
+                "gap: {} analyses stored ({}), {} failed, {:.1} s",
+                run.stored.len(),
+                verdicts.join(", "),
+                run.failed.len(),
+                out.gap_s
+            ));
+        }
+        out.gap = Some(run);
+    }
+    let analysed = out.gap.as_ref().is_some_and(|g| !g.stored.is_empty());
+    if out.diagnosed > 0 || analysed {
         let econ = wash_economics(Some(config))?;
         let r = crate::advice::refresh(
             store,
@@ -79,18 +121,7 @@ pub(super) fn diagnose_after_replay(
             eprintln!("wash advice: {}", a.summary);
         }
     }
-    let line = format!(
-        "diagnosis: {} start-ups diagnosed, {} not diagnosable, {:.1} s",
-        rep.diagnosed,
-        rep.undiagnosable,
-        t.elapsed().as_secs_f64()
-    );
-    if json {
-        eprintln!("{line}");
-    } else {
-        println!("{line}");
-    }
-    Ok(())
+    Ok(out)
 }
 
 /// `gtwatch diagnose --segment ID`: re-runs one stored segment with the config's engine and

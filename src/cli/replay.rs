@@ -1,4 +1,6 @@
-//! `gtwatch replay --config FILE LOG.csv`: ingest a CSV log, then run the start-up detector.
+//! `gtwatch replay --config FILE LOG.csv`: ingest a CSV log, then run the start-up detector,
+//! diagnose the start-ups it closed and run the gap analyses `[diagnosis]` asks for (as the
+//! daemon does; `diagnose_stored::diagnose_after_replay`).
 //!
 //! Exit status: 0 all rows stored; 1 an error (or `on_malformed = "stop"` hit a bad row);
 //! 3 replayed, but rows were rejected for their time stamps (out of order, implausible, or a
@@ -46,6 +48,8 @@ struct JsonOutput<'a> {
     /// The line of the file that stopped the replay (`on_malformed = "stop"`), if any.
     error: Option<String>,
     detector: Option<crate::detect::ScanReport>,
+    /// The diagnosis and gap analyses run after the detector (absent with `--no-detect`).
+    after: Option<crate::worker::gap::AfterReplay>,
 }
 
 /// The detector inputs a log must feed (unless `--no-detect`): n1, fuel flow and power, or the
@@ -187,6 +191,7 @@ pub(super) fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
         }
     }
     let mut detector = None;
+    let mut after = None;
     if !args.no_detect {
         let scan = crate::detect::scan(&mut store, &cfg.detector).context("start-up detection")?;
         let line = format!(
@@ -199,13 +204,18 @@ pub(super) fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
             println!("{line}");
         }
         detector = Some(scan);
-        super::diagnose_stored::diagnose_after_replay(&mut store, &args.config, args.json)?;
+        after = Some(super::diagnose_stored::diagnose_after_replay(
+            &mut store,
+            &args.config,
+            args.json,
+        )?);
     }
     if args.json {
         let out = JsonOutput {
             files: &reports,
             error: stop_error,
             detector,
+            after,
         };
         let mut stdout = std::io::stdout().lock();
         serde_json::to_writer(&mut stdout, &out)?;

@@ -140,7 +140,7 @@ pub(super) fn run(a: WashArgs) -> anyhow::Result<ExitCode> {
                         );
                     }
                     if let Some(step) = &r.step {
-                        println!("{}", step_line(step));
+                        println!("{}", crate::advice::step_line(step));
                     }
                     for id in &r.washes_explained {
                         println!("detected wash {id} is the instrument's step, not a wash: reject it with `gtwatch wash reject {id}`");
@@ -187,48 +187,4 @@ pub(super) fn run(a: WashArgs) -> anyhow::Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
-}
-
-/// One line saying what the joint fit of the start-ups since the last wash made of the first
-/// step in their health.
-fn step_line(step: &crate::advice::StepAttribution) -> String {
-    use crate::gap::sequence::SequenceVerdict as V;
-    let head = format!(
-        "step from start-up {} at {} ({} of {} start-ups since the wash from it on): ",
-        step.onset_segment_id,
-        fmt_ms_rfc3339(step.onset_ms),
-        step.from_onset,
-        step.start_ups
-    );
-    let tail = match &step.attribution.verdict {
-        V::NoStep => "not persistent (the start-ups after it are back on the trend)".to_string(),
-        V::Instrument {
-            effect,
-            unit,
-            magnitude,
-            magnitude_sigma,
-        } => {
-            let (m, s, u) = if unit == "fraction" {
-                (magnitude * 100.0, magnitude_sigma * 100.0, "%")
-            } else {
-                (*magnitude, *magnitude_sigma, unit.as_str())
-            };
-            format!(
-                "the instrument {effect} is off by {m:+.2} ± {s:.2} {u}; the trends use the health corrected for it"
-            )
-        }
-        V::Ambiguous { candidates } => format!(
-            "ambiguous between {} (health used as measured)",
-            candidates.join(", ")
-        ),
-        V::HealthStep { explanation } => format!(
-            "the engine's ({explanation}){}",
-            if step.signatures_from_segment.is_none() {
-                "; no stored gap analysis gave the instruments' signatures"
-            } else {
-                ""
-            }
-        ),
-    };
-    head + &tail
 }

@@ -9,6 +9,7 @@
 //! sample is still a true reading at its plant time. Pure: no I/O, no clock.
 
 use super::{PlantFrame, PlantModel};
+use crate::engine::effects::EffectSet;
 use crate::engine::plant::live_channels;
 use crate::engine::sensors::OnlineChannel;
 use crate::engine::trace::{values_of, Values, NSIG};
@@ -141,6 +142,9 @@ pub struct FoulingPlant {
     failed: bool,
     /// Plant time of the last frame, Unix ms, for whoever watches progress.
     clock: Arc<AtomicI64>,
+    /// An effect the plant carries on one day only (the day, the effects): a start-up the
+    /// diagnosis' model does not describe (`gtwatch bench gap-month`).
+    effects_on: Option<(usize, Arc<EffectSet>)>,
 }
 
 impl FoulingPlant {
@@ -168,6 +172,7 @@ impl FoulingPlant {
             idle_channels,
             failed: false,
             clock: Arc::new(AtomicI64::new(epoch_ms)),
+            effects_on: None,
         };
         plant.running = Some(plant.start_day(0)?);
         if let Some(d) = &plant.running {
@@ -188,6 +193,14 @@ impl FoulingPlant {
         self
     }
 
+    /// Runs day `day`'s start-up with `effects` on the plant's model (the other days without):
+    /// one start-up with behaviour the diagnosis does not model. Day 0 is started by
+    /// [`FoulingPlant::new`], before this can say anything: `day` must be 1 or later.
+    pub fn with_effects_on_day(mut self, day: usize, effects: EffectSet) -> FoulingPlant {
+        self.effects_on = Some((day, Arc::new(effects)));
+        self
+    }
+
     /// The plant clock (Unix ms of the last frame produced), shared for progress displays.
     pub fn clock(&self) -> Arc<AtomicI64> {
         Arc::clone(&self.clock)
@@ -204,7 +217,10 @@ impl FoulingPlant {
 
     fn start_day(&self, day: usize) -> Result<Day, EngineError> {
         let health = self.schedule.health_on(day);
-        let model = self.engine.model(&health);
+        let mut model = self.engine.model(&health);
+        if let Some((_, effects)) = self.effects_on.as_ref().filter(|(d, _)| *d == day) {
+            model.effects = Arc::clone(effects);
+        }
         let scenario = Scenario {
             events: vec![
                 Event {

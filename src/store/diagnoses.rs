@@ -99,6 +99,19 @@ pub struct HistoryRow {
     pub gap_verdict: Option<String>,
 }
 
+/// When a stored result was written and how long its fit took: what the latency of a
+/// diagnosis is measured from (`gtwatch bench gap-month`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DiagnosisTiming {
+    pub segment_id: i64,
+    /// "A" or "B".
+    pub method: String,
+    /// Wall time of the fit, s.
+    pub wall_s: f64,
+    /// Unix ms at which the result was stored.
+    pub created_at_ms: i64,
+}
+
 /// Filter of [`Store::history`].
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct HistoryFilter {
@@ -353,6 +366,23 @@ impl Store {
         )?;
         let rows = st.query_map(params![segment_id], |r| {
             Ok((r.get(0)?, r.get(1)?, r.get(2)?))
+        })?;
+        Ok(rows.collect::<Result<_, _>>()?)
+    }
+
+    /// Every stored result's fit wall time and storing time, by segment and method.
+    pub fn diagnosis_timings(&self) -> Result<Vec<DiagnosisTiming>, StoreError> {
+        let mut st = self.conn.prepare_cached(
+            "SELECT segment_id, method, wall_s, created_at_ms FROM diagnoses
+             ORDER BY segment_id, method, id",
+        )?;
+        let rows = st.query_map([], |r| {
+            Ok(DiagnosisTiming {
+                segment_id: r.get(0)?,
+                method: r.get(1)?,
+                wall_s: r.get(2)?,
+                created_at_ms: r.get(3)?,
+            })
         })?;
         Ok(rows.collect::<Result<_, _>>()?)
     }

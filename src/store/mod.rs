@@ -48,8 +48,8 @@ pub use archive::{ArchiveStats, CompactStats, CHUNK_SPAN_MS, DEFAULT_MAX_CHUNK_S
 pub use db::{Db, ViaWriter};
 pub use detection::{ResumeState, ScanWrite};
 pub use diagnoses::{
-    HistoryFilter, HistoryRow, NewDiagnosis, NewOutcome, SegmentInfo, SegmentRecording,
-    SignalQuality, Undiagnosable,
+    DiagnosisTiming, HistoryFilter, HistoryRow, NewDiagnosis, NewOutcome, SegmentInfo,
+    SegmentRecording, SignalQuality, Undiagnosable,
 };
 pub use locks::{lock_waits, LockWaits};
 

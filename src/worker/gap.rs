@@ -170,3 +170,74 @@ pub(crate) fn analyse_next(
         wall_s: report.wall_s,
     })
 }
+
+/// One analysis [`analyse_until_idle`] stored.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub(crate) struct GapDone {
+    pub(crate) segment_id: i64,
+    pub(crate) analysis_id: i64,
+    pub(crate) effect: String,
+    pub(crate) wall_s: f64,
+}
+
+/// What [`analyse_until_idle`] did.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub(crate) struct GapRun {
+    pub(crate) stored: Vec<GapDone>,
+    /// Start-ups that could not be analysed, with the reason (skipped for the rest of the run).
+    pub(crate) failed: Vec<(i64, String)>,
+    /// Whether `cancel` ended the run before the selection was exhausted.
+    pub(crate) cancelled: bool,
+}
+
+/// The daemon's gap task without the daemon: [`analyse_next`] step after step, in the calling
+/// thread, until nothing is selected any more (or `cancel` is set). A start-up that fails is
+/// skipped, as the task skips it until the daemon restarts. Used after `gtwatch replay`'s
+/// diagnosis, so a replayed log is asked the same gap questions a live unit is; the selection is
+/// [`analyse_next`]'s, not repeated here.
+pub(crate) fn analyse_until_idle(
+    db: &mut impl Db,
+    ctx: &WorkerContext,
+    cancel: &Cancel,
+) -> Result<GapRun, StoreError> {
+    let mut run = GapRun::default();
+    let mut skip: HashSet<i64> = HashSet::new();
+    loop {
+        match analyse_next(db, ctx, cancel, &skip)? {
+            GapStep::Idle => return Ok(run),
+            GapStep::Stored {
+                segment_id,
+                analysis_id,
+                effect,
+                wall_s,
+            } => run.stored.push(GapDone {
+                segment_id,
+                analysis_id,
+                effect,
+                wall_s,
+            }),
+            GapStep::Cancelled { .. } => {
+                run.cancelled = true;
+                return Ok(run);
+            }
+            GapStep::Failed { segment_id, reason } => {
+                skip.insert(segment_id);
+                run.failed.push((segment_id, reason));
+            }
+        }
+    }
+}
+
+/// What the work after a replay did (`gtwatch replay`, `gtwatch bench month|gap-month`): the
+/// diagnosis of the pending start-ups, then the gap analyses the settings ask for.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub(crate) struct AfterReplay {
+    pub(crate) diagnosed: u64,
+    pub(crate) undiagnosable: u64,
+    /// Wall time of the diagnosis of the pending start-ups, s.
+    pub(crate) diagnose_s: f64,
+    /// `None` when the settings ask for no gap analysis.
+    pub(crate) gap: Option<GapRun>,
+    /// Wall time of the gap analyses, s.
+    pub(crate) gap_s: f64,
+}
