@@ -332,31 +332,12 @@ fn adapted_md22_diagnoses_a_foreign_unit() {
         .expect("full load");
     let model = user_model(full);
     // The healthy baseline diagnoses good at ≈ 0 on the model adapted to all 9 loads.
-    let adapted = calibrated(&model, &rows, true);
-    let cfg = DiagnosisConfig {
-        max_model_runs: 1500,
-        threads: Some(2),
-        ..DiagnosisConfig::default()
-    };
-    let report = diagnose_snapshots(&adapted, &rows, &cfg).expect("diagnosis");
-    let g = &report.groups[0];
-    let baseline = g.result.health.to_array();
-    let baseline_quality = format!("{:?}", g.result.fit_quality.verdict).to_lowercase();
+    let (adapted, cfg, baseline, baseline_quality) = adapted_baseline(&model, &rows);
     eprintln!("healthy baseline: {baseline:.3?} quality {baseline_quality}");
 
     // A grid of degradation at all 9 loads: compressor fouling, HP-turbine wear, both.
-    let levels = 15;
-    let mut rows_all = Vec::new();
-    for i in 0..levels {
-        rows_all.extend(rows_of(&truth, grid(i), i + 1, &format!("level{i:02}")));
-    }
-    let report = diagnose_snapshots(&adapted, &rows_all, &cfg).expect("diagnosis");
-    assert!(report.failed.is_empty(), "{:?}", report.failed);
-    let est: Vec<[f64; 6]> = report
-        .groups
-        .iter()
-        .map(|g| g.result.health.to_array())
-        .collect();
+    let levels = LEVELS;
+    let (est, verdicts) = grid_estimates(&truth, AERO25, &adapted, &cfg);
     let mut worst = [0.0f64; 6];
     let mut good = 0;
     for (i, e) in est.iter().enumerate() {
@@ -364,7 +345,7 @@ fn adapted_md22_diagnoses_a_foreign_unit() {
         for p in 0..6 {
             worst[p] = worst[p].max((e[p] - t[p]).abs());
         }
-        let q = format!("{:?}", report.groups[i].result.fit_quality.verdict).to_lowercase();
+        let q = &verdicts[i];
         good += usize::from(q == "good");
         eprintln!("level {i:2} truth {t:?} est {e:+.2?} {q}");
     }
@@ -411,17 +392,71 @@ fn adapted_md22_diagnoses_a_foreign_unit() {
         assert!(v.abs() <= 0.3, "baseline {} = {v:.3}", HEALTH_NAMES[p]);
     }
     // A fit that misses the plant must not be called good.
-    for (i, g) in report.groups.iter().enumerate() {
+    for (i, q) in verdicts.iter().enumerate() {
         let err = (0..4)
             .map(|p| (est[i][p] - grid(i)[p]).abs())
             .fold(0.0, f64::max);
-        let q = format!("{:?}", g.result.fit_quality.verdict).to_lowercase();
         assert!(
             err <= 0.5 || q != "good",
             "level {i}: error {err:.2} points called good"
         );
     }
 }
+
+/// The model adapted to all of `rows` (a healthy baseline), the diagnosis settings of these
+/// tests, and the baseline diagnosed on it: its health and fit verdict.
+fn adapted_baseline(
+    model: &Engine,
+    rows: &[Snapshot],
+) -> (Engine, DiagnosisConfig, [f64; 6], String) {
+    let adapted = calibrated(model, rows, true);
+    let cfg = DiagnosisConfig {
+        max_model_runs: 1500,
+        threads: Some(2),
+        ..DiagnosisConfig::default()
+    };
+    let report = diagnose_snapshots(&adapted, rows, &cfg).expect("diagnosis");
+    let g = &report.groups[0];
+    let baseline = g.result.health.to_array();
+    let quality = format!("{:?}", g.result.fit_quality.verdict).to_lowercase();
+    (adapted, cfg, baseline, quality)
+}
+
+/// The [`LEVELS`] levels of [`grid`] made by `truth` at the 9 loads of `unit`, diagnosed on
+/// `adapted`: each level's health estimate and fit verdict.
+fn grid_estimates(
+    truth: &Engine,
+    unit: Unit,
+    adapted: &Engine,
+    cfg: &DiagnosisConfig,
+) -> (Vec<[f64; 6]>, Vec<String>) {
+    let mut rows_all = Vec::new();
+    for i in 0..LEVELS {
+        let loads = loads_of(unit.design_mw, i + 1);
+        rows_all.extend(rows_at(
+            truth,
+            loads,
+            grid(i),
+            i + 1,
+            &format!("level{i:02}"),
+        ));
+    }
+    let report = diagnose_snapshots(adapted, &rows_all, cfg).expect("diagnosis");
+    assert!(report.failed.is_empty(), "{:?}", report.failed);
+    report
+        .groups
+        .iter()
+        .map(|g| {
+            (
+                g.result.health.to_array(),
+                format!("{:?}", g.result.fit_quality.verdict).to_lowercase(),
+            )
+        })
+        .unzip()
+}
+
+/// Levels of the degradation grid.
+const LEVELS: usize = 15;
 
 /// Level `i` of 15: 0–4 compressor fouling (D_GC to 4, D_EC 0.4·D_GC), 5–9 HP-turbine wear
 /// (D_GT to −2, D_ET to 3), 10–14 both at magnitudes between the single ones.
@@ -502,45 +537,19 @@ fn adapted_md22_fits_a_second_foreign_unit() {
     assert!(worst_of(1, 1..table.len() - 1) <= 1.0);
     assert!(worst_of(1, 0..table.len()) <= 1.5);
 
-    let adapted = calibrated(&model, &rows, true);
-    let cfg = DiagnosisConfig {
-        max_model_runs: 1500,
-        threads: Some(2),
-        ..DiagnosisConfig::default()
-    };
-    let report = diagnose_snapshots(&adapted, &rows, &cfg).expect("diagnosis");
-    let g = &report.groups[0];
-    let baseline = g.result.health.to_array();
-    let quality = format!("{:?}", g.result.fit_quality.verdict).to_lowercase();
+    let (adapted, cfg, baseline, quality) = adapted_baseline(&model, &rows);
     eprintln!("pyc30 healthy baseline: {baseline:.3?} quality {quality}");
     assert_eq!(quality, "good");
     assert!(baseline.iter().all(|v| v.abs() <= 0.3), "{baseline:?}");
 
     // The same degradation grid as the first unit's, at all 9 loads.
-    let levels = 15;
-    let mut rows_all = Vec::new();
-    for i in 0..levels {
-        let loads = loads_of(PYC30.design_mw, i + 1);
-        rows_all.extend(rows_at(
-            &truth,
-            loads,
-            grid(i),
-            i + 1,
-            &format!("level{i:02}"),
-        ));
-    }
-    let report = diagnose_snapshots(&adapted, &rows_all, &cfg).expect("diagnosis");
-    assert!(report.failed.is_empty(), "{:?}", report.failed);
-    let est: Vec<[f64; 6]> = report
-        .groups
-        .iter()
-        .map(|g| g.result.health.to_array())
-        .collect();
+    let levels = LEVELS;
+    let (est, verdicts) = grid_estimates(&truth, PYC30, &adapted, &cfg);
     let truths: Vec<[f64; 6]> = (0..levels).map(grid).collect();
     let column = |v: &[[f64; 6]], p: usize| v.iter().map(|x| x[p]).collect::<Vec<f64>>();
     let mut good = 0;
     for (i, e) in est.iter().enumerate() {
-        let q = format!("{:?}", report.groups[i].result.fit_quality.verdict).to_lowercase();
+        let q = &verdicts[i];
         good += usize::from(q == "good");
         eprintln!("pyc30 level {i:2} truth {:?} est {e:+.2?} {q}", truths[i]);
     }
