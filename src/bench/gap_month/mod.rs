@@ -20,21 +20,22 @@
 //! advice of the three. Asserts nothing (benchmarks never do); the test `tests/gap_month.rs`
 //! does, on a short month. Must not select start-ups for analysis itself (`worker::gap` does).
 
+mod log;
+
 use super::month::{Commands, Sections};
 use crate::advice::AdviceReport;
 use crate::detect::scan;
-use crate::engine::effects::{EffectParams, EffectSet};
 use crate::engine::Engine;
 use crate::gap::sequence::SequenceVerdict;
 use crate::health::HEALTH_NAMES;
 use crate::ingest::{replay_file, Progress};
 use crate::plantsim::fouling::{day_of, DAY_S};
-use crate::plantsim::{FoulingPlant, FoulingSchedule, PlantModel};
-use crate::signals::Signal;
+use crate::plantsim::FoulingSchedule;
 use crate::store::{now_ms, HistoryFilter, Store};
 use crate::time::fmt_ms;
 use crate::worker::gap::AfterReplay;
 use anyhow::{bail, ensure, Context};
+use log::{config_text, write_logs};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -196,114 +197,6 @@ const EPOCH_MS: i64 = 1_767_571_200_000;
 
 fn day_ms(t_ms: i64) -> f64 {
     (t_ms - EPOCH_MS) as f64 / (DAY_S * 1000.0)
-}
-
-/// The poor start-up's effect as an `[effects]` section.
-fn poor_effects(name: &str, params: &[String]) -> anyhow::Result<EffectSet> {
-    let mut given = EffectParams::new();
-    for p in params.iter().filter(|p| !p.is_empty()) {
-        let (k, v) = p
-            .split_once('=')
-            .with_context(|| format!("--poor-params: {p:?} is not key=value"))?;
-        let v: f64 = v
-            .trim()
-            .parse()
-            .with_context(|| format!("--poor-params: {p:?}"))?;
-        given.insert(k.trim().to_string(), v);
-    }
-    let section = BTreeMap::from([(name.to_string(), given)]);
-    EffectSet::from_section(&section).map_err(|e| anyhow::anyhow!("--poor-effect {name}: {e}"))
-}
-
-/// Writes the faulty and the clean log from one run of the plant; returns the rows per log.
-fn write_logs(
-    a: &BenchGapMonthArgs,
-    engine: &Engine,
-    schedule: &FoulingSchedule,
-    meter_from: usize,
-    poor_day: usize,
-    faulty: &Path,
-    clean: &Path,
-) -> anyhow::Result<u64> {
-    let mut plant = FoulingPlant::new(engine, schedule.clone(), a.seed, EPOCH_MS)?
-        .with_idle_step(a.idle_step)
-        .with_effects_on_day(poor_day, poor_effects(&a.poor_effect, &a.poor_params)?);
-    let cols: Vec<Signal> = Signal::ALL
-        .iter()
-        .copied()
-        .filter(|s| *s != Signal::SurgeMargin)
-        .collect();
-    let create = |p: &Path| -> anyhow::Result<std::io::BufWriter<std::fs::File>> {
-        Ok(std::io::BufWriter::new(
-            std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?,
-        ))
-    };
-    let (mut wf, mut wc) = (create(faulty)?, create(clean)?);
-    for w in [&mut wf, &mut wc] {
-        write!(w, "time")?;
-        for s in &cols {
-            write!(w, ",{}", s.column())?;
-        }
-        writeln!(w)?;
-    }
-    let end_s = a.days as f64 * DAY_S;
-    let mut rows = 0u64;
-    loop {
-        let f = plant.step();
-        if f.t_s >= end_s {
-            break;
-        }
-        let t = fmt_ms(EPOCH_MS + (f.t_s * 1000.0).round() as i64);
-        let wrong = (f.t_s / DAY_S).floor() as usize >= meter_from;
-        write!(wf, "{t}")?;
-        write!(wc, "{t}")?;
-        for s in &cols {
-            let v = f.get(*s);
-            // The meter's error is in the record, not in the engine: only the column changes.
-            let recorded = if wrong && *s == Signal::FuelFlow {
-                v * a.meter_scale
-            } else {
-                v
-            };
-            write!(wf, ",{recorded:.4}")?;
-            write!(wc, ",{v:.4}")?;
-        }
-        writeln!(wf)?;
-        writeln!(wc)?;
-        rows += 1;
-    }
-    wf.flush()?;
-    wc.flush()?;
-    Ok(rows)
-}
-
-/// The shipped configuration pointed at `db`, with the bench's budget and, unless `gap`, the
-/// gap settings off.
-fn config_text(a: &BenchGapMonthArgs, db: &Path, gap: bool) -> anyhow::Result<String> {
-    let mut text = include_str!("../../config/gtwatch.toml").to_string();
-    let mut set = |from: &str, to: &str| -> anyhow::Result<()> {
-        ensure!(
-            text.contains(from),
-            "the shipped configuration has no line {from:?}"
-        );
-        text = text.replacen(from, to, 1);
-        Ok(())
-    };
-    set(
-        "path = \"/var/lib/gtwatch/gtwatch.db\"",
-        &format!("path = \"{}\"", db.display()),
-    )?;
-    if let Some(n) = a.threads {
-        set("threads = 1", &format!("threads = {n}"))?;
-    }
-    if let Some(n) = a.max_model_runs {
-        set("max_model_runs = 400", &format!("max_model_runs = {n}"))?;
-    }
-    if !gap {
-        set("gap_on_poor_fit = true", "gap_on_poor_fit = false")?;
-        set("gap_on_health_step = true", "gap_on_health_step = false")?;
-    }
-    Ok(text)
 }
 
 /// One replayed database: its configuration, the time detection finished, and what ran after.
