@@ -40,6 +40,11 @@ pub struct BenchMonthArgs {
     /// uses (default: the shipped configuration's, 1).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// After compaction, apply retention as `[storage] raw_days = N` would once the month is
+    /// N days old (steady samples older than N days before the log's end rolled up into
+    /// 1-minute roll-ups, start-ups kept raw), vacuum, and report the file then.
+    #[arg(long)]
+    pub raw_days: Option<u32>,
     /// Print JSON only.
     #[arg(long)]
     pub json: bool,
@@ -73,7 +78,46 @@ struct MonthResult {
     method_b_results: usize,
     max_abs_error: f64,
     storage: StorageResult,
+    /// With `--raw-days`: what retention did after compaction, and the file then.
+    retention: Option<RetentionResult>,
     per_day: Vec<DayResult>,
+}
+
+/// Retention applied to the compacted month (`--raw-days`).
+#[derive(Debug, Serialize)]
+struct RetentionResult {
+    raw_days: u32,
+    segment_margin_s: u32,
+    stats: crate::store::RetainStats,
+    retain_s: f64,
+    /// The file's size after retention and `VACUUM`, and per sample the month stored.
+    file_bytes: u64,
+    file_bytes_per_sample: f64,
+    /// Samples still stored raw (hot and archive tiers).
+    samples_raw: i64,
+}
+
+/// Applies retention to everything older than `raw_days` before `end_ms`, then vacuums.
+fn retain_and_measure(
+    store: &mut Store,
+    end_ms: i64,
+    policy: crate::store::RetentionPolicy,
+    samples_stored: i64,
+) -> anyhow::Result<RetentionResult> {
+    let t = Instant::now();
+    let stats = store.apply_retention(end_ms, &policy)?;
+    let retain_s = t.elapsed().as_secs_f64();
+    store.vacuum()?;
+    let file_bytes = store.used_bytes()?.1;
+    Ok(RetentionResult {
+        raw_days: policy.raw_days,
+        segment_margin_s: policy.segment_margin_s,
+        stats,
+        retain_s,
+        file_bytes,
+        file_bytes_per_sample: file_bytes as f64 / samples_stored.max(1) as f64,
+        samples_raw: all_samples(store)?.len() as i64,
+    })
 }
 
 /// The database's size per stored sample before and after compacting the month.
@@ -234,7 +278,23 @@ pub(crate) fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<Exit
     (commands.diagnose_after_replay)(&mut store, &cfg_path)?;
     let diagnose_s = t.elapsed().as_secs_f64();
     let _ = s;
-    let storage = compact_and_measure(&mut store, epoch_ms + (end_s * 1000.0) as i64)?;
+    let end_ms = epoch_ms + (end_s * 1000.0) as i64;
+    let storage = compact_and_measure(&mut store, end_ms)?;
+    let retention = match a.raw_days {
+        None => None,
+        Some(raw_days) => {
+            let policy = crate::store::RetentionPolicy {
+                raw_days,
+                ..sections.storage.retention()
+            };
+            Some(retain_and_measure(
+                &mut store,
+                end_ms,
+                policy,
+                storage.samples,
+            )?)
+        }
+    };
 
     // 4. Results against the truth.
     let segments = crate::query::list_segments(&store, None)?;
@@ -277,6 +337,7 @@ pub(crate) fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<Exit
         method_b_results: history.len(),
         max_abs_error: per_day.iter().map(|d| d.max_abs_error).fold(0.0, f64::max),
         storage,
+        retention,
         per_day,
     };
     drop(store);
