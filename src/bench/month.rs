@@ -116,7 +116,7 @@ fn retain_and_measure(
         retain_s,
         file_bytes,
         file_bytes_per_sample: file_bytes as f64 / samples_stored.max(1) as f64,
-        samples_raw: all_samples(store)?.len() as i64,
+        samples_raw: store.sample_count()?,
     })
 }
 
