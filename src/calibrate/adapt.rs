@@ -184,11 +184,27 @@ fn distinct_speeds(speeds: &[f64]) -> usize {
     v.len()
 }
 
-/// How many knots a component's data can carry: distinct speeds (to 0.005) below 0.99, less
-/// one, at most `max`.
-fn max_knots_of(speeds: &[f64], max: usize) -> usize {
-    let n = distinct_speeds(speeds);
-    n.saturating_sub(1).clamp(usize::from(n > 0), max)
+/// How many knots a component's data can carry, and what sets it: one fewer than its
+/// `distinct` speeds below the design speed (at least 1), at most `max`, and no more than fit
+/// [`MIN_KNOT_SPACING`] apart from `lo` (its lowest speed) up to the anchor.
+fn knot_limit(distinct: usize, lo: f64, max: usize) -> (usize, String) {
+    let by_data = distinct.saturating_sub(1).max(usize::from(distinct > 0));
+    let by_spacing = knots_that_fit(lo);
+    let n = by_data.min(max).min(by_spacing);
+    let why = if n == by_data {
+        format!("one fewer than the data's {distinct} distinct speeds below the design speed")
+    } else if n == max {
+        format!(
+            "the most a curve gets (the data's {distinct} distinct speeds below the design \
+             speed would carry {by_data})"
+        )
+    } else {
+        format!(
+            "as many as fit {MIN_KNOT_SPACING} apart between the lowest speed {lo:.3} and the \
+             design anchor"
+        )
+    };
+    (n, why)
 }
 
 /// The key of knot `i` of `curve` of `component`.
@@ -429,8 +445,8 @@ struct SpeedRanges {
     ranges: Vec<[f64; 2]>,
     /// The most knots the speeds support (0 when they reach no lower than 0.97).
     max_level: Vec<usize>,
-    /// Distinct speeds (to 0.005) below 0.99, for the report.
-    distinct: Vec<usize>,
+    /// What sets each `max_level`, for the report.
+    limit: Vec<String>,
 }
 
 /// Each component's range of relative speeds in the data, and the most knots those speeds
@@ -444,22 +460,20 @@ fn speed_ranges(engine: &Engine, ctx: Ctx) -> Result<SpeedRanges, CalibrateError
         ]
     };
     let ranges: Vec<[f64; 2]> = speeds.iter().map(|v| range(v)).collect();
-    let max_level: Vec<usize> = speeds
+    let (max_level, limit): (Vec<usize>, Vec<String>) = speeds
         .iter()
         .zip(&ranges)
         .map(|(v, r)| {
-            if r[0] < 0.97 {
-                max_knots_of(v, ctx.settings.max_knots).min(knots_that_fit(r[0]))
-            } else {
-                0
+            if r[0] >= 0.97 {
+                return (0, String::new());
             }
+            knot_limit(distinct_speeds(v), r[0], ctx.settings.max_knots)
         })
-        .collect();
-    let distinct = speeds.iter().map(|v| distinct_speeds(v)).collect();
+        .unzip();
     Ok(SpeedRanges {
         ranges,
         max_level,
-        distinct,
+        limit,
     })
 }
 
@@ -470,8 +484,8 @@ struct Growth<'a> {
     ranges: Vec<[f64; 2]>,
     /// The most knots each component's speeds support.
     max_level: Vec<usize>,
-    /// Distinct speeds below the design speed per component (for the report).
-    distinct: Vec<usize>,
+    /// What sets each component's most knots (for the report).
+    limit: Vec<String>,
     shape: Shape,
     current: Engine,
     /// The design values still free beside the curves (identified at the last pass).
@@ -499,7 +513,7 @@ impl<'a> Growth<'a> {
         let SpeedRanges {
             ranges,
             max_level,
-            distinct,
+            limit,
         } = speeds;
         let mut not_fitted: [Vec<(String, String)>; 3] = Default::default();
         let mut knots_reason: [String; 3] = Default::default();
@@ -563,7 +577,7 @@ impl<'a> Growth<'a> {
             ctx,
             ranges,
             max_level,
-            distinct,
+            limit,
             shape,
             current,
             design_free,
@@ -681,22 +695,7 @@ impl<'a> Growth<'a> {
                 && self.level[ci] >= self.max_level[ci]
                 && !self.frozen[ci]
             {
-                let max = self.ctx.settings.max_knots;
-                self.knots_reason[ci] = if self.level[ci] >= max {
-                    format!(
-                        "{} knot(s): the most a curve gets (the data's {} distinct speeds below \
-                         the design speed would carry {})",
-                        self.level[ci],
-                        self.distinct[ci],
-                        self.distinct[ci].saturating_sub(1)
-                    )
-                } else {
-                    format!(
-                        "{} knot(s): one fewer than the data's {} distinct speeds below the \
-                         design speed",
-                        self.level[ci], self.distinct[ci]
-                    )
-                };
+                self.knots_reason[ci] = format!("{} knot(s): {}", self.level[ci], self.limit[ci]);
                 self.frozen[ci] = true;
             }
         }
@@ -873,12 +872,18 @@ mod tests {
 
     #[test]
     fn knot_count_follows_the_distinct_speeds() {
-        assert_eq!(max_knots_of(&[0.7, 0.8, 0.9, 1.0], 4), 2);
-        assert_eq!(max_knots_of(&[0.7, 0.7, 1.0], 4), 1);
-        assert_eq!(
-            max_knots_of(&[0.6, 0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 1.0], 4),
-            4
-        );
-        assert_eq!(max_knots_of(&[1.0], 4), 0);
+        let count = |v: &[f64], max| knot_limit(distinct_speeds(v), v[0], max).0;
+        assert_eq!(count(&[0.7, 0.8, 0.9, 1.0], 4), 2);
+        assert_eq!(count(&[0.7, 0.7, 1.0], 4), 1);
+        assert_eq!(count(&[0.6, 0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 1.0], 4), 4);
+        assert_eq!(knot_limit(0, 1.0, 4).0, 0);
+        // The reason names what set the count.
+        assert!(knot_limit(3, 0.7, 4)
+            .1
+            .contains("one fewer than the data's 3"));
+        assert!(knot_limit(9, 0.7, 4).1.starts_with("the most a curve gets"));
+        assert!(knot_limit(9, 0.95, 6)
+            .1
+            .contains("apart between the lowest speed 0.950"));
     }
 }
