@@ -236,6 +236,36 @@ fn calibrated(model: &Engine, rows: &[Snapshot], adapt: bool) -> Engine {
     engine
 }
 
+/// Load `k` of `rows` left out: `model` calibrated to the others with design values only and
+/// with adaptation, each's (mean, worst) |error| in % over the measured signals of row `k`
+/// (printed with `label`).
+fn leave_out(model: &Engine, rows: &[Snapshot], k: usize, label: &str) -> [[f64; 2]; 2] {
+    let train: Vec<Snapshot> = rows
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i != k)
+        .map(|(_, r)| r.clone())
+        .collect();
+    let mut cells = [[f64::NAN; 2]; 2];
+    for (m, adapt) in [false, true].into_iter().enumerate() {
+        let e = calibrated(model, &train, adapt);
+        let Some(err) = errors_pct(&e, &rows[k]) else {
+            panic!("left-out row {k} cannot be solved (adapt {adapt})");
+        };
+        let mean = err.iter().map(|(_, x)| x.abs()).sum::<f64>() / err.len() as f64;
+        let worst = err.iter().map(|(_, x)| x.abs()).fold(0.0, f64::max);
+        eprintln!(
+            "{label}left out line {} (adapt {adapt}): mean {mean:.3} %, worst {worst:.3} % {:?}",
+            rows[k].line,
+            err.iter()
+                .map(|(s, x)| format!("{s} {x:+.3}"))
+                .collect::<Vec<_>>()
+        );
+        cells[m] = [mean, worst];
+    }
+    cells
+}
+
 #[test]
 fn adapted_md22_predicts_left_out_loads_of_a_foreign_unit() {
     let truth = truth_engine();
@@ -258,30 +288,10 @@ fn adapted_md22_predicts_left_out_loads_of_a_foreign_unit() {
         vec![2, 4, 6]
     };
     for k in left_out {
-        let train: Vec<Snapshot> = rows
-            .iter()
-            .enumerate()
-            .filter(|(i, _)| *i != k)
-            .map(|(_, r)| r.clone())
-            .collect();
-        let mut cells = [[f64::NAN; 2]; 2];
-        for (m, adapt) in [false, true].into_iter().enumerate() {
-            let e = calibrated(&model, &train, adapt);
-            let Some(err) = errors_pct(&e, &rows[k]) else {
-                panic!("left-out row {k} cannot be solved (adapt {adapt})");
-            };
-            let mean = err.iter().map(|(_, x)| x.abs()).sum::<f64>() / err.len() as f64;
-            let worst = err.iter().map(|(_, x)| x.abs()).fold(0.0, f64::max);
-            eprintln!(
-                "left out line {} (adapt {adapt}): mean {mean:.3} %, worst {worst:.3} % {:?}",
-                rows[k].line,
-                err.iter()
-                    .map(|(s, x)| format!("{s} {x:+.3}"))
-                    .collect::<Vec<_>>()
-            );
-            cells[m] = [mean, worst];
-            means[m].push(mean);
-            worst_signal[m] = worst_signal[m].max(worst);
+        let cells = leave_out(&model, &rows, k, "");
+        for m in 0..2 {
+            means[m].push(cells[m][0]);
+            worst_signal[m] = worst_signal[m].max(cells[m][1]);
         }
         table.push((format!("line {}", rows[k].line), cells[0], cells[1]));
     }
@@ -489,27 +499,7 @@ fn adapted_md22_fits_a_second_foreign_unit() {
     // [design only, adapted] × [mean, worst] per left-out load.
     let mut table: Vec<[[f64; 2]; 2]> = Vec::new();
     for k in 0..rows.len() {
-        let train: Vec<Snapshot> = rows
-            .iter()
-            .enumerate()
-            .filter(|(i, _)| *i != k)
-            .map(|(_, r)| r.clone())
-            .collect();
-        let mut cells = [[f64::NAN; 2]; 2];
-        for (m, adapt) in [false, true].into_iter().enumerate() {
-            let e = calibrated(&model, &train, adapt);
-            let err = errors_pct(&e, &rows[k]).expect("left-out row solves");
-            let mean = err.iter().map(|(_, x)| x.abs()).sum::<f64>() / err.len() as f64;
-            let worst = err.iter().map(|(_, x)| x.abs()).fold(0.0, f64::max);
-            eprintln!(
-                "pyc30 left out line {} (adapt {adapt}): mean {mean:.3} %, worst {worst:.3} % {:?}",
-                rows[k].line,
-                err.iter()
-                    .map(|(s, x)| format!("{s} {x:+.3}"))
-                    .collect::<Vec<_>>()
-            );
-            cells[m] = [mean, worst];
-        }
+        let cells = leave_out(&model, &rows, k, "pyc30 ");
         table.push(cells);
     }
     eprintln!("pyc30 left-out line | design only: mean / worst % | adapted: mean / worst %");
