@@ -90,6 +90,8 @@ pub struct ReplayReport {
     pub bad_cells: Vec<MalformedRow>,
     /// Stored samples per quality code (see `crate::quality`).
     pub quality: QualityCounts,
+    /// Archive mode (`[replay] archive`): chunks written.
+    pub chunks_archived: u64,
     pub gaps_recorded: u64,
     /// Column → tag actually used.
     pub columns: Vec<(String, String)>,

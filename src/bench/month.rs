@@ -45,6 +45,10 @@ pub struct BenchMonthArgs {
     /// 1-minute roll-ups, start-ups kept raw), vacuum, and report the file then.
     #[arg(long)]
     pub raw_days: Option<u32>,
+    /// Replay straight into the archive tier (`[replay] archive = true`) instead of hot rows
+    /// and a compaction afterwards.
+    #[arg(long)]
+    pub archive: bool,
     /// Print JSON only.
     #[arg(long)]
     pub json: bool,
@@ -66,6 +70,8 @@ struct MonthResult {
     days: usize,
     /// `[diagnosis] threads` of the replay.
     diagnosis_threads: usize,
+    /// Replayed straight into the archive tier (`--archive`).
+    archive_ingest: bool,
     rows: u64,
     samples_inserted: u64,
     csv_bytes: u64,
@@ -269,7 +275,10 @@ pub(crate) fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<Exit
     let mut store = Store::open_with(&db, &sections.storage.options())?;
 
     // 3. Ingest, detect, diagnose: what `gtwatch replay` does, timed per stage.
-    let replay_cfg: ReplayConfig = sections.replay.clone();
+    let replay_cfg = ReplayConfig {
+        archive: a.archive || sections.replay.archive,
+        ..sections.replay.clone()
+    };
     let rep = replay_file(&mut store, &replay_cfg, &log, Progress::Silent)?;
     let t = Instant::now();
     let s = scan(&mut store, &sections.detector).context("start-up detection")?;
@@ -325,6 +334,7 @@ pub(crate) fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<Exit
         bench: "month",
         days: a.days,
         diagnosis_threads: a.threads.unwrap_or(1),
+        archive_ingest: replay_cfg.archive,
         rows,
         samples_inserted: rep.samples_inserted,
         csv_bytes: std::fs::metadata(&log).map(|m| m.len()).unwrap_or(0),

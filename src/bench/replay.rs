@@ -2,7 +2,8 @@
 //!
 //! Writes a synthetic CSV (N rows × K signal columns, 1 Hz, ISO 8601 times) to a temporary
 //! directory, replays it into a fresh database, then replays it again to show the idempotent
-//! pass (nothing new is added); reports samples/s for both. Run it from a release build.
+//! pass (nothing new is added); reports samples/s for both. `--archive` replays straight into
+//! the archive tier (`[replay] archive`). Run it from a release build.
 
 use crate::ingest::{replay_file, Progress, ReplayConfig};
 use crate::signals::Signal;
@@ -21,6 +22,9 @@ pub struct BenchReplayArgs {
     /// Data columns per row (1..=15, named after signals).
     #[arg(long, default_value_t = 10)]
     pub tags: usize,
+    /// Replay straight into the archive tier (`[replay] archive = true`).
+    #[arg(long)]
+    pub archive: bool,
     /// Print JSON only.
     #[arg(long)]
     pub json: bool,
@@ -39,6 +43,7 @@ struct BenchResult {
     bench: &'static str,
     rows: u64,
     tags: usize,
+    archive: bool,
     samples: u64,
     csv_bytes: u64,
     db_bytes: u64,
@@ -89,7 +94,10 @@ pub(crate) fn run(args: BenchReplayArgs) -> anyhow::Result<ExitCode> {
     let csv = dir.join("bench.csv");
     let db = dir.join("bench.db");
     write_synthetic_csv(&csv, args.rows, args.tags)?;
-    let cfg = ReplayConfig::default();
+    let cfg = ReplayConfig {
+        archive: args.archive,
+        ..ReplayConfig::default()
+    };
     let mut store = Store::open(&db)?;
     let first = replay_file(&mut store, &cfg, &csv, Progress::Silent)?;
     let second = replay_file(&mut store, &cfg, &csv, Progress::Silent)?;
@@ -100,6 +108,7 @@ pub(crate) fn run(args: BenchReplayArgs) -> anyhow::Result<ExitCode> {
         bench: "replay",
         rows: args.rows,
         tags: args.tags,
+        archive: args.archive,
         samples: args.rows * args.tags as u64,
         csv_bytes: size(&csv),
         db_bytes: size(&db),

@@ -311,7 +311,11 @@ mod tests {
             let a = Store::open_readonly(&path)
                 .and_then(|s| s.archive_stats())
                 .unwrap_or_else(|e| unreachable!("{e}"));
-            if a.samples > 0 || tokio::time::Instant::now() > deadline {
+            // The task publishes its counters after each step: wait for that, not only for the
+            // first chunk in the file (shutdown between the two left the report empty under
+            // load).
+            let published = counters.samples.load(Ordering::Relaxed) > 0;
+            if (a.samples > 0 && published) || tokio::time::Instant::now() > deadline {
                 break a;
             }
             tokio::time::sleep(Duration::from_millis(50)).await;

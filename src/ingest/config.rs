@@ -64,6 +64,12 @@ pub struct ReplayConfig {
     pub max_reported: usize,
     /// Samples per transaction. Default 200 000.
     pub transaction_samples: usize,
+    /// Write the replayed samples straight into the archive tier as compressed chunks (one
+    /// transaction per chunk window of all tags, or per `transaction_samples`), never as hot
+    /// rows: for historical logs, where no start-up is still open. Idempotent and crash-safe
+    /// as the hot path; readers cannot tell the tiers apart. Default false (`gtwatch replay
+    /// --archive` sets it).
+    pub archive: bool,
     /// Consecutive rows further apart than this (seconds) record a gap. 0 = off. Default 10.
     pub gap_threshold_s: f64,
     /// A row stamped more than this many seconds after the wall clock is implausible: it is
@@ -84,6 +90,7 @@ impl Default for ReplayConfig {
             on_malformed: OnMalformed::Skip,
             max_reported: 20,
             transaction_samples: 200_000,
+            archive: false,
             gap_threshold_s: 10.0,
             max_future_s: 86_400.0,
         }

@@ -9,7 +9,7 @@
 use super::{MalformedRow, OnMalformed, Progress, ReplayConfig, ReplayError, ReplayReport};
 use crate::quality::{Point, Quality, QualityConfig, SpikeFilter, ValueChecker};
 use crate::signals::Signal;
-use crate::store::{Gap, Sample, Store, TagId, TagInfo};
+use crate::store::{Gap, Sample, Store, TagId, TagInfo, CHUNK_SPAN_MS, DEFAULT_MAX_CHUNK_SAMPLES};
 use std::io::IsTerminal;
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -99,6 +99,10 @@ pub(super) struct Sink<'a> {
     gap_threshold_ms: i64,
     /// Time of the previous stored row (wide) or time group (long).
     prev_t: Option<i64>,
+    /// Archive mode: the start of the chunk window the latest row opened, when the batch
+    /// still holds samples of earlier windows (flushed after this row, so each window's
+    /// samples become one chunk per tag).
+    window_opened: Option<i64>,
     pub report: ReplayReport,
     file_len: u64,
     bar: Option<indicatif::ProgressBar>,
@@ -147,6 +151,7 @@ impl<'a> Sink<'a> {
             ),
             gap_threshold_ms: (cfg.gap_threshold_s * 1000.0).round() as i64,
             prev_t: None,
+            window_opened: None,
             report: ReplayReport {
                 file: path.to_path_buf(),
                 ..ReplayReport::default()
@@ -197,6 +202,12 @@ impl<'a> Sink<'a> {
                         line
                     ),
                 });
+            }
+        }
+        if self.cfg.archive {
+            let w = |t: i64| t.div_euclid(CHUNK_SPAN_MS);
+            if self.prev_t.is_some_and(|p| w(p) != w(t)) {
+                self.window_opened = Some(w(t) * CHUNK_SPAN_MS);
             }
         }
         self.prev_t = Some(t);
@@ -298,6 +309,10 @@ impl<'a> Sink<'a> {
     /// After each row: writes the batch once it is large, and shows progress (`pos`: byte
     /// offset reached in the file).
     pub(super) fn after_row(&mut self, pos: impl FnOnce() -> u64) -> Result<(), ReplayError> {
+        if let Some(boundary) = self.window_opened.take() {
+            // A new chunk window: the earlier windows' samples go out as whole chunks.
+            self.flush_before(boundary)?;
+        }
         if self.batch.len() < self.cfg.transaction_samples {
             return Ok(());
         }
@@ -342,16 +357,40 @@ impl<'a> Sink<'a> {
     }
 
     fn flush(&mut self) -> Result<(), ReplayError> {
+        self.flush_before(i64::MAX)
+    }
+
+    /// Writes the batch's samples older than `boundary` (all with `i64::MAX`) and the gaps,
+    /// in one transaction: as hot rows, or in archive mode as chunks. The rest stay queued.
+    fn flush_before(&mut self, boundary: i64) -> Result<(), ReplayError> {
         if self.batch.is_empty() && self.gaps.is_empty() {
             return Ok(());
         }
-        let n = self
-            .store
-            .insert_samples_and_gaps(&self.batch, &self.gaps)?;
+        let kept: Vec<Sample> = if boundary == i64::MAX {
+            Vec::new()
+        } else {
+            let (out, kept): (Vec<Sample>, Vec<Sample>) =
+                self.batch.iter().partition(|s| s.t_ms < boundary);
+            self.batch = out;
+            kept
+        };
+        let n = if self.cfg.archive {
+            let d = self.store.insert_samples_archived(
+                &self.batch,
+                &self.gaps,
+                DEFAULT_MAX_CHUNK_SAMPLES,
+            )?;
+            self.report.chunks_archived += d.chunks;
+            d.inserted
+        } else {
+            self.store
+                .insert_samples_and_gaps(&self.batch, &self.gaps)?
+        };
         self.report.samples_inserted += n as u64;
         self.report.samples_present += (self.batch.len() - n) as u64;
         self.report.gaps_recorded += self.gaps.len() as u64;
         self.batch.clear();
+        self.batch.extend(kept);
         self.gaps.clear();
         Ok(())
     }

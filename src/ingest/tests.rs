@@ -474,3 +474,125 @@ fn long_files_are_detected_planned_and_replayed_per_tag() {
     let e = plan_columns(&mapped, &path).expect_err("tag never occurs");
     assert!(e.to_string().contains("GG_SPEED"), "{e}");
 }
+
+/// A 20-hour log at 10 s over four chunk windows, with a gap, a text cell, an implausible
+/// value, a spike and a row out of order: what the bad-value policy and the gap detector meet.
+fn awkward_log() -> String {
+    let t0 = 1_709_251_200i64; // 2024-03-01T00:00:00Z, a chunk-window boundary.
+    let mut csv = String::from("time,n1_rpm,fuel_kg_s,power_mw\n");
+    for i in 0..7200i64 {
+        if (3000..3010).contains(&i) {
+            continue; // 100 s without rows: a gap.
+        }
+        let t = t0 + i * 10;
+        let n1 = if i == 4000 {
+            "n/a".to_string()
+        } else if i == 4500 {
+            "-5000".to_string()
+        } else if i == 5000 {
+            "9500".to_string()
+        } else {
+            format!("{:.3}", 7000.0 + (i as f64 * 0.01).sin() * 50.0)
+        };
+        csv.push_str(&format!(
+            "{t},{n1},{:.4},{:.3}\n",
+            1.0 + (i as f64 * 0.003).cos() * 0.1,
+            20.0 + (i as f64 * 0.002).sin()
+        ));
+        if i == 6000 {
+            csv.push_str(&format!("{},7000,1,20\n", t - 5));
+        }
+    }
+    csv
+}
+
+/// Every stored sample (time, value bits, quality) of every tag, through the store's read path.
+fn stored(store: &Store) -> Vec<(String, i64, u64, i64)> {
+    let mut out = Vec::new();
+    for tag in store.tags().expect("tags") {
+        for s in store
+            .tag_samples_between(tag.id, i64::MIN, i64::MAX)
+            .expect("read")
+        {
+            out.push((tag.name.clone(), s.t_ms, s.value.to_bits(), s.quality));
+        }
+    }
+    out
+}
+
+#[test]
+fn replay_into_the_archive_stores_what_the_hot_replay_stores() {
+    let csv = awkward_log();
+    let cfg_hot = ReplayConfig {
+        time_format: TimeFormat::EpochS,
+        ..ReplayConfig::default()
+    };
+    let cfg_arc = ReplayConfig {
+        archive: true,
+        ..cfg_hot.clone()
+    };
+    let (_a, mut hot, path) = setup(&csv);
+    let (_b, mut arc, _) = setup("");
+    let r_hot = replay_file(&mut hot, &cfg_hot, &path, Progress::Silent).expect("hot");
+    let r_arc = replay_file(&mut arc, &cfg_arc, &path, Progress::Silent).expect("archive");
+    // The same report, but for the chunks.
+    assert_eq!(r_hot.chunks_archived, 0);
+    assert_eq!(
+        ReplayReport {
+            chunks_archived: 0,
+            elapsed_s: 0.0,
+            ..r_arc.clone()
+        },
+        ReplayReport {
+            elapsed_s: 0.0,
+            ..r_hot.clone()
+        }
+    );
+    assert!(r_hot.quality.bad >= 1 && r_hot.quality.out_of_range >= 1);
+    assert_eq!((r_hot.rows_out_of_order, r_hot.gaps_recorded), (1, 1));
+    // The same samples, bit for bit, with the same quality codes, and the same gaps.
+    let all = stored(&hot);
+    assert_eq!(all.len() as u64, r_hot.samples_inserted);
+    assert!(stored(&arc) == all, "archive replay reads back differently");
+    assert_eq!(
+        arc.gaps_between(i64::MIN, i64::MAX).expect("gaps"),
+        hot.gaps_between(i64::MIN, i64::MAX).expect("gaps")
+    );
+    // None of it hot; one chunk per tag and window (20 h from a boundary: 4 windows).
+    let hot_rows: i64 = arc
+        .conn()
+        .query_row("SELECT COUNT(*) FROM samples", [], |r| r.get(0))
+        .expect("count");
+    assert_eq!(hot_rows, 0);
+    assert_eq!(r_arc.chunks_archived, 3 * 4, "{r_arc:?}");
+    assert_eq!(arc.sample_count().expect("count") as usize, all.len());
+
+    // Again: nothing new. Then a log that overlaps the end and goes on: only the new rows.
+    let again = replay_file(&mut arc, &cfg_arc, &path, Progress::Silent).expect("again");
+    assert_eq!((again.samples_inserted, again.chunks_archived), (0, 0));
+    assert_eq!(again.samples_present, r_hot.samples_inserted);
+    let more: String = std::iter::once("time,n1_rpm,fuel_kg_s,power_mw\n".to_string())
+        .chain((7100..7300i64).map(|i| format!("{},7000,1,20\n", 1_709_251_200 + i * 10)))
+        .collect();
+    let more_path = path.with_file_name("more.csv");
+    std::fs::write(&more_path, more).expect("write");
+    let m_hot = replay_file(&mut hot, &cfg_hot, &more_path, Progress::Silent).expect("hot");
+    let m_arc = replay_file(&mut arc, &cfg_arc, &more_path, Progress::Silent).expect("arc");
+    assert_eq!(m_arc.samples_inserted, 3 * 100);
+    assert_eq!(
+        (m_arc.samples_inserted, m_arc.samples_present),
+        (m_hot.samples_inserted, m_hot.samples_present)
+    );
+    assert!(stored(&arc) == stored(&hot));
+
+    // Small transactions split the chunks, never the contents.
+    let (_c, mut small, _) = setup("");
+    let cfg_small = ReplayConfig {
+        transaction_samples: 997,
+        ..cfg_arc.clone()
+    };
+    let r_small = replay_file(&mut small, &cfg_small, &path, Progress::Silent).expect("small");
+    assert!(r_small.chunks_archived > r_arc.chunks_archived);
+    assert!(stored(&small) == all);
+    assert_eq!(small.integrity_check().ok().as_deref(), Some("ok"));
+}

@@ -20,6 +20,7 @@
 //!   rescan, so the data the detector and the worker are still working on stays hot.
 
 pub mod codec;
+pub mod direct;
 
 use super::segments::SampleRow;
 use super::{Store, StoreError, TagId};
