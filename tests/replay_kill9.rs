@@ -194,7 +194,60 @@ fn integrity(db: &Path) -> String {
 
 #[test]
 fn replay_interrupted_by_sigterm_and_kill_9_at_random_moments_ends_identical() {
+    interrupted_at_random_moments(false);
+}
+
+/// The same with `[replay] archive = true`: the samples go straight into archive chunks, and
+/// an interrupted replay leaves whole chunks or none (read back through the store's one read
+/// path, which merges the tiers).
+#[test]
+fn archive_replay_interrupted_at_random_moments_ends_identical() {
+    interrupted_at_random_moments(true);
+}
+
+/// Every sample through the store's read path (both tiers), as [`dump`] gives it.
+fn dump_read_path(db: &Path) -> Vec<(String, i64, u64, i64)> {
+    if dump(db).is_empty() && !has_chunks(db) {
+        return Vec::new();
+    }
+    let store = Store::open_readonly(db).expect("open");
+    let mut tags = store.tags().expect("tags");
+    tags.sort_by(|a, b| a.name.cmp(&b.name));
+    let mut out = Vec::new();
+    for t in tags {
+        for s in store
+            .tag_samples_between(t.id, i64::MIN, i64::MAX)
+            .expect("read")
+        {
+            out.push((t.name.clone(), s.t_ms, s.value.to_bits(), s.quality));
+        }
+    }
+    out
+}
+
+fn has_chunks(db: &Path) -> bool {
+    let conn =
+        rusqlite::Connection::open_with_flags(db, rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY)
+            .expect("open");
+    conn.query_row(
+        "SELECT COUNT(*) FROM sqlite_master WHERE name = 'archive_chunks'",
+        [],
+        |r| r.get::<_, i64>(0),
+    )
+    .expect("schema")
+        > 0
+        && conn
+            .query_row("SELECT COUNT(*) FROM archive_chunks", [], |r| {
+                r.get::<_, i64>(0)
+            })
+            .expect("chunks")
+            > 0
+}
+
+fn interrupted_at_random_moments(archive: bool) {
     const SMALL_ROWS: u64 = 50_000;
+    let dump: fn(&Path) -> Vec<(String, i64, u64, i64)> =
+        if archive { dump_read_path } else { dump };
     // Six rounds (× GTWATCH_FAULTS_LONG), alternately SIGTERM and kill -9.
     let rounds: usize = 6 * common::long_factor() as usize;
     let dir = tempfile::tempdir().expect("tempdir");
@@ -205,7 +258,7 @@ fn replay_interrupted_by_sigterm_and_kill_9_at_random_moments_ends_identical() {
         std::fs::write(
             &cfg,
             format!(
-                "[storage]\npath = {:?}\n\n[replay]\ntime_column = \"t_ms\"\ntime_format = \"epoch_ms\"\ntransaction_samples = 20000\n",
+                "[storage]\npath = {:?}\n\n[replay]\ntime_column = \"t_ms\"\ntime_format = \"epoch_ms\"\ntransaction_samples = 20000\narchive = {archive}\n",
                 db.display().to_string()
             ),
         )
@@ -282,10 +335,18 @@ fn replay_interrupted_by_sigterm_and_kill_9_at_random_moments_ends_identical() {
         interrupted_mid_way >= 2,
         "only {interrupted_mid_way} of {rounds} interruptions hit a running replay"
     );
-    for (class, parity) in [
-        ("replay_sigterm_random_moment", 0),
-        ("replay_kill9_random_moment", 1),
-    ] {
+    let classes = if archive {
+        [
+            ("archive_replay_sigterm_random_moment", 0),
+            ("archive_replay_kill9_random_moment", 1),
+        ]
+    } else {
+        [
+            ("replay_sigterm_random_moment", 0),
+            ("replay_kill9_random_moment", 1),
+        ]
+    };
+    for (class, parity) in classes {
         common::Tally {
             class,
             injected: (0..rounds).filter(|r| r % 2 == parity).count() as u64,
