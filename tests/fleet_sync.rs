@@ -526,7 +526,7 @@ fn a_refusing_centre_is_a_clear_error_and_the_marks_stay() {
             err,
             FleetError::SchemaTooNew {
                 found: 99,
-                supported: 1,
+                supported: 2,
                 ..
             }
         ),
@@ -614,7 +614,7 @@ async fn the_daemon_syncs_and_a_missing_centre_does_not_hold_it() {
     let m = marks(&db);
     assert!(
         m.iter()
-            .any(|m| m.stream == "samples" && m.sent == edge[6].1),
+            .any(|m| m.stream == gtwatch::fleet::sync::SAMPLES_STREAM && m.sent == edge[6].1),
         "{m:?}"
     );
 
