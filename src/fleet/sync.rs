@@ -145,6 +145,58 @@ pub fn sync_once(
     Ok(report)
 }
 
+/// The streams whose lag [`sync_lag`] reports, in its order (the metrics' table labels).
+pub const LAG_STREAMS: [&str; 6] = crate::metrics::SYNC_LAG_TABLES;
+
+/// Rows of each stream in [`LAG_STREAMS`] that the edge holds above its high-water marks for
+/// `centre_id` and `unit_id` (what the next sync would send; everything when there are no
+/// marks). Samples: those of the closed start-up windows not yet done (the window being sent
+/// counts whole, so this is at most one window over). Reads the edge only.
+pub fn sync_lag(
+    edge: &Store,
+    centre_id: &str,
+    unit_id: &str,
+    send_samples: bool,
+) -> Result<Vec<(&'static str, u64)>, StoreError> {
+    let marks: BTreeMap<String, FleetMark> = edge
+        .fleet_marks(centre_id, unit_id)?
+        .into_iter()
+        .map(|m| (m.stream.clone(), m))
+        .collect();
+    let after = |stream: &str| {
+        marks
+            .get(stream)
+            .map_or((i64::MIN, i64::MIN), |m| (m.a, m.b))
+    };
+    let n = |v: i64| u64::try_from(v).unwrap_or(0);
+    let mut out = Vec::with_capacity(LAG_STREAMS.len());
+    for t in [
+        FLEET_SEGMENTS,
+        FLEET_DIAGNOSES,
+        FLEET_GAP_ANALYSES,
+        FLEET_RECOMMENDATIONS,
+        FLEET_WASHES,
+    ] {
+        out.push((t.name, n(edge.fleet_count_after(&t, after(t.name))?)));
+    }
+    let mut samples = 0;
+    if send_samples {
+        let first = match marks.get(SAMPLES_STREAM) {
+            None => i64::MIN,
+            Some(m) if m.b == WINDOW_DONE => m.a.saturating_add(1),
+            Some(m) => m.a,
+        };
+        for w in edge.fleet_closed_windows(first)? {
+            if let Some(end) = w.end_ms {
+                samples += n(edge.fleet_window_count(w.from_ms, end)?);
+            }
+        }
+    }
+    out.push(("samples", samples));
+    debug_assert!(out.iter().map(|(t, _)| *t).eq(LAG_STREAMS));
+    Ok(out)
+}
+
 /// Creates the unit's row or moves its last sync time to now.
 fn touch_unit(centre: &mut Centre, unit_id: &str) -> Result<(), FleetError> {
     let name = centre.name.clone();

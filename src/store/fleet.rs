@@ -422,6 +422,50 @@ impl Store {
         })
     }
 
+    /// Rows of `table` after the cursor `after` (as [`Store::fleet_rows`] walks it): what a
+    /// sync from that mark would send (the fleet sync's lag).
+    pub fn fleet_count_after(
+        &self,
+        table: &FleetTable,
+        after: (i64, i64),
+    ) -> Result<i64, StoreError> {
+        let name = table.name;
+        Ok(match table.cursor {
+            FleetCursor::Id | FleetCursor::Whole => self.conn.query_row(
+                &format!("SELECT COUNT(*) FROM {name} WHERE id > ?1"),
+                [after.0],
+                |r| r.get(0),
+            )?,
+            FleetCursor::UpdatedAt => self.conn.query_row(
+                &format!(
+                    "SELECT COUNT(*) FROM {name}
+                     WHERE updated_at_ms > ?1 OR (updated_at_ms = ?1 AND id > ?2)"
+                ),
+                [after.0, after.1],
+                |r| r.get(0),
+            )?,
+        })
+    }
+
+    /// Closed windows from segment id `from_id` on (inclusive), in id order.
+    pub fn fleet_closed_windows(&self, from_id: i64) -> Result<Vec<FleetWindow>, StoreError> {
+        let mut st = self.conn.prepare_cached(
+            "SELECT id, start_ms, end_ms FROM segments WHERE id >= ?1 AND end_ms IS NOT NULL
+             ORDER BY id",
+        )?;
+        let rows = st.query_map([from_id], fleet_window_row)?;
+        Ok(rows.collect::<Result<_, _>>()?)
+    }
+
+    /// Samples (any quality, both tiers) of every tag in `[from_ms, end_ms]`.
+    pub fn fleet_window_count(&self, from_ms: i64, end_ms: i64) -> Result<i64, StoreError> {
+        let mut n = 0;
+        for t in self.tags()? {
+            n += super::archive::count_samples(&self.conn, t.id, from_ms, end_ms)?;
+        }
+        Ok(n)
+    }
+
     /// The marks kept for `centre` and `unit_id`.
     pub fn fleet_marks(&self, centre: &str, unit_id: &str) -> Result<Vec<FleetMark>, StoreError> {
         let mut st = self.conn.prepare_cached(
