@@ -59,6 +59,21 @@ pub struct FleetWorkerReport {
     /// Time spent fitting, s.
     pub fit_s: f64,
     pub wall_s: f64,
+    /// CPU time of this process (all threads, user + system), s; `None` where `/proc` is not.
+    pub cpu_s: Option<f64>,
+}
+
+/// CPU time of this process so far (user + system, all threads), s: fields 14 and 15 of
+/// `/proc/self/stat`, in clock ticks of 1/100 s (Linux's USER_HZ on every architecture it
+/// exposes to user space).
+fn process_cpu_s() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // The command name (field 2) may hold spaces: fields are counted after its ')'.
+    let rest = &stat[stat.rfind(')')? + 1..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let utime: f64 = f.get(11)?.parse().ok()?;
+    let stime: f64 = f.get(12)?.parse().ok()?;
+    Some((utime + stime) / 100.0)
 }
 
 /// `host:pid`, the default worker id.
@@ -269,6 +284,7 @@ pub fn run_fleet_worker(
     }
     drop(renewer);
     rep.wall_s = t0.elapsed().as_secs_f64();
+    rep.cpu_s = process_cpu_s();
     tracing::info!(?rep, "fleet worker ends");
     Ok(rep)
 }
