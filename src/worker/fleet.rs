@@ -8,7 +8,9 @@
 //! a fit runs; when the lease is lost (renewal refused, or the centre unreachable until the
 //! lease ran out) it cancels the fit, and the worker writes nothing for that job. A worker
 //! killed at any moment leaves a pending job whose lease expires, which another then claims.
-//! Any number of workers on any number of machines share one queue.
+//! Any number of workers on any number of machines share one queue. A centre that goes away
+//! (restart, network) is ridden out: the worker reconnects with a backoff and ends with the
+//! error only after a few minutes of failures.
 //!
 //! Lives in the worker room because it runs the diagnosis; the queue's SQL is
 //! `crate::fleet::rediagnose`'s. Must not hold SQL, fitting arithmetic of its own, or touch an
@@ -248,38 +250,55 @@ pub fn run_fleet_worker(
         ..FleetWorkerReport::default()
     };
     let mut finished = 0u64;
+    let mut failures = 0u32;
     tracing::info!(worker = %opts.worker_id, centre = %centre.name, "fleet worker started");
     while !stop.is_cancelled() && opts.max_jobs.is_none_or(|m| finished < m) {
-        let Some(job) = rediagnose::claim(&mut centre, &opts.worker_id, opts.lease)? else {
-            if opts.idle_exit && rediagnose::queue_counts(&mut centre, None)?.pending() == 0 {
-                break;
+        match step(&mut centre, opts, &renewer, &mut contexts, stop) {
+            Ok(Step::Idle) => {
+                failures = 0;
+                // An error here counts as work pending: the next claim meets it again.
+                let empty = opts.idle_exit
+                    && rediagnose::queue_counts(&mut centre, None).is_ok_and(|q| q.pending() == 0);
+                if empty {
+                    break;
+                }
+                sleep_unless(stop, opts.poll);
             }
-            sleep_unless(stop, opts.poll);
-            continue;
-        };
-        tracing::info!(
-            job = job.id,
-            unit = %job.unit_id,
-            segment = job.segment_id,
-            attempt = job.attempts,
-            "job claimed"
-        );
-        let cancel = Cancel::new();
-        renewer.watch(job.id, &cancel);
-        let end = run_job(&mut centre, opts, &mut contexts, &job, &cancel, stop);
-        renewer.unwatch();
-        finished += 1;
-        match end? {
-            JobEnd::Done {
-                undiagnosable,
-                fit_s,
-            } => {
-                rep.done += 1;
-                rep.undiagnosable += u64::from(undiagnosable);
-                rep.fit_s += fit_s;
+            Ok(Step::Ran(end)) => {
+                failures = 0;
+                finished += 1;
+                match end {
+                    JobEnd::Done {
+                        undiagnosable,
+                        fit_s,
+                    } => {
+                        rep.done += 1;
+                        rep.undiagnosable += u64::from(undiagnosable);
+                        rep.fit_s += fit_s;
+                    }
+                    JobEnd::Failed => rep.failed += 1,
+                    JobEnd::Lost => rep.lost += 1,
+                }
             }
-            JobEnd::Failed => rep.failed += 1,
-            JobEnd::Lost => rep.lost += 1,
+            // The centre went away (a restart, the network): a job in hand is left to its
+            // lease; reconnect with a backoff, and give up after a few minutes of failures.
+            Err(e) => {
+                failures += 1;
+                if failures > MAX_FAILURES {
+                    return Err(e);
+                }
+                let wait = RETRY_FIRST * 2u32.pow(failures.min(6) - 1);
+                tracing::warn!(
+                    failures,
+                    "fleet centre: {} (retried in {} s)",
+                    crate::fleet::error_chain(&e),
+                    wait.as_secs()
+                );
+                sleep_unless(stop, wait);
+                if let Ok(c) = Centre::connect(&opts.postgres_url, opts.timeout) {
+                    centre = c;
+                }
+            }
         }
     }
     drop(renewer);
@@ -287,6 +306,43 @@ pub fn run_fleet_worker(
     rep.cpu_s = process_cpu_s();
     tracing::info!(?rep, "fleet worker ends");
     Ok(rep)
+}
+
+/// Consecutive failures at the centre a worker rides out (≈ 5 min with [`RETRY_FIRST`]
+/// doubling to 32 s) before it ends with the error.
+const MAX_FAILURES: u32 = 12;
+const RETRY_FIRST: Duration = Duration::from_millis(500);
+
+/// What one look at the queue did.
+enum Step {
+    /// No job claimable.
+    Idle,
+    Ran(JobEnd),
+}
+
+/// Claims one job and runs it.
+fn step(
+    centre: &mut Centre,
+    opts: &FleetWorkerOptions,
+    renewer: &Renewer,
+    contexts: &mut Contexts,
+    stop: &Cancel,
+) -> Result<Step, FleetError> {
+    let Some(job) = rediagnose::claim(centre, &opts.worker_id, opts.lease)? else {
+        return Ok(Step::Idle);
+    };
+    tracing::info!(
+        job = job.id,
+        unit = %job.unit_id,
+        segment = job.segment_id,
+        attempt = job.attempts,
+        "job claimed"
+    );
+    let cancel = Cancel::new();
+    renewer.watch(job.id, &cancel);
+    let end = run_job(centre, opts, contexts, &job, &cancel, stop);
+    renewer.unwatch();
+    end.map(Step::Ran)
 }
 
 fn sleep_unless(stop: &Cancel, d: Duration) {
