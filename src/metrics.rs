@@ -90,7 +90,21 @@ pub struct FleetSnapshot {
     pub rows_sent: u64,
     /// Unix ms of the last successful sync (0: none yet).
     pub last_ok_ms: u64,
+    /// Rows the edge holds above its high-water marks after the last sync round, per table of
+    /// [`SYNC_LAG_TABLES`] (`None`: not measured yet, no centre reached).
+    pub lag_rows: Option<[u64; SYNC_LAG_TABLES.len()]>,
 }
+
+/// The tables of the sync lag gauge, in [`FleetSnapshot::lag_rows`] order (the fleet sync's
+/// streams: `fleet::sync::LAG_STREAMS`).
+pub const SYNC_LAG_TABLES: [&str; 6] = [
+    "segments",
+    "diagnoses",
+    "gap_analyses",
+    "recommendations",
+    "washes",
+    "samples",
+];
 
 /// Wall time of each start-up's diagnosis (Method B and A, storing and the after-result hook
 /// included), seconds. Cheap to clone; clones share the buckets.
@@ -217,6 +231,19 @@ impl prometheus_client::collector::Collector for Counters {
                 MetricType::Gauge,
             )?;
             ConstGauge::new(i64::try_from(f.last_ok_ms / 1000).unwrap_or(i64::MAX)).encode(m)?;
+            if let Some(lag) = f.lag_rows {
+                let mut m = encoder.encode_descriptor(
+                    "fleet_sync_lag_rows",
+                    "Rows the edge holds above its fleet sync high-water mark after the last sync round, per table (what the next sync sends)",
+                    None,
+                    MetricType::Gauge,
+                )?;
+                for (table, n) in SYNC_LAG_TABLES.iter().zip(lag) {
+                    let labels = [("table", *table)];
+                    let fam = m.encode_family(&labels)?;
+                    ConstGauge::new(i64::try_from(n).unwrap_or(i64::MAX)).encode(fam)?;
+                }
+            }
         }
         if let Some(c) = s.compaction {
             for (name, help, value) in [
@@ -293,6 +320,7 @@ mod tests {
                     syncs_failed: 1,
                     rows_sent: 35_047,
                     last_ok_ms: 1_764_000_000_123,
+                    lag_rows: Some([0, 1, 0, 2, 0, 12_345]),
                 }),
                 compaction: Some(CompactionSnapshot {
                     runs: 2,
@@ -319,6 +347,11 @@ mod tests {
             "gtwatch_fleet_syncs_failed_total 1",
             "gtwatch_fleet_rows_sent_total 35047",
             "gtwatch_fleet_last_sync_timestamp_seconds 1764000000",
+            "# TYPE gtwatch_fleet_sync_lag_rows gauge",
+            "gtwatch_fleet_sync_lag_rows{table=\"segments\"} 0",
+            "gtwatch_fleet_sync_lag_rows{table=\"diagnoses\"} 1",
+            "gtwatch_fleet_sync_lag_rows{table=\"recommendations\"} 2",
+            "gtwatch_fleet_sync_lag_rows{table=\"samples\"} 12345",
             "# TYPE gtwatch_storage_maintenance_runs counter",
             "gtwatch_storage_maintenance_runs_total 2",
             "gtwatch_archive_chunks_total 48",
@@ -333,6 +366,20 @@ mod tests {
         ] {
             assert!(page.lines().any(|l| l == line), "{line:?} missing:\n{page}");
         }
+    }
+
+    #[test]
+    fn no_lag_gauge_before_a_centre_was_reached() {
+        let e = Exposition::new(
+            || Snapshot {
+                fleet: Some(FleetSnapshot::default()),
+                ..Snapshot::default()
+            },
+            &DurationHistogram::default(),
+        );
+        let page = e.encode().expect("encode");
+        assert!(page.contains("gtwatch_fleet_syncs_total 0"), "{page}");
+        assert!(!page.contains("fleet_sync_lag_rows"), "{page}");
     }
 
     #[test]

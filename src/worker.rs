@@ -201,6 +201,8 @@ pub struct WorkerContext {
     pub settings: DiagnosisSettings,
     /// FNV-1a of the engine file's text and the fit settings: equal hash = same result.
     pub config_hash: String,
+    /// The engine file's text (what the hash covers; a fleet re-diagnosis job carries it).
+    pub engine_text: String,
 }
 
 impl WorkerContext {
@@ -218,7 +220,17 @@ impl WorkerContext {
         let shown = engine_file.map_or("<built-in reference engine>".to_string(), |p| {
             p.display().to_string()
         });
-        let cfg = crate::engine::EngineConfig::from_toml_str(&text, &shown)?;
+        WorkerContext::from_text(text, &shown, settings)
+    }
+
+    /// From an engine file's text (`shown` names it in messages): what a fleet re-diagnosis
+    /// job carries, so a worker anywhere computes the same engine, settings and hash.
+    pub fn from_text(
+        text: String,
+        shown: &str,
+        settings: DiagnosisSettings,
+    ) -> anyhow::Result<WorkerContext> {
+        let cfg = crate::engine::EngineConfig::from_toml_str(&text, shown)?;
         let engine = Engine::new(cfg).map_err(|e| anyhow::anyhow!("engine: {e}"))?;
         let fit = serde_json::to_string(&settings.fit_config(&Cancel::new()))?;
         let config_hash = format!("{:016x}", fnv1a(&[text.as_bytes(), fit.as_bytes()]));
@@ -226,6 +238,7 @@ impl WorkerContext {
             engine,
             settings,
             config_hash,
+            engine_text: text,
         })
     }
 }
@@ -629,4 +642,5 @@ impl<'a> Drain<'a> {
 #[cfg(test)]
 mod tests;
 
+pub mod fleet;
 pub(crate) mod gap;

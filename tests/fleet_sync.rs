@@ -264,9 +264,33 @@ fn three_units_sync_into_one_centre_and_a_second_sync_sends_nothing() {
     let url = pg.create_db("fleet_a");
     let dir = tempfile::tempdir().expect("tempdir");
     let units = [("gt-a", 2usize), ("gt-b", 3), ("gt-c", 1)];
+    let centre_id = Centre::connect(&url, Duration::from_secs(5))
+        .expect("centre")
+        .id;
     for (k, (unit, n)) in units.iter().enumerate() {
         let db = dir.path().join(format!("{unit}.db"));
         build_edge(&db, *n, 1_700_000_000_000 + k as i64 * 10 * DAY_MS);
+        // Before its first sync the lag (the metrics' gauge) is every row the edge holds.
+        let lag = |db: &Path| {
+            gtwatch::fleet::sync::sync_lag(
+                &Store::open_readonly(db).unwrap(),
+                &centre_id,
+                unit,
+                true,
+            )
+            .expect("lag")
+        };
+        let edge = edge_counts(&db);
+        let expect: Vec<(&str, u64)> = gtwatch::fleet::sync::LAG_STREAMS
+            .iter()
+            .map(|t| {
+                (
+                    *t,
+                    edge.iter().find(|(n, _)| n == t).expect("table").1 as u64,
+                )
+            })
+            .collect();
+        assert_eq!(lag(&db), expect, "{unit}: lag before the first sync");
         let t0 = Instant::now();
         let out = gtwatch_sync(db.to_str().expect("utf8"), unit, &url, &["--json"]);
         let wall = t0.elapsed().as_secs_f64();
@@ -286,6 +310,11 @@ fn three_units_sync_into_one_centre_and_a_second_sync_sends_nothing() {
             "FLEET-SYNC unit {unit}: {n} start-ups, {sent} rows sent in {:.2} s (sync {:.2} s wall of the command)",
             report["wall_s"].as_f64().unwrap_or(0.0),
             wall
+        );
+        assert!(
+            lag(&db).iter().all(|(_, n)| *n == 0),
+            "{unit}: lag after a sync: {:?}",
+            lag(&db)
         );
         // The second sync sends nothing new.
         let again = gtwatch_sync(db.to_str().expect("utf8"), unit, &url, &["--json"]);
@@ -526,7 +555,7 @@ fn a_refusing_centre_is_a_clear_error_and_the_marks_stay() {
             err,
             FleetError::SchemaTooNew {
                 found: 99,
-                supported: 1,
+                supported: 2,
                 ..
             }
         ),
@@ -614,7 +643,7 @@ async fn the_daemon_syncs_and_a_missing_centre_does_not_hold_it() {
     let m = marks(&db);
     assert!(
         m.iter()
-            .any(|m| m.stream == "samples" && m.sent == edge[6].1),
+            .any(|m| m.stream == gtwatch::fleet::sync::SAMPLES_STREAM && m.sent == edge[6].1),
         "{m:?}"
     );
 

@@ -15,6 +15,7 @@ mod diagnose_stored;
 pub(crate) mod engine_args;
 mod export;
 mod fleet_history;
+mod fleet_worker;
 mod gap;
 mod history;
 mod plant_sim;

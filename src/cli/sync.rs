@@ -1,6 +1,7 @@
 //! `gtwatch sync` (one fleet sync of this unit's database to the central PostgreSQL) and
 //! `gtwatch fleet status` (the units at a centre, their last sync and rows per table);
-//! `gtwatch fleet history` is in `fleet_history`.
+//! `gtwatch fleet history` is in `fleet_history`, `fleet rediagnose` and `fleet worker` in
+//! `fleet_worker`.
 //! Must not hold SQL or decide what is sent (`crate::fleet` does).
 
 use crate::config::Config;
@@ -45,6 +46,11 @@ pub enum FleetCmd {
     History(super::fleet_history::FleetHistoryArgs),
     /// One self-contained HTML page: units ranked by fouling rate, washes due, every trend.
     Report(super::fleet_history::FleetReportArgs),
+    /// Queue a re-diagnosis of every start-up stored at the centre (one job per unit, start-up
+    /// and engine/config hash; queuing again adds nothing).
+    Rediagnose(super::fleet_worker::RediagnoseArgs),
+    /// Claim queued re-diagnosis jobs under a lease and run them (any number of workers).
+    Worker(super::fleet_worker::WorkerArgs),
 }
 
 #[derive(Debug, clap::Args)]
@@ -137,6 +143,8 @@ pub(super) fn run_fleet(cmd: &FleetCmd) -> anyhow::Result<ExitCode> {
     match cmd {
         FleetCmd::History(a) => super::fleet_history::run(a),
         FleetCmd::Report(a) => super::fleet_history::run_report(a),
+        FleetCmd::Rediagnose(a) => super::fleet_worker::run_rediagnose(a),
+        FleetCmd::Worker(a) => super::fleet_worker::run_worker(a),
         FleetCmd::Status(a) => {
             let mut centre = Centre::connect_existing(&a.postgres_url, Duration::from_secs(30))?;
             let units = fleet_status(&mut centre)?;

@@ -75,6 +75,7 @@ impl Live {
                 syncs_failed: get(&f.syncs_failed),
                 rows_sent: get(&f.rows_sent),
                 last_ok_ms: get(&f.last_ok_ms),
+                lag_rows: f.lag(),
             }),
             compaction: self
                 .compaction

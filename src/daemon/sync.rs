@@ -8,6 +8,7 @@
 //! 10 min (never shorter than the interval), and acquisition and diagnosis never wait for it.
 //! Shutdown stops a running sync between batches. Must not hold SQL of either side.
 
+use crate::fleet::sync::{sync_lag, LAG_STREAMS};
 use crate::fleet::{sync_once, Centre, FleetConfig, FleetError, SyncReport};
 use crate::shutdown::Shutdown;
 use crate::store::{ReadStore, Store, StoreOptions, WriterHandle};
@@ -29,6 +30,20 @@ pub struct SyncCounters {
     pub rows_sent: AtomicU64,
     /// Unix epoch ms of the last successful sync (0: none yet).
     pub last_ok_ms: AtomicU64,
+    /// Rows the edge holds above its marks after the last round, per stream of
+    /// [`LAG_STREAMS`] (`fleet::sync::sync_lag`); meaningful once `lag_known`.
+    pub lag_rows: [AtomicU64; LAG_STREAMS.len()],
+    /// The lag was measured (a centre was reached once, so its marks are known).
+    pub lag_known: AtomicBool,
+}
+
+impl SyncCounters {
+    /// The lag per stream, once measured.
+    pub fn lag(&self) -> Option<[u64; LAG_STREAMS.len()]> {
+        self.lag_known
+            .load(Ordering::Relaxed)
+            .then(|| std::array::from_fn(|i| self.lag_rows[i].load(Ordering::Relaxed)))
+    }
 }
 
 /// What the sync task did over the daemon's run.
@@ -44,6 +59,8 @@ pub struct SyncTaskReport {
 struct Conns {
     store: Option<ReadStore>,
     centre: Option<Centre>,
+    /// The id of the centre last reached (its marks measure the lag while it is away).
+    centre_id: Option<String>,
 }
 
 /// The fleet sync task (mini-redis shape: a small struct with its own `run`).
@@ -66,11 +83,13 @@ impl SyncTask {
             let state = conns.take().unwrap_or_default();
             let (db, opts, cfg) = (self.db_path.clone(), self.store_opts, self.cfg.clone());
             let (writer, stop2) = (self.writer.clone(), Arc::clone(&stop));
+            let counters = Arc::clone(&self.counters);
             // The PostgreSQL client blocks (also when dropped): it lives on the blocking pool
             // only, and is dropped there when a sync fails.
             let job = tokio::task::spawn_blocking(move || {
                 let mut state = state;
                 let r = round(&mut state, &db, &opts, writer, &cfg, &stop2);
+                measure_lag(&mut state, &cfg, &counters);
                 if let Err(e) = &r {
                     // A lost or refusing centre is reconnected next time.
                     state.centre = None;
@@ -146,6 +165,28 @@ impl SyncTask {
     fn failed(&self, why: &str) {
         let n = self.counters.syncs_failed.fetch_add(1, Ordering::Relaxed) + 1;
         tracing::warn!(failures = n, "fleet sync failed (retried): {why}");
+    }
+}
+
+/// The edge's rows above its marks for the centre last reached, into `counters` (the
+/// metrics' lag per table). Measured after every round, also a failed one: while the centre
+/// is away the lag grows. Reads the edge only; a failure to read is logged and the last
+/// figures stay.
+fn measure_lag(state: &mut Conns, cfg: &FleetConfig, counters: &SyncCounters) {
+    if let Some(c) = &state.centre {
+        state.centre_id = Some(c.id.clone());
+    }
+    let (Some(store), Some(centre_id)) = (&state.store, &state.centre_id) else {
+        return;
+    };
+    match sync_lag(store, centre_id, &cfg.unit_id, cfg.send_samples) {
+        Ok(lag) => {
+            for (i, (_, n)) in lag.iter().enumerate().take(LAG_STREAMS.len()) {
+                counters.lag_rows[i].store(*n, Ordering::Relaxed);
+            }
+            counters.lag_known.store(true, Ordering::Relaxed);
+        }
+        Err(e) => tracing::debug!("fleet sync lag not measured: {e}"),
     }
 }
 

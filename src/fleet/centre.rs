@@ -8,10 +8,16 @@ use serde::Serialize;
 use std::time::Duration;
 
 /// Central migrations in order; version n is the n-th. Never edit a released one.
-const MIGRATIONS: &[(&str, &str)] = &[(
-    "0001_fleet.sql",
-    include_str!("../../migrations/postgres/0001_fleet.sql"),
-)];
+const MIGRATIONS: &[(&str, &str)] = &[
+    (
+        "0001_fleet.sql",
+        include_str!("../../migrations/postgres/0001_fleet.sql"),
+    ),
+    (
+        "0002_rediagnosis.sql",
+        include_str!("../../migrations/postgres/0002_rediagnosis.sql"),
+    ),
+];
 
 /// Advisory lock key serialising two edges migrating a fresh centre at once.
 const MIGRATION_LOCK: i64 = 0x0067_7477_6174_6368; // "gtwatch" in ASCII

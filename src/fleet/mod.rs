@@ -10,6 +10,11 @@
 //!   before its mark moves, every row keyed by (unit_id, edge id) so a re-sent batch changes
 //!   nothing (`ON CONFLICT DO NOTHING`, `DO UPDATE` where an edge row changes).
 //!
+//! - [`rediagnose`]: the distributed re-diagnosis queue at the centre (jobs per start-up and
+//!   engine/config hash, claimed under a lease with `FOR UPDATE SKIP LOCKED`, completed with
+//!   their result in one transaction) and a start-up window read back from the centre; the
+//!   `worker` room's `fleet` module runs the diagnosis itself (`gtwatch fleet worker`).
+//!
 //! The daemon runs it as a task (`daemon::sync`), `gtwatch sync` once. Must not write the
 //! edge's tables (only its marks, through a [`sync::MarkSink`]), hold edge SQL (that is
 //! `store`'s) or ever block acquisition or diagnosis: a centre that is down, slow or refusing
@@ -17,6 +22,7 @@
 
 pub mod centre;
 pub mod history;
+pub mod rediagnose;
 pub mod sync;
 
 pub use centre::{fleet_status, Centre, UnitStatus};
@@ -175,6 +181,8 @@ pub enum FleetError {
         #[source]
         source: postgres::Error,
     },
+    #[error("fleet centre {centre}: {what}")]
+    Data { centre: String, what: String },
     #[error("edge database: {0}")]
     Edge(#[from] crate::store::StoreError),
     #[error("sync stopped (shutdown)")]

@@ -5,7 +5,10 @@
 //! no longer has — a re-scan replaced them before diagnosis — are dropped at the centre),
 //! diagnoses, gap analyses, recommendations (walked by id: rows never change), washes (sent
 //! whole: few rows, confirmed or rejected in place; the centre keeps exactly the edge's), and
-//! the samples of each closed start-up window (walked by segment id, then tag id and time).
+//! the samples of each closed start-up window (walked by segment id, then tag id and time;
+//! from 10 s before the start, the standstill context the diagnosis reads, and recorded in
+//! `sample_windows` once complete). The tags (which tag is which engine signal) go first,
+//! whole, so the centre can read a window as the diagnosis does.
 //!
 //! Each batch (at most `batch_rows` rows) is one central transaction; only after its COMMIT
 //! returned does the stream's mark move at the edge (through a [`MarkSink`]). A crash or a
@@ -17,7 +20,7 @@ use super::{FleetConfig, FleetError};
 use crate::store::{
     ColKind, FleetColumn, FleetCursor, FleetMark, FleetRows, FleetTable, Store, StoreError,
     WriteCmd, WriterHandle, FLEET_DIAGNOSES, FLEET_GAP_ANALYSES, FLEET_PHASE_COLUMNS,
-    FLEET_RECOMMENDATIONS, FLEET_SEGMENTS, FLEET_WASHES,
+    FLEET_RECOMMENDATIONS, FLEET_SEGMENTS, FLEET_TAG_COLUMNS, FLEET_WASHES,
 };
 use postgres::types::ToSql;
 use postgres::Transaction;
@@ -81,6 +84,12 @@ impl SyncReport {
 /// A mark of the table's stream: the second key of "done with this window" for samples.
 const WINDOW_DONE: i64 = i64::MAX;
 
+/// The samples stream's mark. Named anew when the windows grew the standstill context before
+/// each start-up (centre schema 2): an edge upgraded from a build that sent bare windows walks
+/// them all again, so every window at the centre gets its context and its `sample_windows` row
+/// (the re-sent rows themselves are absorbed by `ON CONFLICT`).
+pub const SAMPLES_STREAM: &str = "samples.ctx";
+
 /// The running state of one sync.
 struct Run<'a> {
     edge: &'a Store,
@@ -122,6 +131,7 @@ pub fn sync_once(
         stop,
         marks,
     };
+    report.streams.push(run.tags()?);
     report.streams.push(run.table(&FLEET_SEGMENTS)?);
     for t in [FLEET_DIAGNOSES, FLEET_GAP_ANALYSES, FLEET_RECOMMENDATIONS] {
         report.streams.push(run.table(&t)?);
@@ -133,6 +143,58 @@ pub fn sync_once(
     touch_unit(run.centre, &cfg.unit_id)?;
     report.wall_s = t0.elapsed().as_secs_f64();
     Ok(report)
+}
+
+/// The streams whose lag [`sync_lag`] reports, in its order (the metrics' table labels).
+pub const LAG_STREAMS: [&str; 6] = crate::metrics::SYNC_LAG_TABLES;
+
+/// Rows of each stream in [`LAG_STREAMS`] that the edge holds above its high-water marks for
+/// `centre_id` and `unit_id` (what the next sync would send; everything when there are no
+/// marks). Samples: those of the closed start-up windows not yet done (the window being sent
+/// counts whole, so this is at most one window over). Reads the edge only.
+pub fn sync_lag(
+    edge: &Store,
+    centre_id: &str,
+    unit_id: &str,
+    send_samples: bool,
+) -> Result<Vec<(&'static str, u64)>, StoreError> {
+    let marks: BTreeMap<String, FleetMark> = edge
+        .fleet_marks(centre_id, unit_id)?
+        .into_iter()
+        .map(|m| (m.stream.clone(), m))
+        .collect();
+    let after = |stream: &str| {
+        marks
+            .get(stream)
+            .map_or((i64::MIN, i64::MIN), |m| (m.a, m.b))
+    };
+    let n = |v: i64| u64::try_from(v).unwrap_or(0);
+    let mut out = Vec::with_capacity(LAG_STREAMS.len());
+    for t in [
+        FLEET_SEGMENTS,
+        FLEET_DIAGNOSES,
+        FLEET_GAP_ANALYSES,
+        FLEET_RECOMMENDATIONS,
+        FLEET_WASHES,
+    ] {
+        out.push((t.name, n(edge.fleet_count_after(&t, after(t.name))?)));
+    }
+    let mut samples = 0;
+    if send_samples {
+        let first = match marks.get(SAMPLES_STREAM) {
+            None => i64::MIN,
+            Some(m) if m.b == WINDOW_DONE => m.a.saturating_add(1),
+            Some(m) => m.a,
+        };
+        for w in edge.fleet_closed_windows(first)? {
+            if let Some(end) = w.end_ms {
+                samples += n(edge.fleet_window_count(w.from_ms, end)?);
+            }
+        }
+    }
+    out.push(("samples", samples));
+    debug_assert!(out.iter().map(|(t, _)| *t).eq(LAG_STREAMS));
+    Ok(out)
 }
 
 /// Creates the unit's row or moves its last sync time to now.
@@ -344,9 +406,44 @@ impl Run<'_> {
         let unit = self.cfg.unit_id.clone();
         self.in_tx("dropping replaced segments", |tx| {
             tx.execute(
+                "DELETE FROM sample_windows WHERE unit_id = $1 AND NOT (segment_id = ANY($2))",
+                &[&unit, &ids],
+            )?;
+            tx.execute(
                 "DELETE FROM segments WHERE unit_id = $1 AND NOT (edge_id = ANY($2))",
                 &[&unit, &ids],
             )
+        })
+    }
+
+    /// The tags, whole (a handful of rows): upserted where new or changed, so the centre knows
+    /// which tag is which engine signal (a re-diagnosis reads the samples through it).
+    fn tags(&mut self) -> Result<StreamReport, FleetError> {
+        self.check_stop()?;
+        let rows = self.edge.fleet_tags()?;
+        let unit = self.cfg.unit_id.clone();
+        let n = if rows.is_empty() {
+            0
+        } else {
+            self.in_tx("sending tags", |tx| {
+                let key = ["unit_id", "edge_id"];
+                insert_columns(
+                    tx,
+                    "tags",
+                    &key,
+                    FLEET_TAG_COLUMNS,
+                    &unit,
+                    &rows,
+                    OnConflict::Update,
+                )
+            })?
+        };
+        Ok(StreamReport {
+            table: "tags".to_string(),
+            sent: n,
+            applied: n,
+            batches: u64::from(n > 0),
+            removed: 0,
         })
     }
 
@@ -408,7 +505,7 @@ impl Run<'_> {
             table: "samples".to_string(),
             ..StreamReport::default()
         };
-        let mut mark = self.mark("samples", (0, WINDOW_DONE, 0));
+        let mut mark = self.mark(SAMPLES_STREAM, (0, WINDOW_DONE, 0));
         let unit = self.cfg.unit_id.clone();
         loop {
             self.check_stop()?;
@@ -430,7 +527,7 @@ impl Run<'_> {
             // An open start-up's samples wait until it closes.
             let Some(end_ms) = window.end_ms else { break };
             let batch = self.edge.fleet_window_samples(
-                window.start_ms,
+                window.from_ms,
                 end_ms,
                 (mark.b, mark.c),
                 self.cfg.batch_rows,
@@ -462,6 +559,19 @@ impl Run<'_> {
                 mark.c = batch.t_ms[n - 1];
             }
             if n < self.cfg.batch_rows {
+                // Every sample of the window is committed: say so at the centre (a crash
+                // before the mark moves re-reads nothing and writes this again).
+                let (seg, from, to) = (window.segment_id, window.from_ms, end_ms);
+                self.in_tx("recording a complete window", |tx| {
+                    tx.execute(
+                        "INSERT INTO sample_windows (unit_id, segment_id, from_ms, end_ms)
+                         VALUES ($1, $2, $3, $4)
+                         ON CONFLICT (unit_id, segment_id) DO UPDATE
+                           SET from_ms = EXCLUDED.from_ms, end_ms = EXCLUDED.end_ms,
+                               completed_at = now()",
+                        &[&unit, &seg, &from, &to],
+                    )
+                })?;
                 mark.b = WINDOW_DONE;
             }
             self.save(mark.clone())?;

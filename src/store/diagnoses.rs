@@ -134,7 +134,101 @@ impl HistoryRow {
 }
 
 /// Samples taken before the segment's start as standstill context for the model.
-const CONTEXT_BEFORE_MS: i64 = 10_000;
+pub const CONTEXT_BEFORE_MS: i64 = 10_000;
+
+/// A closed segment's recording from its rows, wherever they are stored (this database, or the
+/// fleet centre's copy for a re-diagnosis): `phases` as (phase code, start ms, end ms), in
+/// (start, code) order; `samples(signal)` the samples of any quality of the signal's tag over
+/// `[start_ms - CONTEXT_BEFORE_MS, end_ms]`, time-ordered (`None`: no tag has that signal).
+/// The time axis is n1's good samples; each signal's good samples at those times are its
+/// values; the data-quality counts are over `[start_ms, end_ms]`. No I/O of its own: the same
+/// rows give the same recording, bit for bit.
+pub fn build_segment_recording(
+    seg: SegmentInfo,
+    phases: &[(i64, i64, Option<i64>)],
+    mut samples: impl FnMut(Signal) -> Result<Option<Vec<super::SampleRow>>, StoreError>,
+) -> Result<SegmentRecording, StoreError> {
+    let id = seg.id;
+    let Some(end_ms) = seg.end_ms else {
+        return Err(StoreError::Corrupt(format!("segment {id} is still open")));
+    };
+    let mut phase_spans: Vec<(i64, i64, Phase)> = Vec::with_capacity(phases.len());
+    for &(code, s, e) in phases {
+        let phase = u16::try_from(code)
+            .ok()
+            .and_then(Phase::from_code)
+            .ok_or_else(|| StoreError::Corrupt(format!("segment {id}: phase code {code}")))?;
+        phase_spans.push((s, e.unwrap_or(end_ms), phase));
+    }
+    let good = |rows: &[super::SampleRow]| -> Vec<(i64, f64)> {
+        rows.iter()
+            .filter(|s| s.quality == 0)
+            .map(|s| (s.t_ms, s.value))
+            .collect()
+    };
+    let Some(n1) = samples(Signal::N1)? else {
+        return Err(StoreError::UnknownTag("n1 (no tag has signal n1)".into()));
+    };
+    let axis: Vec<i64> = good(&n1).into_iter().map(|(t, _)| t).collect();
+    let index: HashMap<i64, usize> = axis.iter().enumerate().map(|(i, t)| (*t, i)).collect();
+    let mut values: Vec<Values> = vec![[f64::NAN; NSIG]; axis.len()];
+    let mut missing = Vec::new();
+    let mut quality = Vec::new();
+    for sig in Signal::ALL {
+        let rows = if sig == Signal::N1 {
+            Some(n1.clone())
+        } else {
+            samples(sig)?
+        };
+        let Some(rows) = rows else {
+            missing.push(sig);
+            continue;
+        };
+        let in_segment = rows.iter().filter(|s| s.t_ms >= seg.start_ms);
+        let (mut n_good, mut total) = (0u64, 0u64);
+        for s in in_segment {
+            total += 1;
+            if s.quality == 0 {
+                n_good += 1;
+            }
+        }
+        quality.push(SignalQuality {
+            signal: sig,
+            good: n_good,
+            total,
+        });
+        let mut any = false;
+        for (t, v) in good(&rows) {
+            if let Some(&k) = index.get(&t) {
+                values[k][sig.index()] = v;
+                any = true;
+            }
+        }
+        if !any {
+            missing.push(sig);
+        }
+    }
+    let t0 = axis.first().copied().unwrap_or(seg.start_ms);
+    let phase_at = |t: i64| -> Phase {
+        phase_spans
+            .iter()
+            .rev()
+            .find(|(s, e, _)| t >= *s && t <= *e)
+            .map_or(Phase::Standstill, |p| p.2)
+    };
+    let recording = Recording::new(
+        axis.iter().map(|t| (t - t0) as f64 / 1000.0).collect(),
+        axis.iter().map(|t| phase_at(*t)).collect(),
+        values,
+    );
+    Ok(SegmentRecording {
+        segment: seg,
+        recording,
+        t0_ms: t0,
+        missing,
+        quality,
+    })
+}
 
 pub(super) fn segment_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<SegmentInfo> {
     Ok(SegmentInfo {
@@ -177,7 +271,8 @@ impl Store {
     }
 
     /// The store → recording adapter: the segment's good samples (plus 10 s of context before
-    /// it, labelled standstill) on the n1 tag's time stamps, with the detector's phases.
+    /// it, labelled standstill) on the n1 tag's time stamps, with the detector's phases
+    /// ([`build_segment_recording`] on what this database holds).
     pub fn segment_recording(&self, id: i64) -> Result<Option<SegmentRecording>, StoreError> {
         let Some(seg) = self.segment(id)? else {
             return Ok(None);
@@ -186,90 +281,24 @@ impl Store {
             return Err(StoreError::Corrupt(format!("segment {id} is still open")));
         };
         let from = seg.start_ms - CONTEXT_BEFORE_MS;
-        let mut phases: Vec<(i64, i64, Phase)> = Vec::new();
-        {
+        let phases: Vec<(i64, i64, Option<i64>)> = {
             let mut st = self.conn.prepare_cached(
                 "SELECT phase_code, start_ms, end_ms FROM segment_phases WHERE segment_id = ?1
                  ORDER BY start_ms, phase_code",
             )?;
-            let rows = st.query_map(params![id], |r| {
-                Ok((
-                    r.get::<_, i64>(0)?,
-                    r.get::<_, i64>(1)?,
-                    r.get::<_, Option<i64>>(2)?,
-                ))
-            })?;
-            for row in rows {
-                let (code, s, e) = row?;
-                let phase = u16::try_from(code)
-                    .ok()
-                    .and_then(Phase::from_code)
-                    .ok_or_else(|| {
-                        StoreError::Corrupt(format!("segment {id}: phase code {code}"))
-                    })?;
-                phases.push((s, e.unwrap_or(end_ms), phase));
-            }
-        }
+            let rows = st.query_map(params![id], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))?;
+            rows.collect::<Result<_, _>>()?
+        };
         let tags = self.tags()?;
-        let tag_of = |sig: Signal| tags.iter().find(|t| t.signal == Some(sig)).map(|t| t.id);
-        let Some(n1_tag) = tag_of(Signal::N1) else {
-            return Err(StoreError::UnknownTag("n1 (no tag has signal n1)".into()));
-        };
-        let read = |tag: i64| -> Result<Vec<(i64, f64)>, StoreError> {
-            Ok(
-                super::archive::read_samples(&self.conn, tag, from, end_ms, true)?
-                    .into_iter()
-                    .map(|s| (s.t_ms, s.value))
-                    .collect(),
-            )
-        };
-        let axis: Vec<i64> = read(n1_tag)?.into_iter().map(|(t, _)| t).collect();
-        let index: HashMap<i64, usize> = axis.iter().enumerate().map(|(i, t)| (*t, i)).collect();
-        let mut values: Vec<Values> = vec![[f64::NAN; NSIG]; axis.len()];
-        let mut missing = Vec::new();
-        let mut quality = Vec::new();
-        for sig in Signal::ALL {
-            let Some(tag) = tag_of(sig) else {
-                missing.push(sig);
-                continue;
-            };
-            let all = super::archive::read_samples(&self.conn, tag, seg.start_ms, end_ms, false)?;
-            quality.push(SignalQuality {
-                signal: sig,
-                good: all.iter().filter(|s| s.quality == 0).count() as u64,
-                total: all.len() as u64,
-            });
-            let mut any = false;
-            for (t, v) in read(tag)? {
-                if let Some(&k) = index.get(&t) {
-                    values[k][sig.index()] = v;
-                    any = true;
-                }
+        let samples = |sig: Signal| -> Result<Option<Vec<super::SampleRow>>, StoreError> {
+            match tags.iter().find(|t| t.signal == Some(sig)) {
+                Some(t) => Ok(Some(super::archive::read_samples(
+                    &self.conn, t.id, from, end_ms, false,
+                )?)),
+                None => Ok(None),
             }
-            if !any {
-                missing.push(sig);
-            }
-        }
-        let t0 = axis.first().copied().unwrap_or(seg.start_ms);
-        let phase_at = |t: i64| -> Phase {
-            phases
-                .iter()
-                .rev()
-                .find(|(s, e, _)| t >= *s && t <= *e)
-                .map_or(Phase::Standstill, |p| p.2)
         };
-        let recording = Recording::new(
-            axis.iter().map(|t| (t - t0) as f64 / 1000.0).collect(),
-            axis.iter().map(|t| phase_at(*t)).collect(),
-            values,
-        );
-        Ok(Some(SegmentRecording {
-            segment: seg,
-            recording,
-            t0_ms: t0,
-            missing,
-            quality,
-        }))
+        build_segment_recording(seg, &phases, samples).map(Some)
     }
 
     /// Stores what the worker found for one segment — results (one per method) and reasons

@@ -132,6 +132,11 @@ pub const FLEET_RECOMMENDATIONS: FleetTable = FleetTable {
     cursor: FleetCursor::Id,
 };
 
+/// Columns of a tag as the centre keeps it ([`Store::fleet_tags`]; `signal` is the signal's
+/// column name, e.g. `n1_rpm`, or NULL).
+pub const FLEET_TAG_COLUMNS: &[(&str, ColKind)] =
+    &[("name", Text), ("unit", Text), ("signal", Text)];
+
 /// Columns of a segment's phases (keyed by segment id and phase name).
 pub const FLEET_PHASE_COLUMNS: &[(&str, ColKind)] = &[
     ("phase", Text),
@@ -166,6 +171,10 @@ impl FleetRows {
 pub struct FleetWindow {
     pub segment_id: i64,
     pub start_ms: i64,
+    /// Where its samples begin: `start_ms` less the standstill context the diagnosis reads
+    /// before a start-up ([`super::CONTEXT_BEFORE_MS`]), so the centre holds everything a
+    /// re-diagnosis needs.
+    pub from_ms: i64,
     /// `None` while the segment is open (its samples wait until it closes).
     pub end_ms: Option<i64>,
 }
@@ -349,7 +358,8 @@ impl Store {
             .optional()?)
     }
 
-    /// Up to `limit` samples (any quality) of `[start_ms, end_ms]` after (`after_tag`,
+    /// Up to `limit` samples (any quality) of `[start_ms, end_ms]` (a window's `from_ms` …
+    /// `end_ms`) after (`after_tag`,
     /// `after_t`) in (tag id, time) order: each tag's range is read through the primary key.
     pub fn fleet_window_samples(
         &self,
@@ -392,6 +402,68 @@ impl Store {
             }
         }
         Ok(out)
+    }
+
+    /// Every tag as the centre keeps it: (edge id, name, engineering unit, signal column name).
+    pub fn fleet_tags(&self) -> Result<FleetRows, StoreError> {
+        let tags = self.tags()?;
+        Ok(FleetRows {
+            ids: tags.iter().map(|t| t.id).collect(),
+            columns: vec![
+                FleetColumn::Text(tags.iter().map(|t| Some(t.name.clone())).collect()),
+                FleetColumn::Text(tags.iter().map(|t| Some(t.unit.clone())).collect()),
+                FleetColumn::Text(
+                    tags.iter()
+                        .map(|t| t.signal.map(|s| s.column().to_string()))
+                        .collect(),
+                ),
+            ],
+            last: tags.last().map(|t| (t.id, 0)),
+        })
+    }
+
+    /// Rows of `table` after the cursor `after` (as [`Store::fleet_rows`] walks it): what a
+    /// sync from that mark would send (the fleet sync's lag).
+    pub fn fleet_count_after(
+        &self,
+        table: &FleetTable,
+        after: (i64, i64),
+    ) -> Result<i64, StoreError> {
+        let name = table.name;
+        Ok(match table.cursor {
+            FleetCursor::Id | FleetCursor::Whole => self.conn.query_row(
+                &format!("SELECT COUNT(*) FROM {name} WHERE id > ?1"),
+                [after.0],
+                |r| r.get(0),
+            )?,
+            FleetCursor::UpdatedAt => self.conn.query_row(
+                &format!(
+                    "SELECT COUNT(*) FROM {name}
+                     WHERE updated_at_ms > ?1 OR (updated_at_ms = ?1 AND id > ?2)"
+                ),
+                [after.0, after.1],
+                |r| r.get(0),
+            )?,
+        })
+    }
+
+    /// Closed windows from segment id `from_id` on (inclusive), in id order.
+    pub fn fleet_closed_windows(&self, from_id: i64) -> Result<Vec<FleetWindow>, StoreError> {
+        let mut st = self.conn.prepare_cached(
+            "SELECT id, start_ms, end_ms FROM segments WHERE id >= ?1 AND end_ms IS NOT NULL
+             ORDER BY id",
+        )?;
+        let rows = st.query_map([from_id], fleet_window_row)?;
+        Ok(rows.collect::<Result<_, _>>()?)
+    }
+
+    /// Samples (any quality, both tiers) of every tag in `[from_ms, end_ms]`.
+    pub fn fleet_window_count(&self, from_ms: i64, end_ms: i64) -> Result<i64, StoreError> {
+        let mut n = 0;
+        for t in self.tags()? {
+            n += super::archive::count_samples(&self.conn, t.id, from_ms, end_ms)?;
+        }
+        Ok(n)
     }
 
     /// The marks kept for `centre` and `unit_id`.
@@ -466,15 +538,17 @@ impl Store {
         }
         let n: i64 = self.conn.query_row(
             "SELECT COUNT(*) FROM samples s WHERE EXISTS (SELECT 1 FROM segments g
-               WHERE g.end_ms IS NOT NULL AND s.t_ms BETWEEN g.start_ms AND g.end_ms)",
-            [],
+               WHERE g.end_ms IS NOT NULL AND s.t_ms BETWEEN g.start_ms - ?1 AND g.end_ms)",
+            [super::CONTEXT_BEFORE_MS],
             |r| r.get(0),
         )?;
         let windows: Vec<(i64, i64)> = {
             let mut st = self
                 .conn
                 .prepare_cached("SELECT start_ms, end_ms FROM segments WHERE end_ms IS NOT NULL")?;
-            let rows = st.query_map([], |r| Ok((r.get(0)?, r.get(1)?)))?;
+            let rows = st.query_map([], |r| {
+                Ok((r.get::<_, i64>(0)? - super::CONTEXT_BEFORE_MS, r.get(1)?))
+            })?;
             rows.collect::<Result<_, _>>()?
         };
         let n = n + super::archive::count_archived_in(&self.conn, &windows)?;
@@ -485,9 +559,11 @@ impl Store {
 
 /// A [`FleetWindow`] from a `SELECT id, start_ms, end_ms FROM segments` row.
 fn fleet_window_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<FleetWindow> {
+    let start_ms: i64 = r.get(1)?;
     Ok(FleetWindow {
         segment_id: r.get(0)?,
-        start_ms: r.get(1)?,
+        start_ms,
+        from_ms: start_ms - super::CONTEXT_BEFORE_MS,
         end_ms: r.get(2)?,
     })
 }

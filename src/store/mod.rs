@@ -26,7 +26,7 @@ mod fleet;
 pub use fleet::{
     ColKind, FleetColumn, FleetCursor, FleetMark, FleetRows, FleetSamples, FleetTable, FleetWindow,
     FLEET_DIAGNOSES, FLEET_GAP_ANALYSES, FLEET_PHASE_COLUMNS, FLEET_RECOMMENDATIONS,
-    FLEET_SEGMENTS, FLEET_WASHES,
+    FLEET_SEGMENTS, FLEET_TAG_COLUMNS, FLEET_WASHES,
 };
 mod gap;
 mod locks;
@@ -48,8 +48,8 @@ pub use archive::{ArchiveStats, CompactStats, CHUNK_SPAN_MS, DEFAULT_MAX_CHUNK_S
 pub use db::{Db, ViaWriter};
 pub use detection::{ResumeState, ScanWrite};
 pub use diagnoses::{
-    DiagnosisTiming, HistoryFilter, HistoryRow, NewDiagnosis, NewOutcome, SegmentInfo,
-    SegmentRecording, SignalQuality, Undiagnosable,
+    build_segment_recording, DiagnosisTiming, HistoryFilter, HistoryRow, NewDiagnosis, NewOutcome,
+    SegmentInfo, SegmentRecording, SignalQuality, Undiagnosable, CONTEXT_BEFORE_MS,
 };
 pub use locks::{lock_waits, LockWaits};
 

@@ -223,6 +223,34 @@ pub(crate) fn count_all(conn: &Connection) -> Result<i64, StoreError> {
     Ok(hot + arch)
 }
 
+/// Samples (any quality, both tiers) of `tag` over `[from, to]`, counted without decoding
+/// values: the hot rows through the primary key, the overlapping chunks' time columns.
+pub(crate) fn count_samples(
+    conn: &Connection,
+    tag: TagId,
+    from: i64,
+    to: i64,
+) -> Result<i64, StoreError> {
+    let hot: i64 = conn
+        .prepare_cached(
+            "SELECT COUNT(*) FROM samples WHERE tag_id = ?1 AND t_ms BETWEEN ?2 AND ?3",
+        )?
+        .query_row(params![tag, from, to], |r| r.get(0))?;
+    let mut st = conn.prepare_cached(
+        "SELECT n, t_blob FROM archive_chunks
+         WHERE tag_id = ?1 AND t_end_ms >= ?2 AND t_start_ms <= ?3",
+    )?;
+    let mut rows = st.query(params![tag, from, to])?;
+    let mut archived = 0i64;
+    while let Some(r) = rows.next()? {
+        let n: i64 = r.get(0)?;
+        let blob: Vec<u8> = r.get(1)?;
+        let times = codec::decode_times(&blob, usize::try_from(n).unwrap_or(0))?;
+        archived += times.iter().filter(|&&t| t >= from && t <= to).count() as i64;
+    }
+    Ok(hot + archived)
+}
+
 /// Archived samples whose time lies in one of `windows` (inclusive), each counted once.
 pub(crate) fn count_archived_in(
     conn: &Connection,
