@@ -138,9 +138,12 @@ fn archived_times(
 ) -> Result<Vec<i64>, StoreError> {
     let mut st = conn.prepare_cached(
         "SELECT n, t_blob FROM archive_chunks
-         WHERE tag_id = ?1 AND t_start_ms <= ?3 AND t_end_ms >= ?2",
+         WHERE tag_id = ?1 AND t_start_ms <= ?3 AND t_end_ms >= ?2 AND t_start_ms >= ?4",
     )?;
-    let mut rows = st.query(params![tag, from, to])?;
+    // A chunk never spans more than one aligned window, so one overlapping the range starts
+    // at most a window before it: the bound keeps the index range short however long the
+    // archive already is (ingest speed must not fall as the database grows).
+    let mut rows = st.query(params![tag, from, to, from.saturating_sub(CHUNK_SPAN_MS)])?;
     let mut out = Vec::new();
     while let Some(r) = rows.next()? {
         let n: i64 = r.get(0)?;
