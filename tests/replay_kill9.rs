@@ -149,8 +149,11 @@ fn replay_survives_kill_9_and_rerun_completes_exactly() {
     .print();
 }
 
+/// One stored sample: (tag name, t_ms, value bits, quality).
+type Stored = (String, i64, u64, i64);
+
 /// Every sample as (tag name, t_ms, value bits, quality), in key order.
-fn dump(db: &Path) -> Vec<(String, i64, u64, i64)> {
+fn dump(db: &Path) -> Vec<Stored> {
     let conn =
         rusqlite::Connection::open_with_flags(db, rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY)
             .expect("open");
@@ -206,7 +209,7 @@ fn archive_replay_interrupted_at_random_moments_ends_identical() {
 }
 
 /// Every sample through the store's read path (both tiers), as [`dump`] gives it.
-fn dump_read_path(db: &Path) -> Vec<(String, i64, u64, i64)> {
+fn dump_read_path(db: &Path) -> Vec<Stored> {
     if dump(db).is_empty() && !has_chunks(db) {
         return Vec::new();
     }
@@ -246,8 +249,7 @@ fn has_chunks(db: &Path) -> bool {
 
 fn interrupted_at_random_moments(archive: bool) {
     const SMALL_ROWS: u64 = 50_000;
-    let dump: fn(&Path) -> Vec<(String, i64, u64, i64)> =
-        if archive { dump_read_path } else { dump };
+    let dump: fn(&Path) -> Vec<Stored> = if archive { dump_read_path } else { dump };
     // Six rounds (× GTWATCH_FAULTS_LONG), alternately SIGTERM and kill -9.
     let rounds: usize = 6 * common::long_factor() as usize;
     let dir = tempfile::tempdir().expect("tempdir");
@@ -289,7 +291,7 @@ fn interrupted_at_random_moments(archive: bool) {
     // xorshift64, fixed seed: the same moments on every run (relative to this machine's speed).
     let mut seed: u64 = 0x9E37_79B9_7F4A_7C15;
     let mut interrupted_mid_way = 0;
-    let want: std::collections::HashSet<&(String, i64, u64, i64)> = reference.iter().collect();
+    let want: std::collections::HashSet<&Stored> = reference.iter().collect();
     for round in 0..rounds {
         seed ^= seed << 13;
         seed ^= seed >> 7;
