@@ -221,6 +221,32 @@ fn three_workers_one_killed_do_every_job_once_with_the_edges_results() {
     );
 
     assert_results_are_the_edges(&mut centre);
+    // `fleet history --config-hash` shows the re-diagnosis: the edges' history, row for row.
+    let history = |extra: &[&str]| {
+        let mut args = vec![
+            "fleet",
+            "history",
+            "--postgres-url",
+            &url,
+            "--format",
+            "json",
+        ];
+        args.extend_from_slice(extra);
+        let out = ok(gtwatch(&args), "fleet history");
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).expect("json")
+    };
+    let edge = history(&[]);
+    let redone = history(&["--config-hash", &hash]);
+    assert_eq!(
+        edge.as_array().map(Vec::len),
+        Some(2 * STARTUPS),
+        "{edge:#}"
+    );
+    assert_eq!(redone, edge);
+    assert_eq!(
+        history(&["--config-hash", "no-such-hash"]),
+        serde_json::json!([])
+    );
     eprintln!(
         "FLEET-REDIAGNOSE test {:.1} s",
         t_all.elapsed().as_secs_f64()

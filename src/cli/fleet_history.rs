@@ -33,6 +33,10 @@ pub struct FleetHistoryArgs {
     /// Only this method (A steady-state, B transient).
     #[arg(long, value_enum, ignore_case = true)]
     pub method: Option<MethodFilter>,
+    /// The fleet re-diagnosis under this config hash (printed by `fleet rediagnose`) instead
+    /// of the edges' own results.
+    #[arg(long)]
+    pub config_hash: Option<String>,
     #[arg(long, value_enum, default_value_t = Format::Table)]
     pub format: Format,
 }
@@ -45,11 +49,20 @@ pub struct FleetReportArgs {
     /// Folder for `fleet.html` (created when missing).
     #[arg(long)]
     pub out: PathBuf,
+    /// Chart the fleet re-diagnosis under this config hash instead of the edges' results.
+    #[arg(long)]
+    pub config_hash: Option<String>,
 }
 
 pub(super) fn run_report(args: &FleetReportArgs) -> anyhow::Result<ExitCode> {
     let mut centre = Centre::connect_existing(&args.postgres_url, Duration::from_secs(30))?;
-    let rows = fleet_history(&mut centre, &FleetHistoryFilter::default())?;
+    let rows = fleet_history(
+        &mut centre,
+        &FleetHistoryFilter {
+            config_hash: args.config_hash.clone(),
+            ..FleetHistoryFilter::default()
+        },
+    )?;
     let washes = fleet_washes(&mut centre)?;
     let advice = fleet_advice(&mut centre)?;
     let page = crate::report::fleet::fleet_html(&centre.name, &rows, &washes, &advice);
@@ -77,6 +90,7 @@ pub(super) fn run(args: &FleetHistoryArgs) -> anyhow::Result<ExitCode> {
             MethodFilter::A => "A".to_string(),
             MethodFilter::B => "B".to_string(),
         }),
+        config_hash: args.config_hash.clone(),
     };
     let rows = fleet_history(&mut centre, &filter)?;
     let stdout = std::io::stdout();

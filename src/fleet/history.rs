@@ -1,6 +1,7 @@
 //! The fleet's health history, read from the centre: every unit's stored results, one row per
 //! start-up and method, with the newest gap verdict of its start-up (`gtwatch fleet history`,
-//! the central counterpart of `gtwatch history`).
+//! the central counterpart of `gtwatch history`). With a configuration hash, the results the
+//! fleet's re-diagnosis workers stored for it (`rediagnosis_estimates`) instead of the edges'.
 //!
 //! Reads only; must not compute trends or write to the centre.
 
@@ -36,7 +37,39 @@ pub struct FleetHistoryFilter {
     pub unit_id: Option<String>,
     /// One method only (`A` or `B`).
     pub method: Option<String>,
+    /// The re-diagnosis under this engine/config hash (`gtwatch fleet rediagnose` prints it)
+    /// instead of the edges' own results.
+    pub config_hash: Option<String>,
 }
+
+/// The edges' own results (`$3` unused, NULL).
+const EDGE_RESULTS: &str = "SELECT d.unit_id, d.segment_id, s.start_ms, d.method,
+                    d.d_gc, d.d_ec, d.d_gt, d.d_et, d.d_gp, d.d_ep,
+                    d.sigma_gc, d.sigma_ec, d.sigma_gt, d.sigma_et, d.sigma_gp, d.sigma_ep,
+                    d.residual_level, d.fit_quality,
+                    (SELECT g.effect FROM gap_analyses g
+                      WHERE g.unit_id = d.unit_id AND g.segment_id = d.segment_id
+                      ORDER BY g.created_at_ms DESC, g.edge_id DESC LIMIT 1)
+             FROM diagnoses d
+             JOIN segments s ON s.unit_id = d.unit_id AND s.edge_id = d.segment_id
+             WHERE ($1::text IS NULL OR d.unit_id = $1) AND $3::text IS NULL
+               AND ($2::text IS NULL OR d.method = $2)
+             ORDER BY d.unit_id, s.start_ms, d.method, d.edge_id";
+
+/// The results re-diagnosed under config hash `$3`, in the same columns.
+const REDIAGNOSED: &str = "SELECT d.unit_id, d.segment_id, s.start_ms, d.method,
+                    d.d_gc, d.d_ec, d.d_gt, d.d_et, d.d_gp, d.d_ep,
+                    d.sigma_gc, d.sigma_ec, d.sigma_gt, d.sigma_et, d.sigma_gp, d.sigma_ep,
+                    d.residual_level, d.fit_quality,
+                    (SELECT g.effect FROM gap_analyses g
+                      WHERE g.unit_id = d.unit_id AND g.segment_id = d.segment_id
+                      ORDER BY g.created_at_ms DESC, g.edge_id DESC LIMIT 1)
+             FROM rediagnosis_estimates d
+             JOIN segments s ON s.unit_id = d.unit_id AND s.edge_id = d.segment_id
+             WHERE ($1::text IS NULL OR d.unit_id = $1)
+               AND ($2::text IS NULL OR d.method = $2)
+               AND d.config_hash = $3
+             ORDER BY d.unit_id, s.start_ms, d.method";
 
 /// The central results, by unit, start time and method.
 pub fn fleet_history(
@@ -47,19 +80,12 @@ pub fn fleet_history(
     let rows = centre
         .client
         .query(
-            "SELECT d.unit_id, d.segment_id, s.start_ms, d.method,
-                    d.d_gc, d.d_ec, d.d_gt, d.d_et, d.d_gp, d.d_ep,
-                    d.sigma_gc, d.sigma_ec, d.sigma_gt, d.sigma_et, d.sigma_gp, d.sigma_ep,
-                    d.residual_level, d.fit_quality,
-                    (SELECT g.effect FROM gap_analyses g
-                      WHERE g.unit_id = d.unit_id AND g.segment_id = d.segment_id
-                      ORDER BY g.created_at_ms DESC, g.edge_id DESC LIMIT 1)
-             FROM diagnoses d
-             JOIN segments s ON s.unit_id = d.unit_id AND s.edge_id = d.segment_id
-             WHERE ($1::text IS NULL OR d.unit_id = $1)
-               AND ($2::text IS NULL OR d.method = $2)
-             ORDER BY d.unit_id, s.start_ms, d.method, d.edge_id",
-            &[&f.unit_id, &f.method],
+            if f.config_hash.is_some() {
+                REDIAGNOSED
+            } else {
+                EDGE_RESULTS
+            },
+            &[&f.unit_id, &f.method, &f.config_hash],
         )
         .map_err(centre_err(&name, "reading the fleet's results"))?;
     let mut out = Vec::with_capacity(rows.len());
