@@ -253,23 +253,25 @@ fn three_workers_one_killed_do_every_job_once_with_the_edges_results() {
     );
 }
 
+/// `gtwatch fleet rediagnose --postgres-url URL --config CFG [extra] --json`, its document.
+fn rediagnose(url: &str, cfg_s: &str, extra: &[&str]) -> serde_json::Value {
+    let mut args = vec![
+        "fleet",
+        "rediagnose",
+        "--postgres-url",
+        url,
+        "--config",
+        cfg_s,
+    ];
+    args.extend_from_slice(extra);
+    args.push("--json");
+    let out = ok(gtwatch(&args), "rediagnose");
+    serde_json::from_slice(&out.stdout).expect("json")
+}
+
 /// `fleet rediagnose` twice: one job per start-up, then none more; the jobs' hash.
 fn enqueue_twice(url: &str, cfg_s: &str, centre: &mut Centre) -> String {
-    let out = ok(
-        gtwatch(&[
-            "fleet",
-            "rediagnose",
-            "--postgres-url",
-            url,
-            "--config",
-            cfg_s,
-            "--unit",
-            UNIT,
-            "--json",
-        ]),
-        "rediagnose",
-    );
-    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    let doc = rediagnose(url, cfg_s, &["--unit", UNIT]);
     assert_eq!(doc["enqueue"]["enqueued"], STARTUPS, "{doc:#}");
     let hash = doc["enqueue"]["config_hash"]
         .as_str()
@@ -281,19 +283,7 @@ fn enqueue_twice(url: &str, cfg_s: &str, centre: &mut Centre) -> String {
         vec![Some(hash.clone())],
         "the job's hash is the edge's"
     );
-    let again = ok(
-        gtwatch(&[
-            "fleet",
-            "rediagnose",
-            "--postgres-url",
-            url,
-            "--config",
-            cfg_s,
-            "--json",
-        ]),
-        "rediagnose again",
-    );
-    let doc2: serde_json::Value = serde_json::from_slice(&again.stdout).expect("json");
+    let doc2 = rediagnose(url, cfg_s, &[]);
     assert_eq!(doc2["enqueue"]["enqueued"], 0, "{doc2:#}");
     assert_eq!(doc2["enqueue"]["already_queued"], STARTUPS, "{doc2:#}");
 
@@ -534,19 +524,7 @@ fn bench_rediagnose_workers_killed_mid_run() {
     sync_edge(dir.path(), &url);
     let mut centre = Centre::connect_existing(&url, Duration::from_secs(5)).expect("centre");
     let enqueue = |centre: &mut Centre| {
-        let out = ok(
-            gtwatch(&[
-                "fleet",
-                "rediagnose",
-                "--postgres-url",
-                &url,
-                "--config",
-                cfg_s,
-                "--json",
-            ]),
-            "rediagnose",
-        );
-        let doc: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+        let doc = rediagnose(&url, cfg_s, &[]);
         assert_eq!(doc["enqueue"]["enqueued"], n, "{doc:#}");
         let _ = centre;
         doc["enqueue"]["config_hash"]

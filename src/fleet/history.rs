@@ -42,34 +42,25 @@ pub struct FleetHistoryFilter {
     pub config_hash: Option<String>,
 }
 
-/// The edges' own results (`$3` unused, NULL).
-const EDGE_RESULTS: &str = "SELECT d.unit_id, d.segment_id, s.start_ms, d.method,
-                    d.d_gc, d.d_ec, d.d_gt, d.d_et, d.d_gp, d.d_ep,
-                    d.sigma_gc, d.sigma_ec, d.sigma_gt, d.sigma_et, d.sigma_gp, d.sigma_ep,
-                    d.residual_level, d.fit_quality,
-                    (SELECT g.effect FROM gap_analyses g
-                      WHERE g.unit_id = d.unit_id AND g.segment_id = d.segment_id
-                      ORDER BY g.created_at_ms DESC, g.edge_id DESC LIMIT 1)
-             FROM diagnoses d
-             JOIN segments s ON s.unit_id = d.unit_id AND s.edge_id = d.segment_id
-             WHERE ($1::text IS NULL OR d.unit_id = $1) AND $3::text IS NULL
-               AND ($2::text IS NULL OR d.method = $2)
-             ORDER BY d.unit_id, s.start_ms, d.method, d.edge_id";
-
-/// The results re-diagnosed under config hash `$3`, in the same columns.
-const REDIAGNOSED: &str = "SELECT d.unit_id, d.segment_id, s.start_ms, d.method,
-                    d.d_gc, d.d_ec, d.d_gt, d.d_et, d.d_gp, d.d_ep,
-                    d.sigma_gc, d.sigma_ec, d.sigma_gt, d.sigma_et, d.sigma_gp, d.sigma_ep,
-                    d.residual_level, d.fit_quality,
-                    (SELECT g.effect FROM gap_analyses g
-                      WHERE g.unit_id = d.unit_id AND g.segment_id = d.segment_id
-                      ORDER BY g.created_at_ms DESC, g.edge_id DESC LIMIT 1)
-             FROM rediagnosis_estimates d
-             JOIN segments s ON s.unit_id = d.unit_id AND s.edge_id = d.segment_id
-             WHERE ($1::text IS NULL OR d.unit_id = $1)
-               AND ($2::text IS NULL OR d.method = $2)
-               AND d.config_hash = $3
-             ORDER BY d.unit_id, s.start_ms, d.method";
+/// The columns every history query returns, from `d` (a results table) joined with its
+/// start-up `s`; `{table}` and `{filter}` are filled in by [`history_query`].
+fn history_query(table: &str, filter: &str, order: &str) -> String {
+    format!(
+        "SELECT d.unit_id, d.segment_id, s.start_ms, d.method,
+                d.d_gc, d.d_ec, d.d_gt, d.d_et, d.d_gp, d.d_ep,
+                d.sigma_gc, d.sigma_ec, d.sigma_gt, d.sigma_et, d.sigma_gp, d.sigma_ep,
+                d.residual_level, d.fit_quality,
+                (SELECT g.effect FROM gap_analyses g
+                  WHERE g.unit_id = d.unit_id AND g.segment_id = d.segment_id
+                  ORDER BY g.created_at_ms DESC, g.edge_id DESC LIMIT 1)
+         FROM {table} d
+         JOIN segments s ON s.unit_id = d.unit_id AND s.edge_id = d.segment_id
+         WHERE ($1::text IS NULL OR d.unit_id = $1)
+           AND ($2::text IS NULL OR d.method = $2)
+           AND {filter}
+         ORDER BY d.unit_id, s.start_ms, d.method{order}"
+    )
+}
 
 /// The central results, by unit, start time and method.
 pub fn fleet_history(
@@ -80,10 +71,12 @@ pub fn fleet_history(
     let rows = centre
         .client
         .query(
-            if f.config_hash.is_some() {
-                REDIAGNOSED
+            &if f.config_hash.is_some() {
+                // The results re-diagnosed under config hash `$3`.
+                history_query("rediagnosis_estimates", "d.config_hash = $3", "")
             } else {
-                EDGE_RESULTS
+                // The edges' own results (`$3` is NULL, named so its type is known).
+                history_query("diagnoses", "$3::text IS NULL", ", d.edge_id")
             },
             &[&f.unit_id, &f.method, &f.config_hash],
         )

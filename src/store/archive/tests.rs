@@ -19,6 +19,22 @@ fn temp_store() -> (tempfile::TempDir, Store) {
     (dir, store)
 }
 
+/// A tag for each of `names` (no unit, no signal).
+fn tags_named(store: &mut Store, names: &[&str]) -> Vec<i64> {
+    names
+        .iter()
+        .map(|n| {
+            store
+                .ensure_tag(&TagInfo {
+                    name: (*n).into(),
+                    unit: String::new(),
+                    signal: None,
+                })
+                .unwrap_or_else(|e| unreachable!("{e}"))
+        })
+        .collect()
+}
+
 /// Everything the store's one read path returns, per tag.
 fn contents(store: &Store, tags: &[i64]) -> Contents {
     let mut out = Contents::new();
@@ -73,18 +89,7 @@ fn random_batches(rng: &mut ChaCha8Rng, tags: &[i64], n: usize) -> Vec<Vec<Sampl
 fn compaction_round_trips_every_sample_bit_for_bit() {
     let (_d, mut store) = temp_store();
     let mut rng = ChaCha8Rng::seed_from_u64(2424);
-    let tags: Vec<i64> = ["a", "b", "c"]
-        .iter()
-        .map(|n| {
-            store
-                .ensure_tag(&TagInfo {
-                    name: (*n).into(),
-                    unit: String::new(),
-                    signal: None,
-                })
-                .unwrap_or_else(|e| unreachable!("{e}"))
-        })
-        .collect();
+    let tags = tags_named(&mut store, &["a", "b", "c"]);
     let batches = random_batches(&mut rng, &tags, 30_000);
     for b in &batches {
         store
@@ -227,18 +232,7 @@ fn only_whole_windows_before_the_cutoff_and_no_open_segment_are_archived() {
 fn direct_archive_ingest_keeps_the_first_of_every_sample_bit_for_bit() {
     let (_d, mut store) = temp_store();
     let mut rng = ChaCha8Rng::seed_from_u64(77);
-    let tags: Vec<i64> = ["a", "b"]
-        .iter()
-        .map(|n| {
-            store
-                .ensure_tag(&TagInfo {
-                    name: (*n).into(),
-                    unit: String::new(),
-                    signal: None,
-                })
-                .unwrap_or_else(|e| unreachable!("{e}"))
-        })
-        .collect();
+    let tags = tags_named(&mut store, &["a", "b"]);
     let batches = random_batches(&mut rng, &tags, 20_000);
     // Some of it hot first (a live tail the replay overlaps): those stay as they are.
     let hot_part: Vec<Sample> = batches[0]
