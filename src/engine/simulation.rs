@@ -149,6 +149,8 @@ impl<C: Controller> Simulation<C> {
         let mut act = Actuator::new(&mut self.y, &self.scales);
         if self.seq.update(self.t, &mut act, &st) {
             self.ros.invalidate();
+        } else {
+            self.ros.forget_point();
         }
     }
 
@@ -172,6 +174,9 @@ impl<C: Controller> Simulation<C> {
 
     /// Integrates to exactly `t_target`, applying every sequencer event on the way.
     pub fn advance_to(&mut self, t_target: f64) -> Result<(), EngineError> {
+        // The controller and the state are public: whatever the caller did between calls, no
+        // value of f at a point is carried over from the last call.
+        self.ros.forget_point();
         if self.t == 0.0 && self.stats.steps == 0 {
             self.sequencer_update();
         }
@@ -247,7 +252,9 @@ impl<C: Controller> Simulation<C> {
 
     fn reject(&mut self, h_new: f64) -> Result<(), EngineError> {
         self.stats.rejected += 1;
-        self.ros.invalidate();
+        // The retry starts from the same point with the same drive: the integrator refreshes
+        // the Jacobian there unless it was just evaluated there, and reuses f there.
+        self.ros.rejected();
         self.h = h_new;
         if h_new < 1e-7 {
             return Err(EngineError::Simulation {
