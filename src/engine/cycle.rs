@@ -155,7 +155,9 @@ fn compressor_finish(
     beta: f64,
     surge_margin_pct: f64,
 ) -> CompressorStation {
-    let air = Gas::air();
+    // A reference to one constant: `Gas::air()` by value copied its 340 bytes on every call.
+    const AIR: Gas = Gas::AIR;
+    let air = &AIR;
     let h_in = air.h(t_in);
     let t_is = air.isentropic_t(t_in, pr.max(1e-6));
     let h_is = air.h(t_is);

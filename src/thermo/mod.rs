@@ -212,9 +212,12 @@ pub struct Gas {
 }
 
 impl Gas {
+    /// Dry air (`far` = 0), as a constant.
+    pub const AIR: Gas = Gas { far: 0.0, c: AIR };
+
     /// Dry air (`far` = 0).
     pub fn air() -> Gas {
-        Gas { far: 0.0, c: AIR }
+        Gas::AIR
     }
 
     /// Products of complete lean combustion of methane in dry air at fuel-air ratio `far`
