@@ -195,7 +195,11 @@ impl<C: Controller> Simulation<C> {
             let limited = h < h_prop * 0.999;
             let drive = self.seq.drive(self.t_amb_k, self.p_amb_kpa);
             let model = &self.model;
-            let mut f = |tt: f64, yy: &State| dynamic::derivatives(model, tt, yy, &drive);
+            // One memo per step: it holds the step's first evaluation (f at its start), whose
+            // gas path the Jacobian's columns for the fuel integrator and for time share.
+            let mut memo = dynamic::GasPathMemo::default();
+            let mut f =
+                |tt: f64, yy: &State| dynamic::derivatives(model, tt, yy, &drive, &mut memo);
             let Some(mut res) = self.ros.step(&mut f, self.t, &self.y, h) else {
                 self.reject(h)?;
                 continue;
