@@ -369,7 +369,7 @@ fn core_rhs<R>(
     finish(
         dy,
         &CoreRhs {
-            gp: &gp,
+            gp,
             core,
             wf_metered,
             wf,
