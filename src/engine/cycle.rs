@@ -155,12 +155,14 @@ fn compressor_finish(
     beta: f64,
     surge_margin_pct: f64,
 ) -> CompressorStation {
-    let air = Gas::air();
+    // A reference to one constant: `Gas::air()` by value copied its 340 bytes on every call.
+    const AIR: Gas = Gas::AIR;
+    let air = &AIR;
     let h_in = air.h(t_in);
     let t_is = air.isentropic_t(t_in, pr.max(1e-6));
     let h_is = air.h(t_is);
     let h_out = h_in + (h_is - h_in) / eff;
-    let t_out = air.t_from_h(h_out);
+    let t_out = air.t_from_h_near(h_out, t_is, h_is);
     let w = physical_flow(wc, t_in, p_in_kpa);
     CompressorStation {
         w_kg_s: w,
@@ -205,7 +207,7 @@ pub(crate) fn turbine(
     let t_is = gas.isentropic_t(t_in, 1.0 / pr.max(1.0));
     let h_is = gas.h(t_is);
     let h_out = h_in - op.eff * (h_in - h_is);
-    let t_out = gas.t_from_h(h_out);
+    let t_out = gas.t_from_h_near(h_out, t_is, h_is);
     let w = physical_flow(op.wc_kg_s, t_in, p_in_kpa);
     TurbineStation {
         w_kg_s: w,

@@ -21,6 +21,7 @@ use super::model::Model;
 pub(crate) use super::state::{
     Scales, State, FAR_SCALE, IX_FAR, IX_FUEL_I, IX_N1, IX_N2, IX_P2, IX_P34, IX_T3,
 };
+use crate::thermo::Gas;
 use std::f64::consts::PI;
 use std::sync::Arc;
 
@@ -122,9 +123,30 @@ pub(crate) fn warm_standstill_state(
     y
 }
 
+/// The gas path of one right-hand-side evaluation, kept for later evaluations whose gas-path
+/// inputs are bit for bit the same: of the integrator's finite-difference Jacobian columns, the
+/// fuel controller's integrator and time move only the control and balance arithmetic after
+/// the gas path (the most expensive part of an evaluation). Owned by the caller (one per
+/// integration step), holds the first evaluation it sees, and is used only by the core model
+/// (with effects on, their hooks may read time and any state).
+#[derive(Default)]
+pub(crate) struct GasPathMemo {
+    entry: Option<(GasPathKey, Gas, GasPath)>,
+}
+
+/// The gas path's inputs in [`core_rhs`], as bits (exact equality, NaN included).
+#[derive(PartialEq, Eq, Clone, Copy)]
+struct GasPathKey([u64; 8]);
+
+impl GasPathKey {
+    fn of(v: [f64; 8]) -> GasPathKey {
+        GasPathKey(v.map(f64::to_bits))
+    }
+}
+
 /// Evaluates the model: state derivatives (per second) and the station table.
 pub(crate) fn evaluate(model: &Model, t: f64, y: &State, drive: &Drive) -> (State, Stations) {
-    core_rhs(model, t, y, drive, |mut dy, rhs| {
+    core_rhs(model, t, y, drive, None, |mut dy, rhs| {
         let st = rhs.stations(drive);
         rhs.effect_derivatives(model, y, &st, &mut dy);
         (dy, st)
@@ -134,8 +156,16 @@ pub(crate) fn evaluate(model: &Model, t: f64, y: &State, drive: &Drive) -> (Stat
 /// The state derivatives alone (per second): what the integrator calls. The same code as
 /// [`evaluate`], compiled separately so the station table it does not need is never built
 /// (unless an effect's derivatives read it).
-pub(crate) fn derivatives(model: &Model, t: f64, y: &State, drive: &Drive) -> State {
-    core_rhs(model, t, y, drive, |mut dy, rhs| {
+/// The gas path is taken from `memo` when its inputs are unchanged (and this evaluation's is
+/// stored when the memo is empty); the results are the same either way.
+pub(crate) fn derivatives(
+    model: &Model,
+    t: f64,
+    y: &State,
+    drive: &Drive,
+    memo: &mut GasPathMemo,
+) -> State {
+    core_rhs(model, t, y, drive, Some(memo), |mut dy, rhs| {
         if rhs.core.is_some() {
             let st = rhs.stations(drive);
             rhs.effect_derivatives(model, y, &st, &mut dy);
@@ -193,6 +223,7 @@ fn core_rhs<R>(
     t: f64,
     y: &State,
     drive: &Drive,
+    memo: Option<&mut GasPathMemo>,
     finish: impl FnOnce(State, &CoreRhs<'_>) -> R,
 ) -> R {
     let c = &model.consts;
@@ -213,25 +244,49 @@ fn core_rhs<R>(
 
     // The gas path from the states: compressor into the plenum at P2, turbines on the
     // plenum's gas (temperature and composition are states).
-    let gas = c
-        .fuel
-        .products((y[IX_FAR] * FAR_SCALE).clamp(0.0, gas_path::MAX_FAR));
-    let gp = gas_path::evaluate(
-        model,
-        &Inputs {
-            t_amb_k: drive.t_amb_k,
-            p_amb_kpa: drive.p_amb_kpa,
-            n1_rpm: n1,
-            n2_rpm: n2,
-            p34_kpa: p34,
-            compressor: CompressorSetting::Plenum { p2_kpa: p2 },
-            hot: HotSection::Plenum {
-                t3_k: t3,
-                gas: &gas,
+    let far_gas = (y[IX_FAR] * FAR_SCALE).clamp(0.0, gas_path::MAX_FAR);
+    let gas_path_of = || {
+        let gas = c.fuel.products(far_gas);
+        let gp = gas_path::evaluate(
+            model,
+            &Inputs {
+                t_amb_k: drive.t_amb_k,
+                p_amb_kpa: drive.p_amb_kpa,
+                n1_rpm: n1,
+                n2_rpm: n2,
+                p34_kpa: p34,
+                compressor: CompressorSetting::Plenum { p2_kpa: p2 },
+                hot: HotSection::Plenum {
+                    t3_k: t3,
+                    gas: &gas,
+                },
             },
-        },
-        adjust.as_ref(),
-    );
+            adjust.as_ref(),
+        );
+        (gas, gp)
+    };
+    let fresh;
+    let (gas, gp): (&Gas, &GasPath) = match memo {
+        Some(memo) if core.is_none() => {
+            let key =
+                GasPathKey::of([drive.t_amb_k, drive.p_amb_kpa, n1, n2, p34, p2, t3, far_gas]);
+            if memo.entry.is_none() {
+                let (gas, gp) = gas_path_of();
+                memo.entry = Some((key, gas, gp));
+            }
+            match &memo.entry {
+                Some((k, gas, gp)) if *k == key => (gas, gp),
+                _ => {
+                    fresh = gas_path_of();
+                    (&fresh.0, &fresh.1)
+                }
+            }
+        }
+        _ => {
+            fresh = gas_path_of();
+            (&fresh.0, &fresh.1)
+        }
+    };
     let w_air = gp.w_combustor_air_kg_s;
     let w3 = gp.hpt.w_kg_s;
     let w4 = gp.pt.w_kg_s;
@@ -314,7 +369,7 @@ fn core_rhs<R>(
     finish(
         dy,
         &CoreRhs {
-            gp: &gp,
+            gp,
             core,
             wf_metered,
             wf,

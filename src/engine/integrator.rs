@@ -124,6 +124,18 @@ pub(crate) struct Ros2 {
     /// Scratch for W = I − γhJ and its factorisation (kept to avoid clearing 2 KB per step).
     w: Box<Mat>,
     jac_valid: bool,
+    /// Where the Jacobian was last evaluated (t, y), for reuse after a rejected step.
+    jac_t: f64,
+    jac_y: [f64; MAX_DIM],
+    /// A step was rejected since the Jacobian was evaluated: refresh it before the next step
+    /// unless that step starts where the Jacobian was evaluated (then a refresh would compute
+    /// the very same numbers).
+    refresh_unless_here: bool,
+    /// f(t, y) at the start of the last attempted step, for a retry from the same point.
+    f0_valid: bool,
+    f0_t: f64,
+    f0_y: [f64; MAX_DIM],
+    f0: [f64; MAX_DIM],
     steps_since_jac: usize,
     /// Refresh the Jacobian after this many steps.
     pub(crate) jac_every: usize,
@@ -142,6 +154,13 @@ impl Ros2 {
             ft: [0.0; MAX_DIM],
             w: Box::new([[0.0; MAX_DIM]; MAX_DIM]),
             jac_valid: false,
+            jac_t: f64::NAN,
+            jac_y: [0.0; MAX_DIM],
+            refresh_unless_here: false,
+            f0_valid: false,
+            f0_t: f64::NAN,
+            f0_y: [0.0; MAX_DIM],
+            f0: [0.0; MAX_DIM],
             steps_since_jac: 0,
             jac_every: 8,
             rtol,
@@ -151,9 +170,27 @@ impl Ros2 {
         }
     }
 
-    /// Forces a fresh Jacobian at the next step (after a discontinuity or a rejected step).
+    /// The right-hand side may have changed (a discontinuity, an event, a changed drive):
+    /// forces a fresh Jacobian and forgets f at the last step's start.
     pub(crate) fn invalidate(&mut self) {
         self.jac_valid = false;
+        self.f0_valid = false;
+    }
+
+    /// The caller may have changed the right-hand side's discrete inputs without calling
+    /// [`Ros2::invalidate`] (an event that changed nothing, a new output interval): forgets f
+    /// at the last step's start and where the Jacobian was evaluated, so neither is reused as
+    /// the value at a point. The Jacobian itself is kept, as a W-method allows.
+    pub(crate) fn forget_point(&mut self) {
+        self.f0_valid = false;
+        self.jac_t = f64::NAN;
+    }
+
+    /// The last step was rejected and the next one retries from the same point with the same
+    /// right-hand side: the Jacobian is refreshed there, unless it was evaluated at that very
+    /// point (then it is already what a refresh would compute), and f there is reused.
+    pub(crate) fn rejected(&mut self) {
+        self.refresh_unless_here = true;
     }
 
     #[inline(always)]
@@ -180,6 +217,9 @@ impl Ros2 {
         self.rhs_evals += n + 1;
         self.jac_evals += 1;
         self.jac_valid = true;
+        self.jac_t = t;
+        self.jac_y[..n].copy_from_slice(&y[..n]);
+        self.refresh_unless_here = false;
         self.steps_since_jac = 0;
     }
 
@@ -196,7 +236,7 @@ impl Ros2 {
         }
         if n != self.n {
             self.n = n;
-            self.jac_valid = false;
+            self.invalidate();
         }
         match n {
             7 => self.step_in(Fixed::<7>, f, t, y, h),
@@ -218,10 +258,32 @@ impl Ros2 {
         F: FnMut(f64, &V) -> V,
     {
         let n = d.n();
-        let f0 = f(t, y);
-        self.rhs_evals += 1;
-        if !self.jac_valid || self.steps_since_jac >= self.jac_every {
+        // f is a pure function of (t, y) between invalidations: at the point of the last
+        // attempt (a retry after a rejection, a step shortened to an event) it is known.
+        let f0 = if self.f0_valid && t == self.f0_t && y[..n] == self.f0_y[..n] {
+            let mut f0 = y.clone();
+            f0[..n].copy_from_slice(&self.f0[..n]);
+            f0
+        } else {
+            let f0 = f(t, y);
+            self.rhs_evals += 1;
+            self.f0_t = t;
+            self.f0_y[..n].copy_from_slice(&y[..n]);
+            self.f0[..n].copy_from_slice(&f0[..n]);
+            self.f0_valid = true;
+            f0
+        };
+        let here = t == self.jac_t && y[..n] == self.jac_y[..n];
+        if !self.jac_valid
+            || self.steps_since_jac >= self.jac_every
+            || (self.refresh_unless_here && !here)
+        {
             self.refresh_jacobian(d, f, t, y, &f0);
+        } else if self.refresh_unless_here {
+            // A refresh here would reproduce this Jacobian exactly; restart its age as a
+            // refresh would.
+            self.refresh_unless_here = false;
+            self.steps_since_jac = 0;
         }
         self.steps_since_jac += 1;
         let w = &mut *self.w;
