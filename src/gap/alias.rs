@@ -94,6 +94,13 @@ const INPUTS: [InputCandidate; 5] = [
     },
 ];
 
+/// Whether `effect` is an instrument on one of the model's inputs (fuel flow, T1, P1, power,
+/// torque): its error never shows as a residual of its own channel, only spread over the
+/// outputs, so the residual map cannot point at it.
+pub(crate) fn is_input_instrument(effect: &str) -> bool {
+    INPUTS.iter().any(|c| c.effect == effect)
+}
+
 /// One input instrument the health parameters may be hiding.
 #[derive(Debug, Clone, Serialize)]
 pub(crate) struct Alias {

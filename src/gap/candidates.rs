@@ -70,10 +70,17 @@ pub(crate) fn fit_params(instance: &str, rec: &Recording) -> Vec<FitParam> {
 /// Per-channel instruments are tried only where the residual map points at their channel (a
 /// cell of that signal beyond [`CHANNEL_CELL_SIGMA`]); engine effects are always tried. This
 /// keeps a full run to a dozen candidates instead of two dozen.
+///
+/// An instrument on one of the model's inputs (`sensor_scale:power_mw`, …) is always worth
+/// trying: the model is driven by that signal, so its error never shows on its own channel
+/// (a power transducer 2.4 % low left no cell on `power_mw` beyond 2 σ and was never tried).
 pub(super) fn worth_trying(instance: &str, cells: &[ResidualCell]) -> bool {
     let Some((_, column)) = instance.split_once(':') else {
         return true;
     };
+    if super::alias::is_input_instrument(instance) {
+        return true;
+    }
     cells
         .iter()
         .any(|c| c.signal.column() == column && c.norm_error > CHANNEL_CELL_SIGMA)
@@ -213,5 +220,21 @@ mod tests {
         ] {
             assert!(names.contains(&want), "{want} listed");
         }
+    }
+
+    #[test]
+    fn input_instruments_are_tried_without_a_residual_on_their_channel() {
+        // No residual cells at all: an output's instrument is not worth a fit, an input's is
+        // (its error only shows spread over the outputs), as is every engine effect.
+        assert!(!worth_trying("sensor_bias:p2_kpa", &[]));
+        assert!(!worth_trying("sensor_scale:t34_k", &[]));
+        for input in [
+            "sensor_scale:power_mw",
+            "sensor_scale:torque_knm",
+            "sensor_bias:p1_kpa",
+        ] {
+            assert!(worth_trying(input, &[]), "{input}");
+        }
+        assert!(worth_trying("fuel_meter", &[]));
     }
 }
