@@ -205,6 +205,32 @@ pub(crate) struct Commands<'a> {
     pub(crate) advise: &'a dyn Fn(&mut Store, &Path) -> anyhow::Result<crate::advice::AdviceReport>,
 }
 
+/// The columns a plant log carries: every signal the plant records (the surge margin is the
+/// model's, not an instrument's).
+pub(crate) fn log_columns() -> Vec<Signal> {
+    Signal::ALL
+        .iter()
+        .copied()
+        .filter(|s| *s != Signal::SurgeMargin)
+        .collect()
+}
+
+/// A new plant log at `path` with its header (`time` and `cols`' column names) written.
+pub(crate) fn create_log(
+    path: &Path,
+    cols: &[Signal],
+) -> anyhow::Result<std::io::BufWriter<std::fs::File>> {
+    let mut w = std::io::BufWriter::new(
+        std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
+    );
+    write!(w, "time")?;
+    for s in cols {
+        write!(w, ",{}", s.column())?;
+    }
+    writeln!(w)?;
+    Ok(w)
+}
+
 pub(crate) fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<ExitCode> {
     let dir = a.keep.clone().unwrap_or_else(|| {
         std::env::temp_dir().join(format!("gtwatch-bench-month-{}", std::process::id()))
@@ -223,19 +249,8 @@ pub(crate) fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<Exit
     let t = Instant::now();
     let mut plant =
         FoulingPlant::new(&engine, schedule.clone(), a.seed, epoch_ms)?.with_idle_step(1.0);
-    let cols: Vec<Signal> = Signal::ALL
-        .iter()
-        .copied()
-        .filter(|s| *s != Signal::SurgeMargin)
-        .collect();
-    let mut w = std::io::BufWriter::new(
-        std::fs::File::create(&log).with_context(|| format!("creating {}", log.display()))?,
-    );
-    write!(w, "time")?;
-    for s in &cols {
-        write!(w, ",{}", s.column())?;
-    }
-    writeln!(w)?;
+    let cols = log_columns();
+    let mut w = create_log(&log, &cols)?;
     let end_s = a.days as f64 * DAY_S;
     let mut rows = 0u64;
     loop {

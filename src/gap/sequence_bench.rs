@@ -200,27 +200,14 @@ fn one_sequence(
                 .unwrap_or_default();
             let a = sequence::attribute_at(&points, k, &signatures);
             let names = input_instances(kind);
-            let (v, ok, fitted) = match &a.verdict {
-                SequenceVerdict::Instrument {
-                    effect,
-                    magnitude,
-                    magnitude_sigma,
-                    ..
-                } => (
-                    format!("instrument:{effect}"),
-                    names.contains(&effect.as_str()),
-                    Some((*magnitude, *magnitude_sigma)),
-                ),
-                SequenceVerdict::Ambiguous { candidates } => (
-                    format!("ambiguous:{}", candidates.join("|")),
-                    candidates.iter().any(|c| names.contains(&c.as_str())),
-                    None,
-                ),
-                SequenceVerdict::HealthStep { explanation } => {
-                    (format!("health_step:{explanation}"), names.is_empty(), None)
+            let ok = match &a.verdict {
+                SequenceVerdict::Instrument { effect, .. } => names.contains(&effect.as_str()),
+                SequenceVerdict::Ambiguous { candidates } => {
+                    candidates.iter().any(|c| names.contains(&c.as_str()))
                 }
-                SequenceVerdict::NoStep => ("no_step".to_string(), names.is_empty(), None),
+                SequenceVerdict::HealthStep { .. } | SequenceVerdict::NoStep => names.is_empty(),
             };
+            let (v, fitted) = (a.verdict.label(), a.verdict.instrument_magnitude());
             (v, ok, fitted, a.corrected(&points))
         }
     };

@@ -4,6 +4,7 @@
 //! gap settings. Must not replay or judge anything (the parent module does).
 
 use super::{BenchGapMonthArgs, EPOCH_MS};
+use crate::bench::month::{create_log, log_columns};
 use crate::engine::effects::{EffectParams, EffectSet};
 use crate::engine::Engine;
 use crate::plantsim::fouling::DAY_S;
@@ -45,24 +46,8 @@ pub(super) fn write_logs(
     let mut plant = FoulingPlant::new(engine, schedule.clone(), a.seed, EPOCH_MS)?
         .with_idle_step(a.idle_step)
         .with_effects_on_day(poor_day, poor_effects(&a.poor_effect, &a.poor_params)?);
-    let cols: Vec<Signal> = Signal::ALL
-        .iter()
-        .copied()
-        .filter(|s| *s != Signal::SurgeMargin)
-        .collect();
-    let create = |p: &Path| -> anyhow::Result<std::io::BufWriter<std::fs::File>> {
-        Ok(std::io::BufWriter::new(
-            std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?,
-        ))
-    };
-    let (mut wf, mut wc) = (create(faulty)?, create(clean)?);
-    for w in [&mut wf, &mut wc] {
-        write!(w, "time")?;
-        for s in &cols {
-            write!(w, ",{}", s.column())?;
-        }
-        writeln!(w)?;
-    }
+    let cols = log_columns();
+    let (mut wf, mut wc) = (create_log(faulty, &cols)?, create_log(clean, &cols)?);
     let end_s = a.days as f64 * DAY_S;
     let mut rows = 0u64;
     loop {

@@ -26,7 +26,6 @@ use super::month::{Commands, Sections};
 use crate::advice::AdviceReport;
 use crate::detect::scan;
 use crate::engine::Engine;
-use crate::gap::sequence::SequenceVerdict;
 use crate::health::HEALTH_NAMES;
 use crate::ingest::{replay_file, Progress};
 use crate::plantsim::fouling::{day_of, DAY_S};
@@ -250,24 +249,8 @@ fn advice_of(commands: &Commands, run: &Run, s: &Sections) -> anyhow::Result<Adv
     let (step_verdict, step_onset_day, instrument_magnitude) = match &r.step {
         None => (None, None, None),
         Some(st) => {
-            let (v, m) = match &st.attribution.verdict {
-                SequenceVerdict::NoStep => ("no_step".to_string(), None),
-                SequenceVerdict::Instrument {
-                    effect,
-                    magnitude,
-                    magnitude_sigma,
-                    ..
-                } => (
-                    format!("instrument:{effect}"),
-                    Some((*magnitude, *magnitude_sigma)),
-                ),
-                SequenceVerdict::Ambiguous { candidates } => {
-                    (format!("ambiguous:{}", candidates.join("|")), None)
-                }
-                SequenceVerdict::HealthStep { explanation } => {
-                    (format!("health_step:{explanation}"), None)
-                }
-            };
+            let v = st.attribution.verdict.label();
+            let m = st.attribution.verdict.instrument_magnitude();
             (Some(v), day_of_seg(st.onset_segment_id)?, m)
         }
     };

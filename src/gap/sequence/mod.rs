@@ -139,6 +139,33 @@ pub(crate) enum SequenceVerdict {
     HealthStep { explanation: String },
 }
 
+impl SequenceVerdict {
+    /// One-word form for the benchmarks' tables: `no_step`, `instrument:<effect>`,
+    /// `ambiguous:<a>|<b>`, `health_step:<explanation>`.
+    pub(crate) fn label(&self) -> String {
+        match self {
+            SequenceVerdict::NoStep => "no_step".to_string(),
+            SequenceVerdict::Instrument { effect, .. } => format!("instrument:{effect}"),
+            SequenceVerdict::Ambiguous { candidates } => {
+                format!("ambiguous:{}", candidates.join("|"))
+            }
+            SequenceVerdict::HealthStep { explanation } => format!("health_step:{explanation}"),
+        }
+    }
+
+    /// The instrument's fitted magnitude and its 1σ, when the verdict names one.
+    pub(crate) fn instrument_magnitude(&self) -> Option<(f64, f64)> {
+        match self {
+            SequenceVerdict::Instrument {
+                magnitude,
+                magnitude_sigma,
+                ..
+            } => Some((*magnitude, *magnitude_sigma)),
+            _ => None,
+        }
+    }
+}
+
 /// The attribution of the first step in a sequence.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub(crate) struct SequenceAttribution {
