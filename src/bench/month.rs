@@ -1,9 +1,10 @@
 //! `gtwatch bench month [--days N] [--seed S] [--threads N] [--keep DIR] [--json]`: a month of plant data
 //! through the product the way a plant engineer replays a historian export.
 //!
-//! Writes a 1 Hz CSV log of the fouling plant (one start-up a day, noise and sensor lags,
-//! an offline wash midway; `time` column in ISO 8601, the shipped `[replay]` defaults), then
-//! replays it with the shipped configuration into a fresh database: ingest, start-up
+//! Writes a 1 Hz CSV log of the fouling plant (one start-up a day, noise and sensor lags, an
+//! offline wash midway; `time` column in ISO 8601, the shipped `[replay]` defaults) as one
+//! file a day, then replays the days in order with the shipped configuration into a fresh
+//! database, timing each day's ingest (the rate must not fall as the database grows): start-up
 //! detection, diagnosis of every start-up (Method B and A), wash advice. Reports the time of
 //! each stage and every Method B result against the implanted truth. Then compacts the whole
 //! month into the archive tier (`Store::compact`) and reports the bytes per stored sample
@@ -74,10 +75,19 @@ struct MonthResult {
     archive_ingest: bool,
     rows: u64,
     samples_inserted: u64,
+    /// Rows the replay refused (malformed, out of order, implausible or nonexistent times):
+    /// 0 unless the plant log is wrong.
+    rows_refused: u64,
     csv_bytes: u64,
     db_bytes: u64,
     generate_s: f64,
     ingest_s: f64,
+    /// Samples stored per second over the whole replay, millions.
+    ingest_msps: f64,
+    /// The first, the last and the slowest day's rate, millions of samples per second.
+    ingest_first_day_msps: f64,
+    ingest_last_day_msps: f64,
+    ingest_slowest_day_msps: f64,
     detect_s: f64,
     diagnose_s: f64,
     startups_found: usize,
@@ -87,6 +97,58 @@ struct MonthResult {
     /// With `--raw-days`: what retention did after compaction, and the file then.
     retention: Option<RetentionResult>,
     per_day: Vec<DayResult>,
+    ingest_per_day: Vec<DayIngest>,
+}
+
+/// The replay of one day's log.
+#[derive(Debug, Serialize)]
+struct DayIngest {
+    day: usize,
+    samples_inserted: u64,
+    elapsed_s: f64,
+    /// Millions of samples stored per second.
+    msps: f64,
+}
+
+/// The replay of every day's log, in order.
+struct Ingest {
+    days: Vec<DayIngest>,
+    samples_inserted: u64,
+    rows_refused: u64,
+    elapsed_s: f64,
+}
+
+impl Ingest {
+    fn msps(&self) -> f64 {
+        self.samples_inserted as f64 / self.elapsed_s.max(1e-9) / 1e6
+    }
+}
+
+/// Replays `logs` (one per day, in order) into `store` as `gtwatch replay` would, one after
+/// the other, timing each.
+fn ingest_days(store: &mut Store, cfg: &ReplayConfig, logs: &[PathBuf]) -> anyhow::Result<Ingest> {
+    let mut out = Ingest {
+        days: Vec::with_capacity(logs.len()),
+        samples_inserted: 0,
+        rows_refused: 0,
+        elapsed_s: 0.0,
+    };
+    for (day, log) in logs.iter().enumerate() {
+        let rep = replay_file(store, cfg, log, Progress::Silent)?;
+        out.samples_inserted += rep.samples_inserted;
+        out.rows_refused += rep.rows_malformed
+            + rep.rows_out_of_order
+            + rep.rows_implausible_time
+            + rep.rows_nonexistent_time;
+        out.elapsed_s += rep.elapsed_s;
+        out.days.push(DayIngest {
+            day,
+            samples_inserted: rep.samples_inserted,
+            elapsed_s: rep.elapsed_s,
+            msps: rep.samples_inserted as f64 / rep.elapsed_s.max(1e-9) / 1e6,
+        });
+    }
+    Ok(out)
 }
 
 /// Retention applied to the compacted month (`--raw-days`).
@@ -236,37 +298,58 @@ pub(crate) fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<Exit
         std::env::temp_dir().join(format!("gtwatch-bench-month-{}", std::process::id()))
     });
     std::fs::create_dir_all(&dir)?;
-    let log = dir.join("month.csv");
     let db = dir.join("month.db");
     for suffix in ["", "-wal", "-shm"] {
         let _ = std::fs::remove_file(dir.join(format!("month.db{suffix}")));
     }
-    let epoch_ms: i64 = 1_767_571_200_000; // 2026-01-05T00:00:00Z
+    // Day 0 is 2016-01-04T00:00:00Z, so that even ten simulated years end before today's clock:
+    // the replay refuses time stamps in the future (`replay.max_future_s`), and a bench whose
+    // end depended on the date it runs would not be repeatable.
+    let epoch_ms: i64 = 1_451_865_600_000;
     let engine = Engine::reference()?;
     let schedule = FoulingSchedule::demo(a.days);
 
-    // 1. The log.
+    // 1. The log, one file a day as historians export it: the replay of each is timed, so the
+    //    ingest rate is seen day by day as the database grows.
     let t = Instant::now();
     let mut plant =
         FoulingPlant::new(&engine, schedule.clone(), a.seed, epoch_ms)?.with_idle_step(1.0);
     let cols = log_columns();
-    let mut w = create_log(&log, &cols)?;
     let end_s = a.days as f64 * DAY_S;
     let mut rows = 0u64;
+    let mut logs: Vec<PathBuf> = Vec::new();
+    let mut w: Option<std::io::BufWriter<std::fs::File>> = None;
     loop {
         let f = plant.step();
         if f.t_s >= end_s {
             break;
         }
-        write!(w, "{}", fmt_ms(epoch_ms + (f.t_s * 1000.0).round() as i64))?;
-        for s in &cols {
-            write!(w, ",{:.4}", f.get(*s))?;
+        let day = (f.t_s / DAY_S).floor().max(0.0) as usize;
+        if w.is_none() || day >= logs.len() {
+            if let Some(mut old) = w.take() {
+                old.flush()?;
+            }
+            let path = dir.join(format!("month-d{day:04}.csv"));
+            w = Some(create_log(&path, &cols)?);
+            logs.push(path);
         }
-        writeln!(w)?;
+        let Some(out) = w.as_mut() else {
+            anyhow::bail!("no open log file");
+        };
+        write!(
+            out,
+            "{}",
+            fmt_ms(epoch_ms + (f.t_s * 1000.0).round() as i64)
+        )?;
+        for s in &cols {
+            write!(out, ",{:.4}", f.get(*s))?;
+        }
+        writeln!(out)?;
         rows += 1;
     }
-    w.flush()?;
-    drop(w);
+    if let Some(mut last) = w.take() {
+        last.flush()?;
+    }
     let generate_s = t.elapsed().as_secs_f64();
 
     // 2. The shipped configuration, pointed at this database.
@@ -294,7 +377,7 @@ pub(crate) fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<Exit
         archive: a.archive || sections.replay.archive,
         ..sections.replay.clone()
     };
-    let rep = replay_file(&mut store, &replay_cfg, &log, Progress::Silent)?;
+    let ingest = ingest_days(&mut store, &replay_cfg, &logs)?;
     let t = Instant::now();
     let s = scan(&mut store, &sections.detector).context("start-up detection")?;
     let detect_s = t.elapsed().as_secs_f64();
@@ -351,11 +434,23 @@ pub(crate) fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<Exit
         diagnosis_threads: a.threads.unwrap_or(1),
         archive_ingest: replay_cfg.archive,
         rows,
-        samples_inserted: rep.samples_inserted,
-        csv_bytes: std::fs::metadata(&log).map(|m| m.len()).unwrap_or(0),
+        samples_inserted: ingest.samples_inserted,
+        rows_refused: ingest.rows_refused,
+        csv_bytes: logs
+            .iter()
+            .map(|l| std::fs::metadata(l).map(|m| m.len()).unwrap_or(0))
+            .sum(),
         db_bytes: std::fs::metadata(&db).map(|m| m.len()).unwrap_or(0),
         generate_s,
-        ingest_s: rep.elapsed_s,
+        ingest_s: ingest.elapsed_s,
+        ingest_msps: ingest.msps(),
+        ingest_first_day_msps: ingest.days.first().map_or(0.0, |d| d.msps),
+        ingest_last_day_msps: ingest.days.last().map_or(0.0, |d| d.msps),
+        ingest_slowest_day_msps: ingest
+            .days
+            .iter()
+            .map(|d| d.msps)
+            .fold(f64::INFINITY, f64::min),
         detect_s,
         diagnose_s,
         startups_found: segments.len(),
@@ -364,6 +459,7 @@ pub(crate) fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<Exit
         storage,
         retention,
         per_day,
+        ingest_per_day: ingest.days,
     };
     drop(store);
     if a.keep.is_none() {
