@@ -51,6 +51,8 @@ pub struct FoulingSchedule {
     pub wash_day: Option<usize>,
     /// Fraction of the compressor fouling an offline wash removes.
     pub wash_recovery: f64,
+    /// Further offline washes every this many days after `wash_day` (`None`: only that one).
+    pub wash_every: Option<usize>,
 }
 
 impl FoulingSchedule {
@@ -68,20 +70,52 @@ impl FoulingSchedule {
             et_per_day: 0.02,
             wash_day,
             wash_recovery: 0.9,
+            wash_every: None,
+        }
+    }
+
+    /// A schedule for runs of months or years (`bench month --days 365`): what a plant that
+    /// washes its compressor every 30 days sees. D_GC from 0.2 rising 0.1 points a day (3
+    /// points a month), D_EC a third of it, every wash removing 90 % of the fouling, and the
+    /// HP turbine wearing 1.5 points of D_GT and 1 of D_ET a year. The demo's schedule, with
+    /// one wash, would foul a year's compressor by 45 points: no engine runs like that.
+    pub fn periodic(days: usize) -> FoulingSchedule {
+        FoulingSchedule {
+            days,
+            initial_gc: 0.2,
+            gc_per_day: 0.1,
+            ec_ratio: 1.0 / 3.0,
+            gt_per_day: 1.5 / 365.0,
+            et_per_day: 1.0 / 365.0,
+            wash_day: (days > 30).then_some(30),
+            wash_recovery: 0.9,
+            wash_every: Some(30),
+        }
+    }
+
+    /// The wash days up to and including `day`, in order.
+    fn washes_until(&self, day: usize) -> Vec<usize> {
+        let Some(first) = self.wash_day.filter(|&w| w > 0 && w <= day) else {
+            return Vec::new();
+        };
+        match self.wash_every.filter(|&p| p > 0) {
+            None => vec![first],
+            Some(p) => (first..=day).step_by(p).collect(),
         }
     }
 
     /// The true health on `day` (0-based).
     pub fn health_on(&self, day: usize) -> HealthParams {
         let d = day as f64;
-        let mut gc = self.initial_gc + self.gc_per_day * d;
-        if let Some(w) = self.wash_day.filter(|&w| w <= day && w > 0) {
-            // Fouling just before the wash (after day w-1's start plus one day's growth), of
-            // which `wash_recovery` is removed; growth then restarts from the residue.
-            let before = self.initial_gc + self.gc_per_day * w as f64;
-            let residue = before * (1.0 - self.wash_recovery);
-            gc = residue + self.gc_per_day * (day - w) as f64;
+        // Fouling just before each wash (after the previous day's start plus one day's
+        // growth), of which `wash_recovery` is removed; growth then restarts from the residue.
+        let (mut gc0, mut since) = (self.initial_gc, 0usize);
+        for w in self.washes_until(day) {
+            let before = gc0 + self.gc_per_day * (w - since) as f64;
+            gc0 = before * (1.0 - self.wash_recovery);
+            since = w;
         }
+        let gc = gc0 + self.gc_per_day * (day - since) as f64;
         HealthParams {
             D_GC: gc,
             D_EC: gc * self.ec_ratio,
@@ -349,6 +383,24 @@ mod tests {
         assert!((s.health_on(7).D_GC - (0.145 + 0.5)).abs() < 1e-12);
         // Turbine wear keeps growing through the wash.
         assert!(s.health_on(7).D_GT > h5.D_GT);
+    }
+
+    #[test]
+    fn a_periodic_schedule_washes_every_thirty_days_and_stays_bounded() {
+        let s = FoulingSchedule::periodic(365);
+        // Day 29: 0.2 + 29 × 0.1; day 30, the first after a wash: (0.2 + 3.0) × 0.1.
+        assert!((s.health_on(29).D_GC - 3.1).abs() < 1e-12);
+        assert!((s.health_on(30).D_GC - 0.32).abs() < 1e-12);
+        // Day 60, after the second wash: (0.32 + 3.0) × 0.1; day 61 one day's growth more.
+        assert!((s.health_on(60).D_GC - 0.332).abs() < 1e-12);
+        assert!((s.health_on(61).D_GC - 0.432).abs() < 1e-12);
+        let worst = (0..365).map(|d| s.health_on(d).D_GC).fold(0.0, f64::max);
+        assert!(worst < 3.5, "{worst}");
+        assert!((s.health_on(364).D_GT - 1.5 * 364.0 / 365.0).abs() < 1e-12);
+        // Only one wash without a period: the demo's.
+        let one = FoulingSchedule::demo(10);
+        assert_eq!(one.washes_until(9), vec![5]);
+        assert_eq!(s.washes_until(95), vec![30, 60, 90]);
     }
 
     #[test]
