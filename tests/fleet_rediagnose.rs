@@ -6,7 +6,8 @@
 //! none pending or failed, the killed worker's job finished by another after its lease ran
 //! out), and every result is bit for bit the edge's own stored diagnosis under the same config
 //! hash. Also the queue's SQL alone: claim, renewal, a lost lease that must not write, and
-//! `SKIP LOCKED` between two claimers.
+//! `SKIP LOCKED` between two claimers; gap-analysis jobs (`--gap`) whose reports are the edge
+//! daemon's own; and `--retry-failed`.
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
@@ -15,7 +16,8 @@ mod common;
 use common::postgres::PgServer;
 use gtwatch::engine::simulation::run_scenario;
 use gtwatch::engine::{Engine, Scenario};
-use gtwatch::fleet::rediagnose::{self, EnqueueRequest, JobResult};
+use gtwatch::fleet::rediagnose::{self, EnqueueRequest, JobKind, JobResult};
+use gtwatch::fleet::regap::{self, GapJobResult};
 use gtwatch::fleet::Centre;
 use gtwatch::health::HealthParams;
 use std::path::Path;
@@ -43,9 +45,9 @@ fn ok(out: Output, what: &str) -> Output {
 }
 
 /// An edge database of `n` replayed start-ups, diagnosed with `max_model_runs` per method and
-/// no gap analyses; returns the config file. Six degradation levels, each simulated once,
-/// repeat with a fresh noise seed per start-up.
-fn build_edge(dir: &Path, n: usize, max_model_runs: usize) -> std::path::PathBuf {
+/// gap analyses only on the schedule `gap_every_n` (0: none); returns the config file. Six
+/// degradation levels, each simulated once, repeat with a fresh noise seed per start-up.
+fn build_edge(dir: &Path, n: usize, max_model_runs: usize, gap_every_n: u32) -> std::path::PathBuf {
     let engine = Engine::reference().expect("engine");
     let levels: Vec<_> = (0..6)
         .map(|k| {
@@ -75,8 +77,10 @@ fn build_edge(dir: &Path, n: usize, max_model_runs: usize) -> std::path::PathBuf
             &format!("max_model_runs = {max_model_runs}"),
         )
         .replace("gap_on_poor_fit = true", "gap_on_poor_fit = false")
-        .replace("gap_on_health_step = true", "gap_on_health_step = false");
+        .replace("gap_on_health_step = true", "gap_on_health_step = false")
+        .replace("gap_every_n = 0", &format!("gap_every_n = {gap_every_n}"));
     assert!(cfg.contains("gap_on_poor_fit = false") && cfg.contains("gap_on_health_step = false"));
+    assert!(cfg.contains(&format!("gap_every_n = {gap_every_n}")));
     let cfg_path = dir.join("gtwatch.toml");
     std::fs::write(&cfg_path, cfg).expect("config");
     let t0 = Instant::now();
@@ -166,7 +170,7 @@ fn three_workers_one_killed_do_every_job_once_with_the_edges_results() {
     let url = pg.create_db("fleet_redo");
     let dir = tempfile::tempdir().expect("tempdir");
     // A small budget: each start-up's two fits about a second.
-    let cfg = build_edge(dir.path(), STARTUPS, 100);
+    let cfg = build_edge(dir.path(), STARTUPS, 100, 0);
     let cfg_s = cfg.to_str().expect("utf8");
     sync_edge(dir.path(), &url);
     let mut centre = Centre::connect_existing(&url, Duration::from_secs(5)).expect("centre");
@@ -181,7 +185,7 @@ fn three_workers_one_killed_do_every_job_once_with_the_edges_results() {
     let (killed_job, reports) = run_workers_killing_one(&url, &mut centre);
 
     // Exactly once: one done job and one result per start-up, nothing pending or failed.
-    let q = rediagnose::queue_counts(&mut centre, Some(&hash)).expect("queue");
+    let q = rediagnose::queue_counts(&mut centre, Some(&hash), None).expect("queue");
     assert_eq!(
         (q.waiting, q.leased, q.done, q.failed),
         (0, 0, STARTUPS as i64, 0),
@@ -414,6 +418,7 @@ fn a_lost_lease_cannot_write_and_a_held_one_is_not_claimed_twice() {
         engine_name: "e".into(),
         engine_toml: "x".into(),
         settings_json: "{}".into(),
+        kind: JobKind::Diagnose,
     };
     let r = rediagnose::enqueue(&mut c, &req).expect("enqueue");
     assert_eq!(
@@ -467,7 +472,7 @@ fn a_lost_lease_cannot_write_and_a_held_one_is_not_claimed_twice() {
     assert!(!rediagnose::complete(&mut c2, &c_job, "c", &result).expect("twice"));
     // a, renewed, still holds its job and stores it.
     assert!(rediagnose::complete(&mut c, &a, "a", &result).expect("complete"));
-    let q = rediagnose::queue_counts(&mut c, None).expect("queue");
+    let q = rediagnose::queue_counts(&mut c, None, None).expect("queue");
     assert_eq!((q.pending(), q.done, q.failed), (0, 2, 0), "{q:?}");
     let rows = c
         .query_text("SELECT job_id, worker_id FROM rediagnoses ORDER BY job_id")
@@ -477,6 +482,275 @@ fn a_lost_lease_cannot_write_and_a_held_one_is_not_claimed_twice() {
         rows.iter().all(|r| r[1].as_deref() != Some("b")),
         "{rows:?}"
     );
+}
+
+/// A gap report without what depends on the machine and the moment: its wall times and the
+/// thread count it ran on (the analysis itself does not depend on them).
+fn without_timing(report_json: &str) -> serde_json::Value {
+    let mut v: serde_json::Value = serde_json::from_str(report_json).expect("report JSON");
+    let obj = v.as_object_mut().expect("a report object");
+    for key in ["wall_s", "stage_wall_s", "threads"] {
+        assert!(obj.remove(key).is_some(), "the report has {key}");
+    }
+    v
+}
+
+/// Start-ups of the gap test: the analyses are the expensive part.
+const GAP_STARTUPS: usize = 2;
+
+/// `fleet rediagnose --gap`: the edge analysed its two start-ups itself (its daemon's gap
+/// step, `gap_every_n = 1`) and synced them; one worker runs the two diagnosis and two gap
+/// jobs, and each stored gap report is the edge's own, every number (bar wall times and the
+/// thread count), with the same verdict shown by `fleet history --config-hash` and the gap
+/// jobs counted by `fleet status`.
+#[test]
+fn gap_jobs_store_the_edge_daemons_own_analyses() {
+    let t_all = Instant::now();
+    let pg = PgServer::start();
+    let url = pg.create_db("fleet_regap");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let cfg = build_edge(dir.path(), GAP_STARTUPS, 100, 1);
+    let cfg_s = cfg.to_str().expect("utf8");
+    sync_edge(dir.path(), &url);
+    let mut centre = Centre::connect_existing(&url, Duration::from_secs(5)).expect("centre");
+    let n = GAP_STARTUPS as i64;
+    assert_eq!(
+        count(&mut centre, "SELECT count(*) FROM gap_analyses"),
+        n,
+        "the edge analysed each start-up"
+    );
+
+    let doc = rediagnose(&url, cfg_s, &["--gap"]);
+    assert_eq!(doc["enqueue"]["enqueued"], n, "{doc:#}");
+    assert_eq!(doc["gap_enqueue"]["enqueued"], n, "{doc:#}");
+    assert_eq!(doc["gap_enqueue"]["kind"], "gap", "{doc:#}");
+    assert_eq!(doc["gap_queue"]["waiting"], n, "{doc:#}");
+    assert_eq!(doc["queue"]["waiting"], n, "{doc:#}");
+    let hash = doc["enqueue"]["config_hash"]
+        .as_str()
+        .expect("hash")
+        .to_string();
+    let again = rediagnose(&url, cfg_s, &["--gap"]);
+    assert_eq!(again["gap_enqueue"]["enqueued"], 0, "{again:#}");
+    assert_eq!(again["gap_enqueue"]["already_queued"], n, "{again:#}");
+
+    let t_work = Instant::now();
+    let mut w = worker(&url, "g1");
+    let rep = report_of(&mut w, "g1", Duration::from_secs(300));
+    eprintln!(
+        "FLEET-REGAP worker: {rep}, {:.1} s",
+        t_work.elapsed().as_secs_f64()
+    );
+    assert_eq!(rep["done"], 2 * n, "{rep:#}");
+    assert_eq!(rep["gap_done"], n, "{rep:#}");
+    assert_eq!(rep["failed"], 0, "{rep:#}");
+    assert_results_are_the_edges(&mut centre);
+
+    // Every gap report is the edge's own, start-up by start-up.
+    let edge = centre
+        .query_text(
+            "SELECT segment_id, effect, report_json FROM gap_analyses
+             WHERE unit_id = 'gt-redo' ORDER BY segment_id",
+        )
+        .expect("edge analyses");
+    let redone = regap::regap_analyses(&mut centre, Some(&hash)).expect("re-analyses");
+    assert_eq!(redone.len(), edge.len());
+    for (e, r) in edge.iter().zip(&redone) {
+        assert_eq!(e[0].as_deref(), Some(r.segment_id.to_string().as_str()));
+        assert_eq!(e[1].as_deref(), Some(r.effect.as_str()));
+        assert_eq!((r.holdout_segment_id, r.worker_id.as_str()), (None, "g1"));
+        assert_eq!(
+            without_timing(&r.report_json),
+            without_timing(e[2].as_deref().expect("edge report")),
+            "segment {}: the gap re-analysis differs from the edge's",
+            r.segment_id
+        );
+    }
+    eprintln!(
+        "FLEET-REGAP {} gap reports equal to the edge's (effects {:?})",
+        redone.len(),
+        redone.iter().map(|r| r.effect.as_str()).collect::<Vec<_>>()
+    );
+
+    let out = ok(
+        gtwatch(&[
+            "fleet",
+            "history",
+            "--postgres-url",
+            &url,
+            "--config-hash",
+            &hash,
+            "--format",
+            "json",
+        ]),
+        "fleet history",
+    );
+    let history: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    let rows = history.as_array().expect("rows");
+    assert_eq!(rows.len(), 2 * GAP_STARTUPS, "{history:#}");
+    for row in rows {
+        let r = redone
+            .iter()
+            .find(|r| serde_json::json!(r.segment_id) == row["segment_id"])
+            .expect("a re-analysis of the row's start-up");
+        assert_eq!(row["gap_verdict"], serde_json::json!(r.effect), "{row:#}");
+    }
+    let out = ok(
+        gtwatch(&["fleet", "status", "--postgres-url", &url, "--json"]),
+        "fleet status",
+    );
+    let status: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    assert_eq!(status["rediagnosis"]["gap"]["done"], n, "{status:#}");
+    assert_eq!(status["rediagnosis"]["diagnose"]["done"], n, "{status:#}");
+    eprintln!("FLEET-REGAP test {:.1} s", t_all.elapsed().as_secs_f64());
+}
+
+/// `fleet rediagnose --retry-failed`: failed jobs (of a unit, of a hash, or all) go back to
+/// pending with their attempts kept and their error cleared; a done one stays done. Also the
+/// gap jobs' queue SQL: a claimed gap job says so, and a worker without its lease cannot store
+/// its analysis.
+#[test]
+fn retry_failed_puts_failed_jobs_back() {
+    let pg = PgServer::start();
+    let url = pg.create_db("fleet_retry");
+    let mut c = Centre::connect(&url, Duration::from_secs(5)).expect("centre");
+    c.query_text(
+        "INSERT INTO segments (unit_id, edge_id, kind, start_ms, end_ms, status)
+           VALUES ('u1', 1, 'startup', 10000, 20000, 'diagnosed'),
+                  ('u1', 2, 'startup', 30000, 40000, 'diagnosed'),
+                  ('u2', 1, 'startup', 10000, 20000, 'diagnosed');
+         INSERT INTO sample_windows (unit_id, segment_id, from_ms, end_ms)
+           VALUES ('u1', 1, 0, 20000), ('u1', 2, 20000, 40000), ('u2', 1, 0, 20000);",
+    )
+    .expect("rows");
+    let req = |hash: &str, kind: JobKind| EnqueueRequest {
+        units: vec![],
+        since_ms: None,
+        config_hash: hash.into(),
+        engine_name: "e".into(),
+        engine_toml: hash.into(),
+        settings_json: "{}".into(),
+        kind,
+    };
+    for (hash, kind) in [
+        ("h1", JobKind::Diagnose),
+        ("h1", JobKind::Gap),
+        ("h2", JobKind::Diagnose),
+    ] {
+        let r = rediagnose::enqueue(&mut c, &req(hash, kind)).expect("enqueue");
+        assert_eq!((r.enqueued, r.kind), (3, kind), "{r:?}");
+    }
+    let lease = Duration::from_secs(30);
+    let mut c2 = Centre::connect_existing(&url, Duration::from_secs(5)).expect("centre 2");
+    let mut gap_jobs = 0;
+    let mut stored = None;
+    while let Some(job) = rediagnose::claim(&mut c, "w", lease).expect("claim") {
+        if job.kind == JobKind::Gap && stored.is_none() {
+            gap_jobs += 1;
+            let result = GapJobResult {
+                analysis: gtwatch::store::NewGapAnalysis {
+                    segment_id: job.segment_id,
+                    holdout_segment_id: None,
+                    effect: "none".into(),
+                    shrinkage: f64::NAN,
+                    confidence: 0.0,
+                    baseline_fit_quality: "good".into(),
+                    normalised_residual: 0.7,
+                    report_json: "{}".into(),
+                },
+                wall_s: 0.1,
+            };
+            assert!(
+                !regap::complete_gap(&mut c2, &job, "other", &result).expect("complete"),
+                "not the holder"
+            );
+            assert!(regap::complete_gap(&mut c2, &job, "w", &result).expect("complete"));
+            stored = Some(job);
+            continue;
+        }
+        gap_jobs += usize::from(job.kind == JobKind::Gap);
+        assert!(rediagnose::fail(&mut c, job.id, "w", "boom").expect("fail"));
+    }
+    assert_eq!(gap_jobs, 3);
+    let stored = stored.expect("a gap job");
+    assert_eq!(
+        count(
+            &mut c,
+            "SELECT count(*) FROM regap_analyses WHERE shrinkage IS NULL AND worker_id = 'w'"
+        ),
+        1
+    );
+
+    let retry = |extra: &[&str]| -> serde_json::Value {
+        let mut args = vec![
+            "fleet",
+            "rediagnose",
+            "--postgres-url",
+            &url,
+            "--retry-failed",
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        let out = ok(gtwatch(&args), "retry-failed");
+        serde_json::from_slice(&out.stdout).expect("json")
+    };
+    // u1 under h1: two start-ups × two kinds, one of them done.
+    let doc = retry(&["--unit", "u1", "--config-hash", "h1"]);
+    assert_eq!(doc["retried"], 3, "{doc:#}");
+    assert_eq!(
+        (&doc["queue"]["waiting"], &doc["gap_queue"]["waiting"]),
+        (&serde_json::json!(2), &serde_json::json!(1)),
+        "{doc:#}"
+    );
+    assert_eq!(doc["gap_queue"]["done"], 1, "{doc:#}");
+    let back = c
+        .query_text(
+            "SELECT state, attempts, error IS NULL, lease_owner IS NULL, done_by IS NULL
+             FROM rediagnosis_jobs WHERE unit_id = 'u1' AND config_hash = 'h1'
+             ORDER BY id",
+        )
+        .expect("jobs");
+    let pending = vec![
+        Some("pending".to_string()),
+        Some("1".to_string()),
+        Some("t".to_string()),
+        Some("t".to_string()),
+        Some("t".to_string()),
+    ];
+    assert_eq!(
+        back.iter().filter(|r| **r == pending).count(),
+        3,
+        "{back:?}"
+    );
+    let state_of_stored = column(
+        &mut c,
+        &format!(
+            "SELECT state FROM rediagnosis_jobs WHERE id = {}",
+            stored.id
+        ),
+    );
+    assert_eq!(state_of_stored, vec![Some("done".to_string())]);
+    // The rest: u2 under h1 (both kinds) and all three under h2.
+    let doc = retry(&[]);
+    assert_eq!(doc["retried"], 5, "{doc:#}");
+    assert_eq!(
+        (&doc["queue"]["waiting"], &doc["queue"]["failed"]),
+        (&serde_json::json!(6), &serde_json::json!(0)),
+        "{doc:#}"
+    );
+    assert_eq!(retry(&[])["retried"], 0);
+    // A retried job is claimed again, its attempt counted on.
+    let again = rediagnose::claim(&mut c, "w2", lease)
+        .expect("claim")
+        .expect("a job");
+    assert_eq!(again.attempts, 2);
+    let out = ok(
+        gtwatch(&["fleet", "status", "--postgres-url", &url, "--json"]),
+        "fleet status",
+    );
+    let status: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    assert_eq!(status["rediagnosis"]["gap"]["done"], 1, "{status:#}");
+    assert_eq!(status["rediagnosis"]["diagnose"]["leased"], 1, "{status:#}");
 }
 
 /// Waits for `w` to exit (panics after `limit`); its JSON report.
@@ -518,7 +792,7 @@ fn bench_rediagnose_workers_killed_mid_run() {
     let url = pg.create_db("fleet_bench");
     let dir = tempfile::tempdir().expect("tempdir");
     let t_edge = Instant::now();
-    let cfg = build_edge(dir.path(), n, runs);
+    let cfg = build_edge(dir.path(), n, runs, 0);
     let edge_s = t_edge.elapsed().as_secs_f64();
     let cfg_s = cfg.to_str().expect("utf8");
     sync_edge(dir.path(), &url);
@@ -587,7 +861,7 @@ fn bench_rediagnose_workers_killed_mid_run() {
         .collect();
     let k_s = t2.elapsed().as_secs_f64();
 
-    let q = rediagnose::queue_counts(&mut centre, Some(&hash)).expect("queue");
+    let q = rediagnose::queue_counts(&mut centre, Some(&hash), None).expect("queue");
     assert_eq!(
         (q.waiting, q.leased, q.done, q.failed),
         (0, 0, n as i64, 0),
