@@ -753,6 +753,68 @@ fn retry_failed_puts_failed_jobs_back() {
     assert_eq!(status["rediagnosis"]["diagnose"]["leased"], 1, "{status:#}");
 }
 
+/// A centre of schema version 2 (made from the released 0001 and 0002 files) holding a done and
+/// a failed job is upgraded to version 3 by the next connection: the jobs become diagnosis
+/// jobs, a gap job of the same start-up and hash can be queued beside them, and the failed one
+/// can be retried.
+#[test]
+fn a_version_2_centre_with_jobs_is_upgraded_to_gap_jobs() {
+    let pg = PgServer::start();
+    let url = pg.create_db("fleet_upgrade");
+    let mut admin = postgres::Client::connect(&url, postgres::NoTls).expect("admin");
+    admin
+        .batch_execute(include_str!("../migrations/postgres/0001_fleet.sql"))
+        .expect("0001");
+    admin
+        .batch_execute(include_str!("../migrations/postgres/0002_rediagnosis.sql"))
+        .expect("0002");
+    admin
+        .batch_execute(
+            "INSERT INTO schema_version (version) VALUES (1), (2);
+             INSERT INTO segments (unit_id, edge_id, kind, start_ms, end_ms, status)
+               VALUES ('u', 1, 'startup', 10000, 20000, 'diagnosed'),
+                      ('u', 2, 'startup', 30000, 40000, 'diagnosed');
+             INSERT INTO sample_windows (unit_id, segment_id, from_ms, end_ms)
+               VALUES ('u', 1, 0, 20000), ('u', 2, 20000, 40000);
+             INSERT INTO rediagnosis_configs (config_hash, engine_name, engine_toml, settings_json)
+               VALUES ('h', 'e', 'x', '{}');
+             INSERT INTO rediagnosis_jobs (unit_id, segment_id, config_hash, state, attempts)
+               VALUES ('u', 1, 'h', 'done', 1), ('u', 2, 'h', 'failed', 3);",
+        )
+        .expect("a version 2 centre with jobs");
+    let mut c = Centre::connect(&url, Duration::from_secs(5)).expect("upgrade");
+    assert_eq!(c.schema_version().expect("version"), 3);
+    assert_eq!(
+        column(&mut c, "SELECT kind FROM rediagnosis_jobs ORDER BY id"),
+        vec![Some("diagnose".to_string()), Some("diagnose".to_string())]
+    );
+    let req = |kind: JobKind| EnqueueRequest {
+        units: vec![],
+        since_ms: None,
+        config_hash: "h".into(),
+        engine_name: "e".into(),
+        engine_toml: "x".into(),
+        settings_json: "{}".into(),
+        kind,
+    };
+    let diag = rediagnose::enqueue(&mut c, &req(JobKind::Diagnose)).expect("enqueue");
+    assert_eq!((diag.enqueued, diag.already_queued), (0, 2), "{diag:?}");
+    let gap = rediagnose::enqueue(&mut c, &req(JobKind::Gap)).expect("enqueue gap");
+    assert_eq!((gap.enqueued, gap.already_queued), (2, 0), "{gap:?}");
+    let retried =
+        rediagnose::retry_failed(&mut c, &rediagnose::RetryFilter::default()).expect("retry");
+    assert_eq!(retried, 1);
+    let q = rediagnose::queue_counts(&mut c, Some("h"), Some(JobKind::Diagnose)).expect("q");
+    assert_eq!((q.waiting, q.done, q.failed), (1, 1, 0), "{q:?}");
+    let job = rediagnose::claim(&mut c, "w", Duration::from_secs(30))
+        .expect("claim")
+        .expect("the retried job");
+    assert_eq!(
+        (job.segment_id, job.kind, job.attempts),
+        (2, JobKind::Diagnose, 4)
+    );
+}
+
 /// Waits for `w` to exit (panics after `limit`); its JSON report.
 fn report_of(w: &mut Child, name: &str, limit: Duration) -> serde_json::Value {
     let deadline = Instant::now() + limit;
