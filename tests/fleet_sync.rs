@@ -555,7 +555,7 @@ fn a_refusing_centre_is_a_clear_error_and_the_marks_stay() {
             err,
             FleetError::SchemaTooNew {
                 found: 99,
-                supported: 2,
+                supported: 3,
                 ..
             }
         ),

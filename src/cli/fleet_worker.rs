@@ -1,6 +1,7 @@
-//! `gtwatch fleet rediagnose` (queue one re-diagnosis job per start-up stored at the centre,
-//! with an engine file and `[diagnosis]` settings) and `gtwatch fleet worker` (claim and run
-//! jobs until stopped, `--max-jobs` or, with `--idle-exit`, an empty queue).
+//! `gtwatch fleet rediagnose` (queue one re-diagnosis job, and with `--gap` one gap-analysis
+//! job, per start-up stored at the centre, with an engine file and `[diagnosis]` settings; or
+//! with `--retry-failed` put failed jobs back) and `gtwatch fleet worker` (claim and run jobs
+//! until stopped, `--max-jobs` or, with `--idle-exit`, an empty queue).
 //!
 //! The centre's URL comes from `--postgres-url` or the environment variable
 //! `GTWATCH_POSTGRES_URL` (a Kubernetes Secret, a systemd credential file read into the
@@ -9,7 +10,10 @@
 
 use super::common::parse_cli_time;
 use super::diagnose_stored::worker_context;
-use crate::fleet::rediagnose::{enqueue, queue_counts, EnqueueRequest};
+use crate::fleet::rediagnose::QueueCounts;
+use crate::fleet::rediagnose::{
+    enqueue, queue_counts, retry_failed, EnqueueRequest, JobKind, RetryFilter,
+};
 use crate::fleet::Centre;
 use crate::optim::Cancel;
 use crate::worker::fleet::{default_worker_id, run_fleet_worker, FleetWorkerOptions};
@@ -31,15 +35,26 @@ pub struct RediagnoseArgs {
     #[arg(long = "unit")]
     pub units: Vec<String>,
     /// Only start-ups beginning at or after this time (ISO 8601, UTC unless an offset is given).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "retry_failed")]
     pub since: Option<String>,
     /// Engine file (default: the config's `[plant] engine_model`, else the built-in engine).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "retry_failed")]
     pub engine: Option<PathBuf>,
     /// Config file whose `[diagnosis]` settings (and `[plant] engine_model`) the jobs use
     /// (default: the default settings).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "retry_failed")]
     pub config: Option<PathBuf>,
+    /// Also queue one gap-analysis job per start-up: the edge's own analysis (as its daemon
+    /// runs it: every candidate effect, blocked cross-validation), stored in `regap_analyses`.
+    #[arg(long, conflicts_with = "retry_failed")]
+    pub gap: bool,
+    /// Queue nothing: put the failed jobs (of --unit, of --config-hash) back to pending, their
+    /// attempts kept and their error cleared, and report how many.
+    #[arg(long)]
+    pub retry_failed: bool,
+    /// With --retry-failed: only the jobs of this engine/config hash.
+    #[arg(long, requires = "retry_failed")]
+    pub config_hash: Option<String>,
     /// Print one JSON document.
     #[arg(long)]
     pub json: bool,
@@ -89,6 +104,9 @@ pub(super) fn run_rediagnose(args: &RediagnoseArgs) -> anyhow::Result<ExitCode> 
     for u in &args.units {
         crate::fleet::check_unit_id(u).map_err(|why| anyhow::anyhow!("--unit {why}"))?;
     }
+    if args.retry_failed {
+        return run_retry(args, &url);
+    }
     let since_ms = args.since.as_deref().map(parse_cli_time).transpose()?;
     let base = worker_context(args.config.as_deref())?;
     let (ctx, engine_name) = match &args.engine {
@@ -112,17 +130,31 @@ pub(super) fn run_rediagnose(args: &RediagnoseArgs) -> anyhow::Result<ExitCode> 
         engine_name,
         engine_toml: ctx.engine_text.clone(),
         settings_json: serde_json::to_string(&ctx.settings)?,
+        kind: JobKind::Diagnose,
     };
     let mut centre = Centre::connect(&url, Duration::from_secs(30))?;
     let report = enqueue(&mut centre, &req)?;
-    let queue = queue_counts(&mut centre, Some(&req.config_hash))?;
+    let gap_report = if args.gap {
+        let gap_req = EnqueueRequest {
+            kind: JobKind::Gap,
+            ..req.clone()
+        };
+        Some(enqueue(&mut centre, &gap_req)?)
+    } else {
+        None
+    };
+    let hash = Some(req.config_hash.as_str());
+    let queue = queue_counts(&mut centre, hash, Some(JobKind::Diagnose))?;
+    let gap_queue = queue_counts(&mut centre, hash, Some(JobKind::Gap))?;
     if args.json {
         println!(
             "{}",
             serde_json::to_string_pretty(&serde_json::json!({
                 "centre": centre.name,
                 "enqueue": report,
+                "gap_enqueue": gap_report,
                 "queue": queue,
+                "gap_queue": gap_queue,
             }))?
         );
     } else {
@@ -135,10 +167,63 @@ pub(super) fn run_rediagnose(args: &RediagnoseArgs) -> anyhow::Result<ExitCode> 
             report.already_queued,
             report.without_window
         );
+        if let Some(g) = &gap_report {
+            println!(
+                "{} gap-analysis job(s) enqueued ({} already queued)",
+                g.enqueued, g.already_queued
+            );
+        }
+        print_queue("queue for this hash", &queue, &gap_queue);
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The jobs per state, diagnoses and gap analyses.
+fn print_queue(title: &str, queue: &QueueCounts, gap: &QueueCounts) {
+    println!(
+        "{title}: {} waiting, {} leased, {} done, {} failed; gap analyses {} waiting, {} \
+         leased, {} done, {} failed",
+        queue.waiting,
+        queue.leased,
+        queue.done,
+        queue.failed,
+        gap.waiting,
+        gap.leased,
+        gap.done,
+        gap.failed
+    );
+}
+
+/// `--retry-failed`: the failed jobs of `--unit`/`--config-hash` back to pending.
+fn run_retry(args: &RediagnoseArgs, url: &str) -> anyhow::Result<ExitCode> {
+    let filter = RetryFilter {
+        units: args.units.clone(),
+        config_hash: args.config_hash.clone(),
+    };
+    let mut centre = Centre::connect(url, Duration::from_secs(30))?;
+    let retried = retry_failed(&mut centre, &filter)?;
+    let hash = filter.config_hash.as_deref();
+    let queue = queue_counts(&mut centre, hash, Some(JobKind::Diagnose))?;
+    let gap_queue = queue_counts(&mut centre, hash, Some(JobKind::Gap))?;
+    if args.json {
         println!(
-            "queue for this hash: {} waiting, {} leased, {} done, {} failed",
-            queue.waiting, queue.leased, queue.done, queue.failed
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({
+                "centre": centre.name,
+                "retried": retried,
+                "config_hash": filter.config_hash,
+                "units": filter.units,
+                "queue": queue,
+                "gap_queue": gap_queue,
+            }))?
         );
+    } else {
+        println!("{retried} failed job(s) put back to pending");
+        let title = match hash {
+            Some(h) => format!("queue for config hash {h}"),
+            None => "queue".to_string(),
+        };
+        print_queue(&title, &queue, &gap_queue);
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -197,10 +282,12 @@ pub(super) fn run_worker(args: &WorkerArgs) -> anyhow::Result<ExitCode> {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
         println!(
-            "worker {}: {} job(s) done ({} undiagnosable), {} failed, {} lost, {:.1} s fitting in {:.1} s",
+            "worker {}: {} job(s) done ({} undiagnosable, {} gap analyses), {} failed, {} lost, \
+             {:.1} s fitting in {:.1} s",
             report.worker_id,
             report.done,
             report.undiagnosable,
+            report.gap_done,
             report.failed,
             report.lost,
             report.fit_s,

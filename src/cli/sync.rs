@@ -5,6 +5,7 @@
 //! Must not hold SQL or decide what is sent (`crate::fleet` does).
 
 use crate::config::Config;
+use crate::fleet::rediagnose::{queue_counts, JobKind, QueueCounts};
 use crate::fleet::{fleet_status, sync_once, Centre, FleetConfig, SyncReport, UnitStatus};
 use crate::store::Store;
 use anyhow::{bail, Context};
@@ -40,16 +41,19 @@ pub struct SyncArgs {
 
 #[derive(Debug, clap::Subcommand)]
 pub enum FleetCmd {
-    /// The units at a centre: last sync and rows per table.
+    /// The units at a centre: last sync and rows per table; the re-diagnosis queue per kind
+    /// and state.
     Status(StatusArgs),
     /// Every unit's health results at the centre (as `history` shows one unit's).
     History(super::fleet_history::FleetHistoryArgs),
     /// One self-contained HTML page: units ranked by fouling rate, washes due, every trend.
     Report(super::fleet_history::FleetReportArgs),
-    /// Queue a re-diagnosis of every start-up stored at the centre (one job per unit, start-up
-    /// and engine/config hash; queuing again adds nothing).
+    /// Queue a re-diagnosis (and with --gap a gap analysis) of every start-up stored at the
+    /// centre (one job per unit, start-up, engine/config hash and kind; queuing again adds
+    /// nothing), or with --retry-failed put failed jobs back.
     Rediagnose(super::fleet_worker::RediagnoseArgs),
-    /// Claim queued re-diagnosis jobs under a lease and run them (any number of workers).
+    /// Claim queued re-diagnosis and gap-analysis jobs under a lease and run them (any number
+    /// of workers).
     Worker(super::fleet_worker::WorkerArgs),
 }
 
@@ -148,6 +152,7 @@ pub(super) fn run_fleet(cmd: &FleetCmd) -> anyhow::Result<ExitCode> {
         FleetCmd::Status(a) => {
             let mut centre = Centre::connect_existing(&a.postgres_url, Duration::from_secs(30))?;
             let units = fleet_status(&mut centre)?;
+            let queue = rediagnosis_queue(&mut centre)?;
             if a.json {
                 println!(
                     "{}",
@@ -155,13 +160,45 @@ pub(super) fn run_fleet(cmd: &FleetCmd) -> anyhow::Result<ExitCode> {
                         "centre": centre.name,
                         "centre_id": centre.id,
                         "units": units,
+                        "rediagnosis": queue,
                     }))?
                 );
             } else {
                 print_status(&units);
+                if let Some(q) = &queue {
+                    print_queue(q);
+                }
             }
             Ok(ExitCode::SUCCESS)
         }
+    }
+}
+
+/// The re-diagnosis queue's jobs per kind and state (all hashes).
+#[derive(Debug, serde::Serialize)]
+struct RediagnosisQueue {
+    diagnose: QueueCounts,
+    gap: QueueCounts,
+}
+
+/// The queue's counts, `None` on a centre older than the gap jobs (schema version 3), which
+/// this read-only connection does not upgrade.
+fn rediagnosis_queue(centre: &mut Centre) -> anyhow::Result<Option<RediagnosisQueue>> {
+    if centre.schema_version()? < 3 {
+        return Ok(None);
+    }
+    Ok(Some(RediagnosisQueue {
+        diagnose: queue_counts(centre, None, Some(JobKind::Diagnose))?,
+        gap: queue_counts(centre, None, Some(JobKind::Gap))?,
+    }))
+}
+
+fn print_queue(q: &RediagnosisQueue) {
+    for (kind, c) in [("diagnose", &q.diagnose), ("gap", &q.gap)] {
+        println!(
+            "re-diagnosis jobs ({kind}): {} waiting, {} leased, {} done, {} failed",
+            c.waiting, c.leased, c.done, c.failed
+        );
     }
 }
 

@@ -17,6 +17,10 @@ const MIGRATIONS: &[(&str, &str)] = &[
         "0002_rediagnosis.sql",
         include_str!("../../migrations/postgres/0002_rediagnosis.sql"),
     ),
+    (
+        "0003_regap.sql",
+        include_str!("../../migrations/postgres/0003_regap.sql"),
+    ),
 ];
 
 /// Advisory lock key serialising two edges migrating a fresh centre at once.
@@ -159,6 +163,11 @@ impl Centre {
             .map_err(centre_err(&name, "reading the centre's id"))?
             .get(0);
         Ok(Centre { client, id, name })
+    }
+
+    /// The centre's schema version (the number of central migrations applied).
+    pub fn schema_version(&mut self) -> Result<i32, FleetError> {
+        version(&mut self.client, &self.name)
     }
 
     /// Checks again that the schema is not newer (the centre may be upgraded while an edge

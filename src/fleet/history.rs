@@ -1,7 +1,9 @@
 //! The fleet's health history, read from the centre: every unit's stored results, one row per
 //! start-up and method, with the newest gap verdict of its start-up (`gtwatch fleet history`,
 //! the central counterpart of `gtwatch history`). With a configuration hash, the results the
-//! fleet's re-diagnosis workers stored for it (`rediagnosis_estimates`) instead of the edges'.
+//! fleet's re-diagnosis workers stored for it (`rediagnosis_estimates`) instead of the edges',
+//! with the gap verdict of the start-up's re-analysis under that hash (`regap_analyses`) where
+//! one was made, else the edge's.
 //!
 //! Reads only; must not compute trends or write to the centre.
 
@@ -26,7 +28,8 @@ pub struct FleetHistoryRow {
     pub sigma: BTreeMap<String, f64>,
     pub residual_level: Option<f64>,
     pub fit_quality: Option<String>,
-    /// The effect named by the start-up's newest gap analysis, if one was synced.
+    /// The effect named by the start-up's newest gap analysis, if one was synced (with a
+    /// configuration hash: by its gap re-analysis under that hash, if one was made).
     pub gap_verdict: Option<String>,
 }
 
@@ -42,17 +45,19 @@ pub struct FleetHistoryFilter {
     pub config_hash: Option<String>,
 }
 
+/// The newest synced gap verdict of `d`'s start-up.
+const EDGE_GAP: &str = "(SELECT g.effect FROM gap_analyses g
+                  WHERE g.unit_id = d.unit_id AND g.segment_id = d.segment_id
+                  ORDER BY g.created_at_ms DESC, g.edge_id DESC LIMIT 1)";
+
 /// The columns every history query returns, from `d` (a results table) joined with its
-/// start-up `s`; `{table}` and `{filter}` are filled in by [`history_query`].
-fn history_query(table: &str, filter: &str, order: &str) -> String {
+/// start-up `s`; `{table}`, `{gap}` (the verdict) and `{filter}` are filled in by the caller.
+fn history_query(table: &str, gap: &str, filter: &str, order: &str) -> String {
     format!(
         "SELECT d.unit_id, d.segment_id, s.start_ms, d.method,
                 d.d_gc, d.d_ec, d.d_gt, d.d_et, d.d_gp, d.d_ep,
                 d.sigma_gc, d.sigma_ec, d.sigma_gt, d.sigma_et, d.sigma_gp, d.sigma_ep,
-                d.residual_level, d.fit_quality,
-                (SELECT g.effect FROM gap_analyses g
-                  WHERE g.unit_id = d.unit_id AND g.segment_id = d.segment_id
-                  ORDER BY g.created_at_ms DESC, g.edge_id DESC LIMIT 1)
+                d.residual_level, d.fit_quality, {gap}
          FROM {table} d
          JOIN segments s ON s.unit_id = d.unit_id AND s.edge_id = d.segment_id
          WHERE ($1::text IS NULL OR d.unit_id = $1)
@@ -68,18 +73,26 @@ pub fn fleet_history(
     f: &FleetHistoryFilter,
 ) -> Result<Vec<FleetHistoryRow>, FleetError> {
     let name = centre.name.clone();
+    let query = if f.config_hash.is_some() {
+        // The results re-diagnosed under config hash `$3`, the gap verdict re-analysed under
+        // it where the centre has gap jobs (schema version 3) and one was made.
+        let gap = if centre.schema_version()? >= 3 {
+            format!(
+                "COALESCE((SELECT r.effect FROM regap_analyses r
+                   WHERE r.unit_id = d.unit_id AND r.segment_id = d.segment_id
+                     AND r.config_hash = $3), {EDGE_GAP})"
+            )
+        } else {
+            EDGE_GAP.to_string()
+        };
+        history_query("rediagnosis_estimates", &gap, "d.config_hash = $3", "")
+    } else {
+        // The edges' own results (`$3` is NULL, named so its type is known).
+        history_query("diagnoses", EDGE_GAP, "$3::text IS NULL", ", d.edge_id")
+    };
     let rows = centre
         .client
-        .query(
-            &if f.config_hash.is_some() {
-                // The results re-diagnosed under config hash `$3`.
-                history_query("rediagnosis_estimates", "d.config_hash = $3", "")
-            } else {
-                // The edges' own results (`$3` is NULL, named so its type is known).
-                history_query("diagnoses", "$3::text IS NULL", ", d.edge_id")
-            },
-            &[&f.unit_id, &f.method, &f.config_hash],
-        )
+        .query(&query, &[&f.unit_id, &f.method, &f.config_hash])
         .map_err(centre_err(&name, "reading the fleet's results"))?;
     let mut out = Vec::with_capacity(rows.len());
     for r in &rows {

@@ -13,7 +13,8 @@
 //! - [`rediagnose`]: the distributed re-diagnosis queue at the centre (jobs per start-up and
 //!   engine/config hash, claimed under a lease with `FOR UPDATE SKIP LOCKED`, completed with
 //!   their result in one transaction) and a start-up window read back from the centre; the
-//!   `worker` room's `fleet` module runs the diagnosis itself (`gtwatch fleet worker`).
+//!   `worker` room's `fleet` module runs the diagnosis itself (`gtwatch fleet worker`);
+//! - [`regap`]: the results of the queue's gap-analysis jobs (`fleet rediagnose --gap`).
 //!
 //! The daemon runs it as a task (`daemon::sync`), `gtwatch sync` once. Must not write the
 //! edge's tables (only its marks, through a [`sync::MarkSink`]), hold edge SQL (that is
@@ -23,6 +24,7 @@
 pub mod centre;
 pub mod history;
 pub mod rediagnose;
+pub mod regap;
 pub mod sync;
 
 pub use centre::{fleet_status, Centre, UnitStatus};

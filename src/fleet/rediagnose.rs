@@ -1,11 +1,13 @@
 //! The distributed re-diagnosis queue at the centre (issue 25 item 3), as PostgreSQL SQL: jobs
-//! queued per (unit, start-up, engine/config hash), claimed under a lease, renewed, and
+//! queued per (unit, start-up, engine/config hash, kind), claimed under a lease, renewed, and
 //! completed together with their result in one transaction; and a start-up window read back
-//! from the centre as the diagnosis reads it at the edge.
+//! from the centre as the diagnosis reads it at the edge. A job's [`JobKind`] is a diagnosis
+//! or a gap analysis (whose result is stored by [`super::regap`]).
 //!
-//! - [`enqueue`]: one job per start-up of the chosen units whose window is complete at the
-//!   centre (`sample_windows`), carrying by hash the engine file's text and the `[diagnosis]`
-//!   settings (`rediagnosis_configs`); the same (unit, segment, hash) queued again is nothing.
+//! - [`enqueue`]: one job of a kind per start-up of the chosen units whose window is complete
+//!   at the centre (`sample_windows`), carrying by hash the engine file's text and the
+//!   `[diagnosis]` settings (`rediagnosis_configs`); the same (unit, segment, hash, kind)
+//!   queued again is nothing.
 //! - [`claim`]: `SELECT … FOR UPDATE SKIP LOCKED` of a pending job whose lease is free or
 //!   expired; it gets this worker's id and a lease of the given length (server clock).
 //! - [`renew`]: extends the lease while it is still this worker's and not expired.
@@ -14,6 +16,7 @@
 //!   transaction, only while this worker still holds an unexpired lease (the job row is
 //!   locked for it); a worker that lost its lease writes nothing. `rediagnoses` is unique per
 //!   (unit, segment, hash), so a result exists at most once whatever the workers do.
+//! - [`retry_failed`]: failed jobs back to pending (attempts kept, error cleared).
 //! - [`read_window`]: the segment, its phases and its samples through the unit's tags, turned
 //!   into a recording by the store's own adapter ([`build_segment_recording`]).
 //!
@@ -31,6 +34,35 @@ use serde::Serialize;
 use std::collections::HashMap;
 use std::time::Duration;
 
+/// What a job runs on its start-up.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum JobKind {
+    /// The edge's diagnosis (Method B and A): `rediagnoses`, `rediagnosis_estimates`.
+    #[default]
+    Diagnose,
+    /// The edge's gap analysis: `regap_analyses`.
+    Gap,
+}
+
+impl JobKind {
+    /// The `kind` column's value.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            JobKind::Diagnose => "diagnose",
+            JobKind::Gap => "gap",
+        }
+    }
+
+    fn parse(s: &str) -> Option<JobKind> {
+        match s {
+            "diagnose" => Some(JobKind::Diagnose),
+            "gap" => Some(JobKind::Gap),
+            _ => None,
+        }
+    }
+}
+
 /// What to queue: which start-ups, and what to diagnose them with.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct EnqueueRequest {
@@ -46,17 +78,20 @@ pub struct EnqueueRequest {
     pub engine_toml: String,
     /// The `[diagnosis]` settings, as JSON.
     pub settings_json: String,
+    /// The jobs' kind.
+    pub kind: JobKind,
 }
 
 /// What [`enqueue`] did.
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
 pub struct EnqueueReport {
     pub config_hash: String,
+    pub kind: JobKind,
     /// Start-ups matching the request whose window is complete at the centre.
     pub startups: u64,
     /// Jobs queued now.
     pub enqueued: u64,
-    /// Of `startups`, those already queued (any state) with this hash.
+    /// Of `startups`, those already queued (any state) with this hash and kind.
     pub already_queued: u64,
     /// Matching start-ups whose window is not (yet) complete at the centre: not queued.
     pub without_window: u64,
@@ -116,22 +151,35 @@ pub fn enqueue(centre: &mut Centre, req: &EnqueueRequest) -> Result<EnqueueRepor
                         count(*) FILTER (WHERE NOT {complete}),
                         count(*) FILTER (WHERE {complete} AND EXISTS (
                             SELECT 1 FROM rediagnosis_jobs j WHERE j.unit_id = s.unit_id
-                              AND j.segment_id = s.edge_id AND j.config_hash = $4))
+                              AND j.segment_id = s.edge_id AND j.config_hash = $4
+                              AND j.kind = $5))
                  FROM segments s WHERE {filter}"
             ),
-            &[&units, &req.since_ms, &CONTEXT_BEFORE_MS, &req.config_hash],
+            &[
+                &units,
+                &req.since_ms,
+                &CONTEXT_BEFORE_MS,
+                &req.config_hash,
+                &req.kind.as_str(),
+            ],
         )
         .map_err(centre_err(&name, "counting start-ups"))?;
     let enqueued = tx
         .execute(
             &format!(
-                "INSERT INTO rediagnosis_jobs (unit_id, segment_id, config_hash)
-                 SELECT s.unit_id, s.edge_id, $4 FROM segments s
+                "INSERT INTO rediagnosis_jobs (unit_id, segment_id, config_hash, kind)
+                 SELECT s.unit_id, s.edge_id, $4, $5 FROM segments s
                  WHERE {filter} AND {complete}
                  ORDER BY s.unit_id, s.start_ms
-                 ON CONFLICT (unit_id, segment_id, config_hash) DO NOTHING"
+                 ON CONFLICT (unit_id, segment_id, config_hash, kind) DO NOTHING"
             ),
-            &[&units, &req.since_ms, &CONTEXT_BEFORE_MS, &req.config_hash],
+            &[
+                &units,
+                &req.since_ms,
+                &CONTEXT_BEFORE_MS,
+                &req.config_hash,
+                &req.kind.as_str(),
+            ],
         )
         .map_err(centre_err(&name, "queuing jobs"))?;
     tx.commit()
@@ -139,6 +187,7 @@ pub fn enqueue(centre: &mut Centre, req: &EnqueueRequest) -> Result<EnqueueRepor
     let n = |i: usize| u64::try_from(counts.get::<_, i64>(i)).unwrap_or(0);
     Ok(EnqueueReport {
         config_hash: req.config_hash.clone(),
+        kind: req.kind,
         startups: n(0),
         enqueued,
         already_queued: n(2),
@@ -153,6 +202,7 @@ pub struct Job {
     pub unit_id: String,
     pub segment_id: i64,
     pub config_hash: String,
+    pub kind: JobKind,
     /// Claims of this job so far, this one included.
     pub attempts: i32,
     pub engine_name: String,
@@ -185,15 +235,24 @@ pub fn claim(
                FROM c, rediagnosis_configs k
               WHERE j.id = c.id AND k.config_hash = j.config_hash
              RETURNING j.id, j.unit_id, j.segment_id, j.config_hash, j.attempts,
-                       k.engine_name, k.engine_toml, k.settings_json",
+                       k.engine_name, k.engine_toml, k.settings_json, j.kind",
             &[&worker, &lease_secs(lease)],
         )
         .map_err(centre_err(&name, "claiming a job"))?;
-    Ok(row.map(|r| Job {
+    let Some(r) = row else {
+        return Ok(None);
+    };
+    let kind: String = r.get(8);
+    let kind = JobKind::parse(&kind).ok_or_else(|| FleetError::Data {
+        centre: name.clone(),
+        what: format!("job {} has kind {kind}", r.get::<_, i64>(0)),
+    })?;
+    Ok(Some(Job {
         id: r.get(0),
         unit_id: r.get(1),
         segment_id: r.get(2),
         config_hash: r.get(3),
+        kind,
         attempts: r.get(4),
         engine_name: r.get(5),
         engine_toml: r.get(6),
@@ -250,7 +309,7 @@ pub struct JobResult {
 }
 
 /// Locks `job` if `worker` still holds an unexpired lease on it; false otherwise.
-fn hold(
+pub(super) fn hold(
     tx: &mut postgres::Transaction<'_>,
     job: i64,
     worker: &str,
@@ -362,7 +421,7 @@ pub fn fail(centre: &mut Centre, job: i64, worker: &str, error: &str) -> Result<
     })
 }
 
-fn in_tx<T>(
+pub(super) fn in_tx<T>(
     centre: &mut Centre,
     name: &str,
     what: &str,
@@ -375,6 +434,34 @@ fn in_tx<T>(
         Ok(out)
     })();
     result.map_err(centre_err(name, what))
+}
+
+/// Which failed jobs [`retry_failed`] puts back.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct RetryFilter {
+    /// Only these units (empty: every unit).
+    pub units: Vec<String>,
+    /// Only this engine/config hash (`None`: every hash).
+    pub config_hash: Option<String>,
+}
+
+/// Puts the failed jobs `filter` selects back to pending (no lease, the error and the finish
+/// cleared, the attempts kept); how many.
+pub fn retry_failed(centre: &mut Centre, filter: &RetryFilter) -> Result<u64, FleetError> {
+    let name = centre.name.clone();
+    let units: Option<Vec<String>> = (!filter.units.is_empty()).then(|| filter.units.clone());
+    centre
+        .client
+        .execute(
+            "UPDATE rediagnosis_jobs
+                SET state = 'pending', error = NULL, done_at = NULL, done_by = NULL,
+                    lease_owner = NULL, lease_until = NULL
+              WHERE state = 'failed'
+                AND ($1::text[] IS NULL OR unit_id = ANY($1))
+                AND ($2::text IS NULL OR config_hash = $2)",
+            &[&units, &filter.config_hash],
+        )
+        .map_err(centre_err(&name, "putting failed jobs back"))
 }
 
 /// Jobs per state (`pending` split into `leased` and `waiting`).
@@ -393,11 +480,13 @@ impl QueueCounts {
     }
 }
 
-/// The queue's jobs per state (of one hash, or all).
+/// The queue's jobs per state (of one hash, or all; of one kind, or all).
 pub fn queue_counts(
     centre: &mut Centre,
     config_hash: Option<&str>,
+    kind: Option<JobKind>,
 ) -> Result<QueueCounts, FleetError> {
+    let kind = kind.map(JobKind::as_str);
     let name = centre.name.clone();
     let r = centre
         .client
@@ -407,8 +496,9 @@ pub fn queue_counts(
                     count(*) FILTER (WHERE state = 'pending' AND lease_until >= now()),
                     count(*) FILTER (WHERE state = 'done'),
                     count(*) FILTER (WHERE state = 'failed')
-             FROM rediagnosis_jobs WHERE ($1::text IS NULL OR config_hash = $1)",
-            &[&config_hash],
+             FROM rediagnosis_jobs WHERE ($1::text IS NULL OR config_hash = $1)
+                                     AND ($2::text IS NULL OR kind = $2)",
+            &[&config_hash, &kind],
         )
         .map_err(centre_err(&name, "counting jobs"))?;
     Ok(QueueCounts {

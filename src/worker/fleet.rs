@@ -1,8 +1,10 @@
 //! The fleet re-diagnosis worker (`gtwatch fleet worker`, issue 25 item 3): claims jobs from
 //! the centre's queue under a lease, reads each start-up's window from the centre, runs the
 //! edge's own diagnosis on it ([`assess_segment_on`] with the job's engine text and settings,
-//! whose hash it checks), and stores the result with its hash and this worker's id in the
-//! transaction that marks the job done, only while it still holds the lease.
+//! whose hash it checks) or, for a gap job, the edge's own gap analysis
+//! ([`super::gap::analyse_startup`], as the daemon's gap task runs it), and stores the result
+//! with its hash and this worker's id in the transaction that marks the job done, only while
+//! it still holds the lease.
 //!
 //! A renewal thread, with its own connection, extends the lease every third of its length while
 //! a fit runs; when the lease is lost (renewal refused, or the centre unreachable until the
@@ -13,14 +15,16 @@
 //! error only after a few minutes of failures.
 //!
 //! Lives in the worker room because it runs the diagnosis; the queue's SQL is
-//! `crate::fleet::rediagnose`'s. Must not hold SQL, fitting arithmetic of its own, or touch an
-//! edge database. The gap analysis (`--gap`) is not run here.
+//! `crate::fleet::rediagnose`'s and `crate::fleet::regap`'s. Must not hold SQL, fitting
+//! arithmetic of its own, or touch an edge database.
 
 use super::{assess_segment_on, failures, new_diagnoses, DiagnosisSettings, WorkerContext};
 use crate::diagnosis::assess::Assessment;
-use crate::fleet::rediagnose::{self, Job, JobResult};
+use crate::fleet::rediagnose::{self, Job, JobKind, JobResult};
+use crate::fleet::regap::{self, GapJobResult};
 use crate::fleet::{Centre, FleetError};
 use crate::optim::Cancel;
+use crate::store::SegmentRecording;
 use serde::Serialize;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -50,10 +54,12 @@ pub struct FleetWorkerOptions {
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct FleetWorkerReport {
     pub worker_id: String,
-    /// Jobs whose result this worker stored.
+    /// Jobs whose result this worker stored (diagnoses and gap analyses).
     pub done: u64,
     /// Of those, start-ups found undiagnosable.
     pub undiagnosable: u64,
+    /// Of those, gap analyses.
+    pub gap_done: u64,
     /// Jobs this worker could not run (marked failed, with the reason).
     pub failed: u64,
     /// Jobs whose lease this worker lost before storing (nothing written).
@@ -231,7 +237,11 @@ fn context_for(contexts: &mut Contexts, job: &Job) -> Result<Arc<WorkerContext>,
 
 /// What became of one claimed job.
 enum JobEnd {
-    Done { undiagnosable: bool, fit_s: f64 },
+    Done {
+        undiagnosable: bool,
+        gap: bool,
+        fit_s: f64,
+    },
     Failed,
     Lost,
 }
@@ -258,7 +268,8 @@ pub fn run_fleet_worker(
                 failures = 0;
                 // An error here counts as work pending: the next claim meets it again.
                 let empty = opts.idle_exit
-                    && rediagnose::queue_counts(&mut centre, None).is_ok_and(|q| q.pending() == 0);
+                    && rediagnose::queue_counts(&mut centre, None, None)
+                        .is_ok_and(|q| q.pending() == 0);
                 if empty {
                     break;
                 }
@@ -270,10 +281,12 @@ pub fn run_fleet_worker(
                 match end {
                     JobEnd::Done {
                         undiagnosable,
+                        gap,
                         fit_s,
                     } => {
                         rep.done += 1;
                         rep.undiagnosable += u64::from(undiagnosable);
+                        rep.gap_done += u64::from(gap);
                         rep.fit_s += fit_s;
                     }
                     JobEnd::Failed => rep.failed += 1,
@@ -333,6 +346,7 @@ fn step(
     };
     tracing::info!(
         job = job.id,
+        kind = job.kind.as_str(),
         unit = %job.unit_id,
         segment = job.segment_id,
         attempt = job.attempts,
@@ -352,7 +366,79 @@ fn sleep_unless(stop: &Cancel, d: Duration) {
     }
 }
 
-/// One claimed job: context, window, fit, and its result stored if the lease is still held.
+/// Sets a fit's cancel flag when the worker's stop is set, from a thread of its own, until
+/// dropped.
+struct StopWatcher {
+    done: Cancel,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl StopWatcher {
+    fn start(stop: &Cancel, fit_cancel: &Cancel) -> StopWatcher {
+        let (stop, fit_cancel) = (stop.clone(), fit_cancel.clone());
+        let done = Cancel::new();
+        let d = done.clone();
+        let thread = std::thread::spawn(move || {
+            while !d.is_cancelled() && !fit_cancel.is_cancelled() {
+                if stop.is_cancelled() {
+                    fit_cancel.cancel();
+                }
+                std::thread::sleep(Duration::from_millis(50));
+            }
+        });
+        StopWatcher {
+            done,
+            thread: Some(thread),
+        }
+    }
+}
+
+impl Drop for StopWatcher {
+    fn drop(&mut self) {
+        self.done.cancel();
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// A claimed job, read and about to run: what [`diagnose_job`] and [`gap_job`] share.
+struct Claimed<'a> {
+    job: &'a Job,
+    ctx: &'a WorkerContext,
+    window: &'a SegmentRecording,
+    /// Set on a lost lease or on the worker's own stop.
+    cancel: &'a Cancel,
+    threads: usize,
+    worker: &'a str,
+    /// When the job was claimed (its wall time is stored with the result).
+    began: Instant,
+}
+
+/// Marks the job failed with `why`; `Lost` if its lease was gone.
+fn fail_job(centre: &mut Centre, job: &Job, worker: &str, why: &str) -> Result<JobEnd, FleetError> {
+    tracing::warn!(job = job.id, "job failed: {why}");
+    Ok(if rediagnose::fail(centre, job.id, worker, why)? {
+        JobEnd::Failed
+    } else {
+        JobEnd::Lost
+    })
+}
+
+/// After a fit stopped by `cancel`: the job is given back at once when the worker stops.
+fn stopped(centre: &mut Centre, c: &Claimed<'_>, stop: &Cancel) -> JobEnd {
+    if stop.is_cancelled() {
+        // Stopping: give the job back now rather than when the lease runs out.
+        let _ = rediagnose::release(centre, c.job.id, c.worker);
+    }
+    tracing::warn!(
+        job = c.job.id,
+        "fit stopped (lease lost or shutdown): nothing stored"
+    );
+    JobEnd::Lost
+}
+
+/// One claimed job: context, window, then its diagnosis or gap analysis.
 fn run_job(
     centre: &mut Centre,
     opts: &FleetWorkerOptions,
@@ -362,58 +448,45 @@ fn run_job(
     stop: &Cancel,
 ) -> Result<JobEnd, FleetError> {
     let began = Instant::now();
-    let failed = |centre: &mut Centre, why: String| -> Result<JobEnd, FleetError> {
-        tracing::warn!(job = job.id, "job failed: {why}");
-        Ok(
-            if rediagnose::fail(centre, job.id, &opts.worker_id, &why)? {
-                JobEnd::Failed
-            } else {
-                JobEnd::Lost
-            },
-        )
-    };
     let ctx = match context_for(contexts, job) {
         Ok(c) => c,
-        Err(why) => return failed(centre, why),
+        Err(why) => return fail_job(centre, job, &opts.worker_id, &why),
     };
-    let rec = match rediagnose::read_window(centre, &job.unit_id, job.segment_id) {
+    let window = match rediagnose::read_window(centre, &job.unit_id, job.segment_id) {
         Ok(r) => r,
-        Err(e @ FleetError::Data { .. }) => return failed(centre, e.to_string()),
+        Err(e @ FleetError::Data { .. }) => {
+            return fail_job(centre, job, &opts.worker_id, &e.to_string())
+        }
         Err(e) => return Err(e),
     };
-    // The fit stops on a lost lease or on the worker's own stop.
-    let fit_cancel = cancel.clone();
-    let watcher = {
-        let (stop, fit_cancel) = (stop.clone(), fit_cancel.clone());
-        let done = Cancel::new();
-        let d = done.clone();
-        let t = std::thread::spawn(move || {
-            while !d.is_cancelled() && !fit_cancel.is_cancelled() {
-                if stop.is_cancelled() {
-                    fit_cancel.cancel();
-                }
-                std::thread::sleep(Duration::from_millis(50));
-            }
-        });
-        (done, t)
+    let claimed = Claimed {
+        job,
+        ctx: &ctx,
+        window: &window,
+        cancel,
+        threads: opts.threads,
+        worker: &opts.worker_id,
+        began,
     };
-    let t_fit = Instant::now();
-    let assessment = assess_segment_on(&ctx, &rec, &fit_cancel, opts.threads);
-    let fit_s = t_fit.elapsed().as_secs_f64();
-    watcher.0.cancel();
-    let _ = watcher.1.join();
-    if matches!(assessment, Assessment::Cancelled) || cancel.is_cancelled() {
-        if stop.is_cancelled() {
-            // Stopping: give the job back now rather than when the lease runs out.
-            let _ = rediagnose::release(centre, job.id, &opts.worker_id);
-        }
-        tracing::warn!(
-            job = job.id,
-            "fit stopped (lease lost or shutdown): nothing stored"
-        );
-        return Ok(JobEnd::Lost);
+    match job.kind {
+        JobKind::Diagnose => diagnose_job(centre, &claimed, stop),
+        JobKind::Gap => gap_job(centre, &claimed, stop),
     }
-    let estimates = new_diagnoses(&ctx, job.segment_id, &assessment);
+}
+
+/// The edge's diagnosis of the window, stored if the lease is still held.
+fn diagnose_job(centre: &mut Centre, c: &Claimed<'_>, stop: &Cancel) -> Result<JobEnd, FleetError> {
+    let job = c.job;
+    let t_fit = Instant::now();
+    let assessment = {
+        let _watch = StopWatcher::start(stop, c.cancel);
+        assess_segment_on(c.ctx, c.window, c.cancel, c.threads)
+    };
+    let fit_s = t_fit.elapsed().as_secs_f64();
+    if matches!(assessment, Assessment::Cancelled) || c.cancel.is_cancelled() {
+        return Ok(stopped(centre, c, stop));
+    }
+    let estimates = new_diagnoses(c.ctx, job.segment_id, &assessment);
     let undiagnosable = estimates.is_empty();
     let result = JobResult {
         outcome: if undiagnosable {
@@ -424,9 +497,9 @@ fn run_job(
         .to_string(),
         estimates,
         failures_json: rediagnose::failures_json(failures(&assessment)),
-        wall_s: began.elapsed().as_secs_f64(),
+        wall_s: c.began.elapsed().as_secs_f64(),
     };
-    if rediagnose::complete(centre, job, &opts.worker_id, &result)? {
+    if rediagnose::complete(centre, job, c.worker, &result)? {
         tracing::info!(
             job = job.id,
             unit = %job.unit_id,
@@ -437,12 +510,67 @@ fn run_job(
         );
         Ok(JobEnd::Done {
             undiagnosable,
+            gap: false,
             fit_s,
         })
     } else {
         tracing::warn!(
             job = job.id,
             "lease lost before the result was stored: nothing stored"
+        );
+        Ok(JobEnd::Lost)
+    }
+}
+
+/// The edge's gap analysis of the window (the daemon's: no held-out start-up, every
+/// candidate), stored if the lease is still held. A window the recording's checks refuse, or
+/// an analysis that fails, marks the job failed, as the daemon skips such a start-up.
+fn gap_job(centre: &mut Centre, c: &Claimed<'_>, stop: &Cancel) -> Result<JobEnd, FleetError> {
+    let job = c.job;
+    let rec = match &c.window.recording {
+        Ok(r) => r,
+        Err(e) => {
+            let why = format!("the segment cannot be analysed: {e}");
+            return fail_job(centre, job, c.worker, &why);
+        }
+    };
+    let t_fit = Instant::now();
+    let analysed = {
+        let _watch = StopWatcher::start(stop, c.cancel);
+        super::gap::analyse_startup(c.ctx, job.segment_id, rec, c.cancel, c.threads)
+    };
+    let fit_s = t_fit.elapsed().as_secs_f64();
+    let gap = match analysed {
+        Ok(Some(g)) if !c.cancel.is_cancelled() => g,
+        Ok(_) => return Ok(stopped(centre, c, stop)),
+        Err(why) if c.cancel.is_cancelled() => {
+            tracing::debug!(job = job.id, "analysis failed while cancelled: {why}");
+            return Ok(stopped(centre, c, stop));
+        }
+        Err(why) => return fail_job(centre, job, c.worker, &why),
+    };
+    let result = GapJobResult {
+        analysis: gap.row,
+        wall_s: c.began.elapsed().as_secs_f64(),
+    };
+    if regap::complete_gap(centre, job, c.worker, &result)? {
+        tracing::info!(
+            job = job.id,
+            unit = %job.unit_id,
+            segment = job.segment_id,
+            effect = %result.analysis.effect,
+            fit_s,
+            "gap job done"
+        );
+        Ok(JobEnd::Done {
+            undiagnosable: false,
+            gap: true,
+            fit_s,
+        })
+    } else {
+        tracing::warn!(
+            job = job.id,
+            "lease lost before the analysis was stored: nothing stored"
         );
         Ok(JobEnd::Lost)
     }

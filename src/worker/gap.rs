@@ -3,7 +3,8 @@
 //! `good` or refused as `residual_too_high`, its health stepping away from the unit's own
 //! trend since the last wash (`trend::steps_against_trend`), or every n-th start-up on a
 //! schedule (`[diagnosis] gap_on_poor_fit`, `gap_on_health_step`, `gap_every_n`) — runs `gap::analyse` on it with the worker's
-//! engine and fit settings, and writes the report through [`Db`]. It yields to the diagnosis
+//! engine and fit settings ([`analyse_startup`], which the fleet's gap jobs run too), and
+//! writes the report through [`Db`]. It yields to the diagnosis
 //! queue: nothing starts while a closed start-up waits for its diagnosis, and a cancelled
 //! analysis (shutdown, or a new start-up closing) stores nothing and is redone later.
 //!
@@ -13,6 +14,7 @@
 use super::WorkerContext;
 use crate::health::HEALTH_NAMES as NAMES;
 use crate::optim::Cancel;
+use crate::recording::Recording;
 use crate::store::{
     Db, GapSelection, HistoryFilter, HistoryRow, NewGapAnalysis, Store, StoreError,
 };
@@ -135,40 +137,64 @@ pub(crate) fn analyse_next(
         },
         None => return failed("the segment is gone".into()),
     };
-    let candidates = match crate::gap::select("all") {
-        Ok(c) => c,
-        Err(e) => return failed(e),
+    let gap = match analyse_startup(ctx, segment_id, &recording, cancel, ctx.settings.threads) {
+        Ok(Some(g)) => g,
+        // A cancelled analysis (finished early or failed for it) stores nothing.
+        Ok(None) => return Ok(GapStep::Cancelled { segment_id }),
+        Err(why) => return failed(why),
     };
-    let cfg = ctx.settings.fit_config(cancel);
-    let result = crate::gap::analyse(&ctx.engine, &recording, None, &candidates, &cfg);
-    // A cancelled analysis (finished early or failed for it) stores nothing.
-    if cancel.is_cancelled() {
-        return Ok(GapStep::Cancelled { segment_id });
-    }
-    let report = match result {
-        Ok(r) => r,
-        Err(e) => return failed(e.to_string()),
-    };
-    let report_json = match serde_json::to_string(&report) {
-        Ok(j) => j,
-        Err(e) => return failed(e.to_string()),
-    };
-    let analysis_id = db.write_gap_analysis(NewGapAnalysis {
-        segment_id,
-        holdout_segment_id: None,
-        effect: report.verdict.effect.clone(),
-        shrinkage: report.verdict.shrinkage,
-        confidence: report.verdict.confidence,
-        baseline_fit_quality: report.baseline_fit_quality.as_str().into(),
-        normalised_residual: report.baseline_normalised_residual,
-        report_json,
-    })?;
+    let effect = gap.row.effect.clone();
+    let analysis_id = db.write_gap_analysis(gap.row)?;
     Ok(GapStep::Stored {
         segment_id,
         analysis_id,
-        effect: report.verdict.effect,
-        wall_s: report.wall_s,
+        effect,
+        wall_s: gap.wall_s,
     })
+}
+
+/// One start-up's analysis as the daemon makes it: the row to store and the analysis's wall
+/// time.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct StartupGap {
+    pub(crate) row: NewGapAnalysis,
+    pub(crate) wall_s: f64,
+}
+
+/// The daemon's gap analysis of start-up `segment_id`: `gap::analyse` with the context's
+/// engine and fit settings (its fits on `threads` threads; the result does not depend on
+/// them), every candidate of the library, and no held-out start-up (blocked
+/// cross-validation). `Ok(None)` when `cancel` stopped it; `Err` when it cannot be made. The
+/// fleet's gap jobs (`worker::fleet`) run this very function, so their reports are the edge's.
+pub(crate) fn analyse_startup(
+    ctx: &WorkerContext,
+    segment_id: i64,
+    recording: &Recording,
+    cancel: &Cancel,
+    threads: usize,
+) -> Result<Option<StartupGap>, String> {
+    let candidates = crate::gap::select("all")?;
+    let mut cfg = ctx.settings.fit_config(cancel);
+    cfg.threads = Some(threads.max(1));
+    let result = crate::gap::analyse(&ctx.engine, recording, None, &candidates, &cfg);
+    if cancel.is_cancelled() {
+        return Ok(None);
+    }
+    let report = result.map_err(|e| e.to_string())?;
+    let report_json = serde_json::to_string(&report).map_err(|e| e.to_string())?;
+    Ok(Some(StartupGap {
+        row: NewGapAnalysis {
+            segment_id,
+            holdout_segment_id: None,
+            effect: report.verdict.effect.clone(),
+            shrinkage: report.verdict.shrinkage,
+            confidence: report.verdict.confidence,
+            baseline_fit_quality: report.baseline_fit_quality.as_str().into(),
+            normalised_residual: report.baseline_normalised_residual,
+            report_json,
+        },
+        wall_s: report.wall_s,
+    }))
 }
 
 /// One analysis [`analyse_until_idle`] stored.

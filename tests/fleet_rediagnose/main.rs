@@ -6,16 +6,23 @@
 //! none pending or failed, the killed worker's job finished by another after its lease ran
 //! out), and every result is bit for bit the edge's own stored diagnosis under the same config
 //! hash. Also the queue's SQL alone: claim, renewal, a lost lease that must not write, and
-//! `SKIP LOCKED` between two claimers.
+//! `SKIP LOCKED` between two claimers (here); gap-analysis jobs (`--gap`) whose reports are
+//! the edge daemon's own ([`gap`]); `--retry-failed` and a version-2 centre's upgrade
+//! ([`retry`]); the acceptance benchmark, by hand ([`bench`]).
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
+#[path = "../common/mod.rs"]
 mod common;
+
+mod bench;
+mod gap;
+mod retry;
 
 use common::postgres::PgServer;
 use gtwatch::engine::simulation::run_scenario;
 use gtwatch::engine::{Engine, Scenario};
-use gtwatch::fleet::rediagnose::{self, EnqueueRequest, JobResult};
+use gtwatch::fleet::rediagnose::{self, EnqueueRequest, JobKind, JobResult};
 use gtwatch::fleet::Centre;
 use gtwatch::health::HealthParams;
 use std::path::Path;
@@ -43,9 +50,9 @@ fn ok(out: Output, what: &str) -> Output {
 }
 
 /// An edge database of `n` replayed start-ups, diagnosed with `max_model_runs` per method and
-/// no gap analyses; returns the config file. Six degradation levels, each simulated once,
-/// repeat with a fresh noise seed per start-up.
-fn build_edge(dir: &Path, n: usize, max_model_runs: usize) -> std::path::PathBuf {
+/// gap analyses only on the schedule `gap_every_n` (0: none); returns the config file. Six
+/// degradation levels, each simulated once, repeat with a fresh noise seed per start-up.
+fn build_edge(dir: &Path, n: usize, max_model_runs: usize, gap_every_n: u32) -> std::path::PathBuf {
     let engine = Engine::reference().expect("engine");
     let levels: Vec<_> = (0..6)
         .map(|k| {
@@ -75,8 +82,10 @@ fn build_edge(dir: &Path, n: usize, max_model_runs: usize) -> std::path::PathBuf
             &format!("max_model_runs = {max_model_runs}"),
         )
         .replace("gap_on_poor_fit = true", "gap_on_poor_fit = false")
-        .replace("gap_on_health_step = true", "gap_on_health_step = false");
+        .replace("gap_on_health_step = true", "gap_on_health_step = false")
+        .replace("gap_every_n = 0", &format!("gap_every_n = {gap_every_n}"));
     assert!(cfg.contains("gap_on_poor_fit = false") && cfg.contains("gap_on_health_step = false"));
+    assert!(cfg.contains(&format!("gap_every_n = {gap_every_n}")));
     let cfg_path = dir.join("gtwatch.toml");
     std::fs::write(&cfg_path, cfg).expect("config");
     let t0 = Instant::now();
@@ -166,7 +175,7 @@ fn three_workers_one_killed_do_every_job_once_with_the_edges_results() {
     let url = pg.create_db("fleet_redo");
     let dir = tempfile::tempdir().expect("tempdir");
     // A small budget: each start-up's two fits about a second.
-    let cfg = build_edge(dir.path(), STARTUPS, 100);
+    let cfg = build_edge(dir.path(), STARTUPS, 100, 0);
     let cfg_s = cfg.to_str().expect("utf8");
     sync_edge(dir.path(), &url);
     let mut centre = Centre::connect_existing(&url, Duration::from_secs(5)).expect("centre");
@@ -181,7 +190,7 @@ fn three_workers_one_killed_do_every_job_once_with_the_edges_results() {
     let (killed_job, reports) = run_workers_killing_one(&url, &mut centre);
 
     // Exactly once: one done job and one result per start-up, nothing pending or failed.
-    let q = rediagnose::queue_counts(&mut centre, Some(&hash)).expect("queue");
+    let q = rediagnose::queue_counts(&mut centre, Some(&hash), None).expect("queue");
     assert_eq!(
         (q.waiting, q.leased, q.done, q.failed),
         (0, 0, STARTUPS as i64, 0),
@@ -414,6 +423,7 @@ fn a_lost_lease_cannot_write_and_a_held_one_is_not_claimed_twice() {
         engine_name: "e".into(),
         engine_toml: "x".into(),
         settings_json: "{}".into(),
+        kind: JobKind::Diagnose,
     };
     let r = rediagnose::enqueue(&mut c, &req).expect("enqueue");
     assert_eq!(
@@ -467,7 +477,7 @@ fn a_lost_lease_cannot_write_and_a_held_one_is_not_claimed_twice() {
     assert!(!rediagnose::complete(&mut c2, &c_job, "c", &result).expect("twice"));
     // a, renewed, still holds its job and stores it.
     assert!(rediagnose::complete(&mut c, &a, "a", &result).expect("complete"));
-    let q = rediagnose::queue_counts(&mut c, None).expect("queue");
+    let q = rediagnose::queue_counts(&mut c, None, None).expect("queue");
     assert_eq!((q.pending(), q.done, q.failed), (0, 2, 0), "{q:?}");
     let rows = c
         .query_text("SELECT job_id, worker_id FROM rediagnoses ORDER BY job_id")
@@ -496,152 +506,4 @@ fn env_or(key: &str, default: usize) -> usize {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(default)
-}
-
-/// The acceptance figure of issue 25 item 3, by hand (minutes):
-/// `BENCH_STARTUPS=200 BENCH_WORKERS=4 BENCH_KILL=2 BENCH_RUNS=100 cargo test --release
-///  --test fleet_rediagnose bench_ -- --ignored --nocapture`.
-/// An edge of `BENCH_STARTUPS` start-ups diagnosed with `BENCH_RUNS` model runs per method is
-/// synced; one worker runs a quarter of the jobs alone (its throughput); then the queue is
-/// emptied and refilled, `BENCH_WORKERS` workers run it all while `BENCH_KILL` of them are
-/// `kill -9`ed mid-job at evenly spaced moments. Every job done exactly once and every result
-/// the edge's own are asserted; the figures are printed as one `FLEET-BENCH {json}` line.
-#[test]
-#[ignore = "a benchmark of minutes: run by hand (see its doc)"]
-fn bench_rediagnose_workers_killed_mid_run() {
-    let n = env_or("BENCH_STARTUPS", 200);
-    let k = env_or("BENCH_WORKERS", 4);
-    let kill = env_or("BENCH_KILL", 2).min(k.saturating_sub(1));
-    let runs = env_or("BENCH_RUNS", 100);
-    let single = env_or("BENCH_SINGLE_JOBS", n.div_ceil(4));
-    let pg = PgServer::start();
-    let url = pg.create_db("fleet_bench");
-    let dir = tempfile::tempdir().expect("tempdir");
-    let t_edge = Instant::now();
-    let cfg = build_edge(dir.path(), n, runs);
-    let edge_s = t_edge.elapsed().as_secs_f64();
-    let cfg_s = cfg.to_str().expect("utf8");
-    sync_edge(dir.path(), &url);
-    let mut centre = Centre::connect_existing(&url, Duration::from_secs(5)).expect("centre");
-    let enqueue = |centre: &mut Centre| {
-        let doc = rediagnose(&url, cfg_s, &[]);
-        assert_eq!(doc["enqueue"]["enqueued"], n, "{doc:#}");
-        let _ = centre;
-        doc["enqueue"]["config_hash"]
-            .as_str()
-            .expect("hash")
-            .to_string()
-    };
-
-    // One worker alone.
-    enqueue(&mut centre);
-    let t1 = Instant::now();
-    let mut solo = worker_with(&url, "solo", &["--max-jobs", &single.to_string()]);
-    let solo_rep = report_of(&mut solo, "solo", Duration::from_secs(3600));
-    let one_s = t1.elapsed().as_secs_f64();
-    assert_eq!(solo_rep["done"], single);
-    centre
-        .query_text("TRUNCATE rediagnosis_estimates, rediagnoses, rediagnosis_jobs")
-        .expect("empty the queue");
-
-    // K workers, `kill` of them killed -9 mid-job.
-    let hash = enqueue(&mut centre);
-    let t2 = Instant::now();
-    let names: Vec<String> = (0..k).map(|i| format!("w{i}")).collect();
-    let mut workers: Vec<Child> = names.iter().map(|w| worker(&url, w)).collect();
-    let mut killed: Vec<(String, String)> = Vec::new();
-    for (i, name) in names.iter().enumerate().take(kill) {
-        let at = (i + 1) * n / (kill + 1);
-        loop {
-            let done = count(
-                &mut centre,
-                "SELECT count(*) FROM rediagnosis_jobs WHERE state = 'done'",
-            );
-            let held = column(
-                &mut centre,
-                &format!(
-                    "SELECT id FROM rediagnosis_jobs WHERE lease_owner = '{name}' AND state = 'pending'"
-                ),
-            );
-            if done as usize >= at {
-                if let Some(Some(id)) = held.first() {
-                    workers[i].kill().expect("kill -9");
-                    let _ = workers[i].wait();
-                    eprintln!(
-                        "FLEET-BENCH {name} killed -9 holding job {id} at {done} done, {:.1} s",
-                        t2.elapsed().as_secs_f64()
-                    );
-                    killed.push((name.clone(), id.clone()));
-                    break;
-                }
-            }
-            assert!(t2.elapsed() < Duration::from_secs(3600), "no kill moment");
-            std::thread::sleep(Duration::from_millis(10));
-        }
-    }
-    let reports: Vec<serde_json::Value> = workers
-        .iter_mut()
-        .zip(&names)
-        .skip(kill)
-        .map(|(w, name)| report_of(w, name, Duration::from_secs(3600)))
-        .collect();
-    let k_s = t2.elapsed().as_secs_f64();
-
-    let q = rediagnose::queue_counts(&mut centre, Some(&hash)).expect("queue");
-    assert_eq!(
-        (q.waiting, q.leased, q.done, q.failed),
-        (0, 0, n as i64, 0),
-        "{q:?}"
-    );
-    assert_eq!(
-        count(
-            &mut centre,
-            "SELECT count(DISTINCT (unit_id, segment_id)) FROM rediagnoses"
-        ),
-        n as i64
-    );
-    assert_eq!(
-        count(&mut centre, "SELECT count(*) FROM rediagnoses"),
-        n as i64
-    );
-    for (name, job) in &killed {
-        let row = centre
-            .query_text(&format!(
-                "SELECT done_by, attempts FROM rediagnosis_jobs WHERE id = {job}"
-            ))
-            .expect("job");
-        assert!(row[0][0].as_deref() != Some(name.as_str()), "{row:?}");
-    }
-    assert_results_are_the_edges(&mut centre);
-    let sum = |key: &str| -> f64 { reports.iter().map(|r| r[key].as_f64().unwrap_or(0.0)).sum() };
-    let survivors_done = sum("done").max(1.0);
-    let retried = count(
-        &mut centre,
-        "SELECT count(*) FROM rediagnosis_jobs WHERE attempts > 1",
-    );
-    let doc = serde_json::json!({
-        "startups": n,
-        "max_model_runs": runs,
-        "edge_replay_and_diagnosis_s": edge_s,
-        "one_worker": {
-            "jobs": single,
-            "wall_s": one_s,
-            "jobs_per_s": single as f64 / one_s,
-            "fit_s_per_job": solo_rep["fit_s"].as_f64().unwrap_or(0.0) / single as f64,
-            "cpu_s_per_job": solo_rep["cpu_s"].as_f64().unwrap_or(0.0) / single as f64,
-        },
-        "workers": k,
-        "killed": kill,
-        "wall_s": k_s,
-        "jobs_per_s": n as f64 / k_s,
-        "speedup_vs_one": (n as f64 / k_s) / (single as f64 / one_s),
-        // Of the workers that ran to the end (the killed ones report nothing).
-        "fit_s_per_job": sum("fit_s") / survivors_done,
-        "cpu_s_per_job": sum("cpu_s") / survivors_done,
-        "jobs_claimed_more_than_once": retried,
-        "cores": std::thread::available_parallelism().map_or(0, |c| c.get()),
-        // Other work on the machine shows here (the figures assume it had the cores).
-        "loadavg_at_end": std::fs::read_to_string("/proc/loadavg").unwrap_or_default().trim(),
-    });
-    eprintln!("FLEET-BENCH {doc}");
 }
