@@ -288,6 +288,7 @@ pub async fn run_demo(
             progress: None,
             worker: Some(worker),
             after_result: None,
+            compaction_timing: None,
         },
     ));
     let watch = Watch {

@@ -75,6 +75,13 @@ pub struct BenchDaemonArgs {
     /// start-up (`[diagnosis] gap_every_n`; 0: only on fits that are not good).
     #[arg(long, default_value_t = 0)]
     pub gap_every: u32,
+    /// Live mode: store this many days of old 1 Hz samples (14 tags, ending two days ago)
+    /// first, and run the compaction task with `compact_after_hours = 24` and `raw_days = 1`
+    /// from 1 s after the start, every 5 s: the jitter is then measured while the daemon
+    /// archives, rolls up and vacuums them (0: off; the daemon's default timing, nothing to do
+    /// within a run).
+    #[arg(long, default_value_t = 0)]
+    pub maintain_days: u32,
 }
 
 /// Process CPU time (user + system), s. /proc/self/stat fields 14 and 15, in USER_HZ (100 on
@@ -188,7 +195,21 @@ struct LiveReport {
     writer_request_errors: u64,
     /// With `--readers`: the read-only commands run against the live database.
     readers: Vec<ReaderRun>,
+    /// With `--maintain-days`: what the compaction task did during the run.
+    maintenance: Option<LiveMaintenance>,
     note: &'static str,
+}
+
+/// The compaction task's work during a live run (`--maintain-days`).
+#[derive(Debug, Serialize)]
+struct LiveMaintenance {
+    days_prefilled: u32,
+    samples_prefilled: u64,
+    chunks: u64,
+    samples_archived: u64,
+    samples_rolled_up: u64,
+    vacuumed_pages: u64,
+    failures: u64,
 }
 
 /// One read-only command run beside the daemon (`--readers`).
@@ -350,6 +371,44 @@ fn prefill_startups(
     Ok(())
 }
 
+/// Stores `days` days of 1 Hz steady samples for the engine signals' tags, ending two days
+/// before now (old enough to be archived and rolled up), and returns how many.
+fn prefill_old_days(
+    path: &std::path::Path,
+    days: u32,
+    opts: &crate::store::StoreOptions,
+) -> anyhow::Result<u64> {
+    use crate::quality::Quality;
+    use crate::store::Sample;
+    let mut store = Store::open_with(path, opts)?;
+    let ids = Signal::ALL
+        .iter()
+        .map(|s| store.ensure_tag(&TagInfo::for_signal(*s)))
+        .collect::<Result<Vec<_>, _>>()?;
+    let seconds = i64::from(days) * 86_400;
+    let t0 = crate::store::now_ms() - (seconds + 2 * 86_400) * 1000;
+    let mut total = 0u64;
+    for hour in 0..seconds / 3600 {
+        let mut batch = Vec::with_capacity(3600 * ids.len());
+        for k in hour * 3600..(hour + 1) * 3600 {
+            for (i, id) in ids.iter().enumerate() {
+                // A slow swing and a little quantised noise: steady operation, not constants.
+                let noise = ((k * 7919 + i as i64 * 104_729) % 13) as f64 * 0.01;
+                let value = 100.0 * (i + 1) as f64 + (k as f64 / 900.0).sin() + noise;
+                batch.push(Sample {
+                    tag: *id,
+                    t_ms: t0 + k * 1000,
+                    value: f64::from(value as f32),
+                    quality: Quality::Good,
+                });
+            }
+        }
+        total += batch.len() as u64;
+        store.insert_samples(&batch)?;
+    }
+    Ok(total)
+}
+
 /// Jitter of the stored n1 time stamps at or after `from_ms`.
 fn poll_jitter(path: &std::path::Path, from_ms: i64, period_ms: u64) -> anyhow::Result<Jitter> {
     let store = crate::store::Store::open_readonly(path)?;
@@ -443,6 +502,8 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
         storage: StorageConfig {
             path: dir.path().join("bench.db"),
             cache_mib: args.cache_mib,
+            compact_after_hours: 24,
+            raw_days: u32::from(args.maintain_days > 0),
             ..StorageConfig::default()
         },
         replay: Default::default(),
@@ -477,6 +538,15 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
     } else {
         None
     };
+    let samples_prefilled = if args.maintain_days > 0 {
+        prefill_old_days(
+            &cfg.storage.path,
+            args.maintain_days,
+            &cfg.storage.options(),
+        )?
+    } else {
+        0
+    };
     let db_path = cfg.storage.path.clone();
     let progress = Arc::new(PollProgress::default());
     let waits_before = crate::store::lock_waits();
@@ -488,6 +558,8 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
             systemd_notify: false,
             progress: Some(Arc::clone(&progress)),
             worker,
+            compaction_timing: (args.maintain_days > 0)
+                .then_some((Duration::from_secs(1), Duration::from_secs(5))),
             ..RunOptions::default()
         },
     ));
@@ -543,6 +615,15 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
         writer_requests: report.writer.requests,
         writer_request_errors: report.writer.request_errors,
         readers,
+        maintenance: (args.maintain_days > 0).then_some(LiveMaintenance {
+            days_prefilled: args.maintain_days,
+            samples_prefilled,
+            chunks: report.compaction.chunks,
+            samples_archived: report.compaction.samples,
+            samples_rolled_up: report.compaction.rolled_up,
+            vacuumed_pages: report.compaction.vacuumed_pages,
+            failures: report.compaction.failures,
+        }),
         note: "CPU includes the in-process plant-sim server",
     })
 }

@@ -112,6 +112,11 @@ impl IngestRig {
             .context("writer stopped")
     }
 
+    /// A handle on the rig's writer (None once closed), for the daemon's other tasks.
+    pub(super) fn writer(&self) -> Option<WriterHandle> {
+        self.tx.clone()
+    }
+
     /// Flushes the writer, then runs one detector scan on the blocking pool (read-only, written
     /// through the writer).
     pub(super) async fn scan(&mut self) -> anyhow::Result<()> {

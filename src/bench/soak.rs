@@ -14,13 +14,21 @@
 //! about memory and the loop, not accuracy). The other start-ups of the day stay pending. Memory
 //! is read after the day's diagnosis, so "flat" includes the worker. Without the flag diagnosis
 //! is not in the loop (its cost is per start-up, see `bench diagnosis`).
+//!
+//! `--compact-after-hours H` / `--raw-days N`: the daemon's compaction task
+//! (`daemon::compaction`, through the same writer) runs a round every simulated hour at the
+//! simulated clock: archive what is older than H hours, roll up steady samples older than N
+//! days, vacuum. The file's size per day then shows whether it stays flat once retention
+//! applies (`maintenance.db_growth_mib_per_day_after_retention`).
 //! Linux only (/proc). A benchmark: never used as a test.
 
 use super::daemon::memory_kib;
 use super::ingest::IngestRig;
+use crate::daemon::compaction::{CompactionReport, CompactionTask};
 use crate::daemon::detector_store_options;
 use crate::optim::Cancel;
 use crate::plantsim::{FoulingPlant, FoulingSchedule, PlantModel, ScriptedPlant};
+use crate::shutdown::{shutdown_channel, Shutdown, ShutdownTrigger};
 use crate::store::{StorageConfig, Store};
 use crate::worker::{diagnose_segment, DiagnosisSettings, SegmentOutcome, WorkerContext};
 use anyhow::bail;
@@ -54,6 +62,15 @@ pub struct BenchSoakArgs {
     /// Model runs per method of each `--diagnose` fit (the daemon's default is 400).
     #[arg(long, default_value_t = 40)]
     pub diagnose_runs: usize,
+    /// Run the daemon's compaction task every simulated hour, archiving samples older than
+    /// this many simulated hours (`[storage] compact_after_hours`; 0: off).
+    #[arg(long, default_value_t = 0)]
+    pub compact_after_hours: u32,
+    /// With it, retention (`[storage] raw_days`): steady samples older than this many simulated
+    /// days rolled up into 1-minute roll-ups, start-ups kept raw; then incremental vacuum. The
+    /// file's size per day shows whether it stays flat once retention applies (0: off).
+    #[arg(long, default_value_t = 0)]
+    pub raw_days: u32,
     /// Print JSON only (one document on stdout; progress goes to stderr otherwise).
     #[arg(long)]
     pub json: bool,
@@ -90,6 +107,29 @@ struct DayPoint {
     rss_kib: u64,
     db_mib: f64,
     samples_per_s: f64,
+    /// With maintenance: samples archived and rolled up so far.
+    archived: u64,
+    rolled_up: u64,
+}
+
+/// What the compaction task did over the soak (`--compact-after-hours`, `--raw-days`).
+#[derive(Debug, Serialize)]
+struct SoakMaintenance {
+    compact_after_hours: u32,
+    raw_days: u32,
+    /// Rounds run (one per simulated hour).
+    rounds: u64,
+    chunks: u64,
+    samples_archived: u64,
+    samples_rolled_up: u64,
+    vacuumed_pages: u64,
+    failures: u64,
+    /// Wall time spent in the rounds, s (counted in the throughput: the daemon pays it too).
+    wall_seconds: f64,
+    /// Growth of the file from the day after retention first applies (`raw_days` + 2) to the
+    /// end, MiB per day: what keeps growing (start-ups kept raw, roll-ups, archive chunks of
+    /// the not-yet-retained days).
+    db_growth_mib_per_day_after_retention: Option<f64>,
 }
 
 #[derive(Debug, Serialize)]
@@ -125,6 +165,8 @@ struct SoakReport {
     cache_mib: u32,
     /// Present with `--diagnose`.
     diagnosis: Option<SoakDiagnosis>,
+    /// Present with `--compact-after-hours` or `--raw-days`.
+    maintenance: Option<SoakMaintenance>,
     per_day: Vec<DayPoint>,
 }
 
@@ -201,6 +243,7 @@ async fn soak(args: &BenchSoakArgs) -> anyhow::Result<SoakReport> {
         ..SoakDiagnosis::default()
     });
     let mut worker_store: Option<Store> = None;
+    let mut maint = maintenance_task(&rig, args).map(Maint::new);
     let started = Instant::now();
     for k in 0..rows {
         let frame = plant.step();
@@ -208,6 +251,9 @@ async fn soak(args: &BenchSoakArgs) -> anyhow::Result<SoakReport> {
             .await?;
         if (k + 1) % ROWS_PER_SCAN == 0 {
             rig.scan().await?;
+            if let Some(m) = maint.as_mut() {
+                m.hour(t_start + (k + 1) as i64 * 1000).await?;
+            }
         }
         if (k + 1) % ROWS_PER_DAY == 0 {
             let day = ((k + 1) / ROWS_PER_DAY) as u32;
@@ -246,6 +292,8 @@ async fn soak(args: &BenchSoakArgs) -> anyhow::Result<SoakReport> {
                     / (started.elapsed().as_secs_f64()
                         - diag.as_ref().map_or(0.0, |d| d.wall_seconds))
                     .max(1e-9),
+                archived: maint.as_ref().map_or(0, |m| m.report.samples),
+                rolled_up: maint.as_ref().map_or(0, |m| m.report.rolled_up),
             };
             if !args.json {
                 eprintln!(
@@ -256,6 +304,8 @@ async fn soak(args: &BenchSoakArgs) -> anyhow::Result<SoakReport> {
             per_day.push(point);
         }
     }
+    // The task's writer handle would keep the writer's channel open: drop it first.
+    let maintenance = maint.map(|m| m.finish(args, &per_day));
     rig.close_writer().await?;
     let wall = started.elapsed().as_secs_f64();
     // Throughput is the ingest's: the time spent in `--diagnose` fits is taken out.
@@ -291,8 +341,81 @@ async fn soak(args: &BenchSoakArgs) -> anyhow::Result<SoakReport> {
         db_mib_per_day: db / f64::from(args.days),
         cache_mib: args.cache_mib,
         diagnosis: diag,
+        maintenance,
         per_day,
     })
+}
+
+/// The compaction task's hourly rounds at the simulated clock, and what they did.
+struct Maint {
+    task: CompactionTask,
+    report: CompactionReport,
+    rounds: u64,
+    wall_seconds: f64,
+    _trigger: ShutdownTrigger,
+    shutdown: Shutdown,
+}
+
+impl Maint {
+    fn new(task: CompactionTask) -> Maint {
+        let (trigger, shutdown) = shutdown_channel();
+        Maint {
+            task,
+            report: CompactionReport::default(),
+            rounds: 0,
+            wall_seconds: 0.0,
+            _trigger: trigger,
+            shutdown,
+        }
+    }
+
+    /// The daemon's hourly round, as of the simulated `now_ms`.
+    async fn hour(&mut self, now_ms: i64) -> anyhow::Result<()> {
+        let t = Instant::now();
+        if !self
+            .task
+            .round_at(now_ms, &mut self.report, &mut self.shutdown)
+            .await
+        {
+            bail!("maintenance stopped");
+        }
+        self.rounds += 1;
+        self.wall_seconds += t.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    /// The summary; drops the task (and with it its handle on the writer).
+    fn finish(self, args: &BenchSoakArgs, per_day: &[DayPoint]) -> SoakMaintenance {
+        let from = args.raw_days + 2;
+        let growth = per_day
+            .iter()
+            .find(|p| p.day == from)
+            .zip(per_day.last().filter(|l| l.day > from))
+            .map(|(a, b)| (b.db_mib - a.db_mib) / f64::from(b.day - a.day));
+        SoakMaintenance {
+            compact_after_hours: args.compact_after_hours,
+            raw_days: args.raw_days,
+            rounds: self.rounds,
+            chunks: self.report.chunks,
+            samples_archived: self.report.samples,
+            samples_rolled_up: self.report.rolled_up,
+            vacuumed_pages: self.report.vacuumed_pages,
+            failures: self.report.failures,
+            wall_seconds: self.wall_seconds,
+            db_growth_mib_per_day_after_retention: growth.filter(|_| args.raw_days > 0),
+        }
+    }
+}
+
+/// The daemon's compaction task on the rig's writer, as `[storage]` with `args`' settings
+/// would build it (None when both are off).
+fn maintenance_task(rig: &IngestRig, args: &BenchSoakArgs) -> Option<CompactionTask> {
+    let storage = StorageConfig {
+        compact_after_hours: args.compact_after_hours,
+        raw_days: args.raw_days,
+        ..StorageConfig::default()
+    };
+    CompactionTask::from_config(rig.writer()?, &storage)
 }
 
 /// On the blocking pool, with the worker's connection (opened on first use): diagnoses the

@@ -89,6 +89,7 @@ pub(super) fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
                 progress: None,
                 worker,
                 after_result: None,
+                compaction_timing: None,
             },
         )
         .await?;

@@ -118,30 +118,44 @@ impl CompactionTask {
                 _ = tokio::time::sleep(wait) => {}
             }
             wait = self.period;
-            let now = now_ms();
-            let mut steps = Vec::new();
-            if let Some(after) = self.after {
-                steps.push(Step::Compact(
-                    now - i64::try_from(after.as_millis()).unwrap_or(i64::MAX),
-                ));
+            if !self.round_at(now_ms(), &mut report, &mut shutdown).await {
+                return report;
             }
-            if let Some(policy) = self.retention {
-                steps.push(Step::Retain(now, policy));
-            }
-            steps.push(Step::Vacuum);
-            for step in steps {
-                let going_on = self.repeat(&step, &mut report, &mut shutdown).await;
-                self.counters.publish(&report);
-                if !going_on {
-                    return report;
-                }
-            }
-            self.counters.runs.fetch_add(1, Ordering::Relaxed);
-            self.counters
-                .last_run_ms
-                .store(u64::try_from(now_ms()).unwrap_or(0), Ordering::Relaxed);
         }
         report
+    }
+
+    /// One maintenance round as of `now` (Unix ms): archive what is older than `after`,
+    /// apply retention, vacuum; `report` accumulates. False on shutdown. The daemon's clock
+    /// gives `now`; `bench soak` gives its simulated one.
+    pub async fn round_at(
+        &self,
+        now: i64,
+        report: &mut CompactionReport,
+        shutdown: &mut Shutdown,
+    ) -> bool {
+        let mut steps = Vec::new();
+        if let Some(after) = self.after {
+            steps.push(Step::Compact(
+                now - i64::try_from(after.as_millis()).unwrap_or(i64::MAX),
+            ));
+        }
+        if let Some(policy) = self.retention {
+            steps.push(Step::Retain(now, policy));
+        }
+        steps.push(Step::Vacuum);
+        for step in steps {
+            let going_on = self.repeat(&step, report, shutdown).await;
+            self.counters.publish(report);
+            if !going_on {
+                return false;
+            }
+        }
+        self.counters.runs.fetch_add(1, Ordering::Relaxed);
+        self.counters
+            .last_run_ms
+            .store(u64::try_from(now_ms()).unwrap_or(0), Ordering::Relaxed);
+        true
     }
 
     /// Sends `step` until an answer says nothing is left; false on shutdown.

@@ -92,6 +92,10 @@ pub struct RunOptions {
     pub worker: Option<Arc<WorkerContext>>,
     /// Called after each stored diagnosis outcome (trends, washes, advice).
     pub after_result: Option<AfterResult>,
+    /// The compaction task's first delay and period instead of
+    /// [`compaction::FIRST_DELAY`] and [`compaction::PERIOD`] (`bench daemon --maintain-days`,
+    /// which must see a round within a minute).
+    pub compaction_timing: Option<(std::time::Duration, std::time::Duration)>,
 }
 
 /// What the daemon did, returned at shutdown.
@@ -303,7 +307,13 @@ impl Running {
                     .run(shutdown.clone()),
                 )
             });
-        let compaction_task = CompactionTask::from_config(tx.clone(), &cfg.storage);
+        let mut compaction_task = CompactionTask::from_config(tx.clone(), &cfg.storage);
+        if let (Some(task), Some((first, period))) =
+            (compaction_task.as_mut(), opts.compaction_timing)
+        {
+            task.first_delay = first;
+            task.period = period;
+        }
         let compaction_counters = compaction_task
             .as_ref()
             .map(|task| Arc::clone(&task.counters));
