@@ -558,8 +558,10 @@ async fn live(args: &BenchDaemonArgs) -> anyhow::Result<LiveReport> {
             systemd_notify: false,
             progress: Some(Arc::clone(&progress)),
             worker,
-            compaction_timing: (args.maintain_days > 0)
-                .then_some((Duration::from_secs(1), Duration::from_secs(5))),
+            compaction_timing: (args.maintain_days > 0).then_some(daemon::CompactionTiming {
+                first_delay: Duration::from_secs(1),
+                period: Duration::from_secs(5),
+            }),
             ..RunOptions::default()
         },
     ));

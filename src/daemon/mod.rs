@@ -92,10 +92,17 @@ pub struct RunOptions {
     pub worker: Option<Arc<WorkerContext>>,
     /// Called after each stored diagnosis outcome (trends, washes, advice).
     pub after_result: Option<AfterResult>,
-    /// The compaction task's first delay and period instead of
-    /// [`compaction::FIRST_DELAY`] and [`compaction::PERIOD`] (`bench daemon --maintain-days`,
-    /// which must see a round within a minute).
-    pub compaction_timing: Option<(std::time::Duration, std::time::Duration)>,
+    /// The compaction task's timing instead of [`compaction::FIRST_DELAY`] and
+    /// [`compaction::PERIOD`] (`bench daemon --maintain-days`, which must see rounds within a
+    /// minute).
+    pub compaction_timing: Option<CompactionTiming>,
+}
+
+/// When the compaction task runs: its first round after `first_delay`, then every `period`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CompactionTiming {
+    pub first_delay: std::time::Duration,
+    pub period: std::time::Duration,
 }
 
 /// What the daemon did, returned at shutdown.
@@ -308,11 +315,9 @@ impl Running {
                 )
             });
         let mut compaction_task = CompactionTask::from_config(tx.clone(), &cfg.storage);
-        if let (Some(task), Some((first, period))) =
-            (compaction_task.as_mut(), opts.compaction_timing)
-        {
-            task.first_delay = first;
-            task.period = period;
+        if let (Some(task), Some(timing)) = (compaction_task.as_mut(), opts.compaction_timing) {
+            task.first_delay = timing.first_delay;
+            task.period = timing.period;
         }
         let compaction_counters = compaction_task
             .as_ref()
