@@ -313,6 +313,14 @@ struct Jitter {
     over_2x_period: usize,
 }
 
+/// The tags of every engine signal in `store` (created where missing), in `Signal::ALL`'s order.
+fn signal_tag_ids(store: &mut Store) -> anyhow::Result<Vec<i64>> {
+    Ok(Signal::ALL
+        .iter()
+        .map(|s| store.ensure_tag(&TagInfo::for_signal(*s)))
+        .collect::<Result<Vec<_>, _>>()?)
+}
+
 /// Stores `n` noisy simulated start-ups (one a day, in 2023) and detects them.
 fn prefill_startups(
     path: &std::path::Path,
@@ -337,10 +345,7 @@ fn prefill_startups(
         &Scenario::startup(engine.cfg()),
     )?;
     let mut store = Store::open_with(path, opts)?;
-    let ids = Signal::ALL
-        .iter()
-        .map(|s| store.ensure_tag(&TagInfo::for_signal(*s)))
-        .collect::<Result<Vec<_>, _>>()?;
+    let ids = signal_tag_ids(&mut store)?;
     for day in 0..n {
         let o = MeasurementOptions {
             lags: true,
@@ -381,10 +386,7 @@ fn prefill_old_days(
     use crate::quality::Quality;
     use crate::store::Sample;
     let mut store = Store::open_with(path, opts)?;
-    let ids = Signal::ALL
-        .iter()
-        .map(|s| store.ensure_tag(&TagInfo::for_signal(*s)))
-        .collect::<Result<Vec<_>, _>>()?;
+    let ids = signal_tag_ids(&mut store)?;
     let seconds = i64::from(days) * 86_400;
     let t0 = crate::store::now_ms() - (seconds + 2 * 86_400) * 1000;
     let mut total = 0u64;

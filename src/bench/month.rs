@@ -208,11 +208,10 @@ struct StorageResult {
     read_back_identical: bool,
 }
 
-/// Every sample of every tag, as the store reads it (both tiers).
-/// A digest of every stored sample (tag, time, value bits, quality), in the store's order,
-/// and how many: read one tag and one day at a time, so a year (450 M samples) is compared
-/// without holding it in memory.
-fn all_samples(store: &Store) -> anyhow::Result<(u64, u64)> {
+/// A digest of every sample of every tag as the store reads it (both tiers: tag, time, value
+/// bits, quality, in the store's order), and how many: read one tag and one day at a time, so
+/// a year (450 M samples) is compared without holding it in memory.
+fn samples_digest(store: &Store) -> anyhow::Result<(u64, u64)> {
     const DAY_MS: i64 = 86_400_000;
     // FNV-1a over the fields' bytes: order-sensitive, so a moved or changed sample shows.
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
@@ -244,7 +243,7 @@ fn all_samples(store: &Store) -> anyhow::Result<(u64, u64)> {
 
 /// Compacts everything before `before_ms`, then vacuums, measuring each step.
 fn compact_and_measure(store: &mut Store, before_ms: i64) -> anyhow::Result<StorageResult> {
-    let before = all_samples(store)?;
+    let before = samples_digest(store)?;
     let samples = store.sample_count()?;
     let per = |bytes: u64| bytes as f64 / samples.max(1) as f64;
     let hot = store.used_bytes()?.0;
@@ -256,7 +255,7 @@ fn compact_and_measure(store: &mut Store, before_ms: i64) -> anyhow::Result<Stor
     store.vacuum()?;
     let vacuum_s = t.elapsed().as_secs_f64();
     let vacuumed = store.used_bytes()?.1;
-    let after = all_samples(store)?;
+    let after = samples_digest(store)?;
     Ok(StorageResult {
         samples,
         bytes_per_sample_hot: per(hot),
@@ -333,8 +332,9 @@ fn write_daily_logs(
         if f.t_s >= end_s {
             break;
         }
+        // A new file when the plant's day passes the files written (the first frame too).
         let day = (f.t_s / DAY_S).floor().max(0.0) as usize;
-        if w.is_none() || day >= logs.len() {
+        if day >= logs.len() {
             if let Some(mut old) = w.take() {
                 old.flush()?;
             }

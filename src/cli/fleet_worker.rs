@@ -10,9 +10,8 @@
 
 use super::common::parse_cli_time;
 use super::diagnose_stored::worker_context;
-use crate::fleet::rediagnose::QueueCounts;
 use crate::fleet::rediagnose::{
-    enqueue, queue_counts, retry_failed, EnqueueRequest, JobKind, RetryFilter,
+    enqueue, queue_by_kind, retry_failed, EnqueueRequest, JobKind, QueueByKind, RetryFilter,
 };
 use crate::fleet::Centre;
 use crate::optim::Cancel;
@@ -143,9 +142,7 @@ pub(super) fn run_rediagnose(args: &RediagnoseArgs) -> anyhow::Result<ExitCode> 
     } else {
         None
     };
-    let hash = Some(req.config_hash.as_str());
-    let queue = queue_counts(&mut centre, hash, Some(JobKind::Diagnose))?;
-    let gap_queue = queue_counts(&mut centre, hash, Some(JobKind::Gap))?;
+    let queue = queue_by_kind(&mut centre, Some(req.config_hash.as_str()))?;
     if args.json {
         println!(
             "{}",
@@ -153,8 +150,8 @@ pub(super) fn run_rediagnose(args: &RediagnoseArgs) -> anyhow::Result<ExitCode> 
                 "centre": centre.name,
                 "enqueue": report,
                 "gap_enqueue": gap_report,
-                "queue": queue,
-                "gap_queue": gap_queue,
+                "queue": queue.diagnose,
+                "gap_queue": queue.gap,
             }))?
         );
     } else {
@@ -173,13 +170,14 @@ pub(super) fn run_rediagnose(args: &RediagnoseArgs) -> anyhow::Result<ExitCode> 
                 g.enqueued, g.already_queued
             );
         }
-        print_queue("queue for this hash", &queue, &gap_queue);
+        print_queue("queue for this hash", &queue);
     }
     Ok(ExitCode::SUCCESS)
 }
 
 /// The jobs per state, diagnoses and gap analyses.
-fn print_queue(title: &str, queue: &QueueCounts, gap: &QueueCounts) {
+fn print_queue(title: &str, q: &QueueByKind) {
+    let (queue, gap) = (&q.diagnose, &q.gap);
     println!(
         "{title}: {} waiting, {} leased, {} done, {} failed; gap analyses {} waiting, {} \
          leased, {} done, {} failed",
@@ -203,8 +201,7 @@ fn run_retry(args: &RediagnoseArgs, url: &str) -> anyhow::Result<ExitCode> {
     let mut centre = Centre::connect(url, Duration::from_secs(30))?;
     let retried = retry_failed(&mut centre, &filter)?;
     let hash = filter.config_hash.as_deref();
-    let queue = queue_counts(&mut centre, hash, Some(JobKind::Diagnose))?;
-    let gap_queue = queue_counts(&mut centre, hash, Some(JobKind::Gap))?;
+    let queue = queue_by_kind(&mut centre, hash)?;
     if args.json {
         println!(
             "{}",
@@ -213,8 +210,8 @@ fn run_retry(args: &RediagnoseArgs, url: &str) -> anyhow::Result<ExitCode> {
                 "retried": retried,
                 "config_hash": filter.config_hash,
                 "units": filter.units,
-                "queue": queue,
-                "gap_queue": gap_queue,
+                "queue": queue.diagnose,
+                "gap_queue": queue.gap,
             }))?
         );
     } else {
@@ -223,7 +220,7 @@ fn run_retry(args: &RediagnoseArgs, url: &str) -> anyhow::Result<ExitCode> {
             Some(h) => format!("queue for config hash {h}"),
             None => "queue".to_string(),
         };
-        print_queue(&title, &queue, &gap_queue);
+        print_queue(&title, &queue);
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -5,7 +5,7 @@
 //! Must not hold SQL or decide what is sent (`crate::fleet` does).
 
 use crate::config::Config;
-use crate::fleet::rediagnose::{queue_counts, JobKind, QueueCounts};
+use crate::fleet::rediagnose::{queue_by_kind, QueueByKind};
 use crate::fleet::{fleet_status, sync_once, Centre, FleetConfig, SyncReport, UnitStatus};
 use crate::store::Store;
 use anyhow::{bail, Context};
@@ -174,26 +174,16 @@ pub(super) fn run_fleet(cmd: &FleetCmd) -> anyhow::Result<ExitCode> {
     }
 }
 
-/// The re-diagnosis queue's jobs per kind and state (all hashes).
-#[derive(Debug, serde::Serialize)]
-struct RediagnosisQueue {
-    diagnose: QueueCounts,
-    gap: QueueCounts,
-}
-
-/// The queue's counts, `None` on a centre older than the gap jobs (schema version 3), which
-/// this read-only connection does not upgrade.
-fn rediagnosis_queue(centre: &mut Centre) -> anyhow::Result<Option<RediagnosisQueue>> {
-    if centre.schema_version()? < 3 {
+/// The queue's jobs per kind and state (all hashes), `None` on a centre older than the gap
+/// jobs, which this read-only connection does not upgrade.
+fn rediagnosis_queue(centre: &mut Centre) -> anyhow::Result<Option<QueueByKind>> {
+    if !centre.has_gap_jobs()? {
         return Ok(None);
     }
-    Ok(Some(RediagnosisQueue {
-        diagnose: queue_counts(centre, None, Some(JobKind::Diagnose))?,
-        gap: queue_counts(centre, None, Some(JobKind::Gap))?,
-    }))
+    Ok(Some(queue_by_kind(centre, None)?))
 }
 
-fn print_queue(q: &RediagnosisQueue) {
+fn print_queue(q: &QueueByKind) {
     for (kind, c) in [("diagnose", &q.diagnose), ("gap", &q.gap)] {
         println!(
             "re-diagnosis jobs ({kind}): {} waiting, {} leased, {} done, {} failed",

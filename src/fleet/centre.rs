@@ -23,6 +23,9 @@ const MIGRATIONS: &[(&str, &str)] = &[
     ),
 ];
 
+/// The schema version that added the gap-analysis jobs (`0003_regap.sql`).
+const GAP_JOBS_SCHEMA_VERSION: i32 = 3;
+
 /// Advisory lock key serialising two edges migrating a fresh centre at once.
 const MIGRATION_LOCK: i64 = 0x0067_7477_6174_6368; // "gtwatch" in ASCII
 
@@ -168,6 +171,12 @@ impl Centre {
     /// The centre's schema version (the number of central migrations applied).
     pub fn schema_version(&mut self) -> Result<i32, FleetError> {
         version(&mut self.client, &self.name)
+    }
+
+    /// Whether the centre's schema has the gap-analysis jobs (`0003_regap.sql`, version 3):
+    /// a read-only connection does not upgrade an older one.
+    pub fn has_gap_jobs(&mut self) -> Result<bool, FleetError> {
+        Ok(self.schema_version()? >= GAP_JOBS_SCHEMA_VERSION)
     }
 
     /// Checks again that the schema is not newer (the centre may be upgraded while an edge

@@ -76,7 +76,7 @@ pub fn fleet_history(
     let query = if f.config_hash.is_some() {
         // The results re-diagnosed under config hash `$3`, the gap verdict re-analysed under
         // it where the centre has gap jobs (schema version 3) and one was made.
-        let gap = if centre.schema_version()? >= 3 {
+        let gap = if centre.has_gap_jobs()? {
             format!(
                 "COALESCE((SELECT r.effect FROM regap_analyses r
                    WHERE r.unit_id = d.unit_id AND r.segment_id = d.segment_id

@@ -480,6 +480,24 @@ impl QueueCounts {
     }
 }
 
+/// The queue's jobs per state, diagnoses and gap analyses apart.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct QueueByKind {
+    pub diagnose: QueueCounts,
+    pub gap: QueueCounts,
+}
+
+/// The queue's jobs per kind and state (of one hash, or all).
+pub fn queue_by_kind(
+    centre: &mut Centre,
+    config_hash: Option<&str>,
+) -> Result<QueueByKind, FleetError> {
+    Ok(QueueByKind {
+        diagnose: queue_counts(centre, config_hash, Some(JobKind::Diagnose))?,
+        gap: queue_counts(centre, config_hash, Some(JobKind::Gap))?,
+    })
+}
+
 /// The queue's jobs per state (of one hash, or all; of one kind, or all).
 pub fn queue_counts(
     centre: &mut Centre,
