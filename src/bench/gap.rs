@@ -56,7 +56,11 @@ pub(crate) fn run(a: BenchGapArgs) -> anyhow::Result<ExitCode> {
                  {:.0} s)",
                 c.index,
                 c.kind,
-                c.verdict,
+                if c.verdict_aliases.is_empty() {
+                    c.verdict.clone()
+                } else {
+                    format!("{} [{}]", c.verdict, c.verdict_aliases.join(" "))
+                },
                 if c.correct { "ok" } else { "WRONG" },
                 c.signature_sigma,
                 100.0 * c.shrinkage,

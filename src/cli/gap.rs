@@ -283,6 +283,12 @@ fn print_report(report: &crate::gap::GapReport) {
         report.fits,
         report.threads
     );
+    if !v.aliases.is_empty() {
+        println!(
+            "  the health may be hiding an error of: {} (one start-up cannot tell; see below)",
+            v.aliases.join(", ")
+        );
+    }
     let (b, f) = (v.health_before.to_array(), v.health_after.to_array());
     for (i, n) in crate::health::HEALTH_NAMES.iter().enumerate() {
         println!("  {n:5} {:8.3} → {:8.3} %", b[i], f[i]);

@@ -150,6 +150,17 @@ impl Aliases {
             .map(|a| a.effect.as_str())
             .collect()
     }
+
+    /// The instruments that could hide behind the health *and* would make an implausible
+    /// (better-than-new) health plausible at an error within their credible range, most
+    /// plausible first. Empty when the baseline's health is plausible.
+    pub(crate) fn restoring(&self) -> Vec<&str> {
+        self.aliases
+            .iter()
+            .filter(|a| a.absorbed >= HIDDEN_ABSORBED && a.plausible_magnitude.is_some())
+            .map(|a| a.effect.as_str())
+            .collect()
+    }
 }
 
 /// The aliases of `base` (Method B's fit of `rec` under `cfg`) among the input instruments the
@@ -260,6 +271,45 @@ mod tests {
     use super::*;
     use crate::diagnosis::bench::synthetic_startup;
     use crate::diagnosis::transient::diagnose_transient;
+
+    fn alias(effect: &str, absorbed: f64, plausible: Option<f64>) -> Alias {
+        Alias {
+            effect: effect.into(),
+            param: format!("effects.{effect}.x"),
+            unit: "fraction",
+            nominal: 0.02,
+            max_magnitude: 0.06,
+            absorbed,
+            health_shift: HealthParams::HEALTHY,
+            health_if_nominal: HealthParams::HEALTHY,
+            hidden: absorbed >= HIDDEN_ABSORBED,
+            plausible_magnitude: plausible,
+            health_if_plausible: plausible.map(|_| HealthParams::HEALTHY),
+            implausibility_left: plausible.map(|_| 0.0),
+        }
+    }
+
+    /// Only instruments that can hide behind the health *and* make it plausible are named,
+    /// in the analysis's order; none when the health is plausible.
+    #[test]
+    fn restoring_names_hiding_instruments_that_make_the_health_plausible() {
+        let a = Aliases {
+            implausibility: 4.0,
+            aliases: vec![
+                alias("fuel_meter", 0.97, Some(0.02)),
+                alias("sensor_scale:power_mw", 0.73, Some(0.01)),
+                alias("inlet_temperature", 0.95, None),
+                alias("sensor_bias:p1_kpa", 0.92, Some(-0.5)),
+            ],
+        };
+        assert_eq!(a.restoring(), ["fuel_meter", "sensor_bias:p1_kpa"]);
+        let plausible = Aliases {
+            implausibility: 0.0,
+            aliases: vec![alias("fuel_meter", 0.97, None)],
+        };
+        assert!(plausible.restoring().is_empty());
+        assert_eq!(plausible.hidden(), ["fuel_meter"]);
+    }
 
     /// A fuel meter reading 3 % high on a degraded engine: the fit stays close to noise, the
     /// fuel meter is a hidden alias (absorbed almost entirely, shifting health by points), and

@@ -696,8 +696,9 @@ impl Run<'_> {
         let base = &self.base;
         if base.fit_quality.residual_verdict == Verdict::Good {
             // Within noise: `none` only when no input instrument can hide behind the health.
+            let hidden: Vec<String> = aliases.hidden().into_iter().map(String::from).collect();
             return GapVerdict {
-                effect: if aliases.hidden().is_empty() {
+                effect: if hidden.is_empty() {
                     "none".into()
                 } else {
                     AMBIGUOUS.into()
@@ -706,6 +707,7 @@ impl Run<'_> {
                 shrinkage: 0.0,
                 health_before: base.health,
                 health_after: base.health,
+                aliases: hidden,
             };
         }
         match out.first() {
@@ -725,15 +727,30 @@ impl Run<'_> {
                     shrinkage: best.score,
                     health_before: base.health,
                     health_after: best.health,
+                    aliases: Vec::new(),
                 }
             }
-            _ => GapVerdict {
-                effect: "unexplained".into(),
-                confidence: 0.0,
-                shrinkage: out.first().map_or(0.0, |b| b.score.max(0.0)),
-                health_before: base.health,
-                health_after: base.health,
-            },
+            _ => {
+                // No candidate explains the residual. If the health is better than new and an
+                // input instrument that hides behind it would make it plausible, that
+                // instrument is as likely a cause as anything the library lacks (a meter
+                // drifting through the start-up is no constant factor, yet mostly one): say
+                // the health cannot be trusted and name the instruments, not `unexplained`.
+                let restoring: Vec<String> =
+                    aliases.restoring().into_iter().map(String::from).collect();
+                GapVerdict {
+                    effect: if restoring.is_empty() {
+                        "unexplained".into()
+                    } else {
+                        AMBIGUOUS.into()
+                    },
+                    confidence: 0.0,
+                    shrinkage: out.first().map_or(0.0, |b| b.score.max(0.0)),
+                    health_before: base.health,
+                    health_after: base.health,
+                    aliases: restoring,
+                }
+            }
         }
     }
 

@@ -50,6 +50,8 @@ pub(crate) struct Case {
     pub(crate) draws: usize,
     pub(crate) truth: HealthParams,
     pub(crate) verdict: String,
+    /// The instruments an `ambiguous` verdict lists.
+    pub(crate) verdict_aliases: Vec<String>,
     pub(crate) correct: bool,
     /// The verdict's shrinkage (the winner's score: held-out when a holdout was analysed).
     pub(crate) shrinkage: f64,
@@ -90,16 +92,16 @@ pub(crate) struct BenchRun {
     pub(crate) skipped: Vec<Skipped>,
 }
 
-/// An input-channel truth named by the verdict, or listed among the aliases of an
-/// `ambiguous` verdict.
+/// An input-channel truth named by the verdict, or among the instruments an `ambiguous`
+/// verdict lists (not merely among the instruments analysed, which are all of them).
 fn input_named(kind: &str, r: &GapReport) -> bool {
     let names = input_instances(kind);
     names.contains(&r.verdict.effect.as_str())
         || (r.verdict.effect == super::AMBIGUOUS
-            && r.aliases
+            && r.verdict
                 .aliases
                 .iter()
-                .any(|a| names.contains(&a.effect.as_str())))
+                .any(|a| names.contains(&a.as_str())))
 }
 
 fn max_error(h: &HealthParams, truth: &HealthParams) -> f64 {
@@ -232,6 +234,7 @@ pub(crate) fn run_cases(
                 || (expected(kind) == "none" && r.verdict.effect == super::AMBIGUOUS)
                 || input_named(kind, &r),
             verdict: r.verdict.effect.clone(),
+            verdict_aliases: r.verdict.aliases.clone(),
             shrinkage: r.verdict.shrinkage,
             train_shrinkage: winner.map(|w| w.train_shrinkage),
             heldout_shrinkage: winner.and_then(|w| w.heldout_shrinkage),

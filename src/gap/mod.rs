@@ -54,8 +54,10 @@ use crate::signals::Signal;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
-/// The verdict when the model fits within noise but an input instrument's error could hide
-/// behind the health (see [`GapReport::aliases`]): one start-up cannot tell them apart.
+/// The verdict when an input instrument's error could hide behind the health (the instruments
+/// in [`GapVerdict::aliases`]; see [`GapReport::aliases`]): one start-up cannot tell them
+/// apart. Either the model fits within noise, or no candidate explains the residual while the
+/// health is better than new and one of those instruments would make it plausible.
 pub(crate) const AMBIGUOUS: &str = "ambiguous";
 
 /// Least shrinkage of the gap (fraction of the baseline SSR) a candidate must reach to be named.
@@ -112,6 +114,9 @@ pub(crate) struct GapVerdict {
     pub(crate) shrinkage: f64,
     pub(crate) health_before: HealthParams,
     pub(crate) health_after: HealthParams,
+    /// With `ambiguous`: the input instruments the health may be hiding, most plausible first
+    /// (instance names, e.g. `fuel_meter`); empty otherwise.
+    pub(crate) aliases: Vec<String>,
 }
 
 /// The whole analysis.

@@ -249,6 +249,7 @@ mod tests {
                 shrinkage: 0.6,
                 health_before: Default::default(),
                 health_after: Default::default(),
+                aliases: Vec::new(),
             },
             aliases: Default::default(),
             worst_signal: Some(tr),

@@ -29,8 +29,9 @@ pub(super) fn render(rows: &[GapAnalysisRow]) -> String {
     let _ = write!(
         h,
         "<p class=\"meta\">{} analysis(es): {named} named an unmodelled effect, {unexplained} \
-         found a gap no library effect explains, {ambiguous} fit within noise with an input \
-         instrument (fuel meter, T1, power) that could hide behind the health. An effect adopted into the engine file \
+         found a gap no library effect explains, {ambiguous} ambiguous: an input instrument \
+         (fuel meter, T1, P1, power; listed) could hide behind the health, so its values are not \
+         to be trusted alone. An effect adopted into the engine file \
          (<code>gtwatch gap --adopt</code>) is used by every later diagnosis.</p>\
          <table><tr><th class=\"l\">start-up (UTC)</th><th>segment</th><th class=\"l\">baseline fit</th>\
          <th>normalised residual</th><th class=\"l\">verdict</th><th>shrinkage</th><th>confidence</th></tr>",
@@ -45,7 +46,11 @@ pub(super) fn render(rows: &[GapAnalysisRow]) -> String {
             r.segment_id,
             esc(&r.baseline_fit_quality),
             r.normalised_residual,
-            esc(&r.effect),
+            esc(&if r.aliases.is_empty() {
+                r.effect.clone()
+            } else {
+                format!("{} (instrument: {})", r.effect, r.aliases.join(", "))
+            }),
             100.0 * r.shrinkage,
             r.confidence
         );
@@ -71,14 +76,22 @@ mod tests {
             normalised_residual: 1.35,
             created_at_ms: 0,
             segment_start_ms: 1_767_571_200_000,
+            aliases: if effect == "ambiguous" {
+                vec!["fuel_meter".into()]
+            } else {
+                Vec::new()
+            },
         };
         let h = render(&[
             row(1, "sensor_lag:t34_k"),
             row(2, "unexplained"),
             row(3, "none"),
+            row(4, "ambiguous"),
         ]);
-        assert!(h.contains("3 analysis(es): 1 named an unmodelled effect, 1 found a gap"));
-        assert_eq!(h.matches("<tr>").count(), 4, "header and three rows");
+        assert!(h.contains("4 analysis(es): 1 named an unmodelled effect, 1 found a gap"));
+        assert!(h.contains("1 ambiguous"));
+        assert!(h.contains("ambiguous (instrument: fuel_meter)"), "{h}");
+        assert_eq!(h.matches("<tr>").count(), 5, "header and four rows");
         assert!(h.contains("sensor_lag:t34_k") && h.contains("62 %"));
         assert!(h.contains("2026-01-05"));
         assert!(render(&[]).contains("No gap analysis stored"));

@@ -32,10 +32,14 @@ pub struct GapAnalysisRow {
     pub created_at_ms: i64,
     /// Start of the analysed segment (Unix ms).
     pub segment_start_ms: i64,
+    /// The input instruments an `ambiguous` verdict names (`verdict.aliases` of the stored
+    /// report; empty for other verdicts and for reports stored before it existed).
+    pub aliases: Vec<String>,
 }
 
 const ROW_COLUMNS: &str = "g.id, g.segment_id, g.holdout_segment_id, g.effect, g.shrinkage,
-    g.confidence, g.baseline_fit_quality, g.normalised_residual, g.created_at_ms, s.start_ms
+    g.confidence, g.baseline_fit_quality, g.normalised_residual, g.created_at_ms, s.start_ms,
+    json_extract(g.report_json, '$.verdict.aliases')
     FROM gap_analyses g JOIN segments s ON s.id = g.segment_id";
 
 fn row(r: &rusqlite::Row<'_>) -> rusqlite::Result<GapAnalysisRow> {
@@ -50,6 +54,13 @@ fn row(r: &rusqlite::Row<'_>) -> rusqlite::Result<GapAnalysisRow> {
         normalised_residual: r.get(7)?,
         created_at_ms: r.get(8)?,
         segment_start_ms: r.get(9)?,
+        // A report that is not the JSON this version writes reads as naming nothing.
+        aliases: r
+            .get::<_, Option<String>>(10)
+            .ok()
+            .flatten()
+            .and_then(|j| serde_json::from_str(&j).ok())
+            .unwrap_or_default(),
     })
 }
 
@@ -195,6 +206,21 @@ mod tests {
             .gap_analyses_between(1001, 5000, 10)
             .expect("between")
             .is_empty());
+        assert!(
+            rows[0].aliases.is_empty(),
+            "a report without verdict aliases"
+        );
+        // An ambiguous verdict's instruments are read from its report.
+        let amb = NewGapAnalysis {
+            effect: "ambiguous".into(),
+            report_json:
+                r#"{"verdict":{"effect":"ambiguous","aliases":["fuel_meter","inlet_temperature"]}}"#
+                    .into(),
+            ..g.clone()
+        };
+        store.insert_gap_analysis(&amb).expect("insert");
+        let newest = &store.gap_analyses(seg).expect("read")[0];
+        assert_eq!(newest.aliases, ["fuel_meter", "inlet_temperature"]);
         // A row must name a real segment.
         let bad = NewGapAnalysis {
             segment_id: seg + 99,
