@@ -2,7 +2,9 @@
 //! altered by another program (here: this test) with a two-path thermocouple on T34 (junction
 //! 3 s + shield 15 s) — structurally unlike the library's first-order `sensor_lag`. The gap is
 //! flagged, located on T34, and attributed to the T34 instrument, not to a T34 bias; and the
-//! library lists itself as one JSON document.
+//! library lists itself as one JSON document. Input instruments altered the same way (an inlet
+//! thermometer reading high, a fuel meter drifting through the start-up) are never passed off
+//! as `none` or left `unexplained` while the health they move is better than new.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use std::process::Command;
@@ -191,4 +193,73 @@ fn an_inlet_thermometer_error_is_never_passed_off_as_none() {
         .as_f64()
         .expect("a plausible magnitude");
     assert!((1.0..=3.5).contains(&m), "T1 error {m}");
+}
+
+/// A fuel meter whose reading drifts from right to 3.5 % high through the start-up (a gas
+/// whose density the meter assumes, warming as the start-up goes on), written by this test into
+/// a `simulate` start-up of a degraded engine: no constant-factor candidate fits it, and the
+/// library here is limited to one unrelated effect so that nothing else can. Before, the
+/// verdict was `unexplained` with the health points off and better than new on a turbine; now
+/// it is `ambiguous`, naming the fuel meter as the instrument that would make the health
+/// plausible, and the fit is not called `good`.
+#[test]
+fn a_drifting_fuel_meter_is_named_among_the_instruments_the_health_may_hide() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let clean = dir.path().join("clean.csv");
+    let out = gtwatch()
+        .args([
+            "simulate",
+            "--health",
+            "D_GC=2,D_EC=1.5,D_GT=1,D_ET=0.5,D_GP=0.5,D_EP=1",
+            "--noise",
+            "--seed",
+            "5",
+            "--out",
+        ])
+        .arg(&clean)
+        .output()
+        .expect("simulate runs");
+    assert!(out.status.success());
+    let text = std::fs::read_to_string(&clean).expect("read");
+    let mut lines = text.lines();
+    let header = lines.next().expect("header");
+    let col = |name: &str| {
+        header
+            .split(',')
+            .position(|c| c == name)
+            .unwrap_or_else(|| panic!("{name} column"))
+    };
+    let (it, ifuel) = (col("time_s"), col("fuel_kg_s"));
+    let rows: Vec<Vec<String>> = lines
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect();
+    let t = |r: &Vec<String>| -> f64 { r[it].parse().expect("time") };
+    let (t0, t1) = (t(&rows[0]), t(&rows[rows.len() - 1]));
+    let mut altered = format!("{header}\n");
+    for mut r in rows {
+        if let Ok(w) = r[ifuel].parse::<f64>() {
+            r[ifuel] = format!("{:.6}", w * (1.0 + 0.035 * (t(&r) - t0) / (t1 - t0)));
+        }
+        altered.push_str(&r.join(","));
+        altered.push('\n');
+    }
+    let csv = dir.path().join("meter_drift.csv");
+    std::fs::write(&csv, altered).expect("write");
+    let v = json_of(
+        gtwatch()
+            .args(["gap", "--input"])
+            .arg(&csv)
+            .args(["--effects", "duct_loss", "--json"])
+            .output(),
+    );
+    let verdict = &v["verdict"];
+    assert_ne!(v["baseline_fit_quality"], "good", "{verdict}");
+    assert_eq!(verdict["effect"], "ambiguous", "{verdict} {}", v["aliases"]);
+    let listed: Vec<&str> = verdict["aliases"]
+        .as_array()
+        .expect("listed instruments")
+        .iter()
+        .filter_map(|a| a.as_str())
+        .collect();
+    assert_eq!(listed.first(), Some(&"fuel_meter"), "{verdict}");
 }
