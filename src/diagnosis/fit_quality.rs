@@ -53,6 +53,11 @@ impl Verdict {
     }
 }
 
+/// Normalised residual of the exact model on noisy data (see the module doc): what a fit
+/// with nothing unmodelled leaves, so `good_level` minus it is the room the `good` band has
+/// for anything else.
+pub const EXACT_MODEL_LEVEL: f64 = 0.7;
+
 /// Thresholds of the verdict, on the normalised residual (SSR per compared sample).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]

@@ -17,12 +17,17 @@
 //!   better than new beyond its uncertainty), the error of this instrument that makes it most
 //!   plausible, and the health then.
 //!
-//! An alias is *hidden* when it is absorbed almost entirely ([`HIDDEN_ABSORBED`]) and its
-//! nominal error moves some health parameter by more than [`HIDDEN_SHIFT`] points: then a fit
-//! within noise is not evidence that no instrument is off, and the gap verdict is `ambiguous`.
+//! An alias is *hidden* when its nominal error moves some health parameter by more than
+//! [`HIDDEN_SHIFT`] points and either the health absorbs it almost entirely
+//! ([`HIDDEN_ABSORBED`]) or what they leave of it, at the nominal error, would still let a fit
+//! be judged `good` (the unabsorbed part's normalised residual, per compared sample, within the
+//! room the `good` threshold leaves above the exact model's level): then a fit within noise is not evidence that no
+//! instrument is off, and the gap verdict is `ambiguous`. (A power transducer's ratio error is
+//! absorbed only ≈ 75 %, but at 1.5 % the rest is far below the noise: it hides all the same.)
 //! Pure: no I/O; the model runs (one per health parameter and candidate) are serial.
 
 use super::linear::{project, Linearised};
+use crate::diagnosis::fit_quality::EXACT_MODEL_LEVEL;
 use crate::diagnosis::{DiagnosisConfig, DiagnosisError, FitParam, MethodResult};
 use crate::engine::Engine;
 use crate::health::{implausibility, HealthParams, HEALTH_NAMES};
@@ -119,8 +124,12 @@ pub(crate) struct Alias {
     pub(crate) health_shift: HealthParams,
     /// The health the same data give if the instrument is off by `nominal`.
     pub(crate) health_if_nominal: HealthParams,
-    /// Absorbed beyond [`HIDDEN_ABSORBED`] with a shift beyond [`HIDDEN_SHIFT`].
+    /// Shifts the health beyond [`HIDDEN_SHIFT`] at the nominal error, absorbed beyond
+    /// [`HIDDEN_ABSORBED`] or leaving a fit that would still be `good` (see the module doc).
     pub(crate) hidden: bool,
+    /// What the health parameters leave of the nominal error's signature, as normalised
+    /// residual (noise units² per compared sample) added to the baseline's.
+    pub(crate) unabsorbed_level: f64,
     /// When the baseline's health is implausible: the error of this instrument that makes it
     /// most plausible (`None`: the health is plausible, or this instrument does not help).
     pub(crate) plausible_magnitude: Option<f64>,
@@ -151,13 +160,13 @@ impl Aliases {
             .collect()
     }
 
-    /// The instruments that could hide behind the health *and* would make an implausible
-    /// (better-than-new) health plausible at an error within their credible range, most
-    /// plausible first. Empty when the baseline's health is plausible.
+    /// The hidden instruments that would also make an implausible (better-than-new) health
+    /// plausible at an error within their credible range, most plausible first. Empty when the
+    /// baseline's health is plausible.
     pub(crate) fn restoring(&self) -> Vec<&str> {
         self.aliases
             .iter()
-            .filter(|a| a.absorbed >= HIDDEN_ABSORBED && a.plausible_magnitude.is_some())
+            .filter(|a| a.hidden && a.plausible_magnitude.is_some())
             .map(|a| a.effect.as_str())
             .collect()
     }
@@ -186,6 +195,7 @@ pub(crate) fn aliases(
     let sigma: [f64; 6] =
         std::array::from_fn(|i| base.sigma.get(HEALTH_NAMES[i]).copied().unwrap_or(0.0));
     let implausible0 = implausibility(&h0, &sigma);
+    let samples = lin.r0.len().max(1) as f64;
     // Which of the baseline's parameters are health parameters (index into HEALTH_NAMES).
     let health_of: Vec<Option<usize>> = lin
         .base_names
@@ -213,7 +223,11 @@ pub(crate) fn aliases(
         }
         let at = |m: f64| -> [f64; 6] { std::array::from_fn(|j| h0[j] - per_unit[j] * m) };
         let shift: [f64; 6] = std::array::from_fn(|j| per_unit[j] * c.nominal);
-        let hidden = absorbed >= HIDDEN_ABSORBED && shift.iter().any(|s| s.abs() > HIDDEN_SHIFT);
+        // What the health leaves of the nominal error, per compared sample (noise units²).
+        let unabsorbed_level = left.norm_squared() * c.nominal * c.nominal / samples;
+        let stays_good = unabsorbed_level <= cfg.quality.good_level - EXACT_MODEL_LEVEL;
+        let hidden = (absorbed >= HIDDEN_ABSORBED || stays_good)
+            && shift.iter().any(|s| s.abs() > HIDDEN_SHIFT);
         let (mut plausible_magnitude, mut health_if_plausible, mut left_at) = (None, None, None);
         if implausible0 > 0.0 {
             // The smallest error that makes the health most plausible (a grid, then the
@@ -246,6 +260,7 @@ pub(crate) fn aliases(
             nominal: c.nominal,
             max_magnitude: c.range,
             absorbed,
+            unabsorbed_level,
             health_shift: HealthParams::from_array(shift),
             health_if_nominal: HealthParams::from_array(at(c.nominal)),
             hidden,
@@ -280,6 +295,7 @@ mod tests {
             nominal: 0.02,
             max_magnitude: 0.06,
             absorbed,
+            unabsorbed_level: 0.0,
             health_shift: HealthParams::HEALTHY,
             health_if_nominal: HealthParams::HEALTHY,
             hidden: absorbed >= HIDDEN_ABSORBED,
@@ -309,6 +325,48 @@ mod tests {
         };
         assert!(plausible.restoring().is_empty());
         assert_eq!(plausible.hidden(), ["fuel_meter"]);
+    }
+
+    /// A power transducer reading 1.5 % low on a degraded engine: the health absorbs only two
+    /// thirds of its signature (a fuel meter's almost all), but what it leaves at that size
+    /// fits in the `good` band, so the power instrument is listed as hidden.
+    #[test]
+    fn a_power_ratio_error_hides_though_the_health_absorbs_only_part_of_it() {
+        let engine = Engine::reference().expect("engine");
+        let truth = HealthParams {
+            D_GC: 1.0,
+            D_EC: 0.5,
+            D_GT: 1.0,
+            D_ET: 0.5,
+            D_GP: 1.0,
+            D_EP: 0.5,
+        };
+        let mut rec = synthetic_startup(&engine, &truth, 7, true).expect("start-up");
+        for k in 0..rec.len() {
+            if let Some(v) = rec.value(k, Signal::Power) {
+                rec.set(k, Signal::Power, v * 0.985).expect("set");
+            }
+        }
+        let cfg = DiagnosisConfig {
+            max_model_runs: 300,
+            lm_runs: 200,
+            threads: Some(2),
+            ..DiagnosisConfig::default()
+        };
+        let base = diagnose_transient(&engine, &rec, &cfg).expect("baseline");
+        let a = aliases(&engine, &rec, &cfg, &base).expect("aliases");
+        let power = a
+            .aliases
+            .iter()
+            .find(|x| x.effect == "sensor_scale:power_mw")
+            .expect("power alias");
+        assert!(power.absorbed < HIDDEN_ABSORBED, "{power:?}");
+        assert!(
+            power.unabsorbed_level < 0.2,
+            "what the health leaves fits in the good band: {power:?}"
+        );
+        assert!(power.hidden, "{power:?}");
+        assert!(a.hidden().contains(&"sensor_scale:power_mw"));
     }
 
     /// A fuel meter reading 3 % high on a degraded engine: the fit stays close to noise, the
