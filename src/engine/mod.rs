@@ -24,6 +24,7 @@ pub(crate) mod integrator;
 pub mod load;
 pub(crate) mod measured_drive;
 pub(crate) mod model;
+pub(crate) mod nozzle;
 pub(crate) mod params;
 pub(crate) mod plant;
 pub mod sensors;

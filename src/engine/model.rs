@@ -62,7 +62,8 @@ impl Constants {
     #[inline]
     pub fn p1(&self, p_amb: f64, wc1: f64) -> f64 {
         match self.inlet_loss_law {
-            PressureLossLaw::FlowSquared => {
+            // `Nozzle` is refused on the inlet by the engine file's validation.
+            PressureLossLaw::FlowSquared | PressureLossLaw::Nozzle => {
                 let r = wc1 / self.wc1_design;
                 p_amb * (1.0 - self.inlet_loss_frac * r * r)
             }
@@ -73,7 +74,7 @@ impl Constants {
     #[inline]
     pub fn p1_guess(&self, p_amb: f64, n1: f64) -> f64 {
         match self.inlet_loss_law {
-            PressureLossLaw::FlowSquared => {
+            PressureLossLaw::FlowSquared | PressureLossLaw::Nozzle => {
                 p_amb * (1.0 - self.inlet_loss_frac * (n1 / self.n1_design).powi(2))
             }
             PressureLossLaw::Constant => p_amb * (1.0 - self.inlet_loss_frac),
@@ -83,14 +84,16 @@ impl Constants {
     #[inline]
     pub fn p3(&self, p2: f64, w2: f64, t2: f64) -> f64 {
         match self.combustor_loss_law {
-            PressureLossLaw::FlowSquared => {
+            // `Nozzle` is refused on the combustor by the engine file's validation.
+            PressureLossLaw::FlowSquared | PressureLossLaw::Nozzle => {
                 let r = w2 * t2.sqrt() / p2 / self.q2_design;
                 p2 * (1.0 - (self.combustor_loss_frac * r * r).min(0.5))
             }
             PressureLossLaw::Constant => p2 * (1.0 - self.combustor_loss_frac),
         }
     }
-    /// Exhaust back-pressure: ambient plus an excess ∝ (W√T34/P_amb)², or a constant ratio.
+    /// Exhaust back-pressure: ambient plus an excess ∝ (W√T34/P_amb)², a constant ratio, or
+    /// the pressure a fixed-area nozzle needs to pass the flow ([`super::nozzle`]).
     #[inline]
     pub fn p4(&self, p_amb: f64, w: f64, t34: f64) -> f64 {
         match self.exhaust_loss_law {
@@ -99,6 +102,10 @@ impl Constants {
                 p_amb * (1.0 + self.exhaust_excess_ratio * r * r)
             }
             PressureLossLaw::Constant => p_amb * (1.0 + self.exhaust_excess_ratio),
+            PressureLossLaw::Nozzle => {
+                let r = w.max(0.0) * t34.sqrt() / p_amb / self.q4_design;
+                p_amb * super::nozzle::pressure_ratio(1.0 + self.exhaust_excess_ratio, r)
+            }
         }
     }
     /// Heat the combustor gas receives from `wf` kg/s of fuel, W: `wf·(η_b·LHV + h_fuel)` with
@@ -467,5 +474,21 @@ mod tests {
         assert!(f.p1_kpa > 101.325 * 0.99 + 0.1, "{}", f.p1_kpa);
         assert!(f.p3_kpa / f.p2_kpa < 0.959, "{}", f.p3_kpa / f.p2_kpa);
         assert!(f.p4_kpa < 101.325 * 1.03 - 0.5, "{}", f.p4_kpa);
+        // A fixed-area exhaust nozzle: the same design point, and at part load a back-pressure
+        // beside the flow-squared law's (both nearly Bernoulli at a 3 % excess), not the
+        // constant one.
+        let mut cfg = EngineConfig::reference();
+        cfg.design.exhaust_loss_law = PressureLossLaw::Nozzle;
+        let nozzle = Engine::new(cfg).expect("nozzle law");
+        assert_eq!(nozzle.design(), reference.design());
+        let n = solve(&nozzle.model(&healthy), &inp, None).expect("nozzle");
+        assert!(
+            rel(n.p4_kpa, f.p4_kpa) < 1e-3,
+            "{} vs {}",
+            n.p4_kpa,
+            f.p4_kpa
+        );
+        assert!(n.p4_kpa != f.p4_kpa);
+        assert!(n.p4_kpa < 101.325 * 1.03 - 0.5, "{}", n.p4_kpa);
     }
 }

@@ -59,6 +59,12 @@ pub enum PressureLossLaw {
     /// default): inlet P1 = (1 − frac)·P_amb, combustor P3 = (1 − frac)·P2, exhaust
     /// P4 = ratio·P_amb.
     Constant,
+    /// Exhaust only: the stack discharges to ambient through a fixed effective area (a
+    /// peer's nozzle element, e.g. pyCycle's): W·√T/(A·P4) is the compressible flow function
+    /// of P4/P_amb, choked beyond the critical ratio; the area is the one that gives the
+    /// design back-pressure at the design flow. Nearly the flow-squared law at small
+    /// excesses; apart from it where the excess is large or the flow far from design.
+    Nozzle,
 }
 
 /// Design-point table and the cycle assumptions of REFERENCE §1.
@@ -568,6 +574,18 @@ impl EngineConfig {
             range.check(v).map_err(|reason| bad(key, &reason))?;
         }
         self.fuel_checked().map_err(|p| bad(&p.key, &p.reason))?;
+        for (key, law) in [
+            ("design.inlet_loss_law", self.design.inlet_loss_law),
+            ("design.combustor_loss_law", self.design.combustor_loss_law),
+        ] {
+            if law == PressureLossLaw::Nozzle {
+                return Err(bad(
+                    key,
+                    "\"nozzle\" is an exhaust law only (design.exhaust_loss_law); use \
+                     \"flow_squared\" or \"constant\"",
+                ));
+            }
+        }
         let c = &self.control;
         if c.accel_limit_speed_rpm.len() != c.accel_limit_ratio_kg_s_per_kpa.len()
             || c.accel_limit_speed_rpm.len() < 2

@@ -233,3 +233,25 @@ fn legacy_fuel_is_bit_for_bit_methane() {
         assert_eq!(c.fuel.products(far), crate::thermo::Gas::products(far));
     }
 }
+
+/// `nozzle` is an exhaust law: accepted there (the file reads it), refused on the inlet and
+/// the combustor with the key named.
+#[test]
+fn the_nozzle_law_is_for_the_exhaust_only() {
+    for key in ["inlet_loss_law", "combustor_loss_law", "exhaust_loss_law"] {
+        let from = format!("{key} = \"flow_squared\"");
+        assert!(REFERENCE_ENGINE_TOML.contains(&from), "{from}");
+        let text = REFERENCE_ENGINE_TOML.replacen(&from, &format!("{key} = \"nozzle\""), 1);
+        let read = EngineConfig::from_toml_str(&text, "x.toml");
+        if key == "exhaust_loss_law" {
+            let cfg = read.expect("exhaust nozzle");
+            assert_eq!(cfg.design.exhaust_loss_law, PressureLossLaw::Nozzle);
+        } else {
+            let err = read.expect_err(key).to_string();
+            assert!(
+                err.contains(&format!("design.{key}")) && err.contains("exhaust law only"),
+                "{err}"
+            );
+        }
+    }
+}
