@@ -4,7 +4,10 @@
 //!   exactly the original samples, bit for bit, each once (hot rows + archived chunks);
 //! - the readers (the start-up list, `gtwatch segments` and `gtwatch export`, the diagnosis's
 //!   recording of a start-up, a fresh detector scan) give identical results before and after
-//!   compacting a stored start-up.
+//!   compacting a stored start-up;
+//! - `gtwatch store retain` killed at 20 random moments, during the minute roll-up and (another
+//!   20, on a file of minute roll-ups) during the hourly merge: every minute is summarised
+//!   exactly once, raw, in `rollups_1m` or in its hour's `rollups_1h` row.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 mod common;
@@ -271,7 +274,10 @@ fn readers_give_identical_results_after_compaction() {
 }
 
 /// (tag, minute) → (n_good, n_all, bits of min, mean, max, last) of every roll-up row.
-type Rollups = std::collections::BTreeMap<(i64, i64), (i64, i64, [Option<u64>; 4])>;
+type Rollups = std::collections::BTreeMap<(i64, i64), MinuteRow>;
+
+/// (n_good, n_all, bits of min, mean, max, last) of one minute row.
+type MinuteRow = (i64, i64, [Option<u64>; 4]);
 
 fn rollups(db: &Path) -> Rollups {
     let conn = common::open_db(db);
@@ -446,4 +452,209 @@ fn retention_survives_kill_9_at_random_moments() {
     );
     assert_eq!((lost, duplicated), (0, 0));
     assert!(mid >= 5, "only {mid} of {kills} kills landed mid-retention");
+}
+
+/// (tag, hour) → (n_good, n_all, bits of min, mean, max, last, last_ms) of every hourly row.
+type Hours = std::collections::BTreeMap<(i64, i64), (i64, i64, [Option<u64>; 4], Option<i64>)>;
+
+fn hours(db: &Path) -> Hours {
+    let conn = common::open_db(db);
+    let mut st = conn
+        .prepare(
+            "SELECT tag_id, t_ms, n_good, n_all, min, mean, max, last, last_ms FROM rollups_1h",
+        )
+        .expect("prepare");
+    let rows = st
+        .query_map([], |r| {
+            let bits = |i: usize| -> rusqlite::Result<Option<u64>> {
+                Ok(r.get::<_, Option<f64>>(i)?.map(f64::to_bits))
+            };
+            Ok((
+                (r.get(0)?, r.get(1)?),
+                (
+                    r.get(2)?,
+                    r.get(3)?,
+                    [bits(4)?, bits(5)?, bits(6)?, bits(7)?],
+                    r.get(8)?,
+                ),
+            ))
+        })
+        .expect("query");
+    rows.collect::<Result<_, _>>().expect("rows")
+}
+
+/// 12 tags × 6 days of 1-minute roll-ups in 2023 (none raw): random values on a 1/8 grid,
+/// every 50th minute without good samples (NULLs), every 97th missing.
+fn build_minutes_db(db: &Path) {
+    drop(Store::open(db).expect("create the schema"));
+    let mut rng = ChaCha8Rng::seed_from_u64(2408);
+    let t0 = 1_700_006_400_000i64;
+    let conn = rusqlite::Connection::open(db).expect("open");
+    conn.execute_batch("BEGIN").expect("begin");
+    for k in 0..12 {
+        conn.execute(
+            "INSERT INTO tags (name, unit, created_at_ms) VALUES (?1, '', 0)",
+            [format!("tag{k}")],
+        )
+        .expect("tag");
+        let tag = conn.last_insert_rowid();
+        let mut st = conn
+            .prepare(
+                "INSERT INTO rollups_1m (tag_id, t_ms, n_good, n_all, min, mean, max, last, last_ms)
+                 VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)",
+            )
+            .expect("prepare");
+        for m in 0..6 * 1440i64 {
+            if m % 97 == 5 {
+                continue;
+            }
+            let t = t0 + m * 60_000;
+            let n_all: i64 = rng.random_range(50..=60);
+            let n_good = if m % 50 == 7 {
+                0
+            } else {
+                n_all - rng.random_range(0..3)
+            };
+            let v = |rng: &mut ChaCha8Rng| f64::from(rng.random_range(-800..800i32)) / 8.0;
+            let (a, b, c) = (v(&mut rng), v(&mut rng), v(&mut rng));
+            let mut three = [a, b, c];
+            three.sort_by(f64::total_cmp);
+            let good = n_good > 0;
+            st.execute(rusqlite::params![
+                tag,
+                t,
+                n_good,
+                n_all,
+                good.then_some(three[0]),
+                good.then_some(three[1]),
+                good.then_some(three[2]),
+                good.then_some(three[1]),
+                good.then_some(t + 59_000),
+            ])
+            .expect("minute");
+        }
+    }
+    conn.execute_batch("COMMIT").expect("commit");
+}
+
+fn merge_cmd(db: &Path) -> Command {
+    let mut c = Command::new(BIN);
+    c.args([
+        "store",
+        "retain",
+        "--raw-days",
+        "1",
+        "--rollup-1m-days",
+        "2",
+    ])
+    .arg("--db")
+    .arg(db)
+    .stdout(Stdio::null())
+    .stderr(Stdio::null());
+    c
+}
+
+/// The hourly merge (`store retain --rollup-1m-days`) killed with SIGKILL at 20 seeded random
+/// moments on a file of minute roll-ups: after each the file is sound, every original minute
+/// is either still in `rollups_1m` unchanged or its hour has the row an uninterrupted run
+/// writes — never both, never neither — and a rerun ends where an uninterrupted run ends.
+/// The uninterrupted run's hours are checked against sums computed here.
+#[test]
+fn hourly_merge_survives_kill_9_at_random_moments() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let original = dir.path().join("minutes.db");
+    build_minutes_db(&original);
+    let orig = rollups(&original);
+    let work = dir.path().join("work.db");
+    copy_db(&original, &work);
+    let t = Instant::now();
+    assert!(merge_cmd(&work).status().expect("run").success());
+    let full = t.elapsed();
+    assert!(rollups(&work).is_empty(), "every minute merged");
+    let want = hours(&work);
+    // The uninterrupted run against the minutes: counts, min, max, last exact, mean 1e-9.
+    let mut by_hour: std::collections::BTreeMap<(i64, i64), Vec<&MinuteRow>> =
+        std::collections::BTreeMap::new();
+    for ((tag, t), row) in &orig {
+        by_hour
+            .entry((*tag, t - t.rem_euclid(3_600_000)))
+            .or_default()
+            .push(row);
+    }
+    assert_eq!(by_hour.len(), want.len());
+    let f = |b: Option<u64>| b.map(f64::from_bits);
+    for (key, minutes) in &by_hour {
+        let (n_good, n_all, vals, _) = want[key];
+        assert_eq!(n_good, minutes.iter().map(|m| m.0).sum::<i64>());
+        assert_eq!(n_all, minutes.iter().map(|m| m.1).sum::<i64>());
+        let good: Vec<_> = minutes.iter().filter(|m| m.0 > 0).collect();
+        let min = good.iter().filter_map(|m| f(m.2[0])).reduce(f64::min);
+        let max = good.iter().filter_map(|m| f(m.2[2])).reduce(f64::max);
+        let last = good.last().and_then(|m| f(m.2[3]));
+        assert_eq!(
+            (f(vals[0]), f(vals[2]), f(vals[3])),
+            (min, max, last),
+            "{key:?}"
+        );
+        let sum: f64 = good
+            .iter()
+            .filter_map(|m| f(m.2[1]).map(|v| v * m.0 as f64))
+            .sum();
+        match (f(vals[1]), n_good) {
+            (None, 0) => {}
+            (Some(mean), n) if n > 0 => {
+                let truth = sum / n as f64;
+                assert!(
+                    (mean - truth).abs() <= 1e-9 * truth.abs().max(1.0),
+                    "{key:?}"
+                );
+            }
+            other => panic!("{key:?}: {other:?}"),
+        }
+    }
+
+    let mut rng = ChaCha8Rng::seed_from_u64(24_008);
+    let (mut kills, mut mid, mut lost, mut duplicated) = (0u32, 0u32, 0u64, 0u64);
+    for _ in 0..20 {
+        copy_db(&original, &work);
+        let delay = full.mul_f64(rng.random_range(0.0..1.1));
+        let mut child = merge_cmd(&work).spawn().expect("spawn");
+        std::thread::sleep(delay);
+        child.kill().expect("kill -9");
+        let _ = child.wait();
+        kills += 1;
+        assert_eq!(common::integrity(&work), "ok");
+        let minutes = rollups(&work);
+        let hrs = hours(&work);
+        if !hrs.is_empty() && hrs.len() < want.len() {
+            mid += 1;
+        }
+        for (key, row) in &hrs {
+            assert_eq!(
+                Some(row),
+                want.get(key),
+                "hour {key:?} after a kill at {delay:?}"
+            );
+        }
+        for (key, row) in &minutes {
+            assert_eq!(Some(row), orig.get(key), "minute {key:?} changed");
+        }
+        for (tag, t) in orig.keys() {
+            let in_min = minutes.contains_key(&(*tag, *t));
+            let in_hour = hrs.contains_key(&(*tag, t - t.rem_euclid(3_600_000)));
+            lost += u64::from(!in_min && !in_hour);
+            duplicated += u64::from(in_min && in_hour);
+        }
+        assert!(merge_cmd(&work).status().expect("rerun").success());
+        assert!(
+            rollups(&work).is_empty() && hours(&work) == want,
+            "rerun after a kill at {delay:?}"
+        );
+    }
+    eprintln!(
+        "FAULT-TALLY class=kill9_during_hourly_merge injected={kills} lost={lost} duplicated={duplicated} integrity=ok mid_merge={mid} full_run_ms={}",
+        full.as_millis()
+    );
+    assert_eq!((lost, duplicated), (0, 0));
+    assert!(mid >= 5, "only {mid} of {kills} kills landed mid-merge");
 }
