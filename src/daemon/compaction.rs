@@ -381,7 +381,8 @@ mod tests {
     }
 
     /// With `raw_days`, the task rolls up old steady samples through the writer (compaction
-    /// off here), keeps a start-up's samples raw, and leaves nothing for a second run.
+    /// off here), keeps a start-up's samples raw, with `rollup_1m_days` merges the minute rows
+    /// into hours (counted for the metrics), and leaves nothing for a second run.
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn the_task_rolls_up_old_steady_samples_through_the_writer() {
         use crate::segment::{Outcome, SegmentRecord};
@@ -432,8 +433,9 @@ mod tests {
         let policy = RetentionPolicy {
             raw_days: 1,
             segment_margin_s: 60,
-            rollup_1m_days: 0,
+            rollup_1m_days: 2,
         };
+        let counters = Arc::new(CompactionCounters::default());
         let task = tokio::spawn(
             CompactionTask {
                 writer: handle.clone(),
@@ -441,10 +443,12 @@ mod tests {
                 retention: Some(policy),
                 first_delay: Duration::ZERO,
                 period: Duration::from_secs(3600),
-                counters: Arc::default(),
+                counters: Arc::clone(&counters),
             }
             .run(shutdown),
         );
+        // 120 minutes, 4 of them kept raw: 116 minute rows, merged into hours.
+        let minutes = 116u64;
         // Kept raw: [t0 + 29 min, t0 + 33 min): the segment ± 60 s is [29:00, 32:00], and
         // the sample at 32:00 keeps its whole minute.
         let kept = 240usize;
@@ -453,7 +457,8 @@ mod tests {
             let n = Store::open_readonly(&path)
                 .and_then(|s| s.sample_count())
                 .unwrap_or_else(|e| unreachable!("{e}"));
-            if n as usize == kept || tokio::time::Instant::now() > deadline {
+            let merged = counters.minutes_merged.load(Ordering::Relaxed);
+            if (n as usize == kept && merged == minutes) || tokio::time::Instant::now() > deadline {
                 break;
             }
             tokio::time::sleep(Duration::from_millis(50)).await;
@@ -464,6 +469,7 @@ mod tests {
         drop(handle);
         let _ = writer.await;
         assert_eq!(report.rolled_up, (old.len() - kept) as u64);
+        assert_eq!(report.minutes_merged, minutes);
         assert_eq!(report.failures, 0);
         let mut s = Store::open(&path).unwrap_or_else(|e| unreachable!("{e}"));
         let rows = s
@@ -474,11 +480,12 @@ mod tests {
         let outlook = s
             .storage_stats(now, &policy)
             .unwrap_or_else(|e| unreachable!("{e}"));
-        assert_eq!(outlook.rollups.rows, 120 - 4);
-        assert_eq!(outlook.rollups.samples, (old.len() - kept) as u64);
+        assert_eq!(outlook.rollups.rows, 0);
+        assert!((2..=3).contains(&outlook.rollups_1h.rows), "{outlook:?}");
+        assert_eq!(outlook.rollups_1h.samples, (old.len() - kept) as u64);
         let again = s
             .apply_retention(now, &policy)
             .unwrap_or_else(|e| unreachable!("{e}"));
-        assert_eq!(again.batches, 0);
+        assert_eq!(again.transactions(), 0);
     }
 }
