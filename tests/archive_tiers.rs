@@ -7,7 +7,8 @@
 //!   compacting a stored start-up;
 //! - `gtwatch store retain` killed at 20 random moments, during the minute roll-up and (another
 //!   20, on a file of minute roll-ups) during the hourly merge: every minute is summarised
-//!   exactly once, raw, in `rollups_1m` or in its hour's `rollups_1h` row.
+//!   exactly once, raw, in `rollups_1m` or in its hour's `rollups_1h` row; and 20 kills of one
+//!   run doing both tiers on raw data.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 mod common;
@@ -657,4 +658,97 @@ fn hourly_merge_survives_kill_9_at_random_moments() {
     );
     assert_eq!((lost, duplicated), (0, 0));
     assert!(mid >= 5, "only {mid} of {kills} kills landed mid-merge");
+}
+
+/// `store retain` with both tiers (`--rollup-1m-days 2`: every minute rolled up is then merged
+/// into its hour) killed with SIGKILL at 20 seeded random moments, during the minute roll-up or
+/// the hourly merge: after each the file is sound, every original sample is raw (bit for bit),
+/// or in its minute's row (the one a minute-only run writes), or counted in its hour's row (the
+/// one an uninterrupted run writes) — each hour's `n_all` equals the samples of the hour
+/// neither raw nor in a minute row — and a rerun ends where an uninterrupted run ends.
+#[test]
+fn retention_with_hourly_merge_survives_kill_9_at_random_moments() {
+    let both = |db: &Path| {
+        let mut c = retain_cmd(db);
+        c.args(["--rollup-1m-days", "2"]);
+        c
+    };
+    let dir = tempfile::tempdir().expect("tempdir");
+    let original = dir.path().join("original.db");
+    build_retention_db(&original);
+    let orig = contents(&original);
+    let work = dir.path().join("work.db");
+    // The minute rows a minute-only run writes: the only ones allowed to appear.
+    copy_db(&original, &work);
+    assert!(retain_cmd(&work).status().expect("run").success());
+    let minute_ref = rollups(&work);
+    copy_db(&original, &work);
+    let t = Instant::now();
+    assert!(both(&work).status().expect("run").success());
+    let full = t.elapsed();
+    let (want_raw, want_min, want_hours) = (contents(&work), rollups(&work), hours(&work));
+    assert!(!want_hours.is_empty() && want_min.len() < minute_ref.len());
+    let hour_of = |t: i64| t - t.rem_euclid(3_600_000);
+
+    let mut rng = ChaCha8Rng::seed_from_u64(24_018);
+    let (mut kills, mut mid_hourly, mut lost, mut duplicated) = (0u32, 0u32, 0u64, 0u64);
+    for _ in 0..20 {
+        copy_db(&original, &work);
+        let delay = full.mul_f64(rng.random_range(0.0..1.1));
+        let mut child = both(&work).spawn().expect("spawn");
+        std::thread::sleep(delay);
+        child.kill().expect("kill -9");
+        let _ = child.wait();
+        kills += 1;
+        assert_eq!(common::integrity(&work), "ok");
+        let raw: std::collections::BTreeSet<_> = contents(&work).into_iter().collect();
+        let (mins, hrs) = (rollups(&work), hours(&work));
+        if !hrs.is_empty() && hrs.len() < want_hours.len() {
+            mid_hourly += 1;
+        }
+        for (key, row) in &mins {
+            assert_eq!(
+                Some(row),
+                minute_ref.get(key),
+                "minute {key:?} at {delay:?}"
+            );
+        }
+        for (key, row) in &hrs {
+            assert_eq!(Some(row), want_hours.get(key), "hour {key:?} at {delay:?}");
+        }
+        // Per hour: the samples neither raw nor in a minute row, which its row must count.
+        let mut unaccounted: std::collections::BTreeMap<(i64, i64), i64> = Default::default();
+        for s in &orig {
+            let in_raw = raw.contains(s);
+            let in_min = mins.contains_key(&(s.0, s.1 - s.1.rem_euclid(60_000)));
+            duplicated += u64::from(in_raw && in_min);
+            if !in_raw && !in_min {
+                *unaccounted.entry((s.0, hour_of(s.1))).or_default() += 1;
+            }
+        }
+        for (key, n) in &unaccounted {
+            let counted = hrs.get(key).map_or(0, |h| h.1);
+            lost += u64::try_from(n - counted).unwrap_or(0);
+            duplicated += u64::try_from(counted - n).unwrap_or(0);
+        }
+        for (key, h) in &hrs {
+            if !unaccounted.contains_key(key) {
+                duplicated += u64::try_from(h.1).unwrap_or(0);
+            }
+        }
+        assert!(
+            raw.iter().all(|s| orig.binary_search(s).is_ok()),
+            "a raw sample changed"
+        );
+        assert!(both(&work).status().expect("rerun").success());
+        assert!(
+            contents(&work) == want_raw && rollups(&work) == want_min && hours(&work) == want_hours,
+            "rerun after a kill at {delay:?}"
+        );
+    }
+    eprintln!(
+        "FAULT-TALLY class=kill9_during_retention_both_tiers injected={kills} lost={lost} duplicated={duplicated} integrity=ok mid_hourly={mid_hourly} full_run_ms={}",
+        full.as_millis()
+    );
+    assert_eq!((lost, duplicated), (0, 0));
 }
