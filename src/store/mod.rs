@@ -347,43 +347,6 @@ impl StorageConfig {
         p
     }
 
-    /// `rollup_1m_days`: in range, and only with `raw_days`, and longer than it (minute rows
-    /// are made at `raw_days` of age; merged sooner they would never be seen).
-    fn validate_rollup_1m_days(&self, p: &mut Vec<ConfigProblem>) {
-        let before = p.len();
-        check_range(
-            p,
-            "storage.rollup_1m_days",
-            u64::from(self.rollup_1m_days),
-            Bounds {
-                lo: 0,
-                hi: 36_500,
-                unit: " days",
-                why: "0 (keep 1-minute roll-ups forever) … 100 years",
-            },
-        );
-        if p.len() > before || self.rollup_1m_days == 0 {
-            return;
-        }
-        if self.raw_days == 0 {
-            p.push(ConfigProblem::new(
-                "storage.rollup_1m_days",
-                format!(
-                    "{} days needs storage.raw_days > 0: without retention there are no 1-minute roll-ups to merge into hourly ones",
-                    self.rollup_1m_days
-                ),
-            ));
-        } else if self.rollup_1m_days <= self.raw_days {
-            p.push(ConfigProblem::new(
-                "storage.rollup_1m_days",
-                format!(
-                    "{} days must be more than storage.raw_days ({} days): 1-minute roll-ups are made at raw_days of age and kept until rollup_1m_days, then merged into hourly roll-ups",
-                    self.rollup_1m_days, self.raw_days
-                ),
-            ));
-        }
-    }
-
     /// The writer settings of this section.
     pub fn writer(&self) -> WriterConfig {
         WriterConfig {

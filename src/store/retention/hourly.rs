@@ -16,11 +16,14 @@
 //! - **The cutoff** is whole hours: `now − rollup_1m_days`, never after the minute tier's
 //!   cutoff (an hour is merged only once every minute of it that can be rolled up is).
 //!
+//! Also checks its own setting (`[storage] rollup_1m_days`, [`StorageConfig::validate`]).
+//!
 //! Must not: touch raw samples (the minute tier's batches do), decide the policy, or hold the
 //! write lock for more than one batch.
 
 use super::{insert_rollup, Batch, RetainStats, RetentionPolicy, Rollup, Span};
-use crate::store::{Store, StoreError, TagId};
+use crate::config_problem::{check_range, Bounds, ConfigProblem};
+use crate::store::{StorageConfig, Store, StoreError, TagId};
 use rusqlite::{params, Connection, TransactionBehavior};
 
 /// One hour, the second tier's period.
@@ -241,5 +244,44 @@ impl Store {
             to: to_ms.saturating_add(1),
         };
         read_rollups(&self.conn, tier, tag, span)
+    }
+}
+
+impl StorageConfig {
+    /// `rollup_1m_days`: in range, and only with `raw_days`, and longer than it (minute rows
+    /// are made at `raw_days` of age; merged sooner they would never be seen).
+    pub(in crate::store) fn validate_rollup_1m_days(&self, p: &mut Vec<ConfigProblem>) {
+        let before = p.len();
+        check_range(
+            p,
+            "storage.rollup_1m_days",
+            u64::from(self.rollup_1m_days),
+            Bounds {
+                lo: 0,
+                hi: 36_500,
+                unit: " days",
+                why: "0 (keep 1-minute roll-ups forever) … 100 years",
+            },
+        );
+        if p.len() > before || self.rollup_1m_days == 0 {
+            return;
+        }
+        if self.raw_days == 0 {
+            p.push(ConfigProblem::new(
+                "storage.rollup_1m_days",
+                format!(
+                    "{} days needs storage.raw_days > 0: without retention there are no 1-minute roll-ups to merge into hourly ones",
+                    self.rollup_1m_days
+                ),
+            ));
+        } else if self.rollup_1m_days <= self.raw_days {
+            p.push(ConfigProblem::new(
+                "storage.rollup_1m_days",
+                format!(
+                    "{} days must be more than storage.raw_days ({} days): 1-minute roll-ups are made at raw_days of age and kept until rollup_1m_days, then merged into hourly roll-ups",
+                    self.rollup_1m_days, self.raw_days
+                ),
+            ));
+        }
     }
 }
