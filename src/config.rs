@@ -339,7 +339,7 @@ mod tests {
         // Every key of those sections is written out in the file (none left to a hidden default).
         let table: toml::Table = toml::from_str(text).expect("toml");
         for (section, n_keys) in [
-            ("storage", 10),
+            ("storage", 11),
             ("acquisition", 7),
             ("daemon", 2),
             ("diagnosis", 12),

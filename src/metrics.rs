@@ -72,6 +72,8 @@ pub struct CompactionSnapshot {
     pub samples_archived: u64,
     /// Raw samples replaced by 1-minute roll-ups.
     pub samples_rolled_up: u64,
+    /// 1-minute roll-up rows merged into hourly roll-ups.
+    pub rollup_minutes_merged: u64,
     /// Pages returned to the file system by incremental vacuum.
     pub pages_vacuumed: u64,
     /// Maintenance steps that failed (retried next period).
@@ -268,6 +270,11 @@ impl prometheus_client::collector::Collector for Counters {
                     c.samples_rolled_up,
                 ),
                 (
+                    "rollup_minutes_merged",
+                    "1-minute roll-up rows merged into hourly roll-ups (retention's second tier)",
+                    c.rollup_minutes_merged,
+                ),
+                (
                     "pages_vacuumed",
                     "Database pages returned to the file system by incremental vacuum",
                     c.pages_vacuumed,
@@ -327,6 +334,7 @@ mod tests {
                     chunks: 48,
                     samples_archived: 1_234_567,
                     samples_rolled_up: 86_400,
+                    rollup_minutes_merged: 1_440,
                     pages_vacuumed: 4096,
                     failures: 1,
                     last_run_ms: 1_764_003_600_999,
@@ -357,6 +365,7 @@ mod tests {
             "gtwatch_archive_chunks_total 48",
             "gtwatch_samples_archived_total 1234567",
             "gtwatch_samples_rolled_up_total 86400",
+            "gtwatch_rollup_minutes_merged_total 1440",
             "gtwatch_pages_vacuumed_total 4096",
             "gtwatch_storage_maintenance_failures_total 1",
             "gtwatch_storage_maintenance_last_run_timestamp_seconds 1764003600",

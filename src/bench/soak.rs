@@ -18,8 +18,10 @@
 //! `--compact-after-hours H` / `--raw-days N`: the daemon's compaction task
 //! (`daemon::compaction`, through the same writer) runs a round every simulated hour at the
 //! simulated clock: archive what is older than H hours, roll up steady samples older than N
-//! days, vacuum. The file's size per day then shows whether it stays flat once retention
-//! applies (`maintenance.db_growth_mib_per_day_after_retention`).
+//! days, merge minute roll-ups older than `--rollup-1m-days` into hourly ones, vacuum. The
+//! file's size per day then shows whether it stays flat once retention applies
+//! (`maintenance.db_growth_mib_per_day_after_retention`, `…_after_hourly`), decomposed per day
+//! (`per_day[].tiers`: hot, archive, minute and hourly roll-ups, kept start-up windows).
 //! Linux only (/proc). A benchmark: never used as a test.
 
 use super::daemon::memory_kib;
@@ -71,6 +73,10 @@ pub struct BenchSoakArgs {
     /// file's size per day shows whether it stays flat once retention applies (0: off).
     #[arg(long, default_value_t = 0)]
     pub raw_days: u32,
+    /// With it, the second roll-up tier (`[storage] rollup_1m_days`): 1-minute roll-ups older
+    /// than this many simulated days merged into hourly roll-ups (0: off; else > --raw-days).
+    #[arg(long = "rollup-1m-days", default_value_t = 0)]
+    pub rollup_1m_days: u32,
     /// Print JSON only (one document on stdout; progress goes to stderr otherwise).
     #[arg(long)]
     pub json: bool,
@@ -110,6 +116,23 @@ struct DayPoint {
     /// With maintenance: samples archived and rolled up so far.
     archived: u64,
     rolled_up: u64,
+    /// With maintenance: minute roll-up rows merged into hours so far.
+    minutes_merged: u64,
+    /// With maintenance: the file decomposed (MiB).
+    tiers: Option<DayTiers>,
+}
+
+/// The file after one simulated day, by tier, MiB (pages of each table with its indexes).
+#[derive(Debug, Serialize)]
+struct DayTiers {
+    hot_mib: f64,
+    archive_mib: f64,
+    /// Of the archive: blob bytes of the chunks wholly older than the raw cutoff (now −
+    /// raw_days), i.e. the start-up windows kept raw forever.
+    startup_windows_mib: f64,
+    rollups_1m_mib: f64,
+    rollups_1h_mib: f64,
+    free_mib: f64,
 }
 
 /// What the compaction task did over the soak (`--compact-after-hours`, `--raw-days`).
@@ -117,11 +140,14 @@ struct DayPoint {
 struct SoakMaintenance {
     compact_after_hours: u32,
     raw_days: u32,
+    rollup_1m_days: u32,
     /// Rounds run (one per simulated hour).
     rounds: u64,
     chunks: u64,
     samples_archived: u64,
     samples_rolled_up: u64,
+    /// 1-minute roll-up rows merged into hourly roll-ups.
+    minutes_merged: u64,
     vacuumed_pages: u64,
     failures: u64,
     /// Wall time spent in the rounds, s (counted in the throughput: the daemon pays it too).
@@ -130,6 +156,24 @@ struct SoakMaintenance {
     /// end, MiB per day: what keeps growing (start-ups kept raw, roll-ups, archive chunks of
     /// the not-yet-retained days).
     db_growth_mib_per_day_after_retention: Option<f64>,
+    /// Growth of the file from the day after the hourly merge first applies
+    /// (`rollup_1m_days` + 2) to the end, MiB per day, and of its parts over the same days:
+    /// what still grows once both roll-up tiers are in steady state.
+    db_growth_mib_per_day_after_hourly: Option<f64>,
+    growth_after_hourly: Option<TierGrowth>,
+}
+
+/// MiB per day of each part of the file between two days.
+#[derive(Debug, Serialize)]
+struct TierGrowth {
+    from_day: u32,
+    to_day: u32,
+    archive: f64,
+    startup_windows: f64,
+    rollups_1m: f64,
+    rollups_1h: f64,
+    hot: f64,
+    free: f64,
 }
 
 #[derive(Debug, Serialize)]
@@ -177,6 +221,15 @@ pub(crate) fn run(args: BenchSoakArgs) -> anyhow::Result<ExitCode> {
     if args.diagnose && !(1..=100_000).contains(&args.diagnose_runs) {
         bail!("--diagnose-runs must be in 1 … 100000");
     }
+    let storage = StorageConfig {
+        compact_after_hours: args.compact_after_hours,
+        raw_days: args.raw_days,
+        rollup_1m_days: args.rollup_1m_days,
+        ..StorageConfig::default()
+    };
+    if let Some(p) = storage.validate().into_iter().next() {
+        bail!("{}: {} (--{})", p.key, p.message, flag_of(&p.key));
+    }
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
@@ -190,6 +243,11 @@ pub(crate) fn run(args: BenchSoakArgs) -> anyhow::Result<ExitCode> {
     }
     writeln!(out)?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// The flag setting a `[storage]` key here.
+fn flag_of(key: &str) -> String {
+    key.trim_start_matches("storage.").replace('_', "-")
 }
 
 fn db_bytes(path: &std::path::Path) -> u64 {
@@ -294,6 +352,14 @@ async fn soak(args: &BenchSoakArgs) -> anyhow::Result<SoakReport> {
                     .max(1e-9),
                 archived: maint.as_ref().map_or(0, |m| m.report.samples),
                 rolled_up: maint.as_ref().map_or(0, |m| m.report.rolled_up),
+                minutes_merged: maint.as_ref().map_or(0, |m| m.report.minutes_merged),
+                tiers: match &maint {
+                    Some(_) => Some(day_tiers(
+                        &rig.db_path,
+                        t_start + (k + 1) as i64 * 1000 - i64::from(args.raw_days) * 86_400_000,
+                    )?),
+                    None => None,
+                },
             };
             if !args.json {
                 eprintln!(
@@ -392,17 +458,42 @@ impl Maint {
             .find(|p| p.day == from)
             .zip(per_day.last().filter(|l| l.day > from))
             .map(|(a, b)| (b.db_mib - a.db_mib) / f64::from(b.day - a.day));
+        let hourly_from = args.rollup_1m_days + 2;
+        let hourly = per_day
+            .iter()
+            .find(|p| p.day == hourly_from)
+            .zip(per_day.last().filter(|l| l.day > hourly_from))
+            .filter(|_| args.rollup_1m_days > 0);
+        let parts = hourly.and_then(|(a, b)| {
+            let (ta, tb) = (a.tiers.as_ref()?, b.tiers.as_ref()?);
+            let d = f64::from(b.day - a.day);
+            Some(TierGrowth {
+                from_day: a.day,
+                to_day: b.day,
+                archive: (tb.archive_mib - ta.archive_mib) / d,
+                startup_windows: (tb.startup_windows_mib - ta.startup_windows_mib) / d,
+                rollups_1m: (tb.rollups_1m_mib - ta.rollups_1m_mib) / d,
+                rollups_1h: (tb.rollups_1h_mib - ta.rollups_1h_mib) / d,
+                hot: (tb.hot_mib - ta.hot_mib) / d,
+                free: (tb.free_mib - ta.free_mib) / d,
+            })
+        });
         SoakMaintenance {
             compact_after_hours: args.compact_after_hours,
             raw_days: args.raw_days,
+            rollup_1m_days: args.rollup_1m_days,
             rounds: self.rounds,
             chunks: self.report.chunks,
             samples_archived: self.report.samples,
             samples_rolled_up: self.report.rolled_up,
+            minutes_merged: self.report.minutes_merged,
             vacuumed_pages: self.report.vacuumed_pages,
             failures: self.report.failures,
             wall_seconds: self.wall_seconds,
             db_growth_mib_per_day_after_retention: growth.filter(|_| args.raw_days > 0),
+            db_growth_mib_per_day_after_hourly: hourly
+                .map(|(a, b)| (b.db_mib - a.db_mib) / f64::from(b.day - a.day)),
+            growth_after_hourly: parts,
         }
     }
 }
@@ -413,9 +504,26 @@ fn maintenance_task(rig: &IngestRig, args: &BenchSoakArgs) -> Option<CompactionT
     let storage = StorageConfig {
         compact_after_hours: args.compact_after_hours,
         raw_days: args.raw_days,
+        rollup_1m_days: args.rollup_1m_days,
         ..StorageConfig::default()
     };
     CompactionTask::from_config(rig.writer()?, &storage)
+}
+
+/// The file by tier, on a read-only connection of its own; `raw_cut_ms` splits off the
+/// archive chunks of the kept start-up windows.
+fn day_tiers(db: &std::path::Path, raw_cut_ms: i64) -> anyhow::Result<DayTiers> {
+    const MIB: f64 = 1024.0 * 1024.0;
+    let b = Store::open_readonly(db)?.tier_bytes(raw_cut_ms)?;
+    let m = |v: u64| v as f64 / MIB;
+    Ok(DayTiers {
+        hot_mib: m(b.hot),
+        archive_mib: m(b.archive),
+        startup_windows_mib: m(b.archive_blobs_before),
+        rollups_1m_mib: m(b.rollups_1m),
+        rollups_1h_mib: m(b.rollups_1h),
+        free_mib: m(b.free),
+    })
 }
 
 /// On the blocking pool, with the worker's connection (opened on first use): diagnoses the

@@ -1,8 +1,9 @@
 //! `gtwatch store …`, the storage tiers' admin commands (README "Storage tiers"):
 //! - `compact --db FILE [--older-than-days N] [--max-chunk-samples N] [--vacuum]` moves old
 //!   samples from the hot tier into the archive tier, one tag-chunk per transaction;
-//! - `retain --db FILE [--raw-days N] [--segment-margin-s N] [--json]` runs retention once
-//!   (steady samples older than `raw_days` → 1-minute roll-ups), one batch per transaction,
+//! - `retain --db FILE [--raw-days N] [--segment-margin-s N] [--rollup-1m-days N] [--json]`
+//!   runs retention once (steady samples older than `raw_days` → 1-minute roll-ups; minute
+//!   roll-ups older than `rollup_1m_days` → hourly roll-ups), one batch per transaction,
 //!   then returns freed pages in bounded `incremental_vacuum` steps;
 //! - `stats --db FILE [--json]` prints rows, bytes and span per tier and what retention would
 //!   do next (reads only);
@@ -39,7 +40,7 @@ pub enum StoreCmd {
 /// Where the database and the retention policy come from.
 #[derive(Debug, clap::Args)]
 pub struct PolicyArgs {
-    /// Config file (for [storage] path, raw_days, segment_margin_s).
+    /// Config file (for [storage] path, raw_days, segment_margin_s, rollup_1m_days).
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Database file (instead of --config).
@@ -53,6 +54,10 @@ pub struct PolicyArgs {
     /// config's [storage] segment_margin_s, else 600).
     #[arg(long)]
     pub segment_margin_s: Option<u32>,
+    /// Merge 1-minute roll-ups older than this many days into hourly roll-ups (default: the
+    /// config's [storage] rollup_1m_days, else 0 = keep minute roll-ups forever).
+    #[arg(long = "rollup-1m-days")]
+    pub rollup_1m_days: Option<u32>,
 }
 
 #[derive(Debug, clap::Args)]
@@ -121,11 +126,14 @@ fn policy_of(args: &PolicyArgs) -> anyhow::Result<(PathBuf, RetentionPolicy)> {
     let storage = StorageConfig {
         raw_days: args.raw_days.unwrap_or(storage.raw_days),
         segment_margin_s: args.segment_margin_s.unwrap_or(storage.segment_margin_s),
+        rollup_1m_days: args.rollup_1m_days.unwrap_or(storage.rollup_1m_days),
         ..storage
     };
     if let Some(p) = storage.validate().into_iter().find(|p| {
         p.key == "storage.raw_days" && args.raw_days.is_some()
             || p.key == "storage.segment_margin_s" && args.segment_margin_s.is_some()
+            || p.key == "storage.rollup_1m_days"
+                && (args.rollup_1m_days.is_some() || args.raw_days.is_some())
     }) {
         anyhow::bail!("{}: {}", p.key, p.message);
     }
@@ -171,6 +179,15 @@ fn retain(args: &RetainArgs) -> anyhow::Result<ExitCode> {
             "rolled up {} samples ({} hot, {} archived) into {} minute rows in {} transactions ({} chunks rewritten) in {retain_s:.1} s",
             done.samples_rolled_up, done.hot_deleted, done.archived_deleted, done.minutes, done.batches, done.chunks_rewritten
         );
+        if let Some(h) = done.hourly_cutoff_ms {
+            println!(
+                "merged {} minute rows before {} into {} hourly rows in {} transactions",
+                done.minutes_merged,
+                crate::time::fmt_ms(h),
+                done.hours,
+                done.hourly_batches
+            );
+        }
         println!(
             "file: {} pages of {} bytes ({} free; {} returned to the file system)",
             file.page_count, file.page_size, file.free_pages, vacuumed_pages
@@ -198,7 +215,7 @@ fn tier_line(name: &str, t: &TierStats) {
         .bytes_per_sample
         .map_or_else(|| "-".to_string(), |b| format!("{b:.2}"));
     println!(
-        "{name:<8} {:>12} {:>14} {:>14} {:>8} {:>20} {:>20}",
+        "{name:<9} {:>12} {:>14} {:>14} {:>8} {:>20} {:>20}",
         t.rows,
         t.samples,
         bytes,
@@ -210,12 +227,13 @@ fn tier_line(name: &str, t: &TierStats) {
 
 fn print_stats(s: &StoreStats) {
     println!(
-        "{:<8} {:>12} {:>14} {:>14} {:>8} {:>20} {:>20}",
+        "{:<9} {:>12} {:>14} {:>14} {:>8} {:>20} {:>20}",
         "tier", "rows", "samples", "bytes", "B/sample", "oldest", "newest"
     );
     tier_line("hot", &s.hot);
     tier_line("archive", &s.archive);
     tier_line("rollups", &s.rollups);
+    tier_line("rollups1h", &s.rollups_1h);
     println!(
         "file: {} bytes ({} pages of {}), {} free pages, auto_vacuum {}",
         s.file.file_bytes,
@@ -241,6 +259,17 @@ fn print_stats(s: &StoreStats) {
             crate::time::fmt_ms(c),
             s.next_retention.batches
         ),
+    }
+    if let Some(h) = s.next_retention.hourly_cutoff_ms {
+        println!(
+            "hourly: rollup_1m_days {}; next run merges {} minute rows before {} into hours ({} transactions)",
+            s.policy.rollup_1m_days,
+            s.next_retention.minutes_to_merge,
+            crate::time::fmt_ms(h),
+            s.next_retention.hourly_batches
+        );
+    } else {
+        println!("hourly: off (rollup_1m_days 0: 1-minute roll-ups are kept forever)");
     }
 }
 

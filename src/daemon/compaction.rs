@@ -1,7 +1,8 @@
 //! The compaction task (`[storage] compact_after_hours`, default 24; 0 = off): every
 //! [`PERIOD`] it has the writer archive samples older than that many hours, then, with
 //! `[storage] raw_days` > 0, roll up steady samples older than that into 1-minute roll-ups
-//! (retention), then return freed pages to the file system in bounded steps (README "Storage
+//! (retention) and, with `rollup_1m_days` > 0, merge minute roll-ups older than that into
+//! hourly ones, then return freed pages to the file system in bounded steps (README "Storage
 //! tiers").
 //!
 //! It goes through the one writer (`WriteCmd::Compact`, `WriteCmd::Retain`,
@@ -48,6 +49,8 @@ pub struct CompactionReport {
     pub samples: u64,
     /// Raw samples replaced by roll-ups.
     pub rolled_up: u64,
+    /// 1-minute roll-up rows merged into hourly roll-ups.
+    pub minutes_merged: u64,
     /// Pages returned to the file system.
     pub vacuumed_pages: u64,
     pub failures: u64,
@@ -61,6 +64,7 @@ pub struct CompactionCounters {
     pub chunks: AtomicU64,
     pub samples: AtomicU64,
     pub rolled_up: AtomicU64,
+    pub minutes_merged: AtomicU64,
     pub vacuumed_pages: AtomicU64,
     pub failures: AtomicU64,
     /// Unix ms when the last run finished (0: none yet).
@@ -72,17 +76,21 @@ impl CompactionCounters {
         self.chunks.store(r.chunks, Ordering::Relaxed);
         self.samples.store(r.samples, Ordering::Relaxed);
         self.rolled_up.store(r.rolled_up, Ordering::Relaxed);
+        self.minutes_merged
+            .store(r.minutes_merged, Ordering::Relaxed);
         self.vacuumed_pages
             .store(r.vacuumed_pages, Ordering::Relaxed);
         self.failures.store(r.failures, Ordering::Relaxed);
     }
 }
 
-/// What one writer request did: `units` samples archived or rolled up, or pages freed (0:
-/// nothing left), and for compaction the chunks written.
+/// What one writer request did: `units` samples archived or rolled up (and minute rows
+/// merged), or pages freed (0: nothing left), and for compaction the chunks written, for
+/// retention the minute rows merged into hours.
 struct Done {
     units: u64,
     chunks: u64,
+    merged: u64,
 }
 
 /// One kind of repeated writer request: how to ask, and how much an answer did (0: done).
@@ -167,6 +175,7 @@ impl CompactionTask {
     ) -> bool {
         let mut done_total = 0u64;
         let mut chunks = 0u64;
+        let mut merged = 0u64;
         loop {
             let answer = tokio::select! {
                 _ = shutdown.wait() => return false,
@@ -177,6 +186,7 @@ impl CompactionTask {
                 Ok(d) => {
                     done_total += d.units;
                     chunks += d.chunks;
+                    merged += d.merged;
                 }
                 Err(e) => {
                     report.failures += 1;
@@ -194,9 +204,15 @@ impl CompactionTask {
                 }
             }
             Step::Retain(..) => {
-                report.rolled_up += done_total;
+                let samples = done_total.saturating_sub(merged);
+                report.rolled_up += samples;
+                report.minutes_merged += merged;
                 if done_total > 0 {
-                    tracing::info!(samples = done_total, "rolled up old steady samples");
+                    tracing::info!(
+                        samples,
+                        minutes_merged = merged,
+                        "rolled up old steady samples"
+                    );
                 }
             }
             Step::Vacuum => report.vacuumed_pages += done_total,
@@ -224,6 +240,7 @@ impl CompactionTask {
                         done.samples.max(1)
                     },
                     chunks: done.chunks,
+                    merged: 0,
                 })
             }
             Step::Retain(now_ms, policy) => {
@@ -236,13 +253,16 @@ impl CompactionTask {
                         reply,
                     })
                     .await?;
+                // A batch may roll up nothing countable (a minute row merged into an
+                // existing hour still counts one): units > 0 while there was work.
                 Ok(Done {
-                    units: if done.batches == 0 {
+                    units: if done.transactions() == 0 {
                         0
                     } else {
-                        done.samples_rolled_up.max(1)
+                        (done.samples_rolled_up + done.minutes_merged).max(1)
                     },
                     chunks: 0,
+                    merged: done.minutes_merged,
                 })
             }
             Step::Vacuum => {
@@ -256,6 +276,7 @@ impl CompactionTask {
                 Ok(Done {
                     units: pages,
                     chunks: 0,
+                    merged: 0,
                 })
             }
         }
@@ -360,7 +381,8 @@ mod tests {
     }
 
     /// With `raw_days`, the task rolls up old steady samples through the writer (compaction
-    /// off here), keeps a start-up's samples raw, and leaves nothing for a second run.
+    /// off here), keeps a start-up's samples raw, with `rollup_1m_days` merges the minute rows
+    /// into hours (counted for the metrics), and leaves nothing for a second run.
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn the_task_rolls_up_old_steady_samples_through_the_writer() {
         use crate::segment::{Outcome, SegmentRecord};
@@ -411,7 +433,9 @@ mod tests {
         let policy = RetentionPolicy {
             raw_days: 1,
             segment_margin_s: 60,
+            rollup_1m_days: 2,
         };
+        let counters = Arc::new(CompactionCounters::default());
         let task = tokio::spawn(
             CompactionTask {
                 writer: handle.clone(),
@@ -419,10 +443,12 @@ mod tests {
                 retention: Some(policy),
                 first_delay: Duration::ZERO,
                 period: Duration::from_secs(3600),
-                counters: Arc::default(),
+                counters: Arc::clone(&counters),
             }
             .run(shutdown),
         );
+        // 120 minutes, 4 of them kept raw: 116 minute rows, merged into hours.
+        let minutes = 116u64;
         // Kept raw: [t0 + 29 min, t0 + 33 min): the segment ± 60 s is [29:00, 32:00], and
         // the sample at 32:00 keeps its whole minute.
         let kept = 240usize;
@@ -431,7 +457,8 @@ mod tests {
             let n = Store::open_readonly(&path)
                 .and_then(|s| s.sample_count())
                 .unwrap_or_else(|e| unreachable!("{e}"));
-            if n as usize == kept || tokio::time::Instant::now() > deadline {
+            let merged = counters.minutes_merged.load(Ordering::Relaxed);
+            if (n as usize == kept && merged == minutes) || tokio::time::Instant::now() > deadline {
                 break;
             }
             tokio::time::sleep(Duration::from_millis(50)).await;
@@ -442,6 +469,7 @@ mod tests {
         drop(handle);
         let _ = writer.await;
         assert_eq!(report.rolled_up, (old.len() - kept) as u64);
+        assert_eq!(report.minutes_merged, minutes);
         assert_eq!(report.failures, 0);
         let mut s = Store::open(&path).unwrap_or_else(|e| unreachable!("{e}"));
         let rows = s
@@ -452,11 +480,12 @@ mod tests {
         let outlook = s
             .storage_stats(now, &policy)
             .unwrap_or_else(|e| unreachable!("{e}"));
-        assert_eq!(outlook.rollups.rows, 120 - 4);
-        assert_eq!(outlook.rollups.samples, (old.len() - kept) as u64);
+        assert_eq!(outlook.rollups.rows, 0);
+        assert!((2..=3).contains(&outlook.rollups_1h.rows), "{outlook:?}");
+        assert_eq!(outlook.rollups_1h.samples, (old.len() - kept) as u64);
         let again = s
             .apply_retention(now, &policy)
             .unwrap_or_else(|e| unreachable!("{e}"));
-        assert_eq!(again.batches, 0);
+        assert_eq!(again.transactions(), 0);
     }
 }

@@ -85,6 +85,7 @@ impl Live {
                     chunks: get(&c.chunks),
                     samples_archived: get(&c.samples),
                     samples_rolled_up: get(&c.rolled_up),
+                    rollup_minutes_merged: get(&c.minutes_merged),
                     pages_vacuumed: get(&c.vacuumed_pages),
                     failures: get(&c.failures),
                     last_run_ms: get(&c.last_run_ms),

@@ -16,7 +16,8 @@
 //!   centre that is down or refusing is logged, counted and retried, never waited for;
 //! - [`compaction`]: with `[storage] compact_after_hours` > 0 (default 24) or `raw_days` > 0,
 //!   has the writer archive older samples every hour (`WriteCmd::Compact`, a few chunks per
-//!   request), roll up steady samples older than `raw_days` (`WriteCmd::Retain`) and return
+//!   request), roll up steady samples older than `raw_days` and merge minute roll-ups older
+//!   than `rollup_1m_days` into hours (`WriteCmd::Retain`) and return
 //!   freed pages to the file system (`WriteCmd::IncrementalVacuum`);
 //! - [`metrics`]: with `[metrics] listen`, the Prometheus endpoint, reading the other tasks'
 //!   live counters at each scrape.

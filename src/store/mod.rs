@@ -41,8 +41,11 @@ mod retention;
 mod schema;
 mod stats;
 mod writer;
-pub use retention::{RetainStats, RetentionOutlook, RetentionPolicy, MINUTE_MS, VACUUM_STEP_PAGES};
-pub use stats::{FileStats, StoreStats, TierStats};
+pub use retention::{
+    combine as combine_rollups, rollups as minute_rollups, RetainStats, RetentionOutlook,
+    RetentionPolicy, Rollup, RollupTier, HOUR_MS, MINUTE_MS, VACUUM_STEP_PAGES,
+};
+pub use stats::{FileStats, StoreStats, TierBytes, TierStats};
 
 pub use archive::{ArchiveStats, CompactStats, CHUNK_SPAN_MS, DEFAULT_MAX_CHUNK_SAMPLES};
 pub use db::{Db, ViaWriter};
@@ -212,6 +215,10 @@ pub struct StorageConfig {
     /// Samples within this many seconds of a start-up segment stay raw forever, whatever
     /// `raw_days` says. Default 600.
     pub segment_margin_s: u32,
+    /// 1-minute roll-ups older than this many days are merged into hourly roll-ups (table
+    /// `rollups_1h`, view `samples_1h`; README "Retention and roll-ups"). Default 0 = keep the
+    /// minute roll-ups forever; else more than `raw_days`.
+    pub rollup_1m_days: u32,
 }
 
 impl Default for StorageConfig {
@@ -227,6 +234,7 @@ impl Default for StorageConfig {
             compact_after_hours: 24,
             raw_days: 0,
             segment_margin_s: 600,
+            rollup_1m_days: 0,
         }
     }
 }
@@ -329,6 +337,7 @@ impl StorageConfig {
                 ),
             ));
         }
+        self.validate_rollup_1m_days(&mut p);
         if self.cache_mib == 0 || self.cache_mib > 16 * 1024 {
             p.push(ConfigProblem::new(
                 "storage.cache_mib",
@@ -354,6 +363,7 @@ impl StorageConfig {
         RetentionPolicy {
             raw_days: self.raw_days,
             segment_margin_s: self.segment_margin_s,
+            rollup_1m_days: self.rollup_1m_days,
         }
     }
 

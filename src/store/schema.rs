@@ -39,6 +39,10 @@ const MIGRATION_SQL: &[(&str, &str)] = &[
         "0007_rollups.sql",
         include_str!("../../migrations/0007_rollups.sql"),
     ),
+    (
+        "0008_rollups_1h.sql",
+        include_str!("../../migrations/0008_rollups_1h.sql"),
+    ),
 ];
 
 #[cfg(test)]
@@ -50,6 +54,7 @@ const MIGRATION_LIST: &[M<'static>] = &[
     M::up(MIGRATION_SQL[4].1),
     M::up(MIGRATION_SQL[5].1),
     M::up(MIGRATION_SQL[6].1),
+    M::up(MIGRATION_SQL[7].1),
 ];
 
 /// All migrations in order (for `rusqlite_migration`'s validation in tests).

@@ -1,5 +1,5 @@
 //! `gtwatch store stats`: rows, bytes and time span of each sample tier (hot `samples`,
-//! `archive_chunks`, `rollups_1m`), the file's pages, and what retention would do next.
+//! `archive_chunks`, `rollups_1m`, `rollups_1h`), the file's pages, and what retention would do next.
 //!
 //! Bytes per tier come from SQLite's `dbstat` virtual table (compiled into the bundled
 //! SQLite), summed over each table and its indexes; where `dbstat` is missing they are
@@ -12,7 +12,7 @@ use rusqlite::OptionalExtension;
 /// One tier's size and span.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct TierStats {
-    /// Table rows (hot: samples; archive: chunks; roll-ups: tag-minutes).
+    /// Table rows (hot: samples; archive: chunks; roll-ups: tag-minutes or tag-hours).
     pub rows: u64,
     /// Raw samples the tier holds (roll-ups: the raw samples they summarise, `n_all`).
     pub samples: u64,
@@ -42,6 +42,8 @@ pub struct StoreStats {
     pub hot: TierStats,
     pub archive: TierStats,
     pub rollups: TierStats,
+    /// Hourly roll-ups (`rollups_1h`, retention's second tier).
+    pub rollups_1h: TierStats,
     pub file: FileStats,
     pub policy: RetentionPolicy,
     /// What the next retention run would do (all zero when `raw_days` is 0).
@@ -114,6 +116,10 @@ impl Store {
             "SELECT COUNT(*), COALESCE(SUM(n_all), 0), MIN(t_ms), MAX(t_ms) FROM rollups_1m",
             "rollups_1m",
         )?;
+        let rollups_1h = self.tier(
+            "SELECT COUNT(*), COALESCE(SUM(n_all), 0), MIN(t_ms), MAX(t_ms) FROM rollups_1h",
+            "rollups_1h",
+        )?;
         let pragma = |name: &str| -> Result<i64, StoreError> {
             Ok(self
                 .conn
@@ -136,9 +142,51 @@ impl Store {
             hot,
             archive,
             rollups,
+            rollups_1h,
             file,
             policy: *policy,
             next_retention: self.retention_outlook(now_ms, policy)?,
+        })
+    }
+}
+
+/// Bytes of each sample tier, for `bench soak`'s per-day file decomposition (cheaper than
+/// [`Store::storage_stats`]: no counts, no retention outlook).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct TierBytes {
+    /// Pages of each table with its indexes (`dbstat`; 0 where `dbstat` is missing).
+    pub hot: u64,
+    pub archive: u64,
+    pub rollups_1m: u64,
+    pub rollups_1h: u64,
+    /// Blob bytes (times, values, quality codes) of the archive chunks wholly before the
+    /// given time: past the retention cutoff these are the start-up windows kept raw.
+    pub archive_blobs_before: u64,
+    /// Free pages' bytes.
+    pub free: u64,
+}
+
+impl Store {
+    /// The tiers' bytes; `before_ms` splits off the archive chunks wholly older.
+    pub fn tier_bytes(&self, before_ms: i64) -> Result<TierBytes, StoreError> {
+        let b = |t: &str| -> Result<u64, StoreError> { Ok(self.table_bytes(t)?.unwrap_or(0)) };
+        let blobs: i64 = self.conn.query_row(
+            "SELECT COALESCE(SUM(length(t_blob) + length(v_blob) + length(q_blob)), 0)
+             FROM archive_chunks WHERE t_end_ms < ?1",
+            [before_ms],
+            |r| r.get(0),
+        )?;
+        let free: i64 = self
+            .conn
+            .query_row("PRAGMA freelist_count", [], |r| r.get(0))?;
+        let page: i64 = self.conn.query_row("PRAGMA page_size", [], |r| r.get(0))?;
+        Ok(TierBytes {
+            hot: b("samples")?,
+            archive: b("archive_chunks")?,
+            rollups_1m: b("rollups_1m")?,
+            rollups_1h: b("rollups_1h")?,
+            archive_blobs_before: count(blobs),
+            free: count(free) * count(page),
         })
     }
 }

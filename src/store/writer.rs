@@ -86,8 +86,9 @@ pub enum WriteCmd {
         reply: Reply<super::CompactStats>,
     },
     /// Roll up at most `max_batches` batches of steady samples older than the policy's
-    /// `raw_days` ([`Store::apply_retention_some`], one transaction per batch); answers with
-    /// what it did (0 batches: nothing left).
+    /// `raw_days`, then merge minute roll-ups older than `rollup_1m_days` into hours with the
+    /// batches left ([`Store::apply_retention_some`], one transaction per batch); answers with
+    /// what it did (0 transactions: nothing left).
     Retain {
         now_ms: i64,
         policy: super::RetentionPolicy,

@@ -23,8 +23,15 @@
 //!   the detector resumes. No detector progress at
 //!   all (`scanned_to_ms` NULL) means no retention.
 //!
+//! - **The second tier** ([`hourly`]): minute roll-ups older than `rollup_1m_days` are merged
+//!   into hourly roll-ups (`rollups_1h`, view `samples_1h`) after the minute tier's batches,
+//!   with the same one-transaction-per-batch guarantee.
+//!
 //! Must not: decide the policy (the caller gives [`RetentionPolicy`]), hold the write lock for
 //! more than one batch, or read samples except through the archive's read path.
+
+mod hourly;
+pub use hourly::{combine, RollupTier, HOUR_MS};
 
 use super::archive::{self, codec, CHUNK_SPAN_MS};
 use super::{Store, StoreError, TagId};
@@ -41,13 +48,16 @@ const DETECTOR_CONTEXT_MS: i64 = 3_600_000;
 /// pages): one short write transaction each.
 pub const VACUUM_STEP_PAGES: u32 = 4096;
 
-/// What to keep raw: from `[storage]` (`raw_days`, `segment_margin_s`).
+/// What to keep raw: from `[storage]` (`raw_days`, `segment_margin_s`, `rollup_1m_days`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub struct RetentionPolicy {
     /// Steady operation stays raw this many days; 0 = raw forever (retention off).
     pub raw_days: u32,
     /// Samples within this many seconds of a start-up segment stay raw forever.
     pub segment_margin_s: u32,
+    /// 1-minute roll-ups older than this many days are merged into hourly roll-ups; 0 =
+    /// minute roll-ups are kept forever.
+    pub rollup_1m_days: u32,
 }
 
 /// What one retention run (or part of one) did.
@@ -67,16 +77,38 @@ pub struct RetainStats {
     pub chunks_rewritten: u64,
     /// The effective cutoff (None: retention off or the detector has not scanned yet).
     pub cutoff_ms: Option<i64>,
+    /// Hourly merges done (one transaction each: one tag's minute rows of one day at most).
+    pub hourly_batches: u64,
+    /// Minute roll-up rows merged into hourly rows (and deleted).
+    pub minutes_merged: u64,
+    /// Hourly rows written (or merged into).
+    pub hours: u64,
+    /// Minute rows older than this are merged (None: `rollup_1m_days` 0).
+    pub hourly_cutoff_ms: Option<i64>,
+}
+
+impl RetainStats {
+    /// Transactions done, both tiers (0: nothing left to do).
+    pub fn transactions(&self) -> u64 {
+        self.batches + self.hourly_batches
+    }
 }
 
 /// What the next retention run would do (for `gtwatch store stats`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
 pub struct RetentionOutlook {
     pub cutoff_ms: Option<i64>,
-    /// Batches (transactions) it would take.
+    /// Batches (transactions) rolling up raw samples it would take.
     pub batches: u64,
     /// Raw samples it would roll up (hot + archived).
     pub samples: u64,
+    /// Minute rows older than this would be merged into hours (None: `rollup_1m_days` 0).
+    pub hourly_cutoff_ms: Option<i64>,
+    /// Hourly merges (transactions) it would take.
+    pub hourly_batches: u64,
+    /// Minute roll-up rows it would merge into hourly rows (those existing now; the minutes
+    /// the same run rolls up first are not counted).
+    pub minutes_to_merge: u64,
 }
 
 /// A half-open time range `[from, to)` in Unix ms.
@@ -93,10 +125,12 @@ struct Batch {
     span: Span,
 }
 
-/// One minute's roll-up of one tag.
+/// One period's roll-up of one tag (a minute in `rollups_1m`, an hour in `rollups_1h`): only
+/// good samples count in `n_good`, `min`, `mean`, `max`, `last`; `n_all` counts every sample.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct Rollup {
-    pub minute_ms: i64,
+pub struct Rollup {
+    /// Start of the period, Unix ms.
+    pub t_ms: i64,
     pub n_good: i64,
     pub n_all: i64,
     pub min: Option<f64>,
@@ -240,16 +274,16 @@ fn plan(conn: &Connection, eligible: &[Span], cutoff: i64) -> Result<Vec<Batch>,
 }
 
 /// The roll-ups of time-ordered samples, one per minute that holds any.
-pub(crate) fn rollups(rows: &[super::SampleRow]) -> Vec<Rollup> {
+pub fn rollups(rows: &[super::SampleRow]) -> Vec<Rollup> {
     let mut out: Vec<Rollup> = Vec::new();
     let mut sum = 0.0f64;
     for s in rows {
         let minute = floor_minute(s.t_ms);
-        if out.last().is_none_or(|r| r.minute_ms != minute) {
+        if out.last().is_none_or(|r| r.t_ms != minute) {
             finish_mean(out.last_mut(), sum);
             sum = 0.0;
             out.push(Rollup {
-                minute_ms: minute,
+                t_ms: minute,
                 n_good: 0,
                 n_all: 0,
                 min: None,
@@ -282,11 +316,32 @@ fn finish_mean(r: Option<&mut Rollup>, sum: f64) {
     }
 }
 
-/// Inserts a minute's roll-up; should the minute already be rolled up (it cannot while ingest
-/// skips rolled-up minutes), the two are merged (counts added, mean weighted, later last).
-fn insert_rollup(conn: &Connection, tag: TagId, r: &Rollup) -> Result<(), StoreError> {
-    conn.prepare_cached(
-        "INSERT INTO rollups_1m (tag_id, t_ms, n_good, n_all, min, mean, max, last, last_ms)
+/// Inserts a roll-up row into `tier`'s table; should the period already have one (a minute
+/// cannot while ingest skips rolled-up minutes; an hour can, when a minute of it was rolled
+/// up after the hour was merged), the two are merged (counts added, mean weighted, later last).
+fn insert_rollup(
+    conn: &Connection,
+    tier: RollupTier,
+    tag: TagId,
+    r: &Rollup,
+) -> Result<(), StoreError> {
+    let sql = match tier {
+        RollupTier::Minute => INSERT_ROLLUP_1M,
+        RollupTier::Hour => INSERT_ROLLUP_1H,
+    };
+    conn.prepare_cached(sql)?.execute(params![
+        tag, r.t_ms, r.n_good, r.n_all, r.min, r.mean, r.max, r.last, r.last_ms
+    ])?;
+    Ok(())
+}
+
+/// The two roll-up tables' inserts: the same statement but for the table name.
+macro_rules! insert_rollup_sql {
+    ($table:literal) => {
+        concat!(
+            "INSERT INTO ",
+            $table,
+            " (tag_id, t_ms, n_good, n_all, min, mean, max, last, last_ms)
          VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)
          ON CONFLICT (tag_id, t_ms) DO UPDATE SET
            n_good = n_good + excluded.n_good,
@@ -299,21 +354,12 @@ fn insert_rollup(conn: &Connection, tag: TagId, r: &Rollup) -> Result<(), StoreE
            last = CASE WHEN excluded.last_ms > coalesce(last_ms, excluded.last_ms - 1)
                   THEN excluded.last ELSE last END,
            last_ms = CASE WHEN excluded.last_ms > coalesce(last_ms, excluded.last_ms - 1)
-                     THEN excluded.last_ms ELSE last_ms END",
-    )?
-    .execute(params![
-        tag,
-        r.minute_ms,
-        r.n_good,
-        r.n_all,
-        r.min,
-        r.mean,
-        r.max,
-        r.last,
-        r.last_ms
-    ])?;
-    Ok(())
+                     THEN excluded.last_ms ELSE last_ms END"
+        )
+    };
 }
+const INSERT_ROLLUP_1M: &str = insert_rollup_sql!("rollups_1m");
+const INSERT_ROLLUP_1H: &str = insert_rollup_sql!("rollups_1h");
 
 /// Samples of one chunk, split around a span.
 #[derive(Default)]
@@ -396,7 +442,7 @@ fn run_batch(conn: &mut Connection, b: Batch, stats: &mut RetainStats) -> Result
     let rows = archive::read_samples(&tx, b.tag, b.span.from, b.span.to - 1, false)?;
     let ups = rollups(&rows);
     for r in &ups {
-        insert_rollup(&tx, b.tag, r)?;
+        insert_rollup(&tx, RollupTier::Minute, b.tag, r)?;
     }
     let hot = tx
         .prepare_cached("DELETE FROM samples WHERE tag_id = ?1 AND t_ms >= ?2 AND t_ms < ?3")?
@@ -457,28 +503,40 @@ impl Store {
         self.apply_retention_some(now_ms, policy, u64::MAX)
     }
 
-    /// Rolls up at most `max_batches` batches (one transaction each); `batches == 0` in the
-    /// answer: nothing left to do.
+    /// Rolls up at most `max_batches` batches (one transaction each), then, with the batches
+    /// left, merges old minute roll-ups into hours ([`hourly`]);
+    /// [`RetainStats::transactions`] `== 0` in the answer: nothing left to do.
     pub fn apply_retention_some(
         &mut self,
         now_ms: i64,
         policy: &RetentionPolicy,
         max_batches: u64,
     ) -> Result<RetainStats, StoreError> {
-        let Some(cut) = cutoff(self, now_ms, policy)? else {
-            return Ok(RetainStats::default());
-        };
-        let eligible = eligible_spans(&self.conn, cut, policy.segment_margin_s)?;
-        let work = plan(&self.conn, &eligible, cut)?;
+        let cut = cutoff(self, now_ms, policy)?;
+        let hourly_cut = hourly::cutoff(now_ms, policy, cut);
         let mut stats = RetainStats {
-            cutoff_ms: Some(cut),
+            cutoff_ms: cut,
+            hourly_cutoff_ms: hourly_cut,
             ..RetainStats::default()
         };
-        for b in work
-            .into_iter()
-            .take(usize::try_from(max_batches).unwrap_or(usize::MAX))
-        {
-            run_batch(&mut self.conn, b, &mut stats)?;
+        if let Some(cut) = cut {
+            let eligible = eligible_spans(&self.conn, cut, policy.segment_margin_s)?;
+            let work = plan(&self.conn, &eligible, cut)?;
+            for b in work
+                .into_iter()
+                .take(usize::try_from(max_batches).unwrap_or(usize::MAX))
+            {
+                run_batch(&mut self.conn, b, &mut stats)?;
+            }
+        }
+        let left = max_batches.saturating_sub(stats.batches);
+        if let (Some(hcut), true) = (hourly_cut, left > 0) {
+            for b in hourly::plan(&self.conn, hcut)?
+                .into_iter()
+                .take(usize::try_from(left).unwrap_or(usize::MAX))
+            {
+                hourly::run_batch(&mut self.conn, b, &mut stats)?;
+            }
         }
         Ok(stats)
     }
@@ -489,20 +547,29 @@ impl Store {
         now_ms: i64,
         policy: &RetentionPolicy,
     ) -> Result<RetentionOutlook, StoreError> {
-        let Some(cut) = cutoff(self, now_ms, policy)? else {
-            return Ok(RetentionOutlook::default());
+        let cut = cutoff(self, now_ms, policy)?;
+        let hourly_cut = hourly::cutoff(now_ms, policy, cut);
+        let mut out = RetentionOutlook {
+            cutoff_ms: cut,
+            hourly_cutoff_ms: hourly_cut,
+            ..RetentionOutlook::default()
         };
-        let eligible = eligible_spans(&self.conn, cut, policy.segment_margin_s)?;
-        let work = plan(&self.conn, &eligible, cut)?;
-        let mut samples = 0u64;
-        for b in &work {
-            samples += count_in(&self.conn, b)?;
+        if let Some(cut) = cut {
+            let eligible = eligible_spans(&self.conn, cut, policy.segment_margin_s)?;
+            let work = plan(&self.conn, &eligible, cut)?;
+            for b in &work {
+                out.samples += count_in(&self.conn, b)?;
+            }
+            out.batches = work.len() as u64;
         }
-        Ok(RetentionOutlook {
-            cutoff_ms: Some(cut),
-            batches: work.len() as u64,
-            samples,
-        })
+        if let Some(hcut) = hourly_cut {
+            let work = hourly::plan(&self.conn, hcut)?;
+            for b in &work {
+                out.minutes_to_merge += hourly::count_minutes(&self.conn, b)?;
+            }
+            out.hourly_batches = work.len() as u64;
+        }
+        Ok(out)
     }
 
     /// Frees at most `max_pages` free pages back to the file system (`PRAGMA
@@ -529,11 +596,13 @@ impl Store {
     }
 }
 
-/// During one ingest transaction: which (tag, minute) are already rolled up. Looks at the
-/// table only for times not after a tag's newest roll-up (never for live data).
+/// During one ingest transaction: which (tag, minute) are already rolled up, into a minute
+/// row or into an hour's row. Looks at the tables only for times not after a tag's newest
+/// roll-up (never for live data).
 #[derive(Default)]
 pub(crate) struct RolledUpMinutes {
     newest: HashMap<TagId, Option<i64>>,
+    newest_hour: HashMap<TagId, Option<i64>>,
 }
 
 impl RolledUpMinutes {
@@ -550,12 +619,30 @@ impl RolledUpMinutes {
             tag,
         )?;
         let minute = floor_minute(t);
-        if newest.is_none_or(|n| minute > n) {
+        if newest.is_some_and(|n| minute <= n) {
+            let found: Option<i64> = conn
+                .prepare_cached("SELECT 1 FROM rollups_1m WHERE tag_id = ?1 AND t_ms = ?2")?
+                .query_row(params![tag, minute], |r| r.get(0))
+                .optional()?;
+            if found.is_some() {
+                return Ok(true);
+            }
+        }
+        // An hour merged from minute rows no longer says which minutes it summarised: a sample
+        // in it is taken as summarised (a replayed old log adds nothing twice).
+        let newest_hour = archive::tag_max_cached(
+            &mut self.newest_hour,
+            conn,
+            "SELECT MAX(t_ms) FROM rollups_1h WHERE tag_id = ?1",
+            tag,
+        )?;
+        let hour = t.saturating_sub(t.rem_euclid(HOUR_MS));
+        if newest_hour.is_none_or(|n| hour > n) {
             return Ok(false);
         }
         let found: Option<i64> = conn
-            .prepare_cached("SELECT 1 FROM rollups_1m WHERE tag_id = ?1 AND t_ms = ?2")?
-            .query_row(params![tag, minute], |r| r.get(0))
+            .prepare_cached("SELECT 1 FROM rollups_1h WHERE tag_id = ?1 AND t_ms = ?2")?
+            .query_row(params![tag, hour], |r| r.get(0))
             .optional()?;
         Ok(found.is_some())
     }

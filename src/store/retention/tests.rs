@@ -174,6 +174,7 @@ fn retention_keeps_startups_raw_and_rolls_up_steady_operation_exactly() {
     let policy = RetentionPolicy {
         raw_days: 1,
         segment_margin_s: MARGIN_S,
+        rollup_1m_days: 0,
     };
     let now = BASE + 4 * DAY;
     // Raw cutoff now − 1 day = BASE + 3 days, pulled back to the detector's resume point
@@ -302,10 +303,12 @@ fn retention_is_off_at_raw_days_0_and_before_the_detector_scanned() {
     let on = RetentionPolicy {
         raw_days: 1,
         segment_margin_s: 0,
+        rollup_1m_days: 0,
     };
     let off = RetentionPolicy {
         raw_days: 0,
         segment_margin_s: 0,
+        rollup_1m_days: 0,
     };
     let now = BASE + 30 * DAY;
     let none = store
@@ -412,6 +415,7 @@ fn a_late_raw_sample_is_merged_into_its_minute() {
     let policy = RetentionPolicy {
         raw_days: 1,
         segment_margin_s: 0,
+        rollup_1m_days: 0,
     };
     let now = BASE + 10 * DAY;
     store
@@ -447,3 +451,5 @@ fn a_late_raw_sample_is_merged_into_its_minute() {
     );
     assert_eq!(store.sample_count().unwrap_or(-1), 0);
 }
+
+mod hourly;

@@ -4,10 +4,16 @@
 //!   exactly the original samples, bit for bit, each once (hot rows + archived chunks);
 //! - the readers (the start-up list, `gtwatch segments` and `gtwatch export`, the diagnosis's
 //!   recording of a start-up, a fresh detector scan) give identical results before and after
-//!   compacting a stored start-up.
+//!   compacting a stored start-up;
+//! - `gtwatch store retain` killed at 20 random moments, during the minute roll-up and (another
+//!   20, on a file of minute roll-ups) during the hourly merge: every minute is summarised
+//!   exactly once, raw, in `rollups_1m` or in its hour's `rollups_1h` row; and 20 kills of one
+//!   run doing both tiers on raw data.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
+#[path = "../common/mod.rs"]
 mod common;
+mod retention;
 
 use gtwatch::quality::Quality;
 use gtwatch::store::{Sample, Store, TagInfo};
@@ -268,182 +274,4 @@ fn readers_give_identical_results_after_compaction() {
         before[2] == rescanned[2],
         "recording differs after a rescan of the archive"
     );
-}
-
-/// (tag, minute) → (n_good, n_all, bits of min, mean, max, last) of every roll-up row.
-type Rollups = std::collections::BTreeMap<(i64, i64), (i64, i64, [Option<u64>; 4])>;
-
-fn rollups(db: &Path) -> Rollups {
-    let conn = common::open_db(db);
-    let mut st = conn
-        .prepare("SELECT tag_id, t_ms, n_good, n_all, min, mean, max, last FROM rollups_1m")
-        .expect("prepare");
-    let rows = st
-        .query_map([], |r| {
-            let bits = |i: usize| -> rusqlite::Result<Option<u64>> {
-                Ok(r.get::<_, Option<f64>>(i)?.map(f64::to_bits))
-            };
-            Ok((
-                (r.get(0)?, r.get(1)?),
-                (
-                    r.get(2)?,
-                    r.get(3)?,
-                    [bits(4)?, bits(5)?, bits(6)?, bits(7)?],
-                ),
-            ))
-        })
-        .expect("query");
-    rows.collect::<Result<_, _>>().expect("rows")
-}
-
-/// Two days of four tags (the first archived, the second hot) ending 8 days ago, with one
-/// start-up in the first day, scanned by the detector.
-fn build_retention_db(db: &Path) {
-    build_db(db);
-    let mut store = Store::open(db).expect("open");
-    let t0 = 1_700_000_000_000i64;
-    store
-        .store_scan(&gtwatch::store::ScanWrite {
-            records: vec![gtwatch::segment::SegmentRecord {
-                start_ms: t0 + 5 * 3_600_000,
-                end_ms: Some(t0 + 5 * 3_600_000 + 1_500_000),
-                outcome: gtwatch::segment::Outcome::Completed,
-                abort_cause: None,
-                hot_restart: false,
-                has_gap: false,
-                phases: Vec::new(),
-            }],
-            keep_from: t0,
-            scanned_to: t0 + 3 * 86_400_000,
-            last_fuel_off_ms: None,
-        })
-        .expect("scan");
-    store.compact(t0 + 43_200_000, 4096).expect("compact");
-    drop(store);
-}
-
-/// `gtwatch store stats --json` with the policy `retain_cmd` uses.
-fn stats_json(db: &Path) -> serde_json::Value {
-    let out = Command::new(BIN)
-        .args([
-            "store",
-            "stats",
-            "--raw-days",
-            "1",
-            "--segment-margin-s",
-            "600",
-            "--json",
-            "--db",
-        ])
-        .arg(db)
-        .output()
-        .expect("stats");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("one JSON document")
-}
-
-fn retain_cmd(db: &Path) -> Command {
-    let mut c = Command::new(BIN);
-    c.args([
-        "store",
-        "retain",
-        "--raw-days",
-        "1",
-        "--segment-margin-s",
-        "600",
-    ])
-    .arg("--db")
-    .arg(db)
-    .stdout(Stdio::null())
-    .stderr(Stdio::null());
-    c
-}
-
-/// `gtwatch store retain` killed with SIGKILL at 20 seeded random moments: after each the file
-/// is sound, every original sample is either still raw (bit for bit) or its minute is rolled
-/// up — never both, never neither — every roll-up row is the one an uninterrupted run writes,
-/// and a rerun ends where an uninterrupted run ends.
-#[test]
-fn retention_survives_kill_9_at_random_moments() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let original = dir.path().join("original.db");
-    build_retention_db(&original);
-    let orig = contents(&original);
-    let work = dir.path().join("work.db");
-    copy_db(&original, &work);
-    let planned = stats_json(&work);
-    let t = Instant::now();
-    assert!(retain_cmd(&work).status().expect("run").success());
-    let full = t.elapsed();
-    let want_raw = contents(&work);
-    let want_roll = rollups(&work);
-    // `store stats` foretold the run and accounts for its result.
-    let rolled = (orig.len() - want_raw.len()) as u64;
-    assert_eq!(planned["next_retention"]["samples"].as_u64(), Some(rolled));
-    let after = stats_json(&work);
-    assert_eq!(after["rollups"]["samples"].as_u64(), Some(rolled));
-    assert_eq!(
-        after["rollups"]["rows"].as_u64(),
-        Some(want_roll.len() as u64)
-    );
-    let raw_after =
-        after["hot"]["samples"].as_u64().unwrap() + after["archive"]["samples"].as_u64().unwrap();
-    assert_eq!(raw_after, want_raw.len() as u64);
-    assert_eq!(after["next_retention"]["samples"].as_u64(), Some(0));
-    assert!(!want_roll.is_empty() && want_raw.len() < orig.len() / 2);
-    assert!(want_raw.len() > 4 * 1500, "the start-up ± margin stays raw");
-
-    let mut rng = ChaCha8Rng::seed_from_u64(24_002);
-    let (mut kills, mut mid, mut lost, mut duplicated) = (0u32, 0u32, 0u64, 0u64);
-    for _ in 0..20 {
-        copy_db(&original, &work);
-        let delay = full.mul_f64(rng.random_range(0.0..1.1));
-        let mut child = retain_cmd(&work).spawn().expect("spawn");
-        std::thread::sleep(delay);
-        child.kill().expect("kill -9");
-        let _ = child.wait();
-        kills += 1;
-        assert_eq!(common::integrity(&work), "ok");
-        let raw: std::collections::BTreeSet<_> = contents(&work).into_iter().collect();
-        let roll = rollups(&work);
-        if !roll.is_empty() && roll.len() < want_roll.len() {
-            mid += 1;
-        }
-        for (key, row) in &roll {
-            assert_eq!(
-                Some(row),
-                want_roll.get(key),
-                "roll-up {key:?} after a kill at {delay:?}"
-            );
-        }
-        for s in &orig {
-            let in_raw = raw.contains(s);
-            let in_roll = roll.contains_key(&(s.0, s.1 - s.1.rem_euclid(60_000)));
-            lost += u64::from(!in_raw && !in_roll);
-            duplicated += u64::from(in_raw && in_roll);
-        }
-        assert!(
-            raw.iter().all(|s| orig.binary_search(s).is_ok()),
-            "a raw sample changed"
-        );
-        assert!(retain_cmd(&work).status().expect("rerun").success());
-        assert!(
-            contents(&work) == want_raw,
-            "rerun after a kill at {delay:?}"
-        );
-        assert!(
-            rollups(&work) == want_roll,
-            "rerun after a kill at {delay:?}"
-        );
-    }
-    eprintln!(
-        "FAULT-TALLY class=kill9_during_retention injected={kills} lost={lost} duplicated={duplicated} integrity=ok mid_retention={mid} full_run_ms={}",
-        full.as_millis()
-    );
-    assert_eq!((lost, duplicated), (0, 0));
-    assert!(mid >= 5, "only {mid} of {kills} kills landed mid-retention");
 }

@@ -10,6 +10,9 @@ use crate::time::fmt_ms;
 use serde::Serialize;
 use std::io::Write;
 
+mod export;
+pub(crate) use export::{export_csv, rolled_up_in_range, ExportRequest, Resolution};
+
 /// One start-up as listed by `gtwatch segments`.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub(crate) struct SegmentSummary {
@@ -205,87 +208,6 @@ pub(crate) fn write_segments(
     Ok(())
 }
 
-/// Writes the samples of `tags` in `[from_ms, to_ms]` as CSV; returns the data rows written.
-///
-/// Wide: `time,t_ms,<tag>...`, one row per time stamp at which any of the tags has a sample;
-/// an empty cell means that tag has no sample at that time. Long: `time,t_ms,tag,value,quality`.
-pub(crate) fn export_csv(
-    store: &Store,
-    tags: &[String],
-    from_ms: i64,
-    to_ms: i64,
-    layout: ExportLayout,
-    out: &mut dyn Write,
-) -> Result<u64, QueryError> {
-    let ids = tags
-        .iter()
-        .map(|t| store.tag_by_name(t.trim()).map(|r| r.id))
-        .collect::<Result<Vec<_>, _>>()?;
-    let mut w = csv::Writer::from_writer(out);
-    let mut rows = 0u64;
-    match layout {
-        ExportLayout::Long => {
-            w.write_record(["time", "t_ms", "tag", "value", "quality"])?;
-            // Merge by time so the output is time-ordered across tags.
-            let mut all: Vec<(i64, usize, f64, i64)> = Vec::new();
-            for (k, id) in ids.iter().enumerate() {
-                for s in store.tag_samples_between(*id, from_ms, to_ms)? {
-                    all.push((s.t_ms, k, s.value, s.quality));
-                }
-            }
-            all.sort_by_key(|s| (s.0, s.1));
-            for (t, k, v, q) in all {
-                w.write_record([
-                    fmt_ms(t),
-                    t.to_string(),
-                    tags[k].trim().to_string(),
-                    v.to_string(),
-                    q.to_string(),
-                ])?;
-                rows += 1;
-            }
-        }
-        ExportLayout::Wide => {
-            let mut cols: Vec<Vec<(i64, f64)>> = Vec::with_capacity(ids.len());
-            for id in &ids {
-                cols.push(
-                    store
-                        .tag_samples_between(*id, from_ms, to_ms)?
-                        .into_iter()
-                        .map(|s| (s.t_ms, s.value))
-                        .collect(),
-                );
-            }
-            let mut head = vec!["time".to_string(), "t_ms".to_string()];
-            head.extend(tags.iter().map(|t| t.trim().to_string()));
-            w.write_record(&head)?;
-            let mut pos = vec![0usize; cols.len()];
-            loop {
-                let next = cols
-                    .iter()
-                    .zip(&pos)
-                    .filter_map(|(c, &p)| c.get(p).map(|s| s.0))
-                    .min();
-                let Some(t) = next else { break };
-                let mut rec = vec![fmt_ms(t), t.to_string()];
-                for (c, p) in cols.iter().zip(pos.iter_mut()) {
-                    match c.get(*p) {
-                        Some(&(ts, v)) if ts == t => {
-                            rec.push(v.to_string());
-                            *p += 1;
-                        }
-                        _ => rec.push(String::new()),
-                    }
-                }
-                w.write_record(&rec)?;
-                rows += 1;
-            }
-        }
-    }
-    w.flush()?;
-    Ok(rows)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -322,7 +244,14 @@ mod tests {
         let ro = Store::open_readonly(&path).expect("ro");
         let tags = vec!["n1_rpm".to_string(), "power_mw".to_string()];
         let mut out = Vec::new();
-        let n = export_csv(&ro, &tags, 0, 5000, ExportLayout::Wide, &mut out).expect("export");
+        let req = |to_ms, layout| ExportRequest {
+            tags: tags.clone(),
+            from_ms: 0,
+            to_ms,
+            layout,
+            resolution: Resolution::Raw,
+        };
+        let n = export_csv(&ro, &req(5000, ExportLayout::Wide), &mut out).expect("export");
         assert_eq!(n, 2);
         let text = String::from_utf8(out).expect("utf8");
         assert_eq!(
@@ -332,20 +261,16 @@ mod tests {
              1970-01-01T00:00:01.000Z,1000,2,5.5\n"
         );
         let mut out = Vec::new();
-        let n = export_csv(&ro, &tags, 0, 9000, ExportLayout::Long, &mut out).expect("export");
+        let n = export_csv(&ro, &req(9000, ExportLayout::Long), &mut out).expect("export");
         assert_eq!(n, 4);
         let text = String::from_utf8(out).expect("utf8");
         assert!(text.starts_with("time,t_ms,tag,value,quality\n"));
         assert!(text.contains("1970-01-01T00:00:01.000Z,1000,power_mw,5.5,0\n"));
-        assert!(export_csv(
-            &ro,
-            &["nope".into()],
-            0,
-            1,
-            ExportLayout::Wide,
-            &mut Vec::new()
-        )
-        .is_err());
+        let nope = ExportRequest {
+            tags: vec!["nope".into()],
+            ..req(1, ExportLayout::Wide)
+        };
+        assert!(export_csv(&ro, &nope, &mut Vec::new()).is_err());
     }
 
     #[test]
