@@ -273,6 +273,17 @@ pub enum Setpoint {
 }
 
 impl Setpoint {
+    /// Whether `other` is this set-point: ramps and approaches by value, a followed series by
+    /// identity (an equal copy counts as different; cheap, and never wrongly the same).
+    pub(crate) fn same_as(&self, other: &Setpoint) -> bool {
+        match (self, other) {
+            (Setpoint::Ramp(a), Setpoint::Ramp(b)) => a == b,
+            (Setpoint::Approach(a), Setpoint::Approach(b)) => a == b,
+            (Setpoint::Series(a), Setpoint::Series(b)) => Arc::ptr_eq(a, b),
+            _ => false,
+        }
+    }
+
     pub fn value(&self, t: f64) -> f64 {
         match self {
             Setpoint::Ramp(r) => r.value(t),
@@ -308,6 +319,42 @@ pub struct FuelOut {
 }
 
 impl FuelCommand {
+    /// Whether `other` is this command, shared series and limits compared by identity (see
+    /// [`Setpoint::same_as`]).
+    pub(crate) fn same_as(&self, other: &FuelCommand) -> bool {
+        match (self, other) {
+            (FuelCommand::Off, FuelCommand::Off) => true,
+            (FuelCommand::Fixed(a), FuelCommand::Fixed(b)) => a == b,
+            (FuelCommand::Trace(a), FuelCommand::Trace(b)) => Arc::ptr_eq(a, b),
+            (
+                FuelCommand::Pid {
+                    loop_kind,
+                    setpoint,
+                    kp,
+                    ki,
+                    aw_tau,
+                    limits,
+                },
+                FuelCommand::Pid {
+                    loop_kind: loop_b,
+                    setpoint: setpoint_b,
+                    kp: kp_b,
+                    ki: ki_b,
+                    aw_tau: aw_tau_b,
+                    limits: limits_b,
+                },
+            ) => {
+                loop_kind == loop_b
+                    && setpoint.same_as(setpoint_b)
+                    && kp == kp_b
+                    && ki == ki_b
+                    && aw_tau == aw_tau_b
+                    && Arc::ptr_eq(limits, limits_b)
+            }
+            _ => false,
+        }
+    }
+
     /// Builds the PID command for a loop from the control config.
     pub fn pid(
         c: &ControlConfig,

@@ -55,6 +55,25 @@ pub struct Drive {
     pub flame: bool,
 }
 
+impl Drive {
+    /// Whether `other` drives the model exactly as this one does, shared series compared by
+    /// identity (cheap, and never wrongly the same): then f at a point is the same under both.
+    pub(crate) fn same_as(&self, other: &Drive) -> bool {
+        self.t_amb_k == other.t_amb_k
+            && self.p_amb_kpa == other.p_amb_kpa
+            && self.fuel.same_as(&other.fuel)
+            && self.starter == other.starter
+            && self.pt_locked == other.pt_locked
+            && self.pt_load == other.pt_load
+            && match (&self.pt_speed, &other.pt_speed) {
+                (None, None) => true,
+                (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+                _ => false,
+            }
+            && self.flame == other.flame
+    }
+}
+
 impl Scales {
     pub fn of(model: &Model) -> Scales {
         let c = &model.consts;

@@ -190,6 +190,16 @@ impl Ros2 {
         self.jac_t = f64::NAN;
     }
 
+    /// f(t, y) = `f0` is known (the caller evaluated it, e.g. with a station table): the next
+    /// step from (t, y) uses it instead of evaluating f again.
+    pub(crate) fn seed_f0(&mut self, t: f64, y: &[f64], f0: &[f64]) {
+        let n = y.len().min(f0.len()).min(MAX_DIM);
+        self.f0_t = t;
+        self.f0_y[..n].copy_from_slice(&y[..n]);
+        self.f0[..n].copy_from_slice(&f0[..n]);
+        self.f0_valid = y.len() == n && f0.len() == n;
+    }
+
     /// The right-hand side's dependence on time changed but not on the state (a piecewise-linear
     /// input entered its next segment): ∂f/∂t is re-estimated at the next step's start, one
     /// evaluation, and the state Jacobian is kept. A replay's measured fuel bends at every

@@ -125,6 +125,18 @@ pub struct Simulation<C: Controller = Sequencer> {
     /// table at the current time and state, which [`Simulation::sample`] then need not
     /// evaluate again. Cleared at the start of every `advance_to`.
     settled: Option<Stations>,
+    /// f at a point, evaluated with a station table there (the controller's update, or
+    /// [`Simulation::sample`]) under a drive: the next step from that point under the same
+    /// drive uses it instead of evaluating f again (one evaluation per output sample).
+    seed: Option<Seed>,
+}
+
+/// f = `dy` at (`t`, `y`) under `drive`.
+struct Seed {
+    t: f64,
+    y: State,
+    dy: State,
+    drive: Drive,
 }
 
 impl Simulation<Sequencer> {
@@ -155,6 +167,7 @@ impl<C: Controller> Simulation<C> {
             p_amb_kpa: c.p_amb_kpa,
             stats: RunStats::default(),
             settled: None,
+            seed: None,
         }
     }
 
@@ -184,14 +197,23 @@ impl<C: Controller> Simulation<C> {
     /// (after the controller's transitions at that time, as [`Simulation::stations`] would).
     pub fn sample(&mut self, t_target: f64) -> Result<Stations, EngineError> {
         self.advance_to(t_target)?;
-        Ok(match self.settled.take() {
-            Some(st) => st,
-            None => self.stations(),
-        })
+        if let Some(st) = self.settled.take() {
+            return Ok(st);
+        }
+        let drive = self.seq.drive(self.t_amb_k, self.p_amb_kpa);
+        let (dy, st) = dynamic::evaluate(&self.model, self.t, &self.y, &drive);
+        self.seed = Some(Seed {
+            t: self.t,
+            y: self.y,
+            dy,
+            drive,
+        });
+        Ok(st)
     }
 
     fn sequencer_update(&mut self) {
-        let st = self.stations();
+        let drive = self.seq.drive(self.t_amb_k, self.p_amb_kpa);
+        let (dy, st) = dynamic::evaluate(&self.model, self.t, &self.y, &drive);
         let mut act = Actuator::new(&mut self.y, &self.scales);
         let change = self.seq.update(self.t, &mut act, &st);
         match change {
@@ -203,6 +225,13 @@ impl<C: Controller> Simulation<C> {
             Change::None => self.ros.forget_point(),
         }
         self.settled = (change != Change::Drive).then_some(st);
+        // Nothing the drive's function of (t, y) depends on changed: f here is known.
+        self.seed = (change != Change::Drive).then_some(Seed {
+            t: self.t,
+            y: self.y,
+            dy,
+            drive,
+        });
     }
 
     /// Fraction of the step (y0 → y1) at which the first watched threshold is crossed.
@@ -246,6 +275,13 @@ impl<C: Controller> Simulation<C> {
             // error allows: keep the proposal so the next step is not needlessly small.
             let limited = h < h_prop * 0.999;
             let drive = self.seq.drive(self.t_amb_k, self.p_amb_kpa);
+            if let Some(seed) = self.seed.take() {
+                // The caller may have changed the controller or the state since: the seed is
+                // used only where the point and the drive are exactly the same.
+                if seed.t == self.t && seed.y == self.y && seed.drive.same_as(&drive) {
+                    self.ros.seed_f0(self.t, &self.y, &seed.dy);
+                }
+            }
             let model = &self.model;
             // One memo per step: it holds the step's first evaluation (f at its start), whose
             // gas path the Jacobian's columns for the fuel integrator and for time share.
