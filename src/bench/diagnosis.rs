@@ -75,6 +75,14 @@ pub(crate) fn run(
         "",
         HEALTH_NAMES.map(|n| format!("{n:>7}")).join(" ")
     );
+    match rep.transient_one_core_median_wall_s {
+        Some(w) => println!("one core (threads 1): Method B median {w:.2} s per start-up"),
+        None => println!(
+            "threads {}: wall times are not one core's (--threads 1 gives that figure)",
+            rep.threads
+                .map_or_else(|| "all cores".to_string(), |n| n.to_string())
+        ),
+    }
     row("Method B (transient)", &rep.transient);
     row("Method A (steady)", &rep.steady);
     for c in &rep.comparison {

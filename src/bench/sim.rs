@@ -28,6 +28,8 @@ pub(crate) fn run(engine: &Engine, health: &HealthParams, runs: usize) -> anyhow
         "bench": "sim",
         "scenario": "startup",
         "runs": times.len(),
+        // One simulation runs on one thread: the figure is one core's.
+        "threads": 1,
         "simulated_s": simulated_s,
         "samples": warm.len(),
         "median_wall_s": median,

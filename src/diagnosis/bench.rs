@@ -179,6 +179,11 @@ pub struct DiagnosisBench {
     pub seed: u64,
     pub optimiser: Optimiser,
     pub max_model_runs: usize,
+    /// Worker threads of each fit (`None`: all cores).
+    pub threads: Option<usize>,
+    /// With `threads` = 1: the median wall time of one Method B diagnosis on one core, s (the
+    /// figure issue 24 sets a limit on); `None` on more threads, where it is not that figure.
+    pub transient_one_core_median_wall_s: Option<f64>,
     pub transient: MethodStats,
     pub steady: MethodStats,
     /// Method B under each compared optimiser (same cases, same budget).
@@ -258,12 +263,16 @@ pub fn bench_diagnosis(
         .collect();
     let not_good = (!verdicts.is_empty())
         .then(|| verdicts.iter().filter(|v| **v != "good").count() as f64 / verdicts.len() as f64);
+    let transient = MethodStats::from(&truths, &tr);
     Ok(DiagnosisBench {
         cases,
         seed,
         optimiser: cfg.optimiser,
         max_model_runs: cfg.max_model_runs,
-        transient: MethodStats::from(&truths, &tr),
+        threads: cfg.threads,
+        transient_one_core_median_wall_s: (cfg.threads == Some(1))
+            .then_some(transient.median_wall_s),
+        transient,
         steady: MethodStats::from(&truths, &st),
         comparison,
         transient_fit_quality_not_good: not_good,

@@ -55,6 +55,25 @@ pub struct Drive {
     pub flame: bool,
 }
 
+impl Drive {
+    /// Whether `other` drives the model exactly as this one does, shared series compared by
+    /// identity (cheap, and never wrongly the same): then f at a point is the same under both.
+    pub(crate) fn same_as(&self, other: &Drive) -> bool {
+        self.t_amb_k == other.t_amb_k
+            && self.p_amb_kpa == other.p_amb_kpa
+            && self.fuel.same_as(&other.fuel)
+            && self.starter == other.starter
+            && self.pt_locked == other.pt_locked
+            && self.pt_load == other.pt_load
+            && match (&self.pt_speed, &other.pt_speed) {
+                (None, None) => true,
+                (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+                _ => false,
+            }
+            && self.flame == other.flame
+    }
+}
+
 impl Scales {
     pub fn of(model: &Model) -> Scales {
         let c = &model.consts;
@@ -129,9 +148,12 @@ pub(crate) fn warm_standstill_state(
 /// the gas path (the most expensive part of an evaluation). Owned by the caller (one per
 /// integration step), holds the first evaluation it sees, and is used only by the core model
 /// (with effects on, their hooks may read time and any state).
+/// Its compressor stage is kept the same way for the columns that leave the compressor's
+/// inputs as they were.
 #[derive(Default)]
 pub(crate) struct GasPathMemo {
     entry: Option<(GasPathKey, Gas, GasPath)>,
+    compressor: gas_path::CompressorMemo,
 }
 
 /// The gas path's inputs in [`core_rhs`], as bits (exact equality, NaN included).
@@ -245,9 +267,9 @@ fn core_rhs<R>(
     // The gas path from the states: compressor into the plenum at P2, turbines on the
     // plenum's gas (temperature and composition are states).
     let far_gas = (y[IX_FAR] * FAR_SCALE).clamp(0.0, gas_path::MAX_FAR);
-    let gas_path_of = || {
+    let gas_path_of = |compressor: Option<&mut gas_path::CompressorMemo>| {
         let gas = c.fuel.products(far_gas);
-        let gp = gas_path::evaluate(
+        let gp = gas_path::evaluate_with(
             model,
             &Inputs {
                 t_amb_k: drive.t_amb_k,
@@ -262,6 +284,7 @@ fn core_rhs<R>(
                 },
             },
             adjust.as_ref(),
+            compressor,
         );
         (gas, gp)
     };
@@ -271,19 +294,19 @@ fn core_rhs<R>(
             let key =
                 GasPathKey::of([drive.t_amb_k, drive.p_amb_kpa, n1, n2, p34, p2, t3, far_gas]);
             if memo.entry.is_none() {
-                let (gas, gp) = gas_path_of();
+                let (gas, gp) = gas_path_of(Some(&mut memo.compressor));
                 memo.entry = Some((key, gas, gp));
             }
             match &memo.entry {
                 Some((k, gas, gp)) if *k == key => (gas, gp),
                 _ => {
-                    fresh = gas_path_of();
+                    fresh = gas_path_of(Some(&mut memo.compressor));
                     (&fresh.0, &fresh.1)
                 }
             }
         }
         _ => {
-            fresh = gas_path_of();
+            fresh = gas_path_of(None);
             (&fresh.0, &fresh.1)
         }
     };

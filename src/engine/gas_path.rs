@@ -257,8 +257,37 @@ impl GasPath {
 /// (`None` when no effect is on: the core model alone, without even comparing deltas).
 #[inline(always)]
 pub(crate) fn evaluate(model: &Model, inp: &Inputs, adjust: Option<&Adjust>) -> GasPath {
-    let c = &model.consts;
-    let (n1, n2, t1, p_amb) = (inp.n1_rpm, inp.n2_rpm, inp.t_amb_k, inp.p_amb_kpa);
+    evaluate_with(model, inp, adjust, None)
+}
+
+/// The compressor's share of a gas-path evaluation: its inlet pressure and exit state. It
+/// depends on the ambient, the GG speed and the plenum pressure alone.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct CompressorStage {
+    p1: f64,
+    comp: CompressorStation,
+}
+
+/// The compressor stage of one evaluation of the dynamic model's gas path, kept for later
+/// evaluations whose compressor inputs (ambient, GG speed, plenum pressure) are bit for bit
+/// the same: of the integrator's finite-difference Jacobian columns, those of the combustor
+/// temperature and composition, the duct pressure and the PT speed leave the compressor where
+/// it was, and the compressor is about a third of an evaluation. Holds the first evaluation it
+/// sees; used for the core model only (no effect adjusts the maps or losses).
+#[derive(Default)]
+pub(crate) struct CompressorMemo {
+    entry: Option<([u64; 4], CompressorStage)>,
+}
+
+/// [`evaluate`], taking the compressor stage from `memo` when its inputs are unchanged (and
+/// storing this one when the memo is empty); the results are the same either way.
+#[inline(always)]
+pub(crate) fn evaluate_with(
+    model: &Model,
+    inp: &Inputs,
+    adjust: Option<&Adjust>,
+    memo: Option<&mut CompressorMemo>,
+) -> GasPath {
     let adjusted;
     let (comp_map, hpt_map, pt_map) = match adjust {
         Some(a) if a.deltas != ComponentDeltas::NONE => {
@@ -267,11 +296,45 @@ pub(crate) fn evaluate(model: &Model, inp: &Inputs, adjust: Option<&Adjust>) -> 
         }
         _ => (&model.comp, &model.hpt, &model.pt),
     };
+    let stage = match (memo, inp.compressor) {
+        (Some(memo), CompressorSetting::Plenum { p2_kpa }) if adjust.is_none() => {
+            let key = [inp.t_amb_k, inp.p_amb_kpa, inp.n1_rpm, p2_kpa].map(f64::to_bits);
+            match &memo.entry {
+                Some((k, stage)) if *k == key => *stage,
+                _ => {
+                    let stage = compressor_stage(model, inp, adjust, comp_map);
+                    if memo.entry.is_none() {
+                        memo.entry = Some((key, stage));
+                    }
+                    stage
+                }
+            }
+        }
+        _ => compressor_stage(model, inp, adjust, comp_map),
+    };
+    after_compressor(model, inp, adjust, &stage, hpt_map, pt_map)
+}
 
-    // Duct-loss multipliers of the effects (the loss laws themselves are the engine file's).
-    let losses = adjust
+/// The duct-loss multipliers of the effects (`None`: the engine file's loss laws alone).
+#[inline(always)]
+fn effect_losses(adjust: Option<&Adjust>) -> Option<&DuctLosses> {
+    adjust
         .map(|a| &a.losses)
-        .filter(|l| **l != DuctLosses::NONE);
+        .filter(|l| **l != DuctLosses::NONE)
+}
+
+/// The compressor stage: inlet loss and compressor on `comp_map`.
+#[inline(always)]
+fn compressor_stage(
+    model: &Model,
+    inp: &Inputs,
+    adjust: Option<&Adjust>,
+    comp_map: &crate::maps::ScaledCompressor,
+) -> CompressorStage {
+    let c = &model.consts;
+    let (n1, t1, p_amb) = (inp.n1_rpm, inp.t_amb_k, inp.p_amb_kpa);
+    // Duct-loss multipliers of the effects (the loss laws themselves are the engine file's).
+    let losses = effect_losses(adjust);
     let inlet = |p1: f64| match losses {
         Some(l) if l.inlet != 1.0 => p_amb - (p_amb - p1) * l.inlet,
         _ => p1,
@@ -302,6 +365,25 @@ pub(crate) fn evaluate(model: &Model, inp: &Inputs, adjust: Option<&Adjust>) -> 
             (p1, cycle::compressor_from_op(t1, p1, p2 / p1, &op))
         }
     };
+    CompressorStage { p1, comp }
+}
+
+/// Everything downstream of the compressor stage: bleed, combustor, HPT, duct, PT, exhaust and
+/// the shaft balances.
+#[inline(always)]
+fn after_compressor(
+    model: &Model,
+    inp: &Inputs,
+    adjust: Option<&Adjust>,
+    stage: &CompressorStage,
+    hpt_map: &crate::maps::ScaledTurbine,
+    pt_map: &crate::maps::ScaledTurbine,
+) -> GasPath {
+    let c = &model.consts;
+    let (n1, n2, t1, p_amb) = (inp.n1_rpm, inp.n2_rpm, inp.t_amb_k, inp.p_amb_kpa);
+    let losses = effect_losses(adjust);
+    let fade = (n1.max(0.0) / (STANDSTILL_FADE * c.n1_design)).min(1.0);
+    let (p1, comp) = (stage.p1, stage.comp);
     let p2 = match inp.compressor {
         CompressorSetting::Beta(_) => p1 * comp.pr,
         CompressorSetting::Plenum { p2_kpa } => p2_kpa,

@@ -137,6 +137,8 @@ pub(crate) struct Ros2 {
     f0_y: [f64; MAX_DIM],
     f0: [f64; MAX_DIM],
     steps_since_jac: usize,
+    /// ∂f/∂t is to be re-estimated at the next step's start (an input's slope changed).
+    ft_stale: bool,
     /// Refresh the Jacobian after this many steps.
     pub(crate) jac_every: usize,
     pub(crate) rtol: f64,
@@ -162,6 +164,7 @@ impl Ros2 {
             f0_y: [0.0; MAX_DIM],
             f0: [0.0; MAX_DIM],
             steps_since_jac: 0,
+            ft_stale: false,
             jac_every: 8,
             rtol,
             atol,
@@ -175,6 +178,7 @@ impl Ros2 {
     pub(crate) fn invalidate(&mut self) {
         self.jac_valid = false;
         self.f0_valid = false;
+        self.ft_stale = false;
     }
 
     /// The caller may have changed the right-hand side's discrete inputs without calling
@@ -184,6 +188,25 @@ impl Ros2 {
     pub(crate) fn forget_point(&mut self) {
         self.f0_valid = false;
         self.jac_t = f64::NAN;
+    }
+
+    /// f(t, y) = `f0` is known (the caller evaluated it, e.g. with a station table): the next
+    /// step from (t, y) uses it instead of evaluating f again.
+    pub(crate) fn seed_f0(&mut self, t: f64, y: &[f64], f0: &[f64]) {
+        let n = y.len().min(f0.len()).min(MAX_DIM);
+        self.f0_t = t;
+        self.f0_y[..n].copy_from_slice(&y[..n]);
+        self.f0[..n].copy_from_slice(&f0[..n]);
+        self.f0_valid = y.len() == n && f0.len() == n;
+    }
+
+    /// The right-hand side's dependence on time changed but not on the state (a piecewise-linear
+    /// input entered its next segment): ∂f/∂t is re-estimated at the next step's start, one
+    /// evaluation, and the state Jacobian is kept. A replay's measured fuel bends at every
+    /// sample; refreshing the whole Jacobian there cost 8 evaluations a sample, and keeping a
+    /// stale ∂f/∂t doubled the rejected steps.
+    pub(crate) fn refresh_time_derivative(&mut self) {
+        self.ft_stale = true;
     }
 
     /// The last step was rejected and the next one retries from the same point with the same
@@ -209,18 +232,31 @@ impl Ros2 {
                 self.jac[i][j] = (fp[i] - f0[i]) / h;
             }
         }
-        let dt = 1e-6 * t.abs().max(1.0);
-        let ft = f(t + dt, y);
-        for i in 0..n {
-            self.ft[i] = (ft[i] - f0[i]) / dt;
-        }
-        self.rhs_evals += n + 1;
+        self.rhs_evals += n;
+        self.refresh_ft(d, f, t, y, f0);
         self.jac_evals += 1;
         self.jac_valid = true;
         self.jac_t = t;
         self.jac_y[..n].copy_from_slice(&y[..n]);
         self.refresh_unless_here = false;
         self.steps_since_jac = 0;
+    }
+
+    /// ∂f/∂t at (t, y) by a forward difference from `f0` = f(t, y).
+    #[inline(always)]
+    fn refresh_ft<V, F>(&mut self, d: impl Dim, f: &mut F, t: f64, y: &V, f0: &V)
+    where
+        V: Clone + Deref<Target = [f64]> + DerefMut,
+        F: FnMut(f64, &V) -> V,
+    {
+        let n = d.n();
+        let dt = 1e-6 * t.abs().max(1.0);
+        let ft = f(t + dt, y);
+        for i in 0..n {
+            self.ft[i] = (ft[i] - f0[i]) / dt;
+        }
+        self.rhs_evals += 1;
+        self.ft_stale = false;
     }
 
     /// One ROS2 step of size `h` from (t, y). Does not decide acceptance. `None` when the
@@ -284,6 +320,9 @@ impl Ros2 {
             // refresh would.
             self.refresh_unless_here = false;
             self.steps_since_jac = 0;
+        }
+        if self.ft_stale {
+            self.refresh_ft(d, f, t, y, &f0);
         }
         self.steps_since_jac += 1;
         let w = &mut *self.w;

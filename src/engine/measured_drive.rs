@@ -14,7 +14,7 @@ use super::dynamic::{Drive, Stations};
 use super::load::PtLoad;
 use super::model::{Engine, EngineError, Model};
 use super::sensors::MeasurementOptions;
-use super::simulation::{Controller, Simulation, StartState, TruthSample, Watch};
+use super::simulation::{Change, Controller, Simulation, StartState, TruthSample, Watch};
 use super::state::{Actuator, Shaft};
 use super::trace::Trace;
 use crate::health::HealthParams;
@@ -122,7 +122,10 @@ impl MeasuredDrive {
         self.fuel.value(self.t_s[k]).max(0.0)
     }
 
-    fn configure(&mut self, t: f64, act: &mut Actuator<'_>, st: &Stations) {
+    /// Sets starter, breaker, flame and fuel command for sample `self.k`; returns whether any
+    /// of them changed.
+    fn configure(&mut self, t: f64, act: &mut Actuator<'_>, st: &Stations) -> bool {
+        let before = (self.starter, self.pt_locked, self.flame);
         let k = self.k;
         let ph = self.phase[k];
         let next_fuel = if k + 1 < self.t_s.len() {
@@ -188,6 +191,7 @@ impl MeasuredDrive {
             ));
             self.fuel_cmd = new_cmd;
         }
+        changed || before != (self.starter, self.pt_locked, self.flame)
     }
 }
 
@@ -214,19 +218,24 @@ impl Controller for MeasuredDrive {
         Vec::new()
     }
 
-    fn update(&mut self, t: f64, act: &mut Actuator<'_>, st: &Stations) -> bool {
+    fn update(&mut self, t: f64, act: &mut Actuator<'_>, st: &Stations) -> Change {
         let i = self.t_s.partition_point(|&x| x <= t + 1e-9);
         if i == 0 {
-            return false;
+            return Change::None;
         }
         let k = i - 1;
         let first = self.k == 0 && matches!(self.fuel_cmd, FuelCommand::Off) && !self.flame;
         if k == self.k && !first {
-            return false;
+            return Change::None;
         }
         self.k = k;
-        self.configure(t, act, st);
-        true
+        if self.configure(t, act, st) || first {
+            Change::Drive
+        } else {
+            // The same phase and commands: only the measured series, linear between samples,
+            // bend here.
+            Change::Slope
+        }
     }
 
     fn polls(&self, _t: f64) -> bool {
@@ -300,8 +309,7 @@ pub(crate) fn simulate_segment(
     sim.start_from(&start_state_of(seg, t_amb));
     let mut samples = Vec::with_capacity(seg.len());
     for (k, &t) in rseg.times().iter().enumerate() {
-        sim.advance_to(t)?;
-        let st = sim.stations();
+        let st = sim.sample(t)?;
         samples.push(TruthSample {
             t_s: seg.times()[k],
             phase: seg.phases()[k],

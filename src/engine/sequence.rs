@@ -27,7 +27,7 @@ use super::control::{
 use super::dynamic::{Drive, Stations};
 use super::load::PtLoad;
 use super::model::Model;
-use super::simulation::{Controller, Watch};
+use super::simulation::{Change, Controller, Watch};
 use super::state::{Actuator, Shaft};
 use crate::signals::Phase;
 use std::sync::Arc;
@@ -628,8 +628,8 @@ impl Controller for Sequencer {
     fn watches(&self) -> Vec<Watch> {
         Sequencer::watches(self)
     }
-    fn update(&mut self, t: f64, act: &mut Actuator<'_>, st: &Stations) -> bool {
-        Sequencer::update(self, t, act, st)
+    fn update(&mut self, t: f64, act: &mut Actuator<'_>, st: &Stations) -> Change {
+        Sequencer::update(self, t, act, st).into()
     }
     fn polls(&self, t: f64) -> bool {
         Sequencer::polls(self, t)

@@ -33,8 +33,8 @@ pub trait Controller {
     /// Speed thresholds whose crossing is an event in the current mode.
     fn watches(&self) -> Vec<Watch>;
     /// Applies the transitions due at `t` (station table `st`); acts on the engine through
-    /// `act` (bumpless switches, grid lock). Returns whether anything changed.
-    fn update(&mut self, t: f64, act: &mut Actuator<'_>, st: &Stations) -> bool;
+    /// `act` (bumpless switches, grid lock). Returns what changed.
+    fn update(&mut self, t: f64, act: &mut Actuator<'_>, st: &Stations) -> Change;
     /// Whether `update` must run after every step.
     fn polls(&self, t: f64) -> bool;
     /// Reported phase.
@@ -72,6 +72,30 @@ pub struct StartState {
     pub hot_section_k: f64,
 }
 
+/// What a controller's [`Controller::update`] changed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Change {
+    /// Nothing: the drive is the same function of time and state, the state untouched.
+    None,
+    /// Only the slope in time of a piecewise-linear input (a measured series entered its next
+    /// segment): the drive is the same function of the state, so the integrator keeps its
+    /// state Jacobian and re-estimates only ∂f/∂t.
+    Slope,
+    /// The drive (mode, switches, a command) or the state changed.
+    Drive,
+}
+
+impl From<bool> for Change {
+    /// `true`: something changed ([`Change::Drive`]); `false`: [`Change::None`].
+    fn from(changed: bool) -> Change {
+        if changed {
+            Change::Drive
+        } else {
+            Change::None
+        }
+    }
+}
+
 /// Integration statistics (performance accounting).
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct RunStats {
@@ -96,6 +120,23 @@ pub struct Simulation<C: Controller = Sequencer> {
     t_amb_k: f64,
     p_amb_kpa: f64,
     pub stats: RunStats,
+    /// The station table the controller's last update saw, when that update changed neither
+    /// the drive nor the state and it was the last thing [`Simulation::advance_to`] did: the
+    /// table at the current time and state, which [`Simulation::sample`] then need not
+    /// evaluate again. Cleared at the start of every `advance_to`.
+    settled: Option<Stations>,
+    /// f at a point, evaluated with a station table there (the controller's update, or
+    /// [`Simulation::sample`]) under a drive: the next step from that point under the same
+    /// drive uses it instead of evaluating f again (one evaluation per output sample).
+    seed: Option<Seed>,
+}
+
+/// f = `dy` at (`t`, `y`) under `drive`.
+struct Seed {
+    t: f64,
+    y: State,
+    dy: State,
+    drive: Drive,
 }
 
 impl Simulation<Sequencer> {
@@ -125,6 +166,8 @@ impl<C: Controller> Simulation<C> {
             t_amb_k: c.t_amb_k,
             p_amb_kpa: c.p_amb_kpa,
             stats: RunStats::default(),
+            settled: None,
+            seed: None,
         }
     }
 
@@ -150,14 +193,45 @@ impl<C: Controller> Simulation<C> {
         dynamic::evaluate(&self.model, self.t, &self.y, &drive).1
     }
 
-    fn sequencer_update(&mut self) {
-        let st = self.stations();
-        let mut act = Actuator::new(&mut self.y, &self.scales);
-        if self.seq.update(self.t, &mut act, &st) {
-            self.ros.invalidate();
-        } else {
-            self.ros.forget_point();
+    /// Advances to `t_target` ([`Simulation::advance_to`]) and returns the station table there
+    /// (after the controller's transitions at that time, as [`Simulation::stations`] would).
+    pub fn sample(&mut self, t_target: f64) -> Result<Stations, EngineError> {
+        self.advance_to(t_target)?;
+        if let Some(st) = self.settled.take() {
+            return Ok(st);
         }
+        let drive = self.seq.drive(self.t_amb_k, self.p_amb_kpa);
+        let (dy, st) = dynamic::evaluate(&self.model, self.t, &self.y, &drive);
+        self.seed = Some(Seed {
+            t: self.t,
+            y: self.y,
+            dy,
+            drive,
+        });
+        Ok(st)
+    }
+
+    fn sequencer_update(&mut self) {
+        let drive = self.seq.drive(self.t_amb_k, self.p_amb_kpa);
+        let (dy, st) = dynamic::evaluate(&self.model, self.t, &self.y, &drive);
+        let mut act = Actuator::new(&mut self.y, &self.scales);
+        let change = self.seq.update(self.t, &mut act, &st);
+        match change {
+            Change::Drive => self.ros.invalidate(),
+            Change::Slope => {
+                self.ros.forget_point();
+                self.ros.refresh_time_derivative();
+            }
+            Change::None => self.ros.forget_point(),
+        }
+        self.settled = (change != Change::Drive).then_some(st);
+        // Nothing the drive's function of (t, y) depends on changed: f here is known.
+        self.seed = (change != Change::Drive).then_some(Seed {
+            t: self.t,
+            y: self.y,
+            dy,
+            drive,
+        });
     }
 
     /// Fraction of the step (y0 → y1) at which the first watched threshold is crossed.
@@ -183,6 +257,7 @@ impl<C: Controller> Simulation<C> {
         // The controller and the state are public: whatever the caller did between calls, no
         // value of f at a point is carried over from the last call.
         self.ros.forget_point();
+        self.settled = None;
         if self.t == 0.0 && self.stats.steps == 0 {
             self.sequencer_update();
         }
@@ -200,6 +275,13 @@ impl<C: Controller> Simulation<C> {
             // error allows: keep the proposal so the next step is not needlessly small.
             let limited = h < h_prop * 0.999;
             let drive = self.seq.drive(self.t_amb_k, self.p_amb_kpa);
+            if let Some(seed) = self.seed.take() {
+                // The caller may have changed the controller or the state since: the seed is
+                // used only where the point and the drive are exactly the same.
+                if seed.t == self.t && seed.y == self.y && seed.drive.same_as(&drive) {
+                    self.ros.seed_f0(self.t, &self.y, &seed.dy);
+                }
+            }
             let model = &self.model;
             // One memo per step: it holds the step's first evaluation (f at its start), whose
             // gas path the Jacobian's columns for the fuel integrator and for time share.
@@ -241,6 +323,7 @@ impl<C: Controller> Simulation<C> {
             self.t += h;
             self.y = res.y;
             self.stats.steps += 1;
+            self.settled = None;
             if self.fixed_step.is_none() {
                 let grown = h * step_factor(res.err);
                 let next = if limited && !crossed {
@@ -293,8 +376,7 @@ pub fn run_scenario(
     let mut k: u64 = 0;
     loop {
         let t = k as f64 * dt;
-        sim.advance_to(t)?;
-        let st = sim.stations();
+        let st = sim.sample(t)?;
         out.push(TruthSample {
             t_s: t,
             phase: sim.seq.phase(),

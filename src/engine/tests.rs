@@ -5,7 +5,7 @@ use super::dynamic::{
     self, Drive, Scales, State, Stations, IX_FAR, IX_FUEL_I, IX_N1, IX_N2, IX_P2, IX_P34, IX_T3,
 };
 use super::sensors::MeasurementOptions;
-use super::simulation::{run_scenario, Controller, Simulation, Watch};
+use super::simulation::{run_scenario, Change, Controller, Simulation, Watch};
 use super::state::{Actuator, StateLayout};
 use super::steady::{solve, Demand, SteadyInputs, SteadyPoint};
 use super::trace::{values_of, Trace};
@@ -37,8 +37,8 @@ impl Controller for Constant {
     fn watches(&self) -> Vec<Watch> {
         Vec::new()
     }
-    fn update(&mut self, _t: f64, _act: &mut Actuator<'_>, _st: &Stations) -> bool {
-        false
+    fn update(&mut self, _t: f64, _act: &mut Actuator<'_>, _st: &Stations) -> Change {
+        Change::None
     }
     fn polls(&self, _t: f64) -> bool {
         false
