@@ -327,6 +327,32 @@ mod tests {
         assert_eq!(plausible.hidden(), ["fuel_meter"]);
     }
 
+    /// A noisy simulated start-up of an engine with health `truth` (noise seed `seed`) whose
+    /// recorded `signal` reads `factor` × the true value, and its Method B baseline fit at a
+    /// test budget.
+    fn scaled_instrument_fit(
+        engine: &Engine,
+        truth: &HealthParams,
+        seed: u64,
+        signal: Signal,
+        factor: f64,
+    ) -> (Recording, DiagnosisConfig, MethodResult) {
+        let mut rec = synthetic_startup(engine, truth, seed, true).expect("start-up");
+        for k in 0..rec.len() {
+            if let Some(v) = rec.value(k, signal) {
+                rec.set(k, signal, v * factor).expect("set");
+            }
+        }
+        let cfg = DiagnosisConfig {
+            max_model_runs: 300,
+            lm_runs: 200,
+            threads: Some(2),
+            ..DiagnosisConfig::default()
+        };
+        let base = diagnose_transient(engine, &rec, &cfg).expect("baseline");
+        (rec, cfg, base)
+    }
+
     /// A power transducer reading 1.5 % low on a degraded engine: the health absorbs only two
     /// thirds of its signature (a fuel meter's almost all), but what it leaves at that size
     /// fits in the `good` band, so the power instrument is listed as hidden.
@@ -341,19 +367,7 @@ mod tests {
             D_GP: 1.0,
             D_EP: 0.5,
         };
-        let mut rec = synthetic_startup(&engine, &truth, 7, true).expect("start-up");
-        for k in 0..rec.len() {
-            if let Some(v) = rec.value(k, Signal::Power) {
-                rec.set(k, Signal::Power, v * 0.985).expect("set");
-            }
-        }
-        let cfg = DiagnosisConfig {
-            max_model_runs: 300,
-            lm_runs: 200,
-            threads: Some(2),
-            ..DiagnosisConfig::default()
-        };
-        let base = diagnose_transient(&engine, &rec, &cfg).expect("baseline");
+        let (rec, cfg, base) = scaled_instrument_fit(&engine, &truth, 7, Signal::Power, 0.985);
         let a = aliases(&engine, &rec, &cfg, &base).expect("aliases");
         let power = a
             .aliases
@@ -384,19 +398,7 @@ mod tests {
             D_GP: 0.5,
             D_EP: 0.8,
         };
-        let mut rec = synthetic_startup(&engine, &truth, 5, true).expect("start-up");
-        for k in 0..rec.len() {
-            if let Some(v) = rec.value(k, Signal::FuelFlow) {
-                rec.set(k, Signal::FuelFlow, v * 1.03).expect("set");
-            }
-        }
-        let cfg = DiagnosisConfig {
-            max_model_runs: 300,
-            lm_runs: 200,
-            threads: Some(2),
-            ..DiagnosisConfig::default()
-        };
-        let base = diagnose_transient(&engine, &rec, &cfg).expect("baseline");
+        let (rec, cfg, base) = scaled_instrument_fit(&engine, &truth, 5, Signal::FuelFlow, 1.03);
         let before: f64 = base
             .health
             .to_array()

@@ -81,16 +81,7 @@ pub fn combine(rows: &[Rollup], period_ms: i64) -> Vec<Rollup> {
         if out.last().is_none_or(|o| o.t_ms != t) {
             finish_mean(out.last_mut(), sum);
             sum = 0.0;
-            out.push(Rollup {
-                t_ms: t,
-                n_good: 0,
-                n_all: 0,
-                min: None,
-                mean: None,
-                max: None,
-                last: None,
-                last_ms: None,
-            });
+            out.push(Rollup::empty(t));
         }
         let Some(o) = out.last_mut() else { continue };
         o.n_all += r.n_all;

@@ -140,6 +140,22 @@ pub struct Rollup {
     pub last_ms: Option<i64>,
 }
 
+impl Rollup {
+    /// The period starting at `t_ms` before anything is added to it.
+    pub(crate) fn empty(t_ms: i64) -> Rollup {
+        Rollup {
+            t_ms,
+            n_good: 0,
+            n_all: 0,
+            min: None,
+            mean: None,
+            max: None,
+            last: None,
+            last_ms: None,
+        }
+    }
+}
+
 fn floor_minute(t: i64) -> i64 {
     t.saturating_sub(t.rem_euclid(MINUTE_MS))
 }
@@ -282,16 +298,7 @@ pub fn rollups(rows: &[super::SampleRow]) -> Vec<Rollup> {
         if out.last().is_none_or(|r| r.t_ms != minute) {
             finish_mean(out.last_mut(), sum);
             sum = 0.0;
-            out.push(Rollup {
-                t_ms: minute,
-                n_good: 0,
-                n_all: 0,
-                min: None,
-                mean: None,
-                max: None,
-                last: None,
-                last_ms: None,
-            });
+            out.push(Rollup::empty(minute));
         }
         let Some(r) = out.last_mut() else { continue };
         r.n_all += 1;
