@@ -15,7 +15,7 @@
 
 use super::{ExportLayout, QueryError};
 use crate::store::{
-    combine_rollups, minute_rollups, Rollup, RollupTier, Store, TagId, HOUR_MS, MINUTE_MS,
+    combine_rollups, floor_to, minute_rollups, Rollup, RollupTier, Store, TagId, HOUR_MS, MINUTE_MS,
 };
 use crate::time::fmt_ms;
 use std::io::Write;
@@ -76,10 +76,6 @@ struct Cell {
     quality: Option<i64>,
     /// Roll-ups only.
     rollup: Option<Rollup>,
-}
-
-fn floor_to(t: i64, p: i64) -> i64 {
-    t.saturating_sub(t.rem_euclid(p))
 }
 
 fn rollup_cell(r: Rollup, res: RowRes) -> Cell {

@@ -42,7 +42,7 @@ mod schema;
 mod stats;
 mod writer;
 pub use retention::{
-    combine as combine_rollups, rollups as minute_rollups, RetainStats, RetentionOutlook,
+    combine as combine_rollups, floor_to, rollups as minute_rollups, RetainStats, RetentionOutlook,
     RetentionPolicy, Rollup, RollupTier, HOUR_MS, MINUTE_MS, VACUUM_STEP_PAGES,
 };
 pub use stats::{FileStats, StoreStats, TierBytes, TierStats};

@@ -21,7 +21,9 @@
 //! Must not: touch raw samples (the minute tier's batches do), decide the policy, or hold the
 //! write lock for more than one batch.
 
-use super::{insert_rollup, Batch, RetainStats, RetentionPolicy, Rollup, Span};
+use super::{
+    finish_mean, floor_to, insert_rollup, Batch, RetainStats, RetentionPolicy, Rollup, Span,
+};
 use crate::config_problem::{check_range, Bounds, ConfigProblem};
 use crate::store::{StorageConfig, Store, StoreError, TagId};
 use rusqlite::{params, Connection, TransactionBehavior};
@@ -50,10 +52,6 @@ impl RollupTier {
             RollupTier::Hour => HOUR_MS,
         }
     }
-}
-
-fn floor_to(t: i64, period: i64) -> i64 {
-    t.saturating_sub(t.rem_euclid(period))
 }
 
 /// Minute rows before this are merged (whole hours), or None when `rollup_1m_days` is 0.
@@ -107,14 +105,6 @@ fn min_opt(a: Option<f64>, b: Option<f64>, pick: fn(f64, f64) -> f64) -> Option<
         (Some(x), Some(y)) => Some(pick(x, y)),
         (x, None) => x,
         (None, y) => y,
-    }
-}
-
-fn finish_mean(r: Option<&mut Rollup>, sum: f64) {
-    if let Some(r) = r {
-        if r.n_good > 0 {
-            r.mean = Some(sum / r.n_good as f64);
-        }
     }
 }
 

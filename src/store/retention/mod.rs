@@ -156,8 +156,13 @@ impl Rollup {
     }
 }
 
+/// The start of the `period`-ms period holding `t` (periods aligned to the Unix epoch).
+pub fn floor_to(t: i64, period: i64) -> i64 {
+    t.saturating_sub(t.rem_euclid(period))
+}
+
 fn floor_minute(t: i64) -> i64 {
-    t.saturating_sub(t.rem_euclid(MINUTE_MS))
+    floor_to(t, MINUTE_MS)
 }
 
 fn ceil_minute(t: i64) -> i64 {
@@ -315,6 +320,7 @@ pub fn rollups(rows: &[super::SampleRow]) -> Vec<Rollup> {
     out
 }
 
+/// Sets the mean of a period just closed from the sum of its good values.
 fn finish_mean(r: Option<&mut Rollup>, sum: f64) {
     if let Some(r) = r {
         if r.n_good > 0 {
