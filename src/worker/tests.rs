@@ -82,15 +82,28 @@ fn worker_diagnoses_a_stored_startup_and_shutdown_leaves_it_pending() {
     let seg = pending[0].id;
     drop(store);
 
-    // Shutdown while the fit runs: nothing written, the segment still pending.
-    let ctx = Arc::new(ctx());
+    // Shutdown while the fit runs: nothing written, the segment still pending. The fit gets a
+    // budget it cannot spend in the half second before shutdown (Method B takes about a
+    // second at 400 runs, less at the tests' 300: a fixed sleep raced it on a fast machine).
+    let slow = Arc::new(
+        WorkerContext::load(
+            None,
+            DiagnosisSettings {
+                threads: 2,
+                max_model_runs: 1_000_000,
+                ..DiagnosisSettings::default()
+            },
+        )
+        .expect("context"),
+    );
+    let ctx = ctx();
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
         .build()
         .expect("runtime");
     let db_path = dir.path().join("w.db");
-    let task_ctx = Arc::clone(&ctx);
+    let task_ctx = Arc::clone(&slow);
     let rep = rt.block_on(async move {
         // The daemon's shape: the task reads read-only and writes through the one writer.
         let (tx, rx) = crate::store::writer_channel(16);
