@@ -20,6 +20,11 @@ pub struct BenchGapArgs {
     /// Seed of the case draw (health vectors, magnitudes, noise).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Analyse only the cases from this index on (0-based; the earlier ones are drawn but not
+    /// analysed, so case k is the same unit and truth as in a full run): re-runs one case of a
+    /// long benchmark.
+    #[arg(long, default_value_t = 0)]
+    pub from_case: usize,
     /// Simulate a second start-up of each unit (other noise) and score candidates on it
     /// (held-out shrinkage; about twice the fits).
     #[arg(long)]
@@ -49,7 +54,7 @@ pub(crate) fn run(a: BenchGapArgs) -> anyhow::Result<ExitCode> {
         return run_sequences(&a, &engine, &cfg, start);
     }
     let run =
-        crate::gap::bench::run_cases(&engine, a.cases, a.seed, &a.kinds, a.holdout, &cfg, |c| {
+        crate::gap::bench::run_cases(&engine, a.cases, a.seed, &a.kinds, a.from_case, a.holdout, &cfg, |c| {
             eprintln!(
                 "case {:3} {:15} → {:20} {} (signature {:.1} σ, shrinkage {:.0} %, \
                  magnitude {:.3} fitted {}, max health error {:.2} → {:.2}, screen rank {}, \

@@ -149,6 +149,7 @@ pub(crate) fn run_cases(
     cases: usize,
     seed: u64,
     only: &[String],
+    from_case: usize,
     holdout: bool,
     cfg: &DiagnosisConfig,
     mut progress: impl FnMut(&Case),
@@ -202,6 +203,11 @@ pub(crate) fn run_cases(
             });
             continue;
         };
+        if index < from_case {
+            // Drawn all the same (the draw is sequential), so case k is the same unit and
+            // truth whatever `from_case` is; only its analysis is left out.
+            continue;
+        }
         let (plant, samples) = drawn.hidden.simulate(engine, &truth)?;
         let rec = drawn
             .hidden
