@@ -44,6 +44,11 @@ pub(crate) struct Case {
     pub(crate) magnitude: f64,
     /// The winning candidate's magnitude in the same unit, when one won.
     pub(crate) fitted_magnitude: Option<f64>,
+    /// The hidden truth as drawn (its form and every parameter; for reading a case, never
+    /// given to the analysis).
+    pub(crate) hidden: String,
+    /// The winning candidate's fitted parameters: name → (value, 1σ) (empty when none won).
+    pub(crate) fitted_params: BTreeMap<String, (f64, f64)>,
     /// The truth's signature, noise σ (worst residual cell against the core model).
     pub(crate) signature_sigma: f64,
     /// Draws of the magnitudes it took to pass [`MIN_SIGNATURE_SIGMA`].
@@ -231,6 +236,8 @@ pub(crate) fn run_cases(
             kind: kind.into(),
             magnitude: drawn.magnitude,
             fitted_magnitude: winner.and_then(|w| truth::fitted_magnitude(&w.effect, &w.params)),
+            hidden: format!("{:?}", drawn.hidden),
+            fitted_params: winner.map(|w| w.params.clone()).unwrap_or_default(),
             signature_sigma: signature,
             draws,
             truth,
