@@ -43,6 +43,17 @@ pub struct BenchGapArgs {
     pub json: bool,
 }
 
+/// The cases `a` asks for.
+fn selection(a: &BenchGapArgs) -> crate::gap::bench::CaseSelection {
+    crate::gap::bench::CaseSelection {
+        cases: a.cases,
+        seed: a.seed,
+        only: a.kinds.clone(),
+        from_case: a.from_case,
+        holdout: a.holdout,
+    }
+}
+
 pub(crate) fn run(a: BenchGapArgs) -> anyhow::Result<ExitCode> {
     let engine = crate::engine::Engine::reference()?;
     let cfg = crate::diagnosis::DiagnosisConfig {
@@ -53,32 +64,31 @@ pub(crate) fn run(a: BenchGapArgs) -> anyhow::Result<ExitCode> {
     if a.sequence > 0 {
         return run_sequences(&a, &engine, &cfg, start);
     }
-    let run =
-        crate::gap::bench::run_cases(&engine, a.cases, a.seed, &a.kinds, a.from_case, a.holdout, &cfg, |c| {
-            eprintln!(
-                "case {:3} {:15} → {:20} {} (signature {:.1} σ, shrinkage {:.0} %, \
+    let run = crate::gap::bench::run_cases(&engine, &selection(&a), &cfg, |c| {
+        eprintln!(
+            "case {:3} {:15} → {:20} {} (signature {:.1} σ, shrinkage {:.0} %, \
                  magnitude {:.3} fitted {}, max health error {:.2} → {:.2}, screen rank {}, \
                  {:.0} s)",
-                c.index,
-                c.kind,
-                if c.verdict_aliases.is_empty() {
-                    c.verdict.clone()
-                } else {
-                    format!("{} [{}]", c.verdict, c.verdict_aliases.join(" "))
-                },
-                if c.correct { "ok" } else { "WRONG" },
-                c.signature_sigma,
-                100.0 * c.shrinkage,
-                c.magnitude,
-                c.fitted_magnitude
-                    .map_or("-".to_string(), |m| format!("{m:.3}")),
-                c.error_before,
-                c.error_after,
-                c.expected_screen_rank
-                    .map_or("-".to_string(), |k| k.to_string()),
-                c.analysis_wall_s
-            );
-        })?;
+            c.index,
+            c.kind,
+            if c.verdict_aliases.is_empty() {
+                c.verdict.clone()
+            } else {
+                format!("{} [{}]", c.verdict, c.verdict_aliases.join(" "))
+            },
+            if c.correct { "ok" } else { "WRONG" },
+            c.signature_sigma,
+            100.0 * c.shrinkage,
+            c.magnitude,
+            c.fitted_magnitude
+                .map_or("-".to_string(), |m| format!("{m:.3}")),
+            c.error_before,
+            c.error_after,
+            c.expected_screen_rank
+                .map_or("-".to_string(), |k| k.to_string()),
+            c.analysis_wall_s
+        );
+    })?;
     let cases = &run.cases;
     let mut v = crate::gap::bench::summarise(&run);
     v["holdout"] = serde_json::json!(a.holdout);

@@ -147,18 +147,35 @@ pub(crate) fn signature_sigma(
         .fold(0.0, f64::max))
 }
 
-/// Runs `cases` cases (cycling through [`KINDS`], or through `only` when not empty) with all
-/// candidates; `holdout` adds a second start-up of each unit to score on.
+/// Which cases a benchmark run draws and analyses.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct CaseSelection {
+    /// Cases drawn, cycling through [`KINDS`] (or `only` when not empty).
+    pub(crate) cases: usize,
+    /// Seed of the draw (health vectors, magnitudes, noise).
+    pub(crate) seed: u64,
+    pub(crate) only: Vec<String>,
+    /// Cases before this index are drawn but not analysed (the draw is sequential, so case k
+    /// is the same unit and truth whatever this is).
+    pub(crate) from_case: usize,
+    /// A second start-up of each unit to score on.
+    pub(crate) holdout: bool,
+}
+
+/// Runs the cases of `sel` with all candidates.
 pub(crate) fn run_cases(
     engine: &Engine,
-    cases: usize,
-    seed: u64,
-    only: &[String],
-    from_case: usize,
-    holdout: bool,
+    sel: &CaseSelection,
     cfg: &DiagnosisConfig,
     mut progress: impl FnMut(&Case),
 ) -> Result<BenchRun, DiagnosisError> {
+    let CaseSelection {
+        cases,
+        seed,
+        ref only,
+        from_case,
+        holdout,
+    } = *sel;
     let known = |k: &str| KINDS.contains(&k) || INPUT_KINDS.contains(&k);
     if let Some(k) = only.iter().find(|k| !known(k.as_str())) {
         return Err(DiagnosisError::Config(format!(
