@@ -333,7 +333,8 @@ fn core_rhs<R>(
     let r = gas.r();
     let m = p2 * 1e3 * c.v_comb / (r * t3);
     let dm = w_air + wf - w3;
-    let h3 = gas.h(t3);
+    // h(T3) of this gas: the HPT's inlet enthalpy (the same call on the same numbers).
+    let h3 = gp.hpt.h_in;
     let u3 = h3 - r * t3;
     let mut d_energy = w_air * gp.compressor.h_out + c.fuel_heat_w(wf) - w3 * h3 - u3 * dm;
     if let Some(cv) = &core {

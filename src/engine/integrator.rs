@@ -223,11 +223,14 @@ impl Ros2 {
         F: FnMut(f64, &V) -> V,
     {
         let n = d.n();
+        // One copy of the state, each column's perturbation undone after it (a copy per column
+        // was a library memcpy: the state vector is 136 bytes).
+        let mut yp = y.clone();
         for j in 0..n {
             let h = 1e-7 * y[j].abs().max(1e-2);
-            let mut yp = y.clone();
             yp[j] += h;
             let fp = f(t, &yp);
+            yp[j] = y[j];
             for i in 0..n {
                 self.jac[i][j] = (fp[i] - f0[i]) / h;
             }
