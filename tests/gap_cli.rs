@@ -110,6 +110,18 @@ fn a_slow_t34_thermocouple_is_found_and_named() {
         v["candidates"]
     );
     assert!(v["verdict"]["shrinkage"].as_f64().expect("shrinkage") > 0.3);
+    // The fit behind the health after is the winner's.
+    let winner = v["candidates"]
+        .as_array()
+        .expect("candidates")
+        .iter()
+        .find(|c| c["effect"] == "sensor_lag:t34_k")
+        .expect("the winner among the candidates");
+    assert_eq!(
+        v["verdict"]["fit_quality_after"], winner["fit_quality"],
+        "{}",
+        v["verdict"]
+    );
     // The SVG: the heat-map, then T34 measured against the model before and after the lag.
     let svg = std::fs::read_to_string(&svg).expect("svg written");
     assert!(svg.starts_with("<svg xmlns") && svg.contains(">t34_k<"));

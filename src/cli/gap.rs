@@ -289,6 +289,19 @@ fn print_report(report: &crate::gap::GapReport) {
             v.aliases.join(", ")
         );
     }
+    let named = !matches!(
+        v.effect.as_str(),
+        "none" | "unexplained" | crate::gap::AMBIGUOUS
+    );
+    if named && v.fit_quality_after != crate::diagnosis::fit_quality::Verdict::Good {
+        // The effect explains part of the gap only: the health after still absorbs the rest.
+        println!(
+            "  with {} the fit is still {}: the plant's effect differs from the library's form, \
+             and the health after carries what it leaves (trust it no more than the fit)",
+            v.effect,
+            v.fit_quality_after.as_str()
+        );
+    }
     let (b, f) = (v.health_before.to_array(), v.health_after.to_array());
     for (i, n) in crate::health::HEALTH_NAMES.iter().enumerate() {
         println!("  {n:5} {:8.3} → {:8.3} %", b[i], f[i]);

@@ -707,6 +707,7 @@ impl Run<'_> {
                 shrinkage: 0.0,
                 health_before: base.health,
                 health_after: base.health,
+                fit_quality_after: base.fit_quality.verdict,
                 aliases: hidden,
             };
         }
@@ -727,6 +728,7 @@ impl Run<'_> {
                     shrinkage: best.score,
                     health_before: base.health,
                     health_after: best.health,
+                    fit_quality_after: best.fit_quality,
                     aliases: Vec::new(),
                 }
             }
@@ -748,6 +750,7 @@ impl Run<'_> {
                     shrinkage: out.first().map_or(0.0, |b| b.score.max(0.0)),
                     health_before: base.health,
                     health_after: base.health,
+                    fit_quality_after: base.fit_quality.verdict,
                     aliases: restoring,
                 }
             }

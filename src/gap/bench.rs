@@ -64,6 +64,8 @@ pub(crate) struct Case {
     pub(crate) train_shrinkage: Option<f64>,
     pub(crate) heldout_shrinkage: Option<f64>,
     pub(crate) baseline_fit_quality: String,
+    /// The fit quality of the model behind `health_after` (the winner's, else the baseline's).
+    pub(crate) fit_quality_after: String,
     pub(crate) error_before: f64,
     pub(crate) error_after: f64,
     pub(crate) health_before: HealthParams,
@@ -269,6 +271,7 @@ pub(crate) fn run_cases(
             train_shrinkage: winner.map(|w| w.train_shrinkage),
             heldout_shrinkage: winner.and_then(|w| w.heldout_shrinkage),
             baseline_fit_quality: r.baseline_fit_quality.as_str().into(),
+            fit_quality_after: r.verdict.fit_quality_after.as_str().into(),
             error_before: max_error(&r.verdict.health_before, &truth),
             error_after: max_error(&r.verdict.health_after, &truth),
             health_before: r.verdict.health_before,
@@ -404,6 +407,12 @@ pub(crate) fn summarise(run: &BenchRun) -> serde_json::Value {
         "max_analysis_wall_s": cases.iter().map(|c| c.analysis_wall_s).fold(0.0, f64::max),
         "fit_quality_flags_bad_cases": rate(&bad, |c| c.baseline_fit_quality != "good"),
         "fit_quality_flags_clean_cases": rate(&nulls, |c| c.baseline_fit_quality != "good"),
+        // In-library cases whose health after the named effect is off by more than 0.3 points:
+        // how many of them the fit after the effect flags (not `good`).
+        "fit_quality_flags_bad_after": rate(
+            &in_lib.iter().copied().filter(|c| c.error_after > 0.3).collect::<Vec<_>>(),
+            |c| c.fit_quality_after != "good"
+        ),
         // Input-channel truths: the channel named, or `ambiguous` with it among the aliases;
         // and the silent failures the acceptance forbids (`none` or a good fit that names
         // nothing while the health is off by more than 0.3 points).

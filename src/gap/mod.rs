@@ -114,6 +114,11 @@ pub(crate) struct GapVerdict {
     pub(crate) shrinkage: f64,
     pub(crate) health_before: HealthParams,
     pub(crate) health_after: HealthParams,
+    /// How well the model behind `health_after` fits: the named effect's fit, else the
+    /// baseline's. Not `good` after a named effect means the effect explains part of the gap
+    /// and the health after still carries the rest (a plant's effect of another form than the
+    /// library's, e.g. a casing with two time constants against one).
+    pub(crate) fit_quality_after: Verdict,
     /// With `ambiguous`: the input instruments the health may be hiding, most plausible first
     /// (instance names, e.g. `fuel_meter`); empty otherwise.
     pub(crate) aliases: Vec<String>,

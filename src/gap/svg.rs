@@ -249,6 +249,7 @@ mod tests {
                 shrinkage: 0.6,
                 health_before: Default::default(),
                 health_after: Default::default(),
+                fit_quality_after: crate::diagnosis::fit_quality::Verdict::Good,
                 aliases: Vec::new(),
             },
             aliases: Default::default(),
