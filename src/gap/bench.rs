@@ -426,3 +426,35 @@ pub(crate) fn summarise(run: &BenchRun) -> serde_json::Value {
         "skipped": run.skipped,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_case_is_the_same_unit_and_start_up_whatever_the_first_analysed_case() {
+        let engine = Engine::reference().expect("engine");
+        let cfg = DiagnosisConfig {
+            threads: Some(1),
+            max_model_runs: 120,
+            ..Default::default()
+        };
+        let selection = |from_case| CaseSelection {
+            cases: 3,
+            seed: 5,
+            only: vec!["none".into()],
+            from_case,
+            holdout: false,
+        };
+        let all = run_cases(&engine, &selection(0), &cfg, |_| {}).expect("all cases");
+        let last = run_cases(&engine, &selection(2), &cfg, |_| {}).expect("from case 2");
+        assert_eq!(all.cases.len(), 3);
+        assert_eq!(last.cases.len(), 1);
+        let (a, b) = (&all.cases[2], &last.cases[0]);
+        assert_eq!(b.index, 2);
+        // The same truth drawn, and the same noisy start-up (the same health fitted to it).
+        assert_eq!(a.truth, b.truth);
+        assert_ne!(all.cases[1].truth, b.truth);
+        assert_eq!(a.health_before, b.health_before);
+    }
+}
