@@ -40,6 +40,22 @@ fn contents(db: &Path) -> Vec<(i64, i64, u64, i64)> {
     out
 }
 
+/// A fresh copy of `original` at `work`, `cmd` run on it and killed with SIGKILL after
+/// `delay`; the file is sound afterwards (`integrity_check`).
+fn killed_run(
+    original: &Path,
+    work: &Path,
+    cmd: impl Fn(&Path) -> Command,
+    delay: std::time::Duration,
+) {
+    copy_db(original, work);
+    let mut child = cmd(work).spawn().expect("spawn");
+    std::thread::sleep(delay);
+    child.kill().expect("kill -9");
+    let _ = child.wait();
+    assert_eq!(common::integrity(work), "ok");
+}
+
 fn copy_db(from: &Path, to: &Path) {
     for suffix in ["", "-wal", "-shm"] {
         let _ = std::fs::remove_file(format!("{}{suffix}", to.display()));
@@ -127,14 +143,9 @@ fn compaction_survives_kill_9_at_random_moments() {
     let mut rng = ChaCha8Rng::seed_from_u64(24_001);
     let (mut kills, mut mid, mut lost, mut duplicated) = (0u32, 0u32, 0u64, 0u64);
     for _ in 0..20 {
-        copy_db(&original, &work);
         let delay = full.mul_f64(rng.random_range(0.0..1.1));
-        let mut child = compact_cmd(&work).spawn().expect("spawn");
-        std::thread::sleep(delay);
-        child.kill().expect("kill -9");
-        let _ = child.wait();
+        killed_run(&original, &work, compact_cmd, delay);
         kills += 1;
-        assert_eq!(common::integrity(&work), "ok");
         let a = archived(&work);
         if a > 0 && a < total as u64 {
             mid += 1;

@@ -3,7 +3,7 @@
 //! roll-ups), and during one run doing both on raw data. Every minute is summarised exactly
 //! once: raw, in `rollups_1m` or in its hour's `rollups_1h` row.
 
-use super::{build_db, common, contents, copy_db, BIN};
+use super::{build_db, common, contents, copy_db, killed_run, BIN};
 use gtwatch::store::Store;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -144,14 +144,9 @@ fn retention_survives_kill_9_at_random_moments() {
     let mut rng = ChaCha8Rng::seed_from_u64(24_002);
     let (mut kills, mut mid, mut lost, mut duplicated) = (0u32, 0u32, 0u64, 0u64);
     for _ in 0..20 {
-        copy_db(&original, &work);
         let delay = full.mul_f64(rng.random_range(0.0..1.1));
-        let mut child = retain_cmd(&work).spawn().expect("spawn");
-        std::thread::sleep(delay);
-        child.kill().expect("kill -9");
-        let _ = child.wait();
+        killed_run(&original, &work, retain_cmd, delay);
         kills += 1;
-        assert_eq!(common::integrity(&work), "ok");
         let raw: std::collections::BTreeSet<_> = contents(&work).into_iter().collect();
         let roll = rollups(&work);
         if !roll.is_empty() && roll.len() < want_roll.len() {
@@ -354,14 +349,9 @@ fn hourly_merge_survives_kill_9_at_random_moments() {
     let mut rng = ChaCha8Rng::seed_from_u64(24_008);
     let (mut kills, mut mid, mut lost, mut duplicated) = (0u32, 0u32, 0u64, 0u64);
     for _ in 0..20 {
-        copy_db(&original, &work);
         let delay = full.mul_f64(rng.random_range(0.0..1.1));
-        let mut child = merge_cmd(&work).spawn().expect("spawn");
-        std::thread::sleep(delay);
-        child.kill().expect("kill -9");
-        let _ = child.wait();
+        killed_run(&original, &work, merge_cmd, delay);
         kills += 1;
-        assert_eq!(common::integrity(&work), "ok");
         let minutes = rollups(&work);
         let hrs = hours(&work);
         if !hrs.is_empty() && hrs.len() < want.len() {
@@ -430,14 +420,9 @@ fn retention_with_hourly_merge_survives_kill_9_at_random_moments() {
     let mut rng = ChaCha8Rng::seed_from_u64(24_018);
     let (mut kills, mut mid_hourly, mut lost, mut duplicated) = (0u32, 0u32, 0u64, 0u64);
     for _ in 0..20 {
-        copy_db(&original, &work);
         let delay = full.mul_f64(rng.random_range(0.0..1.1));
-        let mut child = both(&work).spawn().expect("spawn");
-        std::thread::sleep(delay);
-        child.kill().expect("kill -9");
-        let _ = child.wait();
+        killed_run(&original, &work, &both, delay);
         kills += 1;
-        assert_eq!(common::integrity(&work), "ok");
         let raw: std::collections::BTreeSet<_> = contents(&work).into_iter().collect();
         let (mins, hrs) = (rollups(&work), hours(&work));
         if !hrs.is_empty() && hrs.len() < want_hours.len() {
