@@ -421,7 +421,7 @@ fn retention_with_hourly_merge_survives_kill_9_at_random_moments() {
     let (mut kills, mut mid_hourly, mut lost, mut duplicated) = (0u32, 0u32, 0u64, 0u64);
     for _ in 0..20 {
         let delay = full.mul_f64(rng.random_range(0.0..1.1));
-        killed_run(&original, &work, &both, delay);
+        killed_run(&original, &work, both, delay);
         kills += 1;
         let raw: std::collections::BTreeSet<_> = contents(&work).into_iter().collect();
         let (mins, hrs) = (rollups(&work), hours(&work));
