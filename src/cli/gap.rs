@@ -289,11 +289,9 @@ fn print_report(report: &crate::gap::GapReport) {
             v.aliases.join(", ")
         );
     }
-    let named = !matches!(
-        v.effect.as_str(),
-        "none" | "unexplained" | crate::gap::AMBIGUOUS
-    );
-    if named && v.fit_quality_after != crate::diagnosis::fit_quality::Verdict::Good {
+    if crate::gap::names_effect(&v.effect)
+        && v.fit_quality_after != crate::diagnosis::fit_quality::Verdict::Good
+    {
         // The effect explains part of the gap only: the health after still absorbs the rest.
         println!(
             "  with {} the fit is still {}: the plant's effect differs from the library's form, \

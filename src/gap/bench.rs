@@ -375,7 +375,7 @@ pub(crate) fn summarise(run: &BenchRun) -> serde_json::Value {
         "in_library_cases": in_lib.len(),
         "top1_identification": rate(&in_lib, |c| c.correct),
         "top1_by_kind": per_kind,
-        "false_attribution_on_null": rate(&nulls, |c| !matches!(c.verdict.as_str(), "none" | "unexplained" | super::AMBIGUOUS)),
+        "false_attribution_on_null": rate(&nulls, |c| super::names_effect(&c.verdict)),
         "ambiguous_on_null": rate(&nulls, |c| c.verdict == super::AMBIGUOUS),
         "unexplained_on_out_of_library": rate(&outs, |c| c.verdict == "unexplained"),
         // The verdict's shrinkage over in-library cases, always on data its fit did not see:

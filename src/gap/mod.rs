@@ -60,6 +60,12 @@ use std::collections::BTreeMap;
 /// health is better than new and one of those instruments would make it plausible.
 pub(crate) const AMBIGUOUS: &str = "ambiguous";
 
+/// Whether a verdict's `effect` names an effect or instrument (not `none`, `unexplained` or
+/// [`AMBIGUOUS`]).
+pub(crate) fn names_effect(effect: &str) -> bool {
+    !matches!(effect, "none" | "unexplained" | AMBIGUOUS)
+}
+
 /// Least shrinkage of the gap (fraction of the baseline SSR) a candidate must reach to be named.
 pub(crate) const MIN_SHRINKAGE: f64 = 0.3;
 /// Extra baseline fits with other optimiser seeds that measure the optimiser's own spread.

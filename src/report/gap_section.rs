@@ -22,7 +22,7 @@ pub(super) fn render(rows: &[GapAnalysisRow]) -> String {
     }
     let named = rows
         .iter()
-        .filter(|r| !matches!(r.effect.as_str(), "none" | "unexplained" | "ambiguous"))
+        .filter(|r| crate::gap::names_effect(&r.effect))
         .count();
     let unexplained = rows.iter().filter(|r| r.effect == "unexplained").count();
     let ambiguous = rows.iter().filter(|r| r.effect == "ambiguous").count();
