@@ -140,17 +140,36 @@ impl Engine {
         Ok(())
     }
 
-    /// A copy with several engine-file numbers set at once and the design calibrated once
-    /// (what `set_param` in a loop would give, at the cost of one calibration). Errors name the
-    /// first key refused; `self` is never changed.
     /// A copy built from `cfg` (validated) on this engine's maps, without reading map files
     /// again: for a structural change of the file, such as a new `[adaptation]` section, that
-    /// numbers alone cannot make. `cfg`'s map paths are not re-read.
+    /// numbers alone cannot make. A `cfg` naming other map files or another interpolation is
+    /// refused (the maps it holds were loaded for this engine's; `Engine::new` reads them):
+    /// built on these maps it would silently be another engine than its file says.
     pub fn with_config(&self, cfg: EngineConfig) -> Result<Engine, EngineError> {
         cfg.validate("<with_config>")?;
+        let (old, new) = (&self.cfg().maps, &cfg.maps);
+        let changed = [
+            (
+                "maps.compressor_file",
+                old.compressor_file != new.compressor_file,
+            ),
+            ("maps.hpt_file", old.hpt_file != new.hpt_file),
+            ("maps.pt_file", old.pt_file != new.pt_file),
+            ("maps.interpolation", old.interpolation != new.interpolation),
+        ];
+        if let Some((key, _)) = changed.iter().find(|(_, c)| *c) {
+            return Err(EngineError::Param {
+                key: (*key).to_string(),
+                reason: "differs from the engine's loaded maps; build the engine from the file                          (Engine::new) to load other maps"
+                    .into(),
+            });
+        }
         Engine::calibrate(cfg, self.raw_maps().clone())
     }
 
+    /// A copy with several engine-file numbers set at once and the design calibrated once
+    /// (what `set_param` in a loop would give, at the cost of one calibration). Errors name the
+    /// first key refused; `self` is never changed.
     pub fn with_params(&self, values: &[(String, f64)]) -> Result<Engine, EngineError> {
         let mut cfg = self.cfg().clone();
         for (key, v) in values {
@@ -167,6 +186,23 @@ mod tests {
 
     fn engine() -> Engine {
         Engine::reference().expect("reference engine")
+    }
+
+    #[test]
+    fn with_config_refuses_other_maps_than_it_holds() {
+        let e = engine();
+        let mut cfg = e.cfg().clone();
+        cfg.maps.interpolation = crate::engine::config::MapInterpolation::Cubic;
+        let err = e.with_config(cfg).expect_err("other interpolation refused");
+        assert!(err.to_string().contains("maps.interpolation"), "{err}");
+        let mut cfg = e.cfg().clone();
+        cfg.maps.pt_file = "elsewhere.map".into();
+        let err = e.with_config(cfg).expect_err("other map file refused");
+        assert!(err.to_string().contains("maps.pt_file"), "{err}");
+        // Numbers and sections other than the maps' files still go through.
+        let mut cfg = e.cfg().clone();
+        cfg.design.power_mw *= 1.01;
+        assert!(e.with_config(cfg).is_ok());
     }
 
     #[test]
