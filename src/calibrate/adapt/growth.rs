@@ -1,0 +1,346 @@
+//! The adaptation's growth (steps 1–3 of the parent module): the curves the data identify at
+//! one knot, their fit, then one knot more per component while every knot stays identified
+//! and the fit gains, and the report. Must not do I/O.
+
+use super::super::CalibrateError;
+use super::knots::knots;
+use super::shape::{key, Shape};
+use super::{
+    candidates_for, fit, identify_at, report, rms_of, with_shape, AdaptReport, Ctx, Pass,
+    SpeedRanges, MIN_GAIN,
+};
+use crate::engine::config::{curves_of, COMPONENTS};
+use crate::engine::Engine;
+
+/// The adaptation in progress: the shape fitted so far, the engine with it, and what the
+/// report will say.
+pub(super) struct Growth<'a> {
+    ctx: Ctx<'a>,
+    ranges: Vec<[f64; 2]>,
+    /// The most knots each component's speeds support.
+    max_level: Vec<usize>,
+    /// What sets each component's most knots (for the report).
+    limit: Vec<String>,
+    shape: Shape,
+    current: Engine,
+    /// The design values still free beside the curves (identified at the last pass).
+    design_free: Vec<String>,
+    runs: usize,
+    steps: Vec<String>,
+    not_fitted: [Vec<(String, String)>; 3],
+    knots_reason: [String; 3],
+    /// Knots per component, and whether a component has stopped growing.
+    level: Vec<usize>,
+    frozen: [bool; 3],
+    /// σ of the keys at the last accepted growth's identifiability pass.
+    last_sigma: Vec<(String, Option<f64>)>,
+}
+
+impl<'a> Growth<'a> {
+    /// Level 1: every curve of every component with a speed range, one knot at its lowest
+    /// speed; the curves (and design values) the data do not identify are dropped.
+    pub(super) fn first_level(
+        engine: &Engine,
+        design_keys: &[String],
+        ctx: Ctx<'a>,
+        speeds: SpeedRanges,
+    ) -> Result<Self, CalibrateError> {
+        let SpeedRanges {
+            ranges,
+            max_level,
+            limit,
+        } = speeds;
+        let mut not_fitted: [Vec<(String, String)>; 3] = Default::default();
+        let mut knots_reason: [String; 3] = Default::default();
+        let mut shape = Shape {
+            knots: Default::default(),
+            curves: Default::default(),
+        };
+        for (ci, name) in COMPONENTS.iter().enumerate() {
+            if max_level[ci] == 0 {
+                knots_reason[ci] = format!(
+                    "the data's relative speeds ({:.3}…{:.3}) reach no lower than 0.97: no knot \
+                     below the design speed to fit (curves above it are not offered)",
+                    ranges[ci][0], ranges[ci][1]
+                );
+                continue;
+            }
+            shape.knots[ci] = knots(ranges[ci][0], 1);
+            shape.curves[ci] = curves_of(name)
+                .iter()
+                .map(|c| (c.to_string(), vec![0.0]))
+                .collect();
+        }
+        let base = engine
+            .with_config(with_shape(engine, &shape))
+            .map_err(|e| CalibrateError::Model(e.to_string()))?;
+        let mut keys: Vec<String> = design_keys.to_vec();
+        keys.extend(shape.keys());
+        let cands = candidates_for(&base, &keys)?;
+        let pass = identify_at(&base, &cands, ctx)?;
+        // Keep the identified curves.
+        for (ci, name) in COMPONENTS.iter().enumerate() {
+            let mut kept = Vec::new();
+            for (curve, values) in std::mem::take(&mut shape.curves[ci]) {
+                let k = key(name, &curve, 0);
+                match keys.iter().position(|x| *x == k) {
+                    Some(j) if pass.identified[j] => kept.push((curve, values)),
+                    Some(j) => not_fitted[ci].push((curve, pass.reasons[j].clone())),
+                    None => {}
+                }
+            }
+            shape.curves[ci] = kept;
+            if shape.curves[ci].is_empty() && max_level[ci] > 0 {
+                shape.knots[ci].clear();
+                knots_reason[ci] =
+                    "no curve of this component is identifiable from these data".into();
+            }
+        }
+        let design_free: Vec<String> = design_keys
+            .iter()
+            .filter(|k| {
+                keys.iter()
+                    .position(|x| x == *k)
+                    .is_some_and(|j| pass.identified[j])
+            })
+            .cloned()
+            .collect();
+        let current = base
+            .with_config(with_shape(&base, &shape))
+            .map_err(|e| CalibrateError::Model(e.to_string()))?;
+        Ok(Self {
+            ctx,
+            ranges,
+            max_level,
+            limit,
+            shape,
+            current,
+            design_free,
+            runs: pass.runs,
+            steps: Vec::new(),
+            not_fitted,
+            knots_reason,
+            level: Vec::new(),
+            frozen: [false; 3],
+            last_sigma: Vec::new(),
+        })
+    }
+
+    /// No curve is identifiable at one knot: the adaptation has nothing to fit.
+    pub(super) fn nothing_to_fit(&self) -> bool {
+        self.shape.keys().is_empty()
+    }
+
+    /// The report and the engine as they are, when [`Self::nothing_to_fit`].
+    pub(super) fn unfitted(self, rms_before: f64) -> Result<(AdaptReport, Engine), CalibrateError> {
+        let mut r = report(
+            &self.shape,
+            &self.ranges,
+            self.not_fitted,
+            self.knots_reason,
+            &[],
+            &[],
+        );
+        r.rms_before = rms_before;
+        r.rms_after = rms_of(&self.current, self.ctx)?;
+        r.model_runs = self.runs;
+        Ok((r, self.current))
+    }
+
+    /// Fits the one-knot shape.
+    pub(super) fn fit_first(&mut self) -> Result<(), CalibrateError> {
+        let mut all: Vec<String> = self.design_free.clone();
+        all.extend(self.shape.keys());
+        let cands = candidates_for(&self.current, &all)?;
+        let (fitted, n, step) = fit(&self.current, cands, &self.shape, self.ctx)?;
+        self.runs += n;
+        self.steps.push(format!("1 knot per component: {step}"));
+        self.current = fitted;
+        self.shape.read_back(&self.current);
+        self.level = (0..3).map(|ci| self.shape.knots[ci].len()).collect();
+        Ok(())
+    }
+
+    /// One knot more on every component still growing, kept (and fitted) where every knot
+    /// stays identified. `false` when nothing grew: the adaptation is complete.
+    pub(super) fn grow(&mut self) -> Result<bool, CalibrateError> {
+        let growing: Vec<usize> = (0..3)
+            .filter(|&ci| {
+                !self.frozen[ci]
+                    && !self.shape.curves[ci].is_empty()
+                    && self.level[ci] < self.max_level[ci]
+            })
+            .collect();
+        self.freeze_full();
+        if growing.is_empty() {
+            return Ok(false);
+        }
+        let mut trial = self.shape.clone();
+        for &ci in &growing {
+            trial = trial.resampled(ci, knots(self.ranges[ci][0], self.level[ci] + 1));
+        }
+        let trial_engine = self
+            .current
+            .with_config(with_shape(&self.current, &trial))
+            .map_err(|e| CalibrateError::Model(e.to_string()))?;
+        let mut keys: Vec<String> = self.design_free.clone();
+        keys.extend(trial.keys());
+        let pass = identify_at(
+            &trial_engine,
+            &candidates_for(&trial_engine, &keys)?,
+            self.ctx,
+        )?;
+        self.runs += pass.runs;
+        let level_before = self.level.clone();
+        let design_before = self.design_free.clone();
+        let Some(next) = self.accepted(&growing, &trial, &keys, &pass) else {
+            return Ok(false);
+        };
+        self.design_free.retain(|k| {
+            keys.iter()
+                .position(|x| x == k)
+                .is_some_and(|j| pass.identified[j])
+        });
+        let start = self
+            .current
+            .with_config(with_shape(&self.current, &next))
+            .map_err(|e| CalibrateError::Model(e.to_string()))?;
+        let mut all: Vec<String> = self.design_free.clone();
+        all.extend(next.keys());
+        let (fitted, n, step) = fit(&start, candidates_for(&start, &all)?, &next, self.ctx)?;
+        self.runs += n;
+        self.steps.push(format!("knots {:?}: {step}", self.level));
+        // More knots can only fit the data better at the optimum; a fit that does not (by
+        // MIN_GAIN) stopped short of it, or the knots add nothing the data support: either way
+        // the smaller shape is the better guess between the points, so keep it and stop.
+        let (rms_old, rms_new) = (rms_of(&self.current, self.ctx)?, rms_of(&fitted, self.ctx)?);
+        if rms_new > rms_old * (1.0 - MIN_GAIN) {
+            for (ci, frozen) in self.frozen.iter_mut().enumerate() {
+                if self.level[ci] != level_before[ci] {
+                    *frozen = true;
+                    self.knots_reason[ci] = format!(
+                        "{} knot(s): at {} the fit was no better (data RMS {rms_old:.3} → \
+                         {rms_new:.3} σ), so the shape with fewer knots is kept",
+                        level_before[ci], self.level[ci]
+                    );
+                }
+            }
+            self.steps.push(format!(
+                "knots {:?} not kept: data RMS {rms_old:.3} → {rms_new:.3} σ",
+                self.level
+            ));
+            self.level = level_before;
+            self.design_free = design_before;
+            return Ok(false);
+        }
+        self.current = fitted;
+        self.shape = next;
+        self.shape.read_back(&self.current);
+        self.last_sigma = keys
+            .iter()
+            .cloned()
+            .zip(pass.sigma.iter().copied())
+            .collect();
+        Ok(true)
+    }
+
+    /// Freezes each component that has as many knots as its speeds support.
+    fn freeze_full(&mut self) {
+        for ci in 0..3 {
+            if !self.shape.curves[ci].is_empty()
+                && self.level[ci] >= self.max_level[ci]
+                && !self.frozen[ci]
+            {
+                self.knots_reason[ci] = format!("{} knot(s): {}", self.level[ci], self.limit[ci]);
+                self.frozen[ci] = true;
+            }
+        }
+    }
+
+    /// The shape with the growth of each `growing` component whose knots `pass` all
+    /// identifies (the others frozen, with the reason); `None` when none grew.
+    fn accepted(
+        &mut self,
+        growing: &[usize],
+        trial: &Shape,
+        keys: &[String],
+        pass: &Pass,
+    ) -> Option<Shape> {
+        let mut accepted = false;
+        let mut next = self.shape.clone();
+        for &ci in growing {
+            let name = COMPONENTS[ci];
+            let bad: Vec<String> = trial.curves[ci]
+                .iter()
+                .flat_map(|(curve, values)| (0..values.len()).map(move |i| key(name, curve, i)))
+                .filter(|k| {
+                    keys.iter()
+                        .position(|x| x == k)
+                        .is_none_or(|j| !pass.identified[j])
+                })
+                .collect();
+            if bad.is_empty() {
+                next.knots[ci] = trial.knots[ci].clone();
+                next.curves[ci] = trial.curves[ci].clone();
+                self.level[ci] += 1;
+                accepted = true;
+            } else {
+                self.frozen[ci] = true;
+                self.knots_reason[ci] = format!(
+                    "{} knot(s): at {} the identifiability analysis no longer identifies {}",
+                    self.level[ci],
+                    self.level[ci] + 1,
+                    bad.join(", ")
+                );
+            }
+        }
+        accepted.then_some(next)
+    }
+
+    /// The report and the adapted engine. σ of the final knots: from the last
+    /// identifiability pass at the final count, else a pass now.
+    pub(super) fn finish(
+        mut self,
+        rms_before: f64,
+    ) -> Result<(AdaptReport, Engine), CalibrateError> {
+        let final_keys: Vec<String> = self
+            .design_free
+            .iter()
+            .cloned()
+            .chain(self.shape.keys())
+            .collect();
+        let sigma: Vec<(String, Option<f64>)> = if final_keys
+            .iter()
+            .all(|k| self.last_sigma.iter().any(|(x, _)| x == k))
+        {
+            std::mem::take(&mut self.last_sigma)
+        } else {
+            let cands = candidates_for(&self.current, &final_keys)?;
+            let pass = identify_at(&self.current, &cands, self.ctx)?;
+            self.runs += pass.runs;
+            final_keys.iter().cloned().zip(pass.sigma).collect()
+        };
+        let bounds: Vec<(String, f64, f64)> = candidates_for(&self.current, &self.shape.keys())?
+            .into_iter()
+            .map(|c| {
+                let r = crate::engine::config::param_range(&c.key)
+                    .map_or((f64::NEG_INFINITY, f64::INFINITY), |r| (r.min, r.max));
+                (c.key, r.0, r.1)
+            })
+            .collect();
+        let mut r = report(
+            &self.shape,
+            &self.ranges,
+            self.not_fitted,
+            self.knots_reason,
+            &sigma,
+            &bounds,
+        );
+        r.rms_before = rms_before;
+        r.rms_after = rms_of(&self.current, self.ctx)?;
+        r.design_refitted = self.design_free;
+        r.model_runs = self.runs;
+        r.steps = self.steps;
+        Ok((r, self.current))
+    }
+}

@@ -1,0 +1,376 @@
+//! Off-design adaptation to one unit (issue 22 item 1): after the design values are calibrated,
+//! bend the maps away from the design point with modification curves of each component's
+//! relative corrected speed (`[adaptation]`, evaluated by `maps::adapt`), fitted to all the
+//! baseline's operating points at once.
+//!
+//! Why: design-point scalers move a whole map; a unit of another make has other speed lines
+//! (another pressure ratio at 68 % speed, another efficiency fall-off, variable stators), which
+//! no design value can bend. The multiple-point adaptation literature (Stamatis et al. 1990's
+//! modification factors, Li & Pilidis 2010's non-linear scaling-factor functions, Tsoutsanis et
+//! al. 2014's map tuning) fits such corrections; here they are smooth curves, zero at the design
+//! speed by construction (so they never alias the design table), and the data decide how much
+//! shape they support:
+//!
+//! 1. **Which curves.** Each component gets one knot at the lowest relative speed the data reach
+//!    (a curve is then a smooth ramp from the design speed down). The Jacobian of the noise-scaled
+//!    residuals over the design parameters and all eight curves (compressor speed re-labelling,
+//!    flow, efficiency, (PR − 1); HPT and PT flow and efficiency) goes through the calibration's
+//!    identifiability analysis (`identify`): only curves it identifies are fitted.
+//! 2. **How many knots.** A component's knots grow one at a time (evenly spaced from its lowest
+//!    speed towards the design speed, the fitted curve re-sampled as the start) while the
+//!    identifiability analysis still identifies every knot of its curves at the new count, up to
+//!    [`AdaptSettings::max_knots`] and one knot fewer than the distinct speeds the data hold,
+//!    and the fit at the new count lowers the data's RMS residual by [`MIN_GAIN`] (else the
+//!    smaller shape is kept: a fit from the re-sampled curves can end worse than it started).
+//! 3. **Fit.** Bounded Levenberg–Marquardt over the identified design values and every knot,
+//!    with a smoothness penalty (each curve's second divided difference over
+//!    [`AdaptSettings::curvature_scale`] is one residual), so a knot the data barely pin cannot
+//!    wiggle.
+//!
+//! What it must not do: I/O; fit health (a baseline is healthy by definition).
+
+mod growth;
+mod knots;
+mod shape;
+
+use super::candidates::{candidate, Candidate};
+use super::identify::identify;
+use super::problem::{CalibrationPoint, CalibrationProblem};
+use super::startup::RestReading;
+use super::CalibrateError;
+use crate::engine::config::COMPONENTS;
+use crate::engine::steady::solve;
+use crate::engine::Engine;
+use crate::health::HealthParams;
+use crate::optim::lm::jacobian_unit;
+use crate::optim::{refine, JacobianOptions, LmOptions, Problem};
+use crate::signals::Signal;
+use growth::Growth;
+use knots::{distinct_speeds, knot_limit};
+use rayon::ThreadPool;
+use serde::Serialize;
+use shape::{key, Shape};
+
+/// Levenberg–Marquardt iterations each adaptation fit gets at least: the curves move the
+/// model far (tens of noise σ) and a fit stopped early leaves the next knot count a worse start.
+pub const ADAPT_MIN_ITERATIONS: usize = 100;
+
+/// Least relative drop of the data's RMS residual a knot more must bring to be kept.
+const MIN_GAIN: f64 = 0.02;
+
+/// Settings of the adaptation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AdaptSettings {
+    /// Most knots per component (the anchor at the design speed not counted).
+    pub max_knots: usize,
+    /// A curve's second divided difference (per unit relative speed squared) that costs one
+    /// noise σ in the fit: the smoothness penalty's scale.
+    pub curvature_scale: f64,
+}
+
+impl Default for AdaptSettings {
+    fn default() -> Self {
+        Self {
+            // 6: on a foreign unit's 9 loads (tests/foreign_engine.rs) 4 knots left the baseline
+            // itself 0.9 % off on T2 and predicted left-out loads at 0.91 % mean; 6 (the data
+            // allow 6–7 there) 0.56 %, and 8 no better (0.58 %) (every growth kept, before
+            // MIN_GAIN).
+            max_knots: 6,
+            curvature_scale: 2.0,
+        }
+    }
+}
+
+/// One fitted curve.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CurveFit {
+    pub curve: String,
+    /// Fractional corrections at the component's knots.
+    pub values: Vec<f64>,
+    /// 1σ of each value (linearised, within the fitted set).
+    pub sigma: Vec<Option<f64>>,
+    /// A value ended on the bound of its interval: the data want more than the interval
+    /// allows (widen it with `--params` or check the data), not an identified value.
+    pub at_bound: bool,
+}
+
+/// One component's adaptation.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ComponentFit {
+    pub component: String,
+    /// Lowest and highest relative corrected speed of the data on the calibrated engine.
+    pub speed_range: [f64; 2],
+    /// Knot speeds chosen (the anchor 1.0 implicit).
+    pub knots: Vec<f64>,
+    pub curves: Vec<CurveFit>,
+    /// Curves not fitted, with the reason.
+    pub not_fitted: Vec<(String, String)>,
+    /// Why the knot count stopped where it did.
+    pub knots_reason: String,
+}
+
+/// The adaptation's report.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AdaptReport {
+    pub components: Vec<ComponentFit>,
+    /// RMS residual (noise σ) before (design calibration only) and after the adaptation.
+    pub rms_before: f64,
+    pub rms_after: f64,
+    /// Design keys refitted beside the curves (identified at the final knot count).
+    pub design_refitted: Vec<String>,
+    /// Each fit of the growing shape: knots per component, LM outcome, RMS.
+    pub steps: Vec<String>,
+    pub model_runs: usize,
+}
+
+/// Relative corrected speed of each component at each point: from the measured GG speed, T1,
+/// PT speed and T34 where the point has them, else from `engine`'s solution (healthy; the
+/// HPT's inlet temperature is always the model's).
+fn relative_speeds(
+    engine: &Engine,
+    points: &[CalibrationPoint],
+) -> Result<[Vec<f64>; 3], CalibrateError> {
+    let d = engine.design();
+    let nc = |n: f64, t: f64| n / (t / 288.15).sqrt();
+    let design = [
+        nc(d.n1_rpm, d.t1_k),
+        nc(d.n1_rpm, d.t3_k),
+        nc(d.n2_rpm, d.t34_k),
+    ];
+    let mut out: [Vec<f64>; 3] = [Vec::new(), Vec::new(), Vec::new()];
+    for p in points {
+        let inp = &p.data.inputs;
+        let m = engine.model_at(&HealthParams::HEALTHY, inp.t_amb_k, inp.p_amb_kpa);
+        let s = solve(&m, inp, None)
+            .map_err(|e| CalibrateError::Model(format!("line {}: steady solve: {e}", p.line)))?
+            .stations;
+        // Measured speeds and temperatures where the point has them (the model's speeds are
+        // outputs, and on a foreign unit far from the truth before the adaptation).
+        let measured = |sig: Signal| {
+            p.data
+                .outputs
+                .iter()
+                .find(|(x, _, _)| *x == sig)
+                .map(|&(_, v, _)| v)
+        };
+        let n1 = measured(Signal::N1).unwrap_or(s.n1_rpm);
+        let t34 = measured(Signal::T34).unwrap_or(s.t34_k);
+        out[0].push(nc(n1, inp.t_amb_k) / design[0]);
+        out[1].push(nc(n1, s.t3_k) / design[1]);
+        out[2].push(nc(inp.n2_rpm, t34) / design[2]);
+    }
+    Ok(out)
+}
+
+/// What every step works on: the data, the threads, the settings.
+#[derive(Clone, Copy)]
+pub struct Ctx<'a> {
+    pub points: &'a [CalibrationPoint],
+    pub rest: &'a [RestReading],
+    pub pool: &'a ThreadPool,
+    pub settings: &'a AdaptSettings,
+    /// Levenberg–Marquardt iterations per fit.
+    pub max_iterations: usize,
+}
+
+/// What one identifiability pass says of the candidates `cands` at `engine`.
+struct Pass {
+    identified: Vec<bool>,
+    sigma: Vec<Option<f64>>,
+    reasons: Vec<String>,
+    runs: usize,
+}
+
+fn identify_at(engine: &Engine, cands: &[Candidate], ctx: Ctx) -> Result<Pass, CalibrateError> {
+    let prob = CalibrationProblem::new(
+        engine,
+        ctx.points.to_vec(),
+        ctx.rest.to_vec(),
+        cands.to_vec(),
+    )?;
+    let x0 = prob.guesses();
+    let r0 = prob.residuals_at(&x0)?;
+    let u0 = prob.bounds().to_unit(&x0);
+    let jac_opts = JacobianOptions::default()
+        .with_step(1e-3)
+        .map_err(|e| CalibrateError::Optim(e.to_string()))?;
+    let (jac, failed, _) = jacobian_unit(&prob, &u0, &r0, &jac_opts, ctx.pool);
+    let names: Vec<String> = cands.iter().map(|c| c.key.clone()).collect();
+    let verdicts = identify(&jac, &names);
+    Ok(Pass {
+        identified: verdicts
+            .iter()
+            .zip(&failed)
+            .map(|(v, f)| v.identifiable && !f)
+            .collect(),
+        sigma: verdicts
+            .iter()
+            .zip(cands)
+            .map(|(v, c)| v.sigma_fraction.map(|s| s * (c.upper - c.lower)))
+            .collect(),
+        reasons: verdicts.into_iter().map(|v| v.reason).collect(),
+        runs: prob.runs(),
+    })
+}
+
+/// Candidates for `keys` on `engine`, intervals around its current values.
+fn candidates_for(engine: &Engine, keys: &[String]) -> Result<Vec<Candidate>, CalibrateError> {
+    keys.iter().map(|k| candidate(engine, k)).collect()
+}
+
+/// LM over `cands` on `engine` with the shape's smoothness rows; the engine at the optimum.
+fn fit(
+    engine: &Engine,
+    cands: Vec<Candidate>,
+    shape: &Shape,
+    ctx: Ctx,
+) -> Result<(Engine, usize, String), CalibrateError> {
+    let keys: Vec<String> = cands.iter().map(|c| c.key.clone()).collect();
+    let rows = shape.smoothness(&keys, ctx.settings.curvature_scale);
+    let prob = CalibrationProblem::new(engine, ctx.points.to_vec(), ctx.rest.to_vec(), cands)?
+        .with_smoothness(rows);
+    let jac_opts = JacobianOptions::default()
+        .with_step(1e-3)
+        .map_err(|e| CalibrateError::Optim(e.to_string()))?;
+    let opts = LmOptions::default()
+        .with_jacobian(jac_opts)
+        .and_then(|o| o.with_max_iterations(ctx.max_iterations.max(ADAPT_MIN_ITERATIONS)))
+        .and_then(|o| o.with_ftol(1e-8))
+        .and_then(|o| o.with_xtol(1e-7))
+        .map_err(|e| CalibrateError::Optim(e.to_string()))?;
+    let out = refine(&prob, &prob.guesses(), &opts, ctx.pool)
+        .map_err(|e| CalibrateError::Optim(e.to_string()))?;
+    let step = format!(
+        "{} free ({} knots): {} LM iteration(s), stop {:?}, RMS {:.2} σ (smoothness included)",
+        keys.len(),
+        shape.keys().len(),
+        out.iterations,
+        out.stop,
+        (out.ssr / prob.layout().len().max(1) as f64).sqrt()
+    );
+    Ok((prob.engine_at(&out.x)?, prob.runs(), step))
+}
+
+fn rms_of(engine: &Engine, ctx: Ctx) -> Result<f64, CalibrateError> {
+    let r = super::residuals_of(engine, ctx.points, ctx.rest)?;
+    Ok(super::rms(&r))
+}
+
+/// Adapts `engine` (design values already calibrated) to `points`; `design_keys` are the
+/// design values identified before, which stay free beside the curves while they remain
+/// identifiable. Returns the report and the adapted engine.
+///
+/// The steps: the speed ranges the data cover; one knot per component at its lowest speed,
+/// keeping the curves the data identify, and its fit; the knots grown while every knot stays
+/// identified; the σ of the final knots and the report.
+pub fn adapt(
+    engine: &Engine,
+    design_keys: &[String],
+    ctx: Ctx,
+) -> Result<(AdaptReport, Engine), CalibrateError> {
+    let rms_before = rms_of(engine, ctx)?;
+    let speeds = speed_ranges(engine, ctx)?;
+    let mut g = Growth::first_level(engine, design_keys, ctx, speeds)?;
+    if g.nothing_to_fit() {
+        return g.unfitted(rms_before);
+    }
+    g.fit_first()?;
+    while g.grow()? {}
+    g.finish(rms_before)
+}
+
+/// What the data's relative speeds allow, per component (order of [`COMPONENTS`]).
+struct SpeedRanges {
+    /// Lowest and highest relative corrected speed.
+    ranges: Vec<[f64; 2]>,
+    /// The most knots the speeds support (0 when they reach no lower than 0.97).
+    max_level: Vec<usize>,
+    /// What sets each `max_level`, for the report.
+    limit: Vec<String>,
+}
+
+/// Each component's range of relative speeds in the data, and the most knots those speeds
+/// support.
+fn speed_ranges(engine: &Engine, ctx: Ctx) -> Result<SpeedRanges, CalibrateError> {
+    let speeds = relative_speeds(engine, ctx.points)?;
+    let range = |v: &[f64]| {
+        [
+            v.iter().copied().fold(f64::INFINITY, f64::min),
+            v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        ]
+    };
+    let ranges: Vec<[f64; 2]> = speeds.iter().map(|v| range(v)).collect();
+    let (max_level, limit): (Vec<usize>, Vec<String>) = speeds
+        .iter()
+        .zip(&ranges)
+        .map(|(v, r)| {
+            if r[0] >= 0.97 {
+                return (0, String::new());
+            }
+            knot_limit(distinct_speeds(v), r[0], ctx.settings.max_knots)
+        })
+        .unzip();
+    Ok(SpeedRanges {
+        ranges,
+        max_level,
+        limit,
+    })
+}
+
+/// `engine`'s file with the adaptation section of `shape`.
+fn with_shape(engine: &Engine, shape: &Shape) -> crate::engine::EngineConfig {
+    let mut cfg = engine.cfg().clone();
+    cfg.adaptation = shape.config();
+    cfg
+}
+
+fn report(
+    shape: &Shape,
+    ranges: &[[f64; 2]],
+    not_fitted: [Vec<(String, String)>; 3],
+    knots_reason: [String; 3],
+    sigma: &[(String, Option<f64>)],
+    bounds: &[(String, f64, f64)],
+) -> AdaptReport {
+    let components = COMPONENTS
+        .iter()
+        .enumerate()
+        .zip(not_fitted)
+        .zip(knots_reason)
+        .map(|(((ci, name), not_fitted), knots_reason)| ComponentFit {
+            component: name.to_string(),
+            speed_range: ranges[ci],
+            knots: shape.knots[ci].clone(),
+            curves: shape.curves[ci]
+                .iter()
+                .map(|(curve, values)| {
+                    let keys: Vec<String> =
+                        (0..values.len()).map(|i| key(name, curve, i)).collect();
+                    CurveFit {
+                        curve: curve.clone(),
+                        values: values.clone(),
+                        sigma: keys
+                            .iter()
+                            .map(|k| sigma.iter().find(|(x, _)| x == k).and_then(|(_, s)| *s))
+                            .collect(),
+                        at_bound: keys.iter().zip(values).any(|(k, v)| {
+                            bounds.iter().any(|(x, lo, hi)| {
+                                x == k && ((v - lo).abs() < 1e-4 || (hi - v).abs() < 1e-4)
+                            })
+                        }),
+                    }
+                })
+                .collect(),
+            not_fitted,
+            knots_reason,
+        })
+        .collect();
+    AdaptReport {
+        components,
+        rms_before: 0.0,
+        rms_after: 0.0,
+        design_refitted: Vec::new(),
+        steps: Vec::new(),
+        model_runs: 0,
+    }
+}

@@ -1,0 +1,119 @@
+//! The adaptation's shape during the fit: per component its knots and the values of its
+//! active curves, as the engine file's `[adaptation]` section, the fit's parameter keys and
+//! the smoothness rows of the penalty. Must not fit (that is the parent module's `fit`).
+
+use super::super::problem::SmoothnessRow;
+use crate::engine::config::{AdaptationConfig, ComponentCurves, COMPONENTS};
+use crate::engine::Engine;
+use crate::maps::SpeedCurve;
+
+/// The key of knot `i` of `curve` of `component`.
+pub(super) fn key(component: &str, curve: &str, i: usize) -> String {
+    format!("adaptation.{component}.{curve}[{i}]")
+}
+
+/// State of the fit: per component its knots and the values of its active curves.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Shape {
+    /// Per component (order of [`COMPONENTS`]): knots (empty = not adapted).
+    pub(super) knots: [Vec<f64>; 3],
+    /// Per component: active curves and their values at the knots.
+    pub(super) curves: [Vec<(String, Vec<f64>)>; 3],
+}
+
+impl Shape {
+    pub(super) fn config(&self) -> Option<AdaptationConfig> {
+        let mut a = AdaptationConfig::default();
+        let mut any = false;
+        for (ci, name) in COMPONENTS.iter().enumerate() {
+            if self.knots[ci].is_empty() || self.curves[ci].is_empty() {
+                continue;
+            }
+            let mut c = ComponentCurves {
+                speed_knots: self.knots[ci].clone(),
+                ..Default::default()
+            };
+            for (curve, values) in &self.curves[ci] {
+                if let Some(slot) = c.curve_mut(curve) {
+                    *slot = values.clone();
+                }
+            }
+            if let Some(slot) = a.component_mut(name) {
+                *slot = Some(c);
+                any = true;
+            }
+        }
+        any.then_some(a)
+    }
+
+    /// Every knot value's key, in a fixed order.
+    pub(super) fn keys(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        for (ci, name) in COMPONENTS.iter().enumerate() {
+            for (curve, values) in &self.curves[ci] {
+                out.extend((0..values.len()).map(|i| key(name, curve, i)));
+            }
+        }
+        out
+    }
+
+    /// Component `ci` moved to `new_knots`, each active curve re-sampled there.
+    pub(super) fn resampled(&self, ci: usize, new_knots: Vec<f64>) -> Shape {
+        let mut s = self.clone();
+        for (_, values) in &mut s.curves[ci] {
+            let old = SpeedCurve::new(&self.knots[ci], values);
+            *values = new_knots
+                .iter()
+                .map(|&k| old.as_ref().map_or(0.0, |c| c.at(k)))
+                .collect();
+        }
+        s.knots[ci] = new_knots;
+        s
+    }
+
+    /// Reads the fitted values back from `engine`'s file.
+    pub(super) fn read_back(&mut self, engine: &Engine) {
+        for (ci, name) in COMPONENTS.iter().enumerate() {
+            for (curve, values) in &mut self.curves[ci] {
+                for (i, v) in values.iter_mut().enumerate() {
+                    if let Ok(x) = engine.get_param(&key(name, curve, i)) {
+                        *v = x;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Smoothness rows for the candidate vector `keys` (adaptation knots found by key).
+    pub(super) fn smoothness(&self, keys: &[String], scale: f64) -> Vec<SmoothnessRow> {
+        let mut rows = Vec::new();
+        for (ci, name) in COMPONENTS.iter().enumerate() {
+            // Knots and the anchor (1, 0), which is no variable.
+            let mut xs = self.knots[ci].clone();
+            xs.push(1.0);
+            for (curve, values) in &self.curves[ci] {
+                let idx: Vec<Option<usize>> = (0..values.len())
+                    .map(|i| {
+                        let k = key(name, curve, i);
+                        keys.iter().position(|x| *x == k)
+                    })
+                    .chain(std::iter::once(None))
+                    .collect();
+                for i in 1..xs.len().saturating_sub(1) {
+                    let (h0, h1) = (xs[i] - xs[i - 1], xs[i + 1] - xs[i]);
+                    let w = 2.0 / (h0 + h1);
+                    let coef = [w / h0, -w / h0 - w / h1, w / h1];
+                    let terms: Vec<(usize, f64)> = [idx[i - 1], idx[i], idx[i + 1]]
+                        .iter()
+                        .zip(coef)
+                        .filter_map(|(j, c)| j.map(|j| (j, c)))
+                        .collect();
+                    if !terms.is_empty() {
+                        rows.push(SmoothnessRow { terms, scale });
+                    }
+                }
+            }
+        }
+        rows
+    }
+}
