@@ -344,7 +344,7 @@ mod tests {
             ("daemon", 2),
             ("diagnosis", 12),
             ("quality", 2),
-            ("wash", 7),
+            ("wash", 8),
         ] {
             let t = table
                 .get(section)

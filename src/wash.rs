@@ -22,10 +22,58 @@ use crate::engine::{Demand, Engine, SteadyInputs};
 use crate::health::HealthParams;
 use serde::{Deserialize, Serialize};
 
+/// The currency the prices are in: an ISO 4217 code (three capital letters), printed with every
+/// cost the advice states (a plant's prices carry their unit as any other number does).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(try_from = "String", into = "String")]
+pub struct Currency([u8; 3]);
+
+impl Currency {
+    /// The code, e.g. `EUR`.
+    pub fn code(&self) -> &str {
+        // Built only from three ASCII capitals (`TryFrom`), so always valid UTF-8.
+        std::str::from_utf8(&self.0).unwrap_or("???")
+    }
+}
+
+impl Default for Currency {
+    fn default() -> Self {
+        Currency(*b"EUR")
+    }
+}
+
+impl TryFrom<String> for Currency {
+    type Error = String;
+    fn try_from(s: String) -> Result<Self, String> {
+        match s.as_bytes() {
+            [a, b, c] if [a, b, c].iter().all(|x| x.is_ascii_uppercase()) => {
+                Ok(Currency([*a, *b, *c]))
+            }
+            _ => Err(format!(
+                "currency {s:?}: must be a three-letter ISO 4217 code such as EUR, USD or GBP"
+            )),
+        }
+    }
+}
+
+impl From<Currency> for String {
+    fn from(c: Currency) -> String {
+        c.code().to_string()
+    }
+}
+
+impl std::fmt::Display for Currency {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.code())
+    }
+}
+
 /// Prices and limits, from the `[wash]` section of the daemon config.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct WashEconomics {
+    /// The currency of every price and cost below.
+    pub currency: Currency,
     /// Electricity sold, currency per MWh.
     pub power_price_per_mwh: f64,
     /// Fuel bought, currency per GJ (LHV).
@@ -45,6 +93,7 @@ pub struct WashEconomics {
 impl Default for WashEconomics {
     fn default() -> Self {
         WashEconomics {
+            currency: Currency::default(),
             power_price_per_mwh: 80.0,
             fuel_price_per_gj: 8.0,
             offline_wash_cost: 15_000.0,
@@ -254,6 +303,8 @@ pub struct WashAdvice {
     pub heat_rate_increase_now_pct: f64,
     /// Cost of one offline wash including lost margin, currency.
     pub wash_cost: f64,
+    /// The currency of every cost here (the config's `wash.currency`).
+    pub currency: Currency,
     /// The reasoning in plain words.
     pub summary: String,
 }
@@ -324,8 +375,8 @@ pub fn advise(trend: &FoulingTrend, sens: &Sensitivity, econ: &WashEconomics) ->
                 .unwrap_or_default();
             format!(
                 "The compressor fouls at D_GC {:+.3} ± {:.3} and D_EC {:+.3} ± {:.3} percent points per \
-                 day; {:.1} days into the trend (since the last wash, or the first result) it costs {:.2} MW ({:.2} % heat rate), {:.0} per \
-                 operating hour. One offline wash costs {:.0} including the lost margin. \
+                 day; {:.1} days into the trend (since the last wash, or the first result) it costs {:.2} MW ({:.2} % heat rate), {:.0} {cur} per \
+                 operating hour. One offline wash costs {:.0} {cur} including the lost margin. \
                  Decided by the {} rule: wash {:.0} days after the last wash, {when}{sigma}.",
                 trend.d_gc_rate,
                 trend.d_gc_rate_sigma,
@@ -337,7 +388,8 @@ pub fn advise(trend: &FoulingTrend, sens: &Sensitivity, econ: &WashEconomics) ->
                 loss_now,
                 wash_cost,
                 decided_by,
-                d
+                d,
+                cur = econ.currency,
             )
         }
     };
@@ -353,6 +405,7 @@ pub fn advise(trend: &FoulingTrend, sens: &Sensitivity, econ: &WashEconomics) ->
         power_loss_now_mw,
         heat_rate_increase_now_pct: 100.0 * sens.heat_rate_increase(&now_h),
         wash_cost,
+        currency: econ.currency,
         summary,
     }
 }
@@ -414,6 +467,16 @@ mod tests {
             "{sd} vs {}",
             0.5 * rel_a * d
         );
+        // Every cost is stated in the config's currency.
+        let usd = WashEconomics {
+            currency: Currency::try_from("USD".to_string()).unwrap(),
+            ..e
+        };
+        let text = advise(&trend, &s, &usd).summary;
+        assert!(
+            text.contains("USD per operating hour") && text.contains("USD including"),
+            "{text}"
+        );
         // A tight D_EC limit takes over.
         let strict = WashEconomics {
             max_d_ec_pct: 0.2,
@@ -442,6 +505,19 @@ mod tests {
             .unwrap_err()
             .contains("wash.offline_wash_cost"));
         assert!(WashEconomics::default().validate().is_ok());
+    }
+
+    #[test]
+    fn currency_is_an_iso_code_named_when_wrong() {
+        let ok: WashEconomics = toml::from_str("currency = \"GBP\"").unwrap();
+        assert_eq!(ok.currency.code(), "GBP");
+        assert_eq!(WashEconomics::default().currency.code(), "EUR");
+        for bad in ["usd", "EURO", "€", ""] {
+            let err = toml::from_str::<WashEconomics>(&format!("currency = {bad:?}"))
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains("ISO 4217"), "{bad}: {err}");
+        }
     }
 
     #[test]
