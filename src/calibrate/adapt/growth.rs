@@ -6,8 +6,8 @@ use super::super::CalibrateError;
 use super::knots::knots;
 use super::shape::{key, Shape};
 use super::{
-    candidates_for, fit, identify_at, report, rms_of, with_shape, AdaptReport, Ctx, Pass,
-    SpeedRanges, MIN_GAIN,
+    candidates_for, fit, identify_at, report, rms_of, shaped, AdaptReport, Ctx, Pass, SpeedRanges,
+    MIN_GAIN,
 };
 use crate::engine::config::{curves_of, COMPONENTS};
 use crate::engine::Engine;
@@ -71,9 +71,7 @@ impl<'a> Growth<'a> {
                 .map(|c| (c.to_string(), vec![0.0]))
                 .collect();
         }
-        let base = engine
-            .with_config(with_shape(engine, &shape))
-            .map_err(|e| CalibrateError::Model(e.to_string()))?;
+        let base = shaped(engine, &shape)?;
         let mut keys: Vec<String> = design_keys.to_vec();
         keys.extend(shape.keys());
         let cands = candidates_for(&base, &keys)?;
@@ -105,9 +103,7 @@ impl<'a> Growth<'a> {
             })
             .cloned()
             .collect();
-        let current = base
-            .with_config(with_shape(&base, &shape))
-            .map_err(|e| CalibrateError::Model(e.to_string()))?;
+        let current = shaped(&base, &shape)?;
         Ok(Self {
             ctx,
             ranges,
@@ -179,10 +175,7 @@ impl<'a> Growth<'a> {
         for &ci in &growing {
             trial = trial.resampled(ci, knots(self.ranges[ci][0], self.level[ci] + 1));
         }
-        let trial_engine = self
-            .current
-            .with_config(with_shape(&self.current, &trial))
-            .map_err(|e| CalibrateError::Model(e.to_string()))?;
+        let trial_engine = shaped(&self.current, &trial)?;
         let mut keys: Vec<String> = self.design_free.clone();
         keys.extend(trial.keys());
         let pass = identify_at(
@@ -201,10 +194,7 @@ impl<'a> Growth<'a> {
                 .position(|x| x == k)
                 .is_some_and(|j| pass.identified[j])
         });
-        let start = self
-            .current
-            .with_config(with_shape(&self.current, &next))
-            .map_err(|e| CalibrateError::Model(e.to_string()))?;
+        let start = shaped(&self.current, &next)?;
         let mut all: Vec<String> = self.design_free.clone();
         all.extend(next.keys());
         let (fitted, n, step) = fit(&start, candidates_for(&start, &all)?, &next, self.ctx)?;

@@ -317,11 +317,13 @@ fn speed_ranges(engine: &Engine, ctx: Ctx) -> Result<SpeedRanges, CalibrateError
     })
 }
 
-/// `engine`'s file with the adaptation section of `shape`.
-fn with_shape(engine: &Engine, shape: &Shape) -> crate::engine::EngineConfig {
+/// `engine` with the adaptation section of `shape` (everything else of its file kept).
+fn shaped(engine: &Engine, shape: &Shape) -> Result<Engine, CalibrateError> {
     let mut cfg = engine.cfg().clone();
     cfg.adaptation = shape.config();
-    cfg
+    engine
+        .with_config(cfg)
+        .map_err(|e| CalibrateError::Model(e.to_string()))
 }
 
 fn report(
