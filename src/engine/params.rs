@@ -160,7 +160,8 @@ impl Engine {
         if let Some((key, _)) = changed.iter().find(|(_, c)| *c) {
             return Err(EngineError::Param {
                 key: (*key).to_string(),
-                reason: "differs from the engine's loaded maps; build the engine from the file                          (Engine::new) to load other maps"
+                reason: "differs from the engine's loaded maps; build the engine from the file \
+                         (Engine::new) to load other maps"
                     .into(),
             });
         }
