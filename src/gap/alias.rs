@@ -214,7 +214,12 @@ pub(crate) fn aliases(
         let (coef, left) = project(&lin.base_cols, &col);
         let absorbed = (1.0 - left.norm_squared() / norm2).clamp(0.0, 1.0);
         // Data made with an error m fit as J_h·(estimate − truth) ≈ J_c·m, whatever the
-        // residual's sign: estimate − truth = coef · m.
+        // residual's sign: estimate − truth = coef · m, with coef the secant of the re-fit at
+        // the nominal error (the linear projection only when that re-fit cannot be run).
+        let coef = lin
+            .refit_shift(i, c.nominal)
+            .map(|d| d.iter().map(|v| -v / c.nominal).collect::<Vec<f64>>())
+            .unwrap_or(coef);
         let mut per_unit = [0.0; 6];
         for (k, h) in health_of.iter().enumerate() {
             if let Some(h) = h {
@@ -385,8 +390,10 @@ mod tests {
 
     /// A fuel meter reading 3 % high on a degraded engine: the fit stays close to noise, the
     /// fuel meter is a hidden alias (absorbed almost entirely, shifting health by points), and
-    /// the linear alias says how the estimate moved: the baseline's health less the shift for a
-    /// 3 % error is the truth within half a point on every parameter.
+    /// the alias says how the estimate moved: the baseline's health less the shift for a 3 %
+    /// error is the truth within a quarter point on every parameter (0.11 measured; the linear
+    /// projection this replaced missed by 0.42, and by up to 1.0 with the integrator's tolerance
+    /// doubled).
     #[test]
     fn a_fuel_meter_error_is_a_hidden_alias_that_accounts_for_the_health_error() {
         let engine = Engine::reference().expect("engine");
@@ -425,7 +432,7 @@ mod tests {
             .collect();
         for (i, (c, t)) in corrected.iter().zip(truth.to_array()).enumerate() {
             assert!(
-                (c - t).abs() < 0.5,
+                (c - t).abs() < 0.25,
                 "{}: corrected {c:.2} vs truth {t:.2} (baseline {:?})",
                 HEALTH_NAMES[i],
                 base.health
