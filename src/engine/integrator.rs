@@ -143,6 +143,9 @@ pub(crate) struct Ros2 {
     pub(crate) jac_every: usize,
     pub(crate) rtol: f64,
     pub(crate) atol: f64,
+    /// Per-component factor on the tolerance (1 = `rtol`/`atol` as given): a state whose error
+    /// barely reaches the outputs may be held more loosely than the rest.
+    tol_scale: [f64; MAX_DIM],
     /// Right-hand-side evaluations so far (performance accounting).
     pub(crate) rhs_evals: usize,
     pub(crate) jac_evals: usize,
@@ -168,8 +171,17 @@ impl Ros2 {
             jac_every: 8,
             rtol,
             atol,
+            tol_scale: [1.0; MAX_DIM],
             rhs_evals: 0,
             jac_evals: 0,
+        }
+    }
+
+    /// Holds component `i` to `factor` × the tolerance (`factor` ≥ 1 loosens it). Out-of-range
+    /// indices and non-finite or non-positive factors are ignored.
+    pub(crate) fn loosen(&mut self, i: usize, factor: f64) {
+        if i < MAX_DIM && factor.is_finite() && factor > 0.0 {
+            self.tol_scale[i] = factor;
         }
     }
 
@@ -363,7 +375,7 @@ impl Ros2 {
             out[i] += h * (1.5 * k1[i] + 0.5 * k2[i]);
             // Embedded first-order solution y + h k1: difference h (k1 + k2)/2.
             let est = 0.5 * h * (k1[i] + k2[i]);
-            let sc = self.atol + self.rtol * y[i].abs().max(out[i].abs());
+            let sc = self.tol_scale[i] * (self.atol + self.rtol * y[i].abs().max(out[i].abs()));
             acc += (est / sc) * (est / sc);
         }
         let err = (acc / n as f64).sqrt();
