@@ -392,8 +392,8 @@ mod tests {
     /// fuel meter is a hidden alias (absorbed almost entirely, shifting health by points), and
     /// the alias says how the estimate moved: the baseline's health less the shift for a 3 %
     /// error is the truth within a quarter point on every parameter (0.11 measured; the linear
-    /// projection this replaced missed by 0.42, and by up to 1.0 with the integrator's tolerance
-    /// doubled).
+    /// projection this replaced missed by 0.35, and by 0.8–1.4 points with the integrator's
+    /// tolerance two to three times looser).
     #[test]
     fn a_fuel_meter_error_is_a_hidden_alias_that_accounts_for_the_health_error() {
         let engine = Engine::reference().expect("engine");

@@ -154,8 +154,10 @@ impl Linearised {
     }
 }
 
-/// Chord iterations of [`Linearised::refit_shift`]: the Jacobian's error (a sixth) shrinks the
-/// step's error by about that factor per iteration, so four leave well under 1 % of the shift.
+/// Chord iterations of [`Linearised::refit_shift`]. A chord iteration shrinks its error by about
+/// the Jacobian's relative error per step (a sixth or less here), so four leave a fraction of a
+/// percent of the shift; the re-fit is not bounded by the health limits (it asks what the data
+/// say, not what the box allows).
 const REFIT_ITERATIONS: usize = 4;
 
 /// Least-squares coefficients of `target` on `cols` and the part of `target` they leave
