@@ -61,6 +61,9 @@ struct DayResult {
     start_utc: String,
     /// |estimate − truth| over the six parameters, points.
     max_abs_error: f64,
+    /// (estimate − truth)/σ per parameter, in `HEALTH_NAMES` order: whether the reported σ
+    /// says how far off an estimate may be.
+    z: [f64; 6],
     d_gc: f64,
     d_gc_truth: f64,
 }
@@ -93,6 +96,10 @@ struct MonthResult {
     startups_found: usize,
     method_b_results: usize,
     max_abs_error: f64,
+    /// The reported σ against the actual errors, over every day's six parameters: the RMS of
+    /// (estimate − truth)/σ (1 for an honest σ) and the share within 2σ (0.95).
+    z_rms: f64,
+    within_two_sigma: f64,
     storage: StorageResult,
     /// With `--raw-days`: what retention did after compaction, and the file then.
     retention: Option<RetentionResult>,
@@ -126,6 +133,23 @@ impl Ingest {
 
 /// Replays `logs` (one per day, in order) into `store` as `gtwatch replay` would, one after
 /// the other, timing each.
+/// RMS of the finite (estimate − truth)/σ over all days and parameters, and the share of them
+/// within 2 (NaN, NaN without any).
+fn z_stats(days: &[DayResult]) -> (f64, f64) {
+    let z: Vec<f64> = days
+        .iter()
+        .flat_map(|d| d.z)
+        .filter(|v| v.is_finite())
+        .collect();
+    if z.is_empty() {
+        return (f64::NAN, f64::NAN);
+    }
+    let n = z.len() as f64;
+    let rms = (z.iter().map(|v| v * v).sum::<f64>() / n).sqrt();
+    let within = z.iter().filter(|v| v.abs() <= 2.0).count() as f64 / n;
+    (rms, within)
+}
+
 fn ingest_days(store: &mut Store, cfg: &ReplayConfig, logs: &[PathBuf]) -> anyhow::Result<Ingest> {
     let mut out = Ingest {
         days: Vec::with_capacity(logs.len()),
@@ -460,10 +484,16 @@ pub(crate) fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<Exit
             .enumerate()
             .map(|(i, n)| (h.health.get(*n).copied().unwrap_or(f64::NAN) - truth[i]).abs())
             .fold(0.0f64, f64::max);
+        let z = std::array::from_fn(|i| {
+            let n = HEALTH_NAMES[i];
+            let e = h.health.get(n).copied().unwrap_or(f64::NAN) - truth[i];
+            e / h.sigma.get(n).copied().unwrap_or(f64::NAN)
+        });
         per_day.push(DayResult {
             day,
             start_utc: h.start_utc.clone(),
             max_abs_error: err,
+            z,
             d_gc: h.health.get("D_GC").copied().unwrap_or(f64::NAN),
             d_gc_truth: truth[0],
         });
@@ -496,6 +526,8 @@ pub(crate) fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<Exit
         startups_found: segments.len(),
         method_b_results: history.len(),
         max_abs_error: per_day.iter().map(|d| d.max_abs_error).fold(0.0, f64::max),
+        z_rms: z_stats(&per_day).0,
+        within_two_sigma: z_stats(&per_day).1,
         storage,
         retention,
         per_day,

@@ -63,7 +63,7 @@ pub use params::{
 use crate::engine::{Engine, EngineError};
 use crate::health::{HealthParams, HEALTH_NAMES};
 use crate::optim::{
-    self, refine, run, uncertainty, Budget, CmaEs, CuckooSearch, DifferentialEvolution,
+    self, refine, run, uncertainty_with_inputs, Budget, CmaEs, CuckooSearch, DifferentialEvolution,
     JacobianOptions, LmOptions, OptimError, ResidualProblem,
 };
 use crate::signals::Signal;
@@ -115,6 +115,10 @@ pub trait DiagnosisProblem: ResidualProblem {
     fn eq10(&self, x: &[f64]) -> f64;
     /// Variance inflation of the least-squares σ for correlated residuals `r` (1 = none).
     fn sigma_inflation(&self, r: &[f64]) -> f64;
+    /// Residual vectors at `x` with other draws of the noise on the signals that drive the
+    /// model (none when nothing measured drives it): what the σ of the inputs adds to the
+    /// parameters' σ ([`crate::optim::uncertainty_with_inputs`]).
+    fn input_noise_draws(&self, x: &[f64]) -> Vec<Vec<f64>>;
     /// The parameter map.
     fn params(&self) -> &ParamMap;
     /// The failed evaluations so far, by reason.
@@ -193,6 +197,9 @@ macro_rules! impl_diagnosis_problem {
             fn sigma_inflation(&self, r: &[f64]) -> f64 {
                 self.residual_inflation(r)
             }
+            fn input_noise_draws(&self, x: &[f64]) -> Vec<Vec<f64>> {
+                self.input_draws(x)
+            }
         }
     };
 }
@@ -207,7 +214,8 @@ pub struct MethodResult {
     pub health: HealthParams,
     /// 1σ per parameter, % (0 for fixed parameters, +∞ for unidentifiable ones): the
     /// linearised least-squares σ at the optimum (Jacobian, residual variance SSR/(m−n)),
-    /// inflated for the residuals' serial correlation (Method B).
+    /// inflated for the residuals' serial correlation (Method B), and in quadrature the part
+    /// the noise of the measured fuel flow that drives the model adds (Method B).
     pub sigma: BTreeMap<String, f64>,
     /// Paper eq. 10 (normalised) at the result.
     pub objective: f64,
@@ -283,6 +291,9 @@ pub struct FitOutcome {
     pub sigma: Vec<f64>,
     /// Correlation matrix of the free parameters (zeros where not estimated).
     pub correlation: Vec<Vec<f64>>,
+    /// 1σ per free parameter from the noise of the measured inputs (added to `sigma` in
+    /// quadrature once `sigma` is inflated for correlated residuals).
+    pub input_sigma: Vec<f64>,
 }
 
 fn unit_step_jacobian(cfg: &DiagnosisConfig) -> Result<JacobianOptions, OptimError> {
@@ -360,13 +371,16 @@ pub fn fit<P: DiagnosisProblem>(
         }
     }
     let unknown = || (vec![f64::INFINITY; n], vec![vec![0.0; n]; n]);
-    let (sigma, correlation) = if cancel.is_cancelled() {
-        unknown()
+    let (sigma, correlation, input_sigma) = if cancel.is_cancelled() {
+        let (s, c) = unknown();
+        (s, c, vec![0.0; n])
     } else {
-        match uncertainty(&*problem, &x, &unit_step_jacobian(cfg)?, pool) {
-            Ok(u) => (u.sigma, u.correlation),
+        let draws = problem.input_noise_draws(&x);
+        match uncertainty_with_inputs(&*problem, &x, &unit_step_jacobian(cfg)?, pool, &draws) {
+            Ok(u) => (u.sigma, u.correlation, u.input_sigma),
             Err(OptimError::NonFiniteResiduals) | Err(OptimError::TooFewResiduals { .. }) => {
-                unknown()
+                let (s, c) = unknown();
+                (s, c, vec![0.0; n])
             }
             Err(e) => return Err(e.into()),
         }
@@ -377,6 +391,7 @@ pub fn fit<P: DiagnosisProblem>(
         global_objective,
         sigma,
         correlation,
+        input_sigma,
     })
 }
 
@@ -393,28 +408,31 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
     let pm = problem.params();
     let mut sigma: BTreeMap<String, f64> =
         HEALTH_NAMES.iter().map(|n| (n.to_string(), 0.0)).collect();
-    for (p, &s) in pm.params().iter().zip(&fit.sigma) {
-        if let ParamTarget::Health(i) = p.target {
-            sigma.insert(HEALTH_NAMES[i].to_string(), s);
-        }
-    }
     let objective = problem.eq10(&fit.x);
     let mut r = Vec::new();
     problem.residuals(&fit.x, &mut r);
     let ssr = r.iter().map(|v| v * v).sum();
     let inflation = problem.sigma_inflation(&r).sqrt();
-    for v in sigma.values_mut() {
-        *v *= inflation;
+    // The residuals' σ (inflated for their correlation) and the inputs' σ, in quadrature.
+    let total = |k: usize, s: f64| {
+        let input = fit.input_sigma.get(k).copied().unwrap_or(0.0);
+        (s * inflation).hypot(input)
+    };
+    for (k, (p, &s)) in pm.params().iter().zip(&fit.sigma).enumerate() {
+        if let ParamTarget::Health(i) = p.target {
+            sigma.insert(HEALTH_NAMES[i].to_string(), total(k, s));
+        }
     }
     let params = pm
         .params()
         .iter()
         .zip(&fit.x)
         .zip(&fit.sigma)
-        .map(|((p, &value), &s)| FittedParam {
+        .enumerate()
+        .map(|(k, ((p, &value), &s))| FittedParam {
             name: p.name.clone(),
             value,
-            sigma: s * inflation,
+            sigma: total(k, s),
             target: p.target.clone(),
         })
         .collect();
@@ -436,7 +454,7 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
         .map(|&(k, i)| separability::HealthEstimate {
             index: i,
             value: fit.x[k],
-            sigma: fit.sigma.get(k).copied().unwrap_or(f64::INFINITY) * inflation,
+            sigma: fit.sigma.get(k).map_or(f64::INFINITY, |&s| total(k, s)),
             correlation: health_at
                 .iter()
                 .map(|&(l, _)| {
@@ -677,6 +695,9 @@ mod tests {
         }
         fn residual_inflation(&self, _r: &[f64]) -> f64 {
             1.0
+        }
+        fn input_draws(&self, _x: &[f64]) -> Vec<Vec<f64>> {
+            Vec::new()
         }
     }
 

@@ -383,6 +383,10 @@ impl SteadyProblem {
     fn residual_inflation(&self, _r: &[f64]) -> f64 {
         1.0 // window means are independent
     }
+    fn input_draws(&self, _x: &[f64]) -> Vec<Vec<f64>> {
+        // Window means of the inputs: their noise is averaged away with the outputs'.
+        Vec::new()
+    }
 }
 
 super::impl_diagnosis_problem!(SteadyProblem);

@@ -68,7 +68,7 @@ pub use cuckoo::CuckooSearch;
 pub use de::{DeStrategy, DifferentialEvolution};
 pub use lm::{refine, FiniteDifference, JacobianOptions, LmOptions, RefineResult, RefineStop};
 pub use problem::{Problem, ResidualProblem};
-pub use uncertainty::{uncertainty, Uncertainty};
+pub use uncertainty::{uncertainty, uncertainty_with_inputs, Uncertainty};
 
 use rayon::prelude::*;
 use rayon::ThreadPool;

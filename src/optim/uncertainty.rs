@@ -39,6 +39,10 @@ pub struct Uncertainty {
     pub rank: usize,
     /// Residual evaluations used.
     pub evals: usize,
+    /// 1σ per parameter from the noise of the problem's inputs (0 without input draws; `+∞`
+    /// where not identifiable): the spread of the linearised re-fits to the residual vectors
+    /// the caller computed at `x` with other draws of that noise. Not part of `covariance`.
+    pub input_sigma: Vec<f64>,
 }
 
 /// Uncertainty of the parameters `x` (physical units) of `problem`, from the residual
@@ -48,6 +52,23 @@ pub fn uncertainty<P: ResidualProblem + ?Sized>(
     x: &[f64],
     opts: &JacobianOptions,
     pool: &ThreadPool,
+) -> Result<Uncertainty, OptimError> {
+    uncertainty_with_inputs(problem, x, opts, pool, &[])
+}
+
+/// [`uncertainty`], plus the part of the parameters' uncertainty that comes from noise on the
+/// problem's *inputs* (errors in variables), which the residuals cannot show: an input error
+/// the parameters absorb leaves no residual behind. `input_draws` are residual vectors at `x`
+/// computed with independent draws of the input noise (same data otherwise); each one's
+/// linearised re-fit `(JᵀJ)⁺ Jᵀ (r_j − r)` is a sample of the parameters' error, and their
+/// mean square is the input part of the variance (`input_sigma`). Draws of the wrong length or
+/// with non-finite entries are skipped.
+pub fn uncertainty_with_inputs<P: ResidualProblem + ?Sized>(
+    problem: &P,
+    x: &[f64],
+    opts: &JacobianOptions,
+    pool: &ThreadPool,
+    input_draws: &[Vec<f64>],
 ) -> Result<Uncertainty, OptimError> {
     let bounds = problem.bounds();
     bounds.check_inside(x)?;
@@ -68,7 +89,7 @@ pub fn uncertainty<P: ResidualProblem + ?Sized>(
     let s2 = ssr / dof as f64;
 
     // J = U S Vᵀ  ⇒  (JᵀJ)⁺ = V S⁻² Vᵀ over the kept singular values.
-    let svd = jac.svd(false, true);
+    let svd = jac.clone().svd(false, true);
     let v_t = svd.v_t.ok_or(OptimError::NonFiniteResiduals)?;
     let s = &svd.singular_values;
     let s_max = s.iter().cloned().fold(0.0, f64::max);
@@ -114,6 +135,17 @@ pub fn uncertainty<P: ResidualProblem + ?Sized>(
         }
     }
     let sigma: Vec<f64> = (0..n).map(|i| covariance[i][i].max(0.0).sqrt()).collect();
+    let input_sigma = input_spread(&cov_unit, &jac, &r, input_draws, &identifiable)
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            if identifiable[i] {
+                v.sqrt() * bounds.width(i)
+            } else {
+                f64::INFINITY
+            }
+        })
+        .collect();
     let mut correlation = vec![vec![0.0; n]; n];
     for i in 0..n {
         for j in 0..n {
@@ -138,7 +170,45 @@ pub fn uncertainty<P: ResidualProblem + ?Sized>(
         dof,
         rank,
         evals: used + 1,
+        input_sigma,
     })
+}
+
+/// Per parameter (unit scale), the mean square of the linearised re-fits `B Jᵀ (r_j − r)` over
+/// the usable draws (`B = (JᵀJ)⁺`); zeros without any.
+fn input_spread(
+    bread: &[Vec<f64>],
+    jac: &nalgebra::DMatrix<f64>,
+    r: &[f64],
+    draws: &[Vec<f64>],
+    identifiable: &[bool],
+) -> Vec<f64> {
+    let n = bread.len();
+    let mut acc = vec![0.0; n];
+    let mut used = 0usize;
+    for d in draws {
+        if d.len() != r.len() || d.iter().any(|v| !v.is_finite()) {
+            continue;
+        }
+        let mut score = vec![0.0; n];
+        for (i, (a, b)) in d.iter().zip(r).enumerate() {
+            let diff = a - b;
+            for (j, sj) in score.iter_mut().enumerate() {
+                if identifiable[j] {
+                    *sj += jac[(i, j)] * diff;
+                }
+            }
+        }
+        for (i, ai) in acc.iter_mut().enumerate() {
+            let g: f64 = (0..n).map(|k| bread[i][k] * score[k]).sum();
+            *ai += g * g;
+        }
+        used += 1;
+    }
+    if used > 0 {
+        acc.iter_mut().for_each(|v| *v /= used as f64);
+    }
+    acc
 }
 
 #[cfg(test)]
@@ -186,6 +256,75 @@ mod tests {
         assert!(all.clone().all(|v| !v.is_nan()));
         assert_eq!(u.correlation[0][2], 0.0);
         assert_eq!(u.correlation[1][1], 1.0);
+    }
+
+    /// z = θ·u measured against an input u that carries noise of σ_u: the input part of θ's σ
+    /// from draws of that noise is the analytic θ·σ_u/√Σu² (within the draws' own sampling
+    /// error), and without draws it is 0.
+    struct Scaled {
+        bounds: Bounds,
+        u: Vec<f64>,
+        z: Vec<f64>,
+    }
+    impl Problem for Scaled {
+        fn dim(&self) -> usize {
+            1
+        }
+        fn bounds(&self) -> &Bounds {
+            &self.bounds
+        }
+        fn cost(&self, x: &[f64]) -> f64 {
+            let mut r = Vec::new();
+            self.residuals(x, &mut r);
+            r.iter().map(|v| v * v).sum()
+        }
+    }
+    impl ResidualProblem for Scaled {
+        fn residuals(&self, x: &[f64], out: &mut Vec<f64>) {
+            out.clear();
+            out.extend(self.u.iter().zip(&self.z).map(|(u, z)| z - x[0] * u));
+        }
+    }
+
+    #[test]
+    fn input_noise_adds_the_analytic_sigma_of_an_errors_in_variables_fit() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, StandardNormal};
+        let (theta, sigma_u) = (2.0, 0.05);
+        let u: Vec<f64> = (0..40).map(|i| 1.0 + 0.1 * f64::from(i)).collect();
+        let z: Vec<f64> = u.iter().map(|v| theta * v).collect();
+        let p = Scaled {
+            bounds: Bounds::uniform(1, 0.0, 5.0).expect("valid"),
+            u: u.clone(),
+            z: z.clone(),
+        };
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let draws: Vec<Vec<f64>> = (0..2000)
+            .map(|_| {
+                u.iter()
+                    .zip(&z)
+                    .map(|(v, zz)| {
+                        let e: f64 = StandardNormal.sample(&mut rng);
+                        zz - theta * (v + sigma_u * e)
+                    })
+                    .collect()
+            })
+            .collect();
+        let pool = thread_pool(Some(1)).expect("pool");
+        let o = JacobianOptions::default();
+        let with = uncertainty_with_inputs(&p, &[theta], &o, &pool, &draws).expect("with");
+        let analytic = theta * sigma_u / u.iter().map(|v| v * v).sum::<f64>().sqrt();
+        assert!(
+            (with.input_sigma[0] / analytic - 1.0).abs() < 0.05,
+            "input σ {} against {analytic}",
+            with.input_sigma[0]
+        );
+        let without = uncertainty(&p, &[theta], &o, &pool).expect("without");
+        assert_eq!(without.input_sigma, vec![0.0]);
+        // A draw of the wrong length or with a NaN is skipped, not averaged in.
+        let bad = vec![vec![0.0; 3], vec![f64::NAN; u.len()]];
+        let skipped = uncertainty_with_inputs(&p, &[theta], &o, &pool, &bad).expect("bad");
+        assert_eq!(skipped.input_sigma, vec![0.0]);
     }
 
     #[test]
