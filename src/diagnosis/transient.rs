@@ -271,15 +271,16 @@ impl TransientProblem {
             if self.smooth && smooth_fuel(&mut seg).is_err() {
                 continue;
             }
-            for &k in &self.rest {
-                if let Some(p) = applied.ambient_kpa {
+            if let Some(p) = applied.ambient_kpa {
+                // As `simulate` does: the fitted ambient pressure where P1 is read as it.
+                for &k in &self.rest {
                     let _ = seg.set(k, Signal::P1, p);
                 }
             }
+            self.runs.fetch_add(1, Ordering::Relaxed);
             let Ok(t) = simulate_segment(&engine, &applied.health, &seg, self.mode) else {
                 continue;
             };
-            self.runs.fetch_add(1, Ordering::Relaxed);
             let mut r = Vec::new();
             self.objective.residuals(&t.measured, &mut r);
             out.push(r);
