@@ -116,21 +116,29 @@ impl Linearised {
         self.column_at(self.first_extra + i, step)
     }
 
-    /// How far the baseline's own parameters move (in `base_names` order) when further
-    /// parameter `i` is held at `value` and they are fitted again: chord (simplified
-    /// Gauss–Newton) iterations from the baseline with the baseline's Jacobian columns, each one
-    /// model run, kept while the residual falls.
+    /// The baseline's own parameters (in `base_names` order) fitted again from the baseline
+    /// with further parameter `i` held at `value` (every further parameter neutral for
+    /// `None`): chord (simplified Gauss–Newton) iterations with the baseline's Jacobian
+    /// columns, each one model run, kept while the residual falls. `None` when the first run
+    /// fails.
+    ///
+    /// An instrument's shift is the difference of two such re-fits, with the instrument's
+    /// error and without: the baseline itself need not be the optimum of its own residual (a
+    /// parameter on its limit, a fit stopped by its budget, a drift the model cannot follow),
+    /// and a re-fit from it would otherwise also finish that fit and count it as the shift.
     ///
     /// Why not the projection of one column: the response of a start-up to the health is not
     /// linear over the points an instrument error moves it (a compressor column's size changes
     /// by a sixth between −0.5 and +0.5 points), so a derivative at the baseline misstates the
     /// shift by up to a third, and one taken over a small step also carries the integrator's
     /// error. The chord iterations converge on the re-fitted parameters themselves, with any
-    /// fair Jacobian. `None` when the first run fails.
-    pub(super) fn refit_shift(&self, i: usize, value: f64) -> Option<Vec<f64>> {
+    /// fair Jacobian.
+    pub(super) fn refit(&self, extra: Option<(usize, f64)>) -> Option<Vec<f64>> {
         let nb = self.first_extra;
         let mut x = self.x0.clone();
-        x[self.first_extra + i] = value;
+        if let Some((i, value)) = extra {
+            x[self.first_extra + i] = value;
+        }
         let mut r = self.residuals(&x)?;
         let mut best = (r.norm_squared(), x.clone());
         for _ in 0..REFIT_ITERATIONS {
@@ -150,11 +158,11 @@ impl Linearised {
             x = next;
             r = rn;
         }
-        Some((0..nb).map(|k| best.1[k] - self.x0[k]).collect())
+        Some(best.1[..nb].to_vec())
     }
 }
 
-/// Chord iterations of [`Linearised::refit_shift`]. A chord iteration shrinks its error by about
+/// Chord iterations of [`Linearised::refit`]. A chord iteration shrinks its error by about
 /// the Jacobian's relative error per step (a sixth or less here), so four leave a fraction of a
 /// percent of the shift; the re-fit is not bounded by the health limits (it asks what the data
 /// say, not what the box allows).
