@@ -442,9 +442,7 @@ pub(crate) mod tests {
             &self.bounds
         }
         fn cost(&self, x: &[f64]) -> f64 {
-            let mut r = Vec::new();
-            self.residuals(x, &mut r);
-            r.iter().map(|v| v * v).sum()
+            self.ssr(x)
         }
     }
 

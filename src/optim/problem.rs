@@ -25,4 +25,12 @@ pub trait ResidualProblem: Problem {
     /// caller; implementations must leave exactly `m` entries, the same `m` at every `x`).
     /// Non-finite entries mark a failed evaluation.
     fn residuals(&self, x: &[f64], out: &mut Vec<f64>);
+
+    /// The residual sum of squares at `x`: the cost of a plain least-squares problem (its
+    /// [`Problem::cost`] can be just this).
+    fn ssr(&self, x: &[f64]) -> f64 {
+        let mut r = Vec::new();
+        self.residuals(x, &mut r);
+        r.iter().map(|v| v * v).sum()
+    }
 }

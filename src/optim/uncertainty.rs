@@ -226,9 +226,7 @@ mod tests {
             &self.0
         }
         fn cost(&self, x: &[f64]) -> f64 {
-            let mut r = Vec::new();
-            self.residuals(x, &mut r);
-            r.iter().map(|v| v * v).sum()
+            self.ssr(x)
         }
     }
     impl ResidualProblem for Degenerate {
@@ -274,9 +272,7 @@ mod tests {
             &self.bounds
         }
         fn cost(&self, x: &[f64]) -> f64 {
-            let mut r = Vec::new();
-            self.residuals(x, &mut r);
-            r.iter().map(|v| v * v).sum()
+            self.ssr(x)
         }
     }
     impl ResidualProblem for Scaled {
