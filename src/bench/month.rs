@@ -498,6 +498,7 @@ pub(crate) fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<Exit
             d_gc_truth: truth[0],
         });
     }
+    let (z_rms, within_two_sigma) = z_stats(&per_day);
     let result = MonthResult {
         bench: "month",
         days: a.days,
@@ -526,8 +527,8 @@ pub(crate) fn run(a: BenchMonthArgs, commands: &Commands) -> anyhow::Result<Exit
         startups_found: segments.len(),
         method_b_results: history.len(),
         max_abs_error: per_day.iter().map(|d| d.max_abs_error).fold(0.0, f64::max),
-        z_rms: z_stats(&per_day).0,
-        within_two_sigma: z_stats(&per_day).1,
+        z_rms,
+        within_two_sigma,
         storage,
         retention,
         per_day,

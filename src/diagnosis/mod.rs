@@ -370,17 +370,15 @@ pub fn fit<P: DiagnosisProblem>(
             Err(e) => return Err(e.into()),
         }
     }
-    let unknown = || (vec![f64::INFINITY; n], vec![vec![0.0; n]; n]);
+    let unknown = || (vec![f64::INFINITY; n], vec![vec![0.0; n]; n], vec![0.0; n]);
     let (sigma, correlation, input_sigma) = if cancel.is_cancelled() {
-        let (s, c) = unknown();
-        (s, c, vec![0.0; n])
+        unknown()
     } else {
         let draws = problem.input_noise_draws(&x);
         match uncertainty_with_inputs(&*problem, &x, &unit_step_jacobian(cfg)?, pool, &draws) {
             Ok(u) => (u.sigma, u.correlation, u.input_sigma),
             Err(OptimError::NonFiniteResiduals) | Err(OptimError::TooFewResiduals { .. }) => {
-                let (s, c) = unknown();
-                (s, c, vec![0.0; n])
+                unknown()
             }
             Err(e) => return Err(e.into()),
         }

@@ -12,6 +12,7 @@ use super::{
     MethodResult, ParamMap,
 };
 use crate::engine::measured_drive::{simulate_segment, DriveMode};
+use crate::engine::sensors::noise_sigma;
 use crate::engine::trace::Values;
 use crate::engine::Engine;
 use crate::recording::Recording;
@@ -190,6 +191,11 @@ impl TransientProblem {
 
     /// The simulated instrument values for parameters `x`, or why the model failed.
     pub fn simulate(&self, x: &[f64]) -> Result<Vec<Values>, EvalError> {
+        self.simulate_on(x, &self.drive)
+    }
+
+    /// [`Self::simulate`] driven by `drive` instead of the problem's own drive (one model run).
+    fn simulate_on(&self, x: &[f64], drive: &Recording) -> Result<Vec<Values>, EvalError> {
         self.runs.fetch_add(1, Ordering::Relaxed);
         let applied = self.params.apply(x);
         let modified;
@@ -207,7 +213,7 @@ impl TransientProblem {
         match applied.ambient_kpa {
             Some(p) => {
                 // The replay reads the ambient pressure from P1 at rest: set it there.
-                let mut seg = self.drive.clone();
+                let mut seg = drive.clone();
                 for &k in &self.rest {
                     seg.set(k, Signal::P1, p).map_err(|e| EvalError::Param {
                         name: "ambient_pressure_kpa".into(),
@@ -216,7 +222,7 @@ impl TransientProblem {
                 }
                 run(&seg)
             }
-            None => run(&self.drive),
+            None => run(drive),
         }
     }
 }
@@ -240,22 +246,12 @@ impl TransientProblem {
         if self.mode != DriveMode::MeasuredFuel {
             return Vec::new();
         }
-        let Some(ch) =
-            crate::engine::sensors::channel(&self.engine.cfg().sensors, Signal::FuelFlow)
-        else {
-            return Vec::new();
-        };
-        if ch.noise_rel <= 0.0 && ch.noise_abs <= 0.0 {
+        let sensors = &self.engine.cfg().sensors;
+        let sigma = |v: f64| noise_sigma(sensors, Signal::FuelFlow, v);
+        // A relative or an absolute noise shows at a reading of 1 kg/s.
+        if sigma(1.0) <= 0.0 {
             return Vec::new();
         }
-        let applied = self.params.apply(x);
-        let Ok(engine) = (if self.params.touches_engine() {
-            self.params.engine_for(&self.engine, &applied)
-        } else {
-            Ok(self.engine.clone())
-        }) else {
-            return Vec::new();
-        };
         let mut out = Vec::with_capacity(INPUT_NOISE_DRAWS);
         for j in 0..INPUT_NOISE_DRAWS {
             let mut rng = ChaCha8Rng::seed_from_u64(INPUT_NOISE_SEED + j as u64);
@@ -264,25 +260,17 @@ impl TransientProblem {
                 let e: f64 = StandardNormal.sample(&mut rng);
                 // Only where fuel flows: an unfired sample stays zero, as the meter reads it.
                 if v.is_finite() && v > 0.0 {
-                    let sd = (ch.noise_rel * v).hypot(ch.noise_abs);
-                    let _ = seg.set(k, Signal::FuelFlow, (v + sd * e).max(0.5 * v));
+                    let _ = seg.set(k, Signal::FuelFlow, (v + sigma(v) * e).max(0.5 * v));
                 }
             }
             if self.smooth && smooth_fuel(&mut seg).is_err() {
                 continue;
             }
-            if let Some(p) = applied.ambient_kpa {
-                // As `simulate` does: the fitted ambient pressure where P1 is read as it.
-                for &k in &self.rest {
-                    let _ = seg.set(k, Signal::P1, p);
-                }
-            }
-            self.runs.fetch_add(1, Ordering::Relaxed);
-            let Ok(t) = simulate_segment(&engine, &applied.health, &seg, self.mode) else {
+            let Ok(measured) = self.simulate_on(x, &seg) else {
                 continue;
             };
             let mut r = Vec::new();
-            self.objective.residuals(&t.measured, &mut r);
+            self.objective.residuals(&measured, &mut r);
             out.push(r);
         }
         out

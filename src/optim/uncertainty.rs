@@ -88,8 +88,11 @@ pub fn uncertainty_with_inputs<P: ResidualProblem + ?Sized>(
     let dof = m - n;
     let s2 = ssr / dof as f64;
 
+    // The draws' scores Jᵀ(r_j − r) before the SVD takes J.
+    let scores = input_scores(&jac, &r, input_draws);
+
     // J = U S Vᵀ  ⇒  (JᵀJ)⁺ = V S⁻² Vᵀ over the kept singular values.
-    let svd = jac.clone().svd(false, true);
+    let svd = jac.svd(false, true);
     let v_t = svd.v_t.ok_or(OptimError::NonFiniteResiduals)?;
     let s = &svd.singular_values;
     let s_max = s.iter().cloned().fold(0.0, f64::max);
@@ -135,7 +138,7 @@ pub fn uncertainty_with_inputs<P: ResidualProblem + ?Sized>(
         }
     }
     let sigma: Vec<f64> = (0..n).map(|i| covariance[i][i].max(0.0).sqrt()).collect();
-    let input_sigma = input_spread(&cov_unit, &jac, &r, input_draws, &identifiable)
+    let input_sigma = input_spread(&cov_unit, &scores, &identifiable)
         .iter()
         .enumerate()
         .map(|(i, v)| {
@@ -174,39 +177,43 @@ pub fn uncertainty_with_inputs<P: ResidualProblem + ?Sized>(
     })
 }
 
-/// Per parameter (unit scale), the mean square of the linearised re-fits `B Jᵀ (r_j − r)` over
-/// the usable draws (`B = (JᵀJ)⁺`); zeros without any.
-fn input_spread(
-    bread: &[Vec<f64>],
-    jac: &nalgebra::DMatrix<f64>,
-    r: &[f64],
-    draws: &[Vec<f64>],
-    identifiable: &[bool],
-) -> Vec<f64> {
-    let n = bread.len();
-    let mut acc = vec![0.0; n];
-    let mut used = 0usize;
-    for d in draws {
-        if d.len() != r.len() || d.iter().any(|v| !v.is_finite()) {
-            continue;
-        }
-        let mut score = vec![0.0; n];
-        for (i, (a, b)) in d.iter().zip(r).enumerate() {
-            let diff = a - b;
-            for (j, sj) in score.iter_mut().enumerate() {
-                if identifiable[j] {
+/// The score `Jᵀ (r_j − r)` of each usable input draw (draws of the wrong length or with
+/// non-finite entries are skipped).
+fn input_scores(jac: &nalgebra::DMatrix<f64>, r: &[f64], draws: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    let n = jac.ncols();
+    draws
+        .iter()
+        .filter(|d| d.len() == r.len() && d.iter().all(|v| v.is_finite()))
+        .map(|d| {
+            let mut score = vec![0.0; n];
+            for (i, (a, b)) in d.iter().zip(r).enumerate() {
+                let diff = a - b;
+                for (j, sj) in score.iter_mut().enumerate() {
                     *sj += jac[(i, j)] * diff;
                 }
             }
-        }
+            score
+        })
+        .collect()
+}
+
+/// Per parameter (unit scale), the mean square of the linearised re-fits `B s_j` over the
+/// draws' `scores` (`B = (JᵀJ)⁺`; columns of parameters that are not identifiable left out);
+/// zeros without any.
+fn input_spread(bread: &[Vec<f64>], scores: &[Vec<f64>], identifiable: &[bool]) -> Vec<f64> {
+    let n = bread.len();
+    let mut acc = vec![0.0; n];
+    for score in scores {
         for (i, ai) in acc.iter_mut().enumerate() {
-            let g: f64 = (0..n).map(|k| bread[i][k] * score[k]).sum();
+            let g: f64 = (0..n)
+                .filter(|&k| identifiable[k])
+                .map(|k| bread[i][k] * score[k])
+                .sum();
             *ai += g * g;
         }
-        used += 1;
     }
-    if used > 0 {
-        acc.iter_mut().for_each(|v| *v /= used as f64);
+    if !scores.is_empty() {
+        acc.iter_mut().for_each(|v| *v /= scores.len() as f64);
     }
     acc
 }
