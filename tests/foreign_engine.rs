@@ -27,7 +27,7 @@
 //! every level within 0.5 points, no compressor cross-talk; the fits say `suspect` for 11 of 15.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-use gtwatch::calibrate::adapt::AdaptSettings;
+use gtwatch::calibrate::adapt::{AdaptSettings, AdaptStrategy};
 use gtwatch::calibrate::candidates::default_candidates;
 use gtwatch::calibrate::problem::{prepare, residuals_on};
 use gtwatch::calibrate::synthetic::{snapshot_csv_at_speeds, OperatingPoint};
@@ -191,26 +191,27 @@ fn errors_pct(engine: &Engine, row: &Snapshot) -> Option<Vec<(Signal, f64)>> {
     )
 }
 
-fn settings(adapt: bool) -> CalibrationSettings {
+/// Design values only (`None`), or with the adaptation of `strategy`.
+fn settings(adapt: Option<AdaptStrategy>) -> CalibrationSettings {
     CalibrationSettings {
         threads: Some(2),
-        adapt: adapt.then(AdaptSettings::default),
+        adapt: adapt.map(AdaptSettings::of),
         ..CalibrationSettings::default()
     }
 }
 
-fn calibrated(model: &Engine, rows: &[Snapshot], adapt: bool) -> Engine {
+fn calibrated(model: &Engine, rows: &[Snapshot], adapt: Option<AdaptStrategy>) -> Engine {
     let cands = default_candidates(model).expect("candidates");
     let started = std::time::Instant::now();
     let (report, engine) = calibrate(model, rows, &[], cands, &settings(adapt)).expect("calibrate");
     eprintln!(
         "  calibration on {} points{}: {:.1} s wall, {} model runs",
         rows.len(),
-        if adapt { " with adaptation" } else { "" },
+        adapt.map_or(String::new(), |s| format!(" with adaptation ({s:?})")),
         started.elapsed().as_secs_f64(),
         report.model_runs
     );
-    if adapt {
+    if adapt.is_some() {
         if let Some(a) = &report.adaptation {
             for c in &a.components {
                 eprintln!(
@@ -237,9 +238,15 @@ fn calibrated(model: &Engine, rows: &[Snapshot], adapt: bool) -> Engine {
 }
 
 /// Load `k` of `rows` left out: `model` calibrated to the others with design values only and
-/// with adaptation, each's (mean, worst) |error| in % over the measured signals of row `k`
-/// (printed with `label`).
-fn leave_out(model: &Engine, rows: &[Snapshot], k: usize, label: &str) -> [[f64; 2]; 2] {
+/// with the adaptation of `strategy`, each's (mean, worst) |error| in % over the measured
+/// signals of row `k` (printed with `label`).
+fn leave_out(
+    model: &Engine,
+    rows: &[Snapshot],
+    k: usize,
+    label: &str,
+    strategy: AdaptStrategy,
+) -> [[f64; 2]; 2] {
     let train: Vec<Snapshot> = rows
         .iter()
         .enumerate()
@@ -247,15 +254,15 @@ fn leave_out(model: &Engine, rows: &[Snapshot], k: usize, label: &str) -> [[f64;
         .map(|(_, r)| r.clone())
         .collect();
     let mut cells = [[f64::NAN; 2]; 2];
-    for (m, adapt) in [false, true].into_iter().enumerate() {
+    for (m, adapt) in [None, Some(strategy)].into_iter().enumerate() {
         let e = calibrated(model, &train, adapt);
         let Some(err) = errors_pct(&e, &rows[k]) else {
-            panic!("left-out row {k} cannot be solved (adapt {adapt})");
+            panic!("left-out row {k} cannot be solved (adapt {adapt:?})");
         };
         let mean = err.iter().map(|(_, x)| x.abs()).sum::<f64>() / err.len() as f64;
         let worst = err.iter().map(|(_, x)| x.abs()).fold(0.0, f64::max);
         eprintln!(
-            "{label}left out line {} (adapt {adapt}): mean {mean:.3} %, worst {worst:.3} % {:?}",
+            "{label}left out line {} (adapt {adapt:?}): mean {mean:.3} %, worst {worst:.3} % {:?}",
             rows[k].line,
             err.iter()
                 .map(|(s, x)| format!("{s} {x:+.3}"))
@@ -288,7 +295,7 @@ fn adapted_md22_predicts_left_out_loads_of_a_foreign_unit() {
         vec![2, 4, 6]
     };
     for k in left_out {
-        let cells = leave_out(&model, &rows, k, "");
+        let cells = leave_out(&model, &rows, k, "", AdaptStrategy::Grown);
         for m in 0..2 {
             means[m].push(cells[m][0]);
             worst_signal[m] = worst_signal[m].max(cells[m][1]);
@@ -332,6 +339,68 @@ fn adapted_md22_predicts_left_out_loads_of_a_foreign_unit() {
     );
 }
 
+/// `calibrate --adapt --adapt-strategy continuation` on the same unit: every curve the data
+/// inform (the compressor's flow and pressure ratio too), all knots at once, fitted through a
+/// sequence of smoothness scales. It meets the issue's leave-one-load-out floors on the loads
+/// CI runs (mean ≤ 0.3 %, no signal beyond 1 %) where the grown shape does not, and its healthy
+/// baseline diagnoses `good` within 0.3 points; what the correlated curves do off the operating
+/// line the healthy data do not pin, so the degradation grid is read with more cross-talk than
+/// on the grown shape (floors below are what it meets; no miss is called good).
+#[test]
+fn continuation_predicts_left_out_loads_of_a_foreign_unit_within_the_floors() {
+    let truth = truth_engine();
+    let rows = rows_of(&truth, [0.0; 6], 0, "healthy");
+    let full = rows
+        .iter()
+        .max_by(|a, b| a.n2_rpm.total_cmp(&b.n2_rpm))
+        .expect("full load");
+    let model = user_model(full);
+    let full_table = std::env::var_os("GTWATCH_FOREIGN_FULL").is_some();
+    let left_out: Vec<usize> = if full_table {
+        (0..rows.len()).collect()
+    } else {
+        vec![2, 4, 6]
+    };
+    let mut means = Vec::new();
+    let mut worst = 0.0f64;
+    for k in left_out {
+        let cells = leave_out(
+            &model,
+            &rows,
+            k,
+            "continuation ",
+            AdaptStrategy::Continuation,
+        );
+        eprintln!(
+            "continuation: line {} | design only {:.3} / {:.3} % | adapted {:.3} / {:.3} %",
+            rows[k].line, cells[0][0], cells[0][1], cells[1][0], cells[1][1]
+        );
+        means.push(cells[1][0]);
+        worst = worst.max(cells[1][1]);
+    }
+    let mean = means.iter().sum::<f64>() / means.len() as f64;
+    eprintln!("continuation: adapted mean {mean:.3} %, worst {worst:.3} %");
+    // The issue's floors, on the interior loads CI runs (all 9 include the extrapolated ends).
+    assert!(
+        full_table || (mean <= 0.3 && worst <= 1.0),
+        "continuation: mean {mean:.3} %, worst {worst:.3} %"
+    );
+
+    let (adapted, cfg, baseline, quality) =
+        adapted_baseline(&model, &rows, AdaptStrategy::Continuation);
+    eprintln!("continuation: healthy baseline {baseline:.3?} quality {quality}");
+    assert_eq!(quality, "good");
+    assert!(baseline.iter().all(|v| v.abs() <= 0.3), "{baseline:?}");
+    let (est, verdicts) = grid_estimates(&truth, AERO25, &adapted, &cfg);
+    let rho = grid_ranks(&est, &verdicts);
+    // Measured 0.975 / 0.927 / 0.633 / 0.967 (the grown shape: 0.975 / 0.93 / 0.89 / 0.98): the
+    // HP turbine's flow reads compressor fouling as up to −1.3 points of D_GT.
+    for (p, floor) in [(0, 0.9), (1, 0.85), (2, 0.55), (3, 0.9)] {
+        assert!(rho[p] >= floor, "{}: ρ {:.3}", HEALTH_NAMES[p], rho[p]);
+    }
+    assert_no_miss_called_good(&est, &verdicts);
+}
+
 #[test]
 fn adapted_md22_diagnoses_a_foreign_unit() {
     let truth = truth_engine();
@@ -342,12 +411,34 @@ fn adapted_md22_diagnoses_a_foreign_unit() {
         .expect("full load");
     let model = user_model(full);
     // The healthy baseline diagnoses good at ≈ 0 on the model adapted to all 9 loads.
-    let (adapted, cfg, baseline, baseline_quality) = adapted_baseline(&model, &rows);
+    let (adapted, cfg, baseline, baseline_quality) =
+        adapted_baseline(&model, &rows, AdaptStrategy::Grown);
     eprintln!("healthy baseline: {baseline:.3?} quality {baseline_quality}");
 
     // A grid of degradation at all 9 loads: compressor fouling, HP-turbine wear, both.
-    let levels = LEVELS;
     let (est, verdicts) = grid_estimates(&truth, AERO25, &adapted, &cfg);
+    let rho = grid_ranks(&est, &verdicts);
+    // Floors this version meets (the issue asks ρ ≥ 0.95 for all four, |cross| ≤ 0.3, each
+    // level within 0.5 points, every fit good; D_GT's rank and the cross-talk are not met yet,
+    // and the fits say so: a model adapted along the operating line only misses how the unit's
+    // maps change across it, which degradation moves the points into).
+    for (p, floor) in [(0, 0.9), (1, 0.9), (2, 0.8), (3, 0.9)] {
+        assert!(rho[p] >= floor, "{}: ρ {:.3}", HEALTH_NAMES[p], rho[p]);
+    }
+    assert_eq!(
+        baseline_quality, "good",
+        "the healthy baseline on the adapted model"
+    );
+    for (p, v) in baseline.iter().enumerate() {
+        assert!(v.abs() <= 0.3, "baseline {} = {v:.3}", HEALTH_NAMES[p]);
+    }
+    assert_no_miss_called_good(&est, &verdicts);
+}
+
+/// Prints each level of the grid, each parameter's Spearman ρ and worst error and the
+/// cross-talk; returns ρ of D_GC, D_EC, D_GT and D_ET.
+fn grid_ranks(est: &[[f64; 6]], verdicts: &[String]) -> [f64; 4] {
+    let levels = LEVELS;
     let mut worst = [0.0f64; 6];
     let mut good = 0;
     for (i, e) in est.iter().enumerate() {
@@ -363,7 +454,7 @@ fn adapted_md22_diagnoses_a_foreign_unit() {
     let truths: Vec<[f64; 6]> = (0..levels).map(grid).collect();
     let mut rho = [0.0; 4];
     for p in 0..4 {
-        rho[p] = spearman(&column(&est, p), &column(&truths, p));
+        rho[p] = spearman(&column(est, p), &column(&truths, p));
         eprintln!(
             "{}: Spearman {:.3}, worst error {:.3} points",
             HEALTH_NAMES[p], rho[p], worst[p]
@@ -376,32 +467,22 @@ fn adapted_md22_diagnoses_a_foreign_unit() {
     let pick =
         |idx: &[usize], v: &[[f64; 6]], p: usize| idx.iter().map(|&i| v[i][p]).collect::<Vec<_>>();
     let cross_c = spearman(
-        &pick(&turbine_only, &est, 0),
+        &pick(&turbine_only, est, 0),
         &pick(&turbine_only, &truths, 3),
     );
     let cross_t = spearman(
-        &pick(&compressor_only, &est, 3),
+        &pick(&compressor_only, est, 3),
         &pick(&compressor_only, &truths, 0),
     );
     eprintln!(
         "cross-talk: D_GC vs D_ET truth on turbine-only levels {cross_c:.3}; D_ET vs D_GC truth \
          on compressor-only levels {cross_t:.3}; {good} of {levels} fits good"
     );
-    // Floors this version meets (the issue asks ρ ≥ 0.95 for all four, |cross| ≤ 0.3, each
-    // level within 0.5 points, every fit good; D_GT's rank and the cross-talk are not met yet,
-    // and the fits say so: a model adapted along the operating line only misses how the unit's
-    // maps change across it, which degradation moves the points into).
-    for (p, floor) in [(0, 0.9), (1, 0.9), (2, 0.8), (3, 0.9)] {
-        assert!(rho[p] >= floor, "{}: ρ {:.3}", HEALTH_NAMES[p], rho[p]);
-    }
-    assert_eq!(
-        baseline_quality, "good",
-        "the healthy baseline on the adapted model"
-    );
-    for (p, v) in baseline.iter().enumerate() {
-        assert!(v.abs() <= 0.3, "baseline {} = {v:.3}", HEALTH_NAMES[p]);
-    }
-    // A fit that misses the plant must not be called good.
+    rho
+}
+
+/// A fit that misses the plant (a level off by more than 0.5 points) must not be called good.
+fn assert_no_miss_called_good(est: &[[f64; 6]], verdicts: &[String]) {
     for (i, q) in verdicts.iter().enumerate() {
         let err = (0..4)
             .map(|p| (est[i][p] - grid(i)[p]).abs())
@@ -418,8 +499,9 @@ fn adapted_md22_diagnoses_a_foreign_unit() {
 fn adapted_baseline(
     model: &Engine,
     rows: &[Snapshot],
+    strategy: AdaptStrategy,
 ) -> (Engine, DiagnosisConfig, [f64; 6], String) {
-    let adapted = calibrated(model, rows, true);
+    let adapted = calibrated(model, rows, Some(strategy));
     let cfg = DiagnosisConfig {
         max_model_runs: 1500,
         threads: Some(2),
@@ -499,7 +581,7 @@ fn adapted_md22_fits_a_second_foreign_unit() {
     // [design only, adapted] × [mean, worst] per left-out load.
     let mut table: Vec<[[f64; 2]; 2]> = Vec::new();
     for k in 0..rows.len() {
-        let cells = leave_out(&model, &rows, k, "pyc30 ");
+        let cells = leave_out(&model, &rows, k, "pyc30 ", AdaptStrategy::Grown);
         table.push(cells);
     }
     eprintln!("pyc30 left-out line | design only: mean / worst % | adapted: mean / worst %");
@@ -527,7 +609,7 @@ fn adapted_md22_fits_a_second_foreign_unit() {
     assert!(worst_of(1, 1..table.len() - 1) <= 1.0);
     assert!(worst_of(1, 0..table.len()) <= 1.5);
 
-    let (adapted, cfg, baseline, quality) = adapted_baseline(&model, &rows);
+    let (adapted, cfg, baseline, quality) = adapted_baseline(&model, &rows, AdaptStrategy::Grown);
     eprintln!("pyc30 healthy baseline: {baseline:.3?} quality {quality}");
     assert_eq!(quality, "good");
     assert!(baseline.iter().all(|v| v.abs() <= 0.3), "{baseline:?}");

@@ -5,7 +5,7 @@
 //! Must not fit anything itself (that is `crate::calibrate`) or write any file but the output
 //! engine file.
 
-use crate::calibrate::adapt::AdaptSettings;
+use crate::calibrate::adapt::{AdaptSettings, AdaptStrategy};
 use crate::calibrate::candidates::{candidate, candidate_in, default_candidates, offset_candidate};
 use crate::calibrate::edit::{rewrite, NewValue};
 use crate::calibrate::startup::{rest_readings, startup_snapshots};
@@ -14,7 +14,7 @@ use crate::diagnosis::csv_input::{parse_mapping, read_recording};
 use crate::diagnosis::snapshot::read_snapshots;
 use crate::engine::{Engine, EngineConfig};
 use anyhow::{bail, Context};
-use clap::Args;
+use clap::{Args, ValueEnum};
 use serde_json::json;
 use std::collections::HashMap;
 use std::io::BufReader;
@@ -63,6 +63,15 @@ pub struct CalibrateArgs {
     /// are not the engine file's (another make, variable stators, a different off-design shape).
     #[arg(long)]
     pub adapt: bool,
+    /// How --adapt chooses and fits its curves. `grown` (default): the curves the
+    /// identifiability analysis identifies, knots grown while each stays identified; the shape
+    /// for diagnosis. `continuation`: every curve the data inform, correlated ones too, at every
+    /// knot the data's speeds carry (at most 6), fitted from nearly straight curves to the
+    /// final smoothness; predicts the healthy unit between its loads best, but what the
+    /// correlated curves do off the operating line is not in healthy data, so degradation can
+    /// read with more cross-talk (README, "Calibrating to your unit").
+    #[arg(long, value_enum, default_value_t = AdaptStrategyArg::Grown, requires = "adapt")]
+    pub adapt_strategy: AdaptStrategyArg,
     /// Column mapping for the snapshot file: `t1_k=T_inlet,n1_rpm=NGG,…`.
     #[arg(long)]
     pub map: Option<String>,
@@ -72,6 +81,22 @@ pub struct CalibrateArgs {
     /// Print one JSON document.
     #[arg(long)]
     pub json: bool,
+}
+
+/// `--adapt-strategy` (the calibration's own [`AdaptStrategy`], without clap in it).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum AdaptStrategyArg {
+    Grown,
+    Continuation,
+}
+
+impl From<AdaptStrategyArg> for AdaptStrategy {
+    fn from(a: AdaptStrategyArg) -> Self {
+        match a {
+            AdaptStrategyArg::Grown => AdaptStrategy::Grown,
+            AdaptStrategyArg::Continuation => AdaptStrategy::Continuation,
+        }
+    }
 }
 
 /// Map-path keys rewritten when the new file lives in another folder.
@@ -203,9 +228,9 @@ fn print_text(report: &Calibration, wall_s: f64) {
     }
     if let Some(ad) = &report.adaptation {
         println!(
-            "\noff-design adaptation (fraction of the map's value; 0 at the design speed): RMS \
-             {:.2} σ → {:.2} σ",
-            ad.rms_before, ad.rms_after
+            "\noff-design adaptation ({} curves; fraction of the map's value, 0 at the design \
+             speed): RMS {:.2} σ → {:.2} σ",
+            ad.strategy, ad.rms_before, ad.rms_after
         );
         for c in &ad.components {
             let knots: Vec<String> = c.knots.iter().map(|k| format!("{k:.3}")).collect();
@@ -354,7 +379,7 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
     }
     let settings = CalibrationSettings {
         threads: a.threads,
-        adapt: a.adapt.then(AdaptSettings::default),
+        adapt: a.adapt.then(|| AdaptSettings::of(a.adapt_strategy.into())),
         ..CalibrationSettings::default()
     };
     let (report, _calibrated) = calibrate(&engine, &rows, &rest, candidates, &settings)

@@ -1,13 +1,16 @@
 //! The adaptation's growth (steps 1–3 of the parent module): the curves the data identify at
 //! one knot, their fit, then one knot more per component while every knot stays identified
-//! and the fit gains, and the report. Must not do I/O.
+//! and the fit gains, and the report; or, with [`AdaptStrategy::Continuation`], every curve
+//! the data inform at every knot their speeds carry, fitted through a sequence of smoothness
+//! scales. Must not do I/O.
 
 use super::super::CalibrateError;
 use super::knots::knots;
 use super::shape::{key, Shape};
 use super::{
-    candidates_for, fit, identify_at, report, rms_of, shaped, AdaptReport, Ctx, Pass, SpeedRanges,
-    MIN_GAIN,
+    candidates_for, fit, fit_within, identify_at, report, rms_of, shaped, AdaptReport,
+    AdaptSettings, AdaptStrategy, Ctx, Pass, SpeedRanges, CONTINUATION_SCALES,
+    CONTINUATION_STAGE_ITERATIONS, MIN_GAIN,
 };
 use crate::engine::config::{curves_of, COMPONENTS};
 use crate::engine::Engine;
@@ -50,6 +53,7 @@ impl<'a> Growth<'a> {
             max_level,
             limit,
         } = speeds;
+        let continuation = ctx.settings.strategy == AdaptStrategy::Continuation;
         let mut not_fitted: [Vec<(String, String)>; 3] = Default::default();
         let mut knots_reason: [String; 3] = Default::default();
         let mut shape = Shape {
@@ -83,6 +87,7 @@ impl<'a> Growth<'a> {
                 let k = key(name, &curve, 0);
                 match keys.iter().position(|x| *x == k) {
                     Some(j) if pass.identified[j] => kept.push((curve, values)),
+                    Some(j) if continuation && pass.informed[j] => kept.push((curve, values)),
                     Some(j) => not_fitted[ci].push((curve, pass.reasons[j].clone())),
                     None => {}
                 }
@@ -92,6 +97,14 @@ impl<'a> Growth<'a> {
                 shape.knots[ci].clear();
                 knots_reason[ci] =
                     "no curve of this component is identifiable from these data".into();
+            } else if continuation && max_level[ci] > 0 {
+                // Every knot the data's speeds carry at once; the penalty's continuation, not
+                // a growth, decides how much shape they take.
+                shape = shape.resampled(ci, knots(ranges[ci][0], max_level[ci]));
+                knots_reason[ci] = format!(
+                    "{} knot(s): {}; fitted by continuation in the smoothness penalty",
+                    max_level[ci], limit[ci]
+                );
             }
         }
         let design_free: Vec<String> = design_keys
@@ -140,17 +153,54 @@ impl<'a> Growth<'a> {
         r.rms_before = rms_before;
         r.rms_after = rms_of(&self.current, self.ctx)?;
         r.model_runs = self.runs;
+        r.strategy = self.ctx.settings.strategy.name();
         Ok((r, self.current))
     }
 
-    /// Fits the one-knot shape.
+    /// Fits the first shape: one knot per component ([`AdaptStrategy::Grown`]), or every
+    /// knot through the continuation's smoothness scales, then at the settings' own
+    /// ([`AdaptStrategy::Continuation`]).
     pub(super) fn fit_first(&mut self) -> Result<(), CalibrateError> {
         let mut all: Vec<String> = self.design_free.clone();
         all.extend(self.shape.keys());
+        if self.ctx.settings.strategy == AdaptStrategy::Continuation {
+            for scale in CONTINUATION_SCALES {
+                let settings = AdaptSettings {
+                    curvature_scale: scale,
+                    ..self.ctx.settings.clone()
+                };
+                let ctx = Ctx {
+                    settings: &settings,
+                    ..self.ctx
+                };
+                let cands = candidates_for(&self.current, &all)?;
+                let (fitted, n, step) = fit_within(
+                    &self.current,
+                    cands,
+                    &self.shape,
+                    ctx,
+                    CONTINUATION_STAGE_ITERATIONS,
+                )?;
+                self.runs += n;
+                self.steps.push(format!(
+                    "knots {:?}, smoothness scale {scale}: {step}",
+                    self.shape.levels()
+                ));
+                self.current = fitted;
+                self.shape.read_back(&self.current);
+            }
+        }
         let cands = candidates_for(&self.current, &all)?;
         let (fitted, n, step) = fit(&self.current, cands, &self.shape, self.ctx)?;
         self.runs += n;
-        self.steps.push(format!("1 knot per component: {step}"));
+        self.steps.push(match self.ctx.settings.strategy {
+            AdaptStrategy::Grown => format!("1 knot per component: {step}"),
+            AdaptStrategy::Continuation => format!(
+                "knots {:?}, smoothness scale {}: {step}",
+                self.shape.levels(),
+                self.ctx.settings.curvature_scale
+            ),
+        });
         self.current = fitted;
         self.shape.read_back(&self.current);
         self.level = (0..3).map(|ci| self.shape.knots[ci].len()).collect();
@@ -330,6 +380,7 @@ impl<'a> Growth<'a> {
         r.rms_after = rms_of(&self.current, self.ctx)?;
         r.design_refitted = self.design_free;
         r.model_runs = self.runs;
+        r.strategy = self.ctx.settings.strategy.name();
         r.steps = self.steps;
         Ok((r, self.current))
     }

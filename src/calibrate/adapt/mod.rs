@@ -34,7 +34,7 @@ mod knots;
 mod shape;
 
 use super::candidates::{candidate, Candidate};
-use super::identify::identify;
+use super::identify::{identify, MAX_SIGMA_FRACTION};
 use super::problem::{CalibrationPoint, CalibrationProblem};
 use super::startup::RestReading;
 use super::CalibrateError;
@@ -58,6 +58,39 @@ pub const ADAPT_MIN_ITERATIONS: usize = 100;
 /// Least relative drop of the data's RMS residual a knot more must bring to be kept.
 const MIN_GAIN: f64 = 0.02;
 
+/// How the adaptation chooses its curves and fits them.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum AdaptStrategy {
+    /// The curves the identifiability analysis identifies at one knot (of two curves that
+    /// correlate beyond 0.95 along the data's operating line, only the better-informed), knots
+    /// grown one at a time while every knot stays identified and the fit gains. The shape for
+    /// diagnosis: it adds no more freedom than the healthy line pins, so degradation, which
+    /// moves the points off that line, is read with less cross-talk.
+    #[default]
+    Grown,
+    /// Every curve the data inform (its 1σ alone within an eighth of its interval), correlated
+    /// or not, e.g. the compressor's flow and pressure ratio beside its speed re-labelling; as
+    /// many knots as the data's speeds carry (at most [`AdaptSettings::max_knots`]); fitted by
+    /// continuation in the smoothness penalty: first nearly straight curves
+    /// ([`CONTINUATION_SCALES`]), each fit the start of the next, relaxed to
+    /// [`AdaptSettings::curvature_scale`]. The shape for predicting the healthy unit between
+    /// its calibrated loads: the correlated curves share what one alone cannot follow, and the
+    /// continuation keeps the fit out of the poor optima a fit of so many values from zero
+    /// ends in. What the correlated curves do off the operating line the healthy data do not
+    /// say, so degradation can read with more cross-talk (measured in `tests/foreign_engine.rs`).
+    Continuation,
+}
+
+/// Smoothness scales the [`AdaptStrategy::Continuation`] fits run through before the final
+/// one: a curvature of 0.02 per unit speed squared costs one σ first (curves nearly straight,
+/// few effective degrees of freedom), then 0.1 and 0.5.
+pub const CONTINUATION_SCALES: [f64; 3] = [0.02, 0.1, 0.5];
+
+/// Levenberg–Marquardt iterations each of the continuation's [`CONTINUATION_SCALES`] fits gets
+/// at most: it only has to bring the curves into the final fit's basin, which then runs to
+/// convergence (or [`ADAPT_MIN_ITERATIONS`]).
+pub const CONTINUATION_STAGE_ITERATIONS: usize = 30;
+
 /// Settings of the adaptation.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AdaptSettings {
@@ -66,6 +99,8 @@ pub struct AdaptSettings {
     /// A curve's second divided difference (per unit relative speed squared) that costs one
     /// noise σ in the fit: the smoothness penalty's scale.
     pub curvature_scale: f64,
+    /// How curves are chosen and fitted.
+    pub strategy: AdaptStrategy,
 }
 
 impl Default for AdaptSettings {
@@ -77,6 +112,27 @@ impl Default for AdaptSettings {
             // MIN_GAIN).
             max_knots: 6,
             curvature_scale: 2.0,
+            strategy: AdaptStrategy::Grown,
+        }
+    }
+}
+
+impl AdaptStrategy {
+    /// Its name in the report and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            AdaptStrategy::Grown => "grown",
+            AdaptStrategy::Continuation => "continuation",
+        }
+    }
+}
+
+impl AdaptSettings {
+    /// The default settings with `strategy`.
+    pub fn of(strategy: AdaptStrategy) -> Self {
+        Self {
+            strategy,
+            ..Self::default()
         }
     }
 }
@@ -121,6 +177,8 @@ pub struct AdaptReport {
     /// Each fit of the growing shape: knots per component, LM outcome, RMS.
     pub steps: Vec<String>,
     pub model_runs: usize,
+    /// The strategy that chose and fitted the curves (`grown`, `continuation`).
+    pub strategy: &'static str,
 }
 
 /// Relative corrected speed of each component at each point: from the measured GG speed, T1,
@@ -176,6 +234,9 @@ pub struct Ctx<'a> {
 /// What one identifiability pass says of the candidates `cands` at `engine`.
 struct Pass {
     identified: Vec<bool>,
+    /// Carries information alone (1σ alone within [`MAX_SIGMA_FRACTION`] of its interval),
+    /// identified or dropped only for correlating with another candidate.
+    informed: Vec<bool>,
     sigma: Vec<Option<f64>>,
     reasons: Vec<String>,
     runs: usize,
@@ -203,6 +264,13 @@ fn identify_at(engine: &Engine, cands: &[Candidate], ctx: Ctx) -> Result<Pass, C
             .zip(&failed)
             .map(|(v, f)| v.identifiable && !f)
             .collect(),
+        informed: verdicts
+            .iter()
+            .zip(&failed)
+            .map(|(v, f)| {
+                !f && (v.identifiable || v.sigma_fraction.is_some_and(|s| s <= MAX_SIGMA_FRACTION))
+            })
+            .collect(),
         sigma: verdicts
             .iter()
             .zip(cands)
@@ -225,6 +293,23 @@ fn fit(
     shape: &Shape,
     ctx: Ctx,
 ) -> Result<(Engine, usize, String), CalibrateError> {
+    fit_within(
+        engine,
+        cands,
+        shape,
+        ctx,
+        ctx.max_iterations.max(ADAPT_MIN_ITERATIONS),
+    )
+}
+
+/// [`fit`] stopped after `iterations` Levenberg–Marquardt iterations at most.
+fn fit_within(
+    engine: &Engine,
+    cands: Vec<Candidate>,
+    shape: &Shape,
+    ctx: Ctx,
+    iterations: usize,
+) -> Result<(Engine, usize, String), CalibrateError> {
     let keys: Vec<String> = cands.iter().map(|c| c.key.clone()).collect();
     let rows = shape.smoothness(&keys, ctx.settings.curvature_scale);
     let prob = CalibrationProblem::new(engine, ctx.points.to_vec(), ctx.rest.to_vec(), cands)?
@@ -234,7 +319,7 @@ fn fit(
         .map_err(|e| CalibrateError::Optim(e.to_string()))?;
     let opts = LmOptions::default()
         .with_jacobian(jac_opts)
-        .and_then(|o| o.with_max_iterations(ctx.max_iterations.max(ADAPT_MIN_ITERATIONS)))
+        .and_then(|o| o.with_max_iterations(iterations))
         .and_then(|o| o.with_ftol(1e-8))
         .and_then(|o| o.with_xtol(1e-7))
         .map_err(|e| CalibrateError::Optim(e.to_string()))?;
@@ -275,7 +360,9 @@ pub fn adapt(
         return g.unfitted(rms_before);
     }
     g.fit_first()?;
-    while g.grow()? {}
+    if ctx.settings.strategy == AdaptStrategy::Grown {
+        while g.grow()? {}
+    }
     g.finish(rms_before)
 }
 
@@ -374,5 +461,6 @@ fn report(
         design_refitted: Vec::new(),
         steps: Vec::new(),
         model_runs: 0,
+        strategy: "",
     }
 }

@@ -46,6 +46,11 @@ impl Shape {
         any.then_some(a)
     }
 
+    /// Knots per component.
+    pub(super) fn levels(&self) -> Vec<usize> {
+        self.knots.iter().map(Vec::len).collect()
+    }
+
     /// Every knot value's key, in a fixed order.
     pub(super) fn keys(&self) -> Vec<String> {
         let mut out = Vec::new();
