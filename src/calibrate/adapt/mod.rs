@@ -27,6 +27,12 @@
 //!    [`AdaptSettings::curvature_scale`] is one residual), so a knot the data barely pin cannot
 //!    wiggle.
 //!
+//! That is [`AdaptStrategy::Grown`], the default. [`AdaptStrategy::Continuation`] keeps every
+//! curve the data inform (correlated ones too), puts every knot the speeds carry at once, and
+//! fits them through a sequence of smoothness scales from nearly straight curves to the final
+//! one, with a weak prior towards the map: the better prediction of the healthy unit between
+//! its loads, the weaker separation of degradation (see the variant's doc).
+//!
 //! What it must not do: I/O; fit health (a baseline is healthy by definition).
 
 mod growth;
@@ -85,6 +91,13 @@ pub enum AdaptStrategy {
 /// one: a curvature of 0.02 per unit speed squared costs one σ first (curves nearly straight,
 /// few effective degrees of freedom), then 0.1 and 0.5.
 pub const CONTINUATION_SCALES: [f64; 3] = [0.02, 0.1, 0.5];
+
+/// Knot value that costs one noise σ in the [`AdaptStrategy::Continuation`] fits: a weak pull
+/// towards the map (50 % costs what one σ of misfit does), so curves that trade a straight
+/// ramp with another, unseen by the curvature penalty, stay at zero where the data do not ask
+/// for them (on a unit of the model's own map family, without it, the compressor's (PR − 1)
+/// curve drifted to +5 % at no gain in the fit).
+pub const CONTINUATION_PRIOR_SCALE: f64 = 0.2;
 
 /// Levenberg–Marquardt iterations each of the continuation's [`CONTINUATION_SCALES`] fits gets
 /// at most: it only has to bring the curves into the final fit's basin, which then runs to
@@ -311,7 +324,10 @@ fn fit_within(
     iterations: usize,
 ) -> Result<(Engine, usize, String), CalibrateError> {
     let keys: Vec<String> = cands.iter().map(|c| c.key.clone()).collect();
-    let rows = shape.smoothness(&keys, ctx.settings.curvature_scale);
+    let mut rows = shape.smoothness(&keys, ctx.settings.curvature_scale);
+    if ctx.settings.strategy == AdaptStrategy::Continuation {
+        rows.extend(shape.prior(&keys, CONTINUATION_PRIOR_SCALE));
+    }
     let prob = CalibrationProblem::new(engine, ctx.points.to_vec(), ctx.rest.to_vec(), cands)?
         .with_smoothness(rows);
     let jac_opts = JacobianOptions::default()

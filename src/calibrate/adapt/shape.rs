@@ -89,6 +89,20 @@ impl Shape {
         }
     }
 
+    /// Prior rows for the candidate vector `keys`: each knot value over `scale` (a value of
+    /// `scale` costs one noise σ), so a curve the data leave free (two correlated curves can
+    /// trade a straight ramp, which the curvature penalty does not see) stays at the map.
+    pub(super) fn prior(&self, keys: &[String], scale: f64) -> Vec<SmoothnessRow> {
+        self.keys()
+            .iter()
+            .filter_map(|k| keys.iter().position(|x| x == k))
+            .map(|j| SmoothnessRow {
+                terms: vec![(j, 1.0)],
+                scale,
+            })
+            .collect()
+    }
+
     /// Smoothness rows for the candidate vector `keys` (adaptation knots found by key).
     pub(super) fn smoothness(&self, keys: &[String], scale: f64) -> Vec<SmoothnessRow> {
         let mut rows = Vec::new();
