@@ -273,27 +273,37 @@ fn leave_out(
     cells
 }
 
-#[test]
-fn adapted_md22_predicts_left_out_loads_of_a_foreign_unit() {
+/// The first foreign unit: its truth engine, its 9 healthy rows, and the user's md22 copy with
+/// the design point set from the full-load row.
+fn first_unit() -> (Engine, Vec<Snapshot>, Engine) {
     let truth = truth_engine();
     let rows = rows_of(&truth, [0.0; 6], 0, "healthy");
-    assert_eq!(rows.len(), 9);
     let full = rows
         .iter()
         .max_by(|a, b| a.n2_rpm.total_cmp(&b.n2_rpm))
         .expect("full load");
     let model = user_model(full);
+    (truth, rows, model)
+}
 
+/// Which of `n` loads to leave out in turn: CI runs three (low, middle, high interior);
+/// `GTWATCH_FOREIGN_FULL=1` all (then `true`).
+fn loads_left_out(n: usize) -> (bool, Vec<usize>) {
+    if std::env::var_os("GTWATCH_FOREIGN_FULL").is_some() {
+        (true, (0..n).collect())
+    } else {
+        (false, vec![2, 4, 6])
+    }
+}
+
+#[test]
+fn adapted_md22_predicts_left_out_loads_of_a_foreign_unit() {
+    let (_, rows, model) = first_unit();
+    assert_eq!(rows.len(), 9);
     let mut table: Vec<(String, [f64; 2], [f64; 2])> = Vec::new();
     let mut worst_signal = [0.0f64; 2];
     let mut means = [Vec::new(), Vec::new()];
-    // CI runs three left-out loads (low, middle, high interior); GTWATCH_FOREIGN_FULL=1 all 9.
-    let full_table = std::env::var_os("GTWATCH_FOREIGN_FULL").is_some();
-    let left_out: Vec<usize> = if full_table {
-        (0..rows.len()).collect()
-    } else {
-        vec![2, 4, 6]
-    };
+    let (full_table, left_out) = loads_left_out(rows.len());
     for k in left_out {
         let cells = leave_out(&model, &rows, k, "", AdaptStrategy::Grown);
         for m in 0..2 {
@@ -348,19 +358,8 @@ fn adapted_md22_predicts_left_out_loads_of_a_foreign_unit() {
 /// on the grown shape (floors below are what it meets; no miss is called good).
 #[test]
 fn continuation_predicts_left_out_loads_of_a_foreign_unit_within_the_floors() {
-    let truth = truth_engine();
-    let rows = rows_of(&truth, [0.0; 6], 0, "healthy");
-    let full = rows
-        .iter()
-        .max_by(|a, b| a.n2_rpm.total_cmp(&b.n2_rpm))
-        .expect("full load");
-    let model = user_model(full);
-    let full_table = std::env::var_os("GTWATCH_FOREIGN_FULL").is_some();
-    let left_out: Vec<usize> = if full_table {
-        (0..rows.len()).collect()
-    } else {
-        vec![2, 4, 6]
-    };
+    let (truth, rows, model) = first_unit();
+    let (full_table, left_out) = loads_left_out(rows.len());
     let mut means = Vec::new();
     let mut worst = 0.0f64;
     for k in left_out {
@@ -403,13 +402,7 @@ fn continuation_predicts_left_out_loads_of_a_foreign_unit_within_the_floors() {
 
 #[test]
 fn adapted_md22_diagnoses_a_foreign_unit() {
-    let truth = truth_engine();
-    let rows = rows_of(&truth, [0.0; 6], 0, "healthy");
-    let full = rows
-        .iter()
-        .max_by(|a, b| a.n2_rpm.total_cmp(&b.n2_rpm))
-        .expect("full load");
-    let model = user_model(full);
+    let (truth, rows, model) = first_unit();
     // The healthy baseline diagnoses good at ≈ 0 on the model adapted to all 9 loads.
     let (adapted, cfg, baseline, baseline_quality) =
         adapted_baseline(&model, &rows, AdaptStrategy::Grown);

@@ -79,7 +79,8 @@ pub enum AdaptStrategy {
     /// many knots as the data's speeds carry (at most [`AdaptSettings::max_knots`]); fitted by
     /// continuation in the smoothness penalty: first nearly straight curves
     /// ([`CONTINUATION_SCALES`]), each fit the start of the next, relaxed to
-    /// [`AdaptSettings::curvature_scale`]. The shape for predicting the healthy unit between
+    /// [`AdaptSettings::curvature_scale`], with a weak prior towards the map
+    /// ([`CONTINUATION_PRIOR_SCALE`]). The shape for predicting the healthy unit between
     /// its calibrated loads: the correlated curves share what one alone cannot follow, and the
     /// continuation keeps the fit out of the poor optima a fit of so many values from zero
     /// ends in. What the correlated curves do off the operating line the healthy data do not
@@ -93,7 +94,7 @@ pub enum AdaptStrategy {
 pub const CONTINUATION_SCALES: [f64; 3] = [0.02, 0.1, 0.5];
 
 /// Knot value that costs one noise σ in the [`AdaptStrategy::Continuation`] fits: a weak pull
-/// towards the map (50 % costs what one σ of misfit does), so curves that trade a straight
+/// towards the map (a 20 % correction costs what one σ of misfit does), so curves that trade a straight
 /// ramp with another, unseen by the curvature penalty, stay at zero where the data do not ask
 /// for them (on a unit of the model's own map family, without it, the compressor's (PR − 1)
 /// curve drifted to +5 % at no gain in the fit).
