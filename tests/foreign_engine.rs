@@ -558,11 +558,23 @@ fn grid(i: usize) -> [f64; 6] {
 }
 
 /// A second foreign unit, of another map family again (pyCycle's axi5 compressor and lpt2269
-/// turbines, tests/data/reference/pycycle_maps/), with the settings tuned on the first: the
-/// middle load left out of an adapted calibration, and the healthy baseline diagnosed on the
-/// model adapted to all 9 loads.
+/// turbines, tests/data/reference/pycycle_maps/), with the settings tuned on the first: each
+/// load left out of an adapted calibration, the healthy baseline and the degradation grid
+/// diagnosed on the model adapted to all 9 loads.
 #[test]
 fn adapted_md22_fits_a_second_foreign_unit() {
+    second_unit(AdaptStrategy::Grown);
+}
+
+/// The same with `--adapt-strategy continuation`: on this unit it meets the same floors (the
+/// first unit's price, D_GT read worse, is not paid here).
+#[test]
+fn continuation_fits_a_second_foreign_unit() {
+    second_unit(AdaptStrategy::Continuation);
+}
+
+/// The second unit's checks with the adaptation of `strategy`.
+fn second_unit(strategy: AdaptStrategy) {
     let truth = unit_engine(PYC30);
     let rows = rows_at(&truth, loads_of(PYC30.design_mw, 0), [0.0; 6], 0, "healthy");
     let full = rows
@@ -574,7 +586,7 @@ fn adapted_md22_fits_a_second_foreign_unit() {
     // [design only, adapted] × [mean, worst] per left-out load.
     let mut table: Vec<[[f64; 2]; 2]> = Vec::new();
     for k in 0..rows.len() {
-        let cells = leave_out(&model, &rows, k, "pyc30 ", AdaptStrategy::Grown);
+        let cells = leave_out(&model, &rows, k, "pyc30 ", strategy);
         table.push(cells);
     }
     eprintln!("pyc30 left-out line | design only: mean / worst % | adapted: mean / worst %");
@@ -602,7 +614,7 @@ fn adapted_md22_fits_a_second_foreign_unit() {
     assert!(worst_of(1, 1..table.len() - 1) <= 1.0);
     assert!(worst_of(1, 0..table.len()) <= 1.5);
 
-    let (adapted, cfg, baseline, quality) = adapted_baseline(&model, &rows, AdaptStrategy::Grown);
+    let (adapted, cfg, baseline, quality) = adapted_baseline(&model, &rows, strategy);
     eprintln!("pyc30 healthy baseline: {baseline:.3?} quality {quality}");
     assert_eq!(quality, "good");
     assert!(baseline.iter().all(|v| v.abs() <= 0.3), "{baseline:?}");
