@@ -342,8 +342,12 @@ fn fit_within(
         .map_err(|e| CalibrateError::Optim(e.to_string()))?;
     let out = refine(&prob, &prob.guesses(), &opts, ctx.pool)
         .map_err(|e| CalibrateError::Optim(e.to_string()))?;
+    let penalties = match ctx.settings.strategy {
+        AdaptStrategy::Grown => "smoothness",
+        AdaptStrategy::Continuation => "smoothness and prior",
+    };
     let step = format!(
-        "{} free ({} knots): {} LM iteration(s), stop {:?}, RMS {:.2} σ (smoothness included)",
+        "{} free ({} knots): {} LM iteration(s), stop {:?}, RMS {:.2} σ ({penalties} included)",
         keys.len(),
         shape.keys().len(),
         out.iterations,
