@@ -13,12 +13,15 @@
 //! What this version reaches and asserts (measured figures in the README, "Calibrating to your
 //! unit"): on the three left-out loads CI runs, mean |error| ≤ 0.6 % and no signal beyond 1.5 %
 //! (measured 0.49 % / 1.10 %), and at most a third / half of the design calibration's; the
-//! healthy baseline `good` within 0.3 points of zero; D_GC, D_EC and D_ET ranked at ρ ≥ 0.9,
-//! D_GT at ρ ≥ 0.8; and no level off by more than 0.5 points is called `good`. Not met yet: the
+//! healthy baseline `good` within 0.3 points of zero; the grid ranked at ρ ≥ 0.95 for all four
+//! parameters, every level within 0.7 points, and no level off by more than 0.5 points called
+//! `good`. The rank floor needs the adapted model's own error (`[adaptation.model_error_pct]`,
+//! estimated by the calibration on interior points left out) in the diagnosis's σ: without it
+//! D_GT ranked at 0.89 (compressor fouling read as up to −0.9 points of D_GT). Not met yet: the
 //! 0.3 % / 1 % floors (the lowest and the full load, left out, are extrapolations: 0.9 % and
-//! 1.1 %), ρ ≥ 0.95 for D_GT and D_EC and the cross-talk (compressor fouling read as up to −0.9
-//! points of D_GT), and `good` fits on the degraded grid: curves of speed alone follow the operating
-//! line, not how the unit's maps differ across it, where degradation moves the points.
+//! 1.1 %), each level within 0.5 points (worst 0.60), the cross-talk as a rank, and `good` fits
+//! on the whole grid: curves of speed alone follow the operating line, not how the unit's maps
+//! differ across it, where degradation moves the points.
 //!
 //! A second foreign unit (`tests/data/foreign/pyc30_truth.toml`: pyCycle's map family, its own
 //! VIGV schedule, PR 17, 30 MW), with the same settings, meets the issue's floors but two:
@@ -411,12 +414,26 @@ fn adapted_md22_diagnoses_a_foreign_unit() {
     // A grid of degradation at all 9 loads: compressor fouling, HP-turbine wear, both.
     let (est, verdicts) = grid_estimates(&truth, AERO25, &adapted, &cfg);
     let rho = grid_ranks(&est, &verdicts);
-    // Floors this version meets (the issue asks ρ ≥ 0.95 for all four, |cross| ≤ 0.3, each
-    // level within 0.5 points, every fit good; D_GT's rank and the cross-talk are not met yet,
-    // and the fits say so: a model adapted along the operating line only misses how the unit's
-    // maps change across it, which degradation moves the points into).
-    for (p, floor) in [(0, 0.9), (1, 0.9), (2, 0.8), (3, 0.9)] {
-        assert!(rho[p] >= floor, "{}: ρ {:.3}", HEALTH_NAMES[p], rho[p]);
+    // The issue's rank floor, ρ ≥ 0.95 for all four: met with the adapted model's own error
+    // (estimated by the calibration on interior points left out, written as
+    // [adaptation.model_error_pct]) added to each instrument σ. Without it, D_GT ranked at 0.89:
+    // the averaged GG speed, 20 times more precise than the map predicts it off the healthy
+    // operating line, pulled compressor fouling into HPT flow. Not met yet: each level within
+    // 0.5 points (worst 0.60, D_GC at 4 points of fouling), the cross-talk as a rank (D_ET
+    // leaks −0.07 points per point of D_GC: small, but monotone, so ρ = −1), every fit good.
+    let me = &adapted.cfg().adaptation.as_ref().unwrap().model_error_pct;
+    assert!(
+        me.get("n1_rpm").is_some_and(|v| *v > 0.05),
+        "the GG speed's model error is estimated: {me:?}"
+    );
+    for p in 0..4 {
+        assert!(rho[p] >= 0.95, "{}: ρ {:.3}", HEALTH_NAMES[p], rho[p]);
+    }
+    for (i, e) in est.iter().enumerate() {
+        for p in 0..4 {
+            let err = (e[p] - grid(i)[p]).abs();
+            assert!(err <= 0.7, "level {i} {}: error {err:.2}", HEALTH_NAMES[p]);
+        }
     }
     assert_eq!(
         baseline_quality, "good",
@@ -495,6 +512,14 @@ fn adapted_baseline(
     strategy: AdaptStrategy,
 ) -> (Engine, DiagnosisConfig, [f64; 6], String) {
     let adapted = calibrated(model, rows, Some(strategy));
+    eprintln!(
+        "model error: {:?}",
+        adapted
+            .cfg()
+            .adaptation
+            .as_ref()
+            .map(|a| &a.model_error_pct)
+    );
     let cfg = DiagnosisConfig {
         max_model_runs: 1500,
         threads: Some(2),

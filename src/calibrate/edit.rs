@@ -79,6 +79,16 @@ pub(crate) fn rewrite(
         // Before any look-up by `item_mut`: toml_edit's `get_mut` on a table inserts the
         // missing key (as an inline table once indexed further), which would shadow the
         // `[adaptation.<component>]` table made here.
+        if let (Some(rest), NewValue::Number(v)) = (key.strip_prefix("adaptation."), new) {
+            // A value of a sub-table, `adaptation.model_error_pct.<signal>`.
+            let (table_name, name) = rest
+                .split_once('.')
+                .ok_or_else(|| bad("use adaptation.<table>.<key>"))?;
+            let table = sub_table(&mut doc, "adaptation", table_name)
+                .ok_or_else(|| bad("`adaptation` or the table is not a table in the file"))?;
+            table.insert(name, toml_edit::value(rounded(*v)));
+            continue;
+        }
         if let (Some(rest), NewValue::Numbers(list)) = (key.strip_prefix("adaptation."), new) {
             let (component, curve) = rest
                 .split_once('.')

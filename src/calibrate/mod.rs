@@ -162,6 +162,16 @@ impl Calibration {
             .collect()
     }
 
+    /// The adapted model's own error to write, as `(adaptation.model_error_pct.<signal>, %)`;
+    /// empty without an adaptation or an estimate.
+    pub fn model_error_values(&self) -> Vec<(String, f64)> {
+        self.adaptation
+            .iter()
+            .flat_map(|a| &a.model_error.signals)
+            .map(|s| (format!("adaptation.model_error_pct.{}", s.signal), s.pct))
+            .collect()
+    }
+
     /// The adaptation curves to write, as `(adaptation.<component>.<curve>, values)` with each
     /// component's `speed_knots` first; empty without an adaptation.
     pub fn adaptation_lists(&self) -> Vec<(String, Vec<f64>)> {

@@ -259,6 +259,22 @@ fn print_text(report: &Calibration, wall_s: f64) {
                 println!("    {curve:<15} not fitted: {why}");
             }
         }
+        let me = &ad.model_error;
+        if me.signals.is_empty() {
+            println!("  model error: {}", me.note);
+        } else {
+            let list: Vec<String> = me
+                .signals
+                .iter()
+                .map(|s| format!("{} {:.2} % ({:.1} σ)", s.signal, s.pct, s.rms_sigma))
+                .collect();
+            println!(
+                "  model error on points left out (1σ, % of the value; added to the instrument \
+                 σ in steady diagnosis): {}\n    ({})",
+                list.join(", "),
+                me.note
+            );
+        }
     }
     for a in &report.assumptions {
         println!("note: {a}");
@@ -289,6 +305,29 @@ fn param_candidate(
         .split_once(':')
         .with_context(|| format!("`{entry}`: use KEY=LOW:HIGH"))?;
     Ok(candidate_in(engine, key.trim(), parse(lo)?, parse(hi)?)?)
+}
+
+/// Every number the calibration writes into the new file: the fitted values, the adaptation's
+/// curves and the adapted model's own error.
+fn fitted_values(report: &Calibration) -> Vec<(String, NewValue)> {
+    let mut values: Vec<(String, NewValue)> = report
+        .changes()
+        .into_iter()
+        .map(|(k, v)| (k, NewValue::Number(v)))
+        .collect();
+    values.extend(
+        report
+            .adaptation_lists()
+            .into_iter()
+            .map(|(k, v)| (k, NewValue::Numbers(v))),
+    );
+    values.extend(
+        report
+            .model_error_values()
+            .into_iter()
+            .map(|(k, v)| (k, NewValue::Number(v))),
+    );
+    values
 }
 
 pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
@@ -393,17 +432,7 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
     if let Some(out) = &a.out {
         let from_dir = a.engine.parent().unwrap_or_else(|| Path::new(""));
         let to_dir = out.parent().unwrap_or_else(|| Path::new(""));
-        let mut values: Vec<(String, NewValue)> = report
-            .changes()
-            .into_iter()
-            .map(|(k, v)| (k, NewValue::Number(v)))
-            .collect();
-        values.extend(
-            report
-                .adaptation_lists()
-                .into_iter()
-                .map(|(k, v)| (k, NewValue::Numbers(v))),
-        );
+        let mut values = fitted_values(&report);
         values.extend(moved_map_paths(&original, &a.engine, from_dir, to_dir)?);
         let text = rewrite(
             &original,

@@ -18,7 +18,7 @@
 
 use super::csv_input::{find_column, open_csv, parse_value, CsvError, AMBIENT_PRESSURE_COLUMN};
 use super::residual_table::{Cell, ResidualTable};
-use super::steady::{SteadyData, SteadyProblem, SteadyWindow};
+use super::steady::{model_error_note, with_model_error, SteadyData, SteadyProblem, SteadyWindow};
 use super::{fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, Method, MethodResult};
 use crate::engine::sensors::noise_sigma;
 use crate::engine::steady::{solve, Demand, SteadyInputs};
@@ -423,12 +423,12 @@ pub fn diagnose_snapshots(
     for g in order {
         let members = groups.remove(&g).unwrap_or_default();
         let lines: Vec<u64> = members.iter().map(|(_, r)| r.line).collect();
-        let mut assumptions = Vec::new();
+        let mut assumptions: Vec<String> = model_error_note(engine.cfg()).into_iter().collect();
         let mut points = Vec::new();
         let mut dropped = Vec::new();
         for (i, r) in &members {
             match steady_data(engine, &cfg.base, r, *i, &mut assumptions) {
-                Ok(p) => points.push(p),
+                Ok(p) => points.push(with_model_error(engine.cfg(), p)),
                 Err(reason) => dropped.push(DroppedRow {
                     line: r.line,
                     reason,

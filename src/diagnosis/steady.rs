@@ -231,6 +231,41 @@ pub fn steady_reading(m: &Model, p: &SteadyPoint, s: Signal) -> f64 {
     v[0]
 }
 
+/// `data` with the adapted model's own error (`[adaptation.model_error_pct]`, estimated by
+/// `calibrate --adapt` on operating points left out of its fit) added in quadrature to each
+/// compared value's instrument σ: where the model predicts a signal no better than that, the
+/// fit weights it for what the model can do (an averaged GG speed is far more precise than a
+/// map predicts it), and the fit's verdict and σ carry it. Calibration itself does not call
+/// this: its residuals are what the model error is estimated from.
+pub(crate) fn with_model_error(cfg: &EngineConfig, mut data: SteadyData) -> SteadyData {
+    if let Some(a) = &cfg.adaptation {
+        for (s, v, sd) in &mut data.outputs {
+            *sd = sd.hypot(a.model_error_fraction(*s) * v.abs());
+        }
+    }
+    data
+}
+
+/// What [`with_model_error`] adds, for a report's assumptions; `None` when the file states no
+/// model error above 0.
+pub(crate) fn model_error_note(cfg: &EngineConfig) -> Option<String> {
+    let a = cfg.adaptation.as_ref()?;
+    let list: Vec<String> = a
+        .model_error_pct
+        .iter()
+        .filter(|(_, v)| **v > 0.0)
+        .map(|(k, v)| format!("{k} {v:.2} %"))
+        .collect();
+    if list.is_empty() {
+        return None;
+    }
+    Some(format!(
+        "the adapted model's own error ([adaptation.model_error_pct]) added to each instrument \
+         σ: {}",
+        list.join(", ")
+    ))
+}
+
 /// Averages each window into a steady operating point.
 pub fn average_windows(
     seg: &Recording,
@@ -406,7 +441,10 @@ pub fn diagnose_steady(
             "no steady window found (see SteadyCriteria)".into(),
         ));
     }
-    let points = average_windows(segment, engine.cfg(), &windows, &cfg.signals);
+    let points = average_windows(segment, engine.cfg(), &windows, &cfg.signals)
+        .into_iter()
+        .map(|d| with_model_error(engine.cfg(), d))
+        .collect();
     let mut problem = SteadyProblem::new(engine, points, cfg)?;
     let out = fit(&mut problem, cfg, &pool)?;
     let signals = problem.objective().signals().to_vec();
@@ -419,4 +457,44 @@ pub fn diagnose_steady(
     let mut r = result_of(Method::Steady, &problem, &out, cfg, signals, n_res, win);
     r.wall_s = start.elapsed().as_secs_f64();
     Ok(r)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::config::AdaptationConfig;
+
+    /// The adapted model's own error widens each compared value's σ in quadrature, by signal;
+    /// a file without one leaves the instrument σ as it is.
+    #[test]
+    fn model_error_adds_to_the_instrument_sigma() {
+        let mut cfg = EngineConfig::reference();
+        let data = || SteadyData {
+            label: String::new(),
+            window: SteadyWindow {
+                start: 0,
+                end: 1,
+                t_start_s: 0.0,
+                t_end_s: 0.0,
+            },
+            inputs: SteadyInputs {
+                t_amb_k: 288.15,
+                p_amb_kpa: 101.325,
+                n2_rpm: 3000.0,
+                demand: Demand::FuelKgS(1.0),
+            },
+            outputs: vec![(Signal::N1, 10000.0, 3.0), (Signal::T34, 1000.0, 3.0)],
+            n1_hint_rpm: None,
+        };
+        assert_eq!(with_model_error(&cfg, data()).outputs, data().outputs);
+        assert!(model_error_note(&cfg).is_none());
+        let mut a = AdaptationConfig::default();
+        a.model_error_pct.insert("n1_rpm".into(), 0.04);
+        cfg.adaptation = Some(a);
+        let out = with_model_error(&cfg, data()).outputs;
+        // 0.04 % of 10 000 rpm is 4 rpm; with the instrument's 3 rpm, 5 rpm.
+        assert!((out[0].2 - 5.0).abs() < 1e-9, "{:?}", out[0]);
+        assert_eq!(out[1].2, 3.0);
+        assert!(model_error_note(&cfg).is_some_and(|n| n.contains("n1_rpm 0.04 %")));
+    }
 }

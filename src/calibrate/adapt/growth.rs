@@ -6,6 +6,7 @@
 
 use super::super::CalibrateError;
 use super::knots::knots;
+use super::model_error::{self, ModelError};
 use super::shape::{key, Shape};
 use super::{
     candidates_for, fit, fit_within, identify_at, report, rms_of, shaped, AdaptReport,
@@ -368,6 +369,10 @@ impl<'a> Growth<'a> {
                 (c.key, r.0, r.1)
             })
             .collect();
+        let (error, runs) =
+            model_error::estimate(&self.current, &final_keys, &self.shape, self.ctx)?;
+        self.runs += runs;
+        let current = with_model_error(&self.current, &error)?;
         let mut r = report(
             &self.shape,
             &self.ranges,
@@ -382,6 +387,22 @@ impl<'a> Growth<'a> {
         r.model_runs = self.runs;
         r.strategy = self.ctx.settings.strategy.name();
         r.steps = self.steps;
-        Ok((r, self.current))
+        r.model_error = error;
+        Ok((r, current))
     }
+}
+
+/// `engine` with `error` as its file's `[adaptation.model_error_pct]` (replacing any older one).
+fn with_model_error(engine: &Engine, error: &ModelError) -> Result<Engine, CalibrateError> {
+    let mut cfg = engine.cfg().clone();
+    if let Some(a) = cfg.adaptation.as_mut() {
+        a.model_error_pct = error
+            .signals
+            .iter()
+            .map(|s| (s.signal.clone(), s.pct))
+            .collect();
+    }
+    engine
+        .with_config(cfg)
+        .map_err(|e| CalibrateError::Model(e.to_string()))
 }

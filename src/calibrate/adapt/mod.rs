@@ -37,11 +37,14 @@
 
 mod growth;
 mod knots;
+mod model_error;
 mod shape;
+
+pub use model_error::{ModelError, SignalModelError};
 
 use super::candidates::{candidate, Candidate};
 use super::identify::{identify, MAX_SIGMA_FRACTION};
-use super::problem::{CalibrationPoint, CalibrationProblem};
+use super::problem::{CalibrationPoint, CalibrationProblem, SmoothnessRow};
 use super::startup::RestReading;
 use super::CalibrateError;
 use crate::engine::config::COMPONENTS;
@@ -193,6 +196,9 @@ pub struct AdaptReport {
     pub model_runs: usize,
     /// The strategy that chose and fitted the curves (`grown`, `continuation`).
     pub strategy: &'static str,
+    /// The adapted model's own error per signal on points left out (written as
+    /// `[adaptation.model_error_pct]`).
+    pub model_error: ModelError,
 }
 
 /// Relative corrected speed of each component at each point: from the measured GG speed, T1,
@@ -300,6 +306,16 @@ fn candidates_for(engine: &Engine, keys: &[String]) -> Result<Vec<Candidate>, Ca
     keys.iter().map(|k| candidate(engine, k)).collect()
 }
 
+/// The penalty rows of a fit of `keys` on `shape`: its smoothness, and with the continuation
+/// strategy its prior towards the map.
+fn penalty_rows(shape: &Shape, keys: &[String], settings: &AdaptSettings) -> Vec<SmoothnessRow> {
+    let mut rows = shape.smoothness(keys, settings.curvature_scale);
+    if settings.strategy == AdaptStrategy::Continuation {
+        rows.extend(shape.prior(keys, CONTINUATION_PRIOR_SCALE));
+    }
+    rows
+}
+
 /// LM over `cands` on `engine` with the shape's smoothness rows; the engine at the optimum.
 fn fit(
     engine: &Engine,
@@ -325,10 +341,7 @@ fn fit_within(
     iterations: usize,
 ) -> Result<(Engine, usize, String), CalibrateError> {
     let keys: Vec<String> = cands.iter().map(|c| c.key.clone()).collect();
-    let mut rows = shape.smoothness(&keys, ctx.settings.curvature_scale);
-    if ctx.settings.strategy == AdaptStrategy::Continuation {
-        rows.extend(shape.prior(&keys, CONTINUATION_PRIOR_SCALE));
-    }
+    let rows = penalty_rows(shape, &keys, ctx.settings);
     let prob = CalibrationProblem::new(engine, ctx.points.to_vec(), ctx.rest.to_vec(), cands)?
         .with_smoothness(rows);
     let jac_opts = JacobianOptions::default()
@@ -483,5 +496,6 @@ fn report(
         steps: Vec::new(),
         model_runs: 0,
         strategy: "",
+        model_error: ModelError::default(),
     }
 }

@@ -13,11 +13,20 @@
 //! [adaptation.pt]                       # flow, efficiency
 //! ```
 //!
+//!
+//! `[adaptation.model_error_pct]` (written by `calibrate --adapt`, or set by hand) states, per
+//! compared signal (CSV name, e.g. `n1_rpm = 0.4`), the 1σ of the adapted model's own error in
+//! % of the value: how well it predicted operating points left out of its calibration. Steady
+//! diagnosis adds it to the instrument's noise σ, so a signal the model predicts no better than
+//! that is weighted for what the model can do, not for what the instrument can.
+//!
 //! Every curve passes through 0 at relative speed 1 (the design point the `[design]` table
 //! fixes stays exact), so a knot may not sit at 1. A curve left out is no correction.
 //! What it must not do: physics (only the shape of the numbers is checked here).
 
+use crate::signals::Signal;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 /// The corrections of one component.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -49,6 +58,21 @@ pub struct AdaptationConfig {
     pub hpt: Option<ComponentCurves>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pt: Option<ComponentCurves>,
+    /// 1σ of the adapted model's own error per signal (CSV name), % of the value.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub model_error_pct: BTreeMap<String, f64>,
+}
+
+/// Largest model error a file may state, % of the value: beyond it the model predicts nothing.
+pub const MAX_MODEL_ERROR_PCT: f64 = 20.0;
+
+impl AdaptationConfig {
+    /// The model's own 1σ error of signal `s` as a fraction of its value (0 when not stated).
+    pub fn model_error_fraction(&self, s: Signal) -> f64 {
+        self.model_error_pct
+            .get(s.column())
+            .map_or(0.0, |pct| pct / 100.0)
+    }
 }
 
 /// The components, by their key in the section.
@@ -112,6 +136,18 @@ impl AdaptationConfig {
     /// a knot at the design speed, a curve whose length differs from the knots', a curve the
     /// component does not have.
     pub fn check(&self) -> Result<(), (String, String)> {
+        for (name, v) in &self.model_error_pct {
+            let key = format!("adaptation.model_error_pct.{name}");
+            if !Signal::ALL.iter().any(|s| s.column() == name) {
+                return Err((key, "is no signal's CSV name (e.g. n1_rpm, t34_k)".into()));
+            }
+            if !(v.is_finite() && (0.0..=MAX_MODEL_ERROR_PCT).contains(v)) {
+                return Err((
+                    key,
+                    format!("{v} is not within 0–{MAX_MODEL_ERROR_PCT} (% of the value)"),
+                ));
+            }
+        }
         for name in COMPONENTS {
             let Some(c) = self.component(name) else {
                 continue;
@@ -190,6 +226,18 @@ mod tests {
             (
                 "[adaptation.pt]\nspeed_knots = [0.8]\nflow = [0.9]",
                 "adaptation.pt.flow",
+            ),
+            (
+                "[adaptation.model_error_pct]\nn1 = 0.3",
+                "adaptation.model_error_pct.n1",
+            ),
+            (
+                "[adaptation.model_error_pct]\nt34_k = -0.3",
+                "adaptation.model_error_pct.t34_k",
+            ),
+            (
+                "[adaptation.model_error_pct]\nt34_k = 30.0",
+                "adaptation.model_error_pct.t34_k",
             ),
         ] {
             let err = with(section).expect_err(section);
