@@ -9,6 +9,7 @@
 
 use super::diagnose::{print_text_of, result_json, DiagnoseArgs};
 use crate::diagnosis::snapshot::{diagnose_snapshots, read_snapshots};
+use crate::diagnosis::steady::model_error_note;
 use crate::diagnosis::{DiagnosisConfig, Method};
 use crate::engine::Engine;
 use anyhow::{bail, Context};
@@ -113,7 +114,13 @@ pub(super) fn run(
                 &g.result,
             );
             if !g.residual_table.rows.is_empty() {
-                println!("  residuals per row (model − measured, in noise σ):");
+                // With a stated model error the σ is the instrument's and the model's together.
+                let scale = if model_error_note(engine.cfg()).is_some() {
+                    "in σ of noise and model error"
+                } else {
+                    "in noise σ"
+                };
+                println!("  residuals per row (model − measured, {scale}):");
                 for l in g.residual_table.render().lines() {
                     println!("    {l}");
                 }

@@ -18,7 +18,10 @@
 
 use super::csv_input::{find_column, open_csv, parse_value, CsvError, AMBIENT_PRESSURE_COLUMN};
 use super::residual_table::{Cell, ResidualTable};
-use super::steady::{model_error_note, with_model_error, SteadyData, SteadyProblem, SteadyWindow};
+use super::steady::{
+    below_adaptation_note, model_error_note, with_model_error, SteadyData, SteadyProblem,
+    SteadyWindow,
+};
 use super::{fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, Method, MethodResult};
 use crate::engine::sensors::noise_sigma;
 use crate::engine::steady::{solve, Demand, SteadyInputs};
@@ -428,7 +431,10 @@ pub fn diagnose_snapshots(
         let mut dropped = Vec::new();
         for (i, r) in &members {
             match steady_data(engine, &cfg.base, r, *i, &mut assumptions) {
-                Ok(p) => points.push(with_model_error(engine.cfg(), p)),
+                Ok(p) => {
+                    assumptions.extend(below_adaptation_note(engine, &p));
+                    points.push(with_model_error(engine.cfg(), p));
+                }
                 Err(reason) => dropped.push(DroppedRow {
                     line: r.line,
                     reason,

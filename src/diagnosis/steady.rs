@@ -246,6 +246,42 @@ pub(crate) fn with_model_error(cfg: &EngineConfig, mut data: SteadyData) -> Stea
     data
 }
 
+/// Relative corrected GG speed below the adaptation's lowest compressor knot by more than this
+/// is said to be an extrapolation of the curves.
+const BELOW_KNOTS_MARGIN: f64 = 0.01;
+
+/// A note when `data` (measured GG speed at its ambient) runs below the lowest speed the
+/// engine's adaptation was fitted at (its lowest compressor knot is the calibration's lowest
+/// speed): the curves hold their end value there, and a stated model error was measured
+/// between calibrated points, not below them.
+pub(crate) fn below_adaptation_note(engine: &Engine, data: &SteadyData) -> Option<String> {
+    let lowest = engine
+        .cfg()
+        .adaptation
+        .as_ref()?
+        .compressor
+        .as_ref()?
+        .speed_knots
+        .first()
+        .copied()?;
+    let n1 = data
+        .outputs
+        .iter()
+        .find(|(s, _, _)| *s == Signal::N1)
+        .map(|&(_, v, _)| v)?;
+    let d = engine.design();
+    let nc = |n: f64, t: f64| n / (t / 288.15).sqrt();
+    let rel = nc(n1, data.inputs.t_amb_k) / nc(d.n1_rpm, d.t1_k);
+    (rel < lowest - BELOW_KNOTS_MARGIN).then(|| {
+        format!(
+            "{}: relative corrected GG speed {rel:.3} is below the adaptation's lowest knot \
+             {lowest:.3} (the lowest speed it was calibrated at): the curves are extrapolated \
+             there, and the model's own error is not known",
+            data.label
+        )
+    })
+}
+
 /// What [`with_model_error`] adds, for a report's assumptions; `None` when the file states no
 /// model error above 0.
 pub(crate) fn model_error_note(cfg: &EngineConfig) -> Option<String> {
@@ -496,5 +532,44 @@ mod tests {
         assert!((out[0].2 - 5.0).abs() < 1e-9, "{:?}", out[0]);
         assert_eq!(out[1].2, 3.0);
         assert!(model_error_note(&cfg).is_some_and(|n| n.contains("n1_rpm 0.04 %")));
+    }
+
+    /// A point below the lowest speed the adaptation was fitted at is said to extrapolate; one
+    /// within its range, or an engine without an adaptation, says nothing.
+    #[test]
+    fn a_point_below_the_adapted_speeds_is_noted() {
+        let mut cfg = EngineConfig::reference();
+        let plain = Engine::new(cfg.clone()).expect("reference engine");
+        cfg.adaptation = Some(AdaptationConfig {
+            compressor: Some(crate::engine::config::ComponentCurves {
+                speed_knots: vec![0.8],
+                efficiency: vec![-0.01],
+                ..Default::default()
+            }),
+            ..Default::default()
+        });
+        let adapted = Engine::new(cfg).expect("adapted engine");
+        let d = adapted.design();
+        let at = |rel: f64| SteadyData {
+            label: "snapshot at line 7".into(),
+            window: SteadyWindow {
+                start: 0,
+                end: 1,
+                t_start_s: 0.0,
+                t_end_s: 0.0,
+            },
+            inputs: SteadyInputs {
+                t_amb_k: d.t1_k,
+                p_amb_kpa: 101.325,
+                n2_rpm: 3000.0,
+                demand: Demand::FuelKgS(1.0),
+            },
+            outputs: vec![(Signal::N1, rel * d.n1_rpm, 5.0)],
+            n1_hint_rpm: None,
+        };
+        let note = below_adaptation_note(&adapted, &at(0.7)).expect("below the knots");
+        assert!(note.contains("line 7") && note.contains("0.700"), "{note}");
+        assert!(below_adaptation_note(&adapted, &at(0.85)).is_none());
+        assert!(below_adaptation_note(&plain, &at(0.7)).is_none());
     }
 }
