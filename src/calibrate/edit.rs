@@ -79,24 +79,24 @@ pub(crate) fn rewrite(
         // Before any look-up by `item_mut`: toml_edit's `get_mut` on a table inserts the
         // missing key (as an inline table once indexed further), which would shadow the
         // `[adaptation.<component>]` table made here.
-        if let (Some(rest), NewValue::Number(v)) = (key.strip_prefix("adaptation."), new) {
-            // A value of a sub-table, `adaptation.model_error_pct.<signal>`.
+        if let Some(rest) = key.strip_prefix("adaptation.") {
+            // A curve or its knots (`adaptation.<component>.<curve>`, a list) or a value of a
+            // sub-table (`adaptation.model_error_pct.<signal>`, a number).
+            let value = match new {
+                NewValue::Numbers(list) => toml_edit::value(
+                    list.iter()
+                        .map(|v| rounded(*v))
+                        .collect::<toml_edit::Array>(),
+                ),
+                NewValue::Number(v) => toml_edit::value(rounded(*v)),
+                NewValue::Text(_) => return Err(bad("an adaptation value is a number or a list")),
+            };
             let (table_name, name) = rest
                 .split_once('.')
-                .ok_or_else(|| bad("use adaptation.<table>.<key>"))?;
-            let table = sub_table(&mut doc, "adaptation", table_name)
-                .ok_or_else(|| bad("`adaptation` or the table is not a table in the file"))?;
-            table.insert(name, toml_edit::value(rounded(*v)));
-            continue;
-        }
-        if let (Some(rest), NewValue::Numbers(list)) = (key.strip_prefix("adaptation."), new) {
-            let (component, curve) = rest
-                .split_once('.')
                 .ok_or_else(|| bad("use adaptation.<component>.<curve>"))?;
-            let table = sub_table(&mut doc, "adaptation", component)
+            let table = sub_table(&mut doc, "adaptation", table_name)
                 .ok_or_else(|| bad("`adaptation` or the component is not a table in the file"))?;
-            let array: toml_edit::Array = list.iter().map(|v| rounded(*v)).collect();
-            table.insert(curve, toml_edit::value(array));
+            table.insert(name, value);
             continue;
         }
         if let (None, Some((effect, param)), NewValue::Number(v)) = (
@@ -198,13 +198,18 @@ mod tests {
             ("adaptation.pt.speed_knots", vec![0.8]),
             ("adaptation.pt.flow", vec![-0.02]),
         ];
-        let values: Vec<(String, NewValue)> = lists
+        let mut values: Vec<(String, NewValue)> = lists
             .iter()
             .map(|(k, v)| (k.to_string(), NewValue::Numbers(v.clone())))
             .collect();
+        values.push((
+            "adaptation.model_error_pct.n1_rpm".into(),
+            NewValue::Number(0.18),
+        ));
         let text = rewrite(REFERENCE_ENGINE_TOML, "engine.toml", &values, &[]).expect("rewrite");
         let cfg = EngineConfig::from_toml_str(&text, "x").expect("loads");
         let a = cfg.adaptation.clone().expect("section");
+        assert_eq!(a.model_error_pct.get("n1_rpm"), Some(&0.18));
         let c = a.compressor.expect("compressor");
         assert_eq!(c.speed_knots, vec![0.7, 0.85]);
         assert_eq!(c.speed, vec![0.1234568, 0.05]);
@@ -229,7 +234,7 @@ mod tests {
         .expect("rewrite");
         let cfg = EngineConfig::from_toml_str(&again, "x").expect("loads");
         let a = cfg.adaptation.expect("section");
-        assert!(a.compressor.is_none() && a.pt.is_none());
+        assert!(a.compressor.is_none() && a.pt.is_none() && a.model_error_pct.is_empty());
         assert_eq!(a.hpt.expect("hpt").efficiency, vec![0.01]);
     }
 }

@@ -500,13 +500,10 @@ mod tests {
     use super::*;
     use crate::engine::config::AdaptationConfig;
 
-    /// The adapted model's own error widens each compared value's σ in quadrature, by signal;
-    /// a file without one leaves the instrument σ as it is.
-    #[test]
-    fn model_error_adds_to_the_instrument_sigma() {
-        let mut cfg = EngineConfig::reference();
-        let data = || SteadyData {
-            label: String::new(),
+    /// A steady point "snapshot at line 7" at ambient `t_amb_k` comparing `outputs`.
+    fn point(t_amb_k: f64, outputs: Vec<(Signal, f64, f64)>) -> SteadyData {
+        SteadyData {
+            label: "snapshot at line 7".into(),
             window: SteadyWindow {
                 start: 0,
                 end: 1,
@@ -514,13 +511,26 @@ mod tests {
                 t_end_s: 0.0,
             },
             inputs: SteadyInputs {
-                t_amb_k: 288.15,
+                t_amb_k,
                 p_amb_kpa: 101.325,
                 n2_rpm: 3000.0,
                 demand: Demand::FuelKgS(1.0),
             },
-            outputs: vec![(Signal::N1, 10000.0, 3.0), (Signal::T34, 1000.0, 3.0)],
+            outputs,
             n1_hint_rpm: None,
+        }
+    }
+
+    /// The adapted model's own error widens each compared value's σ in quadrature, by signal;
+    /// a file without one leaves the instrument σ as it is.
+    #[test]
+    fn model_error_adds_to_the_instrument_sigma() {
+        let mut cfg = EngineConfig::reference();
+        let data = || {
+            point(
+                288.15,
+                vec![(Signal::N1, 10000.0, 3.0), (Signal::T34, 1000.0, 3.0)],
+            )
         };
         assert_eq!(with_model_error(&cfg, data()).outputs, data().outputs);
         assert!(model_error_note(&cfg).is_none());
@@ -550,23 +560,7 @@ mod tests {
         });
         let adapted = Engine::new(cfg).expect("adapted engine");
         let d = adapted.design();
-        let at = |rel: f64| SteadyData {
-            label: "snapshot at line 7".into(),
-            window: SteadyWindow {
-                start: 0,
-                end: 1,
-                t_start_s: 0.0,
-                t_end_s: 0.0,
-            },
-            inputs: SteadyInputs {
-                t_amb_k: d.t1_k,
-                p_amb_kpa: 101.325,
-                n2_rpm: 3000.0,
-                demand: Demand::FuelKgS(1.0),
-            },
-            outputs: vec![(Signal::N1, rel * d.n1_rpm, 5.0)],
-            n1_hint_rpm: None,
-        };
+        let at = |rel: f64| point(d.t1_k, vec![(Signal::N1, rel * d.n1_rpm, 5.0)]);
         let note = below_adaptation_note(&adapted, &at(0.7)).expect("below the knots");
         assert!(note.contains("line 7") && note.contains("0.700"), "{note}");
         assert!(below_adaptation_note(&adapted, &at(0.85)).is_none());
