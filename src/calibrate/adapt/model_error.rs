@@ -111,8 +111,14 @@ pub(super) fn estimate(
     let mut r = Vec::new();
     prob.residuals(&x0, &mut r);
     if r.iter().any(|v| !v.is_finite()) {
-        return Err(CalibrateError::Model(
-            "model error: the adapted model does not solve every point".into(),
+        // The fit solved them; a solve that fails from a cold start here is no reason to lose
+        // the calibration: say so and state none.
+        return Ok((
+            ModelError {
+                note: "the adapted model did not solve every point again: none stated".into(),
+                ..ModelError::default()
+            },
+            prob.runs(),
         ));
     }
     let u0 = prob.bounds().to_unit(&x0);
