@@ -33,6 +33,7 @@ use super::super::problem::CalibrationProblem;
 use super::super::CalibrateError;
 use super::shape::Shape;
 use super::{candidates_for, penalty_rows, relative_speeds, Ctx};
+use crate::engine::config::MAX_MODEL_ERROR_PCT;
 use crate::engine::Engine;
 use crate::optim::lm::jacobian_unit;
 use crate::optim::{JacobianOptions, Problem, ResidualProblem};
@@ -135,7 +136,10 @@ pub(super) fn estimate(
             let n = s.n as f64;
             SignalModelError {
                 signal: signal.column().to_string(),
-                pct: 100.0 * ((s.error_sq - s.noise_sq) / n).max(0.0).sqrt(),
+                // Beyond the file's limit the model predicts nothing of the signal; the limit
+                // keeps the written file loadable (and the signal all but unweighted).
+                pct: (100.0 * ((s.error_sq - s.noise_sq) / n).max(0.0).sqrt())
+                    .min(MAX_MODEL_ERROR_PCT),
                 rms_sigma: (s.z_sq / n).sqrt(),
             }
         })

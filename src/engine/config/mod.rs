@@ -12,7 +12,9 @@ use std::path::Path;
 mod adaptation;
 mod fuel;
 mod ranges;
-pub use adaptation::{curves_of, AdaptationConfig, ComponentCurves, COMPONENTS};
+pub use adaptation::{
+    curves_of, AdaptationConfig, ComponentCurves, COMPONENTS, MAX_MODEL_ERROR_PCT,
+};
 pub use fuel::{FuelConfig, FuelKind, GasComposition};
 pub use ranges::{param_range, ParamRange};
 
