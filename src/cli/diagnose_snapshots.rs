@@ -99,6 +99,12 @@ pub(super) fn run(
             report.groups.len(),
             report.failed.len()
         );
+        // With a stated model error the σ is the instrument's and the model's together.
+        let scale = if model_error_note(engine.cfg()).is_some() {
+            "in σ of noise and model error"
+        } else {
+            "in noise σ"
+        };
         for g in &report.groups {
             println!("group {} (lines {:?})", g.group, g.lines);
             for s in &g.assumptions {
@@ -114,12 +120,6 @@ pub(super) fn run(
                 &g.result,
             );
             if !g.residual_table.rows.is_empty() {
-                // With a stated model error the σ is the instrument's and the model's together.
-                let scale = if model_error_note(engine.cfg()).is_some() {
-                    "in σ of noise and model error"
-                } else {
-                    "in noise σ"
-                };
                 println!("  residuals per row (model − measured, {scale}):");
                 for l in g.residual_table.render().lines() {
                     println!("    {l}");

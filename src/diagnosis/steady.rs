@@ -23,6 +23,7 @@ use super::{
     MethodResult, ParamMap, SteadyCriteria,
 };
 use crate::engine::config::EngineConfig;
+use crate::engine::cycle::corrected_speed;
 use crate::engine::sensors::noise_sigma;
 use crate::engine::steady::{solve, Demand, SteadyInputs, SteadyPoint};
 use crate::engine::trace::{Values, NSIG};
@@ -270,8 +271,7 @@ pub(crate) fn below_adaptation_note(engine: &Engine, data: &SteadyData) -> Optio
         .find(|(s, _, _)| *s == Signal::N1)
         .map(|&(_, v, _)| v)?;
     let d = engine.design();
-    let nc = |n: f64, t: f64| n / (t / 288.15).sqrt();
-    let rel = nc(n1, data.inputs.t_amb_k) / nc(d.n1_rpm, d.t1_k);
+    let rel = corrected_speed(n1, data.inputs.t_amb_k) / corrected_speed(d.n1_rpm, d.t1_k);
     (rel < lowest - BELOW_KNOTS_MARGIN).then(|| {
         format!(
             "{}: relative corrected GG speed {rel:.3} is below the adaptation's lowest knot \

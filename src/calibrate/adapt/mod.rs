@@ -48,6 +48,7 @@ use super::problem::{CalibrationPoint, CalibrationProblem, SmoothnessRow};
 use super::startup::RestReading;
 use super::CalibrateError;
 use crate::engine::config::COMPONENTS;
+use crate::engine::cycle::corrected_speed;
 use crate::engine::steady::solve;
 use crate::engine::Engine;
 use crate::health::HealthParams;
@@ -209,11 +210,10 @@ fn relative_speeds(
     points: &[CalibrationPoint],
 ) -> Result<[Vec<f64>; 3], CalibrateError> {
     let d = engine.design();
-    let nc = |n: f64, t: f64| n / (t / 288.15).sqrt();
     let design = [
-        nc(d.n1_rpm, d.t1_k),
-        nc(d.n1_rpm, d.t3_k),
-        nc(d.n2_rpm, d.t34_k),
+        corrected_speed(d.n1_rpm, d.t1_k),
+        corrected_speed(d.n1_rpm, d.t3_k),
+        corrected_speed(d.n2_rpm, d.t34_k),
     ];
     let mut out: [Vec<f64>; 3] = [Vec::new(), Vec::new(), Vec::new()];
     for p in points {
@@ -233,9 +233,9 @@ fn relative_speeds(
         };
         let n1 = measured(Signal::N1).unwrap_or(s.n1_rpm);
         let t34 = measured(Signal::T34).unwrap_or(s.t34_k);
-        out[0].push(nc(n1, inp.t_amb_k) / design[0]);
-        out[1].push(nc(n1, s.t3_k) / design[1]);
-        out[2].push(nc(inp.n2_rpm, t34) / design[2]);
+        out[0].push(corrected_speed(n1, inp.t_amb_k) / design[0]);
+        out[1].push(corrected_speed(n1, s.t3_k) / design[1]);
+        out[2].push(corrected_speed(inp.n2_rpm, t34) / design[2]);
     }
     Ok(out)
 }

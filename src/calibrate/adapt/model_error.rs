@@ -40,6 +40,7 @@ use crate::optim::{JacobianOptions, Problem, ResidualProblem};
 use crate::signals::Signal;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
+use std::collections::BTreeMap;
 
 /// Fewest folds an estimate rests on; with fewer, no model error is stated.
 pub const MIN_FOLDS: usize = 3;
@@ -192,12 +193,12 @@ fn leave_out(
     layout: &[(usize, Signal)],
     folds: &[usize],
     ctx: Ctx,
-) -> (Vec<(Signal, Sums)>, usize) {
+) -> (BTreeMap<Signal, Sums>, usize) {
     let n = jac.ncols();
     let rv = DVector::from_column_slice(r);
     let a = jac.transpose() * jac;
     let g = jac.transpose() * &rv;
-    let mut sums: Vec<(Signal, Sums)> = Vec::new();
+    let mut sums: BTreeMap<Signal, Sums> = BTreeMap::new();
     let mut used = 0;
     for &k in folds {
         let rows: Vec<usize> = (0..layout.len()).filter(|&i| layout[i].0 == k).collect();
@@ -228,18 +229,11 @@ fn leave_out(
                 continue;
             }
             let z = pred[i];
-            let slot = match sums.iter_mut().find(|(x, _)| *x == s) {
-                Some(slot) => slot,
-                None => {
-                    sums.push((s, Sums::default()));
-                    let last = sums.len() - 1;
-                    &mut sums[last]
-                }
-            };
-            slot.1.error_sq += (z * sd / v).powi(2);
-            slot.1.noise_sq += (sd / v).powi(2);
-            slot.1.z_sq += z * z;
-            slot.1.n += 1;
+            let slot = sums.entry(s).or_default();
+            slot.error_sq += (z * sd / v).powi(2);
+            slot.noise_sq += (sd / v).powi(2);
+            slot.z_sq += z * z;
+            slot.n += 1;
         }
     }
     (sums, used)
