@@ -292,10 +292,15 @@ fn first_unit() -> (Engine, Vec<Snapshot>, Engine) {
 /// Which of `n` loads to leave out in turn: CI runs three (low, middle, high interior);
 /// `GTWATCH_FOREIGN_FULL=1` all (then `true`).
 fn loads_left_out(n: usize) -> (bool, Vec<usize>) {
+    left_out_or(n, vec![2, 4, 6])
+}
+
+/// `n` loads (then `true`) with `GTWATCH_FOREIGN_FULL=1`, else `ci`.
+fn left_out_or(n: usize, ci: Vec<usize>) -> (bool, Vec<usize>) {
     if std::env::var_os("GTWATCH_FOREIGN_FULL").is_some() {
         (true, (0..n).collect())
     } else {
-        (false, vec![2, 4, 6])
+        (false, ci)
     }
 }
 
@@ -359,10 +364,14 @@ fn adapted_md22_predicts_left_out_loads_of_a_foreign_unit() {
 /// baseline diagnoses `good` within 0.3 points; what the correlated curves do off the operating
 /// line the healthy data do not pin, so the degradation grid is read with more cross-talk than
 /// on the grown shape (floors below are what it meets; no miss is called good).
+///
+/// CI leaves out one load, the lowest of the grown test's three (47.5 %, the hardest of them
+/// for this strategy): each continuation calibration takes about a minute, and three made this
+/// the suite's longest test. `GTWATCH_FOREIGN_FULL=1` leaves out every load in turn.
 #[test]
 fn continuation_predicts_left_out_loads_of_a_foreign_unit_within_the_floors() {
     let (truth, rows, model) = first_unit();
-    let (full_table, left_out) = loads_left_out(rows.len());
+    let (full_table, left_out) = left_out_or(rows.len(), vec![2]);
     let mut means = Vec::new();
     let mut worst = 0.0f64;
     for k in left_out {
@@ -382,7 +391,7 @@ fn continuation_predicts_left_out_loads_of_a_foreign_unit_within_the_floors() {
     }
     let mean = means.iter().sum::<f64>() / means.len() as f64;
     eprintln!("continuation: adapted mean {mean:.3} %, worst {worst:.3} %");
-    // The floors, on the interior loads CI runs (all 9 include the extrapolated ends).
+    // The floors, on the interior load CI runs (all 9 include the extrapolated ends).
     assert!(
         full_table || (mean <= 0.3 && worst <= 1.0),
         "continuation: mean {mean:.3} %, worst {worst:.3} %"
