@@ -74,6 +74,12 @@ pub(super) fn run(a: SimulateArgs) -> anyhow::Result<ExitCode> {
             a.out
         );
     }
+    // A start that hangs runs to the scenario's time limit without an error of the integrator:
+    // say where it stuck (the trace is written above, to look at).
+    let stuck = match a.scenario {
+        ScenarioKind::Startup => crate::engine::start_outcome::stuck_start(engine.cfg(), &samples),
+        ScenarioKind::Operations => None,
+    };
     if let Some(path) = a.plot {
         let degraded: Vec<String> = crate::health::HEALTH_NAMES
             .iter()
@@ -89,6 +95,9 @@ pub(super) fn run(a: SimulateArgs) -> anyhow::Result<ExitCode> {
         let title = format!("{} — {:?}, {health_text}", engine.cfg().name, a.scenario);
         let svg = crate::chart::startup::startup_svg(&trace, &title);
         std::fs::write(&path, svg).with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(stuck) = stuck {
+        anyhow::bail!("{stuck} (the trace was written, to look at)");
     }
     Ok(ExitCode::SUCCESS)
 }

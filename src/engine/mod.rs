@@ -7,7 +7,8 @@
 //! `steady` (Newton matching), `load` (PT load modes: what sets the PT speed), `state` (state vector and layout), `dynamic` (state equations),
 //! `effects` (optional model effects and their hook points), `integrator` (stiff ROS2),
 //! `control` (fuel PID, limits, starter), `sequence` (start-up/shutdown sequencer),
-//! `simulation` (the integration loop under a controller), `measured_drive` (the model run
+//! `simulation` (the integration loop under a controller), `start_outcome` (where a simulated
+//! start-up that never reached steady load stuck), `measured_drive` (the model run
 //! through a recorded start-up), `sensors` (measurement model), `trace` (sampled output and
 //! CSV), `plant` (a running plant for the Modbus simulator), `error`.
 //! Everything here is pure and deterministic; only `Engine::new` may read a map file.
@@ -30,6 +31,7 @@ pub(crate) mod plant;
 pub mod sensors;
 pub(crate) mod sequence;
 pub mod simulation;
+pub mod start_outcome;
 pub(crate) mod state;
 pub mod steady;
 pub(crate) mod trace;
