@@ -186,8 +186,9 @@ pub enum HealthParseError {
 }
 
 /// A health estimate below −(this + 3σ) points is better than new beyond its uncertainty and
-/// beyond what a calibration leaves: not the engine, but an input instrument (fuel meter, T1,
-/// power) or a design value the fit absorbed.
+/// beyond what a calibration leaves: most likely an input instrument (fuel meter, T1, power) or
+/// a design value the fit absorbed. (A turbine's flow capacity, D_GT or D_GP, can also rise
+/// with nozzle erosion; the flag's words say so, and the gap analysis weighs the aliases.)
 pub const IMPLAUSIBLE_MARGIN: f64 = 0.3;
 
 /// How far an estimate with 1σ `sigma` lies below plausibility, points (0 where plausible, and

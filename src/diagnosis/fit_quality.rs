@@ -155,10 +155,18 @@ pub struct Implausible {
 impl Implausible {
     /// Plain words with what to suspect.
     pub fn describe(&self) -> String {
+        // A turbine's flow capacity above new is not impossible: erosion of its nozzle guide
+        // vanes opens the throat (with an efficiency loss). The flag stays; the words say so.
+        let why = if matches!(self.name.as_str(), "D_GT" | "D_GP") {
+            "more flow capacity than new beyond its uncertainty: nozzle erosion opens a turbine \
+             (and costs it efficiency), but an input instrument (fuel meter, T1, power) or a \
+             design value is as likely"
+        } else {
+            "better than new beyond its uncertainty: an input instrument (fuel meter, T1, power) \
+             or a design value is more likely than the engine"
+        };
         format!(
-            "{} = {:+.2} ± {:.2} % is better than new beyond its uncertainty: an input \
-             instrument (fuel meter, T1, power) or a design value is more likely than the engine \
-             (run gtwatch gap for the aliases)",
+            "{} = {:+.2} ± {:.2} % is {why} (run gtwatch gap for the aliases)",
             self.name, self.value, self.sigma
         )
     }
@@ -521,6 +529,34 @@ fn character(c: &ResidualCell) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A turbine's flow capacity above new is named as possible erosion as well as an
+    /// instrument; an efficiency better than new only as an instrument or a design value.
+    #[test]
+    fn implausible_words_tell_turbine_flow_from_efficiency() {
+        let of = |name: &str| {
+            Implausible {
+                name: name.into(),
+                value: -1.2,
+                sigma: 0.2,
+            }
+            .describe()
+        };
+        for name in ["D_GT", "D_GP"] {
+            let text = of(name);
+            assert!(
+                text.contains("nozzle erosion") && text.contains("fuel meter"),
+                "{text}"
+            );
+        }
+        for name in ["D_GC", "D_EC", "D_ET", "D_EP"] {
+            let text = of(name);
+            assert!(
+                text.contains("better than new") && !text.contains("erosion"),
+                "{text}"
+            );
+        }
+    }
 
     /// An estimate on a limit makes a good fit suspect and says what to do; one inside does not.
     #[test]
