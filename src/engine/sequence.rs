@@ -32,6 +32,10 @@ use super::state::{Actuator, Shaft};
 use crate::signals::Phase;
 use std::sync::Arc;
 
+/// Fraction of `sequence.purge_speed_rpm` the cranking GG must reach before the purge starts
+/// (the starter's speed hold droops a little below its set point).
+pub(crate) const PURGE_SPEED_FRACTION: f64 = 0.98;
+
 /// An operator or protection command at a given time.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Command {
@@ -276,7 +280,7 @@ impl Sequencer {
             rising,
         };
         match self.mode {
-            Mode::Crank => vec![n1(0.98 * q.purge_speed_rpm, true)],
+            Mode::Crank => vec![n1(PURGE_SPEED_FRACTION * q.purge_speed_rpm, true)],
             Mode::Coast => vec![n1(q.light_off_speed_rpm, false)],
             Mode::Accel => {
                 let mut w = vec![n1(0.99 * q.idle_speed_rpm, true)];
@@ -336,7 +340,7 @@ impl Sequencer {
                     self.fuel = FuelCommand::Off;
                     self.pt_locked = false;
                     self.starter_engaged = true;
-                    self.mode = if st.n1_rpm >= 0.98 * q.purge_speed_rpm {
+                    self.mode = if st.n1_rpm >= PURGE_SPEED_FRACTION * q.purge_speed_rpm {
                         Mode::Purge {
                             until: t + q.purge_s,
                         }
@@ -398,7 +402,7 @@ impl Sequencer {
             }
         }
         match self.mode {
-            Mode::Crank if n1 >= 0.98 * q.purge_speed_rpm * (1.0 - tol) => {
+            Mode::Crank if n1 >= PURGE_SPEED_FRACTION * q.purge_speed_rpm * (1.0 - tol) => {
                 self.mode = Mode::Purge {
                     until: t + q.purge_s,
                 };

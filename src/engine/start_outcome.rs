@@ -5,13 +5,10 @@
 //! Reads a finished run's samples; must not run or change one.
 
 use super::config::EngineConfig;
+use super::sequence::PURGE_SPEED_FRACTION;
 use super::simulation::TruthSample;
 use crate::signals::Phase;
 use std::fmt;
-
-/// Fraction of `sequence.purge_speed_rpm` the sequencer waits for before purging (the
-/// sequencer's own threshold, `sequence.rs`).
-const PURGE_THRESHOLD: f64 = 0.98;
 
 /// A start-up that never reached steady load: the phase it ended in, since when, and the
 /// shaft speeds at the end.
@@ -48,8 +45,8 @@ pub fn stuck_start(cfg: &EngineConfig, samples: &[TruthSample]) -> Option<StuckS
             "the starter holds the GG at {n1:.0} rpm; the sequence purges only above {:.0} rpm \
              ({:.0} % of sequence.purge_speed_rpm = {:.0}): raise starter.max_torque_n_m or \
              starter.speed_hold_gain_n_m_per_rpm, or lower sequence.purge_speed_rpm",
-            PURGE_THRESHOLD * q.purge_speed_rpm,
-            100.0 * PURGE_THRESHOLD,
+            PURGE_SPEED_FRACTION * q.purge_speed_rpm,
+            100.0 * PURGE_SPEED_FRACTION,
             q.purge_speed_rpm
         )),
         Phase::Standstill => Some("the start command never came".to_string()),
