@@ -290,13 +290,8 @@ fn first_unit() -> (Engine, Vec<Snapshot>, Engine) {
     (truth, rows, model)
 }
 
-/// Which of `n` loads to leave out in turn: CI runs three (low, middle, high interior);
-/// `GTWATCH_FOREIGN_FULL=1` all (then `true`).
-fn loads_left_out(n: usize) -> (bool, Vec<usize>) {
-    left_out_or(n, vec![2, 4, 6])
-}
-
-/// `n` loads (then `true`) with `GTWATCH_FOREIGN_FULL=1`, else `ci`.
+/// Which of `n` loads to leave out in turn: all (then `true`) with `GTWATCH_FOREIGN_FULL=1`,
+/// else the ones CI runs, `ci`.
 fn left_out_or(n: usize, ci: Vec<usize>) -> (bool, Vec<usize>) {
     if std::env::var_os("GTWATCH_FOREIGN_FULL").is_some() {
         (true, (0..n).collect())
@@ -312,7 +307,8 @@ fn adapted_md22_predicts_left_out_loads_of_a_foreign_unit() {
     let mut table: Vec<(String, [f64; 2], [f64; 2])> = Vec::new();
     let mut worst_signal = [0.0f64; 2];
     let mut means = [Vec::new(), Vec::new()];
-    let (full_table, left_out) = loads_left_out(rows.len());
+    // CI leaves out three loads: low, middle and high interior.
+    let (full_table, left_out) = left_out_or(rows.len(), vec![2, 4, 6]);
     for k in left_out {
         let cells = leave_out(&model, &rows, k, "", AdaptStrategy::Grown);
         for m in 0..2 {
