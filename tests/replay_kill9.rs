@@ -187,10 +187,12 @@ fn dump(db: &Path) -> Vec<Stored> {
     .expect("rows")
 }
 
+/// `PRAGMA integrity_check`, opened read-write as the next `gtwatch` run opens the file: a
+/// process killed while SQLite still wrote the fresh file in rollback mode (the switch to WAL
+/// is itself such a write) leaves a hot `-journal`, which only a writer may roll back; a
+/// read-only open refuses it (`SQLITE_READONLY_ROLLBACK`, CI once).
 fn integrity(db: &Path) -> String {
-    let conn =
-        rusqlite::Connection::open_with_flags(db, rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY)
-            .expect("open");
+    let conn = rusqlite::Connection::open(db).expect("open");
     conn.query_row("PRAGMA integrity_check", [], |r| r.get(0))
         .expect("integrity")
 }
