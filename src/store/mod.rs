@@ -160,6 +160,10 @@ pub enum StoreError {
         "database {path} is not initialised (no schema); run the daemon or `gtwatch replay` first"
     )]
     NotInitialised { path: PathBuf },
+    #[error(
+        "database {path} has an unfinished write (the {path}-journal file beside it) from a process that stopped while creating it; a read-only open cannot roll it back: open it once with write access (`gtwatch store vacuum --db {path}`, the daemon or `gtwatch replay` do) and try again"
+    )]
+    UnfinishedWrite { path: PathBuf },
     #[error("unknown tag '{0}'")]
     UnknownTag(String),
     #[error("invalid value in database: {0}")]
@@ -418,6 +422,14 @@ fn wal_file(path: &Path) -> PathBuf {
     PathBuf::from(name)
 }
 
+/// Whether `path` has a non-empty rollback journal beside it (`<path>-journal`): the
+/// transaction that wrote it did not finish, and the next writer rolls it back.
+fn hot_journal(path: &Path) -> bool {
+    let mut name = path.as_os_str().to_os_string();
+    name.push("-journal");
+    std::fs::metadata(PathBuf::from(name)).is_ok_and(|m| m.len() > 0)
+}
+
 /// A `file:` URI opening `path` read-only and immutable (`%`, `?` and `#` escaped).
 fn immutable_uri(path: &Path) -> String {
     let mut uri = String::from("file:");
@@ -553,6 +565,14 @@ impl Store {
     pub fn open_readonly_with(path: &Path, opts: &StoreOptions) -> Result<ReadStore, StoreError> {
         let conn = match Store::readonly_connection(path, false, opts) {
             Ok(conn) => conn,
+            // A hot rollback journal: a process stopped mid-write while the file was still in
+            // rollback mode (only while it was being created; a store is WAL from then on).
+            // `immutable` would read the half-written pages; only a writer can roll it back.
+            Err(_) if hot_journal(path) => {
+                return Err(StoreError::UnfinishedWrite {
+                    path: path.to_path_buf(),
+                })
+            }
             Err(e) if path.is_file() && !wal_file(path).exists() => {
                 tracing::debug!(path = %path.display(), "read-only open failed ({e}); retrying immutable");
                 Store::readonly_connection(path, true, opts).map_err(|_| e)?

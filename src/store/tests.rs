@@ -92,6 +92,57 @@ fn readonly_refuses_missing_or_uninitialised_db() {
     assert!(ro.conn().execute("DELETE FROM tags", []).is_err());
 }
 
+/// A store left with a hot rollback journal (a process killed while the file was still in
+/// rollback mode, as while it is being created): a read-only open refuses it by name rather
+/// than reading the half-written pages `immutable`; one writable open rolls it back.
+#[test]
+fn readonly_refuses_an_unfinished_write_and_a_writer_rolls_it_back() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let p = dir.path().join("x.db");
+    drop(Store::open(&p).expect("init"));
+    let conn = rusqlite::Connection::open(&p).expect("open");
+    let mode: String = conn
+        .query_row("PRAGMA journal_mode=DELETE", [], |r| r.get(0))
+        .expect("rollback mode");
+    assert_eq!(mode, "delete");
+    // A transaction large enough to spill into the file, caught mid-way by copying the file
+    // and its journal: the copy is what a kill leaves.
+    conn.execute_batch(
+        "PRAGMA cache_size=1; BEGIN; CREATE TABLE junk(x BLOB);
+         WITH RECURSIVE n(i) AS (SELECT 1 UNION ALL SELECT i + 1 FROM n WHERE i < 200)
+         INSERT INTO junk SELECT randomblob(4000) FROM n;",
+    )
+    .expect("write");
+    let killed = dir.path().join("killed.db");
+    std::fs::copy(&p, &killed).expect("copy file");
+    std::fs::copy(
+        dir.path().join("x.db-journal"),
+        dir.path().join("killed.db-journal"),
+    )
+    .expect("copy journal");
+    conn.execute_batch("ROLLBACK").expect("rollback");
+    drop(conn);
+
+    match Store::open_readonly(&killed) {
+        Err(e @ StoreError::UnfinishedWrite { .. }) => {
+            assert!(e.to_string().contains("gtwatch store vacuum"), "{e}")
+        }
+        other => panic!("expected UnfinishedWrite, got {:?}", other.map(|_| ())),
+    }
+    let mut w = Store::open(&killed).expect("a writer rolls it back");
+    let junk: i64 = w
+        .conn_mut()
+        .query_row(
+            "SELECT COUNT(*) FROM sqlite_master WHERE name = 'junk'",
+            [],
+            |r| r.get(0),
+        )
+        .expect("schema");
+    assert_eq!(junk, 0, "the unfinished transaction is rolled back");
+    drop(w);
+    assert!(Store::open_readonly(&killed).is_ok());
+}
+
 #[tokio::test]
 async fn writer_batches_and_flushes_on_close() {
     let dir = tempfile::tempdir().expect("tempdir");
