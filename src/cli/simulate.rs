@@ -3,12 +3,16 @@
 
 use super::engine_args::EngineArgs;
 use crate::engine::sensors::MeasurementOptions;
-use crate::engine::simulation::run_scenario;
+use crate::engine::simulation::run_scenario_observed;
 use crate::engine::{Scenario, Trace};
 use anyhow::Context;
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+/// How often a long simulation says how far it has come (wall time).
+const PROGRESS_EVERY: Duration = Duration::from_secs(10);
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum ScenarioKind {
@@ -50,7 +54,24 @@ pub(super) fn run(a: SimulateArgs) -> anyhow::Result<ExitCode> {
         ScenarioKind::Startup => Scenario::startup(engine.cfg()),
         ScenarioKind::Operations => Scenario::operations(engine.cfg()),
     };
-    let (samples, stats) = run_scenario(&model, &scenario)?;
+    // A stiff engine file can integrate for minutes (a start-up that hangs runs to the
+    // scenario's time limit): say how far it has come rather than nothing.
+    let started = Instant::now();
+    let mut next_report = PROGRESS_EVERY;
+    let (samples, stats) = run_scenario_observed(&model, &scenario, |s| {
+        let wall = started.elapsed();
+        if wall >= next_report {
+            next_report = wall + PROGRESS_EVERY;
+            tracing::info!(
+                "simulating: t = {:.0} s, {} (GG {:.0} rpm, PT {:.0} rpm) after {:.0} s",
+                s.t_s,
+                s.phase,
+                s.stations.n1_rpm,
+                s.stations.n2_rpm,
+                wall.as_secs_f64()
+            );
+        }
+    })?;
     let meas = (!a.no_lags || a.noise || a.bias).then_some(MeasurementOptions {
         lags: !a.no_lags,
         noise: a.noise,

@@ -41,7 +41,9 @@ pub use error::EngineError;
 pub use gas_path::Stations;
 pub use model::{DesignPoint, Engine, Model};
 pub use sequence::{Command, End, Event, Scenario};
-pub use simulation::{run_scenario, Change, Controller, Simulation, TruthSample};
+pub use simulation::{
+    run_scenario, run_scenario_observed, Change, Controller, Simulation, TruthSample,
+};
 pub use steady::{Demand, SteadyInputs, SteadyPoint};
 pub use trace::Trace;
 #[cfg(test)]

@@ -380,6 +380,17 @@ pub fn run_scenario(
     model: &Model,
     scenario: &Scenario,
 ) -> Result<(Vec<TruthSample>, RunStats), EngineError> {
+    run_scenario_observed(model, scenario, |_| {})
+}
+
+/// [`run_scenario`], calling `observe` with each sample as it is produced: the caller can say
+/// how far a long run has come (`gtwatch simulate` on a stiff engine integrates for minutes).
+/// The samples and the result are those of [`run_scenario`].
+pub fn run_scenario_observed(
+    model: &Model,
+    scenario: &Scenario,
+    mut observe: impl FnMut(&TruthSample),
+) -> Result<(Vec<TruthSample>, RunStats), EngineError> {
     let dt = model.cfg().sequence.sample_period_s;
     let mut sim = Simulation::new(model, scenario);
     let mut out = Vec::new();
@@ -387,11 +398,13 @@ pub fn run_scenario(
     loop {
         let t = k as f64 * dt;
         let st = sim.sample(t)?;
-        out.push(TruthSample {
+        let sample = TruthSample {
             t_s: t,
             phase: sim.seq.phase(),
             stations: st,
-        });
+        };
+        observe(&sample);
+        out.push(sample);
         let done = match scenario.end {
             End::At(te) => t >= te - 1e-9,
             End::AfterSteady { hold_s, max_s } => {

@@ -406,3 +406,25 @@ fn pt_approaches_synchronous_speed_damped() {
         "GG speed peaks {peaks} times before the breaker closes"
     );
 }
+
+/// The observed run hands over every sample, in order, as it makes it, and returns what the
+/// plain run returns (`gtwatch simulate` reports its progress through it).
+#[test]
+fn observed_run_sees_every_sample_and_changes_nothing() {
+    let engine = Engine::reference().expect("engine");
+    let model = engine.model(&HealthParams::default());
+    let scenario = Scenario::startup(engine.cfg());
+    let (plain, plain_stats) = run_scenario(&model, &scenario).expect("runs");
+    let mut seen: Vec<(f64, Phase, f64)> = Vec::new();
+    let (observed, stats) = super::simulation::run_scenario_observed(&model, &scenario, |s| {
+        seen.push((s.t_s, s.phase, s.stations.n1_rpm))
+    })
+    .expect("runs");
+    assert_eq!(observed, plain);
+    assert_eq!(stats.steps, plain_stats.steps);
+    assert_eq!(seen.len(), plain.len());
+    assert!(seen
+        .iter()
+        .zip(&plain)
+        .all(|(a, b)| *a == (b.t_s, b.phase, b.stations.n1_rpm)));
+}
