@@ -555,7 +555,9 @@ impl Store {
     /// `-wal` file beside it) and the directory is not writable, SQLite cannot create that
     /// file and refuses; then the file is opened `immutable` instead: no connection is
     /// writing it, and none could start a WAL write in a directory we cannot write either
-    /// without the `-wal` file appearing first.
+    /// without the `-wal` file appearing first. A file with a hot rollback journal beside it
+    /// (a process killed while creating it) is refused ([`StoreError::UnfinishedWrite`]):
+    /// `immutable` would read its half-written pages, and only a writer can roll it back.
     pub fn open_readonly(path: &Path) -> Result<ReadStore, StoreError> {
         Store::open_readonly_with(path, &READONLY_OPTIONS)
     }
