@@ -187,16 +187,6 @@ fn dump(db: &Path) -> Vec<Stored> {
     .expect("rows")
 }
 
-/// `PRAGMA integrity_check`, opened read-write as the next `gtwatch` run opens the file: a
-/// process killed while SQLite still wrote the fresh file in rollback mode (the switch to WAL
-/// is itself such a write) leaves a hot `-journal`, which only a writer may roll back; a
-/// read-only open refuses it (`SQLITE_READONLY_ROLLBACK`, CI once).
-fn integrity(db: &Path) -> String {
-    let conn = rusqlite::Connection::open(db).expect("open");
-    conn.query_row("PRAGMA integrity_check", [], |r| r.get(0))
-        .expect("integrity")
-}
-
 #[test]
 fn replay_interrupted_by_sigterm_and_kill_9_at_random_moments_ends_identical() {
     interrupted_at_random_moments(false);
@@ -323,7 +313,7 @@ fn interrupted_at_random_moments(archive: bool) {
         let what = format!("round {round}: SIG{signal} after {delay_ms} ms");
         // Sound after the interruption; whatever is stored is exactly from the file.
         if db.exists() {
-            assert_eq!(integrity(&db), "ok", "{what}");
+            assert_eq!(common::integrity(&db), "ok", "{what}");
             let stored = dump(&db);
             assert!(
                 stored.iter().all(|s| want.contains(s)),
@@ -338,7 +328,7 @@ fn interrupted_at_random_moments(archive: bool) {
         // The rerun completes, and the result is the uninterrupted run's, sample for sample.
         let status = replay(&cfg).wait().expect("rerun");
         assert!(status.success(), "{what}: rerun failed: {status}");
-        assert_eq!(integrity(&db), "ok", "{what}");
+        assert_eq!(common::integrity(&db), "ok", "{what}");
         assert!(
             dump(&db) == reference,
             "{what}: rerun differs from the uninterrupted replay"

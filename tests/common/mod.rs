@@ -207,9 +207,13 @@ impl Tally<'_> {
     }
 }
 
-/// `PRAGMA integrity_check` of the database at `path` (read-only).
+/// `PRAGMA integrity_check` of the database at `path`, opened read-write as the next `gtwatch`
+/// run opens it: a process killed while SQLite still wrote a fresh file in rollback mode (the
+/// switch to WAL is itself such a write) leaves a hot `-journal`, which only a writer may roll
+/// back; a read-only open refuses it (`SQLITE_READONLY_ROLLBACK`, replay_kill9 in CI once).
 pub fn integrity(path: &Path) -> String {
-    open_db(path)
+    rusqlite::Connection::open(path)
+        .expect("open db")
         .query_row("PRAGMA integrity_check", [], |r| r.get(0))
         .expect("integrity_check")
 }
