@@ -415,19 +415,22 @@ pub struct Store {
     read_only: bool,
 }
 
+/// The file SQLite keeps beside a database, its name with `suffix` (`-wal`, `-journal`).
+fn beside(path: &Path, suffix: &str) -> PathBuf {
+    let mut name = path.as_os_str().to_os_string();
+    name.push(suffix);
+    PathBuf::from(name)
+}
+
 /// The `-wal` file of a database.
 fn wal_file(path: &Path) -> PathBuf {
-    let mut name = path.as_os_str().to_os_string();
-    name.push("-wal");
-    PathBuf::from(name)
+    beside(path, "-wal")
 }
 
 /// Whether `path` has a non-empty rollback journal beside it (`<path>-journal`): the
 /// transaction that wrote it did not finish, and the next writer rolls it back.
 fn hot_journal(path: &Path) -> bool {
-    let mut name = path.as_os_str().to_os_string();
-    name.push("-journal");
-    std::fs::metadata(PathBuf::from(name)).is_ok_and(|m| m.len() > 0)
+    std::fs::metadata(beside(path, "-journal")).is_ok_and(|m| m.len() > 0)
 }
 
 /// A `file:` URI opening `path` read-only and immutable (`%`, `?` and `#` escaped).
