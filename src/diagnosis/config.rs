@@ -192,6 +192,10 @@ pub struct DiagnosisConfig {
     /// Smooth the measured fuel flow before it drives the model (Method B, measured-fuel
     /// mode; see [`transient::smooth_fuel`]).
     pub smooth_fuel: bool,
+    /// Method B's least-squares stage fits under the residuals' covariance from the fuel
+    /// meter's slow noise (measured-fuel mode; see [`super::fuel_noise`]). Off: ordinary least
+    /// squares, for comparison.
+    pub fuel_noise_covariance: bool,
     /// Method A's stability criteria.
     pub steady: SteadyCriteria,
     /// Optimisation strategy.
@@ -269,6 +273,7 @@ impl Default for DiagnosisConfig {
             drive_mode: DriveMode::MeasuredFuel,
             rate_weight: 1.0,
             smooth_fuel: true,
+            fuel_noise_covariance: true,
             steady: SteadyCriteria::default(),
             optimiser: Optimiser::CuckooLm,
             max_model_runs: 400,

@@ -43,6 +43,7 @@ pub mod bench;
 pub mod config;
 pub mod csv_input;
 pub mod fit_quality;
+pub mod fuel_noise;
 pub mod identifiability;
 pub(crate) mod objective;
 pub(crate) mod params;
@@ -119,6 +120,11 @@ pub trait DiagnosisProblem: ResidualProblem {
     /// model (none when nothing measured drives it): what the σ of the inputs adds to the
     /// parameters' σ ([`crate::optim::uncertainty_with_inputs`]).
     fn input_noise_draws(&self, x: &[f64]) -> Vec<Vec<f64>>;
+    /// Before the least-squares stage, at the global stage's result `x`: takes the residuals'
+    /// covariance from the noise of the signals that drive the model, which that stage then
+    /// fits under (generalised least squares, [`fuel_noise`]); nothing when no measured signal
+    /// drives the model.
+    fn prepare_least_squares(&mut self, x: &[f64], pool: &ThreadPool);
     /// The parameter map.
     fn params(&self) -> &ParamMap;
     /// The failed evaluations so far, by reason.
@@ -128,7 +134,9 @@ pub trait DiagnosisProblem: ResidualProblem {
 /// The optimiser-facing traits of a diagnosis problem, for a type with the fields `objective:
 /// Objective`, `params: ParamMap`, `least_squares: bool`, `runs: AtomicUsize`, `failures:
 /// FailureLog`, a method `simulate(&self, x) -> Result<Vec<Values>, EvalError>` and a method
-/// `residual_inflation(&self, r) -> f64`. Method A and Method B differ only in those two methods.
+/// `residual_inflation(&self, r) -> f64`, `input_draws(&self, x)`, `whiten(&self, r)` (the
+/// least-squares stage's map of the residuals) and `input_covariance(&mut self, x, pool)`.
+/// Method A and Method B differ only in those methods.
 /// A failed evaluation (the model's error, or a non-finite model value where a measurement is
 /// compared) is recorded with its reason and costs `+∞` / NaN residuals for the optimiser.
 macro_rules! impl_diagnosis_problem {
@@ -158,7 +166,17 @@ macro_rules! impl_diagnosis_problem {
             }
             fn cost(&self, x: &[f64]) -> f64 {
                 match self.evaluate(x) {
-                    Ok(m) if self.least_squares => self.objective.ssr(&m),
+                    Ok(m) if self.least_squares => {
+                        let mut r = Vec::with_capacity(self.objective.len());
+                        self.objective.residuals(&m, &mut r);
+                        self.whiten(&mut r);
+                        let s: f64 = r.iter().map(|v| v * v).sum();
+                        if s.is_finite() {
+                            s
+                        } else {
+                            f64::INFINITY
+                        }
+                    }
                     Ok(m) => self.objective.eq10(&m),
                     Err(_) => f64::INFINITY,
                 }
@@ -168,7 +186,14 @@ macro_rules! impl_diagnosis_problem {
         impl $crate::optim::ResidualProblem for $ty {
             fn residuals(&self, x: &[f64], out: &mut Vec<f64>) {
                 match self.evaluate(x) {
-                    Ok(m) => self.objective.residuals(&m, out),
+                    Ok(m) => {
+                        self.objective.residuals(&m, out);
+                        // The least-squares stage (LM, σ) fits under the residuals' own
+                        // covariance; the reported residuals stay plain.
+                        if self.least_squares {
+                            self.whiten(out);
+                        }
+                    }
                     Err(_) => {
                         out.clear();
                         out.resize(self.objective.len(), f64::NAN);
@@ -199,6 +224,9 @@ macro_rules! impl_diagnosis_problem {
             }
             fn input_noise_draws(&self, x: &[f64]) -> Vec<Vec<f64>> {
                 self.input_draws(x)
+            }
+            fn prepare_least_squares(&mut self, x: &[f64], pool: &rayon::ThreadPool) {
+                self.input_covariance(x, pool)
             }
         }
     };
@@ -354,6 +382,9 @@ pub fn fit<P: DiagnosisProblem>(
         });
     }
     let mut x = global.x.clone();
+    if !cancel.is_cancelled() {
+        problem.prepare_least_squares(&x, pool);
+    }
     problem.set_least_squares(true);
     // After a cancel (daemon shutdown) the refinement and the uncertainty (up to a few hundred
     // model runs more) are skipped: the caller discards a cancelled fit anyway.
@@ -697,6 +728,8 @@ mod tests {
         fn input_draws(&self, _x: &[f64]) -> Vec<Vec<f64>> {
             Vec::new()
         }
+        fn whiten(&self, _r: &mut [f64]) {}
+        fn input_covariance(&mut self, _x: &[f64], _pool: &rayon::ThreadPool) {}
     }
 
     impl_diagnosis_problem!(Failing);

@@ -458,6 +458,10 @@ impl SteadyProblem {
         // Window means of the inputs: their noise is averaged away with the outputs'.
         Vec::new()
     }
+    fn whiten(&self, _r: &mut [f64]) {
+        // Window means are independent: least squares is already generalised.
+    }
+    fn input_covariance(&mut self, _x: &[f64], _pool: &rayon::ThreadPool) {}
 }
 
 super::impl_diagnosis_problem!(SteadyProblem);
