@@ -459,7 +459,8 @@ impl SteadyProblem {
         Vec::new()
     }
     fn whiten(&self, _r: &mut [f64]) {
-        // Window means are independent: least squares is already generalised.
+        // The inputs' noise is averaged into the window means with the outputs' (above): no
+        // input error is shared between residuals, so there is no covariance to fit under.
     }
     fn input_covariance(&mut self, _x: &[f64], _pool: &rayon::ThreadPool) {}
 }
