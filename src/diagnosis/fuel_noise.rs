@@ -48,38 +48,22 @@ pub fn fuel_blocks(times: &[f64], fuel: &[f64], sigma: impl Fn(f64) -> f64) -> V
         return Vec::new();
     };
     let t0 = times[first];
-    let mut blocks: Vec<FuelBlock> = Vec::new();
-    let mut current: Option<(i64, Vec<usize>)> = None;
-    let close = |samples: Vec<usize>, blocks: &mut Vec<FuelBlock>| {
-        let n = samples.len() as f64;
-        let var: f64 = samples
-            .iter()
-            .map(|&k| (sigma(fuel[k]) / fuel[k]).powi(2))
-            .sum::<f64>()
-            / (n * n);
-        if var > 0.0 && var.is_finite() {
-            blocks.push(FuelBlock {
-                samples,
+    let block_of = |k: usize| ((times[k] - t0) / BLOCK_S).floor() as i64;
+    fired
+        .chunk_by(|&a, &b| block_of(a) == block_of(b))
+        .filter_map(|samples| {
+            let n = samples.len() as f64;
+            let var: f64 = samples
+                .iter()
+                .map(|&k| (sigma(fuel[k]) / fuel[k]).powi(2))
+                .sum::<f64>()
+                / (n * n);
+            (var > 0.0 && var.is_finite()).then(|| FuelBlock {
+                samples: samples.to_vec(),
                 sigma_rel: var.sqrt(),
-            });
-        }
-    };
-    for k in fired {
-        let id = ((times[k] - t0) / BLOCK_S).floor() as i64;
-        match &mut current {
-            Some((cur, samples)) if *cur == id => samples.push(k),
-            _ => {
-                if let Some((_, samples)) = current.take() {
-                    close(samples, &mut blocks);
-                }
-                current = Some((id, vec![k]));
-            }
-        }
-    }
-    if let Some((_, samples)) = current {
-        close(samples, &mut blocks);
-    }
-    blocks
+            })
+        })
+        .collect()
 }
 
 /// The map `r ↦ W r` with `Wᵀ W = (I + U Uᵀ)⁻¹` (symmetric `W = I − U A Uᵀ`).

@@ -165,18 +165,12 @@ macro_rules! impl_diagnosis_problem {
                 self.params.bounds()
             }
             fn cost(&self, x: &[f64]) -> f64 {
+                if self.least_squares {
+                    // The sum of squares of the residuals that stage sees; a failed run +∞.
+                    let s = $crate::optim::ResidualProblem::ssr(self, x);
+                    return if s.is_finite() { s } else { f64::INFINITY };
+                }
                 match self.evaluate(x) {
-                    Ok(m) if self.least_squares => {
-                        let mut r = Vec::with_capacity(self.objective.len());
-                        self.objective.residuals(&m, &mut r);
-                        self.whiten(&mut r);
-                        let s: f64 = r.iter().map(|v| v * v).sum();
-                        if s.is_finite() {
-                            s
-                        } else {
-                            f64::INFINITY
-                        }
-                    }
                     Ok(m) => self.objective.eq10(&m),
                     Err(_) => f64::INFINITY,
                 }
