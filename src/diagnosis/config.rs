@@ -194,7 +194,8 @@ pub struct DiagnosisConfig {
     pub smooth_fuel: bool,
     /// Method B's least-squares stage fits under the residuals' covariance from the fuel
     /// meter's slow noise (measured-fuel mode; see [`super::fuel_noise`]). Off: ordinary least
-    /// squares, for comparison.
+    /// squares, as the gap analysis fits (the covariance would discount the slow patterns it
+    /// looks for) and for comparison.
     pub fuel_noise_covariance: bool,
     /// Method A's stability criteria.
     pub steady: SteadyCriteria,
