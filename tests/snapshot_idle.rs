@@ -198,3 +198,29 @@ fn cli_lists_the_refused_row_by_file_line_and_speaks_of_snapshots() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Calibration poses every point as the diagnosis does: where one fuel flow has several running
+/// points, the one at the row's measured GG speed. On the true engine's own rows (the fold row
+/// included, whose fuel flow alone lands the solver on another running point, see above) every
+/// calibration residual is zero, so a calibration neither fits nor reports a branch the
+/// diagnosis would not use. (It solved each point from the design point before: the fold row
+/// then read hundreds of σ off on the engine that made it.)
+#[test]
+fn calibration_solves_each_row_on_the_running_point_of_its_gg_speed() {
+    use gtwatch::calibrate::problem::{prepare, residuals_on};
+    // The rows hold the PT at 6 500 rpm at every power, which md22's load law would not: in
+    // generator mode calibration compares the measured values only (no load-law residual), and
+    // the steady points, whose PT speed is an input, are the same.
+    let md22 = md22();
+    let mut cfg = md22.cfg().clone();
+    cfg.load = None;
+    let engine = md22.with_config(cfg).expect("generator");
+    let (text, _) = csv(&engine);
+    let rows = read_snapshots(text.as_bytes(), &HashMap::new(), Some("test")).expect("rows");
+    let prep = prepare(&engine, &rows);
+    assert_eq!(prep.points.len(), 8, "{:?}", prep.dropped);
+    let r = residuals_on(&engine, &prep.points, &[]).expect("residuals");
+    assert_eq!(r.len(), 8 * 8, "8 rows × 8 compared signals");
+    let worst = r.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+    assert!(worst < 0.01, "worst residual {worst:.3} σ: {r:.3?}");
+}

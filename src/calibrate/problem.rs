@@ -26,7 +26,7 @@ use crate::diagnosis::snapshot::{steady_data, DroppedRow, Snapshot};
 use crate::diagnosis::steady::{steady_reading, SteadyData};
 use crate::engine::load::PtLoad;
 use crate::engine::sensors::noise_sigma;
-use crate::engine::steady::{solve, SteadyPoint};
+use crate::engine::steady::SteadyPoint;
 use crate::engine::Engine;
 use crate::health::HealthParams;
 use crate::optim::{Bounds, Problem, ResidualProblem};
@@ -248,7 +248,7 @@ impl CalibrationProblem {
             let start = starts.and_then(|s| s.get(i));
             let inp = &p.data.inputs;
             let m = engine.model_at(&HealthParams::HEALTHY, inp.t_amb_k, inp.p_amb_kpa);
-            let sp = solve(&m, inp, start).map_err(|e| {
+            let sp = p.data.solve_from(&m, start).map_err(|e| {
                 CalibrateError::Model(format!("line {}: steady solve: {e}", p.line))
             })?;
             for &(s, v, sd) in &p.data.outputs {
@@ -315,7 +315,7 @@ fn solve_all(
         )
     };
     for (i, p) in points.iter().enumerate() {
-        match solve(&model_of(p), &p.data.inputs, None) {
+        match p.data.solve_on(&model_of(p)) {
             Ok(s) => out[i] = Some(s),
             Err(e) => failed.push((i, e.to_string())),
         }
@@ -337,7 +337,7 @@ fn solve_all(
             let m = model_of(p);
             let found = solved
                 .iter()
-                .find_map(|&j| solve(&m, &p.data.inputs, out[j].as_ref()).ok());
+                .find_map(|&j| p.data.solve_from(&m, out[j].as_ref()).ok());
             match found {
                 Some(s) => {
                     out[i] = Some(s);

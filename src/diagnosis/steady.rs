@@ -185,14 +185,31 @@ impl SteadyData {
     /// The healthy (or `m`'s) steady point of this data, started at the measured GG speed's
     /// running point when there is a hint (see [`SteadyData::n1_hint_rpm`]).
     pub fn solve_on(&self, m: &Model) -> Result<SteadyPoint, crate::engine::EngineError> {
-        let start = self.n1_hint_rpm.and_then(|n1| {
+        self.solve_from(m, None)
+    }
+
+    /// [`SteadyData::solve_on`] with the solver started at `start` (a nearby solution): with a
+    /// hint, the running point at the measured GG speed is solved from `start` and the demand
+    /// from there, so where the running line folds (one fuel flow, several GG speeds) the
+    /// branch the unit ran on is the one found; without one, or when that fails, the demand
+    /// from `start`.
+    pub fn solve_from(
+        &self,
+        m: &Model,
+        start: Option<&SteadyPoint>,
+    ) -> Result<SteadyPoint, crate::engine::EngineError> {
+        if let Some(n1) = self.n1_hint_rpm {
             let at_speed = SteadyInputs {
                 demand: Demand::N1Rpm(n1),
                 ..self.inputs
             };
-            solve(m, &at_speed, None).ok()
-        });
-        solve(m, &self.inputs, start.as_ref())
+            if let Ok(s) = solve(m, &at_speed, start)
+                .and_then(|on_speed| solve(m, &self.inputs, Some(&on_speed)))
+            {
+                return Ok(s);
+            }
+        }
+        solve(m, &self.inputs, start)
     }
 
     /// The operating point in words, for tables: measured power (else torque, else GG speed)

@@ -49,7 +49,6 @@ use super::startup::RestReading;
 use super::CalibrateError;
 use crate::engine::config::COMPONENTS;
 use crate::engine::cycle::corrected_speed;
-use crate::engine::steady::solve;
 use crate::engine::Engine;
 use crate::health::HealthParams;
 use crate::optim::lm::jacobian_unit;
@@ -219,7 +218,9 @@ fn relative_speeds(
     for p in points {
         let inp = &p.data.inputs;
         let m = engine.model_at(&HealthParams::HEALTHY, inp.t_amb_k, inp.p_amb_kpa);
-        let s = solve(&m, inp, None)
+        let s = p
+            .data
+            .solve_on(&m)
             .map_err(|e| CalibrateError::Model(format!("line {}: steady solve: {e}", p.line)))?
             .stations;
         // Measured speeds and temperatures where the point has them (the model's speeds are
