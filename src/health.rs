@@ -187,8 +187,9 @@ pub enum HealthParseError {
 
 /// A health estimate below −(this + 3σ) points is better than new beyond its uncertainty and
 /// beyond what a calibration leaves: most likely an input instrument (fuel meter, T1, power) or
-/// a design value the fit absorbed. (A turbine's flow capacity, D_GT or D_GP, can also rise
-/// with nozzle erosion; the flag's words say so, and the gap analysis weighs the aliases.)
+/// a design value the fit absorbed. (A turbine's flow capacity, D_GT or D_GP, also rises with
+/// nozzle erosion, together with an efficiency loss: [`below_plausible_each`] lets that
+/// pattern through.)
 pub const IMPLAUSIBLE_MARGIN: f64 = 0.3;
 
 /// How far an estimate with 1σ `sigma` lies below plausibility, points (0 where plausible, and
@@ -200,7 +201,40 @@ pub fn below_plausible(value: f64, sigma: f64) -> f64 {
     (-(value + IMPLAUSIBLE_MARGIN + 3.0 * sigma)).max(0.0)
 }
 
-/// Σ of the squared points below plausibility over a health vector (0: plausible).
+/// Least efficiency loss, as a share of the flow capacity gained, with which a turbine's flow
+/// capacity above new reads as nozzle erosion (see [`below_plausible_each`]): erosion opens the
+/// nozzle throat and roughens the blading, so a real erosion costs efficiency of the same order
+/// as the capacity it adds; half of it is the threshold.
+pub const EROSION_EFFICIENCY_SHARE: f64 = 0.5;
+
+/// Per parameter of a health vector (order of [`HEALTH_NAMES`]) with 1σ `sigma`, how far it lies
+/// below plausibility (points; 0 where plausible): [`below_plausible`] of each value, except a
+/// turbine's flow capacity above new (D_GT, D_GP) that comes with the pattern of nozzle erosion:
+/// the same turbine's efficiency down beyond its own 3σ and by at least
+/// [`EROSION_EFFICIENCY_SHARE`] of the capacity gained. An input instrument does not make that
+/// pattern on its own: a fuel meter reading high raises the compressor's and the HP turbine's
+/// flow capacity with no HP-turbine efficiency loss, so those stay flagged (its power-turbine
+/// part looks like erosion and is let through).
+pub fn below_plausible_each(h: &[f64; 6], sigma: &[f64; 6]) -> [f64; 6] {
+    let mut out = [0.0; 6];
+    for (o, (v, s)) in out.iter_mut().zip(h.iter().zip(sigma)) {
+        *o = below_plausible(*v, *s);
+    }
+    // (flow capacity, efficiency) of the HP turbine and of the power turbine.
+    for (flow, eff) in [(2, 3), (4, 5)] {
+        let eroded = sigma[eff].is_finite()
+            && h[eff] > 3.0 * sigma[eff]
+            && h[eff] >= EROSION_EFFICIENCY_SHARE * -h[flow];
+        if out[flow] > 0.0 && eroded {
+            out[flow] = 0.0;
+        }
+    }
+    out
+}
+
+/// Σ of the squared points below plausibility over a health vector (0: plausible), each value
+/// on its own ([`below_plausible`]; the gap analysis asks whether an instrument would make the
+/// vector plausible, and keeps counting an erosion-like turbine among the reasons to ask).
 pub fn implausibility(h: &[f64; 6], sigma: &[f64; 6]) -> f64 {
     h.iter()
         .zip(sigma)
@@ -251,6 +285,29 @@ impl FromStr for HealthParams {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Erosion's pattern (a turbine's capacity up with its efficiency down) is plausible; a
+    /// fuel meter reading 3 % high (Method B on the reference engine: D_GC −2.9, D_GT −3.0,
+    /// D_ET −0.1, D_GP −2.9, D_EP +2.2) keeps the compressor and the HP turbine flagged.
+    #[test]
+    fn a_turbines_capacity_above_new_is_plausible_only_with_erosions_efficiency_loss() {
+        let sigma = [0.1; 6];
+        let eroded = [0.0, 0.0, -2.0, 3.0, 0.0, 0.0];
+        assert_eq!(below_plausible_each(&eroded, &sigma), [0.0; 6]);
+        let fuel_meter = [-2.9, -0.1, -3.0, -0.1, -2.9, 2.2];
+        let b = below_plausible_each(&fuel_meter, &sigma);
+        assert!(b[0] > 0.0 && b[2] > 0.0, "{b:?}");
+        assert_eq!(b[4], 0.0, "the PT's part looks like erosion: {b:?}");
+        // Too little efficiency loss for the capacity, or a loss within its own uncertainty.
+        let small_loss = [0.0, 0.0, -2.0, 0.8, 0.0, 0.0];
+        assert!(below_plausible_each(&small_loss, &sigma)[2] > 0.0);
+        let uncertain = [0.0, 0.0, -2.0, 1.2, 0.0, 0.0];
+        let wide = [0.1, 0.1, 0.1, 0.5, 0.1, 0.1];
+        assert!(below_plausible_each(&uncertain, &wide)[2] > 0.0);
+        // An efficiency better than new is never excused.
+        let better = [0.0, -1.0, 0.0, 0.0, 0.0, 0.0];
+        assert!(below_plausible_each(&better, &sigma)[1] > 0.0);
+    }
 
     #[test]
     fn health_bounds_hold_zero_and_stay_plausible() {

@@ -155,12 +155,12 @@ pub struct Implausible {
 impl Implausible {
     /// Plain words with what to suspect.
     pub fn describe(&self) -> String {
-        // A turbine's flow capacity above new is not impossible: erosion of its nozzle guide
-        // vanes opens the throat (with an efficiency loss). The flag stays; the words say so.
+        // A turbine's flow capacity above new with its efficiency loss is erosion and not
+        // flagged (`health::below_plausible_each`); flagged, it came without that loss.
         let why = if matches!(self.name.as_str(), "D_GT" | "D_GP") {
-            "more flow capacity than new beyond its uncertainty: nozzle erosion opens a turbine \
-             (and costs it efficiency), but an input instrument (fuel meter, T1, power) or a \
-             design value is as likely"
+            "more flow capacity than new beyond its uncertainty without the efficiency loss \
+             nozzle erosion brings: an input instrument (fuel meter, T1, power) or a design \
+             value is more likely than the engine"
         } else {
             "better than new beyond its uncertainty: an input instrument (fuel meter, T1, power) \
              or a design value is more likely than the engine"
@@ -530,8 +530,8 @@ fn character(c: &ResidualCell) -> String {
 mod tests {
     use super::*;
 
-    /// A turbine's flow capacity above new is named as possible erosion as well as an
-    /// instrument; an efficiency better than new only as an instrument or a design value.
+    /// A turbine's flow capacity above new, flagged, says it lacks erosion's efficiency loss and
+    /// names the instruments; an efficiency better than new names the instruments only.
     #[test]
     fn implausible_words_tell_turbine_flow_from_efficiency() {
         let of = |name: &str| {
@@ -545,7 +545,8 @@ mod tests {
         for name in ["D_GT", "D_GP"] {
             let text = of(name);
             assert!(
-                text.contains("nozzle erosion") && text.contains("fuel meter"),
+                text.contains("without the efficiency loss nozzle erosion brings")
+                    && text.contains("fuel meter"),
                 "{text}"
             );
         }

@@ -491,6 +491,17 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
         })
         .collect();
     let signal_names: Vec<String> = signals.iter().map(|s| s.column().to_string()).collect();
+    // Plausibility is judged on the whole vector (a turbine's capacity above new with its
+    // efficiency loss is erosion); parameters not fitted count as new with no information.
+    let mut h_all = [0.0; 6];
+    let mut sigma_all = [f64::INFINITY; 6];
+    for e in &health_estimates {
+        if e.index < 6 {
+            h_all[e.index] = e.value;
+            sigma_all[e.index] = e.sigma;
+        }
+    }
+    let below = crate::health::below_plausible_each(&h_all, &sigma_all);
     let flags = fit_quality::HealthFlags {
         at_limit: health_at
             .iter()
@@ -501,7 +512,7 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
             .collect(),
         implausible: health_estimates
             .iter()
-            .filter(|e| crate::health::below_plausible(e.value, e.sigma) > 0.0)
+            .filter(|e| below.get(e.index).is_some_and(|b| *b > 0.0))
             .map(|e| fit_quality::Implausible {
                 name: HEALTH_NAMES[e.index].to_string(),
                 value: e.value,
