@@ -304,6 +304,7 @@ fn cli_writes_a_loadable_calibrated_engine_file() {
     let cal = &doc["calibration"];
     assert!(cal["rms_after"].as_f64().expect("rms") < 1.0, "{cal}");
     assert!(cal["rms_before"].as_f64().expect("rms") > 3.0, "{cal}");
+    assert_eq!(cal["baseline_fit"]["verdict"], "good", "{cal}");
     let text = std::fs::read_to_string(&out).expect("written");
     assert!(
         text.starts_with("# Calibrated by gtwatch calibrate"),

@@ -148,6 +148,70 @@ pub struct Calibration {
     pub adaptation: Option<adapt::AdaptReport>,
     /// Model evaluations (each one design calibration and one steady solve per point).
     pub model_runs: usize,
+    /// Whether the calibrated model reproduces the healthy baseline, and what to do if not.
+    pub baseline_fit: BaselineFit,
+}
+
+/// The verdict on the calibrated model's fit to the healthy baseline, on the snapshot
+/// diagnosis's scale (normalised residual = RMS² in noise σ; `good` ≤ 0.9, `poor` > 2.5): a
+/// model that does not reproduce the healthy unit hands every later diagnosis that misfit, which
+/// the diagnosis then labels `suspect` or `poor`, so the calibration says so first.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BaselineFit {
+    pub verdict: crate::diagnosis::fit_quality::Verdict,
+    /// RMS² of the residuals after calibration (noise σ).
+    pub normalised_residual: f64,
+    /// The verdict in words, with the worst signal and what to try.
+    pub summary: String,
+}
+
+impl BaselineFit {
+    /// The verdict on residuals `r1` (per signal summary `signals`) after a calibration with
+    /// the adaptation `adapt` (`None`: design values only).
+    fn of(r1: &[f64], signals: &[SignalResiduals], adapt: Option<&adapt::AdaptReport>) -> Self {
+        use crate::diagnosis::fit_quality::{Thresholds, Verdict};
+        let t = Thresholds::default();
+        let level = rms(r1).powi(2);
+        let verdict = if level <= t.good_level {
+            Verdict::Good
+        } else if level <= t.poor_level {
+            Verdict::Suspect
+        } else {
+            Verdict::Poor
+        };
+        let summary = if verdict == Verdict::Good {
+            "the calibrated model reproduces the healthy baseline within noise".to_string()
+        } else {
+            let worst = signals
+                .iter()
+                .max_by(|a, b| a.rms_after.total_cmp(&b.rms_after))
+                .map_or(String::new(), |s| {
+                    format!(" (worst: {} at {:.1} σ RMS)", s.signal, s.rms_after)
+                });
+            let next = match adapt.map(|a| a.strategy) {
+                None => "if the unit is of another make than the file's maps, add --adapt",
+                Some("grown") => {
+                    "try --adapt-strategy continuation (every informed curve), and check the \
+                     data (units, instrument offsets, steadiness)"
+                }
+                Some(_) => {
+                    "the curves of corrected speed cannot follow this unit; check the data \
+                     (units, instrument offsets, steadiness) and the file's maps"
+                }
+            };
+            format!(
+                "the calibrated model misses the healthy baseline by {:.2} σ RMS{worst}: a \
+                 diagnosis on this file carries that misfit and will be labelled {} at best; {next}",
+                level.sqrt(),
+                verdict.as_str()
+            )
+        };
+        BaselineFit {
+            verdict,
+            normalised_residual: level,
+            summary,
+        }
+    }
 }
 
 impl Calibration {
@@ -301,6 +365,8 @@ pub fn calibrate(
     }
     let r1 = residuals_of(&calibrated, &prepared.points, rest)?;
     let layout = full.layout();
+    let signals = signal_residuals(&layout, &r0, &r1);
+    let baseline_fit = BaselineFit::of(&r1, &signals, adaptation.as_ref());
     let report = Calibration {
         params: candidates
             .iter()
@@ -308,7 +374,7 @@ pub fn calibrate(
             .zip(&fitted)
             .map(|((c, v), &x)| param_result(c, v, x))
             .collect(),
-        signals: signal_residuals(&layout, &r0, &r1),
+        signals,
         points: point_residuals(full.points(), &layout, &r0, &r1),
         table: residual_table(full.points(), &layout, &r1),
         rms_before: rms(&r0),
@@ -320,6 +386,7 @@ pub fn calibrate(
         lm_stop: lm.stop,
         adaptation,
         model_runs: full.runs() + runs,
+        baseline_fit,
     };
     Ok((report, calibrated))
 }
@@ -527,4 +594,41 @@ fn residual_table(
             })
             .collect::<Vec<_>>(),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnosis::fit_quality::Verdict;
+
+    fn signal(name: &str, rms_after: f64) -> SignalResiduals {
+        SignalResiduals {
+            signal: name.into(),
+            n: 4,
+            mean_before: 0.0,
+            mean_after: 0.0,
+            rms_before: 0.0,
+            rms_after,
+        }
+    }
+
+    /// The baseline verdict uses the snapshot diagnosis's scale (RMS² against 0.9 and 2.5),
+    /// names the worst signal and says what to try next.
+    #[test]
+    fn the_baseline_fit_says_when_the_calibrated_model_misses_the_unit() {
+        let within = BaselineFit::of(&[0.5, -0.8, 0.6], &[signal("t4_k", 0.7)], None);
+        assert_eq!(within.verdict, Verdict::Good);
+        let off = [3.0, -2.5, 2.0];
+        let signals = [signal("n1_rpm", 4.0), signal("t4_k", 1.0)];
+        let poor = BaselineFit::of(&off, &signals, None);
+        assert_eq!(poor.verdict, Verdict::Poor);
+        assert!((poor.normalised_residual - rms(&off).powi(2)).abs() < 1e-12);
+        assert!(
+            poor.summary.contains("n1_rpm at 4.0 σ") && poor.summary.contains("add --adapt"),
+            "{}",
+            poor.summary
+        );
+        let suspect = BaselineFit::of(&[1.2, -1.2], &signals, None);
+        assert_eq!(suspect.verdict, Verdict::Suspect);
+    }
 }

@@ -189,6 +189,11 @@ fn header(a: &CalibrateArgs, report: &Calibration, n_rows: usize) -> Vec<String>
         "  RMS residual {:.2} σ before, {:.2} σ after",
         report.rms_before, report.rms_after
     ));
+    h.push(format!(
+        "  baseline fit: {} ({})",
+        report.baseline_fit.verdict.as_str(),
+        report.baseline_fit.summary
+    ));
     h
 }
 
@@ -285,6 +290,11 @@ fn print_text(report: &Calibration, wall_s: f64) {
     println!(
         "RMS residual {:.2} σ → {:.2} σ ({} LM iteration(s), {} model runs, {:.1} s)",
         report.rms_before, report.rms_after, report.lm_iterations, report.model_runs, wall_s
+    );
+    println!(
+        "baseline fit: {} — {}",
+        report.baseline_fit.verdict.as_str(),
+        report.baseline_fit.summary
     );
 }
 
