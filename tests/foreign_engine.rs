@@ -30,6 +30,10 @@
 //! extrapolated lowest load 1.3 %: asserted ≤ 1.5 %); the grid ranked at ρ 0.98 for all four,
 //! every level within 0.5 points, no compressor cross-talk; 11 of 15 fits `good` (the others
 //! `suspect` on their residual at the largest degradations).
+//!
+//! A third, the first with fixed inlet vanes (`tests/data/foreign/aero25_novigv_truth.toml`),
+//! is one the adaptation does not fit (11.5 σ RMS after it): the test asserts that the
+//! calibration and every diagnosis on it say so.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use gtwatch::calibrate::adapt::{AdaptSettings, AdaptStrategy};
@@ -69,6 +73,12 @@ const AERO25: Unit = Unit {
 const PYC30: Unit = Unit {
     file: "tests/data/foreign/pyc30_truth.toml",
     design_mw: 30.0,
+};
+
+/// AERO25 with fixed inlet vanes: the unit the adaptation does not fit.
+const AERO25_FIXED_VANES: Unit = Unit {
+    file: "tests/data/foreign/aero25_novigv_truth.toml",
+    design_mw: 25.0,
 };
 
 fn truth_engine() -> Engine {
@@ -723,4 +733,50 @@ fn second_unit(strategy: AdaptStrategy) {
     // (capacity up with its efficiency down) is not flagged as better than new since the
     // plausibility check knows erosion's pattern: 4 of 15 before.
     assert!(good >= 10, "{good} of {levels} fits good");
+}
+
+/// A unit the adaptation cannot follow (aero25 with fixed inlet vanes: its part-load running
+/// line is nearly flat in fuel, and md22's maps bent by curves of speed miss it by about
+/// 11 σ RMS) must be said to be one: the calibration's baseline verdict is not `good` and says
+/// what to try, the healthy baseline's diagnosis is not `good`, and no level of the degradation
+/// grid off by more than 0.5 points is called `good`. The calibration reports the misfit the
+/// diagnosis will see (each point solved on the running point of its measured GG speed): before,
+/// it fitted one branch of a folded running line and reported another.
+#[test]
+fn a_foreign_unit_the_adaptation_cannot_fit_is_said_to_be_unfit() {
+    let truth = unit_engine(AERO25_FIXED_VANES);
+    let rows = rows_at(&truth, loads_of(25.0, 0), [0.0; 6], 0, "healthy");
+    let full = rows
+        .iter()
+        .max_by(|a, b| a.n2_rpm.total_cmp(&b.n2_rpm))
+        .expect("full load");
+    let model = user_model(full);
+    let cands = default_candidates(&model).expect("candidates");
+    let (report, adapted) = calibrate(
+        &model,
+        &rows,
+        &[],
+        cands,
+        &settings(Some(AdaptStrategy::Grown)),
+    )
+    .expect("calibrate");
+    let fit = &report.baseline_fit;
+    eprintln!(
+        "fixed vanes: RMS {:.2} -> {:.2} σ; baseline fit {:?}: {}",
+        report.rms_before, report.rms_after, fit.verdict, fit.summary
+    );
+    assert_ne!(format!("{:?}", fit.verdict), "Good", "{}", fit.summary);
+    assert!(fit.summary.contains("continuation"), "{}", fit.summary);
+    let cfg = DiagnosisConfig {
+        max_model_runs: 1500,
+        threads: Some(2),
+        ..DiagnosisConfig::default()
+    };
+    let baseline = diagnose_snapshots(&adapted, &rows, &cfg).expect("diagnosis");
+    let q = format!("{:?}", baseline.groups[0].result.fit_quality.verdict).to_lowercase();
+    eprintln!("fixed vanes: healthy baseline {q}");
+    assert_ne!(q, "good");
+    let (est, verdicts) = grid_estimates(&truth, AERO25_FIXED_VANES, &adapted, &cfg);
+    grid_ranks(&est, &verdicts);
+    assert_no_miss_called_good(&est, &verdicts);
 }
