@@ -169,16 +169,17 @@ impl BaselineFit {
     /// The verdict on residuals `r1` (per signal summary `signals`) after a calibration with
     /// the adaptation `adapt` (`None`: design values only).
     fn of(r1: &[f64], signals: &[SignalResiduals], adapt: Option<&adapt::AdaptReport>) -> Self {
-        use crate::diagnosis::fit_quality::{Thresholds, Verdict};
-        let t = Thresholds::default();
+        use crate::diagnosis::fit_quality::{assess, HealthFlags, Thresholds, Verdict};
         let level = rms(r1).powi(2);
-        let verdict = if level <= t.good_level {
-            Verdict::Good
-        } else if level <= t.poor_level {
-            Verdict::Suspect
-        } else {
-            Verdict::Poor
-        };
+        // The diagnosis's own verdict on that level (no phases, oscillations or health here).
+        let verdict = assess(
+            level,
+            &[],
+            &[],
+            &HealthFlags::default(),
+            &Thresholds::default(),
+        )
+        .verdict;
         let summary = if verdict == Verdict::Good {
             "the calibrated model reproduces the healthy baseline within noise".to_string()
         } else {
@@ -190,7 +191,7 @@ impl BaselineFit {
                 });
             let next = match adapt.map(|a| a.strategy) {
                 None => "if the unit is of another make than the file's maps, add --adapt",
-                Some("grown") => {
+                Some(s) if s == adapt::AdaptStrategy::Grown.name() => {
                     "try --adapt-strategy continuation (every informed curve), and check the \
                      data (units, instrument offsets, steadiness)"
                 }
