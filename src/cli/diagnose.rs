@@ -170,6 +170,11 @@ pub struct DiagnoseArgs {
     /// (default: one per row).
     #[arg(long, value_name = "COLUMN")]
     pub group_by: Option<String>,
+    /// Snapshots: each row is a spot reading, its inputs (fuel flow, T1, n2, P1) as noisy as
+    /// its compared values (`[sensors]`): the fit runs under the covariance that noise gives each
+    /// row. Without it a row's inputs are taken as exact (averages).
+    #[arg(long)]
+    pub noisy_inputs: bool,
     /// Engine TOML (default: the built-in reference engine).
     #[arg(long)]
     pub engine: Option<PathBuf>,
@@ -274,7 +279,8 @@ pub(super) fn run(a: &DiagnoseArgs) -> anyhow::Result<ExitCode> {
     let Some(input) = &a.input else {
         bail!("--input or --segment is required");
     };
-    let cfg = a.fit.config()?;
+    let mut cfg = a.fit.config()?;
+    cfg.snapshot_input_noise = a.noisy_inputs;
     let engine = super::load_engine(a.engine.as_deref())?;
     let mapping = match &a.map {
         Some(m) => parse_mapping(m)?,

@@ -197,6 +197,13 @@ pub struct DiagnosisConfig {
     /// squares, as the gap analysis fits (the covariance would discount the slow patterns it
     /// looks for) and for comparison.
     pub fuel_noise_covariance: bool,
+    /// Snapshots: each row's measured inputs (fuel flow, T1, n2; P1 where it gives the ambient
+    /// pressure) carry one reading's instrument noise, and the fit runs under the covariance it
+    /// gives the row's compared values (see [`super::steady::with_input_noise`]). Off (the
+    /// default): a row's inputs are exact, as a performance test's or a historian's averages
+    /// nearly are; on for spot readings. Method A's windows always carry their inputs' noise
+    /// (window means of the same record, σ/√n).
+    pub snapshot_input_noise: bool,
     /// Method A's stability criteria.
     pub steady: SteadyCriteria,
     /// Optimisation strategy.
@@ -275,6 +282,7 @@ impl Default for DiagnosisConfig {
             rate_weight: 1.0,
             smooth_fuel: true,
             fuel_noise_covariance: true,
+            snapshot_input_noise: false,
             steady: SteadyCriteria::default(),
             optimiser: Optimiser::CuckooLm,
             max_model_runs: 400,

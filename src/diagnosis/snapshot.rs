@@ -21,8 +21,8 @@
 use super::csv_input::{find_column, open_csv, parse_value, CsvError, AMBIENT_PRESSURE_COLUMN};
 use super::residual_table::{Cell, ResidualTable};
 use super::steady::{
-    below_adaptation_note, model_error_note, with_model_error, SteadyData, SteadyProblem,
-    SteadyWindow,
+    below_adaptation_note, input_noise_note, model_error_note, with_input_noise, with_model_error,
+    InputSigma, SteadyData, SteadyProblem, SteadyWindow,
 };
 use super::{fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, Method, MethodResult};
 use crate::engine::sensors::noise_sigma;
@@ -348,6 +348,8 @@ pub(crate) fn steady_data(
         .iter()
         .find(|(s, _)| *s == Signal::P1)
         .map(|(_, v)| *v);
+    // Every input is one reading, as every compared value is (the module docs).
+    let mut input_sd = InputSigma::of(&cfg.sensors, &inputs, true, 1);
     match (snap.p_amb_kpa, p1) {
         (Some(_), _) => {}
         (None, Some(p1)) => {
@@ -359,6 +361,8 @@ pub(crate) fn steady_data(
             if ratio.is_finite() && ratio > 0.5 {
                 inputs.p_amb_kpa = p1 / ratio;
             }
+            // P1's noise is the ambient pressure's, scaled by the same ratio.
+            input_sd.p_amb_kpa = noise_sigma(&cfg.sensors, Signal::P1, p1) * inputs.p_amb_kpa / p1;
             assumptions.push(format!(
                 "line {}: ambient pressure {:.2} kPa from P1 and the model's inlet loss",
                 snap.line, inputs.p_amb_kpa
@@ -396,6 +400,8 @@ pub(crate) fn steady_data(
         inputs,
         outputs,
         n1_hint_rpm,
+        input_sd,
+        input_response: Vec::new(),
     };
     let m = engine.model_at(base, inputs.t_amb_k, inputs.p_amb_kpa);
     data.solve_on(&m).map_err(|e| unsolved(engine, snap, &e))?;
@@ -429,12 +435,20 @@ pub fn diagnose_snapshots(
         let members = groups.remove(&g).unwrap_or_default();
         let lines: Vec<u64> = members.iter().map(|(_, r)| r.line).collect();
         let mut assumptions: Vec<String> = model_error_note(engine.cfg()).into_iter().collect();
+        if cfg.snapshot_input_noise {
+            assumptions.push(input_noise_note());
+        }
         let mut points = Vec::new();
         let mut dropped = Vec::new();
         for (i, r) in &members {
             match steady_data(engine, &cfg.base, r, *i, &mut assumptions) {
                 Ok(p) => {
                     assumptions.extend(below_adaptation_note(engine, &p));
+                    let p = if cfg.snapshot_input_noise {
+                        with_input_noise(engine, &cfg.base, p)
+                    } else {
+                        p
+                    };
                     points.push(with_model_error(engine.cfg(), p));
                 }
                 Err(reason) => dropped.push(DroppedRow {

@@ -17,6 +17,11 @@
 //! (`Demand::FuelKgS`), and the window means of the compared outputs with a 1σ of
 //! σ_noise / √N (the standard error of a mean of N independent samples). Pure: no I/O.
 
+mod input_noise;
+
+pub(crate) use input_noise::{input_noise_note, with_input_noise};
+pub use input_noise::{InputSigma, INPUTS};
+
 use super::objective::Objective;
 use super::{
     fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, EvalError, FailureLog, Method,
@@ -179,6 +184,12 @@ pub struct SteadyData {
     /// idle one fuel flow can have several (the running line folds), and the healthy solve
     /// then starts on the one at this speed. `None`: the solver's own choice (Method A).
     pub n1_hint_rpm: Option<f64>,
+    /// 1σ of the measured values the solve is given ([`SteadyData::inputs`]), on the same
+    /// footing as the outputs' (one reading, or a window mean's): see [`with_input_noise`].
+    pub input_sd: InputSigma,
+    /// Per compared value (as [`SteadyData::outputs`]), its change per 1σ of each input
+    /// ([`InputSigma`]'s order), from [`with_input_noise`]; empty: inputs taken as exact.
+    pub input_response: Vec<[f64; INPUTS]>,
 }
 
 impl SteadyData {
@@ -334,7 +345,8 @@ pub fn average_windows(
         let (Some((fuel, _)), Some((n2, _))) = (mean(Signal::FuelFlow), mean(Signal::N2)) else {
             continue; // no fuel or PT speed: cannot state the operating point
         };
-        let t_amb = mean(Signal::T1).map_or(cfg.ambient.temperature_k, |m| m.0);
+        let t1 = mean(Signal::T1);
+        let t_amb = t1.map_or(cfg.ambient.temperature_k, |m| m.0);
         let outputs = signals
             .iter()
             .filter(|s| !matches!(s, Signal::T1 | Signal::FuelFlow | Signal::N2))
@@ -344,17 +356,23 @@ pub fn average_windows(
                 (sd > 0.0).then_some((s, m, sd))
             })
             .collect();
+        let inputs = SteadyInputs {
+            t_amb_k: t_amb,
+            p_amb_kpa: p_amb,
+            n2_rpm: n2,
+            demand: Demand::FuelKgS(fuel),
+        };
+        // The window's own count of fuel readings (every input is sampled with it).
+        let samples = mean(Signal::FuelFlow).map_or(1, |m| m.1);
         out.push(SteadyData {
             window: *w,
             label: format!("steady window at {:.0}–{:.0} s", w.t_start_s, w.t_end_s),
-            inputs: SteadyInputs {
-                t_amb_k: t_amb,
-                p_amb_kpa: p_amb,
-                n2_rpm: n2,
-                demand: Demand::FuelKgS(fuel),
-            },
+            inputs,
             outputs,
             n1_hint_rpm: None,
+            // The ambient pressure is the mean of P1 at rest over the record: exact here.
+            input_sd: InputSigma::of(&cfg.sensors, &inputs, t1.is_some(), samples),
+            input_response: Vec::new(),
         });
     }
     out
@@ -395,7 +413,15 @@ impl SteadyProblem {
         } else {
             None
         };
-        let objective = Objective::from_points(&pts);
+        // Each point's values share its inputs' errors: fitted under that covariance.
+        let objective = Objective::from_points(&pts).with_shared_errors(|k, s| {
+            let p = &kept[k];
+            p.outputs
+                .iter()
+                .position(|o| o.0 == s)
+                .and_then(|i| p.input_response.get(i))
+                .map_or_else(Vec::new, |r| r.to_vec())
+        });
         if objective.len() <= cfg.n_fitted() {
             return Err(DiagnosisError::Data(format!(
                 "Method A needs more averaged values than parameters: {} steady point(s) give {} values for {} parameters",
@@ -472,12 +498,12 @@ impl SteadyProblem {
         1.0 // window means are independent
     }
     fn input_draws(&self, _x: &[f64]) -> Vec<Vec<f64>> {
-        // Window means of the inputs: their noise is averaged away with the outputs'.
+        // The inputs' noise is in the residuals' covariance (`with_input_noise`): the fit's own
+        // σ carries it.
         Vec::new()
     }
     fn whiten(&self, _r: &mut [f64]) {
-        // The inputs' noise is averaged into the window means with the outputs' (above): no
-        // input error is shared between residuals, so there is no covariance to fit under.
+        // The objective's residuals are whitened already (`Objective::with_shared_errors`).
     }
     fn input_covariance(&mut self, _x: &[f64], _pool: &rayon::ThreadPool) {}
 }
@@ -501,7 +527,7 @@ pub fn diagnose_steady(
     }
     let points = average_windows(segment, engine.cfg(), &windows, &cfg.signals)
         .into_iter()
-        .map(|d| with_model_error(engine.cfg(), d))
+        .map(|d| with_model_error(engine.cfg(), with_input_noise(engine, &cfg.base, d)))
         .collect();
     let mut problem = SteadyProblem::new(engine, points, cfg)?;
     let out = fit(&mut problem, cfg, &pool)?;
@@ -518,74 +544,4 @@ pub fn diagnose_steady(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::engine::config::AdaptationConfig;
-
-    /// A steady point "snapshot at line 7" at ambient `t_amb_k` comparing `outputs`.
-    fn point(t_amb_k: f64, outputs: Vec<(Signal, f64, f64)>) -> SteadyData {
-        SteadyData {
-            label: "snapshot at line 7".into(),
-            window: SteadyWindow {
-                start: 0,
-                end: 1,
-                t_start_s: 0.0,
-                t_end_s: 0.0,
-            },
-            inputs: SteadyInputs {
-                t_amb_k,
-                p_amb_kpa: 101.325,
-                n2_rpm: 3000.0,
-                demand: Demand::FuelKgS(1.0),
-            },
-            outputs,
-            n1_hint_rpm: None,
-        }
-    }
-
-    /// The adapted model's own error widens each compared value's σ in quadrature, by signal;
-    /// a file without one leaves the instrument σ as it is.
-    #[test]
-    fn model_error_adds_to_the_instrument_sigma() {
-        let mut cfg = EngineConfig::reference();
-        let data = || {
-            point(
-                288.15,
-                vec![(Signal::N1, 10000.0, 3.0), (Signal::T34, 1000.0, 3.0)],
-            )
-        };
-        assert_eq!(with_model_error(&cfg, data()).outputs, data().outputs);
-        assert!(model_error_note(&cfg).is_none());
-        let mut a = AdaptationConfig::default();
-        a.model_error_pct.insert("n1_rpm".into(), 0.04);
-        cfg.adaptation = Some(a);
-        let out = with_model_error(&cfg, data()).outputs;
-        // 0.04 % of 10 000 rpm is 4 rpm; with the instrument's 3 rpm, 5 rpm.
-        assert!((out[0].2 - 5.0).abs() < 1e-9, "{:?}", out[0]);
-        assert_eq!(out[1].2, 3.0);
-        assert!(model_error_note(&cfg).is_some_and(|n| n.contains("n1_rpm 0.04 %")));
-    }
-
-    /// A point below the lowest speed the adaptation was fitted at is said to extrapolate; one
-    /// within its range, or an engine without an adaptation, says nothing.
-    #[test]
-    fn a_point_below_the_adapted_speeds_is_noted() {
-        let mut cfg = EngineConfig::reference();
-        let plain = Engine::new(cfg.clone()).expect("reference engine");
-        cfg.adaptation = Some(AdaptationConfig {
-            compressor: Some(crate::engine::config::ComponentCurves {
-                speed_knots: vec![0.8],
-                efficiency: vec![-0.01],
-                ..Default::default()
-            }),
-            ..Default::default()
-        });
-        let adapted = Engine::new(cfg).expect("adapted engine");
-        let d = adapted.design();
-        let at = |rel: f64| point(d.t1_k, vec![(Signal::N1, rel * d.n1_rpm, 5.0)]);
-        let note = below_adaptation_note(&adapted, &at(0.7)).expect("below the knots");
-        assert!(note.contains("line 7") && note.contains("0.700"), "{note}");
-        assert!(below_adaptation_note(&adapted, &at(0.85)).is_none());
-        assert!(below_adaptation_note(&plain, &at(0.7)).is_none());
-    }
-}
+mod tests;
