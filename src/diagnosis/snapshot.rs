@@ -14,7 +14,9 @@
 //! 1σ is the instrument's noise σ at that value (`[sensors]`): an average of many samples is
 //! more precise than that, but its instrument bias is not, so the one-sample σ is the honest
 //! scale; an adapted engine file's own model error (`[adaptation.model_error_pct]`) is added to
-//! it in quadrature, and a row below the adaptation's calibrated speeds is noted. Pure
+//! it in quadrature, and a row below the adaptation's calibrated speeds is noted. The inputs are
+//! taken as exact unless [`DiagnosisConfig::snapshot_input_noise`] (`--noisy-inputs`: spot
+//! readings) gives them one reading's noise, which the fit then runs under. Pure
 //! orchestration of Method A's steady problem plus a CSV reader over any `io::Read`; opens no
 //! files, never prints.
 

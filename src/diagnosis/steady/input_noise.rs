@@ -1,7 +1,8 @@
 //! The noise of a steady point's *inputs*: the fuel flow (or other demand), T1, n2 and — where
 //! it gives the ambient pressure — P1 that the steady solve is given as measured. Their σ
-//! ([`InputSigma`]) and what it adds to each compared value's σ ([`with_input_noise`]:
-//! effective variance). Pure: model solves only, no I/O.
+//! ([`InputSigma`]) and what each moves the point's compared values by ([`with_input_noise`]),
+//! from which the objective takes the covariance of the point's residuals. Pure: model solves
+//! only, no I/O; it does not fit anything.
 
 use super::{steady_reading, SteadyData};
 use crate::engine::config::SensorsConfig;
