@@ -67,7 +67,7 @@ pub fn fuel_blocks(times: &[f64], fuel: &[f64], sigma: impl Fn(f64) -> f64) -> V
 }
 
 /// The map `r ↦ W r` with `Wᵀ W = (I + U Uᵀ)⁻¹` (symmetric `W = I − U A Uᵀ`).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Whitening {
     u: DMatrix<f64>,
     a: DMatrix<f64>,

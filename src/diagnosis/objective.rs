@@ -14,6 +14,7 @@
 //! the measurement alone, so the residual vector has the same length at every parameter vector.
 //! A non-finite model value makes the whole evaluation fail (cost `+∞`). Pure: no I/O.
 
+use super::fuel_noise::Whitening;
 use super::params::EvalError;
 use crate::engine::config::SensorsConfig;
 use crate::engine::sensors::noise_sigma;
@@ -43,18 +44,9 @@ struct Term {
 pub struct Objective {
     terms: Vec<Term>,
     signals: Vec<Signal>,
-    /// Points whose residuals share errors ([`Objective::with_shared_errors`]); none by default.
-    shared: Vec<SharedErrors>,
-}
-
-/// The residuals of one point whose errors are shared — an input's error moves them all — with
-/// covariance `C = I + G Gᵀ` in noise units, kept as the lower Cholesky factor `L` of `C`
-/// (row-major, `len × len`); the residuals are whitened by `L⁻¹`.
-#[derive(Debug, Clone, PartialEq)]
-struct SharedErrors {
-    start: usize,
-    len: usize,
-    l: Vec<f64>,
+    /// The residuals' covariance when a point's values share errors
+    /// ([`Objective::with_shared_errors`]); `None`: independent residuals.
+    shared: Option<Whitening>,
 }
 
 /// Minimum normalisation: the noise σ at this fraction of the largest |reading| of the signal in
@@ -156,7 +148,7 @@ impl Objective {
         Objective {
             terms,
             signals: used,
-            shared: Vec::new(),
+            shared: None,
         }
     }
 
@@ -193,81 +185,45 @@ impl Objective {
         Objective {
             terms,
             signals,
-            shared: Vec::new(),
+            shared: None,
         }
     }
 
     /// The objective with shared errors within each point (`from_points`' sample axis):
     /// `response(k, s)` gives, for point `k` and signal `s`, the change of that signal's value per
     /// 1σ of each of the errors the point's values share (in the signal's unit; empty when
-    /// none). The residuals are then those of generalised least squares: whitened by the
-    /// Cholesky factor of `I + G Gᵀ` (noise units), so their sum of squares is the
-    /// Mahalanobis distance and the fit weights each direction for what the shared errors can
-    /// do there. A point whose factorisation fails keeps its plain residuals.
+    /// none). Each point's errors are columns of `U` in noise units (zero outside the point's
+    /// residuals), and the residuals are those of generalised least squares under `I + U Uᵀ`
+    /// ([`Whitening`], as Method B's fuel-meter covariance): their sum of squares is the
+    /// Mahalanobis distance and the fit weights each direction for what the shared errors can do
+    /// there.
     pub(crate) fn with_shared_errors(
         mut self,
         response: impl Fn(usize, Signal) -> Vec<f64>,
     ) -> Objective {
-        self.shared.clear();
+        let n = self.terms.len();
+        let mut columns: Vec<Vec<f64>> = Vec::new();
         let mut i = 0;
-        while i < self.terms.len() {
+        while i < n {
             let k = self.terms[i].k;
             let len = self.terms[i..].iter().take_while(|t| t.k == k).count();
-            let g: Vec<Vec<f64>> = self.terms[i..i + len]
-                .iter()
-                .map(|t| {
-                    let s = Signal::ALL.get(t.s).copied();
-                    s.map_or_else(Vec::new, |s| {
-                        response(k, s).iter().map(|v| v * t.inv_sigma).collect()
-                    })
-                })
-                .collect();
-            let inputs = g.iter().map(Vec::len).max().unwrap_or(0);
-            if inputs > 0 {
-                let c = nalgebra::DMatrix::from_fn(len, len, |a, b| {
-                    let shared: f64 = (0..inputs)
-                        .map(|u| {
-                            g[a].get(u).copied().unwrap_or(0.0)
-                                * g[b].get(u).copied().unwrap_or(0.0)
-                        })
-                        .sum();
-                    shared + if a == b { 1.0 } else { 0.0 }
-                });
-                if let Some(ch) = c.cholesky() {
-                    let l = ch.l();
-                    if l.iter().all(|v| v.is_finite()) {
-                        self.shared.push(SharedErrors {
-                            start: i,
-                            len,
-                            l: (0..len * len).map(|x| l[(x / len, x % len)]).collect(),
-                        });
+            let first = columns.len();
+            for (a, t) in self.terms[i..i + len].iter().enumerate() {
+                let Some(s) = Signal::ALL.get(t.s).copied() else {
+                    continue;
+                };
+                for (u, v) in response(k, s).iter().enumerate() {
+                    if first + u == columns.len() {
+                        columns.push(vec![0.0; n]);
                     }
+                    columns[first + u][i + a] = v * t.inv_sigma;
                 }
             }
             i += len;
         }
+        columns.retain(|c| c.iter().any(|v| *v != 0.0));
+        self.shared = Whitening::new(&columns);
         self
-    }
-
-    /// Whitens `r` (the residuals in term order) for the shared errors: `L⁻¹ r` per point.
-    fn whiten_shared(&self, r: &mut [f64]) {
-        for b in &self.shared {
-            let Some(block) = r.get_mut(b.start..b.start + b.len) else {
-                continue;
-            };
-            // Forward substitution with the row-major lower factor.
-            for a in 0..b.len {
-                let row = &b.l[a * b.len..(a + 1) * b.len];
-                let (done, rest) = block.split_at_mut(a);
-                let acc = rest[0]
-                    - row[..a]
-                        .iter()
-                        .zip(done.iter())
-                        .map(|(l, y)| l * y)
-                        .sum::<f64>();
-                rest[0] = acc / row[a];
-            }
-        }
     }
 
     /// Number of residuals.
@@ -331,7 +287,9 @@ impl Objective {
             Some(v) => (t.z - v[t.s]) * t.inv_sigma * t.w_res,
             None => f64::NAN,
         }));
-        self.whiten_shared(out);
+        if let Some(w) = &self.shared {
+            w.apply(out);
+        }
     }
 
     /// Variance inflation for serially correlated residuals: per signal, the Bartlett-weighted

@@ -272,13 +272,15 @@ fn guess_from(model: &Model, p: &SteadyPoint) -> Unknowns {
     ])
 }
 
-fn demand_value(d: Demand) -> f64 {
+/// The demand's value, in its unit.
+pub(crate) fn demand_value(d: Demand) -> f64 {
     match d {
         Demand::PowerMw(v) | Demand::FuelKgS(v) | Demand::N1Rpm(v) => v,
     }
 }
 
-fn with_value(d: Demand, v: f64) -> Demand {
+/// The same kind of demand at value `v`.
+pub(crate) fn with_value(d: Demand, v: f64) -> Demand {
     match d {
         Demand::PowerMw(_) => Demand::PowerMw(v),
         Demand::FuelKgS(_) => Demand::FuelKgS(v),

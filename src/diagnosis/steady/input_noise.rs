@@ -7,7 +7,7 @@
 use super::{steady_reading, SteadyData};
 use crate::engine::config::SensorsConfig;
 use crate::engine::sensors::noise_sigma;
-use crate::engine::steady::{Demand, SteadyInputs, SteadyPoint};
+use crate::engine::steady::{demand_value, with_value, Demand, SteadyInputs, SteadyPoint};
 use crate::engine::Engine;
 use crate::health::HealthParams;
 use crate::signals::Signal;
@@ -69,11 +69,7 @@ impl InputSigma {
                 self.n2_rpm
             }
             3 => {
-                out.demand = match out.demand {
-                    Demand::FuelKgS(f) => Demand::FuelKgS(f + d * self.demand),
-                    Demand::PowerMw(p) => Demand::PowerMw(p + d * self.demand),
-                    Demand::N1Rpm(n) => Demand::N1Rpm(n + d * self.demand),
-                };
+                out.demand = with_value(out.demand, demand_value(out.demand) + d * self.demand);
                 self.demand
             }
             _ => return None,
