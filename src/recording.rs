@@ -13,6 +13,7 @@
 //! Pure data: no I/O, no physics. Depends only on [`crate::signals`].
 
 use crate::signals::{Phase, Signal, Values};
+use std::borrow::Cow;
 
 /// Shortest accepted sample period, s (the median spacing of the time column).
 pub const MIN_SAMPLE_PERIOD_S: f64 = 1e-3;
@@ -81,6 +82,19 @@ impl RecordingError {
             _ => None,
         }
     }
+}
+
+/// Fewest readings before light-off from which a fuel meter's zero is taken
+/// ([`Recording::fuel_meter_zero`]).
+pub const MIN_FUEL_ZERO_SAMPLES: usize = 3;
+
+/// What a fuel-flow meter read before light-off, when no fuel flows: its zero offset.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct FuelZero {
+    /// The median reading, kg/s: what the meter adds to every reading.
+    pub kg_s: f64,
+    /// Readings it was taken from.
+    pub samples: usize,
 }
 
 /// A checked recording (see the module docs).
@@ -276,6 +290,56 @@ impl Recording {
         (t, p.unwrap_or(default_p_kpa))
     }
 
+    /// The fuel meter's zero: the median of its valid readings from the first sample until the
+    /// first phase in which fuel may burn ([`Phase::may_burn`]). Before light-off the fuel
+    /// shut-off valve is closed, so whatever the meter shows there is its own offset, and it is
+    /// in every later reading too (a flow meter's zero drift). `None` when fewer than
+    /// [`MIN_FUEL_ZERO_SAMPLES`] such readings exist, or when they read exactly zero (a meter, or a
+    /// control system, that shows nothing at no flow).
+    pub fn fuel_meter_zero(&self) -> Option<FuelZero> {
+        let k = Signal::FuelFlow.index();
+        let mut v: Vec<f64> = self
+            .phase
+            .iter()
+            .zip(&self.rows)
+            .take_while(|(p, _)| !p.may_burn())
+            .map(|(_, r)| r[k])
+            .filter(|x| x.is_finite())
+            .collect();
+        if v.len() < MIN_FUEL_ZERO_SAMPLES {
+            return None;
+        }
+        v.sort_by(f64::total_cmp);
+        let kg_s = v[v.len() / 2];
+        (kg_s != 0.0).then_some(FuelZero {
+            kg_s,
+            samples: v.len(),
+        })
+    }
+
+    /// The same recording with `zero_kg_s` taken off every valid fuel reading (see
+    /// [`Recording::fuel_meter_zero`]).
+    pub fn without_fuel_zero(&self, zero_kg_s: f64) -> Recording {
+        let k = Signal::FuelFlow.index();
+        let mut out = self.clone();
+        for r in &mut out.rows {
+            if r[k].is_finite() {
+                r[k] -= zero_kg_s;
+            }
+        }
+        out
+    }
+
+    /// This recording with its fuel meter's zero taken off (borrowed as it is when there is
+    /// none), and the zero. Applying it twice changes nothing: the zero of the result is read
+    /// as exactly 0.
+    pub fn fuel_zero_removed(&self) -> (Cow<'_, Recording>, Option<FuelZero>) {
+        match self.fuel_meter_zero() {
+            Some(z) => (Cow::Owned(self.without_fuel_zero(z.kg_s)), Some(z)),
+            None => (Cow::Borrowed(self), None),
+        }
+    }
+
     /// Sets one cell (NaN or ±∞ = missing), with the same checks as [`Recording::new`].
     pub fn set(&mut self, k: usize, s: Signal, value: f64) -> Result<(), RecordingError> {
         let v = if value.is_finite() { value } else { f64::NAN };
@@ -351,6 +415,51 @@ mod tests {
 
     fn build(t: &[f64], rows: Vec<Values>) -> Result<Recording, RecordingError> {
         Recording::new(t.to_vec(), vec![Phase::Crank; t.len()], rows)
+    }
+
+    /// Fuel readings `fuel` in phases `phases` (1 s apart).
+    fn fuel_recording(phases: &[Phase], fuel: &[f64]) -> Recording {
+        let t: Vec<f64> = (0..fuel.len()).map(|k| k as f64).collect();
+        let rows = fuel
+            .iter()
+            .map(|&f| {
+                let mut v = row(0.0, 101.3, 288.0);
+                v[Signal::FuelFlow.index()] = f;
+                v
+            })
+            .collect();
+        Recording::new(t, phases.to_vec(), rows).expect("recording")
+    }
+
+    #[test]
+    fn the_fuel_meter_zero_is_read_before_light_off_only() {
+        use Phase::{Acceleration, Crank, LightOff, Purge, Standstill};
+        let phases = [
+            Standstill,
+            Standstill,
+            Crank,
+            Purge,
+            LightOff,
+            Acceleration,
+            Standstill,
+        ];
+        // The median of the valid unfired readings (a missing one skipped); the fired readings
+        // and the later standstill are not read.
+        let r = fuel_recording(&phases, &[0.021, f64::NAN, 0.019, 0.02, 0.3, 0.8, 0.5]);
+        let z = r.fuel_meter_zero().expect("zero");
+        assert_eq!((z.kg_s, z.samples), (0.02, 3));
+        let (fixed, zero) = r.fuel_zero_removed();
+        assert_eq!(zero, Some(z));
+        let f = fixed.series(Signal::FuelFlow);
+        assert!((f[4] - 0.28).abs() < 1e-12 && f[1].is_nan());
+        // Taken off once: the corrected recording reads exactly zero at rest.
+        assert!(fixed.fuel_meter_zero().is_none());
+        assert!(matches!(fixed.fuel_zero_removed().0, Cow::Borrowed(_)));
+        // A meter that reads nothing at rest, or too few readings: no zero.
+        let quiet = fuel_recording(&phases, &[0.0, 0.0, 0.0, 0.0, 0.3, 0.8, 0.0]);
+        assert!(quiet.fuel_meter_zero().is_none());
+        let short = fuel_recording(&phases[2..], &[0.02, 0.02, 0.3, 0.8, 0.0]);
+        assert!(short.fuel_meter_zero().is_none());
     }
 
     fn ramp(n: usize, dt: f64) -> (Vec<f64>, Vec<Values>) {

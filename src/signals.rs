@@ -214,6 +214,13 @@ impl Phase {
         Phase::Steady,
     ];
 
+    /// Whether fuel may burn in this phase: from light-off on. Before it (standstill, crank,
+    /// purge) the sequence keeps the fuel shut-off valve closed, so a fuel meter reading
+    /// anything there reads its own zero offset, not a flow.
+    pub const fn may_burn(self) -> bool {
+        !matches!(self, Phase::Standstill | Phase::Crank | Phase::Purge)
+    }
+
     pub const fn name(self) -> &'static str {
         match self {
             Phase::Standstill => "standstill",

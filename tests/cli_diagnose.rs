@@ -497,3 +497,77 @@ fn a_row_without_a_steady_point_is_left_out_with_its_reason() {
         "{text}"
     );
 }
+
+/// Runs `gtwatch diagnose --json` (both methods) on `path`; the methods' JSON.
+fn diagnose_json(path: &std::path::Path) -> serde_json::Value {
+    let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(["diagnose", "--input"])
+        .arg(path)
+        .args(["--seed", "3", "--json"])
+        .output()
+        .expect("runs");
+    assert!(
+        out.status.success(),
+        "{}: {}",
+        path.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    v["methods"].clone()
+}
+
+/// A fuel meter with a zero offset, as another program would write it: the reading at rest
+/// (before light-off, no fuel flowing) is the offset, and it is in every reading. Before, an
+/// offset of +0.02 kg/s lit the model's combustor in a standing engine and every Method B run
+/// failed ("step size underflow in phase standstill"), and Method A burnt 7 % too much fuel at
+/// idle (fit `poor`, normalised residual 486). Now the zero is read at rest, reported, and taken
+/// off: each method gives the health of the meter without the offset.
+#[test]
+fn a_fuel_meter_zero_offset_is_read_at_rest_and_taken_off() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let csv = dir.path().join("startup.csv");
+    let truth = HealthParams {
+        D_GC: 2.0,
+        D_EC: 0.8,
+        ..HealthParams::HEALTHY
+    };
+    write_startup(&csv, &truth);
+    let clean = diagnose_json(&csv);
+    assert!(clean["transient"]["fuel_meter_zero"].is_null(), "{clean}");
+    // A deterministic ±0.003 kg/s of the meter's own noise at every reading (rest included).
+    let wobble = |line: usize| 0.003 * (((line * 7919) % 13) as f64 / 6.0 - 1.0);
+    let cases: [(&str, f64, bool); 3] = [
+        ("high", 0.02, false),
+        ("low", -0.015, false),
+        ("noisy", 0.01, true),
+    ];
+    for (name, offset, noisy) in cases {
+        let lines = alter_column(&csv, "fuel_kg_s", |line, v| {
+            let w = if noisy { wobble(line) } else { 0.0 };
+            Some(format!("{:.6}", v + offset + w))
+        });
+        let path = dir.path().join(format!("{name}.csv"));
+        std::fs::write(&path, lines.join("\n")).expect("write");
+        let m = diagnose_json(&path);
+        for method in ["transient", "steady"] {
+            let z = m[method]["fuel_meter_zero"]["kg_s"]
+                .as_f64()
+                .unwrap_or_else(|| panic!("{name} {method}: no zero reported: {}", m[method]));
+            assert!(
+                (z - offset).abs() < 0.004,
+                "{name} {method}: zero {z} for {offset}"
+            );
+            for p in ["D_GC", "D_EC", "D_GT", "D_ET", "D_GP", "D_EP"] {
+                let got = m[method]["health"][p].as_f64().expect("health");
+                let want = clean[method]["health"][p].as_f64().expect("health");
+                // Exact offsets: the clean fit to the CSV's six decimals; the noisy meter
+                // within its noise.
+                let tol = if noisy { 0.2 } else { 0.02 };
+                assert!(
+                    (got - want).abs() < tol,
+                    "{name} {method} {p}: {got:.3} against {want:.3} without the offset"
+                );
+            }
+        }
+    }
+}

@@ -200,6 +200,7 @@ pub(super) fn result_json(r: &MethodResult) -> Value {
         "signals": r.signals.iter().map(|s| s.column()).collect::<Vec<_>>(),
         "steady_windows_s": r.windows,
         "ambient_kpa": r.ambient_kpa.map(|(p, s)| json!({ "value": p, "sigma": s })),
+        "fuel_meter_zero": r.fuel_meter_zero,
         "params": r.params,
         "failed_runs": r.failures,
         "fit_quality": r.fit_quality,
@@ -237,6 +238,13 @@ pub(crate) fn print_text_of(title: &str, subject: &str, m: Method, r: &MethodRes
     );
     if q.verdict != crate::diagnosis::fit_quality::Verdict::Good {
         println!("  the model does not fit {subject}: the health below absorbs the mismatch");
+    }
+    if let Some(z) = r.fuel_meter_zero {
+        println!(
+            "  fuel meter zero: it read {:+.4} kg/s before light-off (median of {} readings, no \
+             fuel flowing); taken off every fuel reading before the fit",
+            z.kg_s, z.samples
+        );
     }
     if !r.separability.statement.is_empty() {
         println!("  separability: {}", r.separability.statement);

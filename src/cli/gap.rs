@@ -266,6 +266,13 @@ fn print_report(report: &crate::gap::GapReport) {
     if !report.summary.is_empty() {
         println!("where: {}", report.summary);
     }
+    if let Some(z) = report.fuel_meter_zero {
+        println!(
+            "fuel meter zero: it read {:+.4} kg/s before light-off (median of {} readings); \
+             taken off every fuel reading before the fits",
+            z.kg_s, z.samples
+        );
+    }
     if report.optimiser_spread > 0.0 {
         println!(
             "optimiser spread (baseline refitted with other seeds): {:.0} % of the residual",

@@ -257,6 +257,10 @@ pub struct MethodResult {
     pub windows: Vec<(f64, f64)>,
     /// Fitted ambient pressure and its 1σ, kPa (when fitted as a nuisance parameter).
     pub ambient_kpa: Option<(f64, f64)>,
+    /// The fuel meter's zero read before light-off and taken off every fuel reading before
+    /// the fit (`None`: it read nothing at rest, or the data start later); see
+    /// [`crate::recording::Recording::fuel_meter_zero`].
+    pub fuel_meter_zero: Option<crate::recording::FuelZero>,
     /// Every fitted parameter (health, ambient pressure, engine/effect values) with its 1σ,
     /// in the optimiser's order.
     pub params: Vec<FittedParam>,
@@ -554,6 +558,7 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
         ),
         separability: separability::assess(&health_estimates, &signal_names),
         localisation: Vec::new(),
+        fuel_meter_zero: None,
         model_values: Vec::new(),
     }
 }

@@ -132,6 +132,9 @@ impl TransientProblem {
     ) -> Result<TransientProblem, DiagnosisError> {
         cfg.validate()?;
         segment.check_startup()?;
+        // A fuel meter's zero offset is in every reading, the model's input among them.
+        let (segment, _) = segment.fuel_zero_removed();
+        let segment: &Recording = &segment;
         let mut engine = engine.clone();
         if cfg.fixed_step_s > 0.0 {
             engine.set_param("solver.fixed_step_s", cfg.fixed_step_s)?;
@@ -352,6 +355,10 @@ pub fn diagnose_transient(
 ) -> Result<MethodResult, DiagnosisError> {
     let start = Instant::now();
     let pool = pool_for(cfg)?;
+    // The problem takes the zero off too (it is built elsewhere as well); the residual map
+    // below compares with the same corrected readings.
+    let (segment, fuel_zero) = segment.fuel_zero_removed();
+    let segment: &Recording = &segment;
     let mut problem = TransientProblem::new(engine, segment, cfg)?;
     let out = fit(&mut problem, cfg, &pool)?;
     let signals = problem.objective().signals().to_vec();
@@ -398,6 +405,7 @@ pub fn diagnose_transient(
         r.model_values = model;
         r.model_runs += 1;
     }
+    r.fuel_meter_zero = fuel_zero;
     r.wall_s = start.elapsed().as_secs_f64();
     Ok(r)
 }

@@ -157,7 +157,12 @@ impl MeasuredDrive {
             act.set_speed_rpm(Shaft::Pt, self.cfg.design.pt_speed_rpm);
         }
         self.pt_locked = locked;
-        self.flame = fuel_here > 0.0;
+        // Before light-off the fuel valve is shut: a reading there is the meter's zero, and
+        // lighting the model's combustor on it, with no air through a standing engine, is what
+        // failed every replay of a start-up whose meter read 0.02 kg/s at rest.
+        // The interval into the first fired sample burns as before (the fuel ramps up in it).
+        let may_burn = ph.may_burn() || self.phase.get(k + 1).is_some_and(|p| p.may_burn());
+        self.flame = fuel_here > 0.0 && may_burn;
         let new_cmd = match self.mode {
             DriveMode::MeasuredFuel => FuelCommand::Trace(self.fuel.clone()),
             DriveMode::Demand => match ph {

@@ -224,6 +224,7 @@ pub(crate) fn analyse(
     Ok(GapReport {
         baseline_fit_quality: base.fit_quality.verdict,
         baseline_normalised_residual: base.fit_quality.normalised_residual,
+        fuel_meter_zero: base.fuel_meter_zero,
         summary: base.fit_quality.summary.clone(),
         localisation: base.localisation,
         optimiser_spread: fitted.optimiser_spread,

@@ -138,6 +138,9 @@ pub(crate) struct GapVerdict {
 pub(crate) struct GapReport {
     pub(crate) baseline_fit_quality: Verdict,
     pub(crate) baseline_normalised_residual: f64,
+    /// The fuel meter's zero read before light-off and taken off its readings before every
+    /// fit (`None` when it read nothing at rest).
+    pub(crate) fuel_meter_zero: Option<crate::recording::FuelZero>,
     pub(crate) summary: String,
     pub(crate) localisation: Vec<ResidualCell>,
     /// How far the baseline's residual moves between fits with different optimiser seeds

@@ -233,6 +233,7 @@ mod tests {
         let report = GapReport {
             baseline_fit_quality: crate::diagnosis::fit_quality::Verdict::Suspect,
             baseline_normalised_residual: 1.4,
+            fuel_meter_zero: None,
             summary: String::new(),
             localisation: Vec::new(),
             optimiser_spread: 0.0,

@@ -173,10 +173,11 @@ fn latest_startup(
         }
     };
     let drive = {
-        let mut d = rec.clone();
+        // As the diagnosis replayed it: the fuel meter's zero off (see `fuel_zero_removed`).
+        let mut d = rec.fuel_zero_removed().0.into_owned();
         match smooth_fuel(&mut d) {
             Ok(()) => d,
-            Err(_) => rec.clone(),
+            Err(_) => rec.fuel_zero_removed().0.into_owned(),
         }
     };
     let trace = match simulate_segment(engine, &health, &drive, DriveMode::MeasuredFuel) {

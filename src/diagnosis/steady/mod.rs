@@ -519,6 +519,9 @@ pub fn diagnose_steady(
     let start = Instant::now();
     cfg.validate()?;
     let pool = pool_for(cfg)?;
+    // The fuel flow is each window's input: a meter's zero offset would be burnt with it.
+    let (segment, fuel_zero) = segment.fuel_zero_removed();
+    let segment: &Recording = &segment;
     let windows = detect_windows(segment, engine.cfg(), &cfg.steady);
     if windows.is_empty() {
         return Err(DiagnosisError::Data(
@@ -539,6 +542,7 @@ pub fn diagnose_steady(
         .map(|p| (p.window.t_start_s, p.window.t_end_s))
         .collect();
     let mut r = result_of(Method::Steady, &problem, &out, cfg, signals, n_res, win);
+    r.fuel_meter_zero = fuel_zero;
     r.wall_s = start.elapsed().as_secs_f64();
     Ok(r)
 }
