@@ -87,6 +87,25 @@ fn detector_key(sig: Signal) -> &'static str {
     }
 }
 
+/// The replay's one line about the detector: frames, segments, and the fuel meter's zero when
+/// it is a tenth of the "fuel on" threshold or more (worth a word).
+fn detector_line(scan: &crate::detect::ScanReport, fuel_on_kg_s: f64) -> String {
+    let mut line = format!(
+        "detector: {} frames, {} segments written ({} closed, {} open)",
+        scan.frames, scan.segments_written, scan.segments_closed, scan.segments_open
+    );
+    if let Some(z) = scan
+        .fuel_zero_kg_s
+        .filter(|z| z.abs() >= 0.1 * fuel_on_kg_s)
+    {
+        line.push_str(&format!(
+            "; the fuel meter reads {z:+.4} kg/s with the GG at rest (its zero, taken off \
+             before fuel on is judged)"
+        ));
+    }
+    line
+}
+
 pub(super) fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
     let mut cfg = DataSections::load(&args.config)?;
     if let Some(db) = &args.db {
@@ -199,10 +218,7 @@ pub(super) fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
     let mut after = None;
     if !args.no_detect {
         let scan = crate::detect::scan(&mut store, &cfg.detector).context("start-up detection")?;
-        let line = format!(
-            "detector: {} frames, {} segments written ({} closed, {} open)",
-            scan.frames, scan.segments_written, scan.segments_closed, scan.segments_open
-        );
+        let line = detector_line(&scan, cfg.detector.fuel_on_kg_s);
         if args.json {
             eprintln!("{line}");
         } else {

@@ -54,6 +54,10 @@ struct Active {
 /// Frames kept before a start, for finding its onset (at 1 Hz: 15 min).
 const CONTEXT_FRAMES: usize = 900;
 
+/// Weight of each new at-rest reading in the fuel meter's zero (an exponential average over
+/// about ten readings; the first one sets it).
+const FUEL_ZERO_GAIN: f64 = 0.1;
+
 /// The state machine. Feed frames in time order with [`Machine::push`].
 #[derive(Debug, Clone)]
 pub struct Machine {
@@ -65,6 +69,11 @@ pub struct Machine {
     active: Option<Active>,
     /// Recent frames: the open segment and some context before it.
     hist: Vec<Frame>,
+    /// The fuel meter's reading with the GG at rest and no start open, where no fuel can flow:
+    /// its zero offset, taken off every reading before it is compared with `fuel_on_kg_s`
+    /// (`None` until the GG has been seen at rest). A meter reading 0.02 kg/s at rest made
+    /// every frame "fuel on" and no start was ever found.
+    fuel_zero: Option<f64>,
 }
 
 impl Machine {
@@ -77,7 +86,19 @@ impl Machine {
             idle: Idle::Unknown,
             active: None,
             hist: Vec::new(),
+            fuel_zero: None,
         }
+    }
+
+    /// The fuel meter's zero learned at rest (see the field), kg/s.
+    pub fn fuel_zero_kg_s(&self) -> Option<f64> {
+        self.fuel_zero
+    }
+
+    /// Whether `fuel` (a reading) is fuel flowing: above the threshold once the meter's zero
+    /// is taken off.
+    fn fuel_flows(&self, fuel: f64) -> bool {
+        fuel - self.fuel_zero.unwrap_or(0.0) > self.cfg.fuel_on_kg_s
     }
 
     /// Feeds one frame. Frames not later than the previous one are ignored.
@@ -107,10 +128,17 @@ impl Machine {
         let fuel_was_on = if after_gap {
             None
         } else {
-            self.hist.last().map(|f| f.fuel > self.cfg.fuel_on_kg_s)
+            self.hist.last().map(|f| self.fuel_flows(f.fuel))
         };
+        if self.active.is_none() && self.rest(&frame) {
+            // At rest no fuel flows: the reading is the meter's zero.
+            let z = self
+                .fuel_zero
+                .map_or(frame.fuel, |z| z + FUEL_ZERO_GAIN * (frame.fuel - z));
+            self.fuel_zero = Some(z);
+        }
         self.hist.push(frame);
-        let fuel_on = frame.fuel > self.cfg.fuel_on_kg_s;
+        let fuel_on = self.fuel_flows(frame.fuel);
         if fuel_was_on == Some(true) && !fuel_on {
             self.last_fuel_off_ms = Some(frame.t_ms);
         }
@@ -168,7 +196,7 @@ impl Machine {
     }
 
     fn fuel_on(&self, f: &Frame) -> bool {
-        f.fuel > self.cfg.fuel_on_kg_s
+        self.fuel_flows(f.fuel)
     }
 
     fn step_idle(&mut self, f: Frame) {

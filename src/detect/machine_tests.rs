@@ -323,6 +323,39 @@ fn hot_restart_after_trip_from_load() {
     assert_phases(seg, &truth(&s, &k2, true));
 }
 
+/// A fuel meter that reads `offset` kg/s (±1 g/s of its own noise) where no fuel flows: the
+/// detector reads its zero at rest and finds the same starts, cold and hot, as with a meter
+/// that reads nothing. Before, every frame was "fuel on" and no start was ever found.
+#[test]
+fn a_fuel_meter_reading_at_rest_is_its_zero() {
+    let (s, k1, _trip, k2) = hot_restart_script();
+    let end = k2.at_load as i64 + 300;
+    for (offset, seed) in [(0.02, 21), (-0.01, 22)] {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let unit = Normal::new(0.0, 0.001).expect("normal");
+        let fr: Vec<Frame> = frames(&s, end, 11, true)
+            .into_iter()
+            .map(|f| Frame {
+                fuel: f.fuel + offset + unit.sample(&mut rng),
+                ..f
+            })
+            .collect();
+        let mut m = Machine::new(DetectorConfig::default(), None);
+        for f in &fr {
+            m.push(*f);
+        }
+        let z = m.fuel_zero_kg_s().expect("the GG was at rest");
+        assert!((z - offset).abs() < 0.001, "zero {z} for {offset}");
+        let done = m.take_finished();
+        assert!(m.open_segment().is_none());
+        assert_eq!(done.len(), 2, "offset {offset}: {done:?}");
+        assert!(!done[0].hot_restart && done[1].hot_restart);
+        assert_phases(&done[0], &truth(&s, &k1, true));
+        assert_phases(&done[1], &truth(&s, &k2, true));
+        assert!(done.iter().all(|d| d.outcome == Outcome::Completed));
+    }
+}
+
 #[test]
 fn start_within_window_of_fuel_off_is_hot_even_from_rest() {
     let mut s = empty_script();

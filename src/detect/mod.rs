@@ -38,7 +38,8 @@ pub struct DetectorConfig {
     pub base_load_mw: f64,
     /// n1 at or below this is "at rest", rpm. Default 100.
     pub rest_speed_rpm: f64,
-    /// Fuel above this is "fuel on", kg/s. Default 0.005.
+    /// Fuel above this is "fuel on", kg/s, once the meter's zero read at rest is taken off
+    /// (`machine::Machine`). Default 0.005.
     pub fuel_on_kg_s: f64,
     /// Power above this means the breaker is closed, MW. Default 0.5.
     pub breaker_closed_mw: f64,
@@ -210,7 +211,7 @@ impl DetectorConfig {
 }
 
 /// What one [`scan`] did.
-#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct ScanReport {
     /// Frames fed to the machine (including the re-scanned margin).
     pub frames: u64,
@@ -223,6 +224,9 @@ pub struct ScanReport {
     pub segments_closed: u64,
     /// Segments still open at the end of the scan.
     pub segments_open: u64,
+    /// What the fuel meter read with the GG at rest (its zero, taken off before "fuel on" is
+    /// judged), kg/s; `None` when the scan never saw the GG at rest.
+    pub fuel_zero_kg_s: Option<f64>,
 }
 
 /// Detector errors.
@@ -414,6 +418,7 @@ fn plan(
     report.segments_closed = finished.len() as u64;
     report.segments_open = u64::from(open.is_some());
     report.scanned_to_ms = scanned_to;
+    report.fuel_zero_kg_s = machine.fuel_zero_kg_s();
 
     let write = ScanWrite {
         records: finished.into_iter().chain(open).collect(),
