@@ -27,6 +27,15 @@ pub enum CsvError {
     UnknownTarget(String),
     #[error("required column '{0}' is missing from the header")]
     MissingColumn(String),
+    /// A start-up without its phase labels (a plant log, another simulator's output).
+    #[error(
+        "required column '{0}' is missing from the header: a start-up's rows need their phase \
+         (standstill, crank, purge, light_off, acceleration, idle, synchronisation, loading, \
+         steady; the `gtwatch simulate` layout). For a log without them, `gtwatch replay` finds \
+         the start-ups and their phases, then `gtwatch diagnose --segment ID` (or `gtwatch gap \
+         --segment ID`) fits one; a file of steady points is read with `--method steady`"
+    )]
+    MissingPhase(String),
     #[error("line {line}, column '{column}': {reason}")]
     Cell {
         line: u64,
@@ -245,7 +254,7 @@ pub fn read_recording_checked<R: Read>(
         CsvError::MissingColumn(mapping.get("time_s").cloned().unwrap_or("time_s".into()))
     })?;
     let phase_col = find("phase", None).ok_or_else(|| {
-        CsvError::MissingColumn(mapping.get("phase").cloned().unwrap_or("phase".into()))
+        CsvError::MissingPhase(mapping.get("phase").cloned().unwrap_or("phase".into()))
     })?;
     let sig_cols: Vec<(Signal, usize)> = Signal::ALL
         .iter()
@@ -401,6 +410,14 @@ mod tests {
             read_recording("t,phase\n".as_bytes(), &HashMap::new()),
             Err(CsvError::MissingColumn(c)) if c == "time_s"
         ));
+        // A log without phase labels is pointed at what labels them.
+        let e = read_recording("time_s,n1_rpm\n0,0\n".as_bytes(), &HashMap::new())
+            .expect_err("no phase");
+        assert!(
+            matches!(&e, CsvError::MissingPhase(c) if c == "phase")
+                && e.to_string().contains("gtwatch replay"),
+            "{e}"
+        );
         assert!(matches!(
             parse_mapping("bogus=X"),
             Err(CsvError::UnknownTarget(_))
