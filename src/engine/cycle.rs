@@ -107,7 +107,7 @@ pub(crate) struct CompressorStation {
 }
 
 /// Compressor exit state from an already evaluated map point, at pressure ratio `pr` (the
-/// dynamic model: PR set by the plenum, map read once).
+/// dynamic model: PR set by the plenum).
 pub(crate) fn compressor_from_op(
     t_in: f64,
     p_in_kpa: f64,

