@@ -125,18 +125,19 @@ impl Machine {
             self.hist.clear();
             self.idle = Idle::Unknown;
         }
-        let fuel_was_on = if after_gap {
-            None
-        } else {
-            self.hist.last().map(|f| self.fuel_flows(f.fuel))
-        };
         if self.active.is_none() && self.rest(&frame) {
-            // At rest no fuel flows: the reading is the meter's zero.
+            // At rest no fuel flows: the reading is the meter's zero. Learnt before the last
+            // frame is judged too, so a zero first seen here is not taken for a fuel cut.
             let z = self
                 .fuel_zero
                 .map_or(frame.fuel, |z| z + FUEL_ZERO_GAIN * (frame.fuel - z));
             self.fuel_zero = Some(z);
         }
+        let fuel_was_on = if after_gap {
+            None
+        } else {
+            self.hist.last().map(|f| self.fuel_flows(f.fuel))
+        };
         self.hist.push(frame);
         let fuel_on = self.fuel_flows(frame.fuel);
         if fuel_was_on == Some(true) && !fuel_on {
