@@ -365,8 +365,8 @@ fn compressor_stage(
             // loss at design) leaves ~1e-6.
             let nc1 = cycle::corrected_speed(n1_map, t1);
             let p1_guess = inlet(c.p1_guess(p_amb, n1));
-            let op0 = comp_map.at_pr(nc1, p2 / p1_guess);
-            let p1_first = inlet(c.p1(p_amb, op0.wc_kg_s * fade));
+            let wc_first = comp_map.flow_at_pr(nc1, p2 / p1_guess);
+            let p1_first = inlet(c.p1(p_amb, wc_first * fade));
             let op = comp_map.at_pr(nc1, p2 / p1_first);
             let p1 = inlet(c.p1(p_amb, op.wc_kg_s * fade));
             (p1, cycle::compressor_from_op(t1, p1, p2 / p1, &op))

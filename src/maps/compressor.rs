@@ -465,7 +465,12 @@ impl CompressorMap {
     /// The exact inverse of the bilinear map's PR (see [`CompressorMap::beta_for_pr`]).
     #[inline(always)]
     fn beta_for_pr_linear(&self, nc: f64, pr: f64) -> f64 {
-        let bl = self.blend(nc);
+        self.beta_for_pr_in(&self.blend(nc), pr)
+    }
+
+    /// [`CompressorMap::beta_for_pr_linear`] on the speed blend `bl` already found.
+    #[inline(always)]
+    fn beta_for_pr_in(&self, bl: &Blend, pr: f64) -> f64 {
         let m = self.betas.len();
         let (j0, j1) = (bl.j * m, (bl.j + 1) * m);
         let pr_at =
@@ -490,6 +495,21 @@ impl CompressorMap {
         }
         let slope = bl.pr_f * (bl.c0 * self.slope_hi[bl.j][1] + bl.c1 * self.slope_hi[bl.j + 1][1]);
         self.betas[m - 1] + (pr - prev) / slope
+    }
+
+    /// Corrected flow at speed `nc` and pressure ratio `pr`: `point(nc, beta_for_pr(nc, pr)).wc`
+    /// to the bit, with one speed blend and no pressure ratio or efficiency (the dynamic
+    /// model's first compressor read needs the flow alone).
+    pub fn wc_at_pr(&self, nc: f64, pr: f64) -> f64 {
+        if self.cubic.is_some() {
+            return self.point(nc, self.beta_for_pr(nc, pr)).wc;
+        }
+        let bl = self.blend(nc);
+        let beta = self.beta_for_pr_in(&bl, pr);
+        let (k, f) = self.beta_pos(beta);
+        let v0 = bl.c0 * self.line_value(0, bl.j, beta, k, f)
+            + bl.c1 * self.line_value(0, bl.j + 1, beta, k, f);
+        (v0 * bl.wc_f).max(0.0)
     }
 
     /// Pressure ratio on the surge line at corrected flow `wc` (map units).
@@ -519,6 +539,26 @@ mod tests {
 
     fn hpc() -> CompressorMap {
         CompressorMap::from_gasturb(&parse(HPC_MAP, "hpc.map").expect("parse")).expect("build")
+    }
+
+    /// The flow-only read is the full read's flow to the bit, inside and outside the grid, for
+    /// both interpolations (the dynamic model's result must not depend on which it calls).
+    #[test]
+    fn the_flow_only_read_is_the_full_reads_flow_to_the_bit() {
+        for m in [hpc(), hpc().with_cubic_interpolation().expect("cubic")] {
+            for i in 0..=40 {
+                let nc = 0.2 + 1.0 * f64::from(i) / 40.0;
+                for j in 0..=30 {
+                    let pr = 0.8 + 30.0 * f64::from(j) / 30.0;
+                    let full = m.point(nc, m.beta_for_pr(nc, pr)).wc;
+                    assert_eq!(
+                        m.wc_at_pr(nc, pr).to_bits(),
+                        full.to_bits(),
+                        "nc {nc} pr {pr}"
+                    );
+                }
+            }
+        }
     }
 
     #[test]

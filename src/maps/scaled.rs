@@ -184,6 +184,15 @@ impl ScaledCompressor {
         }
     }
 
+    /// `at_pr(nc_rpm, pr).wc_kg_s` to the bit, reading the flow alone.
+    pub fn flow_at_pr(&self, nc_rpm: f64, pr: f64) -> f64 {
+        let s = &self.scalers;
+        let a = Adaptation::factors(&self.adaptation, nc_rpm);
+        let nc_read = nc_rpm / s.speed * a.speed;
+        let pr_map = 1.0 + (pr - 1.0) / (s.pr_minus_one * a.pr_minus_one);
+        s.flow * self.flow_factor * a.flow * self.map.wc_at_pr(nc_read, pr_map)
+    }
+
     /// Operating point at corrected speed `nc_rpm` and engine pressure ratio `pr`.
     pub fn at_pr(&self, nc_rpm: f64, pr: f64) -> CompressorOp {
         let s = &self.scalers;
