@@ -317,27 +317,21 @@ impl Recording {
         })
     }
 
-    /// The same recording with `zero_kg_s` taken off every valid fuel reading (see
-    /// [`Recording::fuel_meter_zero`]).
-    pub fn without_fuel_zero(&self, zero_kg_s: f64) -> Recording {
+    /// This recording with its fuel meter's zero ([`Recording::fuel_meter_zero`]) taken off
+    /// every valid fuel reading (borrowed as it is when there is none), and the zero. Applying
+    /// it twice changes nothing: the zero of the result is read as exactly 0.
+    pub fn fuel_zero_removed(&self) -> (Cow<'_, Recording>, Option<FuelZero>) {
+        let Some(z) = self.fuel_meter_zero() else {
+            return (Cow::Borrowed(self), None);
+        };
         let k = Signal::FuelFlow.index();
         let mut out = self.clone();
         for r in &mut out.rows {
             if r[k].is_finite() {
-                r[k] -= zero_kg_s;
+                r[k] -= z.kg_s;
             }
         }
-        out
-    }
-
-    /// This recording with its fuel meter's zero taken off (borrowed as it is when there is
-    /// none), and the zero. Applying it twice changes nothing: the zero of the result is read
-    /// as exactly 0.
-    pub fn fuel_zero_removed(&self) -> (Cow<'_, Recording>, Option<FuelZero>) {
-        match self.fuel_meter_zero() {
-            Some(z) => (Cow::Owned(self.without_fuel_zero(z.kg_s)), Some(z)),
-            None => (Cow::Borrowed(self), None),
-        }
+        (Cow::Owned(out), Some(z))
     }
 
     /// Sets one cell (NaN or ±∞ = missing), with the same checks as [`Recording::new`].

@@ -95,12 +95,6 @@ impl Machine {
         self.fuel_zero
     }
 
-    /// Whether `fuel` (a reading) is fuel flowing: above the threshold once the meter's zero
-    /// is taken off.
-    fn fuel_flows(&self, fuel: f64) -> bool {
-        fuel - self.fuel_zero.unwrap_or(0.0) > self.cfg.fuel_on_kg_s
-    }
-
     /// Feeds one frame. Frames not later than the previous one are ignored.
     pub fn push(&mut self, frame: Frame) {
         if !(frame.n1.is_finite() && frame.fuel.is_finite() && frame.power.is_finite()) {
@@ -136,10 +130,10 @@ impl Machine {
         let fuel_was_on = if after_gap {
             None
         } else {
-            self.hist.last().map(|f| self.fuel_flows(f.fuel))
+            self.hist.last().map(|f| self.fuel_on(f))
         };
         self.hist.push(frame);
-        let fuel_on = self.fuel_flows(frame.fuel);
+        let fuel_on = self.fuel_on(&frame);
         if fuel_was_on == Some(true) && !fuel_on {
             self.last_fuel_off_ms = Some(frame.t_ms);
         }
@@ -196,8 +190,10 @@ impl Machine {
         f.n1 <= self.cfg.rest_speed_rpm
     }
 
+    /// Whether fuel flows at `f`: its reading above the threshold once the meter's zero is
+    /// taken off.
     fn fuel_on(&self, f: &Frame) -> bool {
-        self.fuel_flows(f.fuel)
+        f.fuel - self.fuel_zero.unwrap_or(0.0) > self.cfg.fuel_on_kg_s
     }
 
     fn step_idle(&mut self, f: Frame) {

@@ -414,7 +414,12 @@ impl CompressorMap {
 
     /// Map point at relative corrected speed `nc` and `beta` (allocation-free).
     pub fn point(&self, nc: f64, beta: f64) -> CompressorPoint {
-        let bl = self.blend(nc);
+        self.point_in(&self.blend(nc), nc, beta)
+    }
+
+    /// [`CompressorMap::point`] on the speed blend `bl` of `nc` already found.
+    #[inline(always)]
+    fn point_in(&self, bl: &Blend, nc: f64, beta: f64) -> CompressorPoint {
         let (k, f) = self.beta_pos(beta);
         let mix = |q: usize| {
             bl.c0 * self.line_value(q, bl.j, beta, k, f)
@@ -498,18 +503,14 @@ impl CompressorMap {
     }
 
     /// Corrected flow at speed `nc` and pressure ratio `pr`: `point(nc, beta_for_pr(nc, pr)).wc`
-    /// to the bit, with one speed blend and no pressure ratio or efficiency (the dynamic
-    /// model's first compressor read needs the flow alone).
+    /// to the bit, with one speed blend for the inverse and the point (the dynamic model's
+    /// first compressor read needs the flow alone, and no surge line).
     pub fn wc_at_pr(&self, nc: f64, pr: f64) -> f64 {
         if self.cubic.is_some() {
             return self.point(nc, self.beta_for_pr(nc, pr)).wc;
         }
         let bl = self.blend(nc);
-        let beta = self.beta_for_pr_in(&bl, pr);
-        let (k, f) = self.beta_pos(beta);
-        let v0 = bl.c0 * self.line_value(0, bl.j, beta, k, f)
-            + bl.c1 * self.line_value(0, bl.j + 1, beta, k, f);
-        (v0 * bl.wc_f).max(0.0)
+        self.point_in(&bl, nc, self.beta_for_pr_in(&bl, pr)).wc
     }
 
     /// Pressure ratio on the surge line at corrected flow `wc` (map units).

@@ -174,10 +174,11 @@ fn latest_startup(
     };
     let drive = {
         // As the diagnosis replayed it: the fuel meter's zero off (see `fuel_zero_removed`).
-        let mut d = rec.fuel_zero_removed().0.into_owned();
+        let corrected = rec.fuel_zero_removed().0.into_owned();
+        let mut d = corrected.clone();
         match smooth_fuel(&mut d) {
             Ok(()) => d,
-            Err(_) => rec.fuel_zero_removed().0.into_owned(),
+            Err(_) => corrected,
         }
     };
     let trace = match simulate_segment(engine, &health, &drive, DriveMode::MeasuredFuel) {
