@@ -12,7 +12,7 @@
 //!
 //! What this version reaches and asserts (measured figures in the README, "Calibrating to your
 //! unit"): on the three left-out loads CI runs, mean |error| ≤ 0.6 % and no signal beyond 1.5 %
-//! (measured 0.49 % / 1.10 %), and at most a third / half of the design calibration's; the
+//! (measured 0.39 % / 1.04 % on 2026-11-28), and at most a third / half of the design calibration's; the
 //! healthy baseline `good` within 0.3 points of zero; the grid ranked at ρ ≥ 0.95 for all four
 //! parameters, every level within 0.7 points, and no level off by more than 0.5 points called
 //! `good`. The rank floor needs the adapted model's own error (`[adaptation.model_error_pct]`,
