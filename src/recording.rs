@@ -24,6 +24,11 @@ pub const MAX_SAMPLE_PERIOD_S: f64 = 60.0;
 pub const MAX_GAP_PERIODS: f64 = 100.0;
 /// Largest accepted gap between two samples, s (see [`MAX_GAP_PERIODS`]).
 pub const MAX_GAP_S: f64 = 300.0;
+/// A spacing of more than this many sample periods (and more than [`HOLE_MIN_S`]) is a hole in
+/// the record: data lost to an outage, not the recording's rhythm.
+pub const HOLE_PERIODS: f64 = 5.0;
+/// Shortest hole, s (see [`HOLE_PERIODS`]): a 10 Hz store's jitter is not one.
+pub const HOLE_MIN_S: f64 = 3.0;
 /// Longest accepted recording, s (one day: a start-up lasts well under an hour).
 pub const MAX_DURATION_S: f64 = 86_400.0;
 /// GG speed below which the engine counts as at rest, rpm.
@@ -95,6 +100,20 @@ pub struct FuelZero {
     pub kg_s: f64,
     /// Readings it was taken from.
     pub samples: usize,
+}
+
+/// A hole in a recording: no sample between two neighbours further apart than
+/// [`HOLE_PERIODS`] sample periods and [`HOLE_MIN_S`].
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Hole {
+    /// Time of the last sample before the hole, s.
+    pub from_s: f64,
+    /// Time of the first sample after it, s.
+    pub to_s: f64,
+    /// Index of the first sample after it.
+    pub index: usize,
+    /// Phase label of that sample.
+    pub phase: Phase,
 }
 
 /// A checked recording (see the module docs).
@@ -217,6 +236,22 @@ impl Recording {
     /// The recording's own sample period: the median time step, s.
     pub fn sample_period_s(&self) -> f64 {
         self.sample_period_s
+    }
+
+    /// The holes in the record (see [`Hole`]), in time order.
+    pub fn holes(&self) -> Vec<Hole> {
+        let min_s = (HOLE_PERIODS * self.sample_period_s).max(HOLE_MIN_S);
+        self.t_s
+            .windows(2)
+            .enumerate()
+            .filter(|(_, w)| w[1] - w[0] > min_s)
+            .map(|(i, w)| Hole {
+                from_s: w[0],
+                to_s: w[1],
+                index: i + 1,
+                phase: self.phase[i + 1],
+            })
+            .collect()
     }
 
     /// Duration from the first to the last sample, s.

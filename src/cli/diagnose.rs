@@ -201,6 +201,7 @@ pub(super) fn result_json(r: &MethodResult) -> Value {
         "steady_windows_s": r.windows,
         "ambient_kpa": r.ambient_kpa.map(|(p, s)| json!({ "value": p, "sigma": s })),
         "fuel_meter_zero": r.fuel_meter_zero,
+        "record_holes": r.record_holes,
         "params": r.params,
         "failed_runs": r.failures,
         "fit_quality": r.fit_quality,
@@ -244,6 +245,22 @@ pub(crate) fn print_text_of(title: &str, subject: &str, m: Method, r: &MethodRes
             "  fuel meter zero: it read {:+.4} kg/s before light-off (median of {} readings, no \
              fuel flowing); taken off every fuel reading before the fit",
             z.kg_s, z.samples
+        );
+    }
+    if let Some(longest) = r
+        .record_holes
+        .iter()
+        .max_by(|a, b| (a.to_s - a.from_s).total_cmp(&(b.to_s - b.from_s)))
+    {
+        println!(
+            "  record: {} hole(s) without samples (longest {:.0} s, {:.0}–{:.0} s, before {}): the \
+             measured inputs are interpolated across each, and the model's shaft speeds are set \
+             to the measured ones after it",
+            r.record_holes.len(),
+            longest.to_s - longest.from_s,
+            longest.from_s,
+            longest.to_s,
+            longest.phase.name()
         );
     }
     if !r.separability.statement.is_empty() {

@@ -261,6 +261,10 @@ pub struct MethodResult {
     /// the fit (`None`: it read nothing at rest, or the data start later); see
     /// [`crate::recording::Recording::fuel_meter_zero`].
     pub fuel_meter_zero: Option<crate::recording::FuelZero>,
+    /// Method B: the holes in the record (an outage, lost samples), across which the measured
+    /// inputs were interpolated and after which the model's shaft speeds were set to the
+    /// measured ones; see [`crate::recording::Recording::holes`].
+    pub record_holes: Vec<crate::recording::Hole>,
     /// Every fitted parameter (health, ambient pressure, engine/effect values) with its 1σ,
     /// in the optimiser's order.
     pub params: Vec<FittedParam>,
@@ -559,6 +563,7 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
         separability: separability::assess(&health_estimates, &signal_names),
         localisation: Vec::new(),
         fuel_meter_zero: None,
+        record_holes: Vec::new(),
         model_values: Vec::new(),
     }
 }

@@ -406,6 +406,7 @@ pub fn diagnose_transient(
         r.model_runs += 1;
     }
     r.fuel_meter_zero = fuel_zero;
+    r.record_holes = segment.holes();
     r.wall_s = start.elapsed().as_secs_f64();
     Ok(r)
 }

@@ -55,6 +55,10 @@ pub(crate) struct MeasuredDrive {
     pt_speed: Option<Arc<Series>>,
     flame: bool,
     starter: StarterCommand,
+    /// Measured PT speed (for re-setting the model's after a hole).
+    n2_meas: Arc<Series>,
+    /// Indices of the samples that follow a hole in the record ([`Recording::holes`]).
+    after_hole: Arc<Vec<usize>>,
 }
 
 fn clean(t: &[f64], v: Vec<f64>) -> Series {
@@ -115,7 +119,31 @@ impl MeasuredDrive {
             pt_speed: measured_pt_speed(model, seg),
             flame: false,
             starter: StarterCommand::Off,
+            n2_meas: Arc::new(clean(t, seg.series(Signal::N2))),
+            after_hole: Arc::new(seg.holes().iter().map(|h| h.index).collect()),
         }
+    }
+
+    /// After a hole in the record the model's shafts have run on fuel interpolated across it,
+    /// which is not what the engine burnt, and a shaft (the PT above all, heavy and lightly
+    /// loaded before the breaker closes) carries that error for minutes: at sample `k`, the
+    /// first after a hole, the turning shafts are set to the measured speeds (a PT the grid or
+    /// the measurement holds is left alone). Returns whether a speed was set.
+    fn resync_after_hole(&self, k: usize, act: &mut Actuator<'_>) -> bool {
+        if !self.after_hole.contains(&k) {
+            return false;
+        }
+        let t = self.t_s[k];
+        let n1 = self.n1_sp.value(t);
+        if !(n1.is_finite() && n1 > REST_N1_RPM) {
+            return false;
+        }
+        act.set_speed_rpm(Shaft::Gg, n1);
+        let n2 = self.n2_meas.value(t);
+        if !self.pt_locked && self.pt_speed.is_none() && n2.is_finite() && n2 >= 0.0 {
+            act.set_speed_rpm(Shaft::Pt, n2);
+        }
+        true
     }
 
     fn measured_fuel_at(&self, k: usize) -> f64 {
@@ -234,7 +262,8 @@ impl Controller for MeasuredDrive {
             return Change::None;
         }
         self.k = k;
-        if self.configure(t, act, st) || first {
+        let resynced = self.resync_after_hole(k, act);
+        if self.configure(t, act, st) || first || resynced {
             Change::Drive
         } else {
             // The same phase and commands: only the measured series, linear between samples,
