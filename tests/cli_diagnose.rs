@@ -516,14 +516,9 @@ fn diagnose_json(path: &std::path::Path) -> serde_json::Value {
     v["methods"].clone()
 }
 
-/// A fuel meter with a zero offset, as another program would write it: the reading at rest
-/// (before light-off, no fuel flowing) is the offset, and it is in every reading. Before, an
-/// offset of +0.02 kg/s lit the model's combustor in a standing engine and every Method B run
-/// failed ("step size underflow in phase standstill"), and Method A burnt 7 % too much fuel at
-/// idle (fit `poor`, normalised residual 486). Now the zero is read at rest, reported, and taken
-/// off: each method gives the health of the meter without the offset.
-#[test]
-fn a_fuel_meter_zero_offset_is_read_at_rest_and_taken_off() {
+/// A noisy start-up of a fouled engine (D_GC 2, D_EC 0.8) written to a temporary folder, and
+/// its diagnosis: the folder (kept alive by the caller), the file, the methods' JSON.
+fn fouled_startup() -> (tempfile::TempDir, std::path::PathBuf, serde_json::Value) {
     let dir = tempfile::tempdir().expect("tempdir");
     let csv = dir.path().join("startup.csv");
     let truth = HealthParams {
@@ -533,6 +528,18 @@ fn a_fuel_meter_zero_offset_is_read_at_rest_and_taken_off() {
     };
     write_startup(&csv, &truth);
     let clean = diagnose_json(&csv);
+    (dir, csv, clean)
+}
+
+/// A fuel meter with a zero offset, as another program would write it: the reading at rest
+/// (before light-off, no fuel flowing) is the offset, and it is in every reading. Before, an
+/// offset of +0.02 kg/s lit the model's combustor in a standing engine and every Method B run
+/// failed ("step size underflow in phase standstill"), and Method A burnt 7 % too much fuel at
+/// idle (fit `poor`, normalised residual 486). Now the zero is read at rest, reported, and taken
+/// off: each method gives the health of the meter without the offset.
+#[test]
+fn a_fuel_meter_zero_offset_is_read_at_rest_and_taken_off() {
+    let (dir, csv, clean) = fouled_startup();
     assert!(clean["transient"]["fuel_meter_zero"].is_null(), "{clean}");
     // A deterministic ±0.003 kg/s of the meter's own noise at every reading (rest included).
     let wobble = |line: usize| 0.003 * (((line * 7919) % 13) as f64 / 6.0 - 1.0);
@@ -581,15 +588,7 @@ fn a_fuel_meter_zero_offset_is_read_at_rest_and_taken_off() {
 /// to the measured ones after it: the fit is as close as on the whole record.
 #[test]
 fn a_hole_in_the_record_is_reported_and_the_shafts_resynchronised_after_it() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let csv = dir.path().join("startup.csv");
-    let truth = HealthParams {
-        D_GC: 2.0,
-        D_EC: 0.8,
-        ..HealthParams::HEALTHY
-    };
-    write_startup(&csv, &truth);
-    let clean = diagnose_json(&csv);
+    let (dir, csv, clean) = fouled_startup();
     assert_eq!(clean["transient"]["record_holes"], serde_json::json!([]));
     let text = std::fs::read_to_string(&csv).expect("csv");
     let kept: Vec<&str> = text
