@@ -273,6 +273,25 @@ pub enum Setpoint {
 }
 
 impl Setpoint {
+    /// The first time after `t` (by more than 1e-9 s) at which the set-point's slope jumps: a
+    /// series' next sample, a ramp's end. An integrator step across such a kink is rejected
+    /// and halved until one straddles it (a dozen rejections at the start of the load ramp);
+    /// a step that ends there costs nothing. An approach bends smoothly: none.
+    pub fn next_kink(&self, t: f64) -> Option<f64> {
+        match self {
+            Setpoint::Ramp(r) => [r.t0, r.end_time()]
+                .into_iter()
+                .find(|&k| r.rate != 0.0 && k > t + 1e-9),
+            Setpoint::Approach(_) => None,
+            Setpoint::Series(s) => s.t_s.iter().copied().find(|&k| k > t + 1e-9),
+        }
+    }
+
+    /// Whether the set-point's slope jumps at `t` (within 1e-9 s).
+    pub fn kinks_at(&self, t: f64) -> bool {
+        self.next_kink(t - 2e-9).is_some_and(|k| k <= t + 1e-9)
+    }
+
     /// Whether `other` is this set-point: ramps and approaches by value, a followed series by
     /// identity (an equal copy counts as different; cheap, and never wrongly the same).
     pub(crate) fn same_as(&self, other: &Setpoint) -> bool {
@@ -319,6 +338,22 @@ pub struct FuelOut {
 }
 
 impl FuelCommand {
+    /// The next kink of a governing loop's set-point after `t` ([`Setpoint::next_kink`]).
+    pub fn next_setpoint_kink(&self, t: f64) -> Option<f64> {
+        match self {
+            FuelCommand::Pid { setpoint, .. } => setpoint.next_kink(t),
+            _ => None,
+        }
+    }
+
+    /// Whether a governing loop's set-point kinks at `t`.
+    pub fn setpoint_kinks_at(&self, t: f64) -> bool {
+        match self {
+            FuelCommand::Pid { setpoint, .. } => setpoint.kinks_at(t),
+            _ => false,
+        }
+    }
+
     /// Whether `other` is this command, shared series and limits compared by identity (see
     /// [`Setpoint::same_as`]).
     pub(crate) fn same_as(&self, other: &FuelCommand) -> bool {

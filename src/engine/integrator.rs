@@ -6,6 +6,10 @@
 //! steps below the volume time constant; ROS2 is L-stable, so the fast states relax onto their
 //! quasi-steady values at any step, and as a W-method it keeps order 2 with an approximate
 //! (reused) Jacobian, so the finite-difference Jacobian is refreshed only every few steps.
+//! Between refreshes the Jacobian follows the solution by Broyden's rank-one secant update
+//! from each pair of successive step starts (f is evaluated there anyway): the W-method's
+//! order holds with any matrix, and one nearer the true Jacobian keeps its error estimate
+//! honest for longer.
 //! One step costs two right-hand-side evaluations and two solves with W = I − γhJ.
 //! An embedded first-order solution gives the local error estimate for step-size control.
 //! Pure numerics: no knowledge of the engine.
@@ -14,6 +18,13 @@
 #![allow(clippy::needless_range_loop)]
 
 use std::ops::{Deref, DerefMut};
+
+/// Steps between finite-difference Jacobians (sooner after a suspect rejection or a changed
+/// drive). With the secant updates 24 keeps as many steps as 8 did without them.
+const JAC_EVERY: usize = 24;
+
+/// Smallest change of state (Euclidean, scaled states) a secant update learns from.
+const SECANT_MIN_STEP: f64 = 1e-6;
 
 /// γ = 1 + 1/√2 (L-stability).
 const GAMMA: f64 = 1.0 + std::f64::consts::FRAC_1_SQRT_2;
@@ -137,6 +148,11 @@ pub(crate) struct Ros2 {
     f0_y: [f64; MAX_DIM],
     f0: [f64; MAX_DIM],
     steps_since_jac: usize,
+    /// `f0` at `f0_y`, `f0_t` is a value of the right-hand side as it is now (the drive and its
+    /// time dependence unchanged since): the next f at a new point makes a secant with it.
+    secant_ok: bool,
+    /// Broyden updates between refreshes (off: the Jacobian is held as evaluated).
+    pub(crate) secant: bool,
     /// ∂f/∂t is to be re-estimated at the next step's start (an input's slope changed).
     ft_stale: bool,
     /// Refresh the Jacobian after this many steps.
@@ -167,8 +183,10 @@ impl Ros2 {
             f0_y: [0.0; MAX_DIM],
             f0: [0.0; MAX_DIM],
             steps_since_jac: 0,
+            secant_ok: false,
+            secant: true,
             ft_stale: false,
-            jac_every: 8,
+            jac_every: JAC_EVERY,
             rtol,
             atol,
             tol_scale: [1.0; MAX_DIM],
@@ -188,6 +206,7 @@ impl Ros2 {
     /// The right-hand side may have changed (a discontinuity, an event, a changed drive):
     /// forces a fresh Jacobian and forgets f at the last step's start.
     pub(crate) fn invalidate(&mut self) {
+        self.secant_ok = false;
         self.jac_valid = false;
         self.f0_valid = false;
         self.ft_stale = false;
@@ -205,6 +224,7 @@ impl Ros2 {
     /// f(t, y) = `f0` is known (the caller evaluated it, e.g. with a station table): the next
     /// step from (t, y) uses it instead of evaluating f again.
     pub(crate) fn seed_f0(&mut self, t: f64, y: &[f64], f0: &[f64]) {
+        self.secant_update(t, y, f0);
         let n = y.len().min(f0.len()).min(MAX_DIM);
         self.f0_t = t;
         self.f0_y[..n].copy_from_slice(&y[..n]);
@@ -218,7 +238,55 @@ impl Ros2 {
     /// sample; refreshing the whole Jacobian there cost 8 evaluations a sample, and keeping a
     /// stale ∂f/∂t doubled the rejected steps.
     pub(crate) fn refresh_time_derivative(&mut self) {
+        // The secant from the last point would carry the change of slope into J.
+        self.secant_ok = false;
         self.ft_stale = true;
+    }
+
+    /// Broyden's update of the Jacobian with the secant from the last point where f is known
+    /// (`f0_t`, `f0_y`, `f0`) to (`t`, `y`, `f_new`): J += (Δf − f_t Δt − J Δy) Δyᵀ / ΔyᵀΔy,
+    /// the least change of J that reproduces the observed change of f (the states are scaled
+    /// to order one, so the plain inner product weighs them alike). The finite-difference
+    /// refreshes of the start-up fell from 287 to about 105, the steps from 2 100 to about
+    /// 2 170 at a 5/6 tolerance (`gtwatch bench sim`).
+    fn secant_update(&mut self, t: f64, y: &[f64], f_new: &[f64]) {
+        match self.n.min(y.len()).min(f_new.len()).min(MAX_DIM) {
+            7 => self.secant_update_in(Fixed::<7>, t, y, f_new),
+            n => self.secant_update_in(Dyn(n), t, y, f_new),
+        }
+    }
+
+    #[inline(always)]
+    fn secant_update_in(&mut self, d: impl Dim, t: f64, y: &[f64], f_new: &[f64]) {
+        let n = d.n();
+        if n > y.len().min(f_new.len()) {
+            return;
+        }
+        if self.secant && self.secant_ok && self.jac_valid && n > 0 {
+            let dt = t - self.f0_t;
+            let mut dy = [0.0; MAX_DIM];
+            let mut dy2 = 0.0;
+            for j in 0..n {
+                dy[j] = y[j] - self.f0_y[j];
+                dy2 += dy[j] * dy[j];
+            }
+            // A repeated point, or one so near that Δf is mostly rounding (a steady state: the
+            // states are of order one, and the finite differences step them by 1e-7): nothing
+            // to learn, and dividing by ΔyᵀΔy would blow the rounding up into J.
+            if dy2 > SECANT_MIN_STEP * SECANT_MIN_STEP && dt.is_finite() {
+                for i in 0..n {
+                    let mut r = f_new[i] - self.f0[i] - self.ft[i] * dt;
+                    for j in 0..n {
+                        r -= self.jac[i][j] * dy[j];
+                    }
+                    let c = r / dy2;
+                    for j in 0..n {
+                        self.jac[i][j] += c * dy[j];
+                    }
+                }
+            }
+        }
+        self.secant_ok = true;
     }
 
     /// The last step was rejected and the next one retries from the same point with the same
@@ -318,6 +386,7 @@ impl Ros2 {
         } else {
             let f0 = f(t, y);
             self.rhs_evals += 1;
+            self.secant_update_in(d, t, &y[..n], &f0[..n]);
             self.f0_t = t;
             self.f0_y[..n].copy_from_slice(&y[..n]);
             self.f0[..n].copy_from_slice(&f0[..n]);
@@ -341,10 +410,12 @@ impl Ros2 {
         }
         self.steps_since_jac += 1;
         let w = &mut *self.w;
+        let c = -GAMMA * h;
         for i in 0..n {
             for j in 0..n {
-                w[i][j] = if i == j { 1.0 } else { 0.0 } - GAMMA * h * self.jac[i][j];
+                w[i][j] = c * self.jac[i][j];
             }
+            w[i][i] += 1.0;
         }
         let mut piv = [0usize; MAX_DIM];
         if !lu_factor(w, &mut piv, d) {
@@ -405,6 +476,8 @@ mod tests {
         let run_with = |h: f64, jac_every: usize| {
             let mut ros = Ros2::new(1e-6, 1e-9);
             ros.jac_every = jac_every;
+            // The matrix exactly as evaluated: the order must not rest on the secant updates.
+            ros.secant = false;
             let mut f = |t: f64, y: &Vec<f64>| vec![-1000.0 * (y[0] - t.cos()), -y[1]];
             let mut y = vec![1.0, 1.0];
             let mut t = 0.0;
@@ -427,5 +500,51 @@ mod tests {
         let s2 = (run_with(0.05, 1)[0] - quasi).abs();
         assert!(s1 < 5e-3, "{s1}");
         assert!(s2 < s1 / 3.0, "stiff component converges: {s1} -> {s2}");
+    }
+
+    /// After each step start the reused Jacobian maps the last change of state onto the change
+    /// of f it caused (the secant condition), and leaves a linear system's Jacobian exact.
+    #[test]
+    fn secant_update_meets_the_secant_condition() {
+        let mut f = |_t: f64, y: &Vec<f64>| vec![-y[0] * y[0] * y[0] - y[1], y[0] - 2.0 * y[1]];
+        let mut ros = Ros2::new(1e-6, 1e-9);
+        ros.jac_every = 1000;
+        let (mut t, mut y) = (0.0, vec![1.0, 0.5]);
+        let mut last: Option<(Vec<f64>, Vec<f64>)> = None;
+        for _ in 0..5 {
+            let fy = f(t, &y);
+            let next = ros.step(&mut f, t, &y, 0.05).expect("finite").y;
+            if let Some((y_prev, f_prev)) = &last {
+                for i in 0..2 {
+                    let jdy: f64 = (0..2).map(|j| ros.jac[i][j] * (y[j] - y_prev[j])).sum();
+                    let df = fy[i] - f_prev[i] - ros.ft[i] * 0.05;
+                    assert!(
+                        (jdy - df).abs() < 1e-9 * df.abs().max(1e-6),
+                        "row {i}: {jdy} vs {df}"
+                    );
+                }
+            }
+            last = Some((y.clone(), fy));
+            (t, y) = (t + 0.05, next);
+        }
+
+        let mut lin = |_t: f64, y: &Vec<f64>| vec![-3.0 * y[0] + y[1], 0.5 * y[0] - y[1]];
+        let mut ros = Ros2::new(1e-6, 1e-9);
+        ros.jac_every = 1000;
+        let (mut t, mut y) = (0.0, vec![1.0, -1.0]);
+        for _ in 0..5 {
+            y = ros.step(&mut lin, t, &y, 0.1).expect("finite").y;
+            t += 0.1;
+        }
+        let exact = [[-3.0, 1.0], [0.5, -1.0]];
+        for i in 0..2 {
+            for j in 0..2 {
+                assert!(
+                    (ros.jac[i][j] - exact[i][j]).abs() < 1e-6,
+                    "{i},{j}: {}",
+                    ros.jac[i][j]
+                );
+            }
+        }
     }
 }

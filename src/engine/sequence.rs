@@ -259,7 +259,9 @@ impl Sequencer {
             _ => None,
         };
         let cmd = self.events.get(self.next_event).map(|e| e.t_s);
-        [timer, cmd]
+        // The set-point's kinks are where the load ramp starts and ends within a mode.
+        let kink = self.fuel.next_setpoint_kink(t);
+        [timer, cmd, kink]
             .into_iter()
             .flatten()
             .filter(|&x| x > t + 1e-9)
@@ -633,7 +635,14 @@ impl Controller for Sequencer {
         Sequencer::watches(self)
     }
     fn update(&mut self, t: f64, act: &mut Actuator<'_>, st: &Stations) -> Change {
-        Sequencer::update(self, t, act, st).into()
+        if Sequencer::update(self, t, act, st) {
+            Change::Drive
+        } else if self.fuel.setpoint_kinks_at(t) {
+            // The same loop on the same set-point, whose slope in time just changed.
+            Change::Slope
+        } else {
+            Change::None
+        }
     }
     fn polls(&self, t: f64) -> bool {
         Sequencer::polls(self, t)
