@@ -274,9 +274,9 @@ pub enum Setpoint {
 
 impl Setpoint {
     /// The first time after `t` (by more than 1e-9 s) at which the set-point's slope jumps: a
-    /// series' next sample, a ramp's end. An integrator step across such a kink is rejected
-    /// and halved until one straddles it (a dozen rejections at the start of the load ramp);
-    /// a step that ends there costs nothing. An approach bends smoothly: none.
+    /// series' next sample, a ramp's start or end. An integrator step across such a kink is
+    /// rejected and cut until one straddles it (eight rejections at the start of the load
+    /// ramp); a step that ends there costs nothing. An approach bends smoothly: none.
     pub fn next_kink(&self, t: f64) -> Option<f64> {
         match self {
             Setpoint::Ramp(r) => [r.t0, r.end_time()]
@@ -551,6 +551,33 @@ impl StarterCommand {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A set-point's slope jumps at a series' samples and at a ramp's start and end: those are
+    /// the kinks the integrator is told of, and nowhere else.
+    #[test]
+    fn setpoint_kinks_are_the_series_samples_and_the_ramp_ends() {
+        let series = Setpoint::Series(Arc::new(Series {
+            t_s: vec![10.0, 12.0, 252.0, 372.0],
+            value: vec![0.0, 4.0, 4.0, 22.0],
+        }));
+        assert_eq!(series.next_kink(0.0), Some(10.0));
+        assert_eq!(series.next_kink(10.0), Some(12.0));
+        assert_eq!(series.next_kink(100.0), Some(252.0));
+        assert_eq!(series.next_kink(372.0), None);
+        assert!(series.kinks_at(252.0) && !series.kinks_at(252.1) && !series.kinks_at(300.0));
+        let ramp = Setpoint::Ramp(Ramp {
+            t0: 5.0,
+            v0: 1700.0,
+            rate: 120.0,
+            target: 6600.0,
+        });
+        let end = 5.0 + 4900.0 / 120.0;
+        assert_eq!(ramp.next_kink(0.0), Some(5.0));
+        assert_eq!(ramp.next_kink(5.0), Some(end));
+        assert_eq!(ramp.next_kink(end), None);
+        assert!(ramp.kinks_at(end) && !ramp.kinks_at(20.0));
+        assert_eq!(Setpoint::Ramp(Ramp::hold(3600.0)).next_kink(0.0), None);
+    }
 
     #[test]
     fn ramp_and_interp() {
