@@ -422,6 +422,17 @@ pub(crate) fn summarise(run: &BenchRun) -> serde_json::Value {
             .iter()
             .filter(|c| !c.correct && c.baseline_fit_quality == "good" && c.error_before > 0.3)
             .count(),
+        // A verdict that does not say the health is in doubt (not `ambiguous`) with its fit
+        // called `good`, yet a health more than 0.3 points off: the assurance a plant must not
+        // get.
+        "input_good_after_with_health_error": inputs
+            .iter()
+            .filter(|c| {
+                c.verdict != super::AMBIGUOUS
+                    && c.fit_quality_after == "good"
+                    && c.error_after > 0.3
+            })
+            .count(),
         "confusion": confusion,
         "skipped": run.skipped,
     })

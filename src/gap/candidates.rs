@@ -59,6 +59,17 @@ pub(crate) fn fit_params(instance: &str, rec: &Recording) -> Vec<FitParam> {
                     (-b, b)
                 }
                 ("sensor_lag", _) => (p.min, p.max.min(30.0)),
+                // A fuel meter's zero offset, in kg/s: bounded by the recording's fuel flow
+                // as a bias is by its channel's (an engine-free bound for any size of unit).
+                ("fuel_meter_offset", _) => {
+                    let peak = rec
+                        .series(Signal::FuelFlow)
+                        .into_iter()
+                        .filter(|v| v.is_finite())
+                        .fold(0.0, |m: f64, v| m.max(v.abs()));
+                    let b = (BIAS_BOUND_FRACTION * peak).clamp(1e-6, p.max);
+                    (-b, b)
+                }
                 _ => (p.min, p.max),
             };
             let name = instance.to_string();

@@ -34,6 +34,17 @@ pub(crate) const ONSET: usize = 4;
 /// The controls: the engine's own step, and nothing.
 pub(crate) const CONTROL_KINDS: [&str; 2] = ["turbine_step", "none"];
 
+/// The input kinds a sequence is run on by default: those the health can hide, which only a
+/// sequence tells apart (the fuel meter's cut-off offset is named from one start-up, where
+/// idle and light-off show it; `--kinds fuel_cutoff` still runs it).
+const SEQUENCE_KINDS: [&str; 5] = [
+    "fuel_scale",
+    "fuel_drift",
+    "t1_offset",
+    "p1_offset",
+    "power_scale",
+];
+
 /// One sequence.
 #[derive(Debug, Clone, Serialize)]
 pub(crate) struct SequenceCase {
@@ -72,7 +83,7 @@ fn true_health(base: [f64; 6], rate: f64, j: usize, turbine: f64) -> [f64; 6] {
 }
 
 /// Runs `cases` sequences of `start_ups` each, cycling through `kinds` (default: the five
-/// input kinds, then the two controls).
+/// [`SEQUENCE_KINDS`], then the two controls).
 pub(crate) fn run_sequences(
     engine: &Engine,
     cases: usize,
@@ -98,7 +109,11 @@ pub(crate) fn run_sequences(
         )));
     }
     let kinds: Vec<&str> = if only.is_empty() {
-        INPUT_KINDS.iter().chain(&CONTROL_KINDS).copied().collect()
+        SEQUENCE_KINDS
+            .iter()
+            .chain(&CONTROL_KINDS)
+            .copied()
+            .collect()
     } else {
         only.iter().map(String::as_str).collect()
     };

@@ -44,6 +44,7 @@ registry!(
     tip_clearance,
     duct_loss,
     fuel_meter,
+    fuel_meter_offset,
     inlet_temperature,
     sensor_scale,
 );

@@ -14,8 +14,11 @@
 //! only, not in the default cycle): `fuel_scale` (the fuel meter reads 1.5–4 % high or low),
 //! `fuel_drift` (a meter drifting from 0 to 2–5 % through the start-up: not the library's
 //! constant factor), `t1_offset` (T1 reads 1.5–4 K high or low), `p1_offset` (P1 off by
-//! 0.5–1.5 kPa), `power_scale` (a power transducer ratio 1–3 % off). Magnitude: the relative
-//! error, or the offset in K / kPa.
+//! 0.5–1.5 kPa), `power_scale` (a power transducer ratio 1–3 % off), `fuel_cutoff` (the fuel
+//! meter reads 3–8 g/s high or low, and the control system shows 0 below a low-flow cut-off of
+//! 9–12 g/s: the zero is hidden at rest, and the light-off's first fuel is cut, against the
+//! library's offset fading in over the first flow). Magnitude: the relative error, or the offset
+//! in K / kPa / kg/s.
 //!
 //! Pure: no I/O.
 
@@ -57,6 +60,12 @@ pub(crate) enum Alteration {
     Drift {
         signal: Signal,
         rel_end: f64,
+    },
+    /// The fuel meter reads `offset_kg_s` more than flows; the control system shows 0 where
+    /// that reading is below `cutoff_kg_s`.
+    FuelCutoff {
+        offset_kg_s: f64,
+        cutoff_kg_s: f64,
     },
 }
 
@@ -148,6 +157,16 @@ impl Alteration {
                 let offset = sign(rng) * rng.random_range(lo..hi);
                 (Alteration::Offset { signal, offset }, offset)
             }
+            "fuel_cutoff" => {
+                let offset_kg_s = sign(rng) * rng.random_range(0.003..0.008);
+                (
+                    Alteration::FuelCutoff {
+                        offset_kg_s,
+                        cutoff_kg_s: rng.random_range(0.009..0.012),
+                    },
+                    offset_kg_s,
+                )
+            }
             _ => return None,
         })
     }
@@ -211,6 +230,22 @@ impl Alteration {
                 for (k, &tt) in t.iter().enumerate() {
                     if let Some(v) = rec.value(k, signal) {
                         rec.set(k, signal, v * (1.0 + rel_end * (tt - t0) / span))?;
+                    }
+                }
+                Ok(())
+            }
+            Alteration::FuelCutoff {
+                offset_kg_s,
+                cutoff_kg_s,
+            } => {
+                for k in 0..rec.len() {
+                    if let Some(v) = rec.value(k, Signal::FuelFlow) {
+                        let read = v + offset_kg_s;
+                        rec.set(
+                            k,
+                            Signal::FuelFlow,
+                            if read < cutoff_kg_s { 0.0 } else { read },
+                        )?;
                     }
                 }
                 Ok(())

@@ -57,22 +57,28 @@ pub(crate) const KINDS: [&str; 13] = [
 
 /// Input-channel truths (issue 23 item 5): errors on the signals that drive the model. Run with
 /// `bench gap --kinds …`; not in the default cycle, so the 40-case benchmark is unchanged.
-pub(crate) const INPUT_KINDS: [&str; 5] = [
+pub(crate) const INPUT_KINDS: [&str; 6] = [
     "fuel_scale",
     "fuel_drift",
     "t1_offset",
     "p1_offset",
     "power_scale",
+    "fuel_cutoff",
 ];
 
 /// Every verdict that names an input-channel truth correctly: its library instances (an
 /// `ambiguous` verdict is right when one of them is among its aliases). Empty for other kinds.
 pub(crate) fn input_instances(kind: &str) -> &'static [&'static str] {
     match kind {
-        "fuel_scale" | "fuel_drift" => &["fuel_meter", "sensor_scale:fuel_kg_s"],
+        // The fuel meter named in either of its forms names the channel: a meter drifting
+        // through the start-up is no constant factor and may fit as an offset.
+        "fuel_scale" | "fuel_drift" => {
+            &["fuel_meter", "sensor_scale:fuel_kg_s", "fuel_meter_offset"]
+        }
         "t1_offset" => &["inlet_temperature", "sensor_bias:t1_k"],
         "p1_offset" => &["sensor_bias:p1_kpa", "sensor_scale:p1_kpa"],
         "power_scale" => &["sensor_scale:power_mw", "sensor_bias:power_mw"],
+        "fuel_cutoff" => &["fuel_meter_offset", "sensor_bias:fuel_kg_s"],
         _ => &[],
     }
 }
@@ -95,6 +101,7 @@ pub(crate) fn expected(kind: &str) -> &'static str {
         "t1_offset" => "inlet_temperature",
         "p1_offset" => "sensor_bias:p1_kpa",
         "power_scale" => "sensor_scale:power_mw",
+        "fuel_cutoff" => "fuel_meter_offset",
         _ => "none",
     }
 }
@@ -271,7 +278,7 @@ impl Hidden {
 /// lag, the offset of a bias, delay + lag (s) of the fuel system, the capacity UA·τ (kJ/K) of
 /// heat soak, the open fraction of a bleed, the flow change (%) of a vane schedule, the
 /// efficiency change (%/100 K) of the tip clearance, the extra inlet loss (multiple of the
-/// file's) of the duct losses. `params` as a candidate reports them
+/// file's) of the duct losses, the kg/s of a fuel meter's offset. `params` as a candidate reports them
 /// (`effects.<instance>.<param>` → (value, σ)).
 pub(crate) fn fitted_magnitude(effect: &str, params: &BTreeMap<String, (f64, f64)>) -> Option<f64> {
     let p = |name: &str| params.get(&format!("effects.{effect}.{name}")).map(|v| v.0);
@@ -287,6 +294,7 @@ pub(crate) fn fitted_magnitude(effect: &str, params: &BTreeMap<String, (f64, f64
         "duct_loss" => Some(p("inlet_scale")? - 1.0),
         "fuel_meter" | "sensor_scale" => p("scale"),
         "inlet_temperature" => p("offset_k"),
+        "fuel_meter_offset" => p("offset_kg_s"),
         _ => None,
     }
 }
