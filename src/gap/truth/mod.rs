@@ -278,8 +278,8 @@ impl Hidden {
 /// lag, the offset of a bias, delay + lag (s) of the fuel system, the capacity UA·τ (kJ/K) of
 /// heat soak, the open fraction of a bleed, the flow change (%) of a vane schedule, the
 /// efficiency change (%/100 K) of the tip clearance, the extra inlet loss (multiple of the
-/// file's) of the duct losses, the kg/s of a fuel meter's offset. `params` as a candidate reports them
-/// (`effects.<instance>.<param>` → (value, σ)).
+/// file's) of the duct losses, the offset (kg/s) of a fuel meter's zero. `params` as a
+/// candidate reports them (`effects.<instance>.<param>` → (value, σ)).
 pub(crate) fn fitted_magnitude(effect: &str, params: &BTreeMap<String, (f64, f64)>) -> Option<f64> {
     let p = |name: &str| params.get(&format!("effects.{effect}.{name}")).map(|v| v.0);
     let base = effect.split(':').next().unwrap_or(effect);
