@@ -25,6 +25,46 @@ fn json_of(out: std::io::Result<std::process::Output>) -> serde_json::Value {
     serde_json::from_slice(&out.stdout).expect("one JSON document")
 }
 
+/// A `gtwatch simulate` start-up (`sim_args` after `simulate`) written to `dir`, then one column
+/// altered by this test, sample by sample (`alter` gets the value and returns the new one, or
+/// `None` to keep it): the path of the altered CSV, named `name`.
+fn simulated_then_altered(
+    dir: &std::path::Path,
+    sim_args: &[&str],
+    column: &str,
+    name: &str,
+    alter: impl Fn(f64) -> Option<f64>,
+) -> std::path::PathBuf {
+    let clean = dir.join("clean.csv");
+    let out = gtwatch()
+        .arg("simulate")
+        .args(sim_args)
+        .arg("--out")
+        .arg(&clean)
+        .output()
+        .expect("simulate runs");
+    assert!(out.status.success());
+    let text = std::fs::read_to_string(&clean).expect("read");
+    let mut lines = text.lines();
+    let header = lines.next().expect("header");
+    let ix = header
+        .split(',')
+        .position(|c| c == column)
+        .unwrap_or_else(|| panic!("{column} column"));
+    let mut altered = format!("{header}\n");
+    for line in lines {
+        let mut f: Vec<String> = line.split(',').map(str::to_string).collect();
+        if let Some(v) = f[ix].parse::<f64>().ok().and_then(&alter) {
+            f[ix] = format!("{v:.6}");
+        }
+        altered.push_str(&f.join(","));
+        altered.push('\n');
+    }
+    let csv = dir.join(name);
+    std::fs::write(&csv, altered).expect("write");
+    csv
+}
+
 #[test]
 fn a_slow_t34_thermocouple_is_found_and_named() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -158,30 +198,13 @@ fn a_slow_t34_thermocouple_is_found_and_named() {
 #[test]
 fn an_inlet_thermometer_error_is_never_passed_off_as_none() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let clean = dir.path().join("clean.csv");
-    let out = gtwatch()
-        .args(["simulate", "--noise", "--seed", "3", "--out"])
-        .arg(&clean)
-        .output()
-        .expect("simulate runs");
-    assert!(out.status.success());
-    let text = std::fs::read_to_string(&clean).expect("read");
-    let mut lines = text.lines();
-    let header = lines.next().expect("header");
-    let ix = header
-        .split(',')
-        .position(|c| c == "t1_k")
-        .expect("t1 column");
-    let mut altered = format!("{header}\n");
-    for line in lines {
-        let mut f: Vec<String> = line.split(',').map(str::to_string).collect();
-        let t1: f64 = f[ix].parse().expect("t1");
-        f[ix] = format!("{:.4}", t1 + 2.1);
-        altered.push_str(&f.join(","));
-        altered.push('\n');
-    }
-    let csv = dir.path().join("t1_high.csv");
-    std::fs::write(&csv, altered).expect("write");
+    let csv = simulated_then_altered(
+        dir.path(),
+        &["--noise", "--seed", "3"],
+        "t1_k",
+        "t1_high.csv",
+        |t1| Some(t1 + 2.1),
+    );
     let v = json_of(
         gtwatch()
             .args(["gap", "--input"])
@@ -288,41 +311,13 @@ fn a_drifting_fuel_meter_is_named_among_the_instruments_the_health_may_hide() {
 #[test]
 fn a_fuel_meter_offset_hidden_at_rest_is_named_and_the_health_restored() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let clean = dir.path().join("clean.csv");
-    let out = gtwatch()
-        .args([
-            "simulate",
-            "--health",
-            "D_GC=1.5,D_GT=0.8",
-            "--noise",
-            "--seed",
-            "11",
-            "--out",
-        ])
-        .arg(&clean)
-        .output()
-        .expect("simulate runs");
-    assert!(out.status.success());
-    let text = std::fs::read_to_string(&clean).expect("read");
-    let mut lines = text.lines();
-    let header = lines.next().expect("header");
-    let ifuel = header
-        .split(',')
-        .position(|c| c == "fuel_kg_s")
-        .expect("fuel column");
-    let mut altered = format!("{header}\n");
-    for line in lines {
-        let mut f: Vec<String> = line.split(',').map(str::to_string).collect();
-        if let Ok(w) = f[ifuel].parse::<f64>() {
-            if w > 0.0 {
-                f[ifuel] = format!("{:.6}", w + 0.008);
-            }
-        }
-        altered.push_str(&f.join(","));
-        altered.push('\n');
-    }
-    let csv = dir.path().join("meter_offset.csv");
-    std::fs::write(&csv, altered).expect("write");
+    let csv = simulated_then_altered(
+        dir.path(),
+        &["--health", "D_GC=1.5,D_GT=0.8", "--noise", "--seed", "11"],
+        "fuel_kg_s",
+        "meter_offset.csv",
+        |w| (w > 0.0).then_some(w + 0.008),
+    );
     let v = json_of(
         gtwatch()
             .args(["gap", "--input"])
