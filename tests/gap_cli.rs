@@ -26,14 +26,15 @@ fn json_of(out: std::io::Result<std::process::Output>) -> serde_json::Value {
 }
 
 /// A `gtwatch simulate` start-up (`sim_args` after `simulate`) written to `dir`, then one column
-/// altered by this test, sample by sample (`alter` gets the value and returns the new one, or
-/// `None` to keep it): the path of the altered CSV, named `name`.
+/// altered by this test as another program would: `alter` gets the record's times and the
+/// column's values (NaN where a cell is blank) and changes the values in place; each changed
+/// value is written back as text. Returns the path of the altered CSV, named `name`.
 fn simulated_then_altered(
     dir: &std::path::Path,
     sim_args: &[&str],
     column: &str,
     name: &str,
-    alter: impl Fn(f64) -> Option<f64>,
+    alter: impl FnOnce(&[f64], &mut [f64]),
 ) -> std::path::PathBuf {
     let clean = dir.join("clean.csv");
     let out = gtwatch()
@@ -43,21 +44,35 @@ fn simulated_then_altered(
         .arg(&clean)
         .output()
         .expect("simulate runs");
-    assert!(out.status.success());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let text = std::fs::read_to_string(&clean).expect("read");
     let mut lines = text.lines();
     let header = lines.next().expect("header");
-    let ix = header
-        .split(',')
-        .position(|c| c == column)
-        .unwrap_or_else(|| panic!("{column} column"));
+    let col = |name: &str| {
+        header
+            .split(',')
+            .position(|c| c == name)
+            .unwrap_or_else(|| panic!("{name} column"))
+    };
+    let (it, ix) = (col("time_s"), col(column));
+    let mut rows: Vec<Vec<String>> = lines
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect();
+    let cell = |r: &Vec<String>, i: usize| r[i].parse::<f64>().unwrap_or(f64::NAN);
+    let times: Vec<f64> = rows.iter().map(|r| cell(r, it)).collect();
+    let before: Vec<f64> = rows.iter().map(|r| cell(r, ix)).collect();
+    let mut after = before.clone();
+    alter(&times, &mut after);
     let mut altered = format!("{header}\n");
-    for line in lines {
-        let mut f: Vec<String> = line.split(',').map(str::to_string).collect();
-        if let Some(v) = f[ix].parse::<f64>().ok().and_then(&alter) {
-            f[ix] = format!("{v:.6}");
+    for ((r, old), new) in rows.iter_mut().zip(&before).zip(&after) {
+        if new.is_finite() && new.to_bits() != old.to_bits() {
+            r[ix] = format!("{new:.6}");
         }
-        altered.push_str(&f.join(","));
+        altered.push_str(&r.join(","));
         altered.push('\n');
     }
     let csv = dir.join(name);
@@ -68,53 +83,29 @@ fn simulated_then_altered(
 #[test]
 fn a_slow_t34_thermocouple_is_found_and_named() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let clean = dir.path().join("clean.csv");
-    let out = gtwatch()
-        .args([
-            "simulate",
+    // Two-path thermocouple on T34 (junction 3 s, shield 15 s, 60/40).
+    let plant = simulated_then_altered(
+        dir.path(),
+        &[
             "--health",
             "D_GC=2,D_EC=1,D_GT=0.5",
             "--noise",
             "--seed",
             "3",
-            "--out",
-        ])
-        .arg(&clean)
-        .output()
-        .expect("simulate runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        ],
+        "t34_k",
+        "plant.csv",
+        |t, x| {
+            let (mut y1, mut y2) = (x[0], x[0]);
+            for k in 1..x.len() {
+                let dt = t[k] - t[k - 1];
+                let (a1, a2) = ((-dt / 3.0).exp(), (-dt / 15.0).exp());
+                y1 = a1 * y1 + (1.0 - a1) * x[k];
+                y2 = a2 * y2 + (1.0 - a2) * x[k];
+                x[k] = 0.6 * y1 + 0.4 * y2;
+            }
+        },
     );
-
-    // Two-path thermocouple on T34, written back as text like any other tool would.
-    let text = std::fs::read_to_string(&clean).expect("read");
-    let mut lines = text.lines();
-    let header = lines.next().expect("header");
-    let cols: Vec<&str> = header.split(',').collect();
-    let it = cols.iter().position(|c| *c == "time_s").expect("time");
-    let ix = cols.iter().position(|c| *c == "t34_k").expect("t34");
-    let (mut y1, mut y2, mut prev) = (f64::NAN, f64::NAN, 0.0);
-    let mut altered = String::from(header);
-    altered.push('\n');
-    for line in lines {
-        let mut f: Vec<String> = line.split(',').map(str::to_string).collect();
-        let (t, x): (f64, f64) = (f[it].parse().expect("t"), f[ix].parse().expect("x"));
-        if y1.is_nan() {
-            (y1, y2) = (x, x);
-        } else {
-            let (a1, a2) = ((-(t - prev) / 3.0).exp(), (-(t - prev) / 15.0).exp());
-            y1 = a1 * y1 + (1.0 - a1) * x;
-            y2 = a2 * y2 + (1.0 - a2) * x;
-        }
-        prev = t;
-        f[ix] = format!("{:.3}", 0.6 * y1 + 0.4 * y2);
-        altered.push_str(&f.join(","));
-        altered.push('\n');
-    }
-    let plant = dir.path().join("plant.csv");
-    std::fs::write(&plant, altered).expect("write");
 
     let unit = dir.path().join("unit.toml");
     let svg = dir.path().join("gap.svg");
@@ -203,7 +194,7 @@ fn an_inlet_thermometer_error_is_never_passed_off_as_none() {
         &["--noise", "--seed", "3"],
         "t1_k",
         "t1_high.csv",
-        |t1| Some(t1 + 2.1),
+        |_, t1| t1.iter_mut().for_each(|v| *v += 2.1),
     );
     let v = json_of(
         gtwatch()
@@ -241,46 +232,24 @@ fn an_inlet_thermometer_error_is_never_passed_off_as_none() {
 #[test]
 fn a_drifting_fuel_meter_is_named_among_the_instruments_the_health_may_hide() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let clean = dir.path().join("clean.csv");
-    let out = gtwatch()
-        .args([
-            "simulate",
+    let csv = simulated_then_altered(
+        dir.path(),
+        &[
             "--health",
             "D_GC=2,D_EC=1.5,D_GT=1,D_ET=0.5,D_GP=0.5,D_EP=1",
             "--noise",
             "--seed",
             "5",
-            "--out",
-        ])
-        .arg(&clean)
-        .output()
-        .expect("simulate runs");
-    assert!(out.status.success());
-    let text = std::fs::read_to_string(&clean).expect("read");
-    let mut lines = text.lines();
-    let header = lines.next().expect("header");
-    let col = |name: &str| {
-        header
-            .split(',')
-            .position(|c| c == name)
-            .unwrap_or_else(|| panic!("{name} column"))
-    };
-    let (it, ifuel) = (col("time_s"), col("fuel_kg_s"));
-    let rows: Vec<Vec<String>> = lines
-        .map(|l| l.split(',').map(str::to_string).collect())
-        .collect();
-    let t = |r: &Vec<String>| -> f64 { r[it].parse().expect("time") };
-    let (t0, t1) = (t(&rows[0]), t(&rows[rows.len() - 1]));
-    let mut altered = format!("{header}\n");
-    for mut r in rows {
-        if let Ok(w) = r[ifuel].parse::<f64>() {
-            r[ifuel] = format!("{:.6}", w * (1.0 + 0.035 * (t(&r) - t0) / (t1 - t0)));
-        }
-        altered.push_str(&r.join(","));
-        altered.push('\n');
-    }
-    let csv = dir.path().join("meter_drift.csv");
-    std::fs::write(&csv, altered).expect("write");
+        ],
+        "fuel_kg_s",
+        "meter_drift.csv",
+        |t, fuel| {
+            let (t0, t1) = (t[0], t[t.len() - 1]);
+            for (w, tt) in fuel.iter_mut().zip(t) {
+                *w *= 1.0 + 0.035 * (tt - t0) / (t1 - t0);
+            }
+        },
+    );
     let v = json_of(
         gtwatch()
             .args(["gap", "--input"])
@@ -316,7 +285,11 @@ fn a_fuel_meter_offset_hidden_at_rest_is_named_and_the_health_restored() {
         &["--health", "D_GC=1.5,D_GT=0.8", "--noise", "--seed", "11"],
         "fuel_kg_s",
         "meter_offset.csv",
-        |w| (w > 0.0).then_some(w + 0.008),
+        |_, fuel| {
+            fuel.iter_mut()
+                .filter(|w| **w > 0.0)
+                .for_each(|w| *w += 0.008)
+        },
     );
     let v = json_of(
         gtwatch()

@@ -39,6 +39,15 @@ pub(crate) fn select(selection: &str) -> Result<Vec<String>, String> {
         .collect()
 }
 
+/// The largest |value| of signal `s` in `rec` (0 when it has none): the scale a bias's bounds
+/// are a fraction of.
+fn peak_abs(rec: &Recording, s: Signal) -> f64 {
+    rec.series(s)
+        .into_iter()
+        .filter(|v| v.is_finite())
+        .fold(0.0, |m: f64, v| m.max(v.abs()))
+}
+
 /// The fit parameters of one candidate instance, bounded for `rec`.
 pub(crate) fn fit_params(instance: &str, rec: &Recording) -> Vec<FitParam> {
     let Some(spec) = effects::spec(instance) else {
@@ -50,24 +59,15 @@ pub(crate) fn fit_params(instance: &str, rec: &Recording) -> Vec<FitParam> {
         .map(|p| {
             let (lo, hi) = match (spec.name, channel) {
                 ("sensor_bias", Some(s)) => {
-                    let peak = rec
-                        .series(s)
-                        .into_iter()
-                        .filter(|v| v.is_finite())
-                        .fold(0.0, |m: f64, v| m.max(v.abs()));
-                    let b = (BIAS_BOUND_FRACTION * peak).max(1e-6);
+                    let b = (BIAS_BOUND_FRACTION * peak_abs(rec, s)).max(1e-6);
                     (-b, b)
                 }
                 ("sensor_lag", _) => (p.min, p.max.min(30.0)),
                 // A fuel meter's zero offset, in kg/s: bounded by the recording's fuel flow
                 // as a bias is by its channel's (an engine-free bound for any size of unit).
                 ("fuel_meter_offset", _) => {
-                    let peak = rec
-                        .series(Signal::FuelFlow)
-                        .into_iter()
-                        .filter(|v| v.is_finite())
-                        .fold(0.0, |m: f64, v| m.max(v.abs()));
-                    let b = (BIAS_BOUND_FRACTION * peak).clamp(1e-6, p.max);
+                    let b =
+                        (BIAS_BOUND_FRACTION * peak_abs(rec, Signal::FuelFlow)).clamp(1e-6, p.max);
                     (-b, b)
                 }
                 _ => (p.min, p.max),

@@ -34,16 +34,13 @@ pub(crate) const ONSET: usize = 4;
 /// The controls: the engine's own step, and nothing.
 pub(crate) const CONTROL_KINDS: [&str; 2] = ["turbine_step", "none"];
 
-/// The input kinds a sequence is run on by default: those the health can hide, which only a
-/// sequence tells apart (the fuel meter's cut-off offset is named from one start-up, where
-/// idle and light-off show it; `--kinds fuel_cutoff` still runs it).
-const SEQUENCE_KINDS: [&str; 5] = [
-    "fuel_scale",
-    "fuel_drift",
-    "t1_offset",
-    "p1_offset",
-    "power_scale",
-];
+/// Whether a sequence is run on input kind `kind` by default: when its instrument is one the
+/// health can hide ([`super::alias::is_input_instrument`]), which only a sequence tells apart
+/// (the fuel meter's cut-off offset is named from one start-up, where idle and light-off show
+/// it; `--kinds fuel_cutoff` still runs it).
+fn hides_behind_health(kind: &str) -> bool {
+    super::alias::is_input_instrument(truth::expected(kind))
+}
 
 /// One sequence.
 #[derive(Debug, Clone, Serialize)]
@@ -83,7 +80,7 @@ fn true_health(base: [f64; 6], rate: f64, j: usize, turbine: f64) -> [f64; 6] {
 }
 
 /// Runs `cases` sequences of `start_ups` each, cycling through `kinds` (default: the five
-/// [`SEQUENCE_KINDS`], then the two controls).
+/// input kinds the health can hide, then the two controls).
 pub(crate) fn run_sequences(
     engine: &Engine,
     cases: usize,
@@ -109,10 +106,11 @@ pub(crate) fn run_sequences(
         )));
     }
     let kinds: Vec<&str> = if only.is_empty() {
-        SEQUENCE_KINDS
+        INPUT_KINDS
             .iter()
-            .chain(&CONTROL_KINDS)
             .copied()
+            .filter(|k| hides_behind_health(k))
+            .chain(CONTROL_KINDS)
             .collect()
     } else {
         only.iter().map(String::as_str).collect()
@@ -283,4 +281,30 @@ pub(crate) fn summarise(cases: &[SequenceCase]) -> serde_json::Value {
         "named_corrected_within_0_3": rate(&named, &|c| c.error_corrected <= 0.3),
         "median_wall_s": median_wall,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The default sequence kinds are the five instruments the health can hide; the cut-off
+    /// offset, which one start-up names, is not among them.
+    #[test]
+    fn sequences_run_by_default_on_the_instruments_the_health_can_hide() {
+        let kinds: Vec<&str> = INPUT_KINDS
+            .iter()
+            .copied()
+            .filter(|k| hides_behind_health(k))
+            .collect();
+        assert_eq!(
+            kinds,
+            [
+                "fuel_scale",
+                "fuel_drift",
+                "t1_offset",
+                "p1_offset",
+                "power_scale"
+            ]
+        );
+    }
 }
