@@ -14,7 +14,7 @@
 //! the start-up it fell into. The fault tests use the free-running (speedup) mode.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-mod common;
+use crate::common;
 
 use gtwatch::daemon::{self, RunOptions};
 use gtwatch::plantsim::{spawn_plant_sim, ScriptLevels, ScriptedPlant, SimOptions};

@@ -3,7 +3,7 @@
 //! Each test runs real servers on 127.0.0.1 and the real `daemon::run`, for about a second.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-mod common;
+use crate::common;
 
 use gtwatch::acquire::modbus::PollProgress;
 use gtwatch::acquire::register_map::{ByteOrder, DataType, FieldSpec, RegisterKind, RequestSpec};

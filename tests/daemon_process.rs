@@ -3,7 +3,7 @@
 //! committed and exit status 0. The test plays systemd's notify socket.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-mod common;
+use crate::common;
 
 use gtwatch::plantsim::{spawn_plant_sim, ScriptedPlant, SimOptions};
 use std::os::unix::net::UnixDatagram;

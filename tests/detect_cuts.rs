@@ -4,7 +4,7 @@
 //! exactly what one pass finds.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-mod common;
+use crate::common;
 
 use gtwatch::detect::{scan, DetectorConfig};
 use gtwatch::plantsim::{PlantModel, ScriptLevels, ScriptedPlant};

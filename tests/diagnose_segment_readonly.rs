@@ -7,7 +7,7 @@
 //! user `nobody` (65534), for whom the files are read-only like for any other user.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-mod common;
+use crate::common;
 
 use gtwatch::health::HealthParams;
 use std::os::unix::process::CommandExt;

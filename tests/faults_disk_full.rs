@@ -18,7 +18,7 @@
 //! the cycles and the time spent full.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-mod common;
+use crate::common;
 
 use common::daemon::{config_text, set, start_sim, Daemon};
 use std::io::Write;

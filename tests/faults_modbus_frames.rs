@@ -8,7 +8,7 @@
 //! `GTWATCH_FAULTS_LONG` factor); each prints a `FAULT-TALLY` line.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-mod common;
+use crate::common;
 
 use gtwatch::acquire::modbus::PollProgress;
 use gtwatch::daemon::{self, RunOptions};

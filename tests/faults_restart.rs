@@ -7,7 +7,7 @@
 //! Real servers on 127.0.0.1 and the real `daemon::run`, about a second per run.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-mod common;
+use crate::common;
 
 use gtwatch::acquire::modbus::PollProgress;
 use gtwatch::daemon::{self, RunOptions};

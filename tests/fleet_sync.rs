@@ -7,7 +7,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-mod common;
+use crate::common;
 
 use common::postgres::{PgServer, PG_PASSWORD, PG_USER};
 use gtwatch::fleet::{sync_once, Centre, FleetConfig, FleetError};

@@ -49,7 +49,7 @@ use gtwatch::signals::Signal;
 use std::collections::HashMap;
 use std::path::PathBuf;
 
-mod ranking;
+use crate::ranking;
 use ranking::spearman;
 
 fn root() -> PathBuf {

@@ -9,7 +9,7 @@
 //! model started cold reads the warm metal as turbine degradation.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-mod common;
+use crate::common;
 
 use gtwatch::engine::simulation::run_scenario;
 use gtwatch::engine::{Engine, Scenario};

@@ -12,7 +12,7 @@
 //! Without the `prometheus` binary on PATH the test fails and says how to install it.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-mod common;
+use crate::common;
 
 use common::daemon::{config_text, sim_runtime, start_sim, write_config, Daemon};
 use std::io::{Read, Write};

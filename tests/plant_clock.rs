@@ -4,7 +4,7 @@
 //! detector's 60 s hold and no start ever completed.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-mod common;
+use crate::common;
 
 use gtwatch::daemon::{self, RunOptions};
 use gtwatch::plantsim::{

@@ -9,7 +9,7 @@
 //! that of an uninterrupted replay.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-mod common;
+use crate::common;
 
 use gtwatch::store::Store;
 use std::io::Write;

@@ -4,7 +4,7 @@
 //! lands inside the diagnosis, not before it.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-mod common;
+use crate::common;
 
 use gtwatch::health::HealthParams;
 use std::path::Path;

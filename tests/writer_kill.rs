@@ -11,7 +11,7 @@
 //! acknowledged.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-mod common;
+use crate::common;
 
 use common::daemon::{config_text, set, start_sim, write_config, Daemon};
 use std::time::Duration;

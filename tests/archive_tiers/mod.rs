@@ -11,8 +11,7 @@
 //!   run doing both tiers on raw data.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-#[path = "../common/mod.rs"]
-mod common;
+use crate::common;
 mod retention;
 
 use gtwatch::quality::Quality;

@@ -12,8 +12,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
-#[path = "../common/mod.rs"]
-mod common;
+use crate::common;
 
 mod bench;
 mod gap;
