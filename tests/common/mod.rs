@@ -175,7 +175,7 @@ pub fn long_factor() -> u32 {
 }
 
 /// Outcome of one fault class in one test, printed as one `FAULT-TALLY` line on stderr
-/// (`cargo test --test faults_x -- --nocapture`, collected for the README's table).
+/// (`cargo test --test integration faults_x:: -- --nocapture`, collected for the README's table).
 #[derive(Debug, Clone)]
 pub struct Tally<'a> {
     /// Fault class, e.g. `disk_full_tmpfs`.

@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 
 /// The acceptance figure of issue 25 item 3, by hand (minutes):
 /// `BENCH_STARTUPS=200 BENCH_WORKERS=4 BENCH_KILL=2 BENCH_RUNS=100 cargo test --release
-///  --test fleet_rediagnose bench_ -- --ignored --nocapture`.
+///  --test integration fleet_rediagnose::bench::bench_ -- --ignored --nocapture`.
 /// An edge of `BENCH_STARTUPS` start-ups diagnosed with `BENCH_RUNS` model runs per method is
 /// synced; one worker runs a quarter of the jobs alone (its throughput); then the queue is
 /// emptied and refilled, `BENCH_WORKERS` workers run it all while `BENCH_KILL` of them are
