@@ -509,6 +509,40 @@ fn arrows_only_point_down() {
     );
 }
 
+/// With `autotests = false` (Cargo.toml), a test file that `tests/integration.rs` does not
+/// declare is never built nor run, silently: every `tests/<name>.rs` and `tests/<name>/mod.rs`
+/// must be one of its modules.
+#[test]
+fn every_test_file_is_a_module_of_the_one_test_binary() {
+    let tests = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests");
+    let root = std::fs::read_to_string(tests.join("integration.rs")).expect("tests/integration.rs");
+    let declared: Vec<&str> = root
+        .lines()
+        .filter_map(|l| l.strip_prefix("mod ")?.strip_suffix(';'))
+        .collect();
+    let mut missing = Vec::new();
+    for entry in std::fs::read_dir(&tests).expect("tests/") {
+        let path = entry.expect("entry").path();
+        let name = if path.is_dir() && path.join("mod.rs").is_file() {
+            path.file_name().and_then(|n| n.to_str()).map(str::to_owned)
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            path.file_stem().and_then(|n| n.to_str()).map(str::to_owned)
+        } else {
+            None
+        };
+        if let Some(name) = name.filter(|n| n != "integration") {
+            if !declared.contains(&name.as_str()) {
+                missing.push(name);
+            }
+        }
+    }
+    missing.sort();
+    assert!(
+        missing.is_empty(),
+        "not declared in tests/integration.rs, so never run: {missing:?}"
+    );
+}
+
 #[test]
 fn readme_table_matches_floors() {
     let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md"))
