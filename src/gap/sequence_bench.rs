@@ -42,6 +42,16 @@ fn hides_behind_health(kind: &str) -> bool {
     super::alias::is_input_instrument(truth::expected(kind))
 }
 
+/// The input kinds a sequence runs on when none are asked for: those whose instrument the
+/// health can hide.
+fn default_sequence_inputs() -> Vec<&'static str> {
+    INPUT_KINDS
+        .iter()
+        .copied()
+        .filter(|k| hides_behind_health(k))
+        .collect()
+}
+
 /// One sequence.
 #[derive(Debug, Clone, Serialize)]
 pub(crate) struct SequenceCase {
@@ -106,10 +116,8 @@ pub(crate) fn run_sequences(
         )));
     }
     let kinds: Vec<&str> = if only.is_empty() {
-        INPUT_KINDS
-            .iter()
-            .copied()
-            .filter(|k| hides_behind_health(k))
+        default_sequence_inputs()
+            .into_iter()
             .chain(CONTROL_KINDS)
             .collect()
     } else {
@@ -291,13 +299,8 @@ mod tests {
     /// offset, which one start-up names, is not among them.
     #[test]
     fn sequences_run_by_default_on_the_instruments_the_health_can_hide() {
-        let kinds: Vec<&str> = INPUT_KINDS
-            .iter()
-            .copied()
-            .filter(|k| hides_behind_health(k))
-            .collect();
         assert_eq!(
-            kinds,
+            default_sequence_inputs(),
             [
                 "fuel_scale",
                 "fuel_drift",
