@@ -158,11 +158,20 @@ fn print_effects(json: bool) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&list)?);
         return Ok(());
     }
-    for e in crate::engine::effects::REGISTRY {
-        println!("{:16} {}", e.name, e.summary);
+    // Columns as wide as the longest name (plus a space), so no name runs into its text.
+    let registry = crate::engine::effects::REGISTRY;
+    let name_w = registry.iter().map(|e| e.name.len()).max().unwrap_or(0) + 1;
+    let param_w = registry
+        .iter()
+        .flat_map(|e| e.params.iter().map(|p| p.name.len()))
+        .max()
+        .unwrap_or(0)
+        + 1;
+    for e in registry {
+        println!("{:name_w$} {}", e.name, e.summary);
         for p in e.params {
             println!(
-                "  {:18} {} [{}, {}] default {}: {}",
+                "  {:param_w$} {} [{}, {}] default {}: {}",
                 p.name, p.unit, p.min, p.max, p.default, p.doc
             );
         }
@@ -290,6 +299,12 @@ fn print_report(report: &crate::gap::GapReport) {
         report.fits,
         report.threads
     );
+    if let Some(d) = &v.doubted {
+        println!(
+            "  {d} explains the residual, yet needs a health further beyond new than the \
+             baseline's; the instruments below would make the baseline's plausible"
+        );
+    }
     if !v.aliases.is_empty() {
         println!(
             "  the health may be hiding an error of: {} (one start-up cannot tell; see below)",

@@ -148,6 +148,10 @@ pub(crate) struct Aliases {
     pub(crate) implausibility: f64,
     /// The candidates, those that restore plausibility best first, then by `absorbed`.
     pub(crate) aliases: Vec<Alias>,
+    /// The baseline's 1σ of each health parameter (order of [`HEALTH_NAMES`]), which
+    /// [`Aliases::implausibility_of`] judges another health vector of the same start-up by.
+    #[serde(skip)]
+    pub(crate) sigma: [f64; 6],
 }
 
 impl Aliases {
@@ -169,6 +173,26 @@ impl Aliases {
             .filter(|a| a.hidden && a.plausible_magnitude.is_some())
             .map(|a| a.effect.as_str())
             .collect()
+    }
+
+    /// [`crate::health::implausibility`] of another health vector fitted to the same start-up
+    /// (a candidate's), judged with the baseline's uncertainties.
+    pub(crate) fn implausibility_of(&self, h: &HealthParams) -> f64 {
+        implausibility(&h.to_array(), &self.sigma)
+    }
+
+    /// The instruments to name beside a candidate that explains the residual yet leaves the
+    /// health *less* plausible than the baseline did, when instruments hidden behind the health
+    /// would make the baseline's plausible: then the candidate may be a wrong form of one of
+    /// them (a fuel meter drifting through the start-up, fitted as a constant zero offset of
+    /// the wrong sign, moved a turbine 0.8 points further beyond new), and one start-up cannot
+    /// tell. Empty when the candidate's health is no less plausible, or nothing restores.
+    pub(crate) fn against(&self, candidate_health: &HealthParams) -> Vec<&str> {
+        if self.implausibility_of(candidate_health) > self.implausibility {
+            self.restoring()
+        } else {
+            Vec::new()
+        }
     }
 }
 
@@ -292,6 +316,7 @@ pub(crate) fn aliases(
     Ok(Aliases {
         implausibility: implausible0,
         aliases: out,
+        sigma,
     })
 }
 
@@ -331,14 +356,44 @@ mod tests {
                 alias("inlet_temperature", 0.95, None),
                 alias("sensor_bias:p1_kpa", 0.92, Some(-0.5)),
             ],
+            sigma: [0.2; 6],
         };
         assert_eq!(a.restoring(), ["fuel_meter", "sensor_bias:p1_kpa"]);
         let plausible = Aliases {
             implausibility: 0.0,
             aliases: vec![alias("fuel_meter", 0.97, None)],
+            sigma: [0.2; 6],
         };
         assert!(plausible.restoring().is_empty());
         assert_eq!(plausible.hidden(), ["fuel_meter"]);
+    }
+
+    /// A candidate whose health is further beyond new than the baseline's is met with the
+    /// instruments that restore the baseline; one that makes it more plausible, or a baseline
+    /// nothing restores, with none.
+    #[test]
+    fn a_candidate_leaving_the_health_less_plausible_is_met_with_the_restoring_instruments() {
+        let sigma = [0.2; 6];
+        let baseline = HealthParams::from_array([0.4, 0.0, -1.1, 1.3, 1.3, 2.3]);
+        let a = Aliases {
+            implausibility: implausibility(&baseline.to_array(), &sigma),
+            aliases: vec![
+                alias("fuel_meter", 0.97, Some(0.01)),
+                alias("inlet_temperature", 0.95, None),
+            ],
+            sigma,
+        };
+        assert!(a.implausibility > 0.0);
+        let further = HealthParams::from_array([-0.3, 0.2, -1.9, 1.4, 0.2, 2.8]);
+        assert_eq!(a.against(&further), ["fuel_meter"]);
+        let restored = HealthParams::from_array([2.0, 0.2, 0.5, 1.6, 2.3, 1.0]);
+        assert!(a.against(&restored).is_empty());
+        assert!(a.against(&baseline).is_empty());
+        let nothing_restores = Aliases {
+            aliases: vec![alias("fuel_meter", 0.97, None)],
+            ..a.clone()
+        };
+        assert!(nothing_restores.against(&further).is_empty());
     }
 
     /// A noisy simulated start-up of an engine with health `truth` (noise seed `seed`) whose

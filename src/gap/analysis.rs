@@ -721,27 +721,48 @@ impl Run<'_> {
                 health_after: base.health,
                 fit_quality_after: base.fit_quality.verdict,
                 aliases: hidden,
+                doubted: None,
             };
         }
+        let explains = |best: &Candidate| {
+            best.shortlisted
+                && best.bic_gain > 0.0
+                && best.score > spread
+                && (best.score >= MIN_SHRINKAGE || best.fit_quality == Verdict::Good)
+        };
         match out.first() {
-            Some(best)
-                if best.shortlisted
-                    && best.bic_gain > 0.0
-                    && best.score > spread
-                    && (best.score >= MIN_SHRINKAGE || best.fit_quality == Verdict::Good) =>
-            {
-                GapVerdict {
-                    effect: best.effect.clone(),
-                    confidence: out
-                        .get(1)
-                        .filter(|second| second.shortlisted)
-                        .map_or(best.score, |second| best.score - second.score.max(0.0))
-                        .clamp(0.0, 1.0),
-                    shrinkage: best.score,
-                    health_before: base.health,
-                    health_after: best.health,
-                    fit_quality_after: best.fit_quality,
-                    aliases: Vec::new(),
+            Some(best) if explains(best) => {
+                // A candidate that explains the residual but needs a health less plausible
+                // than the baseline's, where an instrument hidden behind the health would make
+                // the baseline's plausible, may be a wrong form of that instrument (see
+                // `Aliases::against`): the health is in doubt, and both are named.
+                let doubted = aliases.against(&best.health);
+                if doubted.is_empty() {
+                    GapVerdict {
+                        effect: best.effect.clone(),
+                        confidence: out
+                            .get(1)
+                            .filter(|second| second.shortlisted)
+                            .map_or(best.score, |second| best.score - second.score.max(0.0))
+                            .clamp(0.0, 1.0),
+                        shrinkage: best.score,
+                        health_before: base.health,
+                        health_after: best.health,
+                        fit_quality_after: best.fit_quality,
+                        aliases: Vec::new(),
+                        doubted: None,
+                    }
+                } else {
+                    GapVerdict {
+                        effect: AMBIGUOUS.into(),
+                        confidence: 0.0,
+                        shrinkage: best.score,
+                        health_before: base.health,
+                        health_after: base.health,
+                        fit_quality_after: base.fit_quality.verdict,
+                        aliases: doubted.into_iter().map(String::from).collect(),
+                        doubted: Some(best.effect.clone()),
+                    }
                 }
             }
             _ => {
@@ -764,6 +785,7 @@ impl Run<'_> {
                     health_after: base.health,
                     fit_quality_after: base.fit_quality.verdict,
                     aliases: restoring,
+                    doubted: None,
                 }
             }
         }

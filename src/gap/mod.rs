@@ -56,8 +56,9 @@ use std::collections::BTreeMap;
 
 /// The verdict when an input instrument's error could hide behind the health (the instruments
 /// in [`GapVerdict::aliases`]; see [`GapReport::aliases`]): one start-up cannot tell them
-/// apart. Either the model fits within noise, or no candidate explains the residual while the
-/// health is better than new and one of those instruments would make it plausible.
+/// apart. Either the model fits within noise; or no candidate explains the residual while the
+/// health is better than new and one of those instruments would make it plausible; or the
+/// candidate that explains it needs a health still less plausible ([`GapVerdict::doubted`]).
 pub(crate) const AMBIGUOUS: &str = "ambiguous";
 
 /// Whether a verdict's `effect` names an effect or instrument (not `none`, `unexplained` or
@@ -131,6 +132,10 @@ pub(crate) struct GapVerdict {
     /// With `ambiguous`: the input instruments the health may be hiding, most plausible first
     /// (instance names, e.g. `fuel_meter`); empty otherwise.
     pub(crate) aliases: Vec<String>,
+    /// With `ambiguous`: the candidate that explained the residual but needed a health less
+    /// plausible than the baseline's, which the instruments in `aliases` would make plausible
+    /// (see [`alias::Aliases::against`]); `None` otherwise.
+    pub(crate) doubted: Option<String>,
 }
 
 /// The whole analysis.

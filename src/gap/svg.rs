@@ -252,6 +252,7 @@ mod tests {
                 health_after: Default::default(),
                 fit_quality_after: crate::diagnosis::fit_quality::Verdict::Good,
                 aliases: Vec::new(),
+                doubted: None,
             },
             aliases: Default::default(),
             worst_signal: Some(tr),
