@@ -51,7 +51,8 @@ pub(crate) struct SetAside {
     pub(crate) segment_id: i64,
     /// Start of the start-up, Unix ms.
     pub(crate) start_ms: i64,
-    /// The instrument effect the gap analysis named (e.g. `fuel_meter`, `sensor_bias:p2_kpa`).
+    /// The instrument effect the gap analysis named (e.g. `fuel_meter`, `sensor_bias:p2_kpa`),
+    /// or the instrument an `ambiguous` verdict doubted (see [`HistoryRow::gap_doubted`]).
     pub(crate) effect: String,
 }
 
@@ -120,13 +121,13 @@ pub(crate) fn refresh(
         })?
         .into_iter()
         .filter(|r| HEALTH_NAMES.iter().all(|p| r.value(p).is_finite()))
-        .partition(|r| r.gap_verdict.as_deref().is_some_and(is_instrument));
+        .partition(|r| instrument_explaining(r).is_some());
     let set_aside: Vec<SetAside> = set_aside
         .into_iter()
         .map(|r| SetAside {
             segment_id: r.segment_id,
             start_ms: r.start_ms,
-            effect: r.gap_verdict.unwrap_or_default(),
+            effect: instrument_explaining(&r).unwrap_or_default().to_string(),
         })
         .collect();
     // Washes seen as recovery steps, unless a wash is already stored between the two results.
@@ -259,6 +260,18 @@ pub(crate) fn refresh(
         as_of_ms,
         origin_ms,
     })
+}
+
+/// The instrument error a start-up's newest gap analysis explains it by, if any: the effect it
+/// names, or the candidate an `ambiguous` verdict doubted when that is an instrument (every
+/// explanation then left is an instrument's: the doubted one and the input instruments hidden
+/// behind the health, so the health is not the engine's either way).
+fn instrument_explaining(r: &HistoryRow) -> Option<&str> {
+    match (r.gap_verdict.as_deref(), r.gap_doubted.as_deref()) {
+        (Some(v), _) if is_instrument(v) => Some(v),
+        (Some(crate::gap::AMBIGUOUS), Some(d)) if is_instrument(d) => Some(d),
+        _ => None,
+    }
 }
 
 /// One line saying what the joint fit of the start-ups since the last wash made of the first

@@ -133,7 +133,7 @@ pub(super) fn run(a: WashArgs) -> anyhow::Result<ExitCode> {
                     );
                     for a in &r.set_aside {
                         println!(
-                            "set aside: start-up {} at {} (its gap analysis names the instrument error {})",
+                            "set aside: start-up {} at {} (its gap analysis explains it by an instrument error: {})",
                             a.segment_id,
                             fmt_ms_rfc3339(a.start_ms),
                             a.effect

@@ -97,6 +97,10 @@ pub struct HistoryRow {
     /// The verdict of the start-up's newest gap analysis, if one is stored (`fuel_meter`,
     /// `inlet_temperature`: a step an instrument explains; `ambiguous`, `none`, …).
     pub gap_verdict: Option<String>,
+    /// With an `ambiguous` gap verdict: the candidate that explained the residual but was
+    /// doubted for the health it needed (`verdict.doubted` of the stored report, e.g.
+    /// `fuel_meter_offset`); `None` otherwise and for reports stored before it existed.
+    pub gap_doubted: Option<String>,
 }
 
 /// When a stored result was written and how long its fit took: what the latency of a
@@ -427,6 +431,9 @@ impl Store {
                     (SELECT w.id FROM washes w WHERE w.t_ms <= g.start_ms
                       ORDER BY w.t_ms DESC, w.id DESC LIMIT 1),
                     (SELECT a.effect FROM gap_analyses a WHERE a.segment_id = g.id
+                      ORDER BY a.created_at_ms DESC, a.id DESC LIMIT 1),
+                    (SELECT json_extract(a.report_json, '$.verdict.doubted')
+                      FROM gap_analyses a WHERE a.segment_id = g.id
                       ORDER BY a.created_at_ms DESC, a.id DESC LIMIT 1)
              FROM diagnoses d JOIN segments g ON g.id = d.segment_id
              WHERE (?1 IS NULL OR g.start_ms >= ?1) AND (?2 IS NULL OR g.start_ms <= ?2)
@@ -455,6 +462,8 @@ impl Store {
                 fit_quality: r.get(19)?,
                 wash_id_before: r.get(20)?,
                 gap_verdict: r.get(21)?,
+                // A report that is not the JSON this version writes reads as doubting nothing.
+                gap_doubted: r.get::<_, Option<String>>(22).ok().flatten(),
             })
         })?;
         Ok(rows.collect::<Result<_, _>>()?)

@@ -323,9 +323,10 @@ mod tests {
         assert_eq!(store.washes().unwrap().len(), 1);
     }
 
-    /// Issue 23 item 4: a start-up whose stored gap analysis names an instrument's error is set
-    /// aside by the wash advice, so the step that instrument made does not move the advice; the
-    /// same step without the analysis does.
+    /// Issue 23 item 4: a start-up whose stored gap analysis names an instrument's error (or
+    /// doubts one, `ambiguous` with `verdict.doubted`) is set aside by the wash advice, so the
+    /// step that instrument made does not move the advice; the same step without the analysis,
+    /// or with an `ambiguous` one that doubted nothing, does.
     #[test]
     fn a_step_an_instrument_explains_does_not_move_the_advice() {
         let engine = Engine::reference().unwrap();
@@ -333,7 +334,7 @@ mod tests {
         let t0 = 1_700_000_000_000_i64;
         // From day 24 on, a fuel meter reading high makes every start-up look 2 points more
         // fouled; `analysed`: the gap task analysed those start-ups and stored the meter.
-        let advice_with = |step: bool, analysed: bool| {
+        let advice_with = |step: bool, analysed: Option<(&str, &str)>| {
             let dir = tempfile::tempdir().unwrap();
             let mut store = Store::open(&dir.path().join("w.db")).unwrap();
             fill(&mut store);
@@ -351,17 +352,17 @@ mod tests {
                 ];
                 let seg = insert_result(&mut store, t0 + day * DAY, health);
                 stepped.push(seg);
-                if analysed {
+                if let Some((effect, report_json)) = analysed {
                     store
                         .insert_gap_analysis(&crate::store::NewGapAnalysis {
                             segment_id: seg,
                             holdout_segment_id: None,
-                            effect: "fuel_meter".into(),
+                            effect: effect.into(),
                             shrinkage: 0.8,
                             confidence: 0.6,
                             baseline_fit_quality: "good".into(),
                             normalised_residual: 1.1,
-                            report_json: "{}".into(),
+                            report_json: report_json.into(),
                         })
                         .unwrap();
                 }
@@ -369,9 +370,26 @@ mod tests {
             let r = refresh_advice(&mut store, &engine, &econ);
             (r, stepped)
         };
-        let (clean, _) = advice_with(false, false);
-        let (explained, stepped) = advice_with(true, true);
-        let (unexplained, _) = advice_with(true, false);
+        let (clean, _) = advice_with(false, None);
+        let (explained, stepped) = advice_with(true, Some(("fuel_meter", "{}")));
+        let (unexplained, _) = advice_with(true, None);
+        // An `ambiguous` verdict that doubted an instrument (the meter's offset, with the
+        // meter's scale hidden behind the health) sets the start-ups aside as well; one that
+        // only lists what could hide behind a good fit does not.
+        let doubted = r#"{"verdict":{"effect":"ambiguous","doubted":"fuel_meter_offset","aliases":["fuel_meter"]}}"#;
+        let (doubted, _) = advice_with(true, Some(("ambiguous", doubted)));
+        let hidden =
+            r#"{"verdict":{"effect":"ambiguous","doubted":null,"aliases":["fuel_meter"]}}"#;
+        let (hidden, _) = advice_with(true, Some(("ambiguous", hidden)));
+        let aside: Vec<i64> = doubted.set_aside.iter().map(|a| a.segment_id).collect();
+        assert_eq!(aside, stepped);
+        assert!(doubted
+            .set_aside
+            .iter()
+            .all(|a| a.effect == "fuel_meter_offset"));
+        assert_eq!(doubted.advised_ms, explained.advised_ms);
+        assert!(hidden.set_aside.is_empty());
+        assert_eq!(hidden.advised_ms, unexplained.advised_ms);
         let days = |r: &crate::advice::AdviceReport| r.advised_ms.unwrap() as f64 / DAY as f64;
         let aside: Vec<i64> = explained.set_aside.iter().map(|a| a.segment_id).collect();
         assert_eq!(aside, stepped);
