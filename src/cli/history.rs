@@ -4,7 +4,8 @@
 //! JSON is one array of objects (`segment_id`, `start_ms`, `start_utc`, `method`, `health`,
 //! `sigma`, `objective`, `residual_level`, `fit_quality`, `wash_id_before`, `gap_verdict`: the
 //! verdict of the start-up's newest stored gap analysis, which names an instrument when one
-//! explains the start-up). Reads the database
+//! explains the start-up; `gap_doubted`: the candidate an `ambiguous` verdict doubted, see
+//! `gap::GapVerdict::doubted`). Reads the database
 //! read-only; the query is `Store::history`. Must not compute trends.
 
 use super::common::{db_path, parse_cli_time};
@@ -143,6 +144,7 @@ pub(super) fn write_history(
                         "fit_quality": r.fit_quality,
                         "wash_id_before": r.wash_id_before,
                         "gap_verdict": r.gap_verdict,
+                        "gap_doubted": r.gap_doubted,
                     })
                 })
                 .collect();

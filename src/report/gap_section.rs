@@ -46,10 +46,14 @@ pub(super) fn render(rows: &[GapAnalysisRow]) -> String {
             r.segment_id,
             esc(&r.baseline_fit_quality),
             r.normalised_residual,
-            esc(&if r.aliases.is_empty() {
-                r.effect.clone()
-            } else {
-                format!("{} (instrument: {})", r.effect, r.aliases.join(", "))
+            esc(&match (&r.doubted, r.aliases.is_empty()) {
+                (Some(d), _) => format!(
+                    "{} ({d} explains it but needs a less plausible health; instrument: {})",
+                    r.effect,
+                    r.aliases.join(", ")
+                ),
+                (None, true) => r.effect.clone(),
+                (None, false) => format!("{} (instrument: {})", r.effect, r.aliases.join(", ")),
             }),
             100.0 * r.shrinkage,
             r.confidence
@@ -81,6 +85,7 @@ mod tests {
             } else {
                 Vec::new()
             },
+            doubted: None,
         };
         let h = render(&[
             row(1, "sensor_lag:t34_k"),
@@ -91,6 +96,17 @@ mod tests {
         assert!(h.contains("4 analysis(es): 1 named an unmodelled effect, 1 found a gap"));
         assert!(h.contains("1 ambiguous"));
         assert!(h.contains("ambiguous (instrument: fuel_meter)"), "{h}");
+        let doubted = GapAnalysisRow {
+            doubted: Some("fuel_meter_offset".into()),
+            ..row(5, "ambiguous")
+        };
+        assert!(
+            render(&[doubted]).contains(
+                "ambiguous (fuel_meter_offset explains it but needs a less plausible health; \
+                 instrument: fuel_meter)"
+            ),
+            "the doubted candidate is shown"
+        );
         assert_eq!(h.matches("<tr>").count(), 5, "header and four rows");
         assert!(h.contains("sensor_lag:t34_k") && h.contains("62 %"));
         assert!(h.contains("2026-01-05"));

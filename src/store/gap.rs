@@ -35,11 +35,14 @@ pub struct GapAnalysisRow {
     /// The input instruments an `ambiguous` verdict names (`verdict.aliases` of the stored
     /// report; empty for other verdicts and for reports stored before it existed).
     pub aliases: Vec<String>,
+    /// The candidate an `ambiguous` verdict doubted (`verdict.doubted`): it explained the
+    /// residual but needed a less plausible health. `None` otherwise.
+    pub doubted: Option<String>,
 }
 
 const ROW_COLUMNS: &str = "g.id, g.segment_id, g.holdout_segment_id, g.effect, g.shrinkage,
     g.confidence, g.baseline_fit_quality, g.normalised_residual, g.created_at_ms, s.start_ms,
-    json_extract(g.report_json, '$.verdict.aliases')
+    json_extract(g.report_json, '$.verdict.aliases'), json_extract(g.report_json, '$.verdict.doubted')
     FROM gap_analyses g JOIN segments s ON s.id = g.segment_id";
 
 fn row(r: &rusqlite::Row<'_>) -> rusqlite::Result<GapAnalysisRow> {
@@ -61,6 +64,7 @@ fn row(r: &rusqlite::Row<'_>) -> rusqlite::Result<GapAnalysisRow> {
             .flatten()
             .and_then(|j| serde_json::from_str(&j).ok())
             .unwrap_or_default(),
+        doubted: r.get::<_, Option<String>>(11).ok().flatten(),
     })
 }
 
@@ -210,17 +214,23 @@ mod tests {
             rows[0].aliases.is_empty(),
             "a report without verdict aliases"
         );
-        // An ambiguous verdict's instruments are read from its report.
+        // An ambiguous verdict's instruments, and the candidate it doubted, are read from its
+        // report.
         let amb = NewGapAnalysis {
             effect: "ambiguous".into(),
             report_json:
-                r#"{"verdict":{"effect":"ambiguous","aliases":["fuel_meter","inlet_temperature"]}}"#
+                r#"{"verdict":{"effect":"ambiguous","aliases":["fuel_meter","inlet_temperature"],"doubted":"fuel_meter_offset"}}"#
                     .into(),
             ..g.clone()
         };
         store.insert_gap_analysis(&amb).expect("insert");
         let newest = &store.gap_analyses(seg).expect("read")[0];
         assert_eq!(newest.aliases, ["fuel_meter", "inlet_temperature"]);
+        assert_eq!(newest.doubted.as_deref(), Some("fuel_meter_offset"));
+        assert_eq!(
+            rows[0].doubted, None,
+            "a report without a doubted candidate"
+        );
         // A row must name a real segment.
         let bad = NewGapAnalysis {
             segment_id: seg + 99,
