@@ -10,6 +10,7 @@
 //! ([`AdviceWrite`], one transaction; in the daemon through the one writer). Must not fit
 //! engine models or hold arithmetic of its own beyond arranging the points.
 
+use crate::diagnosis::fit_quality::Verdict;
 use crate::engine::effects::is_instrument;
 use crate::engine::Engine;
 use crate::gap::sequence::{self, SeqPoint, SequenceAttribution, SequenceVerdict};
@@ -56,6 +57,16 @@ pub(crate) struct SetAside {
     pub(crate) effect: String,
 }
 
+/// A result the trends leave out because its fit is `poor`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub(crate) struct PoorFit {
+    pub(crate) segment_id: i64,
+    /// Start of the start-up, Unix ms.
+    pub(crate) start_ms: i64,
+    /// The verdict of its newest gap analysis, if one is stored (what the model lacked).
+    pub(crate) gap_verdict: Option<String>,
+}
+
 /// The first step in the health since the last wash, attributed by a joint fit of the
 /// start-ups ([`sequence`]): when it names an instrument, the trends see the health of the
 /// onset and later start-ups corrected by that instrument's error.
@@ -80,6 +91,10 @@ pub(crate) struct StepAttribution {
 pub(crate) struct AdviceReport {
     /// Results left out of the trends because an instrument explains their start-up.
     pub(crate) set_aside: Vec<SetAside>,
+    /// Results left out of the trends because their fit is `poor`: the model does not describe
+    /// that start-up (an unmodelled effect, a bad recording), so its health is not the
+    /// engine's, and one such start-up would read as a step in every parameter.
+    pub(crate) poor_fits: Vec<PoorFit>,
     /// The step since the last wash and what explains it, when a start-up left the trend.
     pub(crate) step: Option<StepAttribution>,
     /// Detected washes (ids) that the step's instrument explains: ignored by the trends, left
@@ -114,22 +129,14 @@ pub(crate) fn refresh(
     bounds: &HealthBounds,
 ) -> Result<AdviceReport, AdviceError> {
     let store = db.read();
-    let (set_aside, rows): (Vec<HistoryRow>, Vec<HistoryRow>) = store
-        .history(&HistoryFilter {
-            method: Some("B".into()),
-            ..HistoryFilter::default()
-        })?
-        .into_iter()
-        .filter(|r| HEALTH_NAMES.iter().all(|p| r.value(p).is_finite()))
-        .partition(|r| instrument_explaining(r).is_some());
-    let set_aside: Vec<SetAside> = set_aside
-        .into_iter()
-        .map(|r| SetAside {
-            segment_id: r.segment_id,
-            start_ms: r.start_ms,
-            effect: instrument_explaining(&r).unwrap_or_default().to_string(),
-        })
-        .collect();
+    let TrendRows {
+        rows,
+        set_aside,
+        poor_fits,
+    } = trend_rows(store.history(&HistoryFilter {
+        method: Some("B".into()),
+        ..HistoryFilter::default()
+    })?);
     // Washes seen as recovery steps, unless a wash is already stored between the two results.
     let washes = store.washes()?;
     // The first step since the last wash an operator recorded or confirmed, attributed by a
@@ -248,6 +255,7 @@ pub(crate) fn refresh(
     };
     Ok(AdviceReport {
         set_aside,
+        poor_fits,
         step,
         washes_explained: explained,
         last_wash_ms,
@@ -260,6 +268,44 @@ pub(crate) fn refresh(
         as_of_ms,
         origin_ms,
     })
+}
+
+/// The Method B results the trends use, and those they leave out.
+struct TrendRows {
+    rows: Vec<HistoryRow>,
+    set_aside: Vec<SetAside>,
+    poor_fits: Vec<PoorFit>,
+}
+
+/// Splits the stored results: those an instrument explains are set aside, those whose fit is
+/// `poor` are left out (the model does not describe the start-up), the rest feed the trends.
+fn trend_rows(history: Vec<HistoryRow>) -> TrendRows {
+    let (aside, rows): (Vec<HistoryRow>, Vec<HistoryRow>) = history
+        .into_iter()
+        .filter(|r| HEALTH_NAMES.iter().all(|p| r.value(p).is_finite()))
+        .partition(|r| instrument_explaining(r).is_some());
+    let (poor, rows): (Vec<HistoryRow>, Vec<HistoryRow>) = rows
+        .into_iter()
+        .partition(|r| r.fit_quality.as_deref() == Some(Verdict::Poor.as_str()));
+    TrendRows {
+        set_aside: aside
+            .into_iter()
+            .map(|r| SetAside {
+                segment_id: r.segment_id,
+                start_ms: r.start_ms,
+                effect: instrument_explaining(&r).unwrap_or_default().to_string(),
+            })
+            .collect(),
+        poor_fits: poor
+            .into_iter()
+            .map(|r| PoorFit {
+                segment_id: r.segment_id,
+                start_ms: r.start_ms,
+                gap_verdict: r.gap_verdict,
+            })
+            .collect(),
+        rows,
+    }
 }
 
 /// The instrument error a start-up's newest gap analysis explains it by, if any: the effect it

@@ -139,6 +139,16 @@ pub(super) fn run(a: WashArgs) -> anyhow::Result<ExitCode> {
                             a.effect
                         );
                     }
+                    for p in &r.poor_fits {
+                        println!(
+                            "left out: start-up {} at {} (its fit is poor: the model does not describe it, so its health is not the engine's{})",
+                            p.segment_id,
+                            fmt_ms_rfc3339(p.start_ms),
+                            p.gap_verdict
+                                .as_deref()
+                                .map_or(String::new(), |v| format!("; gap analysis: {v}"))
+                        );
+                    }
                     if let Some(step) = &r.step {
                         println!("{}", crate::advice::step_line(step));
                     }

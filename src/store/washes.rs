@@ -221,6 +221,15 @@ mod tests {
 
     /// A closed start-up at `start` with one `good` Method B result `health`; its segment id.
     fn insert_result(store: &mut Store, start: i64, health: [f64; 6]) -> i64 {
+        insert_result_of_quality(store, start, health, "good")
+    }
+
+    fn insert_result_of_quality(
+        store: &mut Store,
+        start: i64,
+        health: [f64; 6],
+        fit_quality: &str,
+    ) -> i64 {
         store
             .conn
             .execute(
@@ -237,7 +246,7 @@ mod tests {
             sigma: [0.05, 0.03, 0.05, 0.05, 0.05, 0.05],
             objective: 1.0,
             residual_level: 0.8,
-            fit_quality: "good".into(),
+            fit_quality: fit_quality.into(),
             model_runs: 300,
             wall_s: 5.0,
             seed: 1,
@@ -321,6 +330,48 @@ mod tests {
         // A second refresh records no second wash.
         refresh_advice(&mut store, &engine, &econ);
         assert_eq!(store.washes().unwrap().len(), 1);
+    }
+
+    /// A result whose fit is `poor` (here a start-up with heat soak the model lacks: the health
+    /// points off on every turbine) is left out of the trends and listed: the advice is the
+    /// one without it. Stored as `good`, the same health moves the advice, so the test means
+    /// something.
+    #[test]
+    fn a_poorly_fitting_start_up_does_not_move_the_advice() {
+        let engine = Engine::reference().unwrap();
+        let econ = WashEconomics::default();
+        let t0 = 1_700_000_000_000_i64;
+        let advice_with = |odd: Option<&str>| {
+            let dir = tempfile::tempdir().unwrap();
+            let mut store = Store::open(&dir.path().join("p.db")).unwrap();
+            fill(&mut store);
+            let mut odd_id = None;
+            for day in 24..30_i64 {
+                let age = (day - 12) as f64;
+                let health = [0.1 * age, 0.1 / 3.0 * age, 0.2, 0.1, 0.0, 0.0];
+                insert_result(&mut store, t0 + day * DAY, health);
+                if day == 26 {
+                    if let Some(q) = odd {
+                        let off = [-1.45, 0.48, -2.99, 0.58, -3.0, 4.05];
+                        let at = t0 + day * DAY + DAY / 2;
+                        odd_id = Some(insert_result_of_quality(&mut store, at, off, q));
+                    }
+                }
+            }
+            (refresh_advice(&mut store, &engine, &econ), odd_id)
+        };
+        let (without, _) = advice_with(None);
+        let (poor, poor_id) = advice_with(Some("poor"));
+        let (as_good, _) = advice_with(Some("good"));
+        assert!(without.poor_fits.is_empty());
+        let listed: Vec<i64> = poor.poor_fits.iter().map(|p| p.segment_id).collect();
+        assert_eq!(listed, poor_id.into_iter().collect::<Vec<_>>());
+        assert_eq!(poor.advised_ms, without.advised_ms);
+        assert_eq!(poor.results_since_wash, without.results_since_wash);
+        assert_ne!(
+            as_good.advised_ms, without.advised_ms,
+            "the odd health must move the advice when used, for this test to mean anything"
+        );
     }
 
     /// Issue 23 item 4: a start-up whose stored gap analysis names an instrument's error (or
