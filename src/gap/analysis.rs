@@ -709,20 +709,8 @@ impl Run<'_> {
         if base.fit_quality.residual_verdict == Verdict::Good {
             // Within noise: `none` only when no input instrument can hide behind the health.
             let hidden: Vec<String> = aliases.hidden().into_iter().map(String::from).collect();
-            return GapVerdict {
-                effect: if hidden.is_empty() {
-                    "none".into()
-                } else {
-                    AMBIGUOUS.into()
-                },
-                confidence: 0.0,
-                shrinkage: 0.0,
-                health_before: base.health,
-                health_after: base.health,
-                fit_quality_after: base.fit_quality.verdict,
-                aliases: hidden,
-                doubted: None,
-            };
+            let effect = if hidden.is_empty() { "none" } else { AMBIGUOUS };
+            return self.baseline_stands(effect, 0.0, hidden, None);
         }
         let explains = |best: &Candidate| {
             best.shortlisted
@@ -753,16 +741,13 @@ impl Run<'_> {
                         doubted: None,
                     }
                 } else {
-                    GapVerdict {
-                        effect: AMBIGUOUS.into(),
-                        confidence: 0.0,
-                        shrinkage: best.score,
-                        health_before: base.health,
-                        health_after: base.health,
-                        fit_quality_after: base.fit_quality.verdict,
-                        aliases: doubted.into_iter().map(String::from).collect(),
-                        doubted: Some(best.effect.clone()),
-                    }
+                    let restoring = doubted.into_iter().map(String::from).collect();
+                    self.baseline_stands(
+                        AMBIGUOUS,
+                        best.score,
+                        restoring,
+                        Some(best.effect.clone()),
+                    )
                 }
             }
             _ => {
@@ -773,21 +758,35 @@ impl Run<'_> {
                 // the health cannot be trusted and name the instruments, not `unexplained`.
                 let restoring: Vec<String> =
                     aliases.restoring().into_iter().map(String::from).collect();
-                GapVerdict {
-                    effect: if restoring.is_empty() {
-                        "unexplained".into()
-                    } else {
-                        AMBIGUOUS.into()
-                    },
-                    confidence: 0.0,
-                    shrinkage: out.first().map_or(0.0, |b| b.score.max(0.0)),
-                    health_before: base.health,
-                    health_after: base.health,
-                    fit_quality_after: base.fit_quality.verdict,
-                    aliases: restoring,
-                    doubted: None,
-                }
+                let effect = if restoring.is_empty() {
+                    "unexplained"
+                } else {
+                    AMBIGUOUS
+                };
+                let shrinkage = out.first().map_or(0.0, |b| b.score.max(0.0));
+                self.baseline_stands(effect, shrinkage, restoring, None)
             }
+        }
+    }
+
+    /// A verdict that adopts no effect: the health after, and its fit quality, are the
+    /// baseline's (`none`, `unexplained`, `ambiguous`).
+    fn baseline_stands(
+        &self,
+        effect: &str,
+        shrinkage: f64,
+        aliases: Vec<String>,
+        doubted: Option<String>,
+    ) -> GapVerdict {
+        GapVerdict {
+            effect: effect.into(),
+            confidence: 0.0,
+            shrinkage,
+            health_before: self.base.health,
+            health_after: self.base.health,
+            fit_quality_after: self.base.fit_quality.verdict,
+            aliases,
+            doubted,
         }
     }
 
