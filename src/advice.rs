@@ -280,32 +280,30 @@ struct TrendRows {
 /// Splits the stored results: those an instrument explains are set aside, those whose fit is
 /// `poor` are left out (the model does not describe the start-up), the rest feed the trends.
 fn trend_rows(history: Vec<HistoryRow>) -> TrendRows {
-    let (aside, rows): (Vec<HistoryRow>, Vec<HistoryRow>) = history
-        .into_iter()
-        .filter(|r| HEALTH_NAMES.iter().all(|p| r.value(p).is_finite()))
-        .partition(|r| instrument_explaining(r).is_some());
-    let (poor, rows): (Vec<HistoryRow>, Vec<HistoryRow>) = rows
-        .into_iter()
-        .partition(|r| r.fit_quality.as_deref() == Some(Verdict::Poor.as_str()));
-    TrendRows {
-        set_aside: aside
-            .into_iter()
-            .map(|r| SetAside {
+    let mut out = TrendRows {
+        rows: Vec::new(),
+        set_aside: Vec::new(),
+        poor_fits: Vec::new(),
+    };
+    let complete = |r: &HistoryRow| HEALTH_NAMES.iter().all(|p| r.value(p).is_finite());
+    for r in history.into_iter().filter(complete) {
+        if let Some(effect) = instrument_explaining(&r) {
+            out.set_aside.push(SetAside {
                 segment_id: r.segment_id,
                 start_ms: r.start_ms,
-                effect: instrument_explaining(&r).unwrap_or_default().to_string(),
-            })
-            .collect(),
-        poor_fits: poor
-            .into_iter()
-            .map(|r| PoorFit {
+                effect: effect.to_string(),
+            });
+        } else if r.fit_quality.as_deref() == Some(Verdict::Poor.as_str()) {
+            out.poor_fits.push(PoorFit {
                 segment_id: r.segment_id,
                 start_ms: r.start_ms,
                 gap_verdict: r.gap_verdict,
-            })
-            .collect(),
-        rows,
+            });
+        } else {
+            out.rows.push(r);
+        }
     }
+    out
 }
 
 /// The instrument error a start-up's newest gap analysis explains it by, if any: the effect it
