@@ -430,12 +430,12 @@ impl Store {
                     d.objective, d.residual_level, d.fit_quality,
                     (SELECT w.id FROM washes w WHERE w.t_ms <= g.start_ms
                       ORDER BY w.t_ms DESC, w.id DESC LIMIT 1),
-                    (SELECT a.effect FROM gap_analyses a WHERE a.segment_id = g.id
-                      ORDER BY a.created_at_ms DESC, a.id DESC LIMIT 1),
-                    (SELECT json_extract(a.report_json, '$.verdict.doubted')
-                      FROM gap_analyses a WHERE a.segment_id = g.id
-                      ORDER BY a.created_at_ms DESC, a.id DESC LIMIT 1)
+                    a.effect, json_extract(a.report_json, '$.verdict.doubted')
              FROM diagnoses d JOIN segments g ON g.id = d.segment_id
+             -- the start-up's newest gap analysis, if any
+             LEFT JOIN gap_analyses a ON a.id = (
+                 SELECT n.id FROM gap_analyses n WHERE n.segment_id = g.id
+                 ORDER BY n.created_at_ms DESC, n.id DESC LIMIT 1)
              WHERE (?1 IS NULL OR g.start_ms >= ?1) AND (?2 IS NULL OR g.start_ms <= ?2)
                AND (?3 IS NULL OR d.method = ?3)
              ORDER BY g.start_ms, d.method, d.created_at_ms, d.id",
