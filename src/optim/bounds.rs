@@ -73,11 +73,20 @@ impl Bounds {
             .collect()
     }
 
-    /// Normalised → physical: `lower + u (upper − lower)`.
+    /// Normalised → physical: `lower + u (upper − lower)`. A `u` inside [0, 1] maps inside the
+    /// box exactly (rounding can put `lower + 1·(upper − lower)` a hair beyond `upper`, and a
+    /// result handed on as another search's start must pass [`Self::check_inside`]).
     pub fn from_unit(&self, u: &[f64]) -> Vec<f64> {
         u.iter()
             .enumerate()
-            .map(|(i, &v)| self.lower[i] + v * self.width(i))
+            .map(|(i, &v)| {
+                let x = self.lower[i] + v * self.width(i);
+                if (0.0..=1.0).contains(&v) {
+                    x.clamp(self.lower[i], self.upper[i])
+                } else {
+                    x
+                }
+            })
             .collect()
     }
 
@@ -163,5 +172,17 @@ mod tests {
         assert!(b.check_inside(&[0.0, 0.0, 10.5]).is_err());
         assert!(b.check_inside(&[0.0, 0.0]).is_err());
         assert!(b.check_inside(&x).is_ok());
+    }
+
+    /// −0.00949… + 1·(0.00546… − (−0.00949…)) rounds to one ulp above the upper bound; the
+    /// optimum of one search (a `u` of 1) must be a valid start for the next.
+    #[test]
+    fn the_unit_interval_maps_inside_the_box_despite_rounding() {
+        let (lo, hi) = (-0.009491082780130784, 0.005459983480655617);
+        assert!(lo + (hi - lo) > hi, "the rounding this test is about");
+        let b = Bounds::new(vec![lo], vec![hi]).expect("valid");
+        assert_eq!(b.from_unit(&[1.0]), vec![hi]);
+        assert_eq!(b.from_unit(&[0.0]), vec![lo]);
+        assert!(b.check_inside(&b.from_unit(&[1.0])).is_ok());
     }
 }
