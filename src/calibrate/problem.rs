@@ -17,6 +17,10 @@
 //! Pressure readings at rest ([`RestReading`]) add one residual each: the instrument's offset
 //! (its `sensor_bias` effect; 0 without one) against its excess over P1 at rest.
 //!
+//! [`CalibrationProblem::on_gg_speed`] poses the same problem on each point's measured GG
+//! speed (its fuel flow compared instead): the adaptation's second start, where the fuel-given
+//! residuals are too curved to converge.
+//!
 //! What it must not do: I/O, or fit health (health is 0 by definition of a baseline).
 
 use super::candidates::{offset_key, Candidate};
@@ -26,7 +30,7 @@ use crate::diagnosis::snapshot::{steady_data, DroppedRow, Snapshot};
 use crate::diagnosis::steady::{steady_reading, SteadyData};
 use crate::engine::load::PtLoad;
 use crate::engine::sensors::noise_sigma;
-use crate::engine::steady::SteadyPoint;
+use crate::engine::steady::{solve, Demand, SteadyInputs, SteadyPoint};
 use crate::engine::Engine;
 use crate::health::HealthParams;
 use crate::optim::{Bounds, Problem, ResidualProblem};
@@ -77,6 +81,9 @@ pub struct CalibrationProblem {
     runs: AtomicUsize,
     /// Penalty rows appended to the least-squares residuals (adaptation curves' curvature).
     smoothness: Vec<SmoothnessRow>,
+    /// Per point, when the problem is posed on the measured GG speed ([`Self::on_gg_speed`]):
+    /// σ of its fuel-flow residual, kg/s; `None` for a point solved on its fuel flow.
+    speed_given: Vec<Option<f64>>,
 }
 
 /// Points prepared from snapshot rows: the rows whose healthy solve failed (by line), and how
@@ -157,7 +164,30 @@ impl CalibrationProblem {
             bounds,
             runs: AtomicUsize::new(0),
             smoothness: Vec::new(),
+            speed_given: Vec::new(),
         })
+    }
+
+    /// The same problem posed on each point's measured GG speed instead of its fuel flow:
+    /// every point that measured it is solved at that speed, and its GG-speed residual is
+    /// replaced by the fuel flow's, `(model − measured)/σ`, σ the fuel meter's combined with
+    /// the speed's noise carried along the guess engine's running line.
+    ///
+    /// Why: where the running line is nearly flat in fuel (low load, closing guide vanes, a
+    /// map the curves bend), the GG speed for a given fuel moves by tens of σ for a small
+    /// change of a knot, and a fuel-given solve can land on another branch of a folded line:
+    /// the residuals are then too curved (or broken) for Levenberg–Marquardt, which crawls.
+    /// Solved at its speed, a point has one solution and its fuel flow is a smooth function
+    /// of the parameters. The two are the same residual to first order; the caller polishes
+    /// on the fuel-given problem, which is the one the diagnosis uses.
+    pub fn on_gg_speed(mut self) -> Self {
+        self.speed_given = self
+            .points
+            .iter()
+            .zip(&self.starts)
+            .map(|(p, start)| speed_given_sigma(&self.engine, p, start))
+            .collect();
+        self
     }
 
     /// The same problem whose least-squares residuals also carry `rows` (see
@@ -248,11 +278,25 @@ impl CalibrationProblem {
             let start = starts.and_then(|s| s.get(i));
             let inp = &p.data.inputs;
             let m = engine.model_at(&HealthParams::HEALTHY, inp.t_amb_k, inp.p_amb_kpa);
-            let sp = p.data.solve_from(&m, start).map_err(|e| {
-                CalibrateError::Model(format!("line {}: steady solve: {e}", p.line))
-            })?;
+            let fuel_sigma = self.speed_given.get(i).copied().flatten();
+            let sp = match (fuel_sigma, p.data.n1_hint_rpm) {
+                (Some(_), Some(n1)) => {
+                    let at_speed = SteadyInputs {
+                        demand: Demand::N1Rpm(n1),
+                        ..*inp
+                    };
+                    solve(&m, &at_speed, start)
+                }
+                _ => p.data.solve_from(&m, start),
+            }
+            .map_err(|e| CalibrateError::Model(format!("line {}: steady solve: {e}", p.line)))?;
             for &(s, v, sd) in &p.data.outputs {
-                out.push((steady_reading(&m, &sp, s) - v) / sd);
+                match (s, fuel_sigma, inp.demand) {
+                    (Signal::N1, Some(sw), Demand::FuelKgS(w)) => {
+                        out.push((sp.stations.fuel_kg_s - w) / sw)
+                    }
+                    _ => out.push((steady_reading(&m, &sp, s) - v) / sd),
+                }
             }
             if let (Some(lp), Some(law)) = (law_point, PtLoad::of(&m)) {
                 let n2 = law.speed_for_power_rpm(lp.power_w / 1e6);
@@ -287,9 +331,45 @@ pub fn residuals_on(
         bounds,
         runs: AtomicUsize::new(0),
         smoothness: Vec::new(),
+        speed_given: Vec::new(),
     };
     let starts = solve_all(engine, points)?;
     prob.residuals_of_engine(engine, Some(&starts))
+}
+
+/// σ of point `p`'s fuel-flow residual when it is solved at its measured GG speed (see
+/// [`CalibrationProblem::on_gg_speed`]): the fuel meter's one-reading σ combined with the GG
+/// speed's, carried through the slope of fuel over GG speed at `start` on `engine`. `None`
+/// when the point is not fuel-given or did not measure its GG speed.
+fn speed_given_sigma(engine: &Engine, p: &CalibrationPoint, start: &SteadyPoint) -> Option<f64> {
+    let inp = &p.data.inputs;
+    let Demand::FuelKgS(_) = inp.demand else {
+        return None;
+    };
+    let n1 = p.data.n1_hint_rpm?;
+    let sd_n1 = p
+        .data
+        .outputs
+        .iter()
+        .find(|o| o.0 == Signal::N1)
+        .map(|o| o.2)?;
+    let m = engine.model_at(&HealthParams::HEALTHY, inp.t_amb_k, inp.p_amb_kpa);
+    let at = |n: f64| {
+        solve(
+            &m,
+            &SteadyInputs {
+                demand: Demand::N1Rpm(n),
+                ..*inp
+            },
+            Some(start),
+        )
+        .ok()
+        .map(|s| s.stations.fuel_kg_s)
+    };
+    let dn = (0.002 * n1).max(1.0);
+    let slope = (at(n1 + dn)? - at(n1 - dn)?) / (2.0 * dn);
+    let sd = p.data.input_sd.demand.hypot(slope * sd_n1);
+    (sd.is_finite() && sd > 0.0).then_some(sd)
 }
 
 /// Every point solved on `engine` (healthy), in the order of `points`. A solve from the

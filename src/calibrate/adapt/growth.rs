@@ -10,7 +10,7 @@ use super::model_error::{self, ModelError};
 use super::shape::{key, Shape};
 use super::{
     candidates_for, fit, fit_within, identify_at, report, rms_of, shaped, AdaptReport,
-    AdaptSettings, AdaptStrategy, Ctx, Pass, SpeedRanges, CONTINUATION_SCALES,
+    AdaptSettings, AdaptStrategy, Ctx, Pass, SpeedRanges, Starts, CONTINUATION_SCALES,
     CONTINUATION_STAGE_ITERATIONS, MIN_GAIN,
 };
 use crate::engine::config::{curves_of, COMPONENTS};
@@ -181,6 +181,7 @@ impl<'a> Growth<'a> {
                     &self.shape,
                     ctx,
                     CONTINUATION_STAGE_ITERATIONS,
+                    Starts::Guess,
                 )?;
                 self.runs += n;
                 self.steps.push(format!(
