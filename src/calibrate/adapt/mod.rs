@@ -374,7 +374,7 @@ fn fit_within(
     let keys: Vec<String> = cands.iter().map(|c| c.key.clone()).collect();
     let rows = penalty_rows(shape, &keys, ctx.settings);
     let prob = CalibrationProblem::new(engine, ctx.points.to_vec(), ctx.rest.to_vec(), cands)?
-        .with_smoothness(rows);
+        .with_smoothness(rows.clone());
     let jac_opts = JacobianOptions::default()
         .with_step(1e-3)
         .map_err(|e| CalibrateError::Optim(e.to_string()))?;
@@ -384,28 +384,44 @@ fn fit_within(
         .and_then(|o| o.with_ftol(1e-8))
         .and_then(|o| o.with_xtol(1e-7))
         .map_err(|e| CalibrateError::Optim(e.to_string()))?;
-    let optim = |e: crate::optim::OptimError| CalibrateError::Optim(e.to_string());
-    let mut out = refine(&prob, &prob.guesses(), &opts, ctx.pool).map_err(optim)?;
-    let mut runs = prob.runs();
-    let mut start = "the guess";
+    let mut out = refine(&prob, &prob.guesses(), &opts, ctx.pool)
+        .map_err(|e| CalibrateError::Optim(e.to_string()))?;
+    let mut start = String::from("the guess");
+    let mut runs_on_speed = 0;
     if starts == Starts::GuessAndSpeed {
-        let on_speed = CalibrationProblem::new(
-            engine,
-            ctx.points.to_vec(),
-            ctx.rest.to_vec(),
-            prob.candidates().to_vec(),
-        )?
-        .with_smoothness(penalty_rows(shape, &keys, ctx.settings))
-        .on_gg_speed();
-        let from = refine(&on_speed, &on_speed.guesses(), &opts, ctx.pool).map_err(optim)?;
-        let polished = refine(&prob, &from.x, &opts, ctx.pool).map_err(optim)?;
-        runs = prob.runs() + on_speed.runs();
-        if polished.ssr < out.ssr {
-            out = RefineResult {
-                iterations: from.iterations + polished.iterations,
-                ..polished
-            };
-            start = "the GG-speed fit";
+        // The second start only ever adds a candidate: where it cannot be run (a point that
+        // will not solve at its measured speed on the guess), the guess's fit stands.
+        let second = || -> Result<(RefineResult, usize), String> {
+            let on_speed = CalibrationProblem::new(
+                engine,
+                ctx.points.to_vec(),
+                ctx.rest.to_vec(),
+                prob.candidates().to_vec(),
+            )
+            .map_err(|e| e.to_string())?
+            .with_smoothness(rows)
+            .on_gg_speed();
+            let from = refine(&on_speed, &on_speed.guesses(), &opts, ctx.pool)
+                .map_err(|e| e.to_string())?;
+            let polished = refine(&prob, &from.x, &opts, ctx.pool).map_err(|e| e.to_string())?;
+            let iterations = from.iterations + polished.iterations;
+            Ok((
+                RefineResult {
+                    iterations,
+                    ..polished
+                },
+                on_speed.runs(),
+            ))
+        };
+        match second() {
+            Ok((r, n)) => {
+                runs_on_speed = n;
+                if r.ssr < out.ssr {
+                    out = r;
+                    start = "the GG-speed fit".into();
+                }
+            }
+            Err(e) => start = format!("the guess (the GG-speed start could not run: {e})"),
         }
     }
     let penalties = match ctx.settings.strategy {
@@ -421,7 +437,7 @@ fn fit_within(
         out.stop,
         (out.ssr / prob.layout().len().max(1) as f64).sqrt()
     );
-    Ok((prob.engine_at(&out.x)?, runs, step))
+    Ok((prob.engine_at(&out.x)?, prob.runs() + runs_on_speed, step))
 }
 
 fn rms_of(engine: &Engine, ctx: Ctx) -> Result<f64, CalibrateError> {
