@@ -11,8 +11,9 @@
 //! cross-talk |ρ| ≤ 0.3, each level within 0.5 points, every fit `good`.
 //!
 //! What this version reaches and asserts (measured figures in the README, "Calibrating to your
-//! unit"): on the three left-out loads CI runs, mean |error| ≤ 0.6 % and no signal beyond 1.5 %
-//! (measured 0.32 % / 1.11 % on 2026-11-28, with every grown fit started twice: see
+//! unit"): on the two left-out loads CI runs, mean |error| ≤ 0.6 % and no signal beyond 1.5 %
+//! (measured 0.32 % / 1.11 % on 2026-11-28 over the 47.5 %, 65 % and 82.5 % loads; 0.41 % / 1.11 %
+//! over the 47.5 % and 82.5 % loads CI leaves out, with every grown fit started twice: see
 //! `calibrate::adapt`'s `fit_within`), and at most a third / half of the design calibration's; the
 //! healthy baseline `good` within 0.3 points of zero; the grid ranked at ρ ≥ 0.95 for all four
 //! parameters, every level within 0.7 points, and no level off by more than 0.5 points called
@@ -320,8 +321,11 @@ fn adapted_md22_predicts_left_out_loads_of_a_foreign_unit() {
     let mut table: Vec<(String, [f64; 2], [f64; 2])> = Vec::new();
     let mut worst_signal = [0.0f64; 2];
     let mut means = [Vec::new(), Vec::new()];
-    // CI leaves out three loads: low, middle and high interior.
-    let (full_table, left_out) = left_out_or(rows.len(), vec![2, 4, 6]);
+    // CI leaves out two interior loads, 47.5 % (the hardest interior fold) and 82.5 %: each
+    // calibration now runs two starts per fit (20–30 s), and the middle load (65 %, the
+    // easiest, 0.14 %) was cut to keep CI within its 20 minutes. `GTWATCH_FOREIGN_FULL=1`
+    // leaves out all nine.
+    let (full_table, left_out) = left_out_or(rows.len(), vec![2, 6]);
     for k in left_out {
         let cells = leave_out(&model, &rows, k, "", AdaptStrategy::Grown);
         for m in 0..2 {
@@ -346,7 +350,7 @@ fn adapted_md22_predicts_left_out_loads_of_a_foreign_unit() {
         worst_signal[1]
     );
     // Floors this version meets (the issue asks 0.3 % mean and 1 % worst; see the module doc).
-    // On the three interior loads (all 9 include the extrapolated ends: see the README).
+    // On the interior loads CI runs (all 9 include the extrapolated ends: see the README).
     assert!(
         full_table || (avg(&means[1]) <= 0.6 && worst_signal[1] <= 1.5),
         "adapted: mean {:.3} %, worst {:.3} %",
