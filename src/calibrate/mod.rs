@@ -180,8 +180,37 @@ impl BaselineFit {
             &Thresholds::default(),
         )
         .verdict;
-        let summary = if verdict == Verdict::Good {
-            "the calibrated model reproduces the healthy baseline within noise".to_string()
+        // A shape that follows its calibration points but predicts none between them (its
+        // model error, estimated on points left out) gives no diagnosis worth the name however
+        // well it fits.
+        let unresolving: Vec<String> = adapt
+            .map(|a| {
+                a.model_error
+                    .signals
+                    .iter()
+                    .filter(|m| m.pct >= crate::engine::config::UNRESOLVING_MODEL_ERROR_PCT)
+                    .map(|m| format!("{} {:.1} %", m.signal, m.pct))
+                    .collect()
+            })
+            .unwrap_or_default();
+        let (verdict, summary) = if verdict == Verdict::Good && !unresolving.is_empty() {
+            (
+                Verdict::Suspect,
+                format!(
+                    "the calibrated model reproduces the healthy baseline within noise at the \
+                     points it was fitted to, but predicts a point left out of the fit no better \
+                     than {} (the model error written to [adaptation.model_error_pct]): the \
+                     curves follow the points, not the unit, and a diagnosis on this file will \
+                     be labelled suspect at best; calibrate on more loads, or try \
+                     --adapt-strategy continuation",
+                    unresolving.join(", ")
+                ),
+            )
+        } else if verdict == Verdict::Good {
+            (
+                verdict,
+                "the calibrated model reproduces the healthy baseline within noise".to_string(),
+            )
         } else {
             let worst = signals
                 .iter()
@@ -200,11 +229,15 @@ impl BaselineFit {
                      (units, instrument offsets, steadiness) and the file's maps"
                 }
             };
-            format!(
-                "the calibrated model misses the healthy baseline by {:.2} σ RMS{worst}: a \
-                 diagnosis on this file carries that misfit and will be labelled {} at best; {next}",
-                level.sqrt(),
-                verdict.as_str()
+            (
+                verdict,
+                format!(
+                    "the calibrated model misses the healthy baseline by {:.2} σ RMS{worst}: a \
+                     diagnosis on this file carries that misfit and will be labelled {} at best; \
+                     {next}",
+                    level.sqrt(),
+                    verdict.as_str()
+                ),
             )
         };
         BaselineFit {

@@ -125,6 +125,12 @@ pub struct FitQuality {
     /// ([`crate::health::below_plausible`]): an input instrument or a design value absorbed by
     /// the health; any makes a `good` fit `suspect`.
     pub implausible: Vec<Implausible>,
+    /// Compared signals the adapted model itself predicts no better than
+    /// [`crate::engine::config::UNRESOLVING_MODEL_ERROR_PCT`] between its calibration points
+    /// (its `[adaptation.model_error_pct]`): their σ carries that error, so a small residual
+    /// says little; any makes a `good` fit `suspect` ([`FitQuality::with_model_error`]).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub model_error_beyond: Vec<ModelErrorBeyond>,
     /// The verdict on the residual alone (before the health checks above): `good` here with a
     /// `suspect` verdict means the model reproduces the data but the health it needs is not
     /// believable.
@@ -169,6 +175,62 @@ impl Implausible {
             "{} = {:+.2} ± {:.2} % is {why} (run gtwatch gap for the aliases)",
             self.name, self.value, self.sigma
         )
+    }
+}
+
+/// A compared signal whose stated model error leaves it no information on health.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ModelErrorBeyond {
+    /// The signal's CSV name.
+    pub signal: String,
+    /// Its model error, % of the value.
+    pub pct: f64,
+}
+
+impl FitQuality {
+    /// The verdict of a steady diagnosis on `engine_cfg` comparing `signals`: a `good` one
+    /// becomes `suspect` when the file's adaptation states a model error of at least
+    /// [`crate::engine::config::UNRESOLVING_MODEL_ERROR_PCT`] on any of them, and the summary
+    /// says so. Why: that error is in each σ ([`super::steady::with_model_error`]), so the
+    /// residual is small whatever the health; on a foreign unit whose adaptation followed its
+    /// calibration points but predicted none between them (20 % on six signals), every level of
+    /// a degradation grid was `good` with errors up to 1.4 points.
+    pub fn with_model_error(
+        mut self,
+        engine_cfg: &crate::engine::EngineConfig,
+        signals: &[Signal],
+    ) -> Self {
+        let Some(a) = &engine_cfg.adaptation else {
+            return self;
+        };
+        self.model_error_beyond = a
+            .unresolving_signals()
+            .into_iter()
+            .filter(|(k, _)| signals.iter().any(|s| s.column() == k))
+            .map(|(signal, pct)| ModelErrorBeyond { signal, pct })
+            .collect();
+        if self.model_error_beyond.is_empty() {
+            return self;
+        }
+        let list: Vec<String> = self
+            .model_error_beyond
+            .iter()
+            .map(|m| format!("{} {:.1} %", m.signal, m.pct))
+            .collect();
+        let words = format!(
+            "the adapted model's own error between its calibration points \
+             ([adaptation.model_error_pct]) is {}: the fit is within it whatever the health, so \
+             the estimate is not resolved; re-calibrate on a baseline with more loads, or with \
+             --adapt-strategy continuation",
+            list.join(", ")
+        );
+        if self.verdict == Verdict::Good {
+            self.verdict = Verdict::Suspect;
+            self.summary = words;
+        } else {
+            self.summary = format!("{}; {words}", self.summary);
+        }
+        self
     }
 }
 
@@ -483,6 +545,7 @@ pub fn assess(
         periodic: periodic.to_vec(),
         at_limit: flags.at_limit.clone(),
         implausible: flags.implausible.clone(),
+        model_error_beyond: Vec::new(),
         residual_verdict,
         summary,
     }
@@ -529,6 +592,48 @@ fn character(c: &ResidualCell) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A stated model error of at least 5 % on a compared signal makes a `good` fit `suspect`
+    /// and says why; on a signal not compared, or below the threshold, nothing changes; a fit
+    /// already `poor` stays so with the words appended.
+    #[test]
+    fn a_model_error_that_leaves_health_unresolved_is_not_good() {
+        use crate::engine::config::AdaptationConfig;
+        use crate::engine::EngineConfig;
+        let th = Thresholds::default();
+        let good = || assess(0.7, &[], &[], &HealthFlags::default(), &th);
+        let mut cfg = EngineConfig::reference();
+        let compared = [Signal::N1, Signal::T34];
+        assert_eq!(good().with_model_error(&cfg, &compared), good());
+        let mut a = AdaptationConfig::default();
+        a.model_error_pct.insert("n1_rpm".into(), 4.9);
+        a.model_error_pct.insert("torque_knm".into(), 20.0);
+        cfg.adaptation = Some(a.clone());
+        // 4.9 % on a compared signal, 20 % on one not compared: still good.
+        assert_eq!(
+            good().with_model_error(&cfg, &compared).verdict,
+            Verdict::Good
+        );
+        a.model_error_pct.insert("t34_k".into(), 5.0);
+        cfg.adaptation = Some(a);
+        let q = good().with_model_error(&cfg, &compared);
+        assert_eq!(q.verdict, Verdict::Suspect);
+        assert_eq!(q.residual_verdict, Verdict::Good);
+        assert_eq!(
+            q.model_error_beyond,
+            vec![ModelErrorBeyond {
+                signal: "t34_k".into(),
+                pct: 5.0
+            }]
+        );
+        assert!(q.summary.contains("t34_k 5.0 %"), "{}", q.summary);
+        let poor =
+            assess(9.0, &[], &[], &HealthFlags::default(), &th).with_model_error(&cfg, &compared);
+        assert_eq!(poor.verdict, Verdict::Poor);
+        assert!(
+            poor.summary.starts_with("normalised residual 9.00") && poor.summary.contains("t34_k")
+        );
+    }
 
     /// A turbine's flow capacity above new, flagged, says it lacks erosion's efficiency loss and
     /// names the instruments; an efficiency better than new names the instruments only.

@@ -486,7 +486,10 @@ pub fn diagnose_snapshots(
                 .map(|p| (p.window.t_start_s, p.window.t_end_s))
                 .collect();
             let table = residual_table_of(&problem, &out.x, rows);
-            let result = result_of(Method::Steady, &problem, &out, &cfg, signals, n_res, win);
+            let mut result = result_of(Method::Steady, &problem, &out, &cfg, signals, n_res, win);
+            result.fit_quality = result
+                .fit_quality
+                .with_model_error(engine.cfg(), &result.signals);
             Ok((result, table))
         });
         match outcome {

@@ -542,6 +542,7 @@ pub fn diagnose_steady(
         .map(|p| (p.window.t_start_s, p.window.t_end_s))
         .collect();
     let mut r = result_of(Method::Steady, &problem, &out, cfg, signals, n_res, win);
+    r.fit_quality = r.fit_quality.with_model_error(engine.cfg(), &r.signals);
     r.fuel_meter_zero = fuel_zero;
     r.wall_s = start.elapsed().as_secs_f64();
     Ok(r)

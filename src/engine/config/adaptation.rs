@@ -65,7 +65,24 @@ pub struct AdaptationConfig {
 /// Largest model error a file may state, % of the value: beyond it the model predicts nothing.
 pub const MAX_MODEL_ERROR_PCT: f64 = 20.0;
 
+/// Model error at which a signal no longer tells health, % of the value: a point of any
+/// component's degradation moves a gas-path signal by well under 1 %, so a model that predicts
+/// the signal no better than 5 % between its own calibration points leaves it several points
+/// of health of slack; a diagnosis resting on such signals cannot be `good` (its residual is
+/// small because the σ is large, not because the model fits).
+pub const UNRESOLVING_MODEL_ERROR_PCT: f64 = 5.0;
+
 impl AdaptationConfig {
+    /// The signals (CSV name) whose stated model error is at least
+    /// [`UNRESOLVING_MODEL_ERROR_PCT`], with it (%).
+    pub fn unresolving_signals(&self) -> Vec<(String, f64)> {
+        self.model_error_pct
+            .iter()
+            .filter(|(_, v)| **v >= UNRESOLVING_MODEL_ERROR_PCT)
+            .map(|(k, v)| (k.clone(), *v))
+            .collect()
+    }
+
     /// The model's own 1σ error of signal `s` as a fraction of its value (0 when not stated).
     pub fn model_error_fraction(&self, s: Signal) -> f64 {
         self.model_error_pct

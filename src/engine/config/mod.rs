@@ -14,6 +14,7 @@ mod fuel;
 mod ranges;
 pub use adaptation::{
     curves_of, AdaptationConfig, ComponentCurves, COMPONENTS, MAX_MODEL_ERROR_PCT,
+    UNRESOLVING_MODEL_ERROR_PCT,
 };
 pub use fuel::{FuelConfig, FuelKind, GasComposition};
 pub use ranges::{param_range, ParamRange};
