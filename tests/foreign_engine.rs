@@ -21,7 +21,7 @@
 //! estimated by the calibration on interior points left out) in the diagnosis's σ: without it
 //! D_GT ranked at 0.89 (compressor fouling read as up to −0.9 points of D_GT). Not met yet: the
 //! 0.3 % / 1 % floors over all nine loads (the 56–91 % loads meet them, 0.23 % / 0.55 % at
-//! worst; the lowest and the full load, left out, are extrapolations: 1.65 % and 1.08 %), each
+//! worst; the lowest and the full load, left out, are extrapolations: 0.95 % and 1.08 %), each
 //! level within 0.5 points (worst 0.62; the healthy power turbine's efficiency reads up to
 //! +0.77 points), the cross-talk as a rank, and `good` fits
 //! on the whole grid: curves of speed alone follow the operating line, not how the unit's maps
@@ -35,15 +35,17 @@
 //! `suspect` on their residual at the largest degradations).
 //!
 //! A third, the first with fixed inlet vanes (`tests/data/foreign/aero25_novigv_truth.toml`),
-//! is one the adaptation does not fit (11.5 σ RMS after it): the test asserts that the
-//! calibration and every diagnosis on it say so.
+//! is one the adaptation follows at its calibration points (0.73 σ RMS) but predicts nothing
+//! between them (20 % model error on six signals): the test asserts that the calibration and
+//! every diagnosis on it say so; held to one knot a component it is not fitted at all (19.5 σ),
+//! and that is said too.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use gtwatch::calibrate::adapt::{AdaptSettings, AdaptStrategy};
 use gtwatch::calibrate::candidates::default_candidates;
 use gtwatch::calibrate::problem::{prepare, residuals_on};
 use gtwatch::calibrate::synthetic::{snapshot_csv_at_speeds, OperatingPoint};
-use gtwatch::calibrate::{calibrate, CalibrationSettings};
+use gtwatch::calibrate::{calibrate, Calibration, CalibrationSettings};
 use gtwatch::diagnosis::snapshot::{diagnose_snapshots, read_snapshots, Snapshot};
 use gtwatch::diagnosis::DiagnosisConfig;
 use gtwatch::engine::{Engine, EngineConfig};
@@ -78,7 +80,7 @@ const PYC30: Unit = Unit {
     design_mw: 30.0,
 };
 
-/// AERO25 with fixed inlet vanes: the unit the adaptation does not fit.
+/// AERO25 with fixed inlet vanes: a part-load running line nearly flat in fuel.
 const AERO25_FIXED_VANES: Unit = Unit {
     file: "tests/data/foreign/aero25_novigv_truth.toml",
     design_mw: 25.0,
@@ -304,9 +306,25 @@ fn first_unit() -> (Engine, Vec<Snapshot>, Engine) {
     (truth, rows, model)
 }
 
-/// Which of `n` loads to leave out in turn: all (then `true`) with `GTWATCH_FOREIGN_FULL=1`,
-/// else the ones CI runs, `ci`.
+/// Which of `n` loads to leave out in turn: the ones `GTWATCH_FOREIGN_FOLDS` lists (indices
+/// from 0, the lowest load, comma-separated; then `true`: no floor of CI's folds applies), all
+/// (then `true`) with `GTWATCH_FOREIGN_FULL=1`, else the ones CI runs, `ci`.
 fn left_out_or(n: usize, ci: Vec<usize>) -> (bool, Vec<usize>) {
+    if let Ok(list) = std::env::var("GTWATCH_FOREIGN_FOLDS") {
+        let folds: Vec<usize> = list
+            .split(',')
+            .map(|x| {
+                x.trim()
+                    .parse()
+                    .expect("GTWATCH_FOREIGN_FOLDS: indices like 0,8")
+            })
+            .collect();
+        assert!(
+            folds.iter().all(|&k| k < n),
+            "GTWATCH_FOREIGN_FOLDS: indices below {n}"
+        );
+        return (true, folds);
+    }
     if std::env::var_os("GTWATCH_FOREIGN_FULL").is_some() {
         (true, (0..n).collect())
     } else {
@@ -741,15 +759,10 @@ fn second_unit(strategy: AdaptStrategy) {
     assert!(good >= 10, "{good} of {levels} fits good");
 }
 
-/// A unit the adaptation cannot follow (aero25 with fixed inlet vanes: its part-load running
-/// line is nearly flat in fuel, and md22's maps bent by curves of speed miss it by about
-/// 11 σ RMS) must be said to be one: the calibration's baseline verdict is not `good` and says
-/// what to try, the healthy baseline's diagnosis is not `good`, and no level of the degradation
-/// grid off by more than 0.5 points is called `good`. The calibration reports the misfit the
-/// diagnosis will see (each point solved on the running point of its measured GG speed): before,
-/// it fitted one branch of a folded running line and reported another.
-#[test]
-fn a_foreign_unit_the_adaptation_cannot_fit_is_said_to_be_unfit() {
+/// The unit with fixed inlet vanes, its 9 healthy rows, and the user's md22 copy calibrated
+/// to them with the grown adaptation of at most `max_knots` knots per component: the
+/// calibration and the adapted engine.
+fn fixed_vanes_calibrated(max_knots: usize) -> (Engine, Vec<Snapshot>, Calibration, Engine) {
     let truth = unit_engine(AERO25_FIXED_VANES);
     let rows = rows_at(&truth, loads_of(25.0, 0), [0.0; 6], 0, "healthy");
     let full = rows
@@ -758,31 +771,99 @@ fn a_foreign_unit_the_adaptation_cannot_fit_is_said_to_be_unfit() {
         .expect("full load");
     let model = user_model(full);
     let cands = default_candidates(&model).expect("candidates");
-    let (report, adapted) = calibrate(
-        &model,
-        &rows,
-        &[],
-        cands,
-        &settings(Some(AdaptStrategy::Grown)),
-    )
-    .expect("calibrate");
+    let settings = CalibrationSettings {
+        adapt: Some(AdaptSettings {
+            max_knots,
+            ..AdaptSettings::of(AdaptStrategy::Grown)
+        }),
+        ..settings(None)
+    };
+    let (report, adapted) = calibrate(&model, &rows, &[], cands, &settings).expect("calibrate");
     let fit = &report.baseline_fit;
     eprintln!(
-        "fixed vanes: RMS {:.2} -> {:.2} σ; baseline fit {:?}: {}",
+        "fixed vanes, at most {max_knots} knot(s): RMS {:.2} -> {:.2} σ; baseline fit {:?}: {}",
         report.rms_before, report.rms_after, fit.verdict, fit.summary
     );
-    assert_ne!(format!("{:?}", fit.verdict), "Good", "{}", fit.summary);
-    assert!(fit.summary.contains("continuation"), "{}", fit.summary);
-    let cfg = DiagnosisConfig {
+    if let Some(a) = &report.adaptation {
+        for c in &a.components {
+            eprintln!(
+                "  {} knots {:.3?} ({})",
+                c.component, c.knots, c.knots_reason
+            );
+        }
+    }
+    eprintln!(
+        "  model error: {:?}",
+        adapted
+            .cfg()
+            .adaptation
+            .as_ref()
+            .map(|a| &a.model_error_pct)
+    );
+    (truth, rows, report, adapted)
+}
+
+/// The diagnosis settings of these tests.
+fn diagnosis_cfg() -> DiagnosisConfig {
+    DiagnosisConfig {
         max_model_runs: 1500,
         threads: Some(2),
         ..DiagnosisConfig::default()
-    };
+    }
+}
+
+/// A third foreign unit, aero25 with fixed inlet vanes: its part-load running line is nearly
+/// flat in fuel. The growth used to stop there at one compressor knot (11.5 σ RMS after the
+/// adaptation) because that knot's new values were not identified beside the other components'
+/// new knots; tried alone, they are, and the adaptation follows the 9 calibration points
+/// (0.7 σ RMS). Between them it predicts nothing: points left out of the fit miss by 20 % (the
+/// file's limit) on six of the eight signals. Such a model must be said to be one: the
+/// calibration's verdict is not `good` and names the model error, the healthy baseline's
+/// diagnosis and every level of a degradation grid are `suspect` at best (the fits are within
+/// that error whatever the health: before, all 15 levels were `good`, up to 1.4 points off).
+#[test]
+fn a_foreign_unit_followed_but_not_predicted_is_said_to_be_so() {
+    let (truth, rows, report, adapted) = fixed_vanes_calibrated(AdaptSettings::default().max_knots);
+    let fit = &report.baseline_fit;
+    assert!(
+        report.rms_after <= 1.5,
+        "RMS after {:.2} σ",
+        report.rms_after
+    );
+    assert_ne!(format!("{:?}", fit.verdict), "Good", "{}", fit.summary);
+    assert!(fit.summary.contains("model_error_pct"), "{}", fit.summary);
+    let cfg = diagnosis_cfg();
     let baseline = diagnose_snapshots(&adapted, &rows, &cfg).expect("diagnosis");
-    let q = format!("{:?}", baseline.groups[0].result.fit_quality.verdict).to_lowercase();
-    eprintln!("fixed vanes: healthy baseline {q}");
-    assert_ne!(q, "good");
+    let q = &baseline.groups[0].result.fit_quality;
+    eprintln!(
+        "fixed vanes: healthy baseline {:?}: {}",
+        q.verdict, q.summary
+    );
+    assert_ne!(format!("{:?}", q.verdict), "Good");
+    assert!(!q.model_error_beyond.is_empty());
     let (est, verdicts) = grid_estimates(&truth, AERO25_FIXED_VANES, &adapted, &cfg);
     grid_ranks(&est, &verdicts);
-    assert_no_miss_called_good(&est, &verdicts);
+    assert!(verdicts.iter().all(|v| v != "good"), "{verdicts:?}");
+}
+
+/// A unit the adaptation cannot follow must be said to be one: the unit with fixed vanes,
+/// its adaptation held to one knot per component (md22's maps bent by straight ramps of speed
+/// miss its flat part-load running line by several σ), gets a calibration whose baseline
+/// verdict is not `good` and says what to try, and a healthy baseline whose diagnosis is not
+/// `good` (19.5 σ RMS, `poor`, measured 2026-11-28). The calibration reports the misfit the diagnosis will see (each point solved on the running
+/// point of its measured GG speed): before, it fitted one branch of a folded running line and
+/// reported another.
+#[test]
+fn a_foreign_unit_the_adaptation_cannot_fit_is_said_to_be_unfit() {
+    let (_, rows, report, adapted) = fixed_vanes_calibrated(1);
+    let fit = &report.baseline_fit;
+    assert_ne!(format!("{:?}", fit.verdict), "Good", "{}", fit.summary);
+    assert!(fit.summary.contains("continuation"), "{}", fit.summary);
+    let cfg = diagnosis_cfg();
+    let baseline = diagnose_snapshots(&adapted, &rows, &cfg).expect("diagnosis");
+    let q = format!("{:?}", baseline.groups[0].result.fit_quality.verdict).to_lowercase();
+    eprintln!("fixed vanes, one knot: healthy baseline {q}");
+    assert_ne!(q, "good");
+    // Its degradation grid is not re-run: every level was `poor` with estimates on their
+    // limits (measured 2026-11-28); the grid above is the one whose residuals could mislead.
 }

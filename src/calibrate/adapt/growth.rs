@@ -223,22 +223,24 @@ impl<'a> Growth<'a> {
         if growing.is_empty() {
             return Ok(false);
         }
-        let mut trial = self.shape.clone();
-        for &ci in &growing {
-            trial = trial.resampled(ci, knots(self.ranges[ci][0], self.level[ci] + 1));
-        }
-        let trial_engine = shaped(&self.current, &trial)?;
-        let mut keys: Vec<String> = self.design_free.clone();
-        keys.extend(trial.keys());
-        let pass = identify_at(
-            &trial_engine,
-            &candidates_for(&trial_engine, &keys)?,
-            self.ctx,
-        )?;
-        self.runs += pass.runs;
         let level_before = self.level.clone();
         let design_before = self.design_free.clone();
-        let Some(next) = self.accepted(&growing, &trial, &keys, &pass) else {
+        // All growing components at once first; a component whose new knots are not
+        // identified beside the others' is tried alone before it stops (the others' new knots
+        // can be what takes its information).
+        let mut tries: Vec<Vec<usize>> = vec![growing.clone()];
+        let mut grown = None;
+        while let Some(group) = tries.pop() {
+            let (keys, pass, trial) = self.trial(&group)?;
+            let alone = group.len() == 1;
+            let (next, deferred) = self.accepted(&group, &trial, &keys, &pass, alone);
+            if let Some(next) = next {
+                grown = Some((next, keys, pass));
+                break;
+            }
+            tries.extend(deferred.into_iter().rev().map(|ci| vec![ci]));
+        }
+        let Some((next, keys, pass)) = grown else {
             return Ok(false);
         };
         self.design_free.retain(|k| {
@@ -273,7 +275,9 @@ impl<'a> Growth<'a> {
             ));
             self.level = level_before;
             self.design_free = design_before;
-            return Ok(false);
+            // A component not in this growth (its knots were not identified beside it) may
+            // still grow alone.
+            return Ok(self.frozen.iter().any(|f| !f));
         }
         self.current = fitted;
         self.shape = next;
@@ -299,16 +303,39 @@ impl<'a> Growth<'a> {
         }
     }
 
+    /// The current shape with one knot more on each of `group`, the keys fitted with it
+    /// (the free design values first) and the identifiability pass at its start.
+    fn trial(&mut self, group: &[usize]) -> Result<(Vec<String>, Pass, Shape), CalibrateError> {
+        let mut trial = self.shape.clone();
+        for &ci in group {
+            trial = trial.resampled(ci, knots(self.ranges[ci][0], self.level[ci] + 1));
+        }
+        let trial_engine = shaped(&self.current, &trial)?;
+        let mut keys: Vec<String> = self.design_free.clone();
+        keys.extend(trial.keys());
+        let pass = identify_at(
+            &trial_engine,
+            &candidates_for(&trial_engine, &keys)?,
+            self.ctx,
+        )?;
+        self.runs += pass.runs;
+        Ok((keys, pass, trial))
+    }
+
     /// The shape with the growth of each `growing` component whose knots `pass` all
-    /// identifies (the others frozen, with the reason); `None` when none grew.
+    /// identifies (`None` when none grew), and the components whose knots it does not: frozen
+    /// with the reason when `final_word` (the growth was tried alone) or when another grew,
+    /// else returned to be tried alone.
     fn accepted(
         &mut self,
         growing: &[usize],
         trial: &Shape,
         keys: &[String],
         pass: &Pass,
-    ) -> Option<Shape> {
+        final_word: bool,
+    ) -> (Option<Shape>, Vec<usize>) {
         let mut accepted = false;
+        let mut failed: Vec<(usize, Vec<String>)> = Vec::new();
         let mut next = self.shape.clone();
         for &ci in growing {
             let name = COMPONENTS[ci];
@@ -327,6 +354,17 @@ impl<'a> Growth<'a> {
                 self.level[ci] += 1;
                 accepted = true;
             } else {
+                failed.push((ci, bad));
+            }
+        }
+        let mut deferred = Vec::new();
+        for (ci, bad) in failed {
+            if !final_word {
+                // Beside a growth that was kept, the next step tries it again; else now alone.
+                if !accepted {
+                    deferred.push(ci);
+                }
+            } else {
                 self.frozen[ci] = true;
                 self.knots_reason[ci] = format!(
                     "{} knot(s): at {} the identifiability analysis no longer identifies {}",
@@ -336,7 +374,7 @@ impl<'a> Growth<'a> {
                 );
             }
         }
-        accepted.then_some(next)
+        (accepted.then_some(next), deferred)
     }
 
     /// The report and the adapted engine. σ of the final knots: from the last
