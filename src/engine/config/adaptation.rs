@@ -66,10 +66,11 @@ pub struct AdaptationConfig {
 pub const MAX_MODEL_ERROR_PCT: f64 = 20.0;
 
 /// Model error at which a signal no longer tells health, % of the value: a point of any
-/// component's degradation moves a gas-path signal by well under 1 %, so a model that predicts
-/// the signal no better than 5 % between its own calibration points leaves it several points
-/// of health of slack; a diagnosis resting on such signals cannot be `good` (its residual is
-/// small because the σ is large, not because the model fits).
+/// component's degradation moves a gas-path signal by a few tenths of a percent (the power or
+/// torque at a given fuel flow by a percent or two), so a model that predicts the signal no
+/// better than 5 % between its own calibration points leaves it points of health of slack; a
+/// diagnosis resting on such signals cannot be `good` (its residual is small because the σ is
+/// large, not because the model fits).
 pub const UNRESOLVING_MODEL_ERROR_PCT: f64 = 5.0;
 
 impl AdaptationConfig {
