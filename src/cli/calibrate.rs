@@ -72,6 +72,11 @@ pub struct CalibrateArgs {
     /// read with more cross-talk (README, "Calibrating to your unit").
     #[arg(long, value_enum, default_value_t = AdaptStrategyArg::Grown, requires = "adapt")]
     pub adapt_strategy: AdaptStrategyArg,
+    /// Most knots a component's curves get with --adapt (default 6; fewer when the data's
+    /// speeds carry fewer). Fewer knots for a shape that follows the calibration points but
+    /// predicts points left out poorly (the model error the calibration reports).
+    #[arg(long, requires = "adapt", value_parser = clap::value_parser!(u8).range(1..=12))]
+    pub adapt_max_knots: Option<u8>,
     /// Column mapping for the snapshot file: `t1_k=T_inlet,n1_rpm=NGG,…`.
     #[arg(long)]
     pub map: Option<String>,
@@ -340,6 +345,17 @@ fn fitted_values(report: &Calibration) -> Vec<(String, NewValue)> {
     values
 }
 
+/// The adaptation `a` asks for (`None` without `--adapt`).
+fn adapt_settings(a: &CalibrateArgs) -> Option<AdaptSettings> {
+    a.adapt.then(|| {
+        let mut s = AdaptSettings::of(a.adapt_strategy.into());
+        if let Some(n) = a.adapt_max_knots {
+            s.max_knots = usize::from(n);
+        }
+        s
+    })
+}
+
 pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
     let start = Instant::now();
     let original = std::fs::read_to_string(&a.engine)
@@ -428,7 +444,7 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
     }
     let settings = CalibrationSettings {
         threads: a.threads,
-        adapt: a.adapt.then(|| AdaptSettings::of(a.adapt_strategy.into())),
+        adapt: adapt_settings(&a),
         ..CalibrationSettings::default()
     };
     let (report, _calibrated) = calibrate(&engine, &rows, &rest, candidates, &settings)
@@ -477,4 +493,43 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
         print_text(&report, wall_s);
     }
     Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Debug, Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: CalibrateArgs,
+    }
+
+    fn parsed(extra: &[&str]) -> Result<CalibrateArgs, clap::Error> {
+        let mut argv = vec!["calibrate", "--engine", "e.toml", "--input", "s.csv"];
+        argv.extend_from_slice(extra);
+        Cli::try_parse_from(argv).map(|c| c.args)
+    }
+
+    /// `--adapt-max-knots` sets the adaptation's most knots (1–12), only beside `--adapt`.
+    #[test]
+    fn adapt_max_knots_sets_the_most_knots_only_with_adapt() {
+        let a = parsed(&["--adapt", "--adapt-max-knots", "3"]).expect("parses");
+        assert_eq!(adapt_settings(&a).map(|s| s.max_knots), Some(3));
+        let a = parsed(&["--adapt"]).expect("parses");
+        assert_eq!(
+            adapt_settings(&a).map(|s| s.max_knots),
+            Some(AdaptSettings::default().max_knots)
+        );
+        assert!(adapt_settings(&parsed(&[]).expect("parses")).is_none());
+        for bad in [
+            &["--adapt", "--adapt-max-knots", "0"][..],
+            &["--adapt", "--adapt-max-knots", "13"],
+            &["--adapt-max-knots", "3"],
+        ] {
+            let e = parsed(bad).expect_err("refused").to_string();
+            assert!(e.contains("--adapt"), "{bad:?}: {e}");
+        }
+    }
 }
