@@ -35,10 +35,10 @@
 //! `suspect` on their residual at the largest degradations).
 //!
 //! A third, the first with fixed inlet vanes (`tests/data/foreign/aero25_novigv_truth.toml`),
-//! is one the adaptation follows at its calibration points (0.73 σ RMS) but predicts nothing
-//! between them (20 % model error on six signals): the test asserts that the calibration and
-//! every diagnosis on it say so; held to one knot a component it is not fitted at all (19.5 σ),
-//! and that is said too.
+//! is one the adaptation follows at its calibration points (0.73 σ RMS) but predicts poorly
+//! between them (2.5–5.6 % model error on six signals): the test asserts that the calibration
+//! and every diagnosis on it say so; held to one knot a component it is not fitted at all
+//! (19.5 σ), and that is said too.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use gtwatch::calibrate::adapt::{AdaptSettings, AdaptStrategy};
@@ -589,8 +589,20 @@ fn grid_estimates(
     adapted: &Engine,
     cfg: &DiagnosisConfig,
 ) -> (Vec<[f64; 6]>, Vec<String>) {
+    let all: Vec<usize> = (0..LEVELS).collect();
+    grid_estimates_at(truth, unit, adapted, cfg, &all)
+}
+
+/// [`grid_estimates`] on the grid's levels `levels` only, in that order.
+fn grid_estimates_at(
+    truth: &Engine,
+    unit: Unit,
+    adapted: &Engine,
+    cfg: &DiagnosisConfig,
+    levels: &[usize],
+) -> (Vec<[f64; 6]>, Vec<String>) {
     let mut rows_all = Vec::new();
-    for i in 0..LEVELS {
+    for &i in levels {
         let loads = loads_of(unit.design_mw, i + 1);
         rows_all.extend(rows_at(
             truth,
@@ -816,11 +828,13 @@ fn diagnosis_cfg() -> DiagnosisConfig {
 /// flat in fuel. The growth used to stop there at one compressor knot (11.5 σ RMS after the
 /// adaptation) because that knot's new values were not identified beside the other components'
 /// new knots; tried alone, they are, and the adaptation follows the 9 calibration points
-/// (0.7 σ RMS). Between them it predicts nothing: points left out of the fit miss by 20 % (the
-/// file's limit) on six of the eight signals. Such a model must be said to be one: the
+/// (0.73 σ RMS). Between them it predicts less well: its model error on points left out is
+/// 2.5–5.6 % on six of the eight signals (full refits without a load missed it by up to 2.6 %),
+/// and a diagnosis weighting the signals by that error reads a degradation grid up to 2.3
+/// points off at normalised residuals of 0.1–0.2. Such a model must be said to be one: the
 /// calibration's verdict is not `good` and names the model error, the healthy baseline's
-/// diagnosis and every level of a degradation grid are `suspect` at best (the fits are within
-/// that error whatever the health: before, all 15 levels were `good`, up to 1.4 points off).
+/// diagnosis and the grid's levels are `suspect` at best (before the rule, all 15 levels were
+/// `good`).
 #[test]
 fn a_foreign_unit_followed_but_not_predicted_is_said_to_be_so() {
     let (truth, rows, report, adapted) = fixed_vanes_calibrated(AdaptSettings::default().max_knots);
@@ -841,8 +855,23 @@ fn a_foreign_unit_followed_but_not_predicted_is_said_to_be_so() {
     );
     assert_ne!(format!("{:?}", q.verdict), "Good");
     assert!(!q.model_error_beyond.is_empty());
-    let (est, verdicts) = grid_estimates(&truth, AERO25_FIXED_VANES, &adapted, &cfg);
-    grid_ranks(&est, &verdicts);
+    // A level of each path the model reads far off (2.26, 1.25 and 1.20 points): CI diagnoses
+    // these three, `GTWATCH_FOREIGN_FULL=1` all 15.
+    let levels: Vec<usize> = if std::env::var_os("GTWATCH_FOREIGN_FULL").is_some() {
+        (0..LEVELS).collect()
+    } else {
+        vec![4, 6, 13]
+    };
+    let (est, verdicts) = grid_estimates_at(&truth, AERO25_FIXED_VANES, &adapted, &cfg, &levels);
+    for (e, (&i, q)) in est.iter().zip(levels.iter().zip(&verdicts)) {
+        let err = (0..4)
+            .map(|p| (e[p] - grid(i)[p]).abs())
+            .fold(0.0, f64::max);
+        eprintln!(
+            "level {i:2} truth {:?} est {e:+.2?} {q}: off by {err:.2}",
+            grid(i)
+        );
+    }
     assert!(verdicts.iter().all(|v| v != "good"), "{verdicts:?}");
 }
 
