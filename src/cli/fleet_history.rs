@@ -173,7 +173,12 @@ fn write_table(out: &mut dyn Write, rows: &[FleetHistoryRow]) -> anyhow::Result<
             r.method
         )?;
         write_health_cells(out, &r.health, &r.sigma, &HEALTH_NAMES)?;
-        write_quality_and_gap(out, r.fit_quality.as_deref(), r.gap_verdict.as_deref())?;
+        write_quality_and_gap(
+            out,
+            r.fit_quality.as_deref(),
+            r.gap_verdict.as_deref(),
+            None,
+        )?;
     }
     if rows.is_empty() {
         writeln!(out, "(no results at the centre)")?;

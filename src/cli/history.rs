@@ -5,8 +5,9 @@
 //! `sigma`, `objective`, `residual_level`, `fit_quality`, `wash_id_before`, `gap_verdict`: the
 //! verdict of the start-up's newest stored gap analysis, which names an instrument when one
 //! explains the start-up; `gap_doubted`: the candidate an `ambiguous` verdict doubted, see
-//! `gap::GapVerdict::doubted`). Reads the database
-//! read-only; the query is `Store::history`. Must not compute trends.
+//! `gap::GapVerdict::doubted`; the table shows it beside the verdict, the CSV as its last
+//! column). Reads the database read-only; the query is `Store::history`. Must not compute
+//! trends.
 
 use super::common::{db_path, parse_cli_time};
 use crate::health::HEALTH_NAMES;
@@ -102,10 +103,12 @@ pub(super) fn write_quality_and_gap(
     out: &mut dyn Write,
     fit_quality: Option<&str>,
     gap_verdict: Option<&str>,
+    gap_doubted: Option<&str>,
 ) -> std::io::Result<()> {
+    let doubted = gap_doubted.map_or(String::new(), |d| format!(" (doubted {d})"));
     writeln!(
         out,
-        "  {:<8} {}",
+        "  {:<8} {}{doubted}",
         fit_quality.unwrap_or("-"),
         gap_verdict.unwrap_or("")
     )
@@ -162,6 +165,7 @@ pub(super) fn write_history(
                 "fit_quality",
                 "wash_id_before",
                 "gap_verdict",
+                "gap_doubted",
             ]);
             writeln!(out, "{}", head.join(","))?;
             for r in rows {
@@ -178,6 +182,7 @@ pub(super) fn write_history(
                 cells.push(r.fit_quality.clone().unwrap_or_default());
                 cells.push(r.wash_id_before.map_or(String::new(), |v| v.to_string()));
                 cells.push(r.gap_verdict.clone().unwrap_or_default());
+                cells.push(r.gap_doubted.clone().unwrap_or_default());
                 writeln!(out, "{}", cells.join(","))?;
             }
         }
@@ -194,7 +199,12 @@ pub(super) fn write_history(
                     r.segment_id, r.start_utc, r.method
                 )?;
                 write_health_cells(out, &r.health, &r.sigma, names)?;
-                write_quality_and_gap(out, r.fit_quality.as_deref(), r.gap_verdict.as_deref())?;
+                write_quality_and_gap(
+                    out,
+                    r.fit_quality.as_deref(),
+                    r.gap_verdict.as_deref(),
+                    r.gap_doubted.as_deref(),
+                )?;
             }
             if rows.is_empty() {
                 writeln!(out, "(no diagnoses stored)")?;
@@ -221,4 +231,30 @@ pub(super) fn run(args: HistoryArgs) -> anyhow::Result<ExitCode> {
     let mut out = stdout.lock();
     write_history(&rows, &names, args.format, &mut out)?;
     Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The table's last columns: the fit quality, the gap verdict and, when the verdict doubted
+    /// a candidate, which.
+    #[test]
+    fn the_table_shows_a_doubted_candidate_beside_the_verdict() {
+        let mut out: Vec<u8> = Vec::new();
+        write_quality_and_gap(
+            &mut out,
+            Some("suspect"),
+            Some("ambiguous"),
+            Some("fuel_meter_offset"),
+        )
+        .expect("write");
+        assert_eq!(
+            String::from_utf8(out).expect("utf-8"),
+            "  suspect  ambiguous (doubted fuel_meter_offset)\n"
+        );
+        let mut out: Vec<u8> = Vec::new();
+        write_quality_and_gap(&mut out, None, None, None).expect("write");
+        assert_eq!(String::from_utf8(out).expect("utf-8"), "  -        \n");
+    }
 }
