@@ -25,6 +25,18 @@ fn json_of(out: std::io::Result<std::process::Output>) -> serde_json::Value {
     serde_json::from_slice(&out.stdout).expect("one JSON document")
 }
 
+/// `gtwatch gap --input <csv> <args…> --json`: its one JSON document.
+fn gap_json(csv: &std::path::Path, args: &[&str]) -> serde_json::Value {
+    json_of(
+        gtwatch()
+            .args(["gap", "--input"])
+            .arg(csv)
+            .args(args)
+            .arg("--json")
+            .output(),
+    )
+}
+
 /// A `gtwatch simulate` start-up (`sim_args` after `simulate`) written to `dir`, then one column
 /// altered by this test as another program would: `alter` gets the record's times and the
 /// column's values (NaN where a cell is blank) and changes the values in place; each changed
@@ -196,13 +208,7 @@ fn an_inlet_thermometer_error_is_never_passed_off_as_none() {
         "t1_high.csv",
         |_, t1| t1.iter_mut().for_each(|v| *v += 2.1),
     );
-    let v = json_of(
-        gtwatch()
-            .args(["gap", "--input"])
-            .arg(&csv)
-            .args(["--json"])
-            .output(),
-    );
+    let v = gap_json(&csv, &[]);
     let verdict = v["verdict"]["effect"].as_str().expect("verdict");
     assert!(
         verdict == "ambiguous" || verdict == "inlet_temperature",
@@ -251,13 +257,7 @@ fn a_drifting_fuel_meter_is_named_among_the_instruments_the_health_may_hide() {
             }
         },
     );
-    let v = json_of(
-        gtwatch()
-            .args(["gap", "--input"])
-            .arg(&csv)
-            .args(["--effects", "duct_loss", "--json"])
-            .output(),
-    );
+    let v = gap_json(&csv, &["--effects", "duct_loss"]);
     let verdict = &v["verdict"];
     assert_ne!(v["baseline_fit_quality"], "good", "{verdict}");
     assert_eq!(verdict["effect"], "ambiguous", "{verdict} {}", v["aliases"]);
@@ -275,13 +275,7 @@ fn a_drifting_fuel_meter_is_named_among_the_instruments_the_health_may_hide() {
     // named and the health after was nearly 4 points off; now it is doubted, the fuel meter's
     // scale is listed as the instrument that would make the health plausible, and the health
     // reported is the baseline's, not the wrong correction.
-    let v = json_of(
-        gtwatch()
-            .args(["gap", "--input"])
-            .arg(&csv)
-            .args(["--effects", "fuel_meter_offset,duct_loss", "--json"])
-            .output(),
-    );
+    let v = gap_json(&csv, &["--effects", "fuel_meter_offset,duct_loss"]);
     let verdict = &v["verdict"];
     assert_eq!(verdict["effect"], "ambiguous", "{verdict}");
     assert_eq!(verdict["doubted"], "fuel_meter_offset", "{verdict}");
@@ -315,16 +309,12 @@ fn a_fuel_meter_offset_hidden_at_rest_is_named_and_the_health_restored() {
                 .for_each(|w| *w += 0.008)
         },
     );
-    let v = json_of(
-        gtwatch()
-            .args(["gap", "--input"])
-            .arg(&csv)
-            .args([
-                "--effects",
-                "fuel_meter_offset,fuel_meter,heat_soak,bleed_schedule",
-                "--json",
-            ])
-            .output(),
+    let v = gap_json(
+        &csv,
+        &[
+            "--effects",
+            "fuel_meter_offset,fuel_meter,heat_soak,bleed_schedule",
+        ],
     );
     let verdict = &v["verdict"];
     assert_ne!(v["baseline_fit_quality"], "good", "{verdict}");
