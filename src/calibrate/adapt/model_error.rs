@@ -22,12 +22,14 @@
 //! singular (the point alone pins a knot) is skipped. Per signal the model error is the RMS
 //! relative prediction error with the instruments' own noise share removed.
 //!
-//! A lower bound: the linearisation keeps the curves and knots the full fit chose, where a
-//! calibration re-run without the point may choose others. On the foreign unit of
+//! Not a bound either way: the refit step keeps the curves and knots the full fit chose, where
+//! a calibration re-run without the point may choose others. On the first foreign unit of
 //! `tests/foreign_engine.rs` the full re-runs missed the GG speed of three interior loads by
-//! 0.28, 0.08 and 0.58 %, the linearised folds by 0.07, 0.08 and 0.13 %. Taking the full
-//! re-runs' larger misses as the model error (by hand) ranked the degradation grid the same but
-//! called a level 0.74 points off `good`; the linearised estimate called none beyond 0.5.
+//! 0.28, 0.08 and 0.58 %, the linear predictions by 0.07, 0.08 and 0.13 % (lower); on the unit
+//! with fixed vanes the full re-runs missed three interior loads by 2.6, 0.41 and 0.41 % at
+//! worst, the solved estimate states up to 5.6 % (higher), the linear one 20 %. Taking the
+//! first unit's full re-runs' larger misses as the model error (by hand) ranked the
+//! degradation grid the same but called a level 0.74 points off `good`.
 //!
 //! What it must not do: I/O; refit (the linearisation is the estimate).
 
