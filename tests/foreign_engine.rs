@@ -455,18 +455,29 @@ fn adapted_md22_diagnoses_a_foreign_unit() {
     // A grid of degradation at all 9 loads: compressor fouling, HP-turbine wear, both.
     let (est, verdicts) = grid_estimates(&truth, AERO25, &adapted, &cfg);
     let rho = grid_ranks(&est, &verdicts);
-    // The rank floor, ρ ≥ 0.95 for all four: met with the adapted model's own error
-    // (estimated by the calibration on interior points left out, written as
-    // [adaptation.model_error_pct]) added to each instrument σ. Without it, D_GT ranked at 0.89:
-    // the averaged GG speed, 20 times more precise than the map predicts it off the healthy
-    // operating line, pulled compressor fouling into HPT flow. Not met yet: each level within
-    // 0.5 points (worst 0.62, D_GC at 4 points of fouling; D_EP, healthy on every level, reads
-    // up to +0.77 at the largest degradation), the cross-talk as a rank (D_ET
-    // leaks −0.05 points per point of D_GC: small, but monotone, so ρ = −1), every fit good.
-    let me = &adapted.cfg().adaptation.as_ref().unwrap().model_error_pct;
+    // The rank floor, ρ ≥ 0.95 for all four, and each level within 0.5 points: met
+    // with the adapted model's own error (estimated by the calibration on interior points left
+    // out) added to each instrument σ at each point's own GG speed
+    // ([adaptation.model_error_by_speed]). With no model error D_GT ranked at 0.89 (the
+    // averaged GG speed, far more precise than the map predicts it off the healthy operating
+    // line, pulled compressor fouling into HPT flow); with one average error for every load,
+    // the low loads, where the borrowed map is bent furthest and predicts worst, pulled the
+    // levels up to 0.62 points off (D_GC), now 0.33. Not met yet: D_EP, healthy on every level,
+    // reads up to +0.53 at the largest degradation; every fit good (9 of 15; the others'
+    // residuals 1.1–1.9, honest: off the healthy line the model misses by more than on it);
+    // the cross-talk as a rank (D_ET leaks about −0.03 points per point of D_GC: small, but
+    // monotone, so ρ = −1).
+    let a = adapted.cfg().adaptation.as_ref().expect("adapted");
     assert!(
-        me.get("n1_rpm").is_some_and(|v| *v > 0.05),
-        "the GG speed's model error is estimated: {me:?}"
+        a.model_error_pct.get("n1_rpm").is_some_and(|v| *v > 0.05),
+        "the GG speed's model error is estimated: {:?}",
+        a.model_error_pct
+    );
+    let profile = a.model_error_by_speed.as_ref().expect("a profile");
+    let n1 = &profile.pct["n1_rpm"];
+    assert!(
+        n1[0] > 2.0 * n1[n1.len() - 1],
+        "predicted worse at the lowest interior load than at the highest: {n1:?}"
     );
     for p in 0..4 {
         assert!(rho[p] >= 0.95, "{}: ρ {:.3}", HEALTH_NAMES[p], rho[p]);
@@ -474,7 +485,7 @@ fn adapted_md22_diagnoses_a_foreign_unit() {
     for (i, e) in est.iter().enumerate() {
         for p in 0..4 {
             let err = (e[p] - grid(i)[p]).abs();
-            assert!(err <= 0.7, "level {i} {}: error {err:.2}", HEALTH_NAMES[p]);
+            assert!(err <= 0.5, "level {i} {}: error {err:.2}", HEALTH_NAMES[p]);
         }
     }
     assert_eq!(
@@ -561,14 +572,7 @@ fn adapted_baseline(
     strategy: AdaptStrategy,
 ) -> (Engine, DiagnosisConfig, [f64; 6], String) {
     let adapted = calibrated(model, rows, Some(strategy));
-    eprintln!(
-        "model error: {:?}",
-        adapted
-            .cfg()
-            .adaptation
-            .as_ref()
-            .map(|a| &a.model_error_pct)
-    );
+    eprintln!("{}", model_error_text(&adapted));
     let cfg = DiagnosisConfig {
         max_model_runs: 1500,
         threads: Some(2),
@@ -801,15 +805,18 @@ fn fixed_vanes_calibrated(max_knots: usize) -> (Engine, Vec<Snapshot>, Calibrati
             );
         }
     }
-    eprintln!(
-        "  model error: {:?}",
-        adapted
-            .cfg()
-            .adaptation
-            .as_ref()
-            .map(|a| &a.model_error_pct)
-    );
+    eprintln!("  {}", model_error_text(&adapted));
     (truth, rows, report, adapted)
+}
+
+/// The model error an adapted engine file states, on average and along the GG speed.
+fn model_error_text(adapted: &Engine) -> String {
+    let a = adapted.cfg().adaptation.as_ref();
+    format!(
+        "model error: {:.3?}\n  along the GG speed: {:.3?}",
+        a.map(|a| &a.model_error_pct),
+        a.and_then(|a| a.model_error_by_speed.as_ref())
+    )
 }
 
 /// The diagnosis settings of these tests.
@@ -822,18 +829,16 @@ fn diagnosis_cfg() -> DiagnosisConfig {
 }
 
 /// A third foreign unit, aero25 with fixed inlet vanes: its part-load running line is nearly
-/// flat in fuel. The growth used to stop there at one compressor knot (11.5 σ RMS after the
-/// adaptation) because that knot's new values were not identified beside the other components'
-/// new knots; tried alone, they are, and the adaptation follows the 9 calibration points
-/// (0.73 σ RMS). Between them it predicts less well: its model error on points left out is
-/// 2.5–5.6 % on six of the eight signals (full refits without a load missed it by up to 2.6 %),
-/// and a diagnosis weighting the signals by that error reads a degradation grid up to 2.3
-/// points off at normalised residuals of 0.1–0.2. Such a model must be said to be one: the
-/// calibration's verdict is not `good` and names the model error, the healthy baseline's
-/// diagnosis and the grid's levels are `suspect` at best (before the rule, all 15 levels were
-/// `good`).
+/// flat in fuel. The adaptation follows its 9 calibration points (0.73 σ RMS) but predicts the
+/// low loads poorly between them: its model error on points left out is 3.6–9.7 % on six
+/// signals at relative GG speeds 0.75–0.82, 0.4 % or less from 0.89 up. With one average error
+/// (2.5–5.6 %) for every load, the grid read up to 2.3 points off at residuals of 0.1–0.2, and
+/// the rule then was to call every diagnosis on the file unresolved. Weighted by the error at
+/// each point's own GG speed, the high loads carry the diagnosis: the grid reads within 0.55
+/// points, and only a diagnosis resting on the poorly predicted loads alone is said to be
+/// unresolved. The calibration names those speeds.
 #[test]
-fn a_foreign_unit_followed_but_not_predicted_is_said_to_be_so() {
+fn a_foreign_unit_predicted_at_some_loads_only_is_diagnosed_by_those() {
     let (truth, rows, report, adapted) = fixed_vanes_calibrated(AdaptSettings::default().max_knots);
     let fit = &report.baseline_fit;
     assert!(
@@ -841,20 +846,37 @@ fn a_foreign_unit_followed_but_not_predicted_is_said_to_be_so() {
         "RMS after {:.2} σ",
         report.rms_after
     );
-    assert_ne!(format!("{:?}", fit.verdict), "Good", "{}", fit.summary);
-    assert!(fit.summary.contains("model_error_pct"), "{}", fit.summary);
+    let error = &report.adaptation.as_ref().expect("adapted").model_error;
+    let unresolved = error.unresolved_speeds();
+    let knots = &error.by_speed.as_ref().expect("a profile").speed_knots;
+    assert!(
+        !unresolved.is_empty() && unresolved.len() < knots.len(),
+        "some speeds resolved, some not: {unresolved:?} of {knots:?}"
+    );
+    assert!(
+        fit.summary.contains("model_error_by_speed"),
+        "{}",
+        fit.summary
+    );
+    // The three lowest loads alone (rows are by load, lowest first): not resolved.
     let cfg = diagnosis_cfg();
-    let baseline = diagnose_snapshots(&adapted, &rows, &cfg).expect("diagnosis");
-    let q = &baseline.groups[0].result.fit_quality;
+    let low = diagnose_snapshots(&adapted, &rows[..3], &cfg).expect("diagnosis");
+    let q = &low.groups[0].result.fit_quality;
     eprintln!(
-        "fixed vanes: healthy baseline {:?}: {}",
+        "fixed vanes, three lowest loads: {:?}: {}",
         q.verdict, q.summary
     );
     assert_ne!(format!("{:?}", q.verdict), "Good");
     assert!(!q.model_error_beyond.is_empty());
-    // The rule is the engine file's, so every level of the grid gets it; CI diagnoses one,
-    // the furthest off (level 4, 2.26 points), `GTWATCH_FOREIGN_FULL=1` all 15 (levels 6 and 13
-    // read 1.25 and 1.20 points off).
+    // All nine: the healthy baseline near zero, the grid within 0.6 points, no miss called
+    // good. CI diagnoses the level furthest off before the profile (level 4: 2.26 points, now
+    // 0.54), `GTWATCH_FOREIGN_FULL=1` all 15.
+    let baseline = diagnose_snapshots(&adapted, &rows, &cfg).expect("diagnosis");
+    let b = baseline.groups[0].result.health.to_array();
+    eprintln!("fixed vanes, healthy baseline {b:+.2?}");
+    for (p, v) in b.iter().enumerate().take(4) {
+        assert!(v.abs() <= 0.3, "baseline {} = {v:.3}", HEALTH_NAMES[p]);
+    }
     let levels: Vec<usize> = if std::env::var_os("GTWATCH_FOREIGN_FULL").is_some() {
         (0..LEVELS).collect()
     } else {
@@ -869,8 +891,12 @@ fn a_foreign_unit_followed_but_not_predicted_is_said_to_be_so() {
             "level {i:2} truth {:?} est {e:+.2?} {q}: off by {err:.2}",
             grid(i)
         );
+        assert!(err <= 0.6, "level {i}: off by {err:.2}");
+        assert!(
+            err <= 0.5 || q != "good",
+            "level {i}: off by {err:.2} called good"
+        );
     }
-    assert!(verdicts.iter().all(|v| v != "good"), "{verdicts:?}");
 }
 
 /// A unit the adaptation cannot follow must be said to be one: the unit with fixed vanes,

@@ -186,10 +186,9 @@ impl BaselineFit {
         let unresolving: Vec<String> = adapt
             .map(|a| {
                 a.model_error
-                    .signals
-                    .iter()
-                    .filter(|m| m.pct >= crate::engine::config::UNRESOLVING_MODEL_ERROR_PCT)
-                    .map(|m| format!("{} {:.1} %", m.signal, m.pct))
+                    .unresolving()
+                    .into_iter()
+                    .map(|(signal, pct)| format!("{signal} {pct:.1} %"))
                     .collect()
             })
             .unwrap_or_default();
@@ -199,7 +198,8 @@ impl BaselineFit {
                 format!(
                     "the calibrated model reproduces the healthy baseline within noise at the \
                      points it was fitted to, but predicts a point left out of the fit no better \
-                     than {} (the model error written to [adaptation.model_error_pct]): the \
+                     than {} at any GG speed (the model error written to \
+                     [adaptation.model_error_pct] and [adaptation.model_error_by_speed]): the \
                      curves follow the points, not the unit, and a diagnosis on this file will \
                      be labelled suspect at best; calibrate on more loads, or try \
                      --adapt-strategy continuation",
@@ -207,10 +207,32 @@ impl BaselineFit {
                 ),
             )
         } else if verdict == Verdict::Good {
-            (
-                verdict,
-                "the calibrated model reproduces the healthy baseline within noise".to_string(),
-            )
+            // Resolved at some speeds, not at others: say where a diagnosis cannot lean.
+            let unresolved = adapt
+                .map(|a| a.model_error.unresolved_speeds())
+                .unwrap_or_default();
+            let words = match unresolved.first() {
+                Some((lo, worst)) => {
+                    let list: Vec<String> = worst
+                        .iter()
+                        .map(|(signal, pct)| format!("{signal} {pct:.1} %"))
+                        .collect();
+                    let speeds: Vec<String> =
+                        unresolved.iter().map(|(k, _)| format!("{k:.3}")).collect();
+                    format!(
+                        "the calibrated model reproduces the healthy baseline within noise; at \
+                         relative corrected GG speed {} it predicts a point left out of the fit \
+                         no better than 2 % (at {lo:.3}: {}; [adaptation.model_error_by_speed]): \
+                         a diagnosis resting on such loads alone will be labelled suspect, one \
+                         with other loads beside them weights each load for what the model \
+                         predicts there",
+                        speeds.join(", "),
+                        list.join(", ")
+                    )
+                }
+                None => "the calibrated model reproduces the healthy baseline within noise".into(),
+            };
+            (verdict, words)
         } else {
             let worst = signals
                 .iter()
@@ -271,7 +293,8 @@ impl Calibration {
     }
 
     /// The adaptation curves to write, as `(adaptation.<component>.<curve>, values)` with each
-    /// component's `speed_knots` first; empty without an adaptation.
+    /// component's `speed_knots` first, then the model error along the GG speed
+    /// (`adaptation.model_error_by_speed.<speed_knots | signal>`); empty without an adaptation.
     pub fn adaptation_lists(&self) -> Vec<(String, Vec<f64>)> {
         let mut out = Vec::new();
         for c in self.adaptation.iter().flat_map(|a| &a.components) {
@@ -287,6 +310,17 @@ impl Calibration {
                     format!("adaptation.{}.{}", c.component, k.curve),
                     k.values.clone(),
                 ));
+            }
+        }
+        if let Some(t) = self
+            .adaptation
+            .as_ref()
+            .and_then(|a| a.model_error.by_speed.as_ref())
+        {
+            let key = |k: &str| format!("adaptation.model_error_by_speed.{k}");
+            out.push((key("speed_knots"), t.speed_knots.clone()));
+            for (signal, v) in &t.pct {
+                out.push((key(signal), v.clone()));
             }
         }
         out

@@ -284,6 +284,19 @@ fn print_text(report: &Calibration, wall_s: f64) {
                 list.join(", "),
                 me.note
             );
+            if let Some(t) = &me.by_speed {
+                println!(
+                    "  along the operating line (each speed with its neighbours; a point is \
+                     weighted by the error at its own GG speed):"
+                );
+                let knots: Vec<String> =
+                    t.speed_knots.iter().map(|k| format!("{k:>6.3}")).collect();
+                println!("    {:<12} {}", "rel. N1 corr", knots.join(" "));
+                for (signal, v) in &t.pct {
+                    let row: Vec<String> = v.iter().map(|p| format!("{p:>6.2}")).collect();
+                    println!("    {signal:<12} {}", row.join(" "));
+                }
+            }
         }
     }
     for a in &report.assumptions {

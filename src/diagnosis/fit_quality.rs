@@ -199,12 +199,13 @@ impl FitQuality {
         mut self,
         engine_cfg: &crate::engine::EngineConfig,
         signals: &[Signal],
+        speeds: &[Option<f64>],
     ) -> Self {
         let Some(a) = &engine_cfg.adaptation else {
             return self;
         };
         self.model_error_beyond = a
-            .unresolving_signals()
+            .unresolving_signals(speeds)
             .into_iter()
             .filter(|(k, _)| signals.iter().any(|s| s.column() == k))
             .map(|(signal, pct)| ModelErrorBeyond { signal, pct })
@@ -219,8 +220,10 @@ impl FitQuality {
             .collect();
         let words = format!(
             "the adapted model's own error between its calibration points \
-             ([adaptation.model_error_pct]) is {}: the fit is within it whatever the health, so \
-             the estimate is not resolved; re-calibrate on a baseline with more loads, or with \
+             ([adaptation.model_error_pct], by GG speed [adaptation.model_error_by_speed]) is \
+             at least {} at every point here: the fit is within it whatever the health, so \
+             the estimate is not resolved; diagnose these points with others where the model \
+             predicts better, or re-calibrate on a baseline with more loads, or with \
              --adapt-strategy continuation",
             list.join(", ")
         );
@@ -604,19 +607,19 @@ mod tests {
         let good = || assess(0.7, &[], &[], &HealthFlags::default(), &th);
         let mut cfg = EngineConfig::reference();
         let compared = [Signal::N1, Signal::T34];
-        assert_eq!(good().with_model_error(&cfg, &compared), good());
+        assert_eq!(good().with_model_error(&cfg, &compared, &[]), good());
         let mut a = AdaptationConfig::default();
         a.model_error_pct.insert("n1_rpm".into(), 1.9);
         a.model_error_pct.insert("torque_knm".into(), 20.0);
         cfg.adaptation = Some(a.clone());
         // 1.9 % on a compared signal, 20 % on one not compared: still good.
         assert_eq!(
-            good().with_model_error(&cfg, &compared).verdict,
+            good().with_model_error(&cfg, &compared, &[]).verdict,
             Verdict::Good
         );
         a.model_error_pct.insert("t34_k".into(), 2.0);
         cfg.adaptation = Some(a);
-        let q = good().with_model_error(&cfg, &compared);
+        let q = good().with_model_error(&cfg, &compared, &[]);
         assert_eq!(q.verdict, Verdict::Suspect);
         assert_eq!(q.residual_verdict, Verdict::Good);
         assert_eq!(
@@ -627,11 +630,41 @@ mod tests {
             }]
         );
         assert!(q.summary.contains("t34_k 2.0 %"), "{}", q.summary);
-        let poor =
-            assess(9.0, &[], &[], &HealthFlags::default(), &th).with_model_error(&cfg, &compared);
+        let poor = assess(9.0, &[], &[], &HealthFlags::default(), &th).with_model_error(
+            &cfg,
+            &compared,
+            &[],
+        );
         assert_eq!(poor.verdict, Verdict::Poor);
         assert!(
             poor.summary.starts_with("normalised residual 9.00") && poor.summary.contains("t34_k")
+        );
+
+        // Along the operating line: T34 predicted within 0.5 % at speed 0.95, 4 % at 0.8. A
+        // diagnosis with a point at 0.95 is resolved by it; one with points at 0.8 only is not
+        // (its smallest error is said).
+        let mut a = AdaptationConfig::default();
+        a.model_error_pct.insert("t34_k".into(), 2.5);
+        a.model_error_by_speed = Some(crate::engine::config::ModelErrorBySpeed {
+            speed_knots: vec![0.8, 0.95],
+            pct: [("t34_k".to_string(), vec![4.0, 0.5])]
+                .into_iter()
+                .collect(),
+        });
+        cfg.adaptation = Some(a);
+        let both = good().with_model_error(&cfg, &compared, &[Some(0.8), Some(0.95)]);
+        assert_eq!(both.verdict, Verdict::Good, "{}", both.summary);
+        let low = good().with_model_error(&cfg, &compared, &[Some(0.78), Some(0.8), None]);
+        assert_eq!(low.verdict, Verdict::Suspect);
+        assert_eq!(low.model_error_beyond[0].signal, "t34_k");
+        assert!(
+            (low.model_error_beyond[0].pct - 2.5).abs() < 1e-12,
+            "{low:?}"
+        );
+        let low = good().with_model_error(&cfg, &compared, &[Some(0.78), Some(0.8)]);
+        assert!(
+            (low.model_error_beyond[0].pct - 4.0).abs() < 1e-12,
+            "{low:?}"
         );
     }
 

@@ -23,8 +23,8 @@
 use super::csv_input::{find_column, open_csv, parse_value, CsvError, AMBIENT_PRESSURE_COLUMN};
 use super::residual_table::{Cell, ResidualTable};
 use super::steady::{
-    below_adaptation_note, input_noise_note, model_error_note, with_input_noise, with_model_error,
-    InputSigma, SteadyData, SteadyProblem, SteadyWindow,
+    below_adaptation_note, input_noise_note, model_error_note, relative_gg_speeds,
+    with_input_noise, with_model_error, InputSigma, SteadyData, SteadyProblem, SteadyWindow,
 };
 use super::{fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, Method, MethodResult};
 use crate::engine::sensors::noise_sigma;
@@ -451,7 +451,7 @@ pub fn diagnose_snapshots(
                     } else {
                         p
                     };
-                    points.push(with_model_error(engine.cfg(), p));
+                    points.push(with_model_error(engine, p));
                 }
                 Err(reason) => dropped.push(DroppedRow {
                     line: r.line,
@@ -487,9 +487,11 @@ pub fn diagnose_snapshots(
                 .collect();
             let table = residual_table_of(&problem, &out.x, rows);
             let mut result = result_of(Method::Steady, &problem, &out, &cfg, signals, n_res, win);
-            result.fit_quality = result
-                .fit_quality
-                .with_model_error(engine.cfg(), &result.signals);
+            result.fit_quality = result.fit_quality.with_model_error(
+                engine.cfg(),
+                &result.signals,
+                &relative_gg_speeds(engine, problem.points()),
+            );
             Ok((result, table))
         });
         match outcome {

@@ -431,7 +431,8 @@ impl<'a> Growth<'a> {
     }
 }
 
-/// `engine` with `error` as its file's `[adaptation.model_error_pct]` (replacing any older one).
+/// `engine` with `error` as its file's `[adaptation.model_error_pct]` and
+/// `[adaptation.model_error_by_speed]` (replacing any older ones).
 fn with_model_error(engine: &Engine, error: &ModelError) -> Result<Engine, CalibrateError> {
     let mut cfg = engine.cfg().clone();
     if let Some(a) = cfg.adaptation.as_mut() {
@@ -440,6 +441,7 @@ fn with_model_error(engine: &Engine, error: &ModelError) -> Result<Engine, Calib
             .iter()
             .map(|s| (s.signal.clone(), s.pct))
             .collect();
+        a.model_error_by_speed = error.by_speed.clone();
     }
     engine
         .with_config(cfg)

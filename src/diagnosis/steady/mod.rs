@@ -266,13 +266,38 @@ pub fn steady_reading(m: &Model, p: &SteadyPoint, s: Signal) -> f64 {
 /// fit weights it for what the model can do (an averaged GG speed is far more precise than a
 /// map predicts it), and the fit's verdict and σ carry it. Calibration itself does not call
 /// this: its residuals are what the model error is estimated from.
-pub(crate) fn with_model_error(cfg: &EngineConfig, mut data: SteadyData) -> SteadyData {
-    if let Some(a) = &cfg.adaptation {
+/// Where the file states the error along the operating line
+/// (`[adaptation.model_error_by_speed]`), each point gets it at its own measured GG speed: the
+/// low loads, where a borrowed map is bent furthest, are weighted for how little the model
+/// predicts there, the others for how well.
+pub(crate) fn with_model_error(engine: &Engine, mut data: SteadyData) -> SteadyData {
+    if let Some(a) = &engine.cfg().adaptation {
+        let rel = relative_gg_speed(engine, &data);
         for (s, v, sd) in &mut data.outputs {
-            *sd = sd.hypot(a.model_error_fraction(*s) * v.abs());
+            *sd = sd.hypot(a.model_error_fraction(*s, rel) * v.abs());
         }
     }
     data
+}
+
+/// [`relative_gg_speed`] of each of `points`.
+pub(crate) fn relative_gg_speeds(engine: &Engine, points: &[SteadyData]) -> Vec<Option<f64>> {
+    points
+        .iter()
+        .map(|p| relative_gg_speed(engine, p))
+        .collect()
+}
+
+/// The relative corrected GG speed of `data` (its measured GG speed at its ambient over the
+/// design's), `None` when it has no GG speed.
+pub(crate) fn relative_gg_speed(engine: &Engine, data: &SteadyData) -> Option<f64> {
+    let n1 = data
+        .outputs
+        .iter()
+        .find(|(s, _, _)| *s == Signal::N1)
+        .map(|&(_, v, _)| v)?;
+    let d = engine.design();
+    Some(corrected_speed(n1, data.inputs.t_amb_k) / corrected_speed(d.n1_rpm, d.t1_k))
 }
 
 /// Relative corrected GG speed below the adaptation's lowest compressor knot by more than this
@@ -293,13 +318,7 @@ pub(crate) fn below_adaptation_note(engine: &Engine, data: &SteadyData) -> Optio
         .speed_knots
         .first()
         .copied()?;
-    let n1 = data
-        .outputs
-        .iter()
-        .find(|(s, _, _)| *s == Signal::N1)
-        .map(|&(_, v, _)| v)?;
-    let d = engine.design();
-    let rel = corrected_speed(n1, data.inputs.t_amb_k) / corrected_speed(d.n1_rpm, d.t1_k);
+    let rel = relative_gg_speed(engine, data)?;
     (rel < lowest - BELOW_KNOTS_MARGIN).then(|| {
         format!(
             "{}: relative corrected GG speed {rel:.3} is below the adaptation's lowest knot \
@@ -323,9 +342,28 @@ pub(crate) fn model_error_note(cfg: &EngineConfig) -> Option<String> {
     if list.is_empty() {
         return None;
     }
+    let by_speed = a.model_error_by_speed.as_ref().map_or(String::new(), |t| {
+        let ranges: Vec<String> = t
+            .pct
+            .iter()
+            .filter(|(_, v)| v.iter().any(|x| *x > 0.0))
+            .map(|(k, v)| {
+                let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+                let hi = v.iter().copied().fold(0.0, f64::max);
+                format!("{k} {lo:.2}–{hi:.2} %")
+            })
+            .collect();
+        format!(
+            "; each point's at its own GG speed ([adaptation.model_error_by_speed], relative \
+             corrected speed {:.3}–{:.3}): {}",
+            t.speed_knots.first().copied().unwrap_or(0.0),
+            t.speed_knots.last().copied().unwrap_or(0.0),
+            ranges.join(", ")
+        )
+    });
     Some(format!(
         "the adapted model's own error ([adaptation.model_error_pct]) added to each instrument \
-         σ: {}",
+         σ: {}{by_speed}",
         list.join(", ")
     ))
 }
@@ -530,7 +568,7 @@ pub fn diagnose_steady(
     }
     let points = average_windows(segment, engine.cfg(), &windows, &cfg.signals)
         .into_iter()
-        .map(|d| with_model_error(engine.cfg(), with_input_noise(engine, &cfg.base, d)))
+        .map(|d| with_model_error(engine, with_input_noise(engine, &cfg.base, d)))
         .collect();
     let mut problem = SteadyProblem::new(engine, points, cfg)?;
     let out = fit(&mut problem, cfg, &pool)?;
@@ -542,7 +580,11 @@ pub fn diagnose_steady(
         .map(|p| (p.window.t_start_s, p.window.t_end_s))
         .collect();
     let mut r = result_of(Method::Steady, &problem, &out, cfg, signals, n_res, win);
-    r.fit_quality = r.fit_quality.with_model_error(engine.cfg(), &r.signals);
+    r.fit_quality = r.fit_quality.with_model_error(
+        engine.cfg(),
+        &r.signals,
+        &relative_gg_speeds(engine, problem.points()),
+    );
     r.fuel_meter_zero = fuel_zero;
     r.wall_s = start.elapsed().as_secs_f64();
     Ok(r)

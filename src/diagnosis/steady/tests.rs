@@ -2,7 +2,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use super::*;
-use crate::engine::config::AdaptationConfig;
+use crate::engine::config::{AdaptationConfig, ModelErrorBySpeed};
 
 /// A steady point "snapshot at line 7" at ambient `t_amb_k` comparing `outputs`.
 fn point(t_amb_k: f64, outputs: Vec<(Signal, f64, f64)>) -> SteadyData {
@@ -115,16 +115,43 @@ fn model_error_adds_to_the_instrument_sigma() {
             vec![(Signal::N1, 10000.0, 3.0), (Signal::T34, 1000.0, 3.0)],
         )
     };
-    assert_eq!(with_model_error(&cfg, data()).outputs, data().outputs);
+    let engine = |cfg: &EngineConfig| Engine::new(cfg.clone()).expect("engine");
+    assert_eq!(
+        with_model_error(&engine(&cfg), data()).outputs,
+        data().outputs
+    );
     assert!(model_error_note(&cfg).is_none());
     let mut a = AdaptationConfig::default();
     a.model_error_pct.insert("n1_rpm".into(), 0.04);
-    cfg.adaptation = Some(a);
-    let out = with_model_error(&cfg, data()).outputs;
+    cfg.adaptation = Some(a.clone());
+    let out = with_model_error(&engine(&cfg), data()).outputs;
     // 0.04 % of 10 000 rpm is 4 rpm; with the instrument's 3 rpm, 5 rpm.
     assert!((out[0].2 - 5.0).abs() < 1e-9, "{:?}", out[0]);
     assert_eq!(out[1].2, 3.0);
     assert!(model_error_note(&cfg).is_some_and(|n| n.contains("n1_rpm 0.04 %")));
+
+    // Along the operating line: the point's own GG speed picks the error, linear between
+    // knots (0.08 % and 0 either side of it: 0.04 %), held beyond them; T34 has no row, so
+    // its average (here none) holds.
+    let rel = relative_gg_speed(&engine(&cfg), &data()).expect("has a GG speed");
+    let table = |knots: Vec<f64>, n1: Vec<f64>| ModelErrorBySpeed {
+        speed_knots: knots,
+        pct: [("n1_rpm".to_string(), n1)].into_iter().collect(),
+    };
+    a.model_error_pct.insert("n1_rpm".into(), 0.5);
+    a.model_error_by_speed = Some(table(vec![rel - 0.05, rel + 0.05], vec![0.08, 0.0]));
+    cfg.adaptation = Some(a.clone());
+    let out = with_model_error(&engine(&cfg), data()).outputs;
+    assert!((out[0].2 - 5.0).abs() < 1e-9, "{:?}", out[0]);
+    assert_eq!(out[1].2, 3.0);
+    a.model_error_by_speed = Some(table(vec![rel + 0.05, rel + 0.1], vec![0.04, 0.0]));
+    cfg.adaptation = Some(a);
+    let out = with_model_error(&engine(&cfg), data()).outputs;
+    assert!(
+        (out[0].2 - 5.0).abs() < 1e-9,
+        "held below the knots: {:?}",
+        out[0]
+    );
 }
 
 /// A point below the lowest speed the adaptation was fitted at is said to extrapolate; one

@@ -19,6 +19,13 @@
 //! diagnosis adds it to the instrument's noise σ, so a signal the model predicts no better than
 //! that is weighted for what the model can do, not for what the instrument can.
 //!
+//! `[adaptation.model_error_by_speed]` (written with it) states the same where it varies along
+//! the operating line: `speed_knots` (relative corrected GG speed, n1/√(T1/T1_design) over the
+//! design's) and per signal one % per knot, interpolated linearly between knots and held beyond
+//! them. A map borrowed from another make is bent furthest at low speed, and predicts worst
+//! there; weighting every point by the one average error gives the low loads a say the model
+//! cannot back. Where a signal has no row here, `model_error_pct` holds at every speed.
+//!
 //! Every curve passes through 0 at relative speed 1 (the design point the `[design]` table
 //! fixes stays exact), so a knot may not sit at 1. A curve left out is no correction.
 //! What it must not do: physics (only the shape of the numbers is checked here).
@@ -60,6 +67,41 @@ pub struct AdaptationConfig {
     /// 1σ of the adapted model's own error per signal (CSV name), % of the value.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub model_error_pct: BTreeMap<String, f64>,
+    /// The same along the operating line, where it varies with GG speed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model_error_by_speed: Option<ModelErrorBySpeed>,
+}
+
+/// The adapted model's own error per signal at knots of relative corrected GG speed.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ModelErrorBySpeed {
+    /// Relative corrected GG speeds (design = 1), strictly increasing.
+    pub speed_knots: Vec<f64>,
+    /// Per signal (CSV name): 1σ, % of the value, at each knot.
+    #[serde(flatten)]
+    pub pct: BTreeMap<String, Vec<f64>>,
+}
+
+impl ModelErrorBySpeed {
+    /// Signal `s`'s error (%) at relative corrected GG speed `rel`: linear between knots, the
+    /// end value beyond them; `None` when the table has no row for it.
+    pub fn pct_at(&self, s: Signal, rel: f64) -> Option<f64> {
+        let v = self.pct.get(s.column())?;
+        let k = &self.speed_knots;
+        if v.is_empty() || v.len() != k.len() {
+            return None;
+        }
+        let last = k.len() - 1;
+        if rel <= k[0] {
+            return Some(v[0]);
+        }
+        if rel >= k[last] {
+            return Some(v[last]);
+        }
+        let i = k.partition_point(|x| *x <= rel).clamp(1, last);
+        let w = (rel - k[i - 1]) / (k[i] - k[i - 1]);
+        Some(v[i - 1] + w * (v[i] - v[i - 1]))
+    }
 }
 
 /// Largest model error a file may state, % of the value: beyond it the model predicts nothing.
@@ -77,19 +119,30 @@ pub const UNRESOLVING_MODEL_ERROR_PCT: f64 = 2.0;
 
 impl AdaptationConfig {
     /// The signals (CSV name) whose stated model error is at least
-    /// [`UNRESOLVING_MODEL_ERROR_PCT`], with it (%).
-    pub fn unresolving_signals(&self) -> Vec<(String, f64)> {
-        self.model_error_pct
+    /// [`UNRESOLVING_MODEL_ERROR_PCT`] at every one of `speeds` (the relative corrected GG
+    /// speeds of the points a diagnosis rests on; `None` or none given: the average), with the
+    /// smallest there (%): one point where the model predicts the signal well lets it tell
+    /// health, however poorly the model does elsewhere.
+    pub fn unresolving_signals(&self, speeds: &[Option<f64>]) -> Vec<(String, f64)> {
+        let at: &[Option<f64>] = if speeds.is_empty() { &[None] } else { speeds };
+        Signal::ALL
             .iter()
-            .filter(|(_, v)| **v >= UNRESOLVING_MODEL_ERROR_PCT)
-            .map(|(k, v)| (k.clone(), *v))
+            .filter_map(|&s| {
+                let best = at
+                    .iter()
+                    .map(|r| 100.0 * self.model_error_fraction(s, *r))
+                    .fold(f64::INFINITY, f64::min);
+                (best >= UNRESOLVING_MODEL_ERROR_PCT).then(|| (s.column().to_string(), best))
+            })
             .collect()
     }
 
-    /// The model's own 1σ error of signal `s` as a fraction of its value (0 when not stated).
-    pub fn model_error_fraction(&self, s: Signal) -> f64 {
-        self.model_error_pct
-            .get(s.column())
+    /// The model's own 1σ error of signal `s` as a fraction of its value (0 when not stated)
+    /// at relative corrected GG speed `rel` (`None`: not known, the average holds).
+    pub fn model_error_fraction(&self, s: Signal, rel: Option<f64>) -> f64 {
+        rel.zip(self.model_error_by_speed.as_ref())
+            .and_then(|(rel, t)| t.pct_at(s, rel))
+            .or_else(|| self.model_error_pct.get(s.column()).copied())
             .map_or(0.0, |pct| pct / 100.0)
     }
 }
@@ -165,17 +218,25 @@ impl AdaptationConfig {
                 ));
             }
         }
+        if let Some(t) = &self.model_error_by_speed {
+            let key = |k: &str| format!("adaptation.model_error_by_speed.{k}");
+            check_knots(&t.speed_knots).map_err(|r| (key("speed_knots"), r))?;
+            for (name, v) in &t.pct {
+                if !Signal::ALL.iter().any(|s| s.column() == name) {
+                    return Err((
+                        key(name),
+                        "is no signal's CSV name (e.g. n1_rpm, t34_k)".into(),
+                    ));
+                }
+                check_length(v, &t.speed_knots).map_err(|r| (key(name), r))?;
+            }
+        }
         for name in COMPONENTS {
             let Some(c) = self.component(name) else {
                 continue;
             };
             let key = |k: &str| format!("adaptation.{name}.{k}");
-            if c.speed_knots.is_empty() {
-                return Err((key("speed_knots"), "needs at least one knot".into()));
-            }
-            if c.speed_knots.windows(2).any(|w| w[1] <= w[0]) {
-                return Err((key("speed_knots"), "must be strictly increasing".into()));
-            }
+            check_knots(&c.speed_knots).map_err(|r| (key("speed_knots"), r))?;
             if let Some(k) = c.speed_knots.iter().find(|k| (**k - 1.0).abs() < 0.01) {
                 return Err((
                     key("speed_knots"),
@@ -193,20 +254,34 @@ impl AdaptationConfig {
                 if !curves_of(name).contains(&curve) {
                     return Err((key(curve), format!("a {name} has no `{curve}` curve")));
                 }
-                if v.len() != c.speed_knots.len() {
-                    return Err((
-                        key(curve),
-                        format!(
-                            "has {} values for {} speed_knots",
-                            v.len(),
-                            c.speed_knots.len()
-                        ),
-                    ));
-                }
+                check_length(v, &c.speed_knots).map_err(|r| (key(curve), r))?;
             }
         }
         Ok(())
     }
+}
+
+/// Why `knots` are no knots: none, or not strictly increasing.
+fn check_knots(knots: &[f64]) -> Result<(), String> {
+    if knots.is_empty() {
+        return Err("needs at least one knot".into());
+    }
+    if knots.windows(2).any(|w| w[1] <= w[0]) {
+        return Err("must be strictly increasing".into());
+    }
+    Ok(())
+}
+
+/// Why `values` do not go with `knots`: another count.
+fn check_length(values: &[f64], knots: &[f64]) -> Result<(), String> {
+    if values.len() == knots.len() {
+        return Ok(());
+    }
+    Err(format!(
+        "has {} values for {} speed_knots",
+        values.len(),
+        knots.len()
+    ))
 }
 
 #[cfg(test)]
@@ -255,6 +330,22 @@ mod tests {
             (
                 "[adaptation.model_error_pct]\nt34_k = 30.0",
                 "adaptation.model_error_pct.t34_k",
+            ),
+            (
+                "[adaptation.model_error_by_speed]\nspeed_knots = [0.8, 0.7]\nn1_rpm = [1, 1]",
+                "adaptation.model_error_by_speed.speed_knots",
+            ),
+            (
+                "[adaptation.model_error_by_speed]\nspeed_knots = [0.7, 0.8]\nn1_rpm = [1]",
+                "adaptation.model_error_by_speed.n1_rpm",
+            ),
+            (
+                "[adaptation.model_error_by_speed]\nspeed_knots = [0.7, 0.8]\nn1 = [1, 1]",
+                "adaptation.model_error_by_speed.n1",
+            ),
+            (
+                "[adaptation.model_error_by_speed]\nspeed_knots = [0.7, 0.8]\nt4_k = [1, 30]",
+                "adaptation.model_error_by_speed.t4_k",
             ),
         ] {
             let err = with(section).expect_err(section);

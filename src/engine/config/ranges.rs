@@ -217,7 +217,11 @@ pub fn param_range(key: &str) -> Option<ParamRange> {
         return Some(*r);
     }
     let parts: Vec<&str> = base.split('.').collect();
-    if parts.len() == 3 && parts[0] == "adaptation" && parts[1] == "model_error_pct" {
+    if parts.len() == 3
+        && parts[0] == "adaptation"
+        && (parts[1] == "model_error_pct"
+            || (parts[1] == "model_error_by_speed" && parts[2] != "speed_knots"))
+    {
         return Some(ParamRange::new(0.0, super::adaptation::MAX_MODEL_ERROR_PCT));
     }
     if parts.len() == 3 && (parts[0] == "sensors" || parts[0] == "adaptation") {
