@@ -30,7 +30,7 @@ use crate::diagnosis::snapshot::{steady_data, DroppedRow, Snapshot};
 use crate::diagnosis::steady::{steady_reading, SteadyData};
 use crate::engine::load::PtLoad;
 use crate::engine::sensors::noise_sigma;
-use crate::engine::steady::{solve, Demand, SteadyInputs, SteadyPoint};
+use crate::engine::steady::{Demand, SteadyPoint};
 use crate::engine::Engine;
 use crate::health::HealthParams;
 use crate::optim::{Bounds, Problem, ResidualProblem};
@@ -168,7 +168,8 @@ impl CalibrationProblem {
         })
     }
 
-    /// The same problem posed on each point's measured GG speed instead of its fuel flow:
+    /// A copy of the problem (its starts, law, bounds and penalties; its own count of model
+    /// runs) posed on each point's measured GG speed instead of its fuel flow:
     /// every point that measured it is solved at that speed, and its GG-speed residual is
     /// replaced by the fuel flow's, `(model − measured)/σ`, σ the fuel meter's combined with
     /// the speed's noise carried along the guess engine's running line.
@@ -180,14 +181,24 @@ impl CalibrationProblem {
     /// Solved at its speed, a point has one solution and its fuel flow is a smooth function
     /// of the parameters. The two are the same residual to first order; the caller polishes
     /// on the fuel-given problem, which is the one the diagnosis uses.
-    pub fn on_gg_speed(mut self) -> Self {
-        self.speed_given = self
-            .points
-            .iter()
-            .zip(&self.starts)
-            .map(|(p, start)| speed_given_sigma(&self.engine, p, start))
-            .collect();
-        self
+    pub fn on_gg_speed(&self) -> Self {
+        CalibrationProblem {
+            engine: self.engine.clone(),
+            points: self.points.clone(),
+            law: self.law.clone(),
+            rest: self.rest.clone(),
+            starts: self.starts.clone(),
+            candidates: self.candidates.clone(),
+            bounds: self.bounds.clone(),
+            runs: AtomicUsize::new(0),
+            smoothness: self.smoothness.clone(),
+            speed_given: self
+                .points
+                .iter()
+                .zip(&self.starts)
+                .map(|(p, start)| speed_given_sigma(&self.engine, p, start))
+                .collect(),
+        }
     }
 
     /// The same problem whose least-squares residuals also carry `rows` (see
@@ -280,13 +291,7 @@ impl CalibrationProblem {
             let m = engine.model_at(&HealthParams::HEALTHY, inp.t_amb_k, inp.p_amb_kpa);
             let fuel_sigma = self.speed_given.get(i).copied().flatten();
             let sp = match (fuel_sigma, p.data.n1_hint_rpm) {
-                (Some(_), Some(n1)) => {
-                    let at_speed = SteadyInputs {
-                        demand: Demand::N1Rpm(n1),
-                        ..*inp
-                    };
-                    solve(&m, &at_speed, start)
-                }
+                (Some(_), Some(n1)) => p.data.solve_at_speed(&m, n1, start),
                 _ => p.data.solve_from(&m, start),
             }
             .map_err(|e| CalibrateError::Model(format!("line {}: steady solve: {e}", p.line)))?;
@@ -355,16 +360,10 @@ fn speed_given_sigma(engine: &Engine, p: &CalibrationPoint, start: &SteadyPoint)
         .map(|o| o.2)?;
     let m = engine.model_at(&HealthParams::HEALTHY, inp.t_amb_k, inp.p_amb_kpa);
     let at = |n: f64| {
-        solve(
-            &m,
-            &SteadyInputs {
-                demand: Demand::N1Rpm(n),
-                ..*inp
-            },
-            Some(start),
-        )
-        .ok()
-        .map(|s| s.stations.fuel_kg_s)
+        p.data
+            .solve_at_speed(&m, n, Some(start))
+            .ok()
+            .map(|s| s.stations.fuel_kg_s)
     };
     let dn = (0.002 * n1).max(1.0);
     let slope = (at(n1 + dn)? - at(n1 - dn)?) / (2.0 * dn);

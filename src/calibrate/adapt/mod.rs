@@ -378,7 +378,7 @@ fn fit_within(
     let keys: Vec<String> = cands.iter().map(|c| c.key.clone()).collect();
     let rows = penalty_rows(shape, &keys, ctx.settings);
     let prob = CalibrationProblem::new(engine, ctx.points.to_vec(), ctx.rest.to_vec(), cands)?
-        .with_smoothness(rows.clone());
+        .with_smoothness(rows);
     let jac_opts = JacobianOptions::default()
         .with_step(1e-3)
         .map_err(|e| CalibrateError::Optim(e.to_string()))?;
@@ -396,15 +396,7 @@ fn fit_within(
         // The second start only ever adds a candidate: where it cannot be run (a point that
         // will not solve at its measured speed on the guess), the guess's fit stands.
         let second = || -> Result<(RefineResult, usize), String> {
-            let on_speed = CalibrationProblem::new(
-                engine,
-                ctx.points.to_vec(),
-                ctx.rest.to_vec(),
-                prob.candidates().to_vec(),
-            )
-            .map_err(|e| e.to_string())?
-            .with_smoothness(rows)
-            .on_gg_speed();
+            let on_speed = prob.on_gg_speed();
             let from = refine(&on_speed, &on_speed.guesses(), &opts, ctx.pool)
                 .map_err(|e| e.to_string())?;
             let polished = refine(&prob, &from.x, &opts, ctx.pool).map_err(|e| e.to_string())?;

@@ -210,17 +210,29 @@ impl SteadyData {
         start: Option<&SteadyPoint>,
     ) -> Result<SteadyPoint, crate::engine::EngineError> {
         if let Some(n1) = self.n1_hint_rpm {
-            let at_speed = SteadyInputs {
-                demand: Demand::N1Rpm(n1),
-                ..self.inputs
-            };
-            if let Ok(s) = solve(m, &at_speed, start)
+            if let Ok(s) = self
+                .solve_at_speed(m, n1, start)
                 .and_then(|on_speed| solve(m, &self.inputs, Some(&on_speed)))
             {
                 return Ok(s);
             }
         }
         solve(m, &self.inputs, start)
+    }
+
+    /// The running point of this data's ambient and PT speed at GG speed `n1_rpm` (the demand
+    /// replaced by the speed), the solver started at `start`.
+    pub fn solve_at_speed(
+        &self,
+        m: &Model,
+        n1_rpm: f64,
+        start: Option<&SteadyPoint>,
+    ) -> Result<SteadyPoint, crate::engine::EngineError> {
+        let at_speed = SteadyInputs {
+            demand: Demand::N1Rpm(n1_rpm),
+            ..self.inputs
+        };
+        solve(m, &at_speed, start)
     }
 
     /// The operating point in words, for tables: measured power (else torque, else GG speed)
