@@ -73,8 +73,9 @@ pub struct CalibrateArgs {
     #[arg(long, value_enum, default_value_t = AdaptStrategyArg::Grown, requires = "adapt")]
     pub adapt_strategy: AdaptStrategyArg,
     /// Most knots a component's curves get with --adapt (default 6; fewer when the data's
-    /// speeds carry fewer). Fewer knots for a shape that follows the calibration points but
-    /// predicts points left out poorly (the model error the calibration reports).
+    /// speeds carry fewer). Fewer knots give stiffer curves; compare the model error the
+    /// calibration reports (on one unit with a flat part-load running line they fitted worse
+    /// and predicted no better).
     #[arg(long, requires = "adapt", value_parser = clap::value_parser!(u8).range(1..=12))]
     pub adapt_max_knots: Option<u8>,
     /// Column mapping for the snapshot file: `t1_k=T_inlet,n1_rpm=NGG,…`.
