@@ -30,7 +30,7 @@
 //! with fixed vanes 3.6–4.4 % below 0.82 and under 0.2 % above 0.88. A diagnosis weighting each
 //! point by one average gave the low loads a say the model could not back: the first unit's
 //! degradation grid read up to 0.62 points off, the fixed-vane unit's 2.3; weighted at each
-//! point's own speed, 0.33 and 0.54.
+//! point's own speed, 0.30 and 0.52.
 //!
 //! Not a bound either way: the refit step keeps the curves and knots the full fit chose, where
 //! a calibration re-run without the point may choose others. On the first foreign unit of

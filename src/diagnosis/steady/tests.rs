@@ -131,8 +131,8 @@ fn model_error_adds_to_the_instrument_sigma() {
     assert!(model_error_note(&cfg).is_some_and(|n| n.contains("n1_rpm 0.04 %")));
 
     // Along the operating line: the point's own GG speed picks the error, linear between
-    // knots (0.08 % and 0 either side of it: 0.04 %), held beyond them; T34 has no row, so
-    // its average (here none) holds.
+    // knots (0.08 % and 0 either side of it: 0.04 %); beyond them the end segment's line where
+    // it rises outward, else the end value. T34 has no row, so its average (here none) holds.
     let rel = relative_gg_speed(&engine(&cfg), &data()).expect("has a GG speed");
     let table = |knots: Vec<f64>, n1: Vec<f64>| ModelErrorBySpeed {
         speed_knots: knots,
@@ -144,12 +144,20 @@ fn model_error_adds_to_the_instrument_sigma() {
     let out = with_model_error(&engine(&cfg), data()).outputs;
     assert!((out[0].2 - 5.0).abs() < 1e-9, "{:?}", out[0]);
     assert_eq!(out[1].2, 3.0);
-    a.model_error_by_speed = Some(table(vec![rel + 0.05, rel + 0.1], vec![0.04, 0.0]));
-    cfg.adaptation = Some(a);
+    a.model_error_by_speed = Some(table(vec![rel + 0.05, rel + 0.1], vec![0.04, 0.08]));
+    cfg.adaptation = Some(a.clone());
     let out = with_model_error(&engine(&cfg), data()).outputs;
     assert!(
         (out[0].2 - 5.0).abs() < 1e-9,
         "held below the knots: {:?}",
+        out[0]
+    );
+    a.model_error_by_speed = Some(table(vec![rel + 0.05, rel + 0.1], vec![0.02, 0.0]));
+    cfg.adaptation = Some(a);
+    let out = with_model_error(&engine(&cfg), data()).outputs;
+    assert!(
+        (out[0].2 - 5.0).abs() < 1e-9,
+        "extended below the knots: {:?}",
         out[0]
     );
 }

@@ -21,8 +21,9 @@
 //!
 //! `[adaptation.model_error_by_speed]` (written with it) states the same where it varies along
 //! the operating line: `speed_knots` (relative corrected GG speed, n1/√(T1/T1_design) over the
-//! design's) and per signal one % per knot, interpolated linearly between knots and held beyond
-//! them. A map borrowed from another make is bent furthest at low speed, and predicts worst
+//! design's) and per signal one % per knot, interpolated linearly between knots; beyond them
+//! the end segment's line where it rises outward, else the end value (the knots are the
+//! interior calibration points; the lowest and highest load lie beyond them). A map borrowed from another make is bent furthest at low speed, and predicts worst
 //! there; weighting every point by the one average error gives the low loads a say the model
 //! cannot back. Where a signal has no row here, `model_error_pct` holds at every speed.
 //!
@@ -83,8 +84,9 @@ pub struct ModelErrorBySpeed {
 }
 
 impl ModelErrorBySpeed {
-    /// Signal `s`'s error (%) at relative corrected GG speed `rel`: linear between knots, the
-    /// end value beyond them; `None` when the table has no row for it.
+    /// Signal `s`'s error (%) at relative corrected GG speed `rel`: linear between knots;
+    /// beyond them the end segment's line where it rises outward, else the end value (at most
+    /// [`MAX_MODEL_ERROR_PCT`]); `None` when the table has no row for it.
     pub fn pct_at(&self, s: Signal, rel: f64) -> Option<f64> {
         let v = self.pct.get(s.column())?;
         let k = &self.speed_knots;
@@ -92,15 +94,22 @@ impl ModelErrorBySpeed {
             return None;
         }
         let last = k.len() - 1;
-        if rel <= k[0] {
+        if last == 0 {
             return Some(v[0]);
         }
-        if rel >= k[last] {
-            return Some(v[last]);
-        }
+        // Beyond the knots: the end segment's trend where it grows outward (the error rises
+        // towards the end the map is bent most), else the end value.
         let i = k.partition_point(|x| *x <= rel).clamp(1, last);
         let w = (rel - k[i - 1]) / (k[i] - k[i - 1]);
-        Some(v[i - 1] + w * (v[i] - v[i - 1]))
+        let line = v[i - 1] + w * (v[i] - v[i - 1]);
+        let out = if rel < k[0] {
+            line.max(v[0])
+        } else if rel > k[last] {
+            line.max(v[last])
+        } else {
+            line
+        };
+        Some(out.min(MAX_MODEL_ERROR_PCT))
     }
 }
 
