@@ -466,7 +466,7 @@ fn adapted_md22_diagnoses_a_foreign_unit() {
     // reads up to +0.51 at the largest degradation; every fit good (9 of 15; the others'
     // residuals 1.1–1.9, honest: off the healthy line the model misses by more than on it);
     // the cross-talk as a rank (D_ET leaks about −0.03 points per point of D_GC: small, but
-    // monotone, so ρ = −1).
+    // nearly monotone, so ρ = −0.9).
     let a = adapted.cfg().adaptation.as_ref().expect("adapted");
     assert!(
         a.model_error_pct.get("n1_rpm").is_some_and(|v| *v > 0.05),

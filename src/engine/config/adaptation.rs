@@ -23,9 +23,9 @@
 //! the operating line: `speed_knots` (relative corrected GG speed, n1/√(T1/T1_design) over the
 //! design's) and per signal one % per knot, interpolated linearly between knots; beyond them
 //! the end segment's line where it rises outward, else the end value (the knots are the
-//! interior calibration points; the lowest and highest load lie beyond them). A map borrowed from another make is bent furthest at low speed, and predicts worst
-//! there; weighting every point by the one average error gives the low loads a say the model
-//! cannot back. Where a signal has no row here, `model_error_pct` holds at every speed.
+//! interior calibration points; the lowest and highest load lie beyond them). A map borrowed
+//! from another make is bent furthest at low speed, and predicts worst there; weighting every
+//! point by the one average error gives the low loads a say the model cannot back. Where a signal has no row here, `model_error_pct` holds at every speed.
 //!
 //! Every curve passes through 0 at relative speed 1 (the design point the `[design]` table
 //! fixes stays exact), so a knot may not sit at 1. A curve left out is no correction.
