@@ -240,7 +240,12 @@ fn relative_speeds(
         };
         let n1 = measured(Signal::N1).unwrap_or(s.n1_rpm);
         let t34 = measured(Signal::T34).unwrap_or(s.t34_k);
-        out[0].push(corrected_speed(n1, inp.t_amb_k) / design[0]);
+        // The GG's as steady diagnosis reads a point's speed (the model error along the
+        // operating line is looked up by it), the model's where the point has no GG speed.
+        out[0].push(
+            crate::diagnosis::steady::relative_gg_speed(engine, &p.data)
+                .unwrap_or(corrected_speed(n1, inp.t_amb_k) / design[0]),
+        );
         out[1].push(corrected_speed(n1, s.t3_k) / design[1]);
         out[2].push(corrected_speed(inp.n2_rpm, t34) / design[2]);
     }
