@@ -124,7 +124,9 @@ fn kill_during_diagnosis_leaves_nothing_half_written_and_restart_resumes() {
     let cfg = config(dir.path(), &db, "gtwatch.toml");
 
     // kill -9 at seeded random moments of the fit (xorshift64, fixed seed), within the first
-    // 80 % of the span the probe took.
+    // 40 % of the span the probe took: the probe can run while other tests load both cores
+    // and the kills on idle ones (a kill at 80 % once found the start-up already diagnosed
+    // when the suite's long tests got shorter), so the margin covers a 2.5× faster fit.
     let mut seed: u64 = 0x2545_F491_4F6C_DD1D;
     let kills = 3 * common::long_factor();
     for _ in 0..kills {
@@ -132,7 +134,7 @@ fn kill_during_diagnosis_leaves_nothing_half_written_and_restart_resumes() {
         seed ^= seed >> 7;
         seed ^= seed << 17;
         let mut d = start_until_diagnosing(&cfg);
-        std::thread::sleep(span.mul_f64(0.8 * (seed % 1000) as f64 / 1000.0));
+        std::thread::sleep(span.mul_f64(0.4 * (seed % 1000) as f64 / 1000.0));
         d.kill().expect("kill -9");
         d.wait().expect("reaped");
         assert_eq!(
@@ -142,9 +144,10 @@ fn kill_during_diagnosis_leaves_nothing_half_written_and_restart_resumes() {
         );
     }
 
-    // SIGTERM in the middle of the fit: clean exit, the fit cancelled, nothing stored.
+    // SIGTERM inside the fit (a fifth of the probe's span in, the same margin): clean exit,
+    // the fit cancelled, nothing stored.
     let mut d = start_until_diagnosing(&cfg);
-    std::thread::sleep(span / 3);
+    std::thread::sleep(span / 5);
     let t = Instant::now();
     let status = common::sigterm(&mut d);
     assert!(status.success(), "{status:?}");
