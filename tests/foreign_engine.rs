@@ -11,21 +11,21 @@
 //! cross-talk |ρ| ≤ 0.3, each level within 0.5 points, every fit `good`.
 //!
 //! What this version reaches and asserts (measured figures in the README, "Calibrating to your
-//! unit"): on the two left-out loads CI runs, mean |error| ≤ 0.6 % and no signal beyond 1.5 %
-//! (measured 0.32 % / 1.11 % on 2026-11-28 over the 47.5 %, 65 % and 82.5 % loads; 0.41 % / 1.11 %
-//! over the 47.5 % and 82.5 % loads CI leaves out, with every grown fit started twice: see
-//! `calibrate::adapt`'s `fit_within`), and at most a third / half of the design calibration's; the
-//! healthy baseline `good` within 0.3 points of zero; the grid ranked at ρ ≥ 0.95 for all four
-//! parameters, every level within 0.7 points, and no level off by more than 0.5 points called
-//! `good`. The rank floor needs the adapted model's own error (`[adaptation.model_error_pct]`,
-//! estimated by the calibration on interior points left out) in the diagnosis's σ: without it
-//! D_GT ranked at 0.89 (compressor fouling read as up to −0.9 points of D_GT). Not met yet: the
-//! 0.3 % / 1 % floors over all nine loads (the 56–91 % loads meet them, 0.23 % / 0.55 % at
-//! worst; the lowest and the full load, left out, are extrapolations: 0.95 % and 1.08 %), each
-//! level within 0.5 points (worst 0.62; the healthy power turbine's efficiency reads up to
-//! +0.77 points), the cross-talk as a rank, and `good` fits
-//! on the whole grid: curves of speed alone follow the operating line, not how the unit's maps
-//! differ across it, where degradation moves the points.
+//! unit"; every load is left out in turn, about 5 s a grown calibration): the issue's floors on
+//! the loads from 56 % to 91 % (0.23 % / 0.55 % at worst); on the others, the floors this
+//! version meets (0.50 % mean over all nine, 2.40 % worst: the lowest and the full load, left
+//! out, are extrapolations, 0.95 % and 1.08 % mean; 37.5 % and 47.5 %, where the vanes close,
+//! 0.90 % and 0.67 %), and at most a third / half of the design calibration's; the healthy
+//! baseline `good` within 0.3 points of zero; the grid ranked at ρ ≥ 0.95 for all four
+//! parameters, every level within 0.5 points, and no level off by more than 0.5 points called
+//! `good`. The rank floor needs the adapted model's own error (`[adaptation.model_error_pct]`
+//! and `[adaptation.model_error_by_speed]`, estimated by the calibration on interior points
+//! left out) in the diagnosis's σ: without it D_GT ranked at 0.89 (compressor fouling read as
+//! up to −0.9 points of D_GT). Not met yet: the 0.3 % / 1 % floors over all nine loads; the
+//! healthy power turbine's efficiency within 0.5 points (+0.51 at the largest degradation); the
+//! cross-talk as a rank; and `good` fits on the whole grid (9 of 15): curves of speed alone
+//! follow the operating line, not how the unit's maps differ across it, where degradation
+//! moves the points.
 //!
 //! A second foreign unit (`tests/data/foreign/pyc30_truth.toml`: pyCycle's map family, its own
 //! VIGV schedule, PR 17, 30 MW), with the same settings, meets the issue's floors but two:
@@ -306,30 +306,25 @@ fn first_unit() -> (Engine, Vec<Snapshot>, Engine) {
     (truth, rows, model)
 }
 
-/// Which of `n` loads to leave out in turn: the ones `GTWATCH_FOREIGN_FOLDS` lists (indices
-/// from 0, the lowest load, comma-separated; then `true`: no floor of CI's folds applies), all
-/// (then `true`) with `GTWATCH_FOREIGN_FULL=1`, else the ones CI runs, `ci`.
-fn left_out_or(n: usize, ci: Vec<usize>) -> (bool, Vec<usize>) {
-    if let Ok(list) = std::env::var("GTWATCH_FOREIGN_FOLDS") {
-        let folds: Vec<usize> = list
-            .split(',')
-            .map(|x| {
-                x.trim()
-                    .parse()
-                    .expect("GTWATCH_FOREIGN_FOLDS: indices like 0,8")
-            })
-            .collect();
-        assert!(
-            folds.iter().all(|&k| k < n),
-            "GTWATCH_FOREIGN_FOLDS: indices below {n}"
-        );
-        return (true, folds);
-    }
-    if std::env::var_os("GTWATCH_FOREIGN_FULL").is_some() {
-        (true, (0..n).collect())
-    } else {
-        (false, ci)
-    }
+/// Which of `n` loads to leave out in turn: every one, or the ones `GTWATCH_FOREIGN_FOLDS`
+/// lists (indices from 0, the lowest load, comma-separated) to re-run a few by hand.
+fn left_out_loads(n: usize) -> Vec<usize> {
+    let Ok(list) = std::env::var("GTWATCH_FOREIGN_FOLDS") else {
+        return (0..n).collect();
+    };
+    let folds: Vec<usize> = list
+        .split(',')
+        .map(|x| {
+            x.trim()
+                .parse()
+                .expect("GTWATCH_FOREIGN_FOLDS: indices like 0,8")
+        })
+        .collect();
+    assert!(
+        folds.iter().all(|&k| k < n),
+        "GTWATCH_FOREIGN_FOLDS: indices below {n}"
+    );
+    folds
 }
 
 #[test]
@@ -339,18 +334,16 @@ fn adapted_md22_predicts_left_out_loads_of_a_foreign_unit() {
     let mut table: Vec<(String, [f64; 2], [f64; 2])> = Vec::new();
     let mut worst_signal = [0.0f64; 2];
     let mut means = [Vec::new(), Vec::new()];
-    // CI leaves out two interior loads, 47.5 % (the hardest interior fold) and 82.5 %: each
-    // calibration now runs two starts per fit (20–30 s), and the middle load (65 %, the
-    // easiest, 0.14 %) was cut to keep CI within its 20 minutes. `GTWATCH_FOREIGN_FULL=1`
-    // leaves out all nine.
-    let (full_table, left_out) = left_out_or(rows.len(), vec![2, 6]);
-    for k in left_out {
+    // Every load in turn (≈ 5 s a calibration since parameters are set in one batch).
+    let mut folds: Vec<(usize, [[f64; 2]; 2])> = Vec::new();
+    for k in left_out_loads(rows.len()) {
         let cells = leave_out(&model, &rows, k, "", AdaptStrategy::Grown);
         for m in 0..2 {
             means[m].push(cells[m][0]);
             worst_signal[m] = worst_signal[m].max(cells[m][1]);
         }
         table.push((format!("line {}", rows[k].line), cells[0], cells[1]));
+        folds.push((k, cells));
     }
     let avg = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
     eprintln!("left-out load | design only: mean / worst % | adapted: mean / worst %");
@@ -367,14 +360,27 @@ fn adapted_md22_predicts_left_out_loads_of_a_foreign_unit() {
         avg(&means[1]),
         worst_signal[1]
     );
-    // Floors this version meets (the issue asks 0.3 % mean and 1 % worst; see the module doc).
-    // On the interior loads CI runs (all 9 include the extrapolated ends: see the README).
-    assert!(
-        full_table || (avg(&means[1]) <= 0.6 && worst_signal[1] <= 1.5),
-        "adapted: mean {:.3} %, worst {:.3} %",
-        avg(&means[1]),
-        worst_signal[1]
-    );
+    // The issue's floors (mean ≤ 0.3 %, no signal beyond 1 %) hold on the loads from 56 % to
+    // 91 % (measured 0.23 % / 0.55 % at worst, 2026-11-29). Not yet on the others: the lowest
+    // and the full load, left out, are extrapolations of the curves (0.95 % / 2.40 % and
+    // 1.08 % / 1.65 %), and 37.5 % and 47.5 %, where the vanes close and the loads are
+    // sparsest, 0.90 % / 2.28 % and 0.67 % / 1.11 %: floors here are what this version meets.
+    for (k, cells) in &folds {
+        let [mean, worst] = cells[1];
+        let (mean_floor, worst_floor) = if (3..=7).contains(k) {
+            (0.3, 1.0)
+        } else {
+            (1.1, 2.5)
+        };
+        assert!(
+            mean <= mean_floor && worst <= worst_floor,
+            "load {k} left out: adapted mean {mean:.3} %, worst {worst:.3} %"
+        );
+    }
+    if folds.len() == rows.len() {
+        // Over all nine: measured 0.50 % mean (the issue's 0.3 % not met).
+        assert!(avg(&means[1]) <= 0.55, "adapted mean {:.3} %", avg(&means[1]));
+    }
     assert!(
         avg(&means[1]) < avg(&means[0]) / 3.0,
         "adapted mean {:.3} % against design-only {:.3} %",
@@ -391,22 +397,19 @@ fn adapted_md22_predicts_left_out_loads_of_a_foreign_unit() {
 
 /// `calibrate --adapt --adapt-strategy continuation` on the same unit: every curve the data
 /// inform (the compressor's flow and pressure ratio too), all knots at once, fitted through a
-/// sequence of smoothness scales. It meets the issue's leave-one-load-out floors on the loads
-/// CI runs (mean ≤ 0.3 %, no signal beyond 1 %) where the grown shape does not, and its healthy
-/// baseline diagnoses `good` within 0.3 points; what the correlated curves do off the operating
-/// line the healthy data do not pin, so the degradation grid is read with more cross-talk than
-/// on the grown shape (floors below are what it meets; no miss is called good).
-///
-/// CI leaves out one load, the lowest of the grown test's three (47.5 %, the hardest of them
-/// for this strategy): each continuation calibration takes about a minute, and three made this
-/// the suite's longest test. `GTWATCH_FOREIGN_FULL=1` leaves out every load in turn.
+/// sequence of smoothness scales. Every load left out in turn, it meets the issue's
+/// leave-one-load-out floors (mean ≤ 0.3 %, no signal beyond 1 %) on the loads from 37.5 % to
+/// 91 %, and within 1 % on the full load, where the grown shape does not; not on the lowest
+/// load, an extrapolation (2.5 % mean). Its healthy baseline diagnoses `good` within 0.3
+/// points; what the correlated curves do off the operating line the healthy data do not pin,
+/// so the degradation grid is read with more cross-talk than on the grown shape (floors below
+/// are what it meets; no miss is called good).
 #[test]
 fn continuation_predicts_left_out_loads_of_a_foreign_unit_within_the_floors() {
     let (truth, rows, model) = first_unit();
-    let (full_table, left_out) = left_out_or(rows.len(), vec![2]);
     let mut means = Vec::new();
     let mut worst = 0.0f64;
-    for k in left_out {
+    for k in left_out_loads(rows.len()) {
         let cells = leave_out(
             &model,
             &rows,
@@ -418,16 +421,23 @@ fn continuation_predicts_left_out_loads_of_a_foreign_unit_within_the_floors() {
             "continuation: line {} | design only {:.3} / {:.3} % | adapted {:.3} / {:.3} %",
             rows[k].line, cells[0][0], cells[0][1], cells[1][0], cells[1][1]
         );
-        means.push(cells[1][0]);
-        worst = worst.max(cells[1][1]);
+        let [mean, w] = cells[1];
+        // Measured 2026-11-29: 37.5–91 % within 0.28 % / 0.95 %; the full load 0.39 % /
+        // 0.80 %; the lowest load 2.51 % / 3.94 %.
+        let (mean_floor, worst_floor) = match k {
+            0 => (2.8, 4.5),
+            8 => (0.45, 1.0),
+            _ => (0.3, 1.0),
+        };
+        assert!(
+            mean <= mean_floor && w <= worst_floor,
+            "continuation, load {k} left out: mean {mean:.3} %, worst {w:.3} %"
+        );
+        means.push(mean);
+        worst = worst.max(w);
     }
     let mean = means.iter().sum::<f64>() / means.len() as f64;
     eprintln!("continuation: adapted mean {mean:.3} %, worst {worst:.3} %");
-    // The issue's floors, on the interior load CI runs (all 9 include the extrapolated ends).
-    assert!(
-        full_table || (mean <= 0.3 && worst <= 1.0),
-        "continuation: mean {mean:.3} %, worst {worst:.3} %"
-    );
 
     let (adapted, cfg, baseline, quality) =
         adapted_baseline(&model, &rows, AdaptStrategy::Continuation);
@@ -671,8 +681,7 @@ fn adapted_md22_fits_a_second_foreign_unit() {
 }
 
 /// The same with `--adapt-strategy continuation`: on this unit it meets the same floors (the
-/// first unit's price, D_GT read worse, is not paid here). CI leaves out five of the nine loads
-/// (every other one, both extrapolated ends among them); `GTWATCH_FOREIGN_FULL=1` all nine.
+/// first unit's price, D_GT read worse, is not paid here).
 #[test]
 fn continuation_fits_a_second_foreign_unit() {
     second_unit(AdaptStrategy::Continuation);
@@ -688,11 +697,9 @@ fn second_unit(strategy: AdaptStrategy) {
         .expect("full load");
     // The datasheet's flow 3 % off the truth's 88 kg/s, as for the first unit.
     let model = user_model_with(full, 88.0 * 0.97);
-    // CI leaves out every other load, both ends included (the grown shape ≈ 3 s a
-    // calibration, continuation ≈ 20 s); `GTWATCH_FOREIGN_FULL=1` all nine (grown: 0.19 % mean
-    // over them, 0.24 % over these five).
-    let every_other: Vec<usize> = (0..rows.len()).step_by(2).collect();
-    let (_, left_out) = left_out_or(rows.len(), every_other);
+    // Every load left out in turn (measured 2026-11-29: grown 0.19 % mean, continuation
+    // 0.18 %).
+    let left_out = left_out_loads(rows.len());
     // Per left-out load k: [design only, adapted] × [mean, worst].
     let mut table: Vec<(usize, [[f64; 2]; 2])> = Vec::new();
     for k in left_out {
@@ -868,20 +875,15 @@ fn a_foreign_unit_predicted_at_some_loads_only_is_diagnosed_by_those() {
     );
     assert_ne!(format!("{:?}", q.verdict), "Good");
     assert!(!q.model_error_beyond.is_empty());
-    // All nine: the healthy baseline near zero, the grid within 0.6 points, no miss called
-    // good. CI diagnoses the level furthest off before the profile (level 4: 2.26 points, now
-    // 0.52), `GTWATCH_FOREIGN_FULL=1` all 15.
+    // All nine: the healthy baseline near zero, every level of the grid within 0.6 points
+    // (2.26 points off before the profile, now 0.52 at worst), no miss called good.
     let baseline = diagnose_snapshots(&adapted, &rows, &cfg).expect("diagnosis");
     let b = baseline.groups[0].result.health.to_array();
     eprintln!("fixed vanes, healthy baseline {b:+.2?}");
     for (p, v) in b.iter().enumerate().take(4) {
         assert!(v.abs() <= 0.3, "baseline {} = {v:.3}", HEALTH_NAMES[p]);
     }
-    let levels: Vec<usize> = if std::env::var_os("GTWATCH_FOREIGN_FULL").is_some() {
-        (0..LEVELS).collect()
-    } else {
-        vec![4]
-    };
+    let levels: Vec<usize> = (0..LEVELS).collect();
     let (est, verdicts) = grid_estimates_at(&truth, AERO25_FIXED_VANES, &adapted, &cfg, &levels);
     for (e, (&i, q)) in est.iter().zip(levels.iter().zip(&verdicts)) {
         let err = (0..4)
