@@ -379,7 +379,11 @@ fn adapted_md22_predicts_left_out_loads_of_a_foreign_unit() {
     }
     if folds.len() == rows.len() {
         // Over all nine: measured 0.50 % mean (the 0.3 % not met).
-        assert!(avg(&means[1]) <= 0.55, "adapted mean {:.3} %", avg(&means[1]));
+        assert!(
+            avg(&means[1]) <= 0.55,
+            "adapted mean {:.3} %",
+            avg(&means[1])
+        );
     }
     assert!(
         avg(&means[1]) < avg(&means[0]) / 3.0,
