@@ -187,8 +187,22 @@ impl Aliases {
     /// them (a fuel meter drifting through the start-up, fitted as a constant zero offset of
     /// the wrong sign, moved a turbine 0.8 points further beyond new), and one start-up cannot
     /// tell. Empty when the candidate's health is no less plausible, or nothing restores.
+    ///
+    /// "Less plausible" means further below plausibility (the root of [`Self::implausibility`],
+    /// in points) by more than the largest of the baseline's 1σ: a true effect whose health
+    /// came out a hair further beyond new than the baseline's, by the estimates' own scatter,
+    /// is not doubted for it.
     pub(crate) fn against(&self, candidate_health: &HealthParams) -> Vec<&str> {
-        if self.implausibility_of(candidate_health) > self.implausibility {
+        let scatter = self
+            .sigma
+            .iter()
+            .copied()
+            .filter(|s| s.is_finite())
+            .fold(0.0, f64::max);
+        let distance = |implausibility: f64| implausibility.max(0.0).sqrt();
+        if distance(self.implausibility_of(candidate_health))
+            > distance(self.implausibility) + scatter
+        {
             self.restoring()
         } else {
             Vec::new()
@@ -386,6 +400,11 @@ mod tests {
         assert!(a.implausibility > 0.0);
         let further = HealthParams::from_array([-0.3, 0.2, -1.9, 1.4, 0.2, 2.8]);
         assert_eq!(a.against(&further), ["fuel_meter"]);
+        // 0.1 point further below plausibility than the baseline (0.2), within one σ (0.2):
+        // the estimates' scatter, not a reason to doubt.
+        let a_hair_further = HealthParams::from_array([0.4, 0.0, -1.2, 1.3, 1.3, 2.3]);
+        assert!(a.implausibility_of(&a_hair_further) > a.implausibility);
+        assert!(a.against(&a_hair_further).is_empty());
         let restored = HealthParams::from_array([2.0, 0.2, 0.5, 1.6, 2.3, 1.0]);
         assert!(a.against(&restored).is_empty());
         assert!(a.against(&baseline).is_empty());
