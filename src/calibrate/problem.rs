@@ -64,8 +64,20 @@ pub struct SmoothnessRow {
     pub scale: f64,
 }
 
+/// Model runs a problem has made. A copy of a problem counts its own runs from zero (so
+/// [`CalibrationProblem`] can be `Clone` while its counter is atomic).
+#[derive(Debug, Default)]
+struct RunCount(AtomicUsize);
+
+impl Clone for RunCount {
+    fn clone(&self) -> Self {
+        RunCount::default()
+    }
+}
+
 /// Healthy snapshots against the model with `candidates` free (the others at the engine's
 /// values).
+#[derive(Clone)]
 pub struct CalibrationProblem {
     engine: Engine,
     points: Vec<CalibrationPoint>,
@@ -78,7 +90,7 @@ pub struct CalibrationProblem {
     starts: Vec<SteadyPoint>,
     candidates: Vec<Candidate>,
     bounds: Bounds,
-    runs: AtomicUsize,
+    runs: RunCount,
     /// Penalty rows appended to the least-squares residuals (adaptation curves' curvature).
     smoothness: Vec<SmoothnessRow>,
     /// Per point, when the problem is posed on the measured GG speed ([`Self::on_gg_speed`]):
@@ -162,7 +174,7 @@ impl CalibrationProblem {
             starts,
             candidates,
             bounds,
-            runs: AtomicUsize::new(0),
+            runs: RunCount::default(),
             smoothness: Vec::new(),
             speed_given: Vec::new(),
         })
@@ -182,23 +194,14 @@ impl CalibrationProblem {
     /// of the parameters. The two are the same residual to first order; the caller polishes
     /// on the fuel-given problem, which is the one the diagnosis uses.
     pub fn on_gg_speed(&self) -> Self {
-        CalibrationProblem {
-            engine: self.engine.clone(),
-            points: self.points.clone(),
-            law: self.law.clone(),
-            rest: self.rest.clone(),
-            starts: self.starts.clone(),
-            candidates: self.candidates.clone(),
-            bounds: self.bounds.clone(),
-            runs: AtomicUsize::new(0),
-            smoothness: self.smoothness.clone(),
-            speed_given: self
-                .points
-                .iter()
-                .zip(&self.starts)
-                .map(|(p, start)| speed_given_sigma(&self.engine, p, start))
-                .collect(),
-        }
+        let mut on_speed = self.clone();
+        on_speed.speed_given = self
+            .points
+            .iter()
+            .zip(&self.starts)
+            .map(|(p, start)| speed_given_sigma(&self.engine, p, start))
+            .collect();
+        on_speed
     }
 
     /// The same problem whose least-squares residuals also carry `rows` (see
@@ -236,7 +239,7 @@ impl CalibrationProblem {
 
     /// Model evaluations so far.
     pub fn runs(&self) -> usize {
-        self.runs.load(Ordering::Relaxed)
+        self.runs.0.load(Ordering::Relaxed)
     }
 
     /// The engine with the candidates at `x`.
@@ -273,7 +276,7 @@ impl CalibrationProblem {
     /// Residuals `(model − measured) / σ` at `x`, point-major; an error names the point whose
     /// solve failed.
     pub fn residuals_at(&self, x: &[f64]) -> Result<Vec<f64>, CalibrateError> {
-        self.runs.fetch_add(1, Ordering::Relaxed);
+        self.runs.0.fetch_add(1, Ordering::Relaxed);
         let engine = self.engine_at(x)?;
         self.residuals_of_engine(&engine, Some(&self.starts))
     }
@@ -334,7 +337,7 @@ pub fn residuals_on(
         starts: Vec::new(),
         candidates: Vec::new(),
         bounds,
-        runs: AtomicUsize::new(0),
+        runs: RunCount::default(),
         smoothness: Vec::new(),
         speed_given: Vec::new(),
     };
