@@ -30,7 +30,7 @@ use super::linear::{project, Linearised};
 use crate::diagnosis::fit_quality::EXACT_MODEL_LEVEL;
 use crate::diagnosis::{DiagnosisConfig, DiagnosisError, FitParam, MethodResult};
 use crate::engine::Engine;
-use crate::health::{implausibility, HealthParams, HEALTH_NAMES};
+use crate::health::{below_plausible, implausibility, HealthParams, HEALTH_NAMES};
 use crate::recording::Recording;
 use crate::signals::Signal;
 use serde::Serialize;
@@ -189,15 +189,18 @@ impl Aliases {
     /// tell. Empty when the candidate's health is no less plausible, or nothing restores.
     ///
     /// "Less plausible" means further below plausibility (the root of [`Self::implausibility`],
-    /// in points) by more than the largest of the baseline's 1σ: a true effect whose health
-    /// came out a hair further beyond new than the baseline's, by the estimates' own scatter,
-    /// is not doubted for it.
+    /// in points) by more than the largest baseline 1σ among the candidate's estimates that are
+    /// below plausibility: a true effect whose health came out a hair further beyond new than
+    /// the baseline's, by the estimates' own scatter, is not doubted for it. (An estimate the
+    /// data barely inform, with a σ of points, is never below plausibility, so it cannot widen
+    /// that margin.)
     pub(crate) fn against(&self, candidate_health: &HealthParams) -> Vec<&str> {
-        let scatter = self
-            .sigma
+        let scatter = candidate_health
+            .to_array()
             .iter()
-            .copied()
-            .filter(|s| s.is_finite())
+            .zip(&self.sigma)
+            .filter(|(v, s)| below_plausible(**v, **s) > 0.0)
+            .map(|(_, s)| *s)
             .fold(0.0, f64::max);
         let distance = |implausibility: f64| implausibility.max(0.0).sqrt();
         if distance(self.implausibility_of(candidate_health))
@@ -405,6 +408,12 @@ mod tests {
         let a_hair_further = HealthParams::from_array([0.4, 0.0, -1.2, 1.3, 1.3, 2.3]);
         assert!(a.implausibility_of(&a_hair_further) > a.implausibility);
         assert!(a.against(&a_hair_further).is_empty());
+        // A σ of points on an estimate that is plausible anyway does not widen the margin.
+        let one_unresolved = Aliases {
+            sigma: [0.2, 0.2, 0.2, 0.2, 0.2, 3.0],
+            ..a.clone()
+        };
+        assert_eq!(one_unresolved.against(&further), ["fuel_meter"]);
         let restored = HealthParams::from_array([2.0, 0.2, 0.5, 1.6, 2.3, 1.0]);
         assert!(a.against(&restored).is_empty());
         assert!(a.against(&baseline).is_empty());
