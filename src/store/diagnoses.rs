@@ -422,7 +422,7 @@ impl Store {
 
     /// Stored results in start-up order (then method, then age).
     pub fn history(&self, f: &HistoryFilter) -> Result<Vec<HistoryRow>, StoreError> {
-        let mut st = self.conn.prepare_cached(
+        let mut st = self.conn.prepare_cached(concat!(
             "SELECT d.id, d.segment_id, g.start_ms,
                     strftime('%Y-%m-%dT%H:%M:%fZ', g.start_ms / 1000.0, 'unixepoch'), d.method,
                     d.d_gc, d.d_ec, d.d_gt, d.d_et, d.d_gp, d.d_ep,
@@ -430,7 +430,9 @@ impl Store {
                     d.objective, d.residual_level, d.fit_quality,
                     (SELECT w.id FROM washes w WHERE w.t_ms <= g.start_ms
                       ORDER BY w.t_ms DESC, w.id DESC LIMIT 1),
-                    a.effect, json_extract(a.report_json, '$.verdict.doubted')
+                    a.effect, ",
+            doubted_sql!("a"),
+            "
              FROM diagnoses d JOIN segments g ON g.id = d.segment_id
              -- the start-up's newest gap analysis, if any
              LEFT JOIN gap_analyses a ON a.id = (
@@ -438,8 +440,8 @@ impl Store {
                  ORDER BY n.created_at_ms DESC, n.id DESC LIMIT 1)
              WHERE (?1 IS NULL OR g.start_ms >= ?1) AND (?2 IS NULL OR g.start_ms <= ?2)
                AND (?3 IS NULL OR d.method = ?3)
-             ORDER BY g.start_ms, d.method, d.created_at_ms, d.id",
-        )?;
+             ORDER BY g.start_ms, d.method, d.created_at_ms, d.id"
+        ))?;
         let rows = st.query_map(params![f.since_ms, f.until_ms, f.method], |r| {
             let mut health = BTreeMap::new();
             let mut sigma = BTreeMap::new();

@@ -40,10 +40,14 @@ pub struct GapAnalysisRow {
     pub doubted: Option<String>,
 }
 
-const ROW_COLUMNS: &str = "g.id, g.segment_id, g.holdout_segment_id, g.effect, g.shrinkage,
+const ROW_COLUMNS: &str = concat!(
+    "g.id, g.segment_id, g.holdout_segment_id, g.effect, g.shrinkage,
     g.confidence, g.baseline_fit_quality, g.normalised_residual, g.created_at_ms, s.start_ms,
-    json_extract(g.report_json, '$.verdict.aliases'), json_extract(g.report_json, '$.verdict.doubted')
-    FROM gap_analyses g JOIN segments s ON s.id = g.segment_id";
+    json_extract(g.report_json, '$.verdict.aliases'), ",
+    doubted_sql!("g"),
+    "
+    FROM gap_analyses g JOIN segments s ON s.id = g.segment_id"
+);
 
 fn row(r: &rusqlite::Row<'_>) -> rusqlite::Result<GapAnalysisRow> {
     Ok(GapAnalysisRow {

@@ -17,6 +17,15 @@
 //! back the last few transactions (never corrupt). Set `storage.synchronous = "full"` if the
 //! host may lose power without a UPS.
 
+/// SQL reading the candidate an `ambiguous` verdict doubted (`verdict.doubted`) from the stored
+/// gap report of the `gap_analyses` row aliased `$t`: the one spelling of that JSON path for
+/// every query (a literal, so it composes with `concat!`).
+macro_rules! doubted_sql {
+    ($t:literal) => {
+        concat!("json_extract(", $t, ".report_json, '$.verdict.doubted')")
+    };
+}
+
 pub mod archive;
 mod channel;
 mod db;
