@@ -25,7 +25,8 @@
 //! the end segment's line where it rises outward, else the end value (the knots are the
 //! interior calibration points; the lowest and highest load lie beyond them). A map borrowed
 //! from another make is bent furthest at low speed, and predicts worst there; weighting every
-//! point by the one average error gives the low loads a say the model cannot back. Where a signal has no row here, `model_error_pct` holds at every speed.
+//! point by the one average error gives the low loads a say the model cannot back. Where a
+//! signal has no row here, `model_error_pct` holds at every speed.
 //!
 //! Every curve passes through 0 at relative speed 1 (the design point the `[design]` table
 //! fixes stays exact), so a knot may not sit at 1. A curve left out is no correction.
