@@ -5,7 +5,7 @@
 //! scales. Must not do I/O.
 
 use super::super::CalibrateError;
-use super::knots::knots;
+use super::knots::{knots, SIDE_REACH};
 use super::model_error::{self, ModelError};
 use super::shape::{key, Shape};
 use super::{
@@ -41,7 +41,7 @@ pub(super) struct Growth<'a> {
 }
 
 impl<'a> Growth<'a> {
-    /// Level 1: every curve of every component with a speed range, one knot at its lowest
+    /// Level 1: every curve of every component with a speed range, one knot at its furthest
     /// speed; the curves (and design values) the data do not identify are dropped.
     pub(super) fn first_level(
         engine: &Engine,
@@ -64,13 +64,13 @@ impl<'a> Growth<'a> {
         for (ci, name) in COMPONENTS.iter().enumerate() {
             if max_level[ci] == 0 {
                 knots_reason[ci] = format!(
-                    "the data's relative speeds ({:.3}…{:.3}) reach no lower than 0.97: no knot \
-                     below the design speed to fit (curves above it are not offered)",
+                    "the data's relative speeds ({:.3}…{:.3}) stay within {SIDE_REACH} of the \
+                     design speed, where every curve is pinned to 0: no knot to fit",
                     ranges[ci][0], ranges[ci][1]
                 );
                 continue;
             }
-            shape.knots[ci] = knots(ranges[ci][0], 1);
+            shape.knots[ci] = knots(ranges[ci], 1);
             shape.curves[ci] = curves_of(name)
                 .iter()
                 .map(|c| (c.to_string(), vec![0.0]))
@@ -101,7 +101,7 @@ impl<'a> Growth<'a> {
             } else if continuation && max_level[ci] > 0 {
                 // Every knot the data's speeds carry at once; the penalty's continuation, not
                 // a growth, decides how much shape they take.
-                shape = shape.resampled(ci, knots(ranges[ci][0], max_level[ci]));
+                shape = shape.resampled(ci, knots(ranges[ci], max_level[ci]));
                 knots_reason[ci] = format!(
                     "{} knot(s): {}; fitted by continuation in the smoothness penalty",
                     max_level[ci], limit[ci]
@@ -308,7 +308,7 @@ impl<'a> Growth<'a> {
     fn trial(&mut self, group: &[usize]) -> Result<(Vec<String>, Pass, Shape), CalibrateError> {
         let mut trial = self.shape.clone();
         for &ci in group {
-            trial = trial.resampled(ci, knots(self.ranges[ci][0], self.level[ci] + 1));
+            trial = trial.resampled(ci, knots(self.ranges[ci], self.level[ci] + 1));
         }
         let trial_engine = shaped(&self.current, &trial)?;
         let mut keys: Vec<String> = self.design_free.clone();

@@ -11,13 +11,17 @@
 //! speed by construction (so they never alias the design table), and the data decide how much
 //! shape they support:
 //!
-//! 1. **Which curves.** Each component gets one knot at the lowest relative speed the data reach
-//!    (a curve is then a smooth ramp from the design speed down). The Jacobian of the noise-scaled
+//! 1. **Which curves.** Each component gets one knot at the end of its data's relative speeds
+//!    furthest from the design speed, the lowest usually (a curve is then a smooth ramp from
+//!    the design speed down); where the data run above the design corrected speed (a
+//!    generator's PT at part load, whose speed is held while its inlet cools; any component on
+//!    a cold day) the knots go there too. The Jacobian of the noise-scaled
 //!    residuals over the design parameters and all eight curves (compressor speed re-labelling,
 //!    flow, efficiency, (PR − 1); HPT and PT flow and efficiency) goes through the calibration's
 //!    identifiability analysis (`identify`): only curves it identifies are fitted.
-//! 2. **How many knots.** A component's knots grow one at a time (evenly spaced from its lowest
-//!    speed towards the design speed, the fitted curve re-sampled as the start) while the
+//! 2. **How many knots.** A component's knots grow one at a time (evenly spaced from each end
+//!    of its speeds towards the design speed, shared between the sides by their reach
+//!    (`knots`), the fitted curve re-sampled as the start) while the
 //!    identifiability analysis still identifies every knot of its curves at the new count, up to
 //!    [`AdaptSettings::max_knots`] and one knot fewer than the distinct speeds the data hold,
 //!    and the fit at the new count lowers the data's RMS residual by [`MIN_GAIN`] (else the
@@ -61,7 +65,7 @@ use crate::optim::lm::jacobian_unit;
 use crate::optim::{refine, JacobianOptions, LmOptions, Problem, RefineResult};
 use crate::signals::Signal;
 use growth::Growth;
-use knots::{distinct_speeds, knot_limit};
+use knots::{distinct_speeds, has_reach, knot_limit};
 use rayon::ThreadPool;
 use serde::Serialize;
 use shape::{key, Shape};
@@ -450,7 +454,7 @@ fn rms_of(engine: &Engine, ctx: Ctx) -> Result<f64, CalibrateError> {
 /// design values identified before, which stay free beside the curves while they remain
 /// identifiable. Returns the report and the adapted engine.
 ///
-/// The steps: the speed ranges the data cover; one knot per component at its lowest speed,
+/// The steps: the speed ranges the data cover; one knot per component at its furthest speed,
 /// keeping the curves the data identify, and its fit; the knots grown while every knot stays
 /// identified; the σ of the final knots and the report.
 pub fn adapt(
@@ -475,7 +479,7 @@ pub fn adapt(
 struct SpeedRanges {
     /// Lowest and highest relative corrected speed.
     ranges: Vec<[f64; 2]>,
-    /// The most knots the speeds support (0 when they reach no lower than 0.97).
+    /// The most knots the speeds support (0 when they stay within 0.03 of the design speed).
     max_level: Vec<usize>,
     /// What sets each `max_level`, for the report.
     limit: Vec<String>,
@@ -496,10 +500,10 @@ fn speed_ranges(engine: &Engine, ctx: Ctx) -> Result<SpeedRanges, CalibrateError
         .iter()
         .zip(&ranges)
         .map(|(v, r)| {
-            if r[0] >= 0.97 {
+            if !has_reach(*r) {
                 return (0, String::new());
             }
-            knot_limit(distinct_speeds(v), r[0], ctx.settings.max_knots)
+            knot_limit(distinct_speeds(v), *r, ctx.settings.max_knots)
         })
         .unzip();
     Ok(SpeedRanges {

@@ -107,17 +107,19 @@ impl Shape {
     pub(super) fn smoothness(&self, keys: &[String], scale: f64) -> Vec<SmoothnessRow> {
         let mut rows = Vec::new();
         for (ci, name) in COMPONENTS.iter().enumerate() {
-            // Knots and the anchor (1, 0), which is no variable.
+            // Knots and the anchor (1, 0), which is no variable, in the order of speed (knots
+            // may lie on both sides of it).
+            let below = self.knots[ci].partition_point(|x| *x < 1.0);
             let mut xs = self.knots[ci].clone();
-            xs.push(1.0);
+            xs.insert(below, 1.0);
             for (curve, values) in &self.curves[ci] {
-                let idx: Vec<Option<usize>> = (0..values.len())
+                let mut idx: Vec<Option<usize>> = (0..values.len())
                     .map(|i| {
                         let k = key(name, curve, i);
                         keys.iter().position(|x| *x == k)
                     })
-                    .chain(std::iter::once(None))
                     .collect();
+                idx.insert(below.min(idx.len()), None);
                 for i in 1..xs.len().saturating_sub(1) {
                     let (h0, h1) = (xs[i] - xs[i - 1], xs[i + 1] - xs[i]);
                     let w = 2.0 / (h0 + h1);
@@ -134,5 +136,52 @@ impl Shape {
             }
         }
         rows
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn smoothness_takes_the_anchor_in_its_place_among_knots_on_both_sides() {
+        // Knots 0.8, 0.9 below the design speed and 1.1 above: the second differences run over
+        // 0.8, 0.9, (1.0, 0), 1.1.
+        let shape = Shape {
+            knots: [vec![], vec![], vec![0.8, 0.9, 1.1]],
+            curves: [
+                vec![],
+                vec![],
+                vec![("flow".to_string(), vec![0.01, 0.02, 0.03])],
+            ],
+        };
+        let keys = shape.keys();
+        assert_eq!(keys.len(), 3);
+        let rows = shape.smoothness(&keys, 1.0);
+        assert_eq!(rows.len(), 2, "{rows:?}");
+        // At 0.9: its neighbours 0.8 (a knot) and the anchor (no variable).
+        let at_09: Vec<usize> = rows[0].terms.iter().map(|t| t.0).collect();
+        assert_eq!(at_09, vec![0, 1]);
+        // At the anchor: 0.9 and 1.1, both with the outer coefficient (positive), h = 0.1.
+        let at_anchor = &rows[1].terms;
+        assert_eq!(
+            at_anchor.iter().map(|t| t.0).collect::<Vec<_>>(),
+            vec![1, 2]
+        );
+        for (_, c) in at_anchor {
+            assert!((c - 100.0).abs() < 1e-9, "{at_anchor:?}");
+        }
+        // Below the design only, as before: the anchor last.
+        let below = Shape {
+            knots: [vec![0.8, 0.9], vec![], vec![]],
+            curves: [
+                vec![("speed".to_string(), vec![0.02, 0.01])],
+                vec![],
+                vec![],
+            ],
+        };
+        let rows = below.smoothness(&below.keys(), 1.0);
+        assert_eq!(rows.len(), 1);
+        assert_eq!(rows[0].terms.len(), 2);
     }
 }
