@@ -38,6 +38,7 @@ mod foreign_engine;
 mod fuzz_regressions;
 mod gap_cli;
 mod gap_month;
+mod gspy_adaptation;
 mod gspy_turboshaft;
 mod hot_restart;
 mod md22_engine;
