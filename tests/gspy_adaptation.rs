@@ -12,9 +12,11 @@
 //!
 //! The second test degrades such a unit: gtwatch's emulation of GSPy's engine
 //! (`config/gspy_turboshaft_2spool.toml`, GSPy's maps and design) as the truth, a generator's
-//! constant PT speed, 9 loads over a 20 K span of days, 15 levels of compressor, HP-turbine and
-//! PT degradation diagnosed on md22 adapted to its healthy loads. It is the weakest foreign
-//! unit yet: the degraded points leave the healthy data's corrected speeds (see its doc).
+//! constant PT speed, 9 loads over a 20 K span of days, 20 levels of compressor, HP-turbine and
+//! PT degradation diagnosed on md22 adapted to its healthy loads. Fouling and cold days take
+//! the GG above the highest corrected speed the baseline reached; those snapshots are left out
+//! with the reason (`[adaptation.calibrated]`), which took the worst level error from 1.7 to
+//! 0.26 points (see the test).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use gtwatch::calibrate::adapt::{AdaptSettings, AdaptStrategy};
@@ -58,6 +60,11 @@ fn gspy_rows() -> Vec<(bool, HashMap<String, f64>)> {
 /// GSPy's off-design rows as a plant's snapshot CSV in gtwatch's column names (GSPy's stations
 /// 2, 3, 45, 5 are gtwatch's 1, 2, 34, 4; pressures Pa → kPa, power W → MW).
 fn snapshots() -> Vec<Snapshot> {
+    read_snapshots(gspy_csv().as_bytes(), &HashMap::new(), Some("test")).expect("rows")
+}
+
+/// The CSV text of [`snapshots`].
+fn gspy_csv() -> String {
     let mut csv = String::from(
         "test,t1_k,p_amb_kpa,p1_kpa,n2_rpm,fuel_kg_s,n1_rpm,t2_k,p2_kpa,t34_k,p34_kpa,t4_k,power_mw\n",
     );
@@ -78,7 +85,7 @@ fn snapshots() -> Vec<Snapshot> {
             r["PW_PT"] / 1e6,
         ));
     }
-    read_snapshots(csv.as_bytes(), &HashMap::new(), Some("test")).expect("rows")
+    csv
 }
 
 /// The user's md22 copy with GSPy's design row as its design point (pressure ratio, PT power,
@@ -229,23 +236,34 @@ fn generator_loads(design_mw: f64, level: usize) -> Vec<OperatingPoint> {
         .collect()
 }
 
-/// Level `i` of 15: 0–4 compressor fouling (D_GC to 4, D_EC 0.4·D_GC), 5–9 HP-turbine wear
-/// (D_GT to −2, D_ET to 3), 10–14 power-turbine erosion (D_GP to 2, D_EP to 1.5).
+/// Levels of the generator grid.
+const GRID_LEVELS: usize = 20;
+
+/// Level `i` of [`GRID_LEVELS`]: 0–4 compressor fouling (D_GC to 4, D_EC 0.4·D_GC), 5–9
+/// HP-turbine wear (D_GT to −2, D_ET to 3), 10–14 power-turbine erosion (D_GP to 2, D_EP to
+/// 1.5), 15–19 all three at magnitudes between the single ones: each parameter degraded on 10
+/// levels and healthy on the other 10.
 fn generator_grid(i: usize) -> [f64; 6] {
-    let j = (i % 5 + 1) as f64 / 5.0;
-    match i / 5 {
-        0 => [4.0 * j, 1.6 * j, 0.0, 0.0, 0.0, 0.0],
-        1 => [0.0, 0.0, -2.0 * j, 3.0 * j, 0.0, 0.0],
-        _ => [0.0, 0.0, 0.0, 0.0, 2.0 * j, 1.5 * j],
+    let path = i / 5;
+    let j = ((i % 5) as f64 + if path == 3 { 0.5 } else { 1.0 }) / 5.0;
+    let c = [4.0 * j, 1.6 * j];
+    let t = [-2.0 * j, 3.0 * j];
+    let p = [2.0 * j, 1.5 * j];
+    match path {
+        0 => [c[0], c[1], 0.0, 0.0, 0.0, 0.0],
+        1 => [0.0, 0.0, t[0], t[1], 0.0, 0.0],
+        2 => [0.0, 0.0, 0.0, 0.0, p[0], p[1]],
+        _ => [c[0], c[1], t[0], t[1], p[0], p[1]],
     }
 }
 
 /// A generator unit made by gtwatch's emulation of GSPy's engine (`config/
 /// gspy_turboshaft_2spool.toml`: GSPy's maps and design, the PT held at 4 100 rpm), 9 healthy
-/// loads from 40 % to 100 % on days from 278 to 298 K, md22 adapted to them; then 15 levels of
-/// compressor, HP-turbine and PT degradation at the same loads, diagnosed on it. On cold days
-/// the GG runs above its design corrected speed, and at part load the PT always does: the
-/// curves above the design speed carry the PT's part of the grid.
+/// loads from 40 % to 100 % on days from 278 to 298 K, md22 adapted to them; then
+/// [`GRID_LEVELS`] levels of compressor, HP-turbine and PT degradation at the same loads on
+/// other days, diagnosed on it. At part load the PT always runs above its design corrected
+/// speed (its curves live there), and fouled or on a cold day the GG runs above the speeds the
+/// baseline covered (those snapshots are left out).
 #[test]
 fn md22_adapted_to_a_generator_unit_diagnoses_its_degradation() {
     let truth = Engine::new(
@@ -291,7 +309,7 @@ fn md22_adapted_to_a_generator_unit_diagnoses_its_degradation() {
     eprintln!("baseline {b:+.3?} {bq}");
 
     let mut rows = Vec::new();
-    for i in 0..15 {
+    for i in 0..GRID_LEVELS {
         rows.extend(rows_at(generator_grid(i), i + 1, &format!("level{i:02}")));
     }
     let diag = diagnose_snapshots(&adapted, &rows, &cfg).expect("grid");
@@ -312,9 +330,30 @@ fn md22_adapted_to_a_generator_unit_diagnoses_its_degradation() {
         for p in 0..6 {
             worst[p] = worst[p].max((e[p] - t[p]).abs());
         }
-        eprintln!("level {i:2} truth {t:?} est {e:+.2?} {}", verdicts[i]);
+        let sd: Vec<f64> = HEALTH_NAMES
+            .iter()
+            .map(|n| {
+                diag.groups[i]
+                    .result
+                    .sigma
+                    .get(*n)
+                    .copied()
+                    .unwrap_or(f64::NAN)
+            })
+            .collect();
+        eprintln!(
+            "level {i:2} truth {t:.2?} est {e:+.2?} ±{sd:.2?} {} ({} of 9 loads left out: \
+             beyond the calibrated GG speeds {:?})",
+            verdicts[i],
+            diag.groups[i].dropped.len(),
+            diag.groups[i]
+                .dropped
+                .iter()
+                .map(|d| d.reason.split(" is ").next().unwrap_or(""))
+                .collect::<Vec<_>>()
+        );
     }
-    let truths: Vec<[f64; 6]> = (0..15).map(generator_grid).collect();
+    let truths: Vec<[f64; 6]> = (0..GRID_LEVELS).map(generator_grid).collect();
     let column = |v: &[[f64; 6]], p: usize| v.iter().map(|x| x[p]).collect::<Vec<f64>>();
     let good = verdicts.iter().filter(|q| *q == "good").count();
     let rho: Vec<f64> = (0..6)
@@ -323,7 +362,7 @@ fn md22_adapted_to_a_generator_unit_diagnoses_its_degradation() {
     for ((name, r), w) in HEALTH_NAMES.iter().zip(&rho).zip(worst) {
         eprintln!("{name}: Spearman {r:.3}, worst error {w:.3}");
     }
-    eprintln!("{good} of 15 fits good");
+    eprintln!("{good} of {GRID_LEVELS} fits good");
     let pt = a
         .components
         .iter()
@@ -332,16 +371,38 @@ fn md22_adapted_to_a_generator_unit_diagnoses_its_degradation() {
     assert!(pt.knots.iter().any(|k| *k > 1.0), "PT knots {:?}", pt.knots);
     assert_eq!(bq, "good");
     assert!(b.iter().all(|v| v.abs() <= 0.3), "baseline {b:?}");
-    // Measured 2026-11-29: ρ 0.84 / 0.72 / 0.82 / 0.84 / 0.76 / 0.79, 9 of 15 fits good (with
-    // no PT curve: 0.84 / 0.70 / 0.82 / 0.84 / 0.73 / 0.84, 10 good). Far from the issue's
-    // 0.95: the degraded points leave the healthy data's speeds. Fouling and cold days push
-    // the GG above its design corrected speed, where no healthy point was (the healthy full
-    // load fell on a warm day): level 11 puts its full load on the coldest day and misses
-    // GG speed by 7–10 σ at the top three loads (`poor`, D_GC read −1.1 for a healthy
-    // compressor), level 4 reads D_GC 5.7 for 4 (`poor`). Floors at what this version meets.
-    for (name, r) in HEALTH_NAMES.iter().zip(&rho) {
-        assert!(*r >= 0.7, "{name}: ρ {r:.3}");
+    // Measured 2026-11-29: ρ 0.936 for D_GC, D_GT, D_ET and D_GP, each level within 0.26
+    // points of the truth; D_EC 0.81 (within 0.37), D_EP 0.85 (up to 0.92 off); 15 of 20
+    // fits good. Most levels leave one or two of their 9 loads out: fouling and the colder
+    // days push the GG above the highest corrected speed of the healthy baseline (its full load
+    // fell on a warm day). Fitted there, on curves extrapolated past the design anchor, the GG
+    // speed was missed by 7–10 σ at the top loads and the 15-level grid before it read D_GC
+    // 5.7 for 4 and −1.1 for a healthy compressor (worst errors 1.72 / 0.35 / 1.05 / 0.56 /
+    // 0.70 / 1.29 points, ρ ≤ 0.84, 9 of 15 good). Not met: D_EP (the PT efficiency a
+    // generator's power and exhaust temperature carry) reads HP-turbine wear as up to −0.79 ±
+    // 0.20 and is then called good; the issue's ρ 0.95.
+    for (p, floor) in [0.9, 0.75, 0.9, 0.9, 0.9, 0.8].iter().enumerate() {
+        assert!(rho[p] >= *floor, "{}: ρ {:.3}", HEALTH_NAMES[p], rho[p]);
     }
+    for (p, w) in worst.iter().enumerate().take(5) {
+        assert!(*w <= 0.4, "{}: worst error {w:.3}", HEALTH_NAMES[p]);
+    }
+    // What is left out is said, with why: loads above the calibrated GG speeds (fouled, or
+    // full load on a colder day) and below them (the lowest load on a warmer day).
+    let left_out: Vec<&str> = diag
+        .groups
+        .iter()
+        .flat_map(|g| &g.dropped)
+        .map(|d| d.reason.as_str())
+        .collect();
+    assert!(!left_out.is_empty());
+    assert!(
+        left_out
+            .iter()
+            .all(|r| r.contains("the adapted model was calibrated at (0.")),
+        "{left_out:?}"
+    );
+    assert!(left_out.iter().any(|r| r.contains("above the highest")));
     // Where a level is read more than a point off, the fit says it does not fit.
     for (i, e) in est.iter().enumerate() {
         let t = generator_grid(i);
@@ -352,4 +413,106 @@ fn md22_adapted_to_a_generator_unit_diagnoses_its_degradation() {
             verdicts[i]
         );
     }
+}
+
+/// As a user runs it: md22's file copied with GSPy's design row typed into `[design]` and a
+/// generator load, `gtwatch calibrate --adapt` on GSPy's points writes the GG speeds it was
+/// calibrated on (`[adaptation.calibrated]`), and `gtwatch diagnose` leaves out a snapshot whose
+/// GG runs faster than any of them (here GSPy's full-load row with its GG speed 2 % up), naming
+/// the line and why, while it diagnoses the others.
+#[test]
+fn cli_writes_the_calibrated_speeds_and_diagnosis_leaves_out_a_snapshot_beyond_them() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let root = root();
+    let (_, dp) = gspy_rows().into_iter().find(|(dp, _)| *dp).expect("DP row");
+    let md22 = std::fs::read_to_string(root.join("config/engine_md22.toml")).expect("md22");
+    let maps = format!("\"{}/", root.join("config/maps").display());
+    let mut section = String::new();
+    let mut text = String::new();
+    for line in md22.lines() {
+        if line.starts_with('[') {
+            section = line.split(']').next().unwrap_or("").to_string();
+        }
+        let key = line.split('=').next().unwrap_or("").trim();
+        let typed = match (section.as_str(), key) {
+            ("[design", "pressure_ratio") => Some(dp["P3"] / dp["P2"]),
+            ("[design", "power_mw") => Some(dp["PW_PT"] / 1e6),
+            ("[design", "gg_speed_rpm") => Some(dp["N_gg"]),
+            ("[design", "pt_speed_rpm") => Some(dp["N_pt"]),
+            ("[design", "exhaust_flow_kg_s") => Some(dp["W45"]),
+            _ => None,
+        };
+        let line = match typed {
+            Some(v) => format!("{key} = {v}"),
+            None if section == "[load" && key == "mode" => "mode = \"generator\"".into(),
+            None if section == "[load" && key == "exponent" => String::new(),
+            None => line.replace("\"maps/", &maps),
+        };
+        text.push_str(&line);
+        text.push('\n');
+    }
+    let unit = dir.path().join("unit.toml");
+    std::fs::write(&unit, text).expect("write unit");
+    let baseline = dir.path().join("gspy.csv");
+    std::fs::write(&baseline, gspy_csv()).expect("write csv");
+    let adapted = dir.path().join("adapted.toml");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .arg("calibrate")
+        .arg("--engine")
+        .arg(&unit)
+        .arg("--input")
+        .arg(&baseline)
+        .arg("--out")
+        .arg(&adapted)
+        .args(["--adapt", "--threads", "2"])
+        .output()
+        .expect("run gtwatch");
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let written = std::fs::read_to_string(&adapted).expect("adapted file");
+    let cfg = EngineConfig::load(&adapted).expect("the written file loads");
+    let range = cfg
+        .adaptation
+        .as_ref()
+        .and_then(|a| a.calibrated)
+        .expect("[adaptation.calibrated]");
+    assert!(written.contains("[adaptation.calibrated]"), "{written}");
+    eprintln!("calibrated GG speeds {:.3?}", range.gg_speed);
+    assert!(
+        range.gg_speed[0] < 0.92 && range.gg_speed[1] > 0.99,
+        "{range:?}"
+    );
+
+    // The full-load row again with its GG 2 % faster: beyond the calibrated speeds.
+    let mut csv = gspy_csv();
+    let full = csv.lines().nth(1).expect("full-load row").to_string();
+    let n1 = dp["N_gg"];
+    csv.push_str(&full.replace(&format!(",{n1},"), &format!(",{},", n1 * 1.02)));
+    csv.push('\n');
+    assert_eq!(csv.lines().count(), 10, "the row was edited: {csv}");
+    let grid = dir.path().join("check.csv");
+    std::fs::write(&grid, &csv).expect("write");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .arg("diagnose")
+        .arg("--engine")
+        .arg(&adapted)
+        .arg("--input")
+        .arg(&grid)
+        .args(["--method", "steady", "--group-by", "test", "--json"])
+        .output()
+        .expect("run gtwatch");
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let doc: serde_json::Value = serde_json::from_slice(&run.stdout).expect("one JSON document");
+    let g = &doc["groups"][0];
+    assert_eq!(g["dropped_lines"], serde_json::json!([10]), "{g}");
+    let reason = g["dropped"][0]["reason"].as_str().unwrap_or("");
+    assert!(reason.contains("above the highest"), "{reason}");
+    assert_eq!(g["lines"].as_array().map(Vec::len), Some(9), "{g}");
 }

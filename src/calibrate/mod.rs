@@ -293,7 +293,8 @@ impl Calibration {
     }
 
     /// The adaptation curves to write, as `(adaptation.<component>.<curve>, values)` with each
-    /// component's `speed_knots` first, then the model error along the GG speed
+    /// component's `speed_knots` first, then the GG speeds it was calibrated on
+    /// (`adaptation.calibrated.gg_speed`) and the model error along the GG speed
     /// (`adaptation.model_error_by_speed.<speed_knots | signal>`); empty without an adaptation.
     pub fn adaptation_lists(&self) -> Vec<(String, Vec<f64>)> {
         let mut out = Vec::new();
@@ -311,6 +312,20 @@ impl Calibration {
                     k.values.clone(),
                 ));
             }
+        }
+        let adapted = !out.is_empty();
+        if let Some(c) = self
+            .adaptation
+            .iter()
+            .flat_map(|a| &a.components)
+            .find(|c| c.component == "compressor" && adapted)
+        {
+            // The GG's reach (the compressor's relative corrected speed is the GG's, read as
+            // steady diagnosis reads it): a diagnosis leaves out what lies beyond it.
+            out.push((
+                "adaptation.calibrated.gg_speed".into(),
+                c.speed_range.to_vec(),
+            ));
         }
         if let Some(t) = self
             .adaptation

@@ -23,8 +23,9 @@
 use super::csv_input::{find_column, open_csv, parse_value, CsvError, AMBIENT_PRESSURE_COLUMN};
 use super::residual_table::{Cell, ResidualTable};
 use super::steady::{
-    below_adaptation_note, input_noise_note, model_error_note, relative_gg_speeds,
-    with_input_noise, with_model_error, InputSigma, SteadyData, SteadyProblem, SteadyWindow,
+    below_adaptation_note, beyond_calibration, input_noise_note, model_error_note,
+    relative_gg_speeds, with_input_noise, with_model_error, InputSigma, SteadyData, SteadyProblem,
+    SteadyWindow,
 };
 use super::{fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, Method, MethodResult};
 use crate::engine::sensors::noise_sigma;
@@ -445,6 +446,13 @@ pub fn diagnose_snapshots(
         for (i, r) in &members {
             match steady_data(engine, &cfg.base, r, *i, &mut assumptions) {
                 Ok(p) => {
+                    if let Some(reason) = beyond_calibration(engine, &p) {
+                        dropped.push(DroppedRow {
+                            line: r.line,
+                            reason,
+                        });
+                        continue;
+                    }
                     assumptions.extend(below_adaptation_note(engine, &p));
                     let p = if cfg.snapshot_input_noise {
                         with_input_noise(engine, &cfg.base, p)

@@ -13,7 +13,7 @@ use super::{
     AdaptSettings, AdaptStrategy, Ctx, Pass, SpeedRanges, Starts, CONTINUATION_SCALES,
     CONTINUATION_STAGE_ITERATIONS, MIN_GAIN,
 };
-use crate::engine::config::{curves_of, COMPONENTS};
+use crate::engine::config::{curves_of, CalibratedRange, COMPONENTS};
 use crate::engine::Engine;
 
 /// The adaptation in progress: the shape fitted so far, the engine with it, and what the
@@ -411,7 +411,7 @@ impl<'a> Growth<'a> {
         let (error, runs) =
             model_error::estimate(&self.current, &final_keys, &self.shape, self.ctx)?;
         self.runs += runs;
-        let current = with_model_error(&self.current, &error)?;
+        let current = with_model_error(&self.current, &error, self.ranges[0])?;
         let mut r = report(
             &self.shape,
             &self.ranges,
@@ -432,8 +432,13 @@ impl<'a> Growth<'a> {
 }
 
 /// `engine` with `error` as its file's `[adaptation.model_error_pct]` and
-/// `[adaptation.model_error_by_speed]` (replacing any older ones).
-fn with_model_error(engine: &Engine, error: &ModelError) -> Result<Engine, CalibrateError> {
+/// `[adaptation.model_error_by_speed]`, and `gg_speeds` (the data's lowest and highest relative
+/// corrected GG speed) as `[adaptation.calibrated]` (replacing any older ones).
+fn with_model_error(
+    engine: &Engine,
+    error: &ModelError,
+    gg_speeds: [f64; 2],
+) -> Result<Engine, CalibrateError> {
     let mut cfg = engine.cfg().clone();
     if let Some(a) = cfg.adaptation.as_mut() {
         a.model_error_pct = error
@@ -442,6 +447,9 @@ fn with_model_error(engine: &Engine, error: &ModelError) -> Result<Engine, Calib
             .map(|s| (s.signal.clone(), s.pct))
             .collect();
         a.model_error_by_speed = error.by_speed.clone();
+        a.calibrated = Some(CalibratedRange {
+            gg_speed: gg_speeds,
+        });
     }
     engine
         .with_config(cfg)

@@ -312,6 +312,15 @@ pub(crate) fn relative_gg_speed(engine: &Engine, data: &SteadyData) -> Option<f6
     Some(corrected_speed(n1, data.inputs.t_amb_k) / corrected_speed(d.n1_rpm, d.t1_k))
 }
 
+/// Why `data` is left out of a steady diagnosis on an adapted model: its measured GG speed
+/// lies beyond the speeds the adaptation was calibrated on (`[adaptation.calibrated]`), where
+/// the curves are extrapolated and the model's own error is not known (`None` within them, or
+/// when the file states no range).
+pub(crate) fn beyond_calibration(engine: &Engine, data: &SteadyData) -> Option<String> {
+    let range = engine.cfg().adaptation.as_ref()?.calibrated?;
+    range.beyond(relative_gg_speed(engine, data)?)
+}
+
 /// Relative corrected GG speed below the adaptation's lowest compressor knot by more than this
 /// is said to be an extrapolation of the curves.
 const BELOW_KNOTS_MARGIN: f64 = 0.01;

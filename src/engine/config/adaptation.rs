@@ -28,6 +28,14 @@
 //! point by the one average error gives the low loads a say the model cannot back. Where a
 //! signal has no row here, `model_error_pct` holds at every speed.
 //!
+//! `[adaptation.calibrated]` (written with them) states the reach of the calibration:
+//! `gg_speed = [lo, hi]`, the relative corrected GG speeds of its lowest and highest operating
+//! point. Steady diagnosis leaves out a snapshot beyond them by more than
+//! [`CALIBRATED_MARGIN`], with the reason: there the curves are extrapolated (above the design
+//! anchor they go on with its slope) and the model's own error was never measured. A unit
+//! calibrated on a summer baseline meets this on a cold day at full load, and a fouled GG
+//! turns faster than its healthy one did.
+//!
 //! Every curve passes through 0 at relative speed 1 (the design point the `[design]` table
 //! fixes stays exact), so a knot may not sit at 1. A curve left out is no correction.
 //! What it must not do: physics (only the shape of the numbers is checked here).
@@ -72,6 +80,50 @@ pub struct AdaptationConfig {
     /// The same along the operating line, where it varies with GG speed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub model_error_by_speed: Option<ModelErrorBySpeed>,
+    /// How far the calibration reached (written by `calibrate --adapt`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub calibrated: Option<CalibratedRange>,
+}
+
+/// The operating range the adaptation was fitted on: beyond it the curves are extrapolated
+/// and the model's own error is not known, so steady diagnosis leaves such a point out.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CalibratedRange {
+    /// Relative corrected GG speed (n1/√(T1/T1_design) over the design's) of the calibration's
+    /// lowest and highest operating point.
+    pub gg_speed: [f64; 2],
+}
+
+/// How far beyond [`CalibratedRange::gg_speed`] (relative corrected GG speed) a point may run
+/// and still count as calibrated. Measured on a generator unit of GSPy's maps adapted to
+/// healthy loads up to 0.998 (`tests/gspy_adaptation.rs`): the healthy model missed the GG
+/// speed by up to 0.24 % inside the range, 0.21 % at 0.005 beyond it, then 0.45 % at 0.008,
+/// 0.85 % at 0.013 and 1.1 % at 0.017.
+pub const CALIBRATED_MARGIN: f64 = 0.005;
+
+impl CalibratedRange {
+    /// Why a point at relative corrected GG speed `rel` is not diagnosed on these curves
+    /// (`None` within the range and its margin).
+    pub fn beyond(&self, rel: f64) -> Option<String> {
+        let [lo, hi] = self.gg_speed;
+        let (side, covers) = if rel < lo - CALIBRATED_MARGIN {
+            (
+                "below the lowest",
+                "lower loads, or warmer days at the lowest",
+            )
+        } else if rel > hi + CALIBRATED_MARGIN {
+            ("above the highest", "colder days at full load")
+        } else {
+            return None;
+        };
+        Some(format!(
+            "relative corrected GG speed {rel:.3} is {side} the adapted model was calibrated at \
+             ({lo:.3}…{hi:.3}, [adaptation.calibrated]): its curves are extrapolated there and \
+             its own error is not known, so the snapshot is left out; calibrate on a baseline \
+             that covers it ({covers})"
+        ))
+    }
 }
 
 /// The adapted model's own error per signal at knots of relative corrected GG speed.
@@ -241,6 +293,15 @@ impl AdaptationConfig {
                 check_length(v, &t.speed_knots).map_err(|r| (key(name), r))?;
             }
         }
+        if let Some(c) = &self.calibrated {
+            let [lo, hi] = c.gg_speed;
+            if lo > hi {
+                return Err((
+                    "adaptation.calibrated.gg_speed".into(),
+                    format!("the lowest speed {lo} is above the highest {hi}"),
+                ));
+            }
+        }
         for name in COMPONENTS {
             let Some(c) = self.component(name) else {
                 continue;
@@ -357,10 +418,43 @@ mod tests {
                 "[adaptation.model_error_by_speed]\nspeed_knots = [0.7, 0.8]\nt4_k = [1, 30]",
                 "adaptation.model_error_by_speed.t4_k",
             ),
+            (
+                "[adaptation.calibrated]\ngg_speed = [0.9, 0.8]",
+                "adaptation.calibrated.gg_speed",
+            ),
+            (
+                "[adaptation.calibrated]\ngg_speed = [0.0, 0.8]",
+                "adaptation.calibrated.gg_speed",
+            ),
+            ("[adaptation.calibrated]\ngg_speed = [0.8]", "gg_speed"),
         ] {
             let err = with(section).expect_err(section);
             assert!(err.contains(key), "{section}: {err}");
         }
+    }
+
+    #[test]
+    fn a_point_beyond_the_calibrated_speeds_is_named_with_its_side() {
+        let cfg = with("[adaptation.calibrated]\ngg_speed = [0.78, 0.998]").expect("loads");
+        let range = cfg.adaptation.and_then(|a| a.calibrated).expect("range");
+        assert_eq!(range.gg_speed, [0.78, 0.998]);
+        // Within the range and its margin: diagnosed.
+        for rel in [
+            0.78,
+            0.9,
+            0.998,
+            0.998 + super::CALIBRATED_MARGIN * 0.9,
+            0.776,
+        ] {
+            assert!(range.beyond(rel).is_none(), "{rel}");
+        }
+        let above = range.beyond(1.01).expect("above");
+        assert!(
+            above.contains("1.010 is above the highest") && above.contains("0.780…0.998"),
+            "{above}"
+        );
+        let below = range.beyond(0.7).expect("below");
+        assert!(below.contains("below the lowest"), "{below}");
     }
 
     #[test]

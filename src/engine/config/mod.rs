@@ -13,8 +13,8 @@ mod adaptation;
 mod fuel;
 mod ranges;
 pub use adaptation::{
-    curves_of, AdaptationConfig, ComponentCurves, ModelErrorBySpeed, COMPONENTS,
-    MAX_MODEL_ERROR_PCT, UNRESOLVING_MODEL_ERROR_PCT,
+    curves_of, AdaptationConfig, CalibratedRange, ComponentCurves, ModelErrorBySpeed,
+    CALIBRATED_MARGIN, COMPONENTS, MAX_MODEL_ERROR_PCT, UNRESOLVING_MODEL_ERROR_PCT,
 };
 pub use fuel::{FuelConfig, FuelKind, GasComposition};
 pub use ranges::{param_range, ParamRange};

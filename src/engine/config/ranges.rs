@@ -76,6 +76,7 @@ const RANGES: &[(&str, ParamRange)] = &[
     // Off-design adaptation (`config/adaptation.rs`): knots in relative corrected speed,
     // corrections as fractions, bounded as `maps::adapt` clamps them.
     ("adaptation.*.speed_knots", ParamRange::new(0.05, 2.0)),
+    ("adaptation.calibrated.gg_speed", ParamRange::new(0.05, 2.0)),
     ("adaptation.*.flow", ParamRange::new(-0.5, 0.5)),
     ("adaptation.*.efficiency", ParamRange::new(-0.5, 0.5)),
     ("adaptation.*.pressure_ratio", ParamRange::new(-0.5, 0.5)),
