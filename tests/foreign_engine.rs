@@ -18,11 +18,11 @@
 //! 0.90 % and 0.67 %), and at most a third / half of the design calibration's; the healthy
 //! baseline `good` within 0.3 points of zero; the grid ranked at ρ ≥ 0.95 for all four
 //! parameters, every level within 0.5 points on all six (the healthy PT's too), and no level
-//! off by more than 0.5 points called `good`. The rank floor needs the adapted model's own error (`[adaptation.model_error_pct]`
-//! and `[adaptation.model_error_by_speed]`, estimated by the calibration on interior points
-//! left out) in the diagnosis's σ: without it D_GT ranked at 0.89 (compressor fouling read as
-//! up to −0.9 points of D_GT); and the snapshots whose GG runs beyond the calibrated speeds
-//! (`[adaptation.calibrated]`) left out. Not met yet: the 0.3 % / 1 % floors over all nine
+//! off by more than 0.5 points called `good`. The rank floor needs the adapted model's own
+//! error (`[adaptation.model_error_pct]` and `[adaptation.model_error_by_speed]`, estimated by
+//! the calibration on interior points left out) in the diagnosis's σ: without it D_GT ranked
+//! at 0.89 (compressor fouling read as up to −0.9 points of D_GT); and the snapshots whose GG
+//! runs beyond the calibrated speeds (`[adaptation.calibrated]`) left out. Not met yet: the 0.3 % / 1 % floors over all nine
 //! loads; the cross-talk as a rank; and `good` fits on the whole grid (10 of 15): curves of
 //! speed alone follow the operating line, not how the unit's maps differ across it, where
 //! degradation moves the points.
