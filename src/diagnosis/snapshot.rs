@@ -477,7 +477,7 @@ pub fn diagnose_snapshots(
                 group: g,
                 lines,
                 reason: format!(
-                    "no snapshot of the group could be solved ({})",
+                    "no snapshot of the group could be diagnosed ({})",
                     reasons.join("; ")
                 ),
             });
