@@ -456,22 +456,18 @@ fn cli_writes_the_calibrated_speeds_and_diagnosis_leaves_out_a_snapshot_beyond_t
     let baseline = dir.path().join("gspy.csv");
     std::fs::write(&baseline, gspy_csv()).expect("write csv");
     let adapted = dir.path().join("adapted.toml");
-    let run = std::process::Command::new(env!("CARGO_BIN_EXE_gtwatch"))
-        .arg("calibrate")
-        .arg("--engine")
-        .arg(&unit)
-        .arg("--input")
-        .arg(&baseline)
-        .arg("--out")
-        .arg(&adapted)
-        .args(["--adapt", "--threads", "2"])
-        .output()
-        .expect("run gtwatch");
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    gtwatch(&[
+        "calibrate".as_ref(),
+        "--engine".as_ref(),
+        unit.as_os_str(),
+        "--input".as_ref(),
+        baseline.as_os_str(),
+        "--out".as_ref(),
+        adapted.as_os_str(),
+        "--adapt".as_ref(),
+        "--threads".as_ref(),
+        "2".as_ref(),
+    ]);
     let written = std::fs::read_to_string(&adapted).expect("adapted file");
     let cfg = EngineConfig::load(&adapted).expect("the written file loads");
     let range = cfg
@@ -495,24 +491,36 @@ fn cli_writes_the_calibrated_speeds_and_diagnosis_leaves_out_a_snapshot_beyond_t
     assert_eq!(csv.lines().count(), 10, "the row was edited: {csv}");
     let grid = dir.path().join("check.csv");
     std::fs::write(&grid, &csv).expect("write");
-    let run = std::process::Command::new(env!("CARGO_BIN_EXE_gtwatch"))
-        .arg("diagnose")
-        .arg("--engine")
-        .arg(&adapted)
-        .arg("--input")
-        .arg(&grid)
-        .args(["--method", "steady", "--group-by", "test", "--json"])
-        .output()
-        .expect("run gtwatch");
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    let run = gtwatch(&[
+        "diagnose".as_ref(),
+        "--engine".as_ref(),
+        adapted.as_os_str(),
+        "--input".as_ref(),
+        grid.as_os_str(),
+        "--method".as_ref(),
+        "steady".as_ref(),
+        "--group-by".as_ref(),
+        "test".as_ref(),
+        "--json".as_ref(),
+    ]);
     let doc: serde_json::Value = serde_json::from_slice(&run.stdout).expect("one JSON document");
     let g = &doc["groups"][0];
     assert_eq!(g["dropped_lines"], serde_json::json!([10]), "{g}");
     let reason = g["dropped"][0]["reason"].as_str().unwrap_or("");
     assert!(reason.contains("above the highest"), "{reason}");
     assert_eq!(g["lines"].as_array().map(Vec::len), Some(9), "{g}");
+}
+
+/// Runs the gtwatch binary with `args`; its output, once it has succeeded.
+fn gtwatch(args: &[&std::ffi::OsStr]) -> std::process::Output {
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(args)
+        .output()
+        .expect("run gtwatch");
+    assert!(
+        run.status.success(),
+        "gtwatch {args:?}: {}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    run
 }
