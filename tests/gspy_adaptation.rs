@@ -456,7 +456,7 @@ fn cli_writes_the_calibrated_speeds_and_diagnosis_leaves_out_a_snapshot_beyond_t
     let baseline = dir.path().join("gspy.csv");
     std::fs::write(&baseline, gspy_csv()).expect("write csv");
     let adapted = dir.path().join("adapted.toml");
-    gtwatch(&[
+    let cal = gtwatch(&[
         "calibrate".as_ref(),
         "--engine".as_ref(),
         unit.as_os_str(),
@@ -468,6 +468,11 @@ fn cli_writes_the_calibrated_speeds_and_diagnosis_leaves_out_a_snapshot_beyond_t
         "--threads".as_ref(),
         "2".as_ref(),
     ]);
+    let said = String::from_utf8_lossy(&cal.stdout);
+    assert!(
+        said.contains("calibrated on relative corrected GG speeds 0.901…1.000"),
+        "{said}"
+    );
     let written = std::fs::read_to_string(&adapted).expect("adapted file");
     let cfg = EngineConfig::load(&adapted).expect("the written file loads");
     let range = cfg
