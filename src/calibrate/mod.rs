@@ -313,19 +313,9 @@ impl Calibration {
                 ));
             }
         }
-        let adapted = !out.is_empty();
-        if let Some(c) = self
-            .adaptation
-            .iter()
-            .flat_map(|a| &a.components)
-            .find(|c| c.component == "compressor" && adapted)
-        {
-            // The GG's reach (the compressor's relative corrected speed is the GG's, read as
-            // steady diagnosis reads it): a diagnosis leaves out what lies beyond it.
-            out.push((
-                "adaptation.calibrated.gg_speed".into(),
-                c.speed_range.to_vec(),
-            ));
+        // The GG's reach: a diagnosis leaves out what lies beyond it.
+        if let Some(c) = self.adaptation.as_ref().and_then(|a| a.calibrated) {
+            out.push(("adaptation.calibrated.gg_speed".into(), c.gg_speed.to_vec()));
         }
         if let Some(t) = self
             .adaptation

@@ -270,14 +270,13 @@ fn print_text(report: &Calibration, wall_s: f64) {
                 println!("    {curve:<15} not fitted: {why}");
             }
         }
-        let gg = ad.components.iter().find(|c| c.component == "compressor");
-        if let Some(gg) = gg.filter(|_| ad.components.iter().any(|c| !c.curves.is_empty())) {
+        if let Some(c) = ad.calibrated {
             println!(
                 "  calibrated on relative corrected GG speeds {:.3}…{:.3} \
                  ([adaptation.calibrated]): a diagnosis leaves out a snapshot beyond them by \
                  more than {}",
-                gg.speed_range[0],
-                gg.speed_range[1],
+                c.gg_speed[0],
+                c.gg_speed[1],
                 crate::engine::config::CALIBRATED_MARGIN
             );
         }

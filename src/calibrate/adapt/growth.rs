@@ -411,7 +411,10 @@ impl<'a> Growth<'a> {
         let (error, runs) =
             model_error::estimate(&self.current, &final_keys, &self.shape, self.ctx)?;
         self.runs += runs;
-        let current = with_model_error(&self.current, &error, self.ranges[0])?;
+        let reach = CalibratedRange {
+            gg_speed: self.ranges[0],
+        };
+        let current = with_model_error_and_reach(&self.current, &error, reach)?;
         let mut r = report(
             &self.shape,
             &self.ranges,
@@ -427,17 +430,18 @@ impl<'a> Growth<'a> {
         r.strategy = self.ctx.settings.strategy.name();
         r.steps = self.steps;
         r.model_error = error;
+        r.calibrated = Some(reach);
         Ok((r, current))
     }
 }
 
 /// `engine` with `error` as its file's `[adaptation.model_error_pct]` and
-/// `[adaptation.model_error_by_speed]`, and `gg_speeds` (the data's lowest and highest relative
+/// `[adaptation.model_error_by_speed]`, and `reach` (the data's lowest and highest relative
 /// corrected GG speed) as `[adaptation.calibrated]` (replacing any older ones).
-fn with_model_error(
+fn with_model_error_and_reach(
     engine: &Engine,
     error: &ModelError,
-    gg_speeds: [f64; 2],
+    reach: CalibratedRange,
 ) -> Result<Engine, CalibrateError> {
     let mut cfg = engine.cfg().clone();
     if let Some(a) = cfg.adaptation.as_mut() {
@@ -447,9 +451,7 @@ fn with_model_error(
             .map(|s| (s.signal.clone(), s.pct))
             .collect();
         a.model_error_by_speed = error.by_speed.clone();
-        a.calibrated = Some(CalibratedRange {
-            gg_speed: gg_speeds,
-        });
+        a.calibrated = Some(reach);
     }
     engine
         .with_config(cfg)

@@ -78,11 +78,12 @@ pub(super) fn knots_that_fit(range: [f64; 2]) -> usize {
     capacity(range).iter().sum::<usize>().max(1)
 }
 
-/// Distinct speeds (to 0.005) further than 0.01 from the design speed in `speeds`, on the
-/// sides that get knots (speeds just above the design count only where others reach beyond
-/// [`SIDE_REACH`] there: else the curve above the anchor is its fade, with no knot to carry).
-pub(super) fn distinct_speeds(speeds: &[f64]) -> usize {
-    let above = speeds.iter().any(|s| *s > 1.0 + SIDE_REACH);
+/// Distinct speeds (to 0.005) further than 0.01 from the design speed in `speeds` (whose
+/// range is `range`), on the sides that get knots (speeds just above the design count only
+/// where the range reaches beyond [`SIDE_REACH`] there: else the curve above the anchor is its
+/// fade, with no knot to carry).
+pub(super) fn distinct_speeds(speeds: &[f64], range: [f64; 2]) -> usize {
+    let above = reach(range)[1] > 0.0;
     let mut v: Vec<i64> = speeds
         .iter()
         .filter(|s| **s < 0.99 || (above && **s > 1.01))
@@ -202,7 +203,7 @@ mod tests {
         let count = |v: &[f64], max| {
             let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
             let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            knot_limit(distinct_speeds(v), [lo, hi], max).0
+            knot_limit(distinct_speeds(v, [lo, hi]), [lo, hi], max).0
         };
         assert_eq!(count(&[0.7, 0.8, 0.9, 1.0], 4), 2);
         assert_eq!(count(&[0.7, 0.7, 1.0], 4), 1);

@@ -57,7 +57,7 @@ use super::identify::{identify, MAX_SIGMA_FRACTION};
 use super::problem::{CalibrationPoint, CalibrationProblem, SmoothnessRow};
 use super::startup::RestReading;
 use super::CalibrateError;
-use crate::engine::config::COMPONENTS;
+use crate::engine::config::{CalibratedRange, COMPONENTS};
 use crate::engine::cycle::corrected_speed;
 use crate::engine::Engine;
 use crate::health::HealthParams;
@@ -209,6 +209,10 @@ pub struct AdaptReport {
     /// The adapted model's own error per signal on points left out (written as
     /// `[adaptation.model_error_pct]`).
     pub model_error: ModelError,
+    /// The speeds the curves were fitted on (written as `[adaptation.calibrated]`; `None` when
+    /// no curve was fitted).
+    #[serde(skip)]
+    pub calibrated: Option<CalibratedRange>,
 }
 
 /// Relative corrected speed of each component at each point: from the measured GG speed, T1,
@@ -503,7 +507,7 @@ fn speed_ranges(engine: &Engine, ctx: Ctx) -> Result<SpeedRanges, CalibrateError
             if !has_reach(*r) {
                 return (0, String::new());
             }
-            knot_limit(distinct_speeds(v), *r, ctx.settings.max_knots)
+            knot_limit(distinct_speeds(v, *r), *r, ctx.settings.max_knots)
         })
         .unzip();
     Ok(SpeedRanges {
@@ -572,5 +576,6 @@ fn report(
         model_runs: 0,
         strategy: "",
         model_error: ModelError::default(),
+        calibrated: None,
     }
 }
