@@ -21,17 +21,16 @@
 
 use gtwatch::calibrate::adapt::{AdaptSettings, AdaptStrategy};
 use gtwatch::calibrate::candidates::default_candidates;
-use gtwatch::calibrate::problem::{prepare, residuals_on};
 use gtwatch::calibrate::synthetic::{snapshot_csv_at_speeds, OperatingPoint};
 use gtwatch::calibrate::{calibrate, Calibration, CalibrationSettings};
 use gtwatch::diagnosis::snapshot::{diagnose_snapshots, read_snapshots, Snapshot};
-use gtwatch::diagnosis::DiagnosisConfig;
 use gtwatch::engine::{Engine, EngineConfig};
 use gtwatch::health::{HealthParams, HEALTH_NAMES};
 use gtwatch::signals::Signal;
 use std::collections::HashMap;
 use std::path::PathBuf;
 
+use crate::foreign_engine::{self, diagnosis_cfg};
 use crate::ranking::spearman;
 
 fn root() -> PathBuf {
@@ -115,15 +114,10 @@ fn calibrated(model: &Engine, rows: &[Snapshot]) -> (Calibration, Engine) {
 
 /// Mean and worst |model − measured| in % of the measured value over `row`'s signals.
 fn errors_pct(engine: &Engine, row: &Snapshot) -> [f64; 2] {
-    let prep = prepare(engine, std::slice::from_ref(row));
-    let p = prep.points.first().expect("solved");
-    let r = residuals_on(engine, &prep.points, &[]).expect("residuals");
-    let e: Vec<f64> = p
-        .data
-        .outputs
+    let e: Vec<f64> = foreign_engine::errors_pct(engine, row)
+        .expect("solved")
         .iter()
-        .zip(&r)
-        .map(|(&(_, v, sd), r)| (100.0 * r * sd / v).abs())
+        .map(|(_, x)| x.abs())
         .collect();
     [
         e.iter().sum::<f64>() / e.len() as f64,
@@ -166,11 +160,7 @@ fn md22_adapted_to_gspys_turboshaft_fits_it_and_predicts_its_interior_points() {
     assert!(a.rms_after <= 0.93, "adapted RMS {:.2} σ", a.rms_after);
 
     // The healthy baseline diagnoses good, every parameter near zero (measured within 0.15).
-    let cfg = DiagnosisConfig {
-        max_model_runs: 1500,
-        threads: Some(2),
-        ..DiagnosisConfig::default()
-    };
+    let cfg = diagnosis_cfg();
     let diag = diagnose_snapshots(&adapted, &rows, &cfg).expect("diagnosis");
     let g = &diag.groups[0];
     let h = g.result.health.to_array();
@@ -298,11 +288,7 @@ fn md22_adapted_to_a_generator_unit_diagnoses_its_degradation() {
     }
     eprintln!("RMS {:.2} → {:.2} σ", a.rms_before, a.rms_after);
 
-    let cfg = DiagnosisConfig {
-        max_model_runs: 1500,
-        threads: Some(2),
-        ..DiagnosisConfig::default()
-    };
+    let cfg = diagnosis_cfg();
     let base = diagnose_snapshots(&adapted, &healthy, &cfg).expect("baseline");
     let b = base.groups[0].result.health.to_array();
     let bq = format!("{:?}", base.groups[0].result.fit_quality.verdict).to_lowercase();
