@@ -38,6 +38,34 @@ pub fn spearman(a: &[f64], b: &[f64]) -> f64 {
     cov / (va * vb).sqrt()
 }
 
+/// The largest Spearman ρ any estimate can reach against `truth`: that of an estimate that
+/// orders every pair the truth orders and breaks the truth's ties somehow (it cannot repeat
+/// them). Below 1 when the truth has ties: on a grid where a parameter is healthy (0) on 10
+/// levels of 20 and degraded on the others, a perfect estimate ranks at 0.936.
+pub fn spearman_ceiling(truth: &[f64]) -> f64 {
+    let mut idx: Vec<usize> = (0..truth.len()).collect();
+    idx.sort_by(|&i, &j| truth[i].total_cmp(&truth[j]));
+    let mut perfect = vec![0.0; truth.len()];
+    for (rank, &i) in idx.iter().enumerate() {
+        perfect[i] = rank as f64;
+    }
+    spearman(&perfect, truth)
+}
+
+/// Pairs of levels the truth orders (strictly) that the estimate orders the other way or
+/// ties: 0 for an estimate that ranks the truth perfectly, whatever the truth's ties.
+pub fn misordered_pairs(est: &[f64], truth: &[f64]) -> usize {
+    let mut n = 0;
+    for i in 0..truth.len() {
+        for j in 0..truth.len() {
+            if truth[i] < truth[j] && est[i] >= est[j] {
+                n += 1;
+            }
+        }
+    }
+    n
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -47,5 +75,30 @@ mod tests {
         assert!((spearman(&[1.0, 2.0, 3.0], &[10.0, 20.0, 30.0]) - 1.0).abs() < 1e-12);
         assert!((spearman(&[1.0, 2.0, 3.0], &[3.0, 2.0, 1.0]) + 1.0).abs() < 1e-12);
         assert!(spearman(&[1.0, 2.0, 3.0, 4.0], &[1.0, 3.0, 2.0, 4.0]) < 0.9);
+    }
+
+    #[test]
+    fn a_perfect_estimate_reaches_the_ceiling_and_misorders_nothing() {
+        // Healthy on 10 levels of 20, degraded 0.4…4 on the others.
+        let truth: Vec<f64> = (0..20)
+            .map(|i| if i < 10 { 0.0 } else { 0.4 * (i - 9) as f64 })
+            .collect();
+        let ceiling = spearman_ceiling(&truth);
+        assert!((ceiling - 0.9359).abs() < 1e-3, "{ceiling}");
+        // Noise on the healthy levels, every degraded one above them in order.
+        let est: Vec<f64> = truth
+            .iter()
+            .enumerate()
+            .map(|(i, t)| t + 0.3 + 0.01 * ((i * 7) % 10) as f64)
+            .collect();
+        assert_eq!(misordered_pairs(&est, &truth), 0);
+        assert!((spearman(&est, &truth) - ceiling).abs() < 1e-12);
+        // One degraded level read below a healthy one.
+        let mut worse = est.clone();
+        worse[10] = 0.0;
+        assert!(misordered_pairs(&worse, &truth) > 0);
+        assert!(spearman(&worse, &truth) < ceiling);
+        // Without ties the ceiling is 1.
+        assert!((spearman_ceiling(&[3.0, 1.0, 2.0]) - 1.0).abs() < 1e-12);
     }
 }
