@@ -476,6 +476,7 @@ pub fn adapt(
     if ctx.settings.strategy == AdaptStrategy::Grown {
         while g.grow()? {}
     }
+    g.polish()?;
     g.finish(rms_before)
 }
 
