@@ -231,6 +231,9 @@ fn calibrated(model: &Engine, rows: &[Snapshot], adapt: Option<AdaptStrategy>) -
         started.elapsed().as_secs_f64(),
         report.model_runs
     );
+    if let Some(law) = &report.inlet_loss_law {
+        eprintln!("  {}", law.summary());
+    }
     if adapt.is_some() {
         if let Some(a) = &report.adaptation {
             for c in &a.components {
@@ -476,6 +479,11 @@ fn adapted_md22_diagnoses_a_foreign_unit() {
     // met yet: every fit good (10 of 15; the others' residuals 1.1–1.9, honest: off the
     // healthy line the model misses by more than on it); the cross-talk as a rank (D_ET
     // leaks about −0.03 points per point of D_GC: small, but nearly monotone, so ρ = −0.9).
+    // The unit's inlet loss goes with its flow squared, as md22's: the law is kept.
+    assert_eq!(
+        adapted.cfg().design.inlet_loss_law,
+        gtwatch::engine::config::PressureLossLaw::FlowSquared
+    );
     let a = adapted.cfg().adaptation.as_ref().expect("adapted");
     assert!(
         a.model_error_pct.get("n1_rpm").is_some_and(|v| *v > 0.05),

@@ -33,6 +33,22 @@ fn item_mut<'d>(doc: &'d mut DocumentMut, key: &str) -> Option<&'d mut Item> {
     Some(item)
 }
 
+/// Whether the file has a value at a dotted key (looked up without inserting anything, which
+/// `item_mut` may).
+fn has_value(doc: &DocumentMut, key: &str) -> bool {
+    let mut parts = key.split('.');
+    let Some(mut item) = parts.next().and_then(|p| doc.get(p)) else {
+        return false;
+    };
+    for part in parts {
+        match item.get(part) {
+            Some(i) => item = i,
+            None => return false,
+        }
+    }
+    item.is_value()
+}
+
 /// The table `[section.name]`, made (the section implicit, so only `[section.name]` headers
 /// appear) where missing; `None` when either exists as something other than a table.
 fn sub_table<'d>(
@@ -55,7 +71,9 @@ fn sub_table<'d>(
 /// `original` with each `(key, value)` replaced, keeping each value's surrounding comments and
 /// spacing, and `header` (comment lines without the `#`) put first. Every key must already be
 /// in the file as a value of the same kind (an error names the key otherwise), except an
-/// effect's number (`effects.<instance>.<param>`), whose table is added when missing.
+/// effect's number (`effects.<instance>.<param>`), whose table is added when missing, and a
+/// word of a section the file has (`design.inlet_loss_law`), added when the file leaves it
+/// at its default.
 pub(crate) fn rewrite(
     original: &str,
     path_name: &str,
@@ -111,6 +129,19 @@ pub(crate) fn rewrite(
             table.insert(param, toml_edit::value(rounded(*v)));
             continue;
         }
+        if let (false, Some((section, name)), NewValue::Text(text)) =
+            (has_value(&doc, key), key.split_once('.'), new)
+        {
+            // A word the file leaves at its default (`design.inlet_loss_law`): added to its
+            // section's table, which must exist.
+            let table = doc
+                .get_mut(section)
+                .and_then(Item::as_table_mut)
+                .filter(|_| !name.contains('.'))
+                .ok_or_else(|| bad("its section is not a table in the file"))?;
+            table.insert(name, toml_edit::value(text.as_str()));
+            continue;
+        }
         let value = item_mut(&mut doc, key)
             .and_then(Item::as_value_mut)
             .ok_or_else(|| bad("not in the file as a value (cannot be replaced in place)"))?;
@@ -135,7 +166,7 @@ pub(crate) fn rewrite(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::engine::config::{EngineConfig, REFERENCE_ENGINE_TOML};
+    use crate::engine::config::{EngineConfig, PressureLossLaw, REFERENCE_ENGINE_TOML};
 
     #[test]
     fn replaces_values_in_place_and_keeps_comments() {
@@ -170,6 +201,49 @@ mod tests {
             .expect_err(key);
             assert!(e.to_string().contains(key) && e.to_string().contains("engine.toml"));
         }
+    }
+
+    #[test]
+    fn an_inlet_loss_law_is_replaced_in_place_or_added_to_design() {
+        let set = |text: &str| {
+            rewrite(
+                text,
+                "engine.toml",
+                &[(
+                    "design.inlet_loss_law".into(),
+                    NewValue::Text("constant".into()),
+                )],
+                &[],
+            )
+            .expect("rewrite")
+        };
+        // The reference file states the law: replaced, its comment kept.
+        let text = set(REFERENCE_ENGINE_TOML);
+        assert!(
+            text.contains("inlet_loss_law = \"constant\"     # off design"),
+            "{text}"
+        );
+        let cfg = EngineConfig::from_toml_str(&text, "x").expect("loads");
+        assert_eq!(cfg.design.inlet_loss_law, PressureLossLaw::Constant);
+        // A file leaving it at its default gets the line in `[design]`.
+        let without: String = REFERENCE_ENGINE_TOML
+            .lines()
+            .filter(|l| !l.starts_with("inlet_loss_law"))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        let cfg = EngineConfig::from_toml_str(&without, "x").expect("loads");
+        assert_eq!(cfg.design.inlet_loss_law, PressureLossLaw::FlowSquared);
+        let cfg = EngineConfig::from_toml_str(&set(&without), "x").expect("loads");
+        assert_eq!(cfg.design.inlet_loss_law, PressureLossLaw::Constant);
+        // A word for a section the file does not have is refused, naming the key.
+        let e = rewrite(
+            REFERENCE_ENGINE_TOML,
+            "engine.toml",
+            &[("nowhere.law".into(), NewValue::Text("constant".into()))],
+            &[],
+        )
+        .expect_err("no section");
+        assert!(e.to_string().contains("nowhere.law"), "{e}");
     }
 
     #[test]

@@ -26,6 +26,7 @@ pub mod adapt;
 pub mod candidates;
 pub(crate) mod edit;
 pub(crate) mod identify;
+pub mod inlet_law;
 pub mod problem;
 pub mod startup;
 pub mod synthetic;
@@ -150,6 +151,10 @@ pub struct Calibration {
     pub model_runs: usize,
     /// Whether the calibrated model reproduces the healthy baseline, and what to do if not.
     pub baseline_fit: BaselineFit,
+    /// What the measured inlet pressure says of the inlet loss law (`None`: the data cannot
+    /// tell, e.g. no P1 or no measured ambient pressure); the calibration uses `chosen`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub inlet_loss_law: Option<inlet_law::InletLawChoice>,
 }
 
 /// The verdict on the calibrated model's fit to the healthy baseline, on the snapshot
@@ -380,6 +385,20 @@ pub fn calibrate(
         return Err(CalibrateError::Data("no candidate parameter to fit".into()));
     }
     let prepared = solvable_points(engine, rows)?;
+    // The inlet loss law the measured P1 shows, before anything is fitted with the file's.
+    let inlet_loss_law = inlet_law::choose(engine, &prepared.points, prepared.ambient_from_p1);
+    let with_law;
+    let engine = match &inlet_loss_law {
+        Some(c) if c.changed() => {
+            let mut cfg = engine.cfg().clone();
+            cfg.design.inlet_loss_law = c.chosen;
+            with_law = engine
+                .with_config(cfg)
+                .map_err(|e| CalibrateError::Model(e.to_string()))?;
+            &with_law
+        }
+        _ => engine,
+    };
     let pool = thread_pool(settings.threads).map_err(|e| CalibrateError::Optim(e.to_string()))?;
     let jac_opts = JacobianOptions::default()
         .with_step(1e-3)
@@ -460,6 +479,7 @@ pub fn calibrate(
         adaptation,
         model_runs: full.runs() + runs,
         baseline_fit,
+        inlet_loss_law,
     };
     Ok((report, calibrated))
 }

@@ -313,6 +313,9 @@ fn print_text(report: &Calibration, wall_s: f64) {
     for a in &report.assumptions {
         println!("note: {a}");
     }
+    if let Some(law) = &report.inlet_loss_law {
+        println!("{}", law.summary());
+    }
     for d in &report.dropped {
         println!("line {} not used: {}", d.line, d.reason);
     }
@@ -366,6 +369,13 @@ fn fitted_values(report: &Calibration) -> Vec<(String, NewValue)> {
             .into_iter()
             .map(|(k, v)| (k, NewValue::Number(v))),
     );
+    // The inlet loss law the measured P1 chose, where it is not the file's.
+    if let Some(law) = report.inlet_loss_law.as_ref().filter(|l| l.changed()) {
+        values.push((
+            "design.inlet_loss_law".into(),
+            NewValue::Text(law.chosen.name().into()),
+        ));
+    }
     values
 }
 

@@ -70,6 +70,17 @@ pub enum PressureLossLaw {
     Nozzle,
 }
 
+impl PressureLossLaw {
+    /// Its name in the engine file.
+    pub fn name(self) -> &'static str {
+        match self {
+            PressureLossLaw::FlowSquared => "flow_squared",
+            PressureLossLaw::Constant => "constant",
+            PressureLossLaw::Nozzle => "nozzle",
+        }
+    }
+}
+
 /// Design-point table and the cycle assumptions of REFERENCE §1.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
