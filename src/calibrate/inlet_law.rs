@@ -43,8 +43,8 @@ pub struct InletLawChoice {
     /// The law the calibration uses (and writes): the file's unless the other is decisively
     /// better.
     pub chosen: PressureLossLaw,
-    /// The chosen law's design loss fraction from this fit (the design calibration refits it
-    /// when the data identify it).
+    /// The chosen law's design loss fraction from this fit: where the law changed, the
+    /// engine's value and the design calibration's first guess (refitted where identified).
     pub frac: f64,
     /// χ² of each law's best fit to the measured loss fractions, and the points they use.
     pub chi2_flow_squared: f64,

@@ -388,13 +388,25 @@ pub fn calibrate(
     // The inlet loss law the measured P1 shows, before anything is fitted with the file's.
     let inlet_loss_law = inlet_law::choose(engine, &prepared.points, prepared.ambient_from_p1);
     let with_law;
+    let mut candidates = candidates;
     let engine = match &inlet_loss_law {
         Some(c) if c.changed() => {
+            // The new law with the loss its fit measured, as the engine's value and as the
+            // first guess of the design calibration (which refits it where identified).
+            let range = crate::engine::config::param_range("design.inlet_loss_frac");
+            let frac = range.map_or(c.frac, |r| c.frac.clamp(r.min, r.max));
             let mut cfg = engine.cfg().clone();
             cfg.design.inlet_loss_law = c.chosen;
+            cfg.design.inlet_loss_frac = frac;
             with_law = engine
                 .with_config(cfg)
                 .map_err(|e| CalibrateError::Model(e.to_string()))?;
+            for cand in candidates
+                .iter_mut()
+                .filter(|k| k.key == "design.inlet_loss_frac")
+            {
+                cand.guess = frac.clamp(cand.lower, cand.upper);
+            }
             &with_law
         }
         _ => engine,
