@@ -107,6 +107,18 @@ impl EngineConfig {
         &self,
         values: impl IntoIterator<Item = (&'k str, f64)>,
     ) -> Result<EngineConfig, EngineError> {
+        self.with_params_on(values, Base::Unchecked)
+    }
+
+    /// [`EngineConfig::with_params`], told whether `self` is known valid (an engine's own
+    /// file: every [`Engine`] is built from a validated one), in which case the result is
+    /// validated without the pass over every number ([`EngineConfig::validate_changed`]): each
+    /// changed number has been checked against its range here, the others were valid.
+    fn with_params_on<'k>(
+        &self,
+        values: impl IntoIterator<Item = (&'k str, f64)>,
+        known: Base,
+    ) -> Result<EngineConfig, EngineError> {
         let values: Vec<(&str, f64)> = values.into_iter().collect();
         let mut base = self.clone();
         for &(key, value) in &values {
@@ -149,9 +161,21 @@ impl EngineConfig {
             }
             Err(e) => return Err(param_error(first, e.to_string())),
         };
-        cfg.validate("<set_param>")?;
+        match known {
+            Base::Valid => cfg.validate_changed("<set_param>")?,
+            Base::Unchecked => cfg.validate("<set_param>")?,
+        }
         Ok(cfg)
     }
+}
+
+/// Whether the file numbers are set on is known to be valid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Base {
+    /// An engine's own file (validated when the engine was built).
+    Valid,
+    /// Any file.
+    Unchecked,
 }
 
 impl Engine {
@@ -207,7 +231,7 @@ impl Engine {
     pub fn with_params(&self, values: &[(String, f64)]) -> Result<Engine, EngineError> {
         let cfg = self
             .cfg()
-            .with_params(values.iter().map(|(k, v)| (k.as_str(), *v)))?;
+            .with_params_on(values.iter().map(|(k, v)| (k.as_str(), *v)), Base::Valid)?;
         Engine::calibrate(cfg, self.raw_maps().clone())
     }
 }
@@ -236,6 +260,37 @@ mod tests {
         let mut cfg = e.cfg().clone();
         cfg.design.power_mw *= 1.01;
         assert!(e.with_config(cfg).is_ok());
+    }
+
+    /// An engine's `with_params` skips the pass over every number of its (valid) file: it must
+    /// refuse and accept exactly what the file's full validation does.
+    #[test]
+    fn an_engines_with_params_judges_as_the_full_validation() {
+        let e = engine();
+        let idle = e.cfg().sequence.idle_speed_rpm;
+        let cases: [(&str, f64); 5] = [
+            ("design.hpt_efficiency", 0.87),
+            ("design.hpt_efficiency", 2.0),
+            ("design.hpt_efficiency", f64::NAN),
+            // A relation between keys: idle above the design GG speed.
+            ("design.gg_speed_rpm", idle - 1.0),
+            ("control.accel_limit_speed_rpm[2]", 1.0e9),
+        ];
+        for (key, value) in cases {
+            let full = e.cfg().with_params([(key, value)]);
+            let fast = e.with_params(&[(key.to_string(), value)]);
+            match (&full, &fast) {
+                (Ok(cfg), Ok(engine)) => assert_eq!(engine.cfg(), cfg, "{key} = {value}"),
+                (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string(), "{key} = {value}"),
+                _ => panic!("{key} = {value}: full {full:?}, engine {:?}", fast.is_ok()),
+            }
+        }
+        assert!(e
+            .with_params(&[("design.hpt_efficiency".into(), 0.87)])
+            .is_ok());
+        assert!(e
+            .with_params(&[("design.gg_speed_rpm".into(), idle - 1.0)])
+            .is_err());
     }
 
     #[test]

@@ -559,6 +559,22 @@ impl EngineConfig {
     /// Checks every value: each number finite and inside its key's allowed range
     /// ([`param_range`]), then the relations between keys. The error names the key.
     pub fn validate(&self, path: &str) -> Result<(), EngineConfigError> {
+        self.validate_sections(path)?;
+        self.validate_numbers(path)?;
+        self.validate_relations(path)
+    }
+
+    /// [`EngineConfig::validate`] without the pass over every number of the file, for a copy
+    /// of a valid file whose changed numbers were each checked against their ranges already
+    /// (`with_params` on an engine's own file): the same verdict for a fraction of the cost
+    /// (that pass serialises the whole file, a sixth of a calibration's time).
+    pub(crate) fn validate_changed(&self, path: &str) -> Result<(), EngineConfigError> {
+        self.validate_sections(path)?;
+        self.validate_relations(path)
+    }
+
+    /// The effects, the adaptation and the load, each checked as a whole.
+    fn validate_sections(&self, path: &str) -> Result<(), EngineConfigError> {
         let bad = |key: &str, reason: &str| EngineConfigError::Invalid {
             path: path.into(),
             key: key.into(),
@@ -571,6 +587,16 @@ impl EngineConfig {
         if let Some(l) = &self.load {
             l.check().map_err(|(key, reason)| bad(&key, &reason))?;
         }
+        Ok(())
+    }
+
+    /// Every number of the file finite and inside its key's range.
+    fn validate_numbers(&self, path: &str) -> Result<(), EngineConfigError> {
+        let bad = |key: &str, reason: &str| EngineConfigError::Invalid {
+            path: path.into(),
+            key: key.into(),
+            reason: reason.into(),
+        };
         let tree = serde_json::to_value(self).map_err(|e| EngineConfigError::Parse {
             path: path.into(),
             message: e.to_string(),
@@ -587,6 +613,16 @@ impl EngineConfig {
             };
             range.check(v).map_err(|reason| bad(key, &reason))?;
         }
+        Ok(())
+    }
+
+    /// The relations between keys (and the fuel they describe).
+    fn validate_relations(&self, path: &str) -> Result<(), EngineConfigError> {
+        let bad = |key: &str, reason: &str| EngineConfigError::Invalid {
+            path: path.into(),
+            key: key.into(),
+            reason: reason.into(),
+        };
         self.fuel_checked().map_err(|p| bad(&p.key, &p.reason))?;
         for (key, law) in [
             ("design.inlet_loss_law", self.design.inlet_loss_law),
