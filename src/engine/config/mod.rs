@@ -575,11 +575,7 @@ impl EngineConfig {
 
     /// The effects, the adaptation and the load, each checked as a whole.
     fn validate_sections(&self, path: &str) -> Result<(), EngineConfigError> {
-        let bad = |key: &str, reason: &str| EngineConfigError::Invalid {
-            path: path.into(),
-            key: key.into(),
-            reason: reason.into(),
-        };
+        let bad = |key: &str, reason: &str| invalid(path, key, reason);
         super::effects::check(&self.effects).map_err(|e| bad("effects", &e.to_string()))?;
         if let Some(a) = &self.adaptation {
             a.check().map_err(|(key, reason)| bad(&key, &reason))?;
@@ -592,11 +588,7 @@ impl EngineConfig {
 
     /// Every number of the file finite and inside its key's range.
     fn validate_numbers(&self, path: &str) -> Result<(), EngineConfigError> {
-        let bad = |key: &str, reason: &str| EngineConfigError::Invalid {
-            path: path.into(),
-            key: key.into(),
-            reason: reason.into(),
-        };
+        let bad = |key: &str, reason: &str| invalid(path, key, reason);
         let tree = serde_json::to_value(self).map_err(|e| EngineConfigError::Parse {
             path: path.into(),
             message: e.to_string(),
@@ -618,11 +610,7 @@ impl EngineConfig {
 
     /// The relations between keys (and the fuel they describe).
     fn validate_relations(&self, path: &str) -> Result<(), EngineConfigError> {
-        let bad = |key: &str, reason: &str| EngineConfigError::Invalid {
-            path: path.into(),
-            key: key.into(),
-            reason: reason.into(),
-        };
+        let bad = |key: &str, reason: &str| invalid(path, key, reason);
         self.fuel_checked().map_err(|p| bad(&p.key, &p.reason))?;
         for (key, law) in [
             ("design.inlet_loss_law", self.design.inlet_loss_law),
@@ -725,6 +713,15 @@ fn numeric_leaves(v: &serde_json::Value, key: String, out: &mut Vec<(String, Opt
             }
         }
         serde_json::Value::String(_) | serde_json::Value::Bool(_) => {}
+    }
+}
+
+/// The error of a file value refused: the file, the key and why.
+fn invalid(path: &str, key: &str, reason: &str) -> EngineConfigError {
+    EngineConfigError::Invalid {
+        path: path.into(),
+        key: key.into(),
+        reason: reason.into(),
     }
 }
 
