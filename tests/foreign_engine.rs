@@ -55,7 +55,7 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 
 use crate::ranking;
-use ranking::{misordered_pairs, spearman, spearman_ceiling};
+use ranking::{spearman, Rank};
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -445,7 +445,7 @@ fn continuation_predicts_left_out_loads_of_a_foreign_unit_within_the_floors() {
     assert_eq!(quality, "good");
     assert!(baseline.iter().all(|v| v.abs() <= 0.3), "{baseline:?}");
     let (est, verdicts) = grid_estimates(&truth, AERO25, &adapted, &cfg);
-    let rho = grid_ranks(&est, &verdicts).rho;
+    let rho = grid_ranks(&est, &verdicts).map(|r| r.rho);
     // Measured 0.975 / 0.96 / 0.63 / 0.97 (the grown shape: 0.975 / 0.93 / 0.89 / 0.98): the HP
     // turbine's flow reads compressor fouling as up to −1.3 points of D_GT.
     for (p, floor) in [(0, 0.9), (1, 0.85), (2, 0.55), (3, 0.9)] {
@@ -465,7 +465,7 @@ fn adapted_md22_diagnoses_a_foreign_unit() {
     // A grid of degradation at all 9 loads: compressor fouling, HP-turbine wear, both.
     let (est, verdicts) = grid_estimates(&truth, AERO25, &adapted, &cfg);
     let ranks = grid_ranks(&est, &verdicts);
-    let rho = ranks.rho;
+    let rho = ranks.map(|r| r.rho);
     // The issue's rank floor, ρ ≥ 0.95 for all four, and each level within 0.5 points: met
     // with the adapted model's own error (estimated by the calibration on interior points left
     // out) added to each instrument σ at each point's own GG speed
@@ -505,12 +505,10 @@ fn adapted_md22_diagnoses_a_foreign_unit() {
     // level's −0.2 read −0.19).
     for (p, most) in [(0, 0), (1, 0), (2, 2), (3, 0)] {
         assert!(
-            ranks.misordered[p] <= most,
-            "{}: {} pairs misordered (ρ {:.3}, ceiling {:.3})",
+            ranks[p].misordered <= most,
+            "{}: {}",
             HEALTH_NAMES[p],
-            ranks.misordered[p],
-            rho[p],
-            ranks.ceiling[p]
+            ranks[p]
         );
     }
     for (i, e) in est.iter().enumerate() {
@@ -529,19 +527,10 @@ fn adapted_md22_diagnoses_a_foreign_unit() {
     assert_no_miss_called_good(&est, &verdicts);
 }
 
-/// Each of D_GC, D_EC, D_GT and D_ET: Spearman's ρ against the grid's truth, the ρ a perfect
-/// order reaches on this grid (below 1: each parameter is healthy on 5 of the 15 levels, ties
-/// no estimate repeats), and the pairs of levels the truth orders that the estimate misorders.
-#[derive(Debug, Clone, Copy)]
-struct Ranks {
-    rho: [f64; 4],
-    ceiling: [f64; 4],
-    misordered: [usize; 4],
-}
-
 /// Prints each level of the grid, each parameter's Spearman ρ and worst error and the
-/// cross-talk; returns the ranks of D_GC, D_EC, D_GT and D_ET.
-fn grid_ranks(est: &[[f64; 6]], verdicts: &[String]) -> Ranks {
+/// cross-talk; returns the ranks of D_GC, D_EC, D_GT and D_ET (each parameter is healthy on 5
+/// of the 15 levels, a tie no estimate repeats, so a perfect order reaches 0.982, not 1).
+fn grid_ranks(est: &[[f64; 6]], verdicts: &[String]) -> [Rank; 4] {
     let levels = LEVELS;
     let mut worst = [0.0f64; 6];
     let mut good = 0;
@@ -556,20 +545,11 @@ fn grid_ranks(est: &[[f64; 6]], verdicts: &[String]) -> Ranks {
     }
     let column = |v: &[[f64; 6]], p: usize| v.iter().map(|x| x[p]).collect::<Vec<f64>>();
     let truths: Vec<[f64; 6]> = (0..levels).map(grid).collect();
-    let mut ranks = Ranks {
-        rho: [0.0; 4],
-        ceiling: [0.0; 4],
-        misordered: [0; 4],
-    };
-    for p in 0..4 {
-        let (e, t) = (column(est, p), column(&truths, p));
-        ranks.rho[p] = spearman(&e, &t);
-        ranks.ceiling[p] = spearman_ceiling(&t);
-        ranks.misordered[p] = misordered_pairs(&e, &t);
+    let ranks: [Rank; 4] = std::array::from_fn(|p| Rank::of(&column(est, p), &column(&truths, p)));
+    for (p, r) in ranks.iter().enumerate() {
         eprintln!(
-            "{}: Spearman {:.3} (a perfect order reaches {:.3}), {} of the pairs the truth \
-             orders misordered, worst error {:.3} points",
-            HEALTH_NAMES[p], ranks.rho[p], ranks.ceiling[p], ranks.misordered[p], worst[p]
+            "{}: {r}, worst error {:.3} points",
+            HEALTH_NAMES[p], worst[p]
         );
     }
     // The power turbine is healthy on every level: its estimates are cross-talk only.
@@ -790,23 +770,19 @@ fn second_unit(strategy: AdaptStrategy) {
         eprintln!("pyc30 level {i:2} truth {:?} est {e:+.2?} {q}", truths[i]);
     }
     for p in 0..4 {
-        let (e, t) = (column(&est, p), column(&truths, p));
-        let rho = spearman(&e, &t);
-        let misordered = misordered_pairs(&e, &t);
+        let rank = Rank::of(&column(&est, p), &column(&truths, p));
         let worst = (0..levels)
             .map(|i| (est[i][p] - truths[i][p]).abs())
             .fold(0.0, f64::max);
         eprintln!(
-            "pyc30 {}: Spearman {rho:.3} (a perfect order reaches {:.3}), {misordered} of the \
-             pairs the truth orders misordered, worst error {worst:.3} points",
-            HEALTH_NAMES[p],
-            spearman_ceiling(&t)
+            "pyc30 {}: {rank}, worst error {worst:.3} points",
+            HEALTH_NAMES[p]
         );
         // The issue's floors: ρ ≥ 0.95, each level within 0.5 points. Measured 2026-11-29, grown
         // and continuation alike: every pair of levels the truth orders ordered right (ρ 0.982,
         // the ceiling of this grid).
-        assert!(rho >= 0.95, "{}: ρ {rho:.3}", HEALTH_NAMES[p]);
-        assert_eq!(misordered, 0, "{}: pairs misordered", HEALTH_NAMES[p]);
+        assert!(rank.rho >= 0.95, "{}: {rank}", HEALTH_NAMES[p]);
+        assert_eq!(rank.misordered, 0, "{}: {rank}", HEALTH_NAMES[p]);
         assert!(worst <= 0.5, "{}: worst {worst:.3}", HEALTH_NAMES[p]);
     }
     // Cross-talk: the compressor estimate on the turbine-only levels stays near zero.

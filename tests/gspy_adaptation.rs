@@ -32,7 +32,7 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 
 use crate::foreign_engine::{self, diagnosis_cfg};
-use crate::ranking::{misordered_pairs, spearman, spearman_ceiling};
+use crate::ranking::Rank;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -338,21 +338,11 @@ fn md22_adapted_to_a_generator_unit_diagnoses_its_degradation() {
     let truths: Vec<[f64; 6]> = (0..GRID_LEVELS).map(generator_grid).collect();
     let column = |v: &[[f64; 6]], p: usize| v.iter().map(|x| x[p]).collect::<Vec<f64>>();
     let good = verdicts.iter().filter(|q| *q == "good").count();
-    let rho: Vec<f64> = (0..6)
-        .map(|p| spearman(&column(&est, p), &column(&truths, p)))
-        .collect();
-    let ceiling: Vec<f64> = (0..6)
-        .map(|p| spearman_ceiling(&column(&truths, p)))
-        .collect();
-    let misordered: Vec<usize> = (0..6)
-        .map(|p| misordered_pairs(&column(&est, p), &column(&truths, p)))
+    let ranks: Vec<Rank> = (0..6)
+        .map(|p| Rank::of(&column(&est, p), &column(&truths, p)))
         .collect();
     for (p, name) in HEALTH_NAMES.iter().enumerate() {
-        eprintln!(
-            "{name}: Spearman {:.3} (a perfect order reaches {:.3}), {} of the pairs the truth \
-             orders misordered, worst error {:.3}",
-            rho[p], ceiling[p], misordered[p], worst[p]
-        );
+        eprintln!("{name}: {}, worst error {:.3}", ranks[p], worst[p]);
     }
     eprintln!("{good} of {GRID_LEVELS} fits good");
     let pt = a
@@ -381,19 +371,17 @@ fn md22_adapted_to_a_generator_unit_diagnoses_its_degradation() {
     // 0.20 and is then called good; D_EC, which reads the healthy levels at +0.16…+0.36
     // (the baseline's own +0.20 and noise) and the lightest fouling at +0.20 for 0.32.
     for (p, floor) in [0.9, 0.75, 0.9, 0.9, 0.9, 0.8].iter().enumerate() {
-        assert!(rho[p] >= *floor, "{}: ρ {:.3}", HEALTH_NAMES[p], rho[p]);
+        assert!(ranks[p].rho >= *floor, "{}: {}", HEALTH_NAMES[p], ranks[p]);
     }
     assert!(good >= 18, "{good} of {GRID_LEVELS} fits good");
     // Every pair of levels the truth orders ordered right on D_GC, D_GT and D_ET; on D_GP one
     // pair 0.2 points apart (1.4 read 1.14, 1.2 read 1.17).
     for (p, most) in [(0, 0), (2, 0), (3, 0), (4, 1)] {
         assert!(
-            misordered[p] <= most,
-            "{}: {} pairs of levels misordered (ρ {:.3}, ceiling {:.3})",
+            ranks[p].misordered <= most,
+            "{}: {}",
             HEALTH_NAMES[p],
-            misordered[p],
-            rho[p],
-            ceiling[p]
+            ranks[p]
         );
     }
     for (p, w) in worst.iter().enumerate().take(5) {

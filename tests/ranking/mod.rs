@@ -66,6 +66,37 @@ pub fn misordered_pairs(est: &[f64], truth: &[f64]) -> usize {
     n
 }
 
+/// How an estimate ranks the truth of a grid: Spearman's ρ, the ρ a perfect order reaches on
+/// that truth ([`spearman_ceiling`]) and the pairs of levels misordered ([`misordered_pairs`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rank {
+    pub rho: f64,
+    pub ceiling: f64,
+    pub misordered: usize,
+}
+
+impl Rank {
+    /// The rank of `est` against `truth`, level by level.
+    pub fn of(est: &[f64], truth: &[f64]) -> Rank {
+        Rank {
+            rho: spearman(est, truth),
+            ceiling: spearman_ceiling(truth),
+            misordered: misordered_pairs(est, truth),
+        }
+    }
+}
+
+impl std::fmt::Display for Rank {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "Spearman {:.3} (a perfect order reaches {:.3}), {} of the pairs the truth orders \
+             misordered",
+            self.rho, self.ceiling, self.misordered
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
