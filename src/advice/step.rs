@@ -1,0 +1,138 @@
+//! The first step in the health since the last firm wash, and what explains it: the joint fit
+//! of the start-ups (`gap::sequence`) run on the stored results, the line `wash advise` and the
+//! stored advice say it in, the detected washes an instrument's step explains, and the
+//! corrected health of the start-ups an instrument's error moved (stored so `history` shows
+//! it). Must not fit engine models or write to the store (the refresh writes what it returns).
+
+use super::seq_point;
+use crate::gap::sequence::{self, SeqPoint, SequenceAttribution, SequenceVerdict};
+use crate::health::HealthBounds;
+use crate::store::{HistoryRow, Store, StoreError, WashRow};
+use serde::Serialize;
+
+/// The first step in the health since the last wash, attributed by a joint fit of the
+/// start-ups ([`sequence`]): when it names an instrument, the trends see the health of the
+/// onset and later start-ups corrected by that instrument's error.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub(crate) struct StepAttribution {
+    /// The first start-up that left the trend.
+    pub(crate) onset_segment_id: i64,
+    pub(crate) onset_ms: i64,
+    /// Start-ups fitted jointly (since the last wash) and how many from the onset on.
+    pub(crate) start_ups: usize,
+    pub(crate) from_onset: usize,
+    /// The start-up whose stored gap analysis gave the instruments' signatures (none: only
+    /// the engine's explanations were weighed).
+    pub(crate) signatures_from_segment: Option<i64>,
+    /// Whether the trends use the corrected health.
+    pub(crate) corrected: bool,
+    pub(crate) attribution: SequenceAttribution,
+}
+
+/// One line saying what the joint fit of the start-ups since the last wash made of the first
+/// step in their health.
+pub(crate) fn step_line(step: &StepAttribution) -> String {
+    use crate::gap::sequence::SequenceVerdict as V;
+    let head = format!(
+        "step from start-up {} at {} ({} of {} start-ups since the wash from it on): ",
+        step.onset_segment_id,
+        crate::time::fmt_ms_rfc3339(step.onset_ms),
+        step.from_onset,
+        step.start_ups
+    );
+    let tail = match &step.attribution.verdict {
+        V::NoStep => "not persistent (the start-ups after it are back on the trend)".to_string(),
+        V::Instrument {
+            effect,
+            unit,
+            magnitude,
+            magnitude_sigma,
+        } => {
+            let (m, s, u) = if unit == "fraction" {
+                (magnitude * 100.0, magnitude_sigma * 100.0, "%")
+            } else {
+                (*magnitude, *magnitude_sigma, unit.as_str())
+            };
+            format!(
+                "the instrument {effect} is off by {m:+.2} ± {s:.2} {u}; the trends use the health corrected for it"
+            )
+        }
+        V::Ambiguous { candidates } => format!(
+            "ambiguous between {} (health used as measured)",
+            candidates.join(", ")
+        ),
+        V::HealthStep { explanation } => format!(
+            "the engine's ({explanation}){}",
+            if step.signatures_from_segment.is_none() {
+                "; no stored gap analysis gave the instruments' signatures"
+            } else {
+                ""
+            }
+        ),
+    };
+    head + &tail
+}
+
+/// The detected (unconfirmed) washes that lie just before the onset of a step the sequence
+/// attributes to an instrument: the recovery they saw was the instrument's.
+pub(super) fn explained_washes(
+    washes: &[WashRow],
+    rows: &[HistoryRow],
+    basis_from: usize,
+    step: Option<&StepAttribution>,
+) -> Vec<i64> {
+    let Some(step) = step.filter(|s| s.corrected) else {
+        return Vec::new();
+    };
+    let k = basis_from + step.attribution.onset;
+    let before = k.checked_sub(1).map_or(i64::MIN, |i| rows[i].start_ms);
+    washes
+        .iter()
+        .filter(|w| w.is_detected() && w.t_ms > before && w.t_ms <= rows[k].start_ms)
+        .map(|w| w.id)
+        .collect()
+}
+
+/// Attributes the first step in the results since the last wash ([`sequence`]), with the
+/// instruments' signatures from the newest stored gap analysis of a start-up from the onset
+/// on (the daemon analyses every start-up that steps against its trend). Returns the
+/// attribution and each result's health and σ as the trends should see them: corrected from
+/// the onset on when an instrument is named, else as stored.
+pub(super) fn attribute_since(
+    store: &Store,
+    since: &[HistoryRow],
+    bounds: &HealthBounds,
+) -> Result<(Option<StepAttribution>, Vec<SeqPoint>), StoreError> {
+    let points: Vec<SeqPoint> = since.iter().map(|r| seq_point(r, bounds)).collect();
+    // A wash recovers the compressor: its improvement is not a step.
+    let recovers = crate::trend::RECOVERED_BY_WASH;
+    let Some(k) = sequence::onset(&points, recovers) else {
+        return Ok((None, points));
+    };
+    let mut signatures = Vec::new();
+    let mut signatures_from_segment = None;
+    for r in since[k..].iter().rev() {
+        if let Some(json) = store.newest_gap_report_json(r.segment_id)? {
+            signatures = sequence::signatures_from_report(&json);
+            if !signatures.is_empty() {
+                signatures_from_segment = Some(r.segment_id);
+                break;
+            }
+        }
+    }
+    let attribution = sequence::attribute_at(&points, k, &signatures);
+    let corrected = matches!(attribution.verdict, SequenceVerdict::Instrument { .. });
+    let seen = attribution.corrected(&points);
+    Ok((
+        Some(StepAttribution {
+            onset_segment_id: since[k].segment_id,
+            onset_ms: since[k].start_ms,
+            start_ups: since.len(),
+            from_onset: since.len() - k,
+            signatures_from_segment,
+            corrected,
+            attribution,
+        }),
+        seen,
+    ))
+}
