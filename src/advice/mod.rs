@@ -25,7 +25,7 @@ use serde::Serialize;
 
 mod step;
 
-use step::{attribute_since, explained_washes};
+use step::{attribute_since, corrections_write, explained_washes};
 pub(crate) use step::{step_line, StepAttribution};
 
 const MS_PER_DAY: f64 = 86_400_000.0;
@@ -138,6 +138,13 @@ pub(crate) fn refresh(
         .position(|r| firm_ms.is_none_or(|w| r.start_ms > w))
         .unwrap_or(rows.len());
     let (step, corrected) = attribute_since(store, &rows[basis_from..], bounds)?;
+    // The corrected health of those start-ups, for `history` (written with the advice).
+    let corrections = corrections_write(
+        &rows[basis_from..],
+        &corrected,
+        step.as_ref(),
+        &store.instrument_corrections()?,
+    );
     let seen: Vec<SeqPoint> = rows[..basis_from]
         .iter()
         .map(|r| seq_point(r, bounds))
@@ -152,6 +159,7 @@ pub(crate) fn refresh(
     let write_washes = detected_washes(&rows, &seen, &washes, detection);
     let mut write = AdviceWrite {
         washes: write_washes,
+        corrections,
         ..AdviceWrite::default()
     };
     let last_wash_ms = washes

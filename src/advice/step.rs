@@ -7,7 +7,9 @@
 use super::seq_point;
 use crate::gap::sequence::{self, SeqPoint, SequenceAttribution, SequenceVerdict};
 use crate::health::HealthBounds;
-use crate::store::{HistoryRow, Store, StoreError, WashRow};
+use crate::store::{
+    CorrectionsWrite, HistoryRow, InstrumentCorrection, Store, StoreError, WashRow,
+};
 use serde::Serialize;
 
 /// The first step in the health since the last wash, attributed by a joint fit of the
@@ -135,4 +137,54 @@ pub(super) fn attribute_since(
         }),
         seen,
     ))
+}
+
+/// What the store should hold of the corrected health of `since` (the start-ups the joint fit
+/// saw, `seen` their health as the trends see it) after this refresh: `None` when `stored`
+/// already says it, so a refresh that changes nothing writes nothing.
+pub(super) fn corrections_write(
+    since: &[HistoryRow],
+    seen: &[SeqPoint],
+    step: Option<&StepAttribution>,
+    stored: &[InstrumentCorrection],
+) -> Option<CorrectionsWrite> {
+    let refreshed_ms = since.last()?.start_ms;
+    let fitted: Vec<i64> = since.iter().map(|r| r.segment_id).collect();
+    let rows: Vec<InstrumentCorrection> = match step.map(|s| (s, &s.attribution.verdict)) {
+        Some((
+            s,
+            SequenceVerdict::Instrument {
+                effect,
+                unit,
+                magnitude,
+                magnitude_sigma,
+            },
+        )) if s.corrected => since
+            .iter()
+            .zip(seen)
+            .skip(s.attribution.onset)
+            .map(|(r, p)| InstrumentCorrection {
+                segment_id: r.segment_id,
+                onset_segment_id: s.onset_segment_id,
+                effect: effect.clone(),
+                unit: unit.clone(),
+                magnitude: *magnitude,
+                magnitude_sigma: *magnitude_sigma,
+                health: p.health,
+                sigma: p.sigma,
+            })
+            .collect(),
+        _ => Vec::new(),
+    };
+    let now: Vec<&InstrumentCorrection> = stored
+        .iter()
+        .filter(|c| fitted.contains(&c.segment_id))
+        .collect();
+    (now.len() != rows.len() || now.iter().zip(&rows).any(|(a, b)| *a != b)).then_some(
+        CorrectionsWrite {
+            fitted_segments: fitted,
+            rows,
+            refreshed_ms,
+        },
+    )
 }

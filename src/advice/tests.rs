@@ -172,8 +172,50 @@ fn a_fuel_meter_step_in_a_sequence_is_named_corrected_and_leaves_the_advice() {
     }
     eprintln!("largest error: {raw_err:.2} points as fitted, {worst:.2} corrected");
     assert!(worst <= 0.3, "corrected health off by {worst:.2} points");
+    // `history` shows the step as such: the stepped start-ups carry the instrument and their
+    // corrected health (stored with the advice), the fitted health stays as stored.
+    let shown = |store: &Store| {
+        store
+            .history(&HistoryFilter::default())
+            .expect("history")
+            .into_iter()
+            .map(|r| r.instrument_step)
+            .collect::<Vec<_>>()
+    };
+    let steps = shown(&faulty);
+    assert_eq!(steps.len(), N);
+    for (j, c) in steps.iter().enumerate() {
+        let Some(c) = c else {
+            assert!(j < ONSET, "start-up {j} not shown as corrected");
+            continue;
+        };
+        assert!(
+            j >= ONSET,
+            "start-up {j} before the onset shown as corrected"
+        );
+        assert_eq!(c.effect, "fuel_meter");
+        assert_eq!(c.onset_segment_id, 1 + ONSET as i64);
+        assert_eq!(c.describe(), {
+            let m = magnitude * 100.0;
+            format!("fuel_meter {m:+.2} ± {:.2} %", c.magnitude_sigma * 100.0)
+        });
+        for (i, v) in c.health.iter().enumerate() {
+            assert!(
+                (v - truth(j)[i]).abs() <= 0.3,
+                "start-up {j}: {} corrected {v:.2}, truth {:.2}",
+                HEALTH_NAMES[i],
+                truth(j)[i]
+            );
+        }
+    }
+    // A refresh that finds the same writes nothing new, and says the same.
+    let again =
+        refresh(&mut faulty, &engine, &econ, &det, &HealthBounds::default()).expect("advice");
+    assert_eq!(again.step, r.step);
+    assert_eq!(shown(&faulty), steps);
     let c = refresh(&mut clean, &engine, &econ, &det, &HealthBounds::default()).expect("advice");
     assert!(c.step.is_none(), "{:?}", c.step);
+    assert!(shown(&clean).iter().all(Option::is_none));
     eprintln!(
         "advised day {:.2} with the meter corrected, {:.2} with a correct meter",
         advised_days(&r) - T0 as f64 / DAY as f64,

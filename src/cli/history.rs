@@ -5,14 +5,17 @@
 //! `sigma`, `objective`, `residual_level`, `fit_quality`, `wash_id_before`, `gap_verdict`: the
 //! verdict of the start-up's newest stored gap analysis, which names an instrument when one
 //! explains the start-up; `gap_doubted`: the candidate an `ambiguous` verdict doubted, see
-//! `gap::GapVerdict::doubted`; the table shows it beside the verdict, the CSV as its last
-//! column). Reads the database read-only; the query is `Store::history`. Must not compute
+//! `gap::GapVerdict::doubted`; the table shows it beside the verdict, the CSV as its column;
+//! `instrument_step`: when the wash advice's joint fit of the start-ups since the last firm
+//! wash named an instrument's step from this start-up or an earlier one on, the instrument,
+//! its error and the health corrected for it, `health` staying as fitted; the table shows it
+//! as a line under the result, the CSV as `instrument_step` and `<param>_corrected` columns). Reads the database read-only; the query is `Store::history`. Must not compute
 //! trends.
 
 use super::common::{db_path, parse_cli_time};
 use crate::health::HEALTH_NAMES;
 use crate::query::Format;
-use crate::store::{HistoryFilter, HistoryRow, Store};
+use crate::store::{HistoryFilter, HistoryRow, InstrumentCorrection, Store};
 use anyhow::bail;
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -114,6 +117,35 @@ pub(super) fn write_quality_and_gap(
     )
 }
 
+/// Index of health parameter `name` in `HEALTH_NAMES` (names come from [`params`]).
+fn health_index(name: &str) -> usize {
+    HEALTH_NAMES.iter().position(|n| *n == name).unwrap_or(0)
+}
+
+/// The table's line under a result an instrument's step moved: its health corrected for the
+/// instrument, under the fitted values, and what the instrument is off by.
+fn write_corrected_line(
+    out: &mut dyn Write,
+    c: &InstrumentCorrection,
+    names: &[&str],
+) -> std::io::Result<()> {
+    write!(out, "{:>7}  {:<24} {:<2}", "", "  corrected:", "")?;
+    for n in names {
+        let i = health_index(n);
+        write!(
+            out,
+            " {:>15}",
+            format!("{:.2} ± {:.2}", c.health[i], c.sigma[i])
+        )?;
+    }
+    writeln!(
+        out,
+        "  instrument {} from start-up {} on (wash advice's joint fit)",
+        c.describe(),
+        c.onset_segment_id
+    )
+}
+
 /// Writes the rows in `format`, showing `names` only.
 pub(super) fn write_history(
     rows: &[HistoryRow],
@@ -148,6 +180,25 @@ pub(super) fn write_history(
                         "wash_id_before": r.wash_id_before,
                         "gap_verdict": r.gap_verdict,
                         "gap_doubted": r.gap_doubted,
+                        "instrument_step": r.instrument_step.as_ref().map(|c| {
+                            let by_name = |v: &[f64; 6]| {
+                                HEALTH_NAMES
+                                    .iter()
+                                    .zip(v)
+                                    .filter(|(n, _)| names.contains(n))
+                                    .map(|(n, v)| (n.to_string(), *v))
+                                    .collect::<BTreeMap<_, _>>()
+                            };
+                            serde_json::json!({
+                                "effect": c.effect,
+                                "unit": c.unit,
+                                "magnitude": c.magnitude,
+                                "magnitude_sigma": c.magnitude_sigma,
+                                "onset_segment_id": c.onset_segment_id,
+                                "health_corrected": by_name(&c.health),
+                                "sigma_corrected": by_name(&c.sigma),
+                            })
+                        }),
                     })
                 })
                 .collect();
@@ -166,7 +217,10 @@ pub(super) fn write_history(
                 "wash_id_before",
                 "gap_verdict",
                 "gap_doubted",
+                "instrument_step",
             ]);
+            let corrected: Vec<String> = names.iter().map(|n| format!("{n}_corrected")).collect();
+            head.extend(corrected.iter().map(String::as_str));
             writeln!(out, "{}", head.join(","))?;
             for r in rows {
                 let mut cells = vec![
@@ -183,6 +237,13 @@ pub(super) fn write_history(
                 cells.push(r.wash_id_before.map_or(String::new(), |v| v.to_string()));
                 cells.push(r.gap_verdict.clone().unwrap_or_default());
                 cells.push(r.gap_doubted.clone().unwrap_or_default());
+                let step = r.instrument_step.as_ref();
+                cells.push(step.map_or(String::new(), InstrumentCorrection::describe));
+                for n in names {
+                    cells.push(step.map_or(String::new(), |c| {
+                        format!("{:.4}", c.health[health_index(n)])
+                    }));
+                }
                 writeln!(out, "{}", cells.join(","))?;
             }
         }
@@ -205,6 +266,9 @@ pub(super) fn write_history(
                     r.gap_verdict.as_deref(),
                     r.gap_doubted.as_deref(),
                 )?;
+                if let Some(c) = &r.instrument_step {
+                    write_corrected_line(out, c, names)?;
+                }
             }
             if rows.is_empty() {
                 writeln!(out, "(no diagnoses stored)")?;
@@ -256,5 +320,69 @@ mod tests {
         let mut out: Vec<u8> = Vec::new();
         write_quality_and_gap(&mut out, None, None, None).expect("write");
         assert_eq!(String::from_utf8(out).expect("utf-8"), "  -        \n");
+    }
+
+    /// A result an instrument's step moved: the table shows its corrected health on a line
+    /// under the fitted one, the CSV and JSON as their own fields; the fitted values stay.
+    #[test]
+    fn a_corrected_result_shows_the_instrument_and_the_corrected_health() {
+        let names = ["D_GC", "D_EP"];
+        let row = HistoryRow {
+            diagnosis_id: 7,
+            segment_id: 5,
+            start_ms: 0,
+            start_utc: "1970-01-01T00:00:00.000Z".into(),
+            method: "B".into(),
+            health: HEALTH_NAMES.iter().map(|n| (n.to_string(), -1.5)).collect(),
+            sigma: HEALTH_NAMES.iter().map(|n| (n.to_string(), 0.1)).collect(),
+            objective: 1.0,
+            residual_level: Some(0.8),
+            fit_quality: Some("good".into()),
+            wash_id_before: None,
+            gap_verdict: None,
+            gap_doubted: None,
+            instrument_step: Some(InstrumentCorrection {
+                segment_id: 5,
+                onset_segment_id: 4,
+                effect: "fuel_meter".into(),
+                unit: "fraction".into(),
+                magnitude: 0.0257,
+                magnitude_sigma: 0.0021,
+                health: [1.25, 0.5, 0.0, 0.0, 0.0, 0.75],
+                sigma: [0.125; 6],
+            }),
+        };
+        let text = |format: Format| {
+            let mut out: Vec<u8> = Vec::new();
+            write_history(std::slice::from_ref(&row), &names, format, &mut out).expect("write");
+            String::from_utf8(out).expect("utf-8")
+        };
+        let table = text(Format::Table);
+        let lines: Vec<&str> = table.lines().collect();
+        assert_eq!(lines.len(), 3, "{table}");
+        assert!(lines[1].contains("-1.50 ± 0.10"), "{table}");
+        assert!(lines[2].contains("corrected:"), "{table}");
+        assert!(lines[2].contains("1.25 ± 0.12"), "{table}");
+        assert!(lines[2].contains("0.75 ± 0.12"), "{table}");
+        assert!(
+            lines[2].contains("instrument fuel_meter +2.57 ± 0.21 % from start-up 4 on"),
+            "{table}"
+        );
+        let csv = text(Format::Csv);
+        let mut csv_lines = csv.lines();
+        let head: Vec<&str> = csv_lines.next().expect("head").split(',').collect();
+        let cells: Vec<&str> = csv_lines.next().expect("row").split(',').collect();
+        let at = |c: &str| cells[head.iter().position(|h| *h == c).expect(c)];
+        assert_eq!(at("D_GC"), "-1.5000");
+        assert_eq!(at("D_GC_corrected"), "1.2500");
+        assert_eq!(at("D_EP_corrected"), "0.7500");
+        assert_eq!(at("instrument_step"), "fuel_meter +2.57 ± 0.21 %");
+        let json: serde_json::Value = serde_json::from_str(&text(Format::Json)).expect("json");
+        let step = &json[0]["instrument_step"];
+        assert_eq!(step["effect"], "fuel_meter");
+        assert_eq!(step["onset_segment_id"], 4);
+        assert_eq!(step["health_corrected"]["D_EP"], 0.75);
+        assert!(step["health_corrected"].get("D_EC").is_none());
+        assert_eq!(json[0]["health"]["D_GC"], -1.5);
     }
 }

@@ -277,6 +277,19 @@ fn history_table(d: &ReportData) -> String {
             r.residual_level.map_or("–".into(), |v| format!("{v:.2}")),
             esc(r.fit_quality.as_deref().unwrap_or("–"))
         );
+        // An instrument's step the wash advice named: the health it corrects this result to.
+        if let Some(c) = &r.instrument_step {
+            h.push_str("<tr class=\"meta\"><td></td><td class=\"l\">corrected</td><td></td>");
+            for i in 0..HEALTH_NAMES.len() {
+                let _ = write!(h, "<td>{:.2} ±{:.2}</td>", c.health[i], c.sigma[i]);
+            }
+            let _ = write!(
+                h,
+                "<td></td><td class=\"l\">instrument {} from start-up {} on</td></tr>",
+                esc(&c.describe()),
+                c.onset_segment_id
+            );
+        }
     }
     h.push_str("</table>");
     if d.history.len() > 100 {

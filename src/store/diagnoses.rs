@@ -5,6 +5,7 @@
 //! Each write is one transaction that also marks the segment `diagnosed`, so a killed process
 //! leaves either the whole result or nothing. Must not fit models or decide what is diagnosable.
 
+use super::corrections::{self, InstrumentCorrection};
 use super::{Store, StoreError};
 /// The types the assessment shares with the store live on the floor below it.
 pub use crate::diagnosis::assess::Undiagnosable;
@@ -101,6 +102,10 @@ pub struct HistoryRow {
     /// doubted for the health it needed (`verdict.doubted` of the stored report, e.g.
     /// `fuel_meter_offset`); `None` otherwise and for reports stored before it existed.
     pub gap_doubted: Option<String>,
+    /// A Method B result's health corrected for an instrument's step, when the newest joint
+    /// fit of the start-ups since the last firm wash named one from this start-up or an
+    /// earlier one on (`instrument_corrections`); `health` stays as fitted.
+    pub instrument_step: Option<InstrumentCorrection>,
 }
 
 /// When a stored result was written and how long its fit took: what the latency of a
@@ -422,8 +427,9 @@ impl Store {
 
     /// Stored results in start-up order (then method, then age).
     pub fn history(&self, f: &HistoryFilter) -> Result<Vec<HistoryRow>, StoreError> {
-        let mut st = self.conn.prepare_cached(concat!(
-            "SELECT d.id, d.segment_id, g.start_ms,
+        let mut st = self.conn.prepare_cached(
+            &concat!(
+                "SELECT d.id, d.segment_id, g.start_ms,
                     strftime('%Y-%m-%dT%H:%M:%fZ', g.start_ms / 1000.0, 'unixepoch'), d.method,
                     d.d_gc, d.d_ec, d.d_gt, d.d_et, d.d_gp, d.d_ep,
                     d.sigma_gc, d.sigma_ec, d.sigma_gt, d.sigma_et, d.sigma_gp, d.sigma_ep,
@@ -431,17 +437,21 @@ impl Store {
                     (SELECT w.id FROM washes w WHERE w.t_ms <= g.start_ms
                       ORDER BY w.t_ms DESC, w.id DESC LIMIT 1),
                     a.effect, ",
-            doubted_sql!("a"),
-            "
+                doubted_sql!("a"),
+                ", {}
              FROM diagnoses d JOIN segments g ON g.id = d.segment_id
              -- the start-up's newest gap analysis, if any
              LEFT JOIN gap_analyses a ON a.id = (
                  SELECT n.id FROM gap_analyses n WHERE n.segment_id = g.id
                  ORDER BY n.created_at_ms DESC, n.id DESC LIMIT 1)
+             -- its health corrected for an instrument's step (Method B results only)
+             LEFT JOIN instrument_corrections c ON c.segment_id = g.id AND d.method = 'B'
              WHERE (?1 IS NULL OR g.start_ms >= ?1) AND (?2 IS NULL OR g.start_ms <= ?2)
                AND (?3 IS NULL OR d.method = ?3)
              ORDER BY g.start_ms, d.method, d.created_at_ms, d.id"
-        ))?;
+            )
+            .replace("{}", &corrections::select_columns("c")),
+        )?;
         let rows = st.query_map(params![f.since_ms, f.until_ms, f.method], |r| {
             let mut health = BTreeMap::new();
             let mut sigma = BTreeMap::new();
@@ -466,6 +476,7 @@ impl Store {
                 gap_verdict: r.get(21)?,
                 // A report that is not the JSON this version writes reads as doubting nothing.
                 gap_doubted: r.get::<_, Option<String>>(22).ok().flatten(),
+                instrument_step: corrections::from_row(r, r.get(1)?, 23)?,
             })
         })?;
         Ok(rows.collect::<Result<_, _>>()?)

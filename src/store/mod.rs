@@ -28,6 +28,8 @@ macro_rules! doubted_sql {
 
 pub mod archive;
 mod channel;
+mod corrections;
+pub use corrections::{CorrectionsWrite, InstrumentCorrection};
 mod db;
 mod detection;
 mod diagnoses;

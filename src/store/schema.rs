@@ -43,6 +43,10 @@ const MIGRATION_SQL: &[(&str, &str)] = &[
         "0008_rollups_1h.sql",
         include_str!("../../migrations/0008_rollups_1h.sql"),
     ),
+    (
+        "0009_instrument_corrections.sql",
+        include_str!("../../migrations/0009_instrument_corrections.sql"),
+    ),
 ];
 
 #[cfg(test)]
@@ -55,6 +59,7 @@ const MIGRATION_LIST: &[M<'static>] = &[
     M::up(MIGRATION_SQL[5].1),
     M::up(MIGRATION_SQL[6].1),
     M::up(MIGRATION_SQL[7].1),
+    M::up(MIGRATION_SQL[8].1),
 ];
 
 /// All migrations in order (for `rusqlite_migration`'s validation in tests).

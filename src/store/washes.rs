@@ -3,6 +3,7 @@
 //!
 //! SQL only; what counts as a wash and when to wash next are decided in `trend` and `wash`.
 
+use super::corrections::{self, CorrectionsWrite};
 use super::{Store, StoreError};
 use rusqlite::{params, OptionalExtension};
 use serde::Serialize;
@@ -46,11 +47,13 @@ pub struct NewRecommendation {
 }
 
 /// What one refresh of the wash advice writes ([`Store::store_advice`]): the washes the trend
-/// detected and the new recommendation, if any.
+/// detected, the new recommendation, if any, and the health corrected for an instrument's step
+/// of the start-ups its joint fit saw, when that changed.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct AdviceWrite {
     pub washes: Vec<NewWash>,
     pub recommendation: Option<NewRecommendation>,
+    pub corrections: Option<CorrectionsWrite>,
 }
 
 /// One stored recommendation.
@@ -110,7 +113,7 @@ impl Store {
     }
 
     /// Stores one refresh of the wash advice in one transaction: the detected washes (their
-    /// ids, in order) and the recommendation.
+    /// ids, in order), the recommendation and the corrected health.
     pub fn store_advice(&mut self, a: &AdviceWrite) -> Result<Vec<i64>, StoreError> {
         let tx = self
             .conn
@@ -128,6 +131,9 @@ impl Store {
                 "INSERT INTO recommendations (t_ms, kind, message, basis) VALUES (?1, ?2, ?3, ?4)",
                 params![r.t_ms, r.kind, r.message, r.basis],
             )?;
+        }
+        if let Some(c) = &a.corrections {
+            corrections::replace(&tx, c)?;
         }
         tx.commit()?;
         Ok(ids)
