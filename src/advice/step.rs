@@ -14,7 +14,8 @@ use serde::Serialize;
 
 /// The first step in the health since the last wash, attributed by a joint fit of the
 /// start-ups ([`sequence`]): when it names an instrument, the trends see the health of the
-/// onset and later start-ups corrected by that instrument's error.
+/// onset and later start-ups (to the one before it read right again, when it was repaired)
+/// corrected by that instrument's error.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub(crate) struct StepAttribution {
     /// The first start-up that left the trend.
@@ -28,6 +29,10 @@ pub(crate) struct StepAttribution {
     pub(crate) signatures_from_segment: Option<i64>,
     /// Whether the trends use the corrected health.
     pub(crate) corrected: bool,
+    /// When the named instrument's error ended (a repair, a recalibration): the first
+    /// start-up that read right again.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(crate) until_segment_id: Option<i64>,
     pub(crate) attribution: SequenceAttribution,
 }
 
@@ -49,15 +54,23 @@ pub(crate) fn step_line(step: &StepAttribution) -> String {
             unit,
             magnitude,
             magnitude_sigma,
+            ..
         } => {
             let (m, s, u) = if unit == "fraction" {
                 (magnitude * 100.0, magnitude_sigma * 100.0, "%")
             } else {
                 (*magnitude, *magnitude_sigma, unit.as_str())
             };
-            format!(
-                "the instrument {effect} is off by {m:+.2} ± {s:.2} {u}; the trends use the health corrected for it"
-            )
+            match step.until_segment_id {
+                Some(back) => format!(
+                    "the instrument {effect} was off by {m:+.2} ± {s:.2} {u} until start-up {back}, \
+                     which reads right again (repaired or recalibrated); the trends use the health \
+                     corrected for it"
+                ),
+                None => format!(
+                    "the instrument {effect} is off by {m:+.2} ± {s:.2} {u}; the trends use the health corrected for it"
+                ),
+            }
         }
         V::Ambiguous { candidates } => format!(
             "ambiguous between {} (health used as measured)",
@@ -76,7 +89,8 @@ pub(crate) fn step_line(step: &StepAttribution) -> String {
 }
 
 /// The detected (unconfirmed) washes that lie just before the onset of a step the sequence
-/// attributes to an instrument: the recovery they saw was the instrument's.
+/// attributes to an instrument, or just before the start-up it read right again from: the
+/// recovery they saw was the instrument's.
 pub(super) fn explained_washes(
     washes: &[WashRow],
     rows: &[HistoryRow],
@@ -86,11 +100,23 @@ pub(super) fn explained_washes(
     let Some(step) = step.filter(|s| s.corrected) else {
         return Vec::new();
     };
-    let k = basis_from + step.attribution.onset;
-    let before = k.checked_sub(1).map_or(i64::MIN, |i| rows[i].start_ms);
+    let just_before = |k: usize| {
+        let before = k.checked_sub(1).map_or(i64::MIN, |i| rows[i].start_ms);
+        (before, rows[k].start_ms)
+    };
+    let mut edges = vec![just_before(basis_from + step.attribution.onset)];
+    let range = step.attribution.corrected_range(rows.len() - basis_from);
+    if range.end < rows.len() - basis_from {
+        edges.push(just_before(basis_from + range.end));
+    }
     washes
         .iter()
-        .filter(|w| w.is_detected() && w.t_ms > before && w.t_ms <= rows[k].start_ms)
+        .filter(|w| {
+            w.is_detected()
+                && edges
+                    .iter()
+                    .any(|(before, at)| w.t_ms > *before && w.t_ms <= *at)
+        })
         .map(|w| w.id)
         .collect()
 }
@@ -125,6 +151,10 @@ pub(super) fn attribute_since(
     let attribution = sequence::attribute_at(&points, k, &signatures);
     let corrected = matches!(attribution.verdict, SequenceVerdict::Instrument { .. });
     let seen = attribution.corrected(&points);
+    let until_segment_id = match &attribution.verdict {
+        SequenceVerdict::Instrument { until: Some(m), .. } => since.get(*m).map(|r| r.segment_id),
+        _ => None,
+    };
     Ok((
         Some(StepAttribution {
             onset_segment_id: since[k].segment_id,
@@ -133,6 +163,7 @@ pub(super) fn attribute_since(
             from_onset: since.len() - k,
             signatures_from_segment,
             corrected,
+            until_segment_id,
             attribution,
         }),
         seen,
@@ -158,11 +189,14 @@ pub(super) fn corrections_write(
                 unit,
                 magnitude,
                 magnitude_sigma,
+                ..
             },
         )) if s.corrected => since
             .iter()
             .zip(seen)
-            .skip(s.attribution.onset)
+            .enumerate()
+            .filter(|(j, _)| s.attribution.corrected_range(since.len()).contains(j))
+            .map(|(_, rp)| rp)
             .map(|(r, p)| InstrumentCorrection {
                 segment_id: r.segment_id,
                 onset_segment_id: s.onset_segment_id,

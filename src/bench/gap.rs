@@ -38,6 +38,10 @@ pub struct BenchGapArgs {
     /// joint fit the wash advice uses (`gap::sequence`). 0: single start-ups.
     #[arg(long, default_value_t = 0)]
     pub sequence: usize,
+    /// With `--sequence`: the instrument is repaired (reads right again) after this many
+    /// start-ups with the error, so the joint fit must find where it ended too.
+    #[arg(long)]
+    pub repair_after: Option<usize>,
     /// Print JSON (the only format).
     #[arg(long)]
     pub json: bool,
@@ -106,16 +110,25 @@ fn run_sequences(
     start: std::time::Instant,
 ) -> anyhow::Result<ExitCode> {
     use crate::gap::sequence_bench as sb;
-    let cases = sb::run_sequences(engine, a.cases, a.sequence, a.seed, &a.kinds, cfg, |c| {
+    let run = sb::SequenceRun {
+        cases: a.cases,
+        start_ups: a.sequence,
+        seed: a.seed,
+        only: a.kinds.clone(),
+        repair_after: a.repair_after,
+    };
+    let cases = sb::run_sequences(engine, &run, cfg, |c| {
         eprintln!(
-            "sequence {:3} {:13} magnitude {:+.3} → {:40} {} (onset {}, fitted {}, max health \
-             error {:.2} → {:.2}, {:.0} s)",
+            "sequence {:3} {:13} magnitude {:+.3} → {:40} {} (onset {}, until {} [{}], fitted {}, \
+             max health error {:.2} → {:.2}, {:.0} s)",
             c.index,
             c.kind,
             c.magnitude,
             c.verdict,
             if c.correct { "ok" } else { "WRONG" },
             c.onset.map_or("-".to_string(), |k| k.to_string()),
+            c.fitted_until.map_or("-".to_string(), |k| k.to_string()),
+            c.repaired_at.map_or("-".to_string(), |k| k.to_string()),
             c.fitted_magnitude
                 .map_or("-".to_string(), |m| format!("{m:+.4}")),
             c.error_fitted,
@@ -126,6 +139,7 @@ fn run_sequences(
     let mut v = sb::summarise(&cases);
     v["seed"] = serde_json::json!(a.seed);
     v["start_ups_per_sequence"] = serde_json::json!(a.sequence);
+    v["repair_after"] = serde_json::json!(a.repair_after);
     v["wall_s"] = serde_json::json!(start.elapsed().as_secs_f64());
     v["per_case"] = serde_json::to_value(&cases)?;
     println!("{}", serde_json::to_string_pretty(&v)?);

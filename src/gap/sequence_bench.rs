@@ -67,11 +67,15 @@ pub(crate) struct SequenceCase {
     /// `no_step`, or `not_found` (no start-up left the trend).
     pub(crate) verdict: String,
     pub(crate) correct: bool,
+    /// The start-up the instrument was repaired before (it read right from there), when the
+    /// run repairs it; and the one the verdict says it read right from (`None`: lasting).
+    pub(crate) repaired_at: Option<usize>,
+    pub(crate) fitted_until: Option<usize>,
     /// The named instrument's fitted error (its unit) and 1σ.
     pub(crate) fitted_magnitude: Option<f64>,
     pub(crate) fitted_magnitude_sigma: Option<f64>,
-    /// Largest |estimate − truth| over the start-ups from [`ONSET`] on, as fitted and as
-    /// corrected (equal when nothing was corrected), points.
+    /// Largest |estimate − truth| over the start-ups from [`ONSET`] on (those after a repair
+    /// included), as fitted and as corrected (equal when nothing was corrected), points.
     pub(crate) error_fitted: f64,
     pub(crate) error_corrected: f64,
     pub(crate) wall_s: f64,
@@ -89,17 +93,28 @@ fn true_health(base: [f64; 6], rate: f64, j: usize, turbine: f64) -> [f64; 6] {
     h
 }
 
-/// Runs `cases` sequences of `start_ups` each, cycling through `kinds` (default: the five
-/// input kinds the health can hide, then the two controls).
+/// What [`run_sequences`] runs.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct SequenceRun {
+    pub(crate) cases: usize,
+    /// Start-ups per sequence.
+    pub(crate) start_ups: usize,
+    pub(crate) seed: u64,
+    /// Only these kinds (default: the five input kinds the health can hide, then the two
+    /// controls).
+    pub(crate) only: Vec<String>,
+    /// The instrument is repaired after this many start-ups with the error (`None`: never).
+    pub(crate) repair_after: Option<usize>,
+}
+
+/// Runs `run.cases` sequences of `run.start_ups` each, cycling through the kinds.
 pub(crate) fn run_sequences(
     engine: &Engine,
-    cases: usize,
-    start_ups: usize,
-    seed: u64,
-    only: &[String],
+    run: &SequenceRun,
     cfg: &DiagnosisConfig,
     mut progress: impl FnMut(&SequenceCase),
 ) -> Result<Vec<SequenceCase>, DiagnosisError> {
+    let (only, start_ups) = (&run.only, run.start_ups);
     let known = |k: &str| INPUT_KINDS.contains(&k) || CONTROL_KINDS.contains(&k);
     if let Some(k) = only.iter().find(|k| !known(k.as_str())) {
         return Err(DiagnosisError::Config(format!(
@@ -115,6 +130,16 @@ pub(crate) fn run_sequences(
             ONSET + 1
         )));
     }
+    if let Some(r) = run.repair_after {
+        let least = ONSET + r.max(sequence::MIN_WINDOW) + 2;
+        if r < sequence::MIN_WINDOW || start_ups < least {
+            return Err(DiagnosisError::Config(format!(
+                "a repair after {r} start-up(s) needs at least {} with the error and {least} \
+                 start-ups in the sequence (two after the repair)",
+                sequence::MIN_WINDOW
+            )));
+        }
+    }
     let kinds: Vec<&str> = if only.is_empty() {
         default_sequence_inputs()
             .into_iter()
@@ -123,11 +148,12 @@ pub(crate) fn run_sequences(
     } else {
         only.iter().map(String::as_str).collect()
     };
-    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+    let mut rng = rand::rngs::StdRng::seed_from_u64(run.seed);
     let mut out = Vec::new();
-    for index in 0..cases {
+    for index in 0..run.cases {
         let kind = kinds[index % kinds.len()];
-        let c = one_sequence(engine, index, kind, start_ups, &mut rng, cfg)?;
+        let repaired_at = run.repair_after.map(|r| ONSET + r);
+        let c = one_sequence(engine, index, kind, (start_ups, repaired_at), &mut rng, cfg)?;
         progress(&c);
         out.push(c);
     }
@@ -138,10 +164,12 @@ fn one_sequence(
     engine: &Engine,
     index: usize,
     kind: &str,
-    start_ups: usize,
+    (start_ups, repaired_at): (usize, Option<usize>),
     rng: &mut impl Rng,
     cfg: &DiagnosisConfig,
 ) -> Result<SequenceCase, DiagnosisError> {
+    // The controls have no instrument to repair.
+    let repaired_at = repaired_at.filter(|_| !CONTROL_KINDS.contains(&kind));
     let started = std::time::Instant::now();
     let base: [f64; 6] = std::array::from_fn(|i| {
         if i < 2 {
@@ -171,7 +199,8 @@ fn one_sequence(
     let mut truths = Vec::new();
     for j in 0..start_ups {
         let h = true_health(base, rate, j, turbine);
-        let hid = if j >= ONSET { &hidden } else { &Hidden::None };
+        let wrong = j >= ONSET && repaired_at.is_none_or(|m| j < m);
+        let hid = if wrong { &hidden } else { &Hidden::None };
         let (plant, samples) = hid.simulate(engine, &HealthParams::from_array(h))?;
         let noise_seed = 7_000 + 100 * index as u64 + j as u64;
         let rec = hid.record(&plant, &samples, noise_seed, true)?;
@@ -202,8 +231,8 @@ fn one_sequence(
     let error_fitted = error(&points);
     let recovers = crate::trend::RECOVERED_BY_WASH;
     let onset = sequence::onset(&points, recovers);
-    let (verdict, correct, fitted, corrected) = match onset {
-        None => ("not_found".to_string(), false, None, points.clone()),
+    let (verdict, correct, fitted, corrected, fitted_until) = match onset {
+        None => ("not_found".to_string(), false, None, points.clone(), None),
         Some(k) => {
             let signatures: Vec<Signature> = aliases(engine, &recs[k], cfg, &fits[k])
                 .map(|a| {
@@ -229,7 +258,11 @@ fn one_sequence(
                 SequenceVerdict::HealthStep { .. } | SequenceVerdict::NoStep => names.is_empty(),
             };
             let (v, fitted) = (a.verdict.label(), a.verdict.instrument_magnitude());
-            (v, ok, fitted, a.corrected(&points))
+            let until = match &a.verdict {
+                SequenceVerdict::Instrument { until, .. } => *until,
+                _ => None,
+            };
+            (v, ok, fitted, a.corrected(&points), until)
         }
     };
     // A control is right when no instrument is named (a step not found is right for `none`).
@@ -242,6 +275,8 @@ fn one_sequence(
         onset,
         verdict,
         correct,
+        repaired_at,
+        fitted_until,
         fitted_magnitude: fitted.map(|f| f.0),
         fitted_magnitude_sigma: fitted.map(|f| f.1),
         error_fitted,
@@ -287,6 +322,8 @@ pub(crate) fn summarise(cases: &[SequenceCase]) -> serde_json::Value {
         "named_max_error_fitted": max(&named, &|c| c.error_fitted),
         "named_max_error_corrected": max(&named, &|c| c.error_corrected),
         "named_corrected_within_0_3": rate(&named, &|c| c.error_corrected <= 0.3),
+        // Of the named instruments, those whose end (a repair, or none) is the truth's.
+        "named_end_right": rate(&named, &|c| c.fitted_until == c.repaired_at),
         "median_wall_s": median_wall,
     })
 }

@@ -13,7 +13,10 @@
 //! - a step in one health parameter (a component fault: FOD, a burnt blade), six hypotheses;
 //! - a wash (a step in both compressor parameters, 2 parameters);
 //! - a step in all six (anything the engine may do, 6 parameters);
-//! - `θ·s` for each instrument signature (1 parameter each).
+//! - `θ·s` for each instrument signature (1 parameter each);
+//! - `θ·s` from the onset until a later start-up, each instrument again (the instrument was
+//!   repaired or recalibrated in between: 2 parameters, its size and the start-up it ended
+//!   before; at least [`MIN_WINDOW`] start-ups long, since one start-up alone is an outlier).
 //!
 //! Hypotheses are compared by BIC (χ² + parameters · ln N): an instrument wins only when its one
 //! parameter explains the step as well as the engine's six, and better than any one-component
@@ -35,6 +38,9 @@ use serde::Serialize;
 
 /// Fewest start-ups before the onset: a trend needs three.
 pub(crate) const MIN_BEFORE: usize = 3;
+/// Fewest start-ups an instrument's error that ended (a repair) is taken to have lasted: one
+/// start-up off alone is the outlier hypothesis's, whatever its direction.
+pub(crate) const MIN_WINDOW: usize = 2;
 /// BIC margin (2·Δ ln L) by which the best instrument must beat every engine explanation to be
 /// named; closer than this, the verdict is ambiguous. 6 is "strong evidence" on the usual scale
 /// (Kass & Raftery 1995).
@@ -111,6 +117,10 @@ pub(crate) struct Hypothesis {
     /// An instrument's error (in its unit) and its 1σ.
     pub(crate) magnitude: Option<f64>,
     pub(crate) magnitude_sigma: Option<f64>,
+    /// An instrument's error that ended: the index of the first start-up back right (the
+    /// error lasted from the onset to the one before). `None`: from the onset on.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(crate) until: Option<usize>,
     /// 1σ of `step`, points.
     pub(crate) step_sigma: [f64; 6],
     /// Each parameter's trend under this hypothesis: value at `t_ref_days`, rate per day.
@@ -131,6 +141,10 @@ pub(crate) enum SequenceVerdict {
         unit: String,
         magnitude: f64,
         magnitude_sigma: f64,
+        /// Index of the first start-up the instrument read right again (repaired); `None`:
+        /// it still reads wrong at the newest.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        until: Option<usize>,
     },
     /// An instrument explains the step best, but not decisively: these are within
     /// [`DECISIVE_BIC`] of it (instruments and engine explanations).
@@ -177,20 +191,35 @@ pub(crate) struct SequenceAttribution {
 }
 
 impl SequenceAttribution {
+    /// The start-ups the instrument's error moved: from the onset to the end of the sequence,
+    /// or to the start-up before it read right again. Empty unless the verdict names one.
+    pub(crate) fn corrected_range(&self, n: usize) -> std::ops::Range<usize> {
+        match &self.verdict {
+            SequenceVerdict::Instrument { until, .. } => self.onset..until.unwrap_or(n).min(n),
+            _ => 0..0,
+        }
+    }
+
     /// The health and 1σ each start-up would have without the instrument's error (unchanged
-    /// unless the verdict names an instrument; the onset and later are corrected).
+    /// unless the verdict names an instrument; the start-ups of [`Self::corrected_range`] are
+    /// corrected).
     pub(crate) fn corrected(&self, points: &[SeqPoint]) -> Vec<SeqPoint> {
-        let SequenceVerdict::Instrument { effect, .. } = &self.verdict else {
+        let SequenceVerdict::Instrument { effect, until, .. } = &self.verdict else {
             return points.to_vec();
         };
-        let Some(h) = self.hypotheses.iter().find(|h| &h.name == effect) else {
+        let Some(h) = self
+            .hypotheses
+            .iter()
+            .find(|h| &h.name == effect && h.until == *until)
+        else {
             return points.to_vec();
         };
+        let range = self.corrected_range(points.len());
         points
             .iter()
             .enumerate()
             .map(|(j, p)| {
-                if j < self.onset {
+                if !range.contains(&j) {
                     return *p;
                 }
                 // A censored estimate says only that the health lies beyond the limit; under
@@ -300,10 +329,11 @@ pub(crate) fn attribute_at(
     let unit: Vec<[f64; 6]> = (0..6)
         .map(|i| std::array::from_fn(|j| f64::from(u8::from(i == j))))
         .collect();
+    let n = points.len();
     let engine_fit = |name: String, cols: &[[f64; 6]], only_onset: bool| {
         let spec = Spec {
             cols,
-            only_onset,
+            until: if only_onset { k + 1 } else { n },
             mismatch_sigma: None,
         };
         solve(points, k, &var, &spec).map(|s| hypothesis(name, false, s, cols, n_obs))
@@ -317,9 +347,17 @@ pub(crate) fn attribute_at(
     hyps.extend(engine_fit("outlier".into(), &unit, true));
     hyps.extend(engine_fit("wash".into(), &unit[..2], false));
     for s in signatures {
-        if let Some(h) = instrument_fit(points, k, &var, s, n_obs) {
-            hyps.push(h);
-        }
+        hyps.extend(instrument_fit(points, k, &var, s, n_obs, n));
+        // The same instrument repaired before the newest start-up: the best end (by χ²),
+        // counted as one parameter more.
+        let ended = (k + MIN_WINDOW..n)
+            .filter_map(|m| instrument_fit(points, k, &var, s, n_obs, m))
+            .min_by(|a, b| a.chi2.total_cmp(&b.chi2));
+        hyps.extend(ended.map(|mut h| {
+            h.extra_params += 1;
+            h.bic += n_obs.ln();
+            h
+        }));
     }
     hyps.sort_by(|a, b| a.bic.total_cmp(&b.bic));
     let verdict = verdict_of(&hyps, signatures);
@@ -330,8 +368,9 @@ pub(crate) fn attribute_at(
     }
 }
 
-/// An instrument's hypothesis: its signature times the error, from the onset on, plus a
-/// mismatch shared by every start-up from the onset on with a prior of
+/// An instrument's hypothesis: its signature times the error, from the onset to start-up
+/// `until` (exclusive; the sequence's length: to the end), plus a mismatch shared by those
+/// start-ups with a prior of
 /// [`SIGNATURE_REL_ERROR`] of the step (the signature is a linearisation at one start-up's
 /// fit; a 3 % fuel-meter error is not small). Two passes: the error's size first, then the
 /// mismatch's prior from it. `None` when the signature is empty, the fit fails or the error
@@ -342,6 +381,7 @@ fn instrument_fit(
     var: &[[f64; 6]],
     s: &Signature,
     n_obs: f64,
+    until: usize,
 ) -> Option<Hypothesis> {
     if s.nominal == 0.0 || s.shift.iter().all(|v| *v == 0.0) {
         return None;
@@ -355,7 +395,7 @@ fn instrument_fit(
         var,
         &Spec {
             cols: &cols,
-            only_onset: false,
+            until,
             mismatch_sigma: None,
         },
     )?;
@@ -371,11 +411,12 @@ fn instrument_fit(
         var,
         &Spec {
             cols: &cols,
-            only_onset: false,
+            until,
             mismatch_sigma: Some(prior),
         },
     )?;
-    let h = hypothesis(s.effect.clone(), true, second, &cols, n_obs);
+    let mut h = hypothesis(s.effect.clone(), true, second, &cols, n_obs);
+    h.until = (until < points.len()).then_some(until);
     h.magnitude
         .is_some_and(|m| m.abs() <= s.max_magnitude)
         .then_some(h)
@@ -404,6 +445,7 @@ fn hypothesis(
         bic: s.chi2 + s.params as f64 * n_obs.ln(),
         step,
         magnitude: instrument.then(|| s.coef[0]),
+        until: None,
         magnitude_sigma: instrument.then(|| s.coef_sigma[0]),
         step_sigma: s.step_sigma,
         trend: s.lines,
@@ -423,11 +465,16 @@ fn verdict_of(hyps: &[Hypothesis], signatures: &[Signature]) -> SequenceVerdict 
             explanation: best.name.clone(),
         };
     }
-    let close: Vec<String> = hyps[1..]
+    // The same instrument ended or not is one candidate (the best of the two is taken).
+    let mut close: Vec<String> = Vec::new();
+    for h in hyps[1..]
         .iter()
-        .filter(|h| h.bic - best.bic < DECISIVE_BIC)
-        .map(|h| h.name.clone())
-        .collect();
+        .filter(|h| h.bic - best.bic < DECISIVE_BIC && h.name != best.name)
+    {
+        if !close.contains(&h.name) {
+            close.push(h.name.clone());
+        }
+    }
     if !close.is_empty() {
         let mut candidates = vec![best.name.clone()];
         candidates.extend(close);
@@ -443,6 +490,7 @@ fn verdict_of(hyps: &[Hypothesis], signatures: &[Signature]) -> SequenceVerdict 
         unit,
         magnitude: best.magnitude.unwrap_or(0.0),
         magnitude_sigma: best.magnitude_sigma.unwrap_or(0.0),
+        until: best.until,
     }
 }
 
@@ -514,8 +562,9 @@ struct Solved {
 struct Spec<'a> {
     /// Health-space directions switched on from the onset (each one coefficient).
     cols: &'a [[f64; 6]],
-    /// Switched on at the onset alone (an outlier), not from it on.
-    only_onset: bool,
+    /// Switched on from the onset to this start-up (exclusive): the onset alone for an
+    /// outlier, the sequence's length for a step that lasts.
+    until: usize,
     /// A mismatch in every direction shared from the onset on, held to 0 with this 1σ.
     mismatch_sigma: Option<f64>,
 }
@@ -531,7 +580,7 @@ fn solve(points: &[SeqPoint], k: usize, var: &[[f64; 6]], spec: &Spec<'_>) -> Op
     let mut a = DMatrix::<f64>::zeros(rows, p);
     let mut y = DVector::<f64>::zeros(rows);
     for (j, pt) in points.iter().enumerate() {
-        let on = j == k || (j > k && !spec.only_onset);
+        let on = j >= k && j < spec.until.max(k + 1);
         for i in 0..6 {
             let r = j * 6 + i;
             // A censored estimate weighs nothing.
