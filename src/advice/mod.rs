@@ -137,7 +137,7 @@ pub(crate) fn refresh(
         .iter()
         .position(|r| firm_ms.is_none_or(|w| r.start_ms > w))
         .unwrap_or(rows.len());
-    let (step, corrected) = attribute_since(store, &rows[basis_from..], bounds)?;
+    let (step, corrected) = attribute_since(store, &rows[basis_from..], &washes, bounds)?;
     // The corrected health of those start-ups, for `history` (written with the advice).
     let corrections = corrections_write(
         &rows[basis_from..],

@@ -21,7 +21,8 @@ pub(crate) struct StepAttribution {
     /// The first start-up that left the trend.
     pub(crate) onset_segment_id: i64,
     pub(crate) onset_ms: i64,
-    /// Start-ups fitted jointly (since the last wash) and how many from the onset on.
+    /// Start-ups fitted jointly (since the last wash, a detected one before the onset
+    /// included) and how many from the onset on.
     pub(crate) start_ups: usize,
     pub(crate) from_onset: usize,
     /// The start-up whose stored gap analysis gave the instruments' signatures (none: only
@@ -121,7 +122,8 @@ pub(super) fn explained_washes(
         .collect()
 }
 
-/// Attributes the first step in the results since the last wash ([`sequence`]), with the
+/// Attributes the first step in the results since the last firm wash ([`sequence`]; from a
+/// detected wash before its onset on, when one lies there: see the body), with the
 /// instruments' signatures from the newest stored gap analysis of a start-up from the onset
 /// on (the daemon analyses every start-up that steps against its trend). Returns the
 /// attribution and each result's health and σ as the trends should see them: corrected from
@@ -129,6 +131,7 @@ pub(super) fn explained_washes(
 pub(super) fn attribute_since(
     store: &Store,
     since: &[HistoryRow],
+    washes: &[WashRow],
     bounds: &HealthBounds,
 ) -> Result<(Option<StepAttribution>, Vec<SeqPoint>), StoreError> {
     let points: Vec<SeqPoint> = since.iter().map(|r| seq_point(r, bounds)).collect();
@@ -136,6 +139,21 @@ pub(super) fn attribute_since(
     let recovers = crate::trend::RECOVERED_BY_WASH;
     let Some(k) = sequence::onset(&points, recovers) else {
         return Ok((None, points));
+    };
+    // The trend lines are straight between washes: a wash the trend detected (not yet
+    // confirmed) before the onset restarts them, when enough start-ups lie between. Not one
+    // just before the onset: that recovery may be the step itself (a fuel meter reading high
+    // looks like a cleaner compressor), which is what is being attributed.
+    let from = washes
+        .iter()
+        .filter(|w| w.is_detected())
+        .filter_map(|w| since.iter().position(|r| r.start_ms > w.t_ms))
+        .filter(|&j| j > 0 && j < k)
+        .max()
+        .unwrap_or(0);
+    let (from, k) = match sequence::onset(&points[from..], recovers) {
+        Some(kk) if from > 0 => (from, from + kk),
+        _ => (0, k),
     };
     let mut signatures = Vec::new();
     let mut signatures_from_segment = None;
@@ -148,7 +166,7 @@ pub(super) fn attribute_since(
             }
         }
     }
-    let attribution = sequence::attribute_at(&points, k, &signatures);
+    let attribution = sequence::attribute_at(&points[from..], k - from, &signatures).shifted(from);
     let corrected = matches!(attribution.verdict, SequenceVerdict::Instrument { .. });
     let seen = attribution.corrected(&points);
     let until_segment_id = match &attribution.verdict {
@@ -159,7 +177,7 @@ pub(super) fn attribute_since(
         Some(StepAttribution {
             onset_segment_id: since[k].segment_id,
             onset_ms: since[k].start_ms,
-            start_ups: since.len(),
+            start_ups: since.len() - from,
             from_onset: since.len() - k,
             signatures_from_segment,
             corrected,

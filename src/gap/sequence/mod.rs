@@ -191,6 +191,21 @@ pub(crate) struct SequenceAttribution {
 }
 
 impl SequenceAttribution {
+    /// The same attribution of a sequence whose first `by` start-ups were left out, stated
+    /// on the whole sequence (indices moved by `by`).
+    pub(crate) fn shifted(mut self, by: usize) -> SequenceAttribution {
+        self.onset += by;
+        if let SequenceVerdict::Instrument { until: Some(m), .. } = &mut self.verdict {
+            *m += by;
+        }
+        for h in &mut self.hypotheses {
+            if let Some(m) = &mut h.until {
+                *m += by;
+            }
+        }
+        self
+    }
+
     /// The start-ups the instrument's error moved: from the onset to the end of the sequence,
     /// or to the start-up before it read right again. Empty unless the verdict names one.
     pub(crate) fn corrected_range(&self, n: usize) -> std::ops::Range<usize> {
