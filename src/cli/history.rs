@@ -9,10 +9,14 @@
 //! `instrument_step`: when the wash advice's joint fit of the start-ups since the last firm
 //! wash named an instrument's step from this start-up or an earlier one on, the instrument,
 //! its error and the health corrected for it, `health` staying as fitted; the table shows it
-//! as a line under the result, the CSV as `instrument_step` and `<param>_corrected` columns). Reads the database read-only; the query is `Store::history`. Must not compute
+//! as a line under the result, the CSV as `instrument_step` and `<param>_corrected` columns;
+//! `gap_health_after`: the health the start-up's newest gap analysis gives with its named
+//! effect, shown the same way under a Method B result whose analysis names an instrument and
+//! that no joint fit corrected). Reads the database read-only; the query is `Store::history`. Must not compute
 //! trends.
 
 use super::common::{db_path, parse_cli_time};
+use crate::engine::effects::is_instrument;
 use crate::health::HEALTH_NAMES;
 use crate::query::Format;
 use crate::store::{HistoryFilter, HistoryRow, InstrumentCorrection, Store};
@@ -122,6 +126,15 @@ fn health_index(name: &str) -> usize {
     HEALTH_NAMES.iter().position(|n| *n == name).unwrap_or(0)
 }
 
+/// The effect and health after of a Method B result whose own newest gap analysis names an
+/// instrument (the start-up the wash advice sets aside), when no joint fit corrected it (the
+/// analysis refits the transient: its health after is not Method A's).
+fn own_instrument_correction(r: &HistoryRow) -> Option<(&str, [f64; 6])> {
+    let effect = r.gap_verdict.as_deref()?;
+    (r.method == "B" && r.instrument_step.is_none() && is_instrument(effect)).then_some(())?;
+    r.gap_health_after.map(|h| (effect, h))
+}
+
 /// The table's line under a result an instrument's step moved: its health corrected for the
 /// instrument, under the fitted values, and what the instrument is off by.
 fn write_corrected_line(
@@ -180,6 +193,14 @@ pub(super) fn write_history(
                         "wash_id_before": r.wash_id_before,
                         "gap_verdict": r.gap_verdict,
                         "gap_doubted": r.gap_doubted,
+                        "gap_health_after": r.gap_health_after.map(|h| {
+                            HEALTH_NAMES
+                                .iter()
+                                .zip(h)
+                                .filter(|(n, _)| names.contains(n))
+                                .map(|(n, v)| (n.to_string(), v))
+                                .collect::<BTreeMap<_, _>>()
+                        }),
                         "instrument_step": r.instrument_step.as_ref().map(|c| {
                             let by_name = |v: &[f64; 6]| {
                                 HEALTH_NAMES
@@ -237,12 +258,16 @@ pub(super) fn write_history(
                 cells.push(r.wash_id_before.map_or(String::new(), |v| v.to_string()));
                 cells.push(r.gap_verdict.clone().unwrap_or_default());
                 cells.push(r.gap_doubted.clone().unwrap_or_default());
-                let step = r.instrument_step.as_ref();
-                cells.push(step.map_or(String::new(), InstrumentCorrection::describe));
+                let (label, corrected) = match (&r.instrument_step, own_instrument_correction(r)) {
+                    (Some(c), _) => (c.describe(), Some(c.health)),
+                    (None, Some((effect, h))) => (format!("{effect} (gap analysis)"), Some(h)),
+                    (None, None) => (String::new(), None),
+                };
+                cells.push(label);
                 for n in names {
-                    cells.push(step.map_or(String::new(), |c| {
-                        format!("{:.4}", c.health[health_index(n)])
-                    }));
+                    cells.push(
+                        corrected.map_or(String::new(), |h| format!("{:.4}", h[health_index(n)])),
+                    );
                 }
                 writeln!(out, "{}", cells.join(","))?;
             }
@@ -268,6 +293,12 @@ pub(super) fn write_history(
                 )?;
                 if let Some(c) = &r.instrument_step {
                     write_corrected_line(out, c, names)?;
+                } else if let Some((effect, h)) = own_instrument_correction(r) {
+                    write!(out, "{:>7}  {:<24} {:<2}", "", "  corrected:", "")?;
+                    for n in names {
+                        write!(out, " {:>15}", format!("{:.2}", h[health_index(n)]))?;
+                    }
+                    writeln!(out, "  instrument {effect} (this start-up's gap analysis)")?;
                 }
             }
             if rows.is_empty() {
@@ -341,6 +372,7 @@ mod tests {
             wash_id_before: None,
             gap_verdict: None,
             gap_doubted: None,
+            gap_health_after: None,
             instrument_step: Some(InstrumentCorrection {
                 segment_id: 5,
                 onset_segment_id: 4,
@@ -384,5 +416,44 @@ mod tests {
         assert_eq!(step["health_corrected"]["D_EP"], 0.75);
         assert!(step["health_corrected"].get("D_EC").is_none());
         assert_eq!(json[0]["health"]["D_GC"], -1.5);
+    }
+
+    /// A Method B result whose own gap analysis names an instrument shows that analysis's
+    /// health after as corrected; the Method A result of the same start-up does not.
+    #[test]
+    fn a_start_up_its_own_gap_analysis_explains_shows_the_health_after() {
+        let names = ["D_GC"];
+        let row = |method: &str| HistoryRow {
+            diagnosis_id: 1,
+            segment_id: 29,
+            start_ms: 0,
+            start_utc: "1970-01-01T00:00:00.000Z".into(),
+            method: method.into(),
+            health: HEALTH_NAMES.iter().map(|n| (n.to_string(), 0.08)).collect(),
+            sigma: HEALTH_NAMES.iter().map(|n| (n.to_string(), 0.1)).collect(),
+            objective: 1.0,
+            residual_level: Some(0.7),
+            fit_quality: Some("suspect".into()),
+            wash_id_before: None,
+            gap_verdict: Some("fuel_meter".into()),
+            gap_doubted: None,
+            gap_health_after: Some([3.18, 1.01, 1.03, 0.58, 0.17, -0.18]),
+            instrument_step: None,
+        };
+        let table = |r: HistoryRow| {
+            let mut out: Vec<u8> = Vec::new();
+            write_history(&[r], &names, Format::Table, &mut out).expect("write");
+            String::from_utf8(out).expect("utf-8")
+        };
+        let b = table(row("B"));
+        assert!(
+            b.lines().nth(2).is_some_and(|l| l.contains("3.18")
+                && l.contains("instrument fuel_meter (this start-up's gap analysis)")),
+            "{b}"
+        );
+        assert_eq!(table(row("A")).lines().count(), 2);
+        let mut inlet = row("B");
+        inlet.gap_verdict = Some("heat_soak".into());
+        assert_eq!(table(inlet).lines().count(), 2, "not an instrument");
     }
 }

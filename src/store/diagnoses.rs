@@ -106,6 +106,10 @@ pub struct HistoryRow {
     /// fit of the start-ups since the last firm wash named one from this start-up or an
     /// earlier one on (`instrument_corrections`); `health` stays as fitted.
     pub instrument_step: Option<InstrumentCorrection>,
+    /// The health the start-up's newest gap analysis gives with the effect it named adopted
+    /// (`verdict.health_after` of the stored report; `None` when nothing was named or the
+    /// report predates it), percent in `HEALTH_NAMES` order.
+    pub gap_health_after: Option<[f64; 6]>,
 }
 
 /// When a stored result was written and how long its fit took: what the latency of a
@@ -438,7 +442,7 @@ impl Store {
                       ORDER BY w.t_ms DESC, w.id DESC LIMIT 1),
                     a.effect, ",
                 doubted_sql!("a"),
-                ", {}
+                ", json_extract(a.report_json, '$.verdict.health_after'), {}
              FROM diagnoses d JOIN segments g ON g.id = d.segment_id
              -- the start-up's newest gap analysis, if any
              LEFT JOIN gap_analyses a ON a.id = (
@@ -476,7 +480,13 @@ impl Store {
                 gap_verdict: r.get(21)?,
                 // A report that is not the JSON this version writes reads as doubting nothing.
                 gap_doubted: r.get::<_, Option<String>>(22).ok().flatten(),
-                instrument_step: corrections::from_row(r, r.get(1)?, 23)?,
+                gap_health_after: r
+                    .get::<_, Option<String>>(23)
+                    .ok()
+                    .flatten()
+                    .and_then(|j| serde_json::from_str::<crate::health::HealthParams>(&j).ok())
+                    .map(|h| h.to_array()),
+                instrument_step: corrections::from_row(r, r.get(1)?, 24)?,
             })
         })?;
         Ok(rows.collect::<Result<_, _>>()?)
