@@ -50,6 +50,12 @@ fn startup(engine: &Engine, j: usize, meter: f64) -> Recording {
 }
 
 fn store_result(store: &mut Store, j: usize, r: &MethodResult) -> i64 {
+    let sigma = std::array::from_fn(|i| r.sigma.get(HEALTH_NAMES[i]).copied().unwrap_or(0.05));
+    store_health(store, j, r.health.to_array(), sigma)
+}
+
+/// Stores start-up `j` (one a day from `T0`) with a Method B result of this health and 1σ.
+fn store_health(store: &mut Store, j: usize, health: [f64; 6], sigma: [f64; 6]) -> i64 {
     let start = T0 + j as i64 * DAY;
     store
         .conn()
@@ -63,8 +69,8 @@ fn store_result(store: &mut Store, j: usize, r: &MethodResult) -> i64 {
     let d = NewDiagnosis {
         segment_id: id,
         method: "B".into(),
-        health: r.health.to_array(),
-        sigma: std::array::from_fn(|i| r.sigma.get(HEALTH_NAMES[i]).copied().unwrap_or(0.05)),
+        health,
+        sigma,
         objective: 1.0,
         residual_level: 1.0,
         fit_quality: "good".into(),
@@ -76,6 +82,23 @@ fn store_result(store: &mut Store, j: usize, r: &MethodResult) -> i64 {
     };
     store.insert_outcome(id, &[d], &[], "h").expect("result");
     id
+}
+
+/// Stores a gap analysis of `segment_id` that named nothing, with `report` as its JSON (the
+/// daemon's analysis of a start-up that stepped against its trend: its aliases).
+fn store_gap_report(store: &mut Store, segment_id: i64, report: serde_json::Value) {
+    store
+        .insert_gap_analysis(&NewGapAnalysis {
+            segment_id,
+            holdout_segment_id: None,
+            effect: "none".into(),
+            shrinkage: 0.0,
+            confidence: 0.0,
+            baseline_fit_quality: "good".into(),
+            normalised_residual: 1.0,
+            report_json: report.to_string(),
+        })
+        .expect("gap");
 }
 
 fn advised_days(r: &AdviceReport) -> f64 {
@@ -120,18 +143,7 @@ fn a_fuel_meter_step_in_a_sequence_is_named_corrected_and_leaves_the_advice() {
         }
         if j == ONSET {
             let a = aliases(&engine, &rec, &cfg(), &fit).expect("aliases");
-            faulty
-                .insert_gap_analysis(&NewGapAnalysis {
-                    segment_id: seg,
-                    holdout_segment_id: None,
-                    effect: "none".into(),
-                    shrinkage: 0.0,
-                    confidence: 0.0,
-                    baseline_fit_quality: "good".into(),
-                    normalised_residual: 1.0,
-                    report_json: serde_json::json!({ "aliases": a }).to_string(),
-                })
-                .expect("gap");
+            store_gap_report(&mut faulty, seg, serde_json::json!({ "aliases": a }));
         }
         fits.push(fit);
     }
@@ -264,18 +276,7 @@ fn a_fuel_meter_recalibrated_later_is_corrected_for_its_start_ups_only() {
         }
         if j == ONSET {
             let a = aliases(&engine, &rec, &cfg(), &fit).expect("aliases");
-            faulty
-                .insert_gap_analysis(&NewGapAnalysis {
-                    segment_id: seg,
-                    holdout_segment_id: None,
-                    effect: "none".into(),
-                    shrinkage: 0.0,
-                    confidence: 0.0,
-                    baseline_fit_quality: "good".into(),
-                    normalised_residual: 1.0,
-                    report_json: serde_json::json!({ "aliases": a }).to_string(),
-                })
-                .expect("gap");
+            store_gap_report(&mut faulty, seg, serde_json::json!({ "aliases": a }));
         }
     }
     let det = WashDetection::default();
@@ -349,38 +350,17 @@ fn an_instrument_step_after_an_unconfirmed_wash_is_named() {
         let h: [f64; 6] = std::array::from_fn(|i| {
             truth(j)[i] + noise.sample(&mut rng) + if j >= STEP { 1.5 * fuel[i] } else { 0.0 }
         });
-        let start = T0 + j as i64 * DAY;
-        store
-            .conn()
-            .execute(
-                "INSERT INTO segments (kind, start_ms, end_ms, outcome, status, updated_at_ms)
-                 VALUES ('startup', ?1, ?2, 'completed', 'closed', 0)",
-                params![start, start + 900_000],
-            )
-            .expect("segment");
-        let id = store.conn().last_insert_rowid();
-        let d = NewDiagnosis {
-            segment_id: id,
-            method: "B".into(),
-            health: h,
-            sigma: [0.05; 6],
-            objective: 1.0,
-            residual_level: 1.0,
-            fit_quality: "good".into(),
-            model_runs: 300,
-            wall_s: 1.0,
-            seed: 1,
-            config_hash: "h".into(),
-            gtwatch_version: "test".into(),
-        };
-        store.insert_outcome(id, &[d], &[], "h").expect("result");
+        let id = store_health(&mut store, j, h, [0.05; 6]);
         if j == WASH {
             // An earlier refresh detected the wash; nobody confirmed it.
             store
                 .conn()
                 .execute(
                     "INSERT INTO washes (t_ms, kind, note) VALUES (?1, 'offline', ?2)",
-                    params![start - 1, format!("{DETECTED_PREFIX} D_GC recovered")],
+                    params![
+                        T0 + j as i64 * DAY - 1,
+                        format!("{DETECTED_PREFIX} D_GC recovered")
+                    ],
                 )
                 .expect("wash");
         }
@@ -395,18 +375,7 @@ fn an_instrument_step_after_an_unconfirmed_wash_is_named() {
                 {"effect": "inlet_temperature", "unit": "K", "nominal": 2.0,
                  "max_magnitude": 6.0, "health_shift": shift([0.6, 0.4, 0.3, -0.2, 0.5, 0.2])},
             ]}});
-            store
-                .insert_gap_analysis(&NewGapAnalysis {
-                    segment_id: id,
-                    holdout_segment_id: None,
-                    effect: "none".into(),
-                    shrinkage: 0.0,
-                    confidence: 0.0,
-                    baseline_fit_quality: "good".into(),
-                    normalised_residual: 1.0,
-                    report_json: report.to_string(),
-                })
-                .expect("gap");
+            store_gap_report(&mut store, id, report);
         }
     }
     let r = refresh(

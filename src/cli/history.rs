@@ -121,6 +121,16 @@ pub(super) fn write_quality_and_gap(
     )
 }
 
+/// The values of `names` among six in `HEALTH_NAMES` order, by name.
+fn shown(values: &[f64; 6], names: &[&str]) -> BTreeMap<String, f64> {
+    HEALTH_NAMES
+        .iter()
+        .zip(values)
+        .filter(|(n, _)| names.contains(n))
+        .map(|(n, v)| (n.to_string(), *v))
+        .collect()
+}
+
 /// Index of health parameter `name` in `HEALTH_NAMES` (names come from [`params`]).
 fn health_index(name: &str) -> usize {
     HEALTH_NAMES.iter().position(|n| *n == name).unwrap_or(0)
@@ -193,31 +203,16 @@ pub(super) fn write_history(
                         "wash_id_before": r.wash_id_before,
                         "gap_verdict": r.gap_verdict,
                         "gap_doubted": r.gap_doubted,
-                        "gap_health_after": r.gap_health_after.map(|h| {
-                            HEALTH_NAMES
-                                .iter()
-                                .zip(h)
-                                .filter(|(n, _)| names.contains(n))
-                                .map(|(n, v)| (n.to_string(), v))
-                                .collect::<BTreeMap<_, _>>()
-                        }),
+                        "gap_health_after": r.gap_health_after.map(|h| shown(&h, names)),
                         "instrument_step": r.instrument_step.as_ref().map(|c| {
-                            let by_name = |v: &[f64; 6]| {
-                                HEALTH_NAMES
-                                    .iter()
-                                    .zip(v)
-                                    .filter(|(n, _)| names.contains(n))
-                                    .map(|(n, v)| (n.to_string(), *v))
-                                    .collect::<BTreeMap<_, _>>()
-                            };
                             serde_json::json!({
                                 "effect": c.effect,
                                 "unit": c.unit,
                                 "magnitude": c.magnitude,
                                 "magnitude_sigma": c.magnitude_sigma,
                                 "onset_segment_id": c.onset_segment_id,
-                                "health_corrected": by_name(&c.health),
-                                "sigma_corrected": by_name(&c.sigma),
+                                "health_corrected": shown(&c.health, names),
+                                "sigma_corrected": shown(&c.sigma, names),
                             })
                         }),
                     })

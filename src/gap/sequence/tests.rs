@@ -66,6 +66,35 @@ fn sequence_between(
     (pts, truth)
 }
 
+/// The error of corrected health against the truth, over the start-ups added.
+#[derive(Default)]
+struct Errors {
+    ss: f64,
+    count: f64,
+    worst: f64,
+}
+
+impl Errors {
+    fn add(&mut self, corrected: &SeqPoint, truth: &[f64; 6]) {
+        for (v, tv) in corrected.health.iter().zip(truth) {
+            let e = v - tv;
+            self.ss += e * e;
+            self.count += 1.0;
+            self.worst = self.worst.max(e.abs());
+        }
+    }
+
+    /// RMS and worst, after printing them with how many of 50 draws were named.
+    fn summary(&self, named: usize) -> (f64, f64) {
+        let rms = (self.ss / self.count).sqrt();
+        eprintln!(
+            "named {named} of 50; corrected error RMS {rms:.3}, worst {:.3} (noise 0.08)",
+            self.worst
+        );
+        (rms, self.worst)
+    }
+}
+
 /// A 3 % fuel meter error from start-up 4 on: named, sized, and the corrected health is
 /// the truth within the noise, over many noise draws.
 #[test]
@@ -73,7 +102,7 @@ fn an_instrument_step_is_named_sized_and_corrected() {
     let s = fuel();
     let step: [f64; 6] = std::array::from_fn(|i| s.shift[i] * 1.5);
     let mut named = 0;
-    let (mut ss, mut count, mut worst) = (0.0, 0.0, 0.0_f64);
+    let mut errors = Errors::default();
     for seed in 0..50 {
         let (pts, truth) = sequence(seed, 4, step);
         let a = attribute(&pts, &[fuel(), t1()], crate::trend::RECOVERED_BY_WASH).expect("a step");
@@ -97,17 +126,11 @@ fn an_instrument_step_is_named_sized_and_corrected() {
                 "{magnitude} ± {magnitude_sigma}"
             );
             for (c, t) in a.corrected(&pts).iter().zip(&truth).skip(4) {
-                for (v, tv) in c.health.iter().zip(t) {
-                    let e = v - tv;
-                    ss += e * e;
-                    count += 1.0;
-                    worst = worst.max(e.abs());
-                }
+                errors.add(c, t);
             }
         }
     }
-    let rms = (ss / count).sqrt();
-    eprintln!("named {named} of 50; corrected error RMS {rms:.3}, worst {worst:.3} (noise 0.08)");
+    let (rms, worst) = errors.summary(named);
     assert!(named >= 48, "named {named} of 50");
     // Without a correction the error would be the step itself (up to 3.8 points).
     assert!(
@@ -166,7 +189,7 @@ fn a_repaired_instrument_is_named_with_its_end() {
     let s = fuel();
     let step: [f64; 6] = std::array::from_fn(|i| s.shift[i] * 1.5);
     let mut named = 0;
-    let (mut ss, mut count, mut worst) = (0.0, 0.0, 0.0_f64);
+    let mut errors = Errors::default();
     for seed in 0..50 {
         let (pts, truth) = sequence_between(seed, 10, 4..7, step);
         let a = attribute(&pts, &[fuel(), t1()], crate::trend::RECOVERED_BY_WASH).expect("a step");
@@ -191,20 +214,14 @@ fn a_repaired_instrument_is_named_with_its_end() {
         );
         let corrected = a.corrected(&pts);
         for (j, (c, t)) in corrected.iter().zip(&truth).enumerate() {
-            if !(4..7).contains(&j) {
+            if (4..7).contains(&j) {
+                errors.add(c, t);
+            } else {
                 assert_eq!(c.health, pts[j].health, "seed {seed}: start-up {j} changed");
-                continue;
-            }
-            for (v, tv) in c.health.iter().zip(t) {
-                let e = v - tv;
-                ss += e * e;
-                count += 1.0;
-                worst = worst.max(e.abs());
             }
         }
     }
-    let rms = (ss / count).sqrt();
-    eprintln!("named {named} of 50; corrected error RMS {rms:.3}, worst {worst:.3} (noise 0.08)");
+    let (rms, worst) = errors.summary(named);
     assert!(named >= 45, "named {named} of 50");
     assert!(
         rms <= 0.15 && worst <= 0.6,
