@@ -6,7 +6,8 @@
 //!
 //! The one place where `trend` and `wash` (pure) meet the store; called by the diagnosis worker
 //! after each stored result and by `gtwatch wash advise`. Reads through a [`Db`] and writes
-//! what one refresh found (detected washes, the recommendation) as one request
+//! what one refresh found (detected washes, the recommendation, the health corrected for an
+//! instrument's step) as one request
 //! ([`AdviceWrite`], one transaction; in the daemon through the one writer). Must not fit
 //! engine models or hold arithmetic of its own beyond arranging the points.
 

@@ -169,10 +169,10 @@ pub(super) fn attribute_since(
     let attribution = sequence::attribute_at(&points[from..], k - from, &signatures).shifted(from);
     let corrected = matches!(attribution.verdict, SequenceVerdict::Instrument { .. });
     let seen = attribution.corrected(&points);
-    let until_segment_id = match &attribution.verdict {
-        SequenceVerdict::Instrument { until: Some(m), .. } => since.get(*m).map(|r| r.segment_id),
-        _ => None,
-    };
+    let until_segment_id = attribution
+        .verdict
+        .until()
+        .and_then(|m| since.get(m).map(|r| r.segment_id));
     Ok((
         Some(StepAttribution {
             onset_segment_id: since[k].segment_id,
@@ -209,23 +209,25 @@ pub(super) fn corrections_write(
                 magnitude_sigma,
                 ..
             },
-        )) if s.corrected => since
-            .iter()
-            .zip(seen)
-            .enumerate()
-            .filter(|(j, _)| s.attribution.corrected_range(since.len()).contains(j))
-            .map(|(_, rp)| rp)
-            .map(|(r, p)| InstrumentCorrection {
-                segment_id: r.segment_id,
-                onset_segment_id: s.onset_segment_id,
-                effect: effect.clone(),
-                unit: unit.clone(),
-                magnitude: *magnitude,
-                magnitude_sigma: *magnitude_sigma,
-                health: p.health,
-                sigma: p.sigma,
-            })
-            .collect(),
+        )) if s.corrected => {
+            let range = s.attribution.corrected_range(since.len());
+            since
+                .iter()
+                .zip(seen)
+                .skip(range.start)
+                .take(range.len())
+                .map(|(r, p)| InstrumentCorrection {
+                    segment_id: r.segment_id,
+                    onset_segment_id: s.onset_segment_id,
+                    effect: effect.clone(),
+                    unit: unit.clone(),
+                    magnitude: *magnitude,
+                    magnitude_sigma: *magnitude_sigma,
+                    health: p.health,
+                    sigma: p.sigma,
+                })
+                .collect()
+        }
         _ => Vec::new(),
     };
     let now: Vec<&InstrumentCorrection> = stored

@@ -12,14 +12,15 @@
 //! as a line under the result, the CSV as `instrument_step` and `<param>_corrected` columns;
 //! `gap_health_after`: the health the start-up's newest gap analysis gives with its named
 //! effect, shown the same way under a Method B result whose analysis names an instrument and
-//! that no joint fit corrected). Reads the database read-only; the query is `Store::history`. Must not compute
+//! that no joint fit corrected). Reads the database read-only; the query is `Store::history`.
+//! Must not compute
 //! trends.
 
 use super::common::{db_path, parse_cli_time};
 use crate::engine::effects::is_instrument;
 use crate::health::HEALTH_NAMES;
 use crate::query::Format;
-use crate::store::{HistoryFilter, HistoryRow, InstrumentCorrection, Store};
+use crate::store::{HistoryFilter, HistoryRow, Store};
 use anyhow::bail;
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -136,37 +137,63 @@ fn health_index(name: &str) -> usize {
     HEALTH_NAMES.iter().position(|n| *n == name).unwrap_or(0)
 }
 
-/// The effect and health after of a Method B result whose own newest gap analysis names an
-/// instrument (the start-up the wash advice sets aside), when no joint fit corrected it (the
-/// analysis refits the transient: its health after is not Method A's).
-fn own_instrument_correction(r: &HistoryRow) -> Option<(&str, [f64; 6])> {
-    let effect = r.gap_verdict.as_deref()?;
-    (r.method == "B" && r.instrument_step.is_none() && is_instrument(effect)).then_some(())?;
-    r.gap_health_after.map(|h| (effect, h))
+/// The corrected health a result shows under its fitted one, and where it comes from.
+struct ShownCorrection {
+    health: [f64; 6],
+    /// Its 1σ, where the correction states one (the wash advice's joint fit).
+    sigma: Option<[f64; 6]>,
+    /// The CSV's `instrument_step` cell.
+    label: String,
+    /// The end of the table's line.
+    source: String,
 }
 
-/// The table's line under a result an instrument's step moved: its health corrected for the
-/// instrument, under the fitted values, and what the instrument is off by.
+/// What a result shows as corrected: the wash advice's joint fit when it corrected this
+/// start-up, else, for a Method B result whose own newest gap analysis names an instrument
+/// (the start-up the advice sets aside), that analysis's health after (it refits the
+/// transient: not Method A's).
+fn correction_of(r: &HistoryRow) -> Option<ShownCorrection> {
+    if let Some(c) = &r.instrument_step {
+        return Some(ShownCorrection {
+            health: c.health,
+            sigma: Some(c.sigma),
+            label: c.describe(),
+            source: format!(
+                "instrument {} from start-up {} on (wash advice's joint fit)",
+                c.describe(),
+                c.onset_segment_id
+            ),
+        });
+    }
+    let effect = r.gap_verdict.as_deref()?;
+    if r.method != "B" || !is_instrument(effect) {
+        return None;
+    }
+    r.gap_health_after.map(|health| ShownCorrection {
+        health,
+        sigma: None,
+        label: format!("{effect} (gap analysis)"),
+        source: format!("instrument {effect} (this start-up's gap analysis)"),
+    })
+}
+
+/// The table's line under a result an instrument moved: its corrected health under the
+/// fitted values, and where the correction comes from.
 fn write_corrected_line(
     out: &mut dyn Write,
-    c: &InstrumentCorrection,
+    c: &ShownCorrection,
     names: &[&str],
 ) -> std::io::Result<()> {
     write!(out, "{:>7}  {:<24} {:<2}", "", "  corrected:", "")?;
     for n in names {
         let i = health_index(n);
-        write!(
-            out,
-            " {:>15}",
-            format!("{:.2} ± {:.2}", c.health[i], c.sigma[i])
-        )?;
+        let cell = match c.sigma {
+            Some(s) => format!("{:.2} ± {:.2}", c.health[i], s[i]),
+            None => format!("{:.2}", c.health[i]),
+        };
+        write!(out, " {cell:>15}")?;
     }
-    writeln!(
-        out,
-        "  instrument {} from start-up {} on (wash advice's joint fit)",
-        c.describe(),
-        c.onset_segment_id
-    )
+    writeln!(out, "  {}", c.source)
 }
 
 /// Writes the rows in `format`, showing `names` only.
@@ -253,16 +280,16 @@ pub(super) fn write_history(
                 cells.push(r.wash_id_before.map_or(String::new(), |v| v.to_string()));
                 cells.push(r.gap_verdict.clone().unwrap_or_default());
                 cells.push(r.gap_doubted.clone().unwrap_or_default());
-                let (label, corrected) = match (&r.instrument_step, own_instrument_correction(r)) {
-                    (Some(c), _) => (c.describe(), Some(c.health)),
-                    (None, Some((effect, h))) => (format!("{effect} (gap analysis)"), Some(h)),
-                    (None, None) => (String::new(), None),
-                };
-                cells.push(label);
+                let corrected = correction_of(r);
+                cells.push(
+                    corrected
+                        .as_ref()
+                        .map_or(String::new(), |c| c.label.clone()),
+                );
                 for n in names {
-                    cells.push(
-                        corrected.map_or(String::new(), |h| format!("{:.4}", h[health_index(n)])),
-                    );
+                    cells.push(corrected.as_ref().map_or(String::new(), |c| {
+                        format!("{:.4}", c.health[health_index(n)])
+                    }));
                 }
                 writeln!(out, "{}", cells.join(","))?;
             }
@@ -286,14 +313,8 @@ pub(super) fn write_history(
                     r.gap_verdict.as_deref(),
                     r.gap_doubted.as_deref(),
                 )?;
-                if let Some(c) = &r.instrument_step {
-                    write_corrected_line(out, c, names)?;
-                } else if let Some((effect, h)) = own_instrument_correction(r) {
-                    write!(out, "{:>7}  {:<24} {:<2}", "", "  corrected:", "")?;
-                    for n in names {
-                        write!(out, " {:>15}", format!("{:.2}", h[health_index(n)]))?;
-                    }
-                    writeln!(out, "  instrument {effect} (this start-up's gap analysis)")?;
+                if let Some(c) = correction_of(r) {
+                    write_corrected_line(out, &c, names)?;
                 }
             }
             if rows.is_empty() {
@@ -326,6 +347,7 @@ pub(super) fn run(args: HistoryArgs) -> anyhow::Result<ExitCode> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::store::InstrumentCorrection;
 
     /// The table's last columns: the fit quality, the gap verdict and, when the verdict doubted
     /// a candidate, which.

@@ -152,8 +152,7 @@ pub(crate) fn run_sequences(
     let mut out = Vec::new();
     for index in 0..run.cases {
         let kind = kinds[index % kinds.len()];
-        let repaired_at = run.repair_after.map(|r| ONSET + r);
-        let c = one_sequence(engine, index, kind, (start_ups, repaired_at), &mut rng, cfg)?;
+        let c = one_sequence(engine, index, kind, run, &mut rng, cfg)?;
         progress(&c);
         out.push(c);
     }
@@ -164,12 +163,16 @@ fn one_sequence(
     engine: &Engine,
     index: usize,
     kind: &str,
-    (start_ups, repaired_at): (usize, Option<usize>),
+    run: &SequenceRun,
     rng: &mut impl Rng,
     cfg: &DiagnosisConfig,
 ) -> Result<SequenceCase, DiagnosisError> {
+    let start_ups = run.start_ups;
     // The controls have no instrument to repair.
-    let repaired_at = repaired_at.filter(|_| !CONTROL_KINDS.contains(&kind));
+    let repaired_at = run
+        .repair_after
+        .map(|r| ONSET + r)
+        .filter(|_| !CONTROL_KINDS.contains(&kind));
     let started = std::time::Instant::now();
     let base: [f64; 6] = std::array::from_fn(|i| {
         if i < 2 {
@@ -258,11 +261,7 @@ fn one_sequence(
                 SequenceVerdict::HealthStep { .. } | SequenceVerdict::NoStep => names.is_empty(),
             };
             let (v, fitted) = (a.verdict.label(), a.verdict.instrument_magnitude());
-            let until = match &a.verdict {
-                SequenceVerdict::Instrument { until, .. } => *until,
-                _ => None,
-            };
-            (v, ok, fitted, a.corrected(&points), until)
+            (v, ok, fitted, a.corrected(&points), a.verdict.until())
         }
     };
     // A control is right when no instrument is named (a step not found is right for `none`).

@@ -52,11 +52,6 @@ pub struct CorrectionsWrite {
     pub refreshed_ms: i64,
 }
 
-/// Column list of the table, in [`InstrumentCorrection`]'s order (after `segment_id`).
-const COLUMNS: &str = "onset_segment_id, effect, unit, magnitude, magnitude_sigma,
-     d_gc, d_ec, d_gt, d_et, d_gp, d_ep,
-     sigma_gc, sigma_ec, sigma_gt, sigma_et, sigma_gp, sigma_ep";
-
 /// Replaces the rows of `w.fitted_segments` by `w.rows`, inside the advice's transaction.
 pub(super) fn replace(tx: &Transaction<'_>, w: &CorrectionsWrite) -> Result<(), StoreError> {
     for id in &w.fitted_segments {
@@ -65,8 +60,10 @@ pub(super) fn replace(tx: &Transaction<'_>, w: &CorrectionsWrite) -> Result<(), 
             params![id],
         )?;
     }
-    let mut st = tx.prepare_cached(&format!(
-        "INSERT INTO instrument_corrections (segment_id, {COLUMNS}, refreshed_ms)
+    let mut st = tx.prepare_cached(concat!(
+        "INSERT INTO instrument_corrections (segment_id, ",
+        correction_columns!(""),
+        ", refreshed_ms)
          VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17,
                  ?18, ?19)"
     ))?;
@@ -98,7 +95,7 @@ pub(super) fn replace(tx: &Transaction<'_>, w: &CorrectionsWrite) -> Result<(), 
     Ok(())
 }
 
-/// The correction from columns `first..first + 17` of `r` (the [`COLUMNS`] order, `segment_id`
+/// The correction from columns `first..first + 17` of `r` (`correction_columns!`, `segment_id`
 /// given), `None` when the row has none (a LEFT JOIN's NULLs).
 pub(super) fn from_row(
     r: &rusqlite::Row<'_>,
@@ -126,21 +123,13 @@ pub(super) fn from_row(
     }))
 }
 
-/// The columns of the table aliased `t`, in [`from_row`]'s order (for a query's SELECT list).
-pub(super) fn select_columns(t: &str) -> String {
-    COLUMNS
-        .split(',')
-        .map(|c| format!("{t}.{}", c.trim()))
-        .collect::<Vec<_>>()
-        .join(", ")
-}
-
 impl Store {
     /// Every stored correction, by start-up.
     pub fn instrument_corrections(&self) -> Result<Vec<InstrumentCorrection>, StoreError> {
-        let mut st = self.conn.prepare(&format!(
-            "SELECT segment_id, {} FROM instrument_corrections c ORDER BY segment_id",
-            select_columns("c")
+        let mut st = self.conn.prepare(concat!(
+            "SELECT segment_id, ",
+            correction_columns!(""),
+            " FROM instrument_corrections ORDER BY segment_id"
         ))?;
         let rows = st.query_map([], |r| from_row(r, r.get(0)?, 1))?;
         // onset_segment_id is NOT NULL: every row is a correction.

@@ -431,9 +431,8 @@ impl Store {
 
     /// Stored results in start-up order (then method, then age).
     pub fn history(&self, f: &HistoryFilter) -> Result<Vec<HistoryRow>, StoreError> {
-        let mut st = self.conn.prepare_cached(
-            &concat!(
-                "SELECT d.id, d.segment_id, g.start_ms,
+        let mut st = self.conn.prepare_cached(concat!(
+            "SELECT d.id, d.segment_id, g.start_ms,
                     strftime('%Y-%m-%dT%H:%M:%fZ', g.start_ms / 1000.0, 'unixepoch'), d.method,
                     d.d_gc, d.d_ec, d.d_gt, d.d_et, d.d_gp, d.d_ep,
                     d.sigma_gc, d.sigma_ec, d.sigma_gt, d.sigma_et, d.sigma_gp, d.sigma_ep,
@@ -441,8 +440,10 @@ impl Store {
                     (SELECT w.id FROM washes w WHERE w.t_ms <= g.start_ms
                       ORDER BY w.t_ms DESC, w.id DESC LIMIT 1),
                     a.effect, ",
-                doubted_sql!("a"),
-                ", json_extract(a.report_json, '$.verdict.health_after'), {}
+            doubted_sql!("a"),
+            ", json_extract(a.report_json, '$.verdict.health_after'), ",
+            correction_columns!("c."),
+            "
              FROM diagnoses d JOIN segments g ON g.id = d.segment_id
              -- the start-up's newest gap analysis, if any
              LEFT JOIN gap_analyses a ON a.id = (
@@ -453,9 +454,7 @@ impl Store {
              WHERE (?1 IS NULL OR g.start_ms >= ?1) AND (?2 IS NULL OR g.start_ms <= ?2)
                AND (?3 IS NULL OR d.method = ?3)
              ORDER BY g.start_ms, d.method, d.created_at_ms, d.id"
-            )
-            .replace("{}", &corrections::select_columns("c")),
-        )?;
+        ))?;
         let rows = st.query_map(params![f.since_ms, f.until_ms, f.method], |r| {
             let mut health = BTreeMap::new();
             let mut sigma = BTreeMap::new();

@@ -26,6 +26,51 @@ macro_rules! doubted_sql {
     };
 }
 
+/// The columns of `instrument_corrections` after `segment_id`, in `InstrumentCorrection`'s
+/// order (`corrections::from_row` reads them so), each prefixed by `$p` (`"c."` for a table
+/// alias, `""` for none): the one list for every query (a literal, so it composes with
+/// `concat!`).
+macro_rules! correction_columns {
+    ($p:literal) => {
+        concat!(
+            $p,
+            "onset_segment_id, ",
+            $p,
+            "effect, ",
+            $p,
+            "unit, ",
+            $p,
+            "magnitude, ",
+            $p,
+            "magnitude_sigma, ",
+            $p,
+            "d_gc, ",
+            $p,
+            "d_ec, ",
+            $p,
+            "d_gt, ",
+            $p,
+            "d_et, ",
+            $p,
+            "d_gp, ",
+            $p,
+            "d_ep, ",
+            $p,
+            "sigma_gc, ",
+            $p,
+            "sigma_ec, ",
+            $p,
+            "sigma_gt, ",
+            $p,
+            "sigma_et, ",
+            $p,
+            "sigma_gp, ",
+            $p,
+            "sigma_ep"
+        )
+    };
+}
+
 pub mod archive;
 mod channel;
 mod corrections;

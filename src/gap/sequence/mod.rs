@@ -167,6 +167,14 @@ impl SequenceVerdict {
         }
     }
 
+    /// The start-up the named instrument read right again from, when it was repaired.
+    pub(crate) fn until(&self) -> Option<usize> {
+        match self {
+            SequenceVerdict::Instrument { until, .. } => *until,
+            _ => None,
+        }
+    }
+
     /// The instrument's fitted magnitude and its 1σ, when the verdict names one.
     pub(crate) fn instrument_magnitude(&self) -> Option<(f64, f64)> {
         match self {
