@@ -54,7 +54,8 @@ fn startup_trace() -> &'static Vec<(usize, i64, f64)> {
 }
 
 /// An edge database with `startups` detected start-ups one day apart from `t0_ms`, a Method B
-/// result for each, a gap analysis of the first, two washes (one confirmed) and an advice.
+/// result for each, the last two corrected for a fuel meter's step, a gap analysis of the
+/// first, two washes (one confirmed) and an advice.
 fn build_edge(path: &Path, startups: usize, t0_ms: i64) {
     use gtwatch::quality::Quality;
     use gtwatch::signals::Signal;
@@ -102,6 +103,20 @@ fn build_edge(path: &Path, startups: usize, t0_ms: i64) {
         )
         .expect("diagnosed");
     }
+    // The wash advice's correction of the last two start-ups (one on a unit of one): a fuel
+    // meter 2.5 % high from the first of them.
+    let corrected = &segs[segs.len().saturating_sub(2)..];
+    for id in corrected {
+        c.execute(
+            "INSERT INTO instrument_corrections (segment_id, onset_segment_id, effect, unit,
+               magnitude, magnitude_sigma, d_gc, d_ec, d_gt, d_et, d_gp, d_ep,
+               sigma_gc, sigma_ec, sigma_gt, sigma_et, sigma_gp, sigma_ep, refreshed_ms)
+             VALUES (?1, ?2, 'fuel_meter', 'fraction', 0.025, 0.002, ?3, 0.25, 0.125, 0.0,
+               0.0, 0.0, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, ?4)",
+            rusqlite::params![id, corrected[0], 1.5 + *id as f64, t0_ms],
+        )
+        .expect("correction");
+    }
     c.execute(
         "INSERT INTO gap_analyses (segment_id, effect, shrinkage, confidence, baseline_fit_quality,
            normalised_residual, report_json, gtwatch_version, created_at_ms)
@@ -137,6 +152,7 @@ fn centre_counts(centre: &mut Centre, unit: &str) -> Vec<(String, i64)> {
         "washes",
         "recommendations",
         "samples",
+        "instrument_corrections",
     ]
     .iter()
     .map(|t| (t.to_string(), centre.count(t, unit).expect("count")))
@@ -206,10 +222,12 @@ fn fleet_history_equals_each_edges_history(url: &str, dir: &Path, units: &[&str]
             r["health"],
             r["sigma"],
             r["fit_quality"],
-            r["gap_verdict"]
+            r["gap_verdict"],
+            r["instrument_step"]
         ])
     };
     let mut total = 0;
+    let mut corrected = 0;
     for unit in units {
         let db = dir.join(format!("{unit}.db"));
         let edge = json(gtwatch(&[
@@ -230,6 +248,10 @@ fn fleet_history_equals_each_edges_history(url: &str, dir: &Path, units: &[&str]
             "json",
         ]));
         assert!(!edge.is_empty(), "{unit}: no results at the edge");
+        corrected += edge
+            .iter()
+            .filter(|r| r["instrument_step"]["effect"] == "fuel_meter")
+            .count();
         assert_eq!(
             one.iter().map(key).collect::<Vec<_>>(),
             edge.iter().map(key).collect::<Vec<_>>(),
@@ -249,11 +271,27 @@ fn fleet_history_equals_each_edges_history(url: &str, dir: &Path, units: &[&str]
         total,
         "the fleet history holds every unit's results once"
     );
+    assert!(corrected >= units.len(), "{corrected} corrected results");
     let csv = gtwatch(&["fleet", "history", "--postgres-url", url, "--format", "csv"]);
     let text = String::from_utf8_lossy(&csv.stdout);
     assert_eq!(text.lines().count(), total + 1, "{text}");
     assert!(
         text.starts_with("unit_id,segment_id,start_utc,method,D_GC,sigma_D_GC"),
+        "{text}"
+    );
+    assert!(
+        text.lines()
+            .next()
+            .is_some_and(|h| h.ends_with(",gap_verdict,instrument_step,D_GC_corrected,D_EC_corrected,D_GT_corrected,D_ET_corrected,D_GP_corrected,D_EP_corrected")),
+        "{text}"
+    );
+    assert_eq!(text.matches(",fuel_meter +2.").count(), corrected, "{text}");
+    // The table: a `corrected:` line under each corrected result, as the edge's history.
+    let table = gtwatch(&["fleet", "history", "--postgres-url", url]);
+    let text = String::from_utf8_lossy(&table.stdout);
+    assert_eq!(text.matches("corrected:").count(), corrected, "{text}");
+    assert!(
+        text.contains("instrument fuel_meter +2.50 ± 0.20 % from start-up"),
         "{text}"
     );
 }
@@ -342,7 +380,35 @@ fn three_units_sync_into_one_centre_and_a_second_sync_sends_nothing() {
         .expect("washes");
     assert_eq!((w.sent, w.removed), (1, 1), "{w:?}");
     assert_eq!(r.total_sent(), 1, "{r:?}");
+    // A refresh of gt-b's wash advice that no longer corrects its first corrected start-up and
+    // resizes the other: the centre keeps exactly the edge's corrections.
+    let db_b = dir.path().join("gt-b.db");
+    rusqlite::Connection::open(&db_b)
+        .expect("sqlite")
+        .execute_batch(
+            "DELETE FROM instrument_corrections
+               WHERE segment_id = (SELECT MIN(segment_id) FROM instrument_corrections);
+             UPDATE instrument_corrections SET magnitude = 0.027, d_gc = 2.75;",
+        )
+        .expect("refresh");
+    let r = sync_lib(&db_b, &FleetConfig::new("gt-b", &url)).expect("sync");
+    let c = r
+        .streams
+        .iter()
+        .find(|s| s.table == "instrument_corrections")
+        .expect("corrections");
+    assert_eq!((c.sent, c.removed), (1, 1), "{c:?}");
+    assert_eq!(r.total_sent(), 1, "{r:?}");
     let mut centre = Centre::connect_existing(&url, Duration::from_secs(5)).expect("centre");
+    let central = centre
+        .query_text(
+            "SELECT magnitude::text, d_gc::text FROM instrument_corrections WHERE unit_id = 'gt-b'",
+        )
+        .expect("corrections");
+    assert_eq!(
+        central,
+        vec![vec![Some("0.027".to_string()), Some("2.75".to_string())]]
+    );
     let notes = centre
         .query_text("SELECT note FROM washes WHERE unit_id = 'gt-a'")
         .expect("notes");
@@ -555,9 +621,9 @@ fn a_refusing_centre_is_a_clear_error_and_the_marks_stay() {
             err,
             FleetError::SchemaTooNew {
                 found: 99,
-                supported: 3,
+                supported,
                 ..
-            }
+            } if supported == gtwatch::fleet::centre::supported_version()
         ),
         "{err}"
     );

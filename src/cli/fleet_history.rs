@@ -3,13 +3,19 @@
 //! and method, as `gtwatch history` shows one unit's.
 //!
 //! JSON is one array of objects (`unit_id`, `segment_id` (the edge's), `start_ms`,
-//! `start_utc`, `method`, `health`, `sigma`, `residual_level`, `fit_quality`, `gap_verdict`).
+//! `start_utc`, `method`, `health`, `sigma`, `residual_level`, `fit_quality`, `gap_verdict`,
+//! `instrument_step`: the health the unit's wash advice corrected for an instrument's step, as
+//! `gtwatch history` prints it; the table shows it as a `corrected:` line, the CSV as
+//! `instrument_step` and `<param>_corrected` columns).
 //! Reads the centre only; the query is `fleet::fleet_history`. Must not compute trends.
 //!
 //! Also `gtwatch fleet report --postgres-url URL --out DIR`: `DIR/fleet.html`, the page
 //! `report::fleet` builds from the centre's results, washes and advice.
 
-use super::history::{health_csv_cells, write_health_cells, write_quality_and_gap, MethodFilter};
+use super::history::{
+    health_csv_cells, instrument_step_json, write_corrected_line, write_health_cells,
+    write_quality_and_gap, MethodFilter, ShownCorrection,
+};
 use crate::fleet::{
     fleet_advice, fleet_history, fleet_washes, Centre, FleetHistoryFilter, FleetHistoryRow,
 };
@@ -118,6 +124,10 @@ fn write_json(out: &mut dyn Write, rows: &[FleetHistoryRow]) -> anyhow::Result<(
                 "residual_level": r.residual_level,
                 "fit_quality": r.fit_quality,
                 "gap_verdict": r.gap_verdict,
+                "instrument_step": r
+                    .instrument_step
+                    .as_ref()
+                    .map(|c| instrument_step_json(c, &HEALTH_NAMES)),
             })
         })
         .collect();
@@ -132,7 +142,16 @@ fn write_csv(out: &mut dyn Write, rows: &[FleetHistoryRow]) -> anyhow::Result<()
         head.push(n.to_string());
         head.push(format!("sigma_{n}"));
     }
-    head.extend(["residual_level", "fit_quality", "gap_verdict"].map(String::from));
+    head.extend(
+        [
+            "residual_level",
+            "fit_quality",
+            "gap_verdict",
+            "instrument_step",
+        ]
+        .map(String::from),
+    );
+    head.extend(HEALTH_NAMES.iter().map(|n| format!("{n}_corrected")));
     writeln!(out, "{}", head.join(","))?;
     for r in rows {
         let mut cells = vec![
@@ -148,6 +167,11 @@ fn write_csv(out: &mut dyn Write, rows: &[FleetHistoryRow]) -> anyhow::Result<()
         );
         cells.push(r.fit_quality.clone().unwrap_or_default());
         cells.push(r.gap_verdict.clone().unwrap_or_default());
+        let corrected = r.instrument_step.as_ref().map(ShownCorrection::of_step);
+        cells.extend(ShownCorrection::csv_cells(
+            corrected.as_ref(),
+            &HEALTH_NAMES,
+        ));
         writeln!(out, "{}", cells.join(","))?;
     }
     Ok(())
@@ -179,6 +203,11 @@ fn write_table(out: &mut dyn Write, rows: &[FleetHistoryRow]) -> anyhow::Result<
             r.gap_verdict.as_deref(),
             None,
         )?;
+        if let Some(c) = &r.instrument_step {
+            // Under the unit's columns, as `gtwatch history` writes it under the segment's.
+            write!(out, "{:<16} ", "")?;
+            write_corrected_line(out, &ShownCorrection::of_step(c), &HEALTH_NAMES)?;
+        }
     }
     if rows.is_empty() {
         writeln!(out, "(no results at the centre)")?;

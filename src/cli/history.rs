@@ -20,7 +20,7 @@ use super::common::{db_path, parse_cli_time};
 use crate::engine::effects::is_instrument;
 use crate::health::HEALTH_NAMES;
 use crate::query::Format;
-use crate::store::{HistoryFilter, HistoryRow, Store};
+use crate::store::{HistoryFilter, HistoryRow, InstrumentCorrection, Store};
 use anyhow::bail;
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -138,7 +138,7 @@ fn health_index(name: &str) -> usize {
 }
 
 /// The corrected health a result shows under its fitted one, and where it comes from.
-struct ShownCorrection {
+pub(super) struct ShownCorrection {
     health: [f64; 6],
     /// Its 1σ, where the correction states one (the wash advice's joint fit).
     sigma: Option<[f64; 6]>,
@@ -148,13 +148,10 @@ struct ShownCorrection {
     source: String,
 }
 
-/// What a result shows as corrected: the wash advice's joint fit when it corrected this
-/// start-up, else, for a Method B result whose own newest gap analysis names an instrument
-/// (the start-up the advice sets aside), that analysis's health after (it refits the
-/// transient: not Method A's).
-fn correction_of(r: &HistoryRow) -> Option<ShownCorrection> {
-    if let Some(c) = &r.instrument_step {
-        return Some(ShownCorrection {
+impl ShownCorrection {
+    /// The wash advice's joint fit's correction of a start-up.
+    pub(super) fn of_step(c: &InstrumentCorrection) -> ShownCorrection {
+        ShownCorrection {
             health: c.health,
             sigma: Some(c.sigma),
             label: c.describe(),
@@ -163,7 +160,41 @@ fn correction_of(r: &HistoryRow) -> Option<ShownCorrection> {
                 c.describe(),
                 c.onset_segment_id
             ),
-        });
+        }
+    }
+
+    /// The CSV cells `instrument_step` and `<param>_corrected` of `names`; empty without one.
+    pub(super) fn csv_cells(c: Option<&ShownCorrection>, names: &[&str]) -> Vec<String> {
+        let mut cells = vec![c.map_or(String::new(), |c| c.label.clone())];
+        for n in names {
+            cells.push(c.map_or(String::new(), |c| {
+                format!("{:.4}", c.health[health_index(n)])
+            }));
+        }
+        cells
+    }
+}
+
+/// The JSON of the wash advice's correction of a start-up (`instrument_step`), `names` shown.
+pub(super) fn instrument_step_json(c: &InstrumentCorrection, names: &[&str]) -> serde_json::Value {
+    serde_json::json!({
+        "effect": c.effect,
+        "unit": c.unit,
+        "magnitude": c.magnitude,
+        "magnitude_sigma": c.magnitude_sigma,
+        "onset_segment_id": c.onset_segment_id,
+        "health_corrected": shown(&c.health, names),
+        "sigma_corrected": shown(&c.sigma, names),
+    })
+}
+
+/// What a result shows as corrected: the wash advice's joint fit when it corrected this
+/// start-up, else, for a Method B result whose own newest gap analysis names an instrument
+/// (the start-up the advice sets aside), that analysis's health after (it refits the
+/// transient: not Method A's).
+fn correction_of(r: &HistoryRow) -> Option<ShownCorrection> {
+    if let Some(c) = &r.instrument_step {
+        return Some(ShownCorrection::of_step(c));
     }
     let effect = r.gap_verdict.as_deref()?;
     if r.method != "B" || !is_instrument(effect) {
@@ -179,7 +210,7 @@ fn correction_of(r: &HistoryRow) -> Option<ShownCorrection> {
 
 /// The table's line under a result an instrument moved: its corrected health under the
 /// fitted values, and where the correction comes from.
-fn write_corrected_line(
+pub(super) fn write_corrected_line(
     out: &mut dyn Write,
     c: &ShownCorrection,
     names: &[&str],
@@ -231,17 +262,10 @@ pub(super) fn write_history(
                         "gap_verdict": r.gap_verdict,
                         "gap_doubted": r.gap_doubted,
                         "gap_health_after": r.gap_health_after.map(|h| shown(&h, names)),
-                        "instrument_step": r.instrument_step.as_ref().map(|c| {
-                            serde_json::json!({
-                                "effect": c.effect,
-                                "unit": c.unit,
-                                "magnitude": c.magnitude,
-                                "magnitude_sigma": c.magnitude_sigma,
-                                "onset_segment_id": c.onset_segment_id,
-                                "health_corrected": shown(&c.health, names),
-                                "sigma_corrected": shown(&c.sigma, names),
-                            })
-                        }),
+                        "instrument_step": r
+                            .instrument_step
+                            .as_ref()
+                            .map(|c| instrument_step_json(c, names)),
                     })
                 })
                 .collect();
@@ -280,17 +304,7 @@ pub(super) fn write_history(
                 cells.push(r.wash_id_before.map_or(String::new(), |v| v.to_string()));
                 cells.push(r.gap_verdict.clone().unwrap_or_default());
                 cells.push(r.gap_doubted.clone().unwrap_or_default());
-                let corrected = correction_of(r);
-                cells.push(
-                    corrected
-                        .as_ref()
-                        .map_or(String::new(), |c| c.label.clone()),
-                );
-                for n in names {
-                    cells.push(corrected.as_ref().map_or(String::new(), |c| {
-                        format!("{:.4}", c.health[health_index(n)])
-                    }));
-                }
+                cells.extend(ShownCorrection::csv_cells(correction_of(r).as_ref(), names));
                 writeln!(out, "{}", cells.join(","))?;
             }
         }

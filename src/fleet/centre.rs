@@ -21,10 +21,17 @@ const MIGRATIONS: &[(&str, &str)] = &[
         "0003_regap.sql",
         include_str!("../../migrations/postgres/0003_regap.sql"),
     ),
+    (
+        "0004_instrument_corrections.sql",
+        include_str!("../../migrations/postgres/0004_instrument_corrections.sql"),
+    ),
 ];
 
 /// The schema version that added the gap-analysis jobs (`0003_regap.sql`).
 const GAP_JOBS_SCHEMA_VERSION: i32 = 3;
+
+/// The schema version that added the instrument corrections (`0004_instrument_corrections.sql`).
+const CORRECTIONS_SCHEMA_VERSION: i32 = 4;
 
 /// Advisory lock key serialising two edges migrating a fresh centre at once.
 const MIGRATION_LOCK: i64 = 0x0067_7477_6174_6368; // "gtwatch" in ASCII
@@ -43,6 +50,7 @@ pub const CENTRAL_TABLES: &[&str] = &[
     "washes",
     "recommendations",
     "samples",
+    "instrument_corrections",
 ];
 
 /// An open connection to the centre whose schema was checked.
@@ -179,6 +187,13 @@ impl Centre {
         Ok(self.schema_version()? >= GAP_JOBS_SCHEMA_VERSION)
     }
 
+    /// Whether the centre's schema has the instrument corrections
+    /// (`0004_instrument_corrections.sql`, version 4): a read-only connection does not upgrade
+    /// an older one.
+    pub fn has_corrections(&mut self) -> Result<bool, FleetError> {
+        Ok(self.schema_version()? >= CORRECTIONS_SCHEMA_VERSION)
+    }
+
     /// Checks again that the schema is not newer (the centre may be upgraded while an edge
     /// keeps its connection).
     pub fn check_version(&mut self) -> Result<(), FleetError> {
@@ -188,7 +203,9 @@ impl Centre {
 
     /// Rows of `table` held for `unit_id` (tests, and `gtwatch sync` totals).
     pub fn count(&mut self, table: &str, unit_id: &str) -> Result<i64, FleetError> {
-        if !CENTRAL_TABLES.contains(&table) {
+        if !CENTRAL_TABLES.contains(&table)
+            || (table == "instrument_corrections" && !self.has_corrections()?)
+        {
             return Ok(0);
         }
         Ok(self
@@ -250,7 +267,15 @@ pub fn fleet_status(centre: &mut Centre) -> Result<Vec<UnitStatus>, FleetError> 
             counts: Vec::new(),
         })
         .collect();
+    // An older centre read by this build has no corrections table: none counted.
+    let corrections = centre.has_corrections()?;
     for table in CENTRAL_TABLES {
+        if *table == "instrument_corrections" && !corrections {
+            for u in &mut out {
+                u.counts.push(((*table).to_string(), 0));
+            }
+            continue;
+        }
         let counts = centre
             .client
             .query(

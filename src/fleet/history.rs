@@ -3,13 +3,15 @@
 //! the central counterpart of `gtwatch history`). With a configuration hash, the results the
 //! fleet's re-diagnosis workers stored for it (`rediagnosis_estimates`) instead of the edges',
 //! with the gap verdict of the start-up's re-analysis under that hash (`regap_analyses`) where
-//! one was made, else the edge's.
+//! one was made, else the edge's. An edge's Method B result carries the health its wash advice
+//! corrected for an instrument's step, where it made one (`instrument_corrections`).
 //!
 //! Reads only; must not compute trends or write to the centre.
 
 use super::centre::{centre_err, Centre};
 use super::FleetError;
 use crate::health::HEALTH_NAMES;
+use crate::store::InstrumentCorrection;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -31,6 +33,25 @@ pub struct FleetHistoryRow {
     /// The effect named by the start-up's newest gap analysis, if one was synced (with a
     /// configuration hash: by its gap re-analysis under that hash, if one was made).
     pub gap_verdict: Option<String>,
+    /// The health of a Method B result corrected for an instrument's step, as the unit's wash
+    /// advice last said (`instrument_corrections`; the edges' own results only: a
+    /// re-diagnosis under another configuration is not what that joint fit corrected).
+    pub instrument_step: Option<InstrumentCorrection>,
+}
+
+impl FleetHistoryRow {
+    /// The value of `param` a trend uses and its 1σ: the health corrected for an instrument's
+    /// step where the unit's wash advice made one (a fuel meter reading high must not read as
+    /// a washed compressor), else the fitted one.
+    pub fn trend_value(&self, param: &str) -> Option<(f64, Option<f64>)> {
+        match &self.instrument_step {
+            Some(c) => HEALTH_NAMES
+                .iter()
+                .position(|n| *n == param)
+                .map(|i| (c.health[i], Some(c.sigma[i]))),
+            None => Some((*self.health.get(param)?, self.sigma.get(param).copied())),
+        }
+    }
 }
 
 /// Which results to read.
@@ -50,16 +71,40 @@ const EDGE_GAP: &str = "(SELECT g.effect FROM gap_analyses g
                   WHERE g.unit_id = d.unit_id AND g.segment_id = d.segment_id
                   ORDER BY g.created_at_ms DESC, g.edge_id DESC LIMIT 1)";
 
+/// The corrected start-up's columns of `c` (`instrument_corrections`) the history reads, from
+/// column 19 on.
+const CORRECTION_COLUMNS: &str = "c.onset_segment_id, c.effect, c.unit, c.magnitude,
+    c.magnitude_sigma, c.d_gc, c.d_ec, c.d_gt, c.d_et, c.d_gp, c.d_ep,
+    c.sigma_gc, c.sigma_ec, c.sigma_gt, c.sigma_et, c.sigma_gp, c.sigma_ep";
+
+/// `c` joined to a Method B result of the edges' own (`$3`, the configuration hash, NULL).
+const CORRECTION_JOIN: &str = "LEFT JOIN instrument_corrections c
+           ON c.unit_id = d.unit_id AND c.edge_id = d.segment_id AND d.method = 'B'
+              AND $3::text IS NULL";
+
+/// The same columns, all NULL, on a centre older than the corrections (schema version 4).
+const NO_CORRECTION_COLUMNS: &str = "NULL::bigint, NULL::text, NULL::text, NULL::float8,
+    NULL::float8, NULL::float8, NULL::float8, NULL::float8, NULL::float8, NULL::float8,
+    NULL::float8, NULL::float8, NULL::float8, NULL::float8, NULL::float8, NULL::float8,
+    NULL::float8";
+
 /// The columns every history query returns, from `d` (a results table) joined with its
-/// start-up `s`; `{table}`, `{gap}` (the verdict) and `{filter}` are filled in by the caller.
-fn history_query(table: &str, gap: &str, filter: &str, order: &str) -> String {
+/// start-up `s` and its correction `c` when `corrections`; `{table}`, `{gap}` (the verdict) and
+/// `{filter}` are filled in by the caller.
+fn history_query(table: &str, gap: &str, filter: &str, order: &str, corrections: bool) -> String {
+    let (columns, join) = if corrections {
+        (CORRECTION_COLUMNS, CORRECTION_JOIN)
+    } else {
+        (NO_CORRECTION_COLUMNS, "")
+    };
     format!(
         "SELECT d.unit_id, d.segment_id, s.start_ms, d.method,
                 d.d_gc, d.d_ec, d.d_gt, d.d_et, d.d_gp, d.d_ep,
                 d.sigma_gc, d.sigma_ec, d.sigma_gt, d.sigma_et, d.sigma_gp, d.sigma_ep,
-                d.residual_level, d.fit_quality, {gap}
+                d.residual_level, d.fit_quality, {gap}, {columns}
          FROM {table} d
          JOIN segments s ON s.unit_id = d.unit_id AND s.edge_id = d.segment_id
+         {join}
          WHERE ($1::text IS NULL OR d.unit_id = $1)
            AND ($2::text IS NULL OR d.method = $2)
            AND {filter}
@@ -73,6 +118,7 @@ pub fn fleet_history(
     f: &FleetHistoryFilter,
 ) -> Result<Vec<FleetHistoryRow>, FleetError> {
     let name = centre.name.clone();
+    let corrections = centre.has_corrections()?;
     let query = if f.config_hash.is_some() {
         // The results re-diagnosed under config hash `$3`, the gap verdict re-analysed under
         // it where the centre has gap jobs (schema version 3) and one was made.
@@ -85,10 +131,22 @@ pub fn fleet_history(
         } else {
             EDGE_GAP.to_string()
         };
-        history_query("rediagnosis_estimates", &gap, "d.config_hash = $3", "")
+        history_query(
+            "rediagnosis_estimates",
+            &gap,
+            "d.config_hash = $3",
+            "",
+            corrections,
+        )
     } else {
         // The edges' own results (`$3` is NULL, named so its type is known).
-        history_query("diagnoses", EDGE_GAP, "$3::text IS NULL", ", d.edge_id")
+        history_query(
+            "diagnoses",
+            EDGE_GAP,
+            "$3::text IS NULL",
+            ", d.edge_id",
+            corrections,
+        )
     };
     let rows = centre
         .client
@@ -106,9 +164,10 @@ pub fn fleet_history(
                 sigma.insert((*n).to_string(), s);
             }
         }
+        let segment_id = r.get::<_, Option<i64>>(1).unwrap_or(-1);
         out.push(FleetHistoryRow {
             unit_id: r.get(0),
-            segment_id: r.get::<_, Option<i64>>(1).unwrap_or(-1),
+            segment_id,
             start_ms: r.get::<_, Option<i64>>(2).unwrap_or(0),
             method: r.get::<_, Option<String>>(3).unwrap_or_default(),
             health,
@@ -116,9 +175,32 @@ pub fn fleet_history(
             residual_level: r.get(16),
             fit_quality: r.get(17),
             gap_verdict: r.get(18),
+            instrument_step: correction(r, segment_id),
         });
     }
     Ok(out)
+}
+
+/// The correction in columns 19… of a history row, `None` when it has none (the LEFT JOIN's
+/// NULLs; a row the centre holds with a NULL value is not shown as a correction either).
+fn correction(r: &postgres::Row, segment_id: i64) -> Option<InstrumentCorrection> {
+    let onset_segment_id = r.get::<_, Option<i64>>(19)?;
+    let mut health = [0.0; 6];
+    let mut sigma = [0.0; 6];
+    for i in 0..HEALTH_NAMES.len() {
+        health[i] = r.get::<_, Option<f64>>(24 + i)?;
+        sigma[i] = r.get::<_, Option<f64>>(30 + i)?;
+    }
+    Some(InstrumentCorrection {
+        segment_id,
+        onset_segment_id,
+        effect: r.get::<_, Option<String>>(20)?,
+        unit: r.get::<_, Option<String>>(21)?,
+        magnitude: r.get::<_, Option<f64>>(22)?,
+        magnitude_sigma: r.get::<_, Option<f64>>(23)?,
+        health,
+        sigma,
+    })
 }
 
 /// A wash stored at the centre.

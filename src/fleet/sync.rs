@@ -4,8 +4,9 @@
 //! segment closed or diagnosed after it was sent is sent again and updated; segments the edge
 //! no longer has — a re-scan replaced them before diagnosis — are dropped at the centre),
 //! diagnoses, gap analyses, recommendations (walked by id: rows never change), washes (sent
-//! whole: few rows, confirmed or rejected in place; the centre keeps exactly the edge's), and
-//! the samples of each closed start-up window (walked by segment id, then tag id and time;
+//! whole: few rows, confirmed or rejected in place; the centre keeps exactly the edge's),
+//! instrument corrections (sent whole too: each refresh of the wash advice replaces or drops
+//! the rows of the start-ups it fitted), and the samples of each closed start-up window (walked by segment id, then tag id and time;
 //! from 10 s before the start, the standstill context the diagnosis reads, and recorded in
 //! `sample_windows` once complete). The tags (which tag is which engine signal) go first,
 //! whole, so the centre can read a window as the diagnosis does.
@@ -19,8 +20,8 @@ use super::centre::Centre;
 use super::{FleetConfig, FleetError};
 use crate::store::{
     ColKind, FleetColumn, FleetCursor, FleetMark, FleetRows, FleetTable, Store, StoreError,
-    WriteCmd, WriterHandle, FLEET_DIAGNOSES, FLEET_GAP_ANALYSES, FLEET_PHASE_COLUMNS,
-    FLEET_RECOMMENDATIONS, FLEET_SEGMENTS, FLEET_TAG_COLUMNS, FLEET_WASHES,
+    WriteCmd, WriterHandle, FLEET_CORRECTIONS, FLEET_DIAGNOSES, FLEET_GAP_ANALYSES,
+    FLEET_PHASE_COLUMNS, FLEET_RECOMMENDATIONS, FLEET_SEGMENTS, FLEET_TAG_COLUMNS, FLEET_WASHES,
 };
 use postgres::types::ToSql;
 use postgres::Transaction;
@@ -136,7 +137,8 @@ pub fn sync_once(
     for t in [FLEET_DIAGNOSES, FLEET_GAP_ANALYSES, FLEET_RECOMMENDATIONS] {
         report.streams.push(run.table(&t)?);
     }
-    report.streams.push(run.washes()?);
+    report.streams.push(run.whole(&FLEET_WASHES)?);
+    report.streams.push(run.whole(&FLEET_CORRECTIONS)?);
     if cfg.send_samples {
         report.streams.push(run.samples()?);
     }
@@ -447,11 +449,12 @@ impl Run<'_> {
         })
     }
 
-    /// Washes, whole: upserted where new or changed; the centre's extra ones (rejected at the
-    /// edge) dropped.
-    fn washes(&mut self) -> Result<StreamReport, FleetError> {
+    /// A table sent whole (washes, instrument corrections): rows upserted where new or
+    /// changed; the centre's extra ones (rejected or dropped at the edge) deleted.
+    fn whole(&mut self, table: &FleetTable) -> Result<StreamReport, FleetError> {
+        let name = table.name;
         let mut rep = StreamReport {
-            table: FLEET_WASHES.name.to_string(),
+            table: name.to_string(),
             ..StreamReport::default()
         };
         let unit = self.cfg.unit_id.clone();
@@ -461,16 +464,16 @@ impl Run<'_> {
             self.check_stop()?;
             let rows = self
                 .edge
-                .fleet_rows(&FLEET_WASHES, (after, 0), self.cfg.batch_rows)?;
+                .fleet_rows(table, (after, 0), self.cfg.batch_rows)?;
             let Some(last) = rows.last else { break };
             ids.extend_from_slice(&rows.ids);
-            let n = self.in_tx("sending washes", |tx| {
+            let n = self.in_tx(&format!("sending {name}"), |tx| {
                 let key = ["unit_id", "edge_id"];
                 insert_columns(
                     tx,
-                    "washes",
+                    name,
                     &key,
-                    FLEET_WASHES.columns,
+                    table.columns,
                     &unit,
                     &rows,
                     OnConflict::Update,
@@ -484,14 +487,14 @@ impl Run<'_> {
                 break;
             }
         }
-        rep.removed = self.in_tx("dropping rejected washes", |tx| {
+        rep.removed = self.in_tx(&format!("dropping {name} the edge no longer has"), |tx| {
             tx.execute(
-                "DELETE FROM washes WHERE unit_id = $1 AND NOT (edge_id = ANY($2))",
+                &format!("DELETE FROM {name} WHERE unit_id = $1 AND NOT (edge_id = ANY($2))"),
                 &[&unit, &ids],
             )
         })?;
         if rep.sent > 0 || rep.removed > 0 {
-            let mut mark = self.mark("washes", (0, 0, 0));
+            let mut mark = self.mark(name, (0, 0, 0));
             mark.a = ids.last().copied().unwrap_or(0);
             mark.sent += rep.sent as i64;
             self.save(mark)?;

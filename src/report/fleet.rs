@@ -45,10 +45,11 @@ fn rate(rows: &[&FleetHistoryRow], param: &str, since_ms: Option<i64>) -> Option
     let pts: Vec<TrendPoint> = rows
         .iter()
         .filter_map(|r| {
+            let (value, sigma) = r.trend_value(param)?;
             Some(TrendPoint {
                 t_days: (r.start_ms - origin) as f64 / MS_PER_DAY,
-                value: *r.health.get(param)?,
-                sigma: r.sigma.get(param).copied().unwrap_or(f64::NAN),
+                value,
+                sigma: sigma.unwrap_or(f64::NAN),
             })
         })
         .collect();
@@ -117,10 +118,11 @@ fn unit_chart(unit: &str, rows: &[FleetHistoryRow], washes: &[FleetWash]) -> Cha
         rows.iter()
             .filter(|r| r.unit_id == unit && r.method == "B")
             .filter_map(|r| {
+                let (y, sigma) = r.trend_value(p)?;
                 Some(Point {
                     x: r.start_ms as f64,
-                    y: *r.health.get(p)?,
-                    sigma: r.sigma.get(p).copied(),
+                    y,
+                    sigma,
                 })
             })
             .collect()
@@ -222,6 +224,7 @@ mod tests {
             residual_level: Some(1.0),
             fit_quality: Some("good".into()),
             gap_verdict: None,
+            instrument_step: None,
         }
     }
 
@@ -266,5 +269,50 @@ mod tests {
         assert!(page.contains("+0.300 ± "), "{page}");
         assert!(!page.contains("http://") && !page.contains("https://") && !page.contains("src="));
         assert_eq!(page.matches("<svg").count(), 3);
+    }
+
+    /// A unit whose fuel meter read high from day 9 on: its fitted D_GC fell by 3 points there
+    /// (a cleaner-looking compressor) and its wash advice corrected those start-ups. The
+    /// ranking and the chart use the corrected health, so its rate is the engine's 0.3 %/day,
+    /// not the meter's step.
+    #[test]
+    fn a_unit_s_rate_uses_the_health_its_advice_corrected_for_an_instrument() {
+        use crate::store::InstrumentCorrection;
+        let rows: Vec<FleetHistoryRow> = (0..12)
+            .map(|d| {
+                let truth = 0.3 * d as f64;
+                if d < 9 {
+                    return row("b", d, truth);
+                }
+                let mut r = row("b", d, truth - 3.0);
+                r.instrument_step = Some(InstrumentCorrection {
+                    segment_id: d,
+                    onset_segment_id: 9,
+                    effect: "fuel_meter".into(),
+                    unit: "fraction".into(),
+                    magnitude: 0.03,
+                    magnitude_sigma: 0.002,
+                    health: [truth, truth / 3.0, 0.0, 0.0, 0.0, 0.0],
+                    sigma: [0.05; 6],
+                });
+                r
+            })
+            .collect();
+        let lines = rank(&rows, &[], &[]);
+        let gc = lines[0].d_gc.expect("rate").rate_per_day;
+        assert!((gc - 0.3).abs() < 1e-9, "{gc}");
+        let fitted_only: Vec<FleetHistoryRow> = rows
+            .iter()
+            .cloned()
+            .map(|mut r| {
+                r.instrument_step = None;
+                r
+            })
+            .collect();
+        let gc = rank(&fitted_only, &[], &[])[0]
+            .d_gc
+            .expect("rate")
+            .rate_per_day;
+        assert!(gc < 0.1, "the meter's step drawn into the rate: {gc}");
     }
 }

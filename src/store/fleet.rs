@@ -35,11 +35,13 @@ pub enum FleetCursor {
     Whole,
 }
 
-/// A table the fleet sync sends: its name (the same at the centre), columns after `id`, and
-/// how it is walked.
+/// A table the fleet sync sends: its name (the same at the centre), its key column (the
+/// centre's `edge_id`), the columns after it, and how it is walked.
 #[derive(Debug, Clone, Copy)]
 pub struct FleetTable {
     pub name: &'static str,
+    /// `id`, or `segment_id` for a table of one row per start-up.
+    pub key: &'static str,
     pub columns: &'static [(&'static str, ColKind)],
     pub cursor: FleetCursor,
 }
@@ -49,6 +51,7 @@ use ColKind::{Int, Real, Text};
 /// Start-up segments (their phases travel with them, [`Store::fleet_phases`]).
 pub const FLEET_SEGMENTS: FleetTable = FleetTable {
     name: "segments",
+    key: "id",
     columns: &[
         ("kind", Text),
         ("start_ms", Int),
@@ -66,6 +69,7 @@ pub const FLEET_SEGMENTS: FleetTable = FleetTable {
 /// Health results.
 pub const FLEET_DIAGNOSES: FleetTable = FleetTable {
     name: "diagnoses",
+    key: "id",
     columns: &[
         ("segment_id", Int),
         ("method", Text),
@@ -98,6 +102,7 @@ pub const FLEET_DIAGNOSES: FleetTable = FleetTable {
 /// Sim-to-real gap analyses.
 pub const FLEET_GAP_ANALYSES: FleetTable = FleetTable {
     name: "gap_analyses",
+    key: "id",
     columns: &[
         ("segment_id", Int),
         ("holdout_segment_id", Int),
@@ -116,13 +121,43 @@ pub const FLEET_GAP_ANALYSES: FleetTable = FleetTable {
 /// Washes (recorded, detected, confirmed; a rejected one is deleted at the edge).
 pub const FLEET_WASHES: FleetTable = FleetTable {
     name: "washes",
+    key: "id",
     columns: &[("t_ms", Int), ("kind", Text), ("note", Text)],
+    cursor: FleetCursor::Whole,
+};
+
+/// Health corrected for an instrument's step (migration 0009), one row per corrected
+/// start-up: replaced or dropped by each refresh of the wash advice, so sent whole.
+pub const FLEET_CORRECTIONS: FleetTable = FleetTable {
+    name: "instrument_corrections",
+    key: "segment_id",
+    columns: &[
+        ("onset_segment_id", Int),
+        ("effect", Text),
+        ("unit", Text),
+        ("magnitude", Real),
+        ("magnitude_sigma", Real),
+        ("d_gc", Real),
+        ("d_ec", Real),
+        ("d_gt", Real),
+        ("d_et", Real),
+        ("d_gp", Real),
+        ("d_ep", Real),
+        ("sigma_gc", Real),
+        ("sigma_ec", Real),
+        ("sigma_gt", Real),
+        ("sigma_et", Real),
+        ("sigma_gp", Real),
+        ("sigma_ep", Real),
+        ("refreshed_ms", Int),
+    ],
     cursor: FleetCursor::Whole,
 };
 
 /// Wash advice.
 pub const FLEET_RECOMMENDATIONS: FleetTable = FleetTable {
     name: "recommendations",
+    key: "id",
     columns: &[
         ("t_ms", Int),
         ("kind", Text),
@@ -263,10 +298,12 @@ impl Store {
     ) -> Result<FleetRows, StoreError> {
         let cols: Vec<&str> = table.columns.iter().map(|(c, _)| *c).collect();
         let cols = cols.join(", ");
-        let name = table.name;
+        let (name, key) = (table.name, table.key);
         let (sql, bind): (String, Vec<i64>) = match table.cursor {
             FleetCursor::Id | FleetCursor::Whole => (
-                format!("SELECT id, {cols} FROM {name} WHERE id > ?1 ORDER BY id LIMIT ?2"),
+                format!(
+                    "SELECT {key}, {cols} FROM {name} WHERE {key} > ?1 ORDER BY {key} LIMIT ?2"
+                ),
                 vec![after.0, limit as i64],
             ),
             FleetCursor::UpdatedAt => (
@@ -429,10 +466,10 @@ impl Store {
         table: &FleetTable,
         after: (i64, i64),
     ) -> Result<i64, StoreError> {
-        let name = table.name;
+        let (name, key) = (table.name, table.key);
         Ok(match table.cursor {
             FleetCursor::Id | FleetCursor::Whole => self.conn.query_row(
-                &format!("SELECT COUNT(*) FROM {name} WHERE id > ?1"),
+                &format!("SELECT COUNT(*) FROM {name} WHERE {key} > ?1"),
                 [after.0],
                 |r| r.get(0),
             )?,
@@ -553,6 +590,12 @@ impl Store {
         };
         let n = n + super::archive::count_archived_in(&self.conn, &windows)?;
         out.push(("samples", n));
+        let n: i64 =
+            self.conn
+                .query_row("SELECT COUNT(*) FROM instrument_corrections", [], |r| {
+                    r.get(0)
+                })?;
+        out.push(("instrument_corrections", n));
         Ok(out)
     }
 }

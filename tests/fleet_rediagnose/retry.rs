@@ -157,9 +157,9 @@ fn retry_failed_puts_failed_jobs_back() {
 }
 
 /// A centre of schema version 2 (made from the released 0001 and 0002 files) holding a done and
-/// a failed job is upgraded to version 3 by the next connection: the jobs become diagnosis
-/// jobs, a gap job of the same start-up and hash can be queued beside them, and the failed one
-/// can be retried.
+/// a failed job is read as it is (its history without corrections), then upgraded to the
+/// newest version by the next edge connection: the jobs become diagnosis jobs, a gap job of
+/// the same start-up and hash can be queued beside them, and the failed one can be retried.
 #[test]
 fn a_version_2_centre_with_jobs_is_upgraded_to_gap_jobs() {
     let pg = PgServer::start();
@@ -184,11 +184,41 @@ fn a_version_2_centre_with_jobs_is_upgraded_to_gap_jobs() {
              INSERT INTO rediagnosis_configs (config_hash, engine_name, engine_toml, settings_json)
                VALUES ('h', 'e', 'x', '{}');
              INSERT INTO rediagnosis_jobs (unit_id, segment_id, config_hash, state, attempts)
-               VALUES ('u', 1, 'h', 'done', 1), ('u', 2, 'h', 'failed', 3);",
+               VALUES ('u', 1, 'h', 'done', 1), ('u', 2, 'h', 'failed', 3);
+             INSERT INTO diagnoses (unit_id, edge_id, segment_id, method, d_gc)
+               VALUES ('u', 7, 1, 'B', 1.5);
+             INSERT INTO units (unit_id, gtwatch_version) VALUES ('u', 'old');",
         )
         .expect("a version 2 centre with jobs");
+    // Read as it is (no upgrade): its history has no corrections table to join.
+    let mut old = Centre::connect_existing(&url, Duration::from_secs(5)).expect("read");
+    assert!(!old.has_corrections().expect("version"));
+    let rows = gtwatch::fleet::fleet_history(&mut old, &Default::default()).expect("history");
+    assert_eq!(rows.len(), 1, "{rows:?}");
+    assert_eq!(
+        (rows[0].health.get("D_GC"), &rows[0].instrument_step),
+        (Some(&1.5), &None)
+    );
+    let status = gtwatch::fleet::fleet_status(&mut old).expect("status");
+    assert_eq!(status.len(), 1, "{status:?}");
+    let count = |t: &str| {
+        status[0]
+            .counts
+            .iter()
+            .find(|(n, _)| n == t)
+            .map(|(_, n)| *n)
+    };
+    assert_eq!(
+        (count("diagnoses"), count("instrument_corrections")),
+        (Some(1), Some(0))
+    );
+    drop(old);
     let mut c = Centre::connect(&url, Duration::from_secs(5)).expect("upgrade");
-    assert_eq!(c.schema_version().expect("version"), 3);
+    assert_eq!(
+        c.schema_version().expect("version"),
+        gtwatch::fleet::centre::supported_version()
+    );
+    assert!(c.has_corrections().expect("version"));
     assert_eq!(
         column(&mut c, "SELECT kind FROM rediagnosis_jobs ORDER BY id"),
         vec![Some("diagnose".to_string()), Some("diagnose".to_string())]
