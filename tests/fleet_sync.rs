@@ -296,6 +296,38 @@ fn fleet_history_equals_each_edges_history(url: &str, dir: &Path, units: &[&str]
     );
 }
 
+/// A refresh of gt-b's wash advice that no longer corrects its first corrected start-up and
+/// resizes the other: the next sync sends one row and removes one, and the centre keeps
+/// exactly the edge's corrections.
+fn corrections_follow_a_refresh(db_b: &Path, url: &str) {
+    rusqlite::Connection::open(db_b)
+        .expect("sqlite")
+        .execute_batch(
+            "DELETE FROM instrument_corrections
+               WHERE segment_id = (SELECT MIN(segment_id) FROM instrument_corrections);
+             UPDATE instrument_corrections SET magnitude = 0.027, d_gc = 2.75;",
+        )
+        .expect("refresh");
+    let r = sync_lib(db_b, &FleetConfig::new("gt-b", url)).expect("sync");
+    let c = r
+        .streams
+        .iter()
+        .find(|s| s.table == "instrument_corrections")
+        .expect("corrections");
+    assert_eq!((c.sent, c.removed), (1, 1), "{c:?}");
+    assert_eq!(r.total_sent(), 1, "{r:?}");
+    let mut centre = Centre::connect_existing(url, Duration::from_secs(5)).expect("centre");
+    let central = centre
+        .query_text(
+            "SELECT magnitude::text, d_gc::text FROM instrument_corrections WHERE unit_id = 'gt-b'",
+        )
+        .expect("corrections");
+    assert_eq!(
+        central,
+        vec![vec![Some("0.027".to_string()), Some("2.75".to_string())]]
+    );
+}
+
 #[test]
 fn three_units_sync_into_one_centre_and_a_second_sync_sends_nothing() {
     let pg = PgServer::start();
@@ -380,35 +412,8 @@ fn three_units_sync_into_one_centre_and_a_second_sync_sends_nothing() {
         .expect("washes");
     assert_eq!((w.sent, w.removed), (1, 1), "{w:?}");
     assert_eq!(r.total_sent(), 1, "{r:?}");
-    // A refresh of gt-b's wash advice that no longer corrects its first corrected start-up and
-    // resizes the other: the centre keeps exactly the edge's corrections.
-    let db_b = dir.path().join("gt-b.db");
-    rusqlite::Connection::open(&db_b)
-        .expect("sqlite")
-        .execute_batch(
-            "DELETE FROM instrument_corrections
-               WHERE segment_id = (SELECT MIN(segment_id) FROM instrument_corrections);
-             UPDATE instrument_corrections SET magnitude = 0.027, d_gc = 2.75;",
-        )
-        .expect("refresh");
-    let r = sync_lib(&db_b, &FleetConfig::new("gt-b", &url)).expect("sync");
-    let c = r
-        .streams
-        .iter()
-        .find(|s| s.table == "instrument_corrections")
-        .expect("corrections");
-    assert_eq!((c.sent, c.removed), (1, 1), "{c:?}");
-    assert_eq!(r.total_sent(), 1, "{r:?}");
+    corrections_follow_a_refresh(&dir.path().join("gt-b.db"), &url);
     let mut centre = Centre::connect_existing(&url, Duration::from_secs(5)).expect("centre");
-    let central = centre
-        .query_text(
-            "SELECT magnitude::text, d_gc::text FROM instrument_corrections WHERE unit_id = 'gt-b'",
-        )
-        .expect("corrections");
-    assert_eq!(
-        central,
-        vec![vec![Some("0.027".to_string()), Some("2.75".to_string())]]
-    );
     let notes = centre
         .query_text("SELECT note FROM washes WHERE unit_id = 'gt-a'")
         .expect("notes");

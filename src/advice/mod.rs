@@ -82,8 +82,9 @@ pub(crate) struct AdviceReport {
     /// that start-up (an unmodelled effect, a bad recording), so its health is not the
     /// engine's, and one such start-up would read as a step in every parameter.
     pub(crate) poor_fits: Vec<PoorFit>,
-    /// The step since the last wash and what explains it, when a start-up left the trend.
-    pub(crate) step: Option<StepAttribution>,
+    /// The steps since the last firm wash and what explains each, oldest first (none when no
+    /// start-up left the trend).
+    pub(crate) steps: Vec<StepAttribution>,
     /// Detected washes (ids) that the step's instrument explains: ignored by the trends, left
     /// for the operator to reject.
     pub(crate) washes_explained: Vec<i64>,
@@ -126,7 +127,7 @@ pub(crate) fn refresh(
     })?);
     // Washes seen as recovery steps, unless a wash is already stored between the two results.
     let washes = store.washes()?;
-    // The first step since the last wash an operator recorded or confirmed, attributed by a
+    // The steps since the last wash an operator recorded or confirmed, each attributed by a
     // joint fit of those start-ups: an instrument's step is corrected before the trend and
     // wash detection see it (a fuel meter reading high looks like a cleaner compressor).
     let firm_ms = washes
@@ -138,12 +139,12 @@ pub(crate) fn refresh(
         .iter()
         .position(|r| firm_ms.is_none_or(|w| r.start_ms > w))
         .unwrap_or(rows.len());
-    let (step, corrected) = attribute_since(store, &rows[basis_from..], &washes, bounds)?;
+    let (steps, corrected) = attribute_since(store, &rows[basis_from..], &washes, bounds)?;
     // The corrected health of those start-ups, for `history` (written with the advice).
     let corrections = corrections_write(
         &rows[basis_from..],
         &corrected,
-        step.as_ref(),
+        &steps,
         &store.instrument_corrections()?,
     );
     let seen: Vec<SeqPoint> = rows[..basis_from]
@@ -152,7 +153,7 @@ pub(crate) fn refresh(
         .chain(corrected)
         .collect();
     // Detected washes the instrument's step explains are not washes.
-    let explained = explained_washes(&washes, &rows, basis_from, step.as_ref());
+    let explained = explained_washes(&washes, &rows, basis_from, &steps);
     let washes: Vec<WashRow> = washes
         .into_iter()
         .filter(|w| !explained.contains(&w.id))
@@ -233,10 +234,9 @@ pub(crate) fn refresh(
                 kind: "wash_offline".into(),
                 // The stored message is what the report shows: a step an instrument made (or may
                 // have made) is part of what the advice rests on.
-                message: match &step {
-                    Some(st) => format!("{} {}.", adv.summary, step_line(st)),
-                    None => adv.summary.clone(),
-                },
+                message: steps.iter().fold(adv.summary.clone(), |m, st| {
+                    format!("{m} {}.", step_line(st))
+                }),
                 basis: basis.to_string(),
             });
             (Some(adv), ms)
@@ -251,7 +251,7 @@ pub(crate) fn refresh(
     Ok(AdviceReport {
         set_aside,
         poor_fits,
-        step,
+        steps,
         washes_explained: explained,
         last_wash_ms,
         detected_now,

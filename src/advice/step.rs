@@ -1,6 +1,6 @@
-//! The first step in the health since the last firm wash, and what explains it: the joint fit
-//! of the start-ups (`gap::sequence`) run on the stored results, the line `wash advise` and the
-//! stored advice say it in, the detected washes an instrument's step explains, and the
+//! The steps in the health since the last firm wash, and what explains each: the joint fits
+//! of the start-ups (`gap::sequence`) run on the stored results, the lines `wash advise` and
+//! the stored advice say them in, the detected washes an instrument's step explains, and the
 //! corrected health of the start-ups an instrument's error moved (stored so `history` shows
 //! it). Must not fit engine models or write to the store (the refresh writes what it returns).
 
@@ -12,13 +12,13 @@ use crate::store::{
 };
 use serde::Serialize;
 
-/// The first step in the health since the last wash, attributed by a joint fit of the
-/// start-ups ([`sequence`]): when it names an instrument, the trends see the health of the
-/// onset and later start-ups (to the one before it read right again, when it was repaired)
-/// corrected by that instrument's error.
+/// A step in the health since the last wash, attributed by a joint fit of the start-ups
+/// ([`sequence`]): when it names an instrument, the trends see the health of the onset and
+/// later start-ups (to the one before it read right again, when it was repaired) corrected by
+/// that instrument's error.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub(crate) struct StepAttribution {
-    /// The first start-up that left the trend.
+    /// The first start-up of this step.
     pub(crate) onset_segment_id: i64,
     pub(crate) onset_ms: i64,
     /// Start-ups fitted jointly (since the last wash, a detected one before the onset
@@ -96,19 +96,19 @@ pub(super) fn explained_washes(
     washes: &[WashRow],
     rows: &[HistoryRow],
     basis_from: usize,
-    step: Option<&StepAttribution>,
+    steps: &[StepAttribution],
 ) -> Vec<i64> {
-    let Some(step) = step.filter(|s| s.corrected) else {
-        return Vec::new();
-    };
     let just_before = |k: usize| {
         let before = k.checked_sub(1).map_or(i64::MIN, |i| rows[i].start_ms);
         (before, rows[k].start_ms)
     };
-    let mut edges = vec![just_before(basis_from + step.attribution.onset)];
-    let range = step.attribution.corrected_range(rows.len() - basis_from);
-    if range.end < rows.len() - basis_from {
-        edges.push(just_before(basis_from + range.end));
+    let mut edges = Vec::new();
+    for step in steps.iter().filter(|s| s.corrected) {
+        edges.push(just_before(basis_from + step.attribution.onset));
+        let range = step.attribution.corrected_range(rows.len() - basis_from);
+        if range.end < rows.len() - basis_from {
+            edges.push(just_before(basis_from + range.end));
+        }
     }
     washes
         .iter()
@@ -122,114 +122,149 @@ pub(super) fn explained_washes(
         .collect()
 }
 
-/// Attributes the first step in the results since the last firm wash ([`sequence`]; from a
-/// detected wash before its onset on, when one lies there: see the body), with the
-/// instruments' signatures from the newest stored gap analysis of a start-up from the onset
-/// on (the daemon analyses every start-up that steps against its trend). Returns the
-/// attribution and each result's health and σ as the trends should see them: corrected from
-/// the onset on when an instrument is named, else as stored.
+/// The instruments' signatures for a step from the first of `from_onset` on: those of the newest
+/// stored gap analysis of one of them that has any, and its start-up.
+fn newest_signatures(
+    store: &Store,
+    from_onset: &[HistoryRow],
+) -> Result<(Vec<sequence::Signature>, Option<i64>), StoreError> {
+    for r in from_onset.iter().rev() {
+        if let Some(json) = store.newest_gap_report_json(r.segment_id)? {
+            let signatures = sequence::signatures_from_report(&json);
+            if !signatures.is_empty() {
+                return Ok((signatures, Some(r.segment_id)));
+            }
+        }
+    }
+    Ok((Vec::new(), None))
+}
+
+/// Attributes the steps in the results since the last firm wash ([`sequence::attribute_steps`];
+/// from a detected wash before the first onset on, when one lies there: see the body), each
+/// with the instruments' signatures from the newest stored gap analysis of a start-up from its
+/// onset on (the daemon analyses every start-up that steps against its trend). Returns the
+/// steps, oldest first, and each result's health and σ as the trends should see them: corrected
+/// for every instrument a step names, else as stored.
 pub(super) fn attribute_since(
     store: &Store,
     since: &[HistoryRow],
     washes: &[WashRow],
     bounds: &HealthBounds,
-) -> Result<(Option<StepAttribution>, Vec<SeqPoint>), StoreError> {
+) -> Result<(Vec<StepAttribution>, Vec<SeqPoint>), StoreError> {
     let points: Vec<SeqPoint> = since.iter().map(|r| seq_point(r, bounds)).collect();
     // A wash recovers the compressor: its improvement is not a step.
     let recovers = crate::trend::RECOVERED_BY_WASH;
     let Some(k) = sequence::onset(&points, recovers) else {
-        return Ok((None, points));
+        return Ok((Vec::new(), points));
     };
     // The trend lines are straight between washes: a wash the trend detected (not yet
-    // confirmed) before the onset restarts them, when enough start-ups lie between. Not one
-    // just before the onset: that recovery may be the step itself (a fuel meter reading high
-    // looks like a cleaner compressor), which is what is being attributed.
-    let from = washes
+    // confirmed) before the onset restarts them, when enough start-ups lie between for a trend;
+    // closer, every hypothesis gets the wash's step in both compressor parameters beside its
+    // own. Not one just before the onset: that recovery may be the step itself (a fuel meter
+    // reading high looks like a cleaner compressor), which is what is being attributed.
+    let wash = washes
         .iter()
         .filter(|w| w.is_detected())
         .filter_map(|w| since.iter().position(|r| r.start_ms > w.t_ms))
         .filter(|&j| j > 0 && j < k)
-        .max()
-        .unwrap_or(0);
-    let (from, k) = match sequence::onset(&points[from..], recovers) {
-        Some(kk) if from > 0 => (from, from + kk),
-        _ => (0, k),
+        .max();
+    // (Restarted with fewer than that between, the onset found after the wash was a later
+    // start-up than the step's own.)
+    let (from, k, wash_at) = match wash {
+        Some(j) if k - j >= sequence::MIN_BEFORE => match sequence::onset(&points[j..], recovers) {
+            Some(kk) => (j, j + kk, None),
+            None => (0, k, Some(j)),
+        },
+        Some(j) => (0, k, Some(j)),
+        None => (0, k, None),
     };
-    let mut signatures = Vec::new();
-    let mut signatures_from_segment = None;
-    for r in since[k..].iter().rev() {
-        if let Some(json) = store.newest_gap_report_json(r.segment_id)? {
-            signatures = sequence::signatures_from_report(&json);
-            if !signatures.is_empty() {
-                signatures_from_segment = Some(r.segment_id);
-                break;
+    let mut failed: Option<StoreError> = None;
+    let mut sources: Vec<Option<i64>> = Vec::new();
+    let attributions =
+        sequence::attribute_steps(&points[from..], k - from, recovers, wash_at, |kk| {
+            match newest_signatures(store, &since[from + kk..]) {
+                Ok((signatures, source)) => {
+                    sources.push(source);
+                    signatures
+                }
+                Err(e) => {
+                    sources.push(None);
+                    failed.get_or_insert(e);
+                    Vec::new()
+                }
             }
-        }
+        });
+    if let Some(e) = failed {
+        return Err(e);
     }
-    let attribution = sequence::attribute_at(&points[from..], k - from, &signatures).shifted(from);
-    let corrected = matches!(attribution.verdict, SequenceVerdict::Instrument { .. });
-    let seen = attribution.corrected(&points);
-    let until_segment_id = attribution
-        .verdict
-        .until()
-        .and_then(|m| since.get(m).map(|r| r.segment_id));
-    Ok((
-        Some(StepAttribution {
-            onset_segment_id: since[k].segment_id,
-            onset_ms: since[k].start_ms,
-            start_ups: since.len() - from,
-            from_onset: since.len() - k,
-            signatures_from_segment,
-            corrected,
-            until_segment_id,
-            attribution,
-        }),
-        seen,
-    ))
+    let attributions: Vec<SequenceAttribution> =
+        attributions.into_iter().map(|a| a.shifted(from)).collect();
+    let seen = sequence::corrected_by_all(&attributions, &points);
+    let steps = attributions
+        .into_iter()
+        .zip(sources)
+        .map(|(attribution, signatures_from_segment)| {
+            let onset = attribution.onset;
+            StepAttribution {
+                onset_segment_id: since[onset].segment_id,
+                onset_ms: since[onset].start_ms,
+                start_ups: since.len() - from,
+                from_onset: since.len() - onset,
+                signatures_from_segment,
+                corrected: matches!(attribution.verdict, SequenceVerdict::Instrument { .. }),
+                until_segment_id: attribution
+                    .verdict
+                    .until()
+                    .and_then(|m| since.get(m).map(|r| r.segment_id)),
+                attribution,
+            }
+        })
+        .collect();
+    Ok((steps, seen))
 }
 
 /// What the store should hold of the corrected health of `since` (the start-ups the joint fit
 /// saw, `seen` their health as the trends see it) after this refresh: `None` when `stored`
-/// already says it, so a refresh that changes nothing writes nothing.
+/// already says it, so a refresh that changes nothing writes nothing. A start-up two named
+/// instruments moved is corrected for both; its row names the newer step's instrument.
 pub(super) fn corrections_write(
     since: &[HistoryRow],
     seen: &[SeqPoint],
-    step: Option<&StepAttribution>,
+    steps: &[StepAttribution],
     stored: &[InstrumentCorrection],
 ) -> Option<CorrectionsWrite> {
     let refreshed_ms = since.last()?.start_ms;
     let fitted: Vec<i64> = since.iter().map(|r| r.segment_id).collect();
-    let rows: Vec<InstrumentCorrection> = match step.map(|s| (s, &s.attribution.verdict)) {
-        Some((
-            s,
-            SequenceVerdict::Instrument {
-                effect,
-                unit,
-                magnitude,
-                magnitude_sigma,
-                ..
-            },
-        )) if s.corrected => {
-            let range = s.attribution.corrected_range(since.len());
-            since
-                .iter()
-                .zip(seen)
-                .skip(range.start)
-                .take(range.len())
-                .map(|(r, p)| InstrumentCorrection {
-                    segment_id: r.segment_id,
-                    onset_segment_id: s.onset_segment_id,
-                    effect: effect.clone(),
-                    unit: unit.clone(),
-                    magnitude: *magnitude,
-                    magnitude_sigma: *magnitude_sigma,
-                    health: p.health,
-                    sigma: p.sigma,
-                })
-                .collect()
+    let mut rows: Vec<InstrumentCorrection> = Vec::new();
+    for (j, (r, p)) in since.iter().zip(seen).enumerate() {
+        let newest = steps
+            .iter()
+            .rev()
+            .find_map(|s| match &s.attribution.verdict {
+                SequenceVerdict::Instrument {
+                    effect,
+                    unit,
+                    magnitude,
+                    magnitude_sigma,
+                    ..
+                } if s.corrected && s.attribution.corrected_range(since.len()).contains(&j) => {
+                    Some((s, effect, unit, magnitude, magnitude_sigma))
+                }
+                _ => None,
+            });
+        if let Some((s, effect, unit, magnitude, magnitude_sigma)) = newest {
+            rows.push(InstrumentCorrection {
+                segment_id: r.segment_id,
+                onset_segment_id: s.onset_segment_id,
+                effect: effect.clone(),
+                unit: unit.clone(),
+                magnitude: *magnitude,
+                magnitude_sigma: *magnitude_sigma,
+                health: p.health,
+                sigma: p.sigma,
+            });
         }
-        _ => Vec::new(),
-    };
+    }
     let now: Vec<&InstrumentCorrection> = stored
         .iter()
         .filter(|c| fitted.contains(&c.segment_id))

@@ -120,7 +120,7 @@ fn run_sequences(
     let cases = sb::run_sequences(engine, &run, cfg, |c| {
         eprintln!(
             "sequence {:3} {:13} magnitude {:+.3} → {:40} {} (onset {}, until {} [{}], fitted {}, \
-             max health error {:.2} → {:.2}, {:.0} s)",
+             max health error {:.2} → {:.2}, {:.0} s){}",
             c.index,
             c.kind,
             c.magnitude,
@@ -133,7 +133,12 @@ fn run_sequences(
                 .map_or("-".to_string(), |m| format!("{m:+.4}")),
             c.error_fitted,
             c.error_corrected,
-            c.wall_s
+            c.wall_s,
+            if c.later_steps.is_empty() {
+                String::new()
+            } else {
+                format!(" LATER STEPS {}", c.later_steps.join(", "))
+            }
         );
     })?;
     let mut v = sb::summarise(&cases);

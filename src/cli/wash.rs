@@ -149,7 +149,7 @@ pub(super) fn run(a: WashArgs) -> anyhow::Result<ExitCode> {
                                 .map_or(String::new(), |v| format!("; gap analysis: {v}"))
                         );
                     }
-                    if let Some(step) = &r.step {
+                    for step in &r.steps {
                         println!("{}", crate::advice::step_line(step));
                     }
                     for id in &r.washes_explained {

@@ -9,7 +9,8 @@
 //! What the daemon would do is done here: the first start-up that leaves the trend
 //! ([`super::sequence::onset`]) gets the gap analysis's alias signatures
 //! ([`super::alias::aliases`]), and the sequence is attributed with them
-//! ([`super::sequence::attribute_at`]). A case is right when the verdict names one of the true
+//! ([`super::sequence::attribute_steps`], the first step scored; a later one found is a false
+//! alarm, since each truth has one step). A case is right when the verdict names one of the true
 //! channel's instances (or is `ambiguous` with it among the candidates); on a control, when no
 //! instrument is named. For named cases the corrected health of the stepped start-ups is
 //! compared with the truth.
@@ -78,6 +79,8 @@ pub(crate) struct SequenceCase {
     /// included), as fitted and as corrected (equal when nothing was corrected), points.
     pub(crate) error_fitted: f64,
     pub(crate) error_corrected: f64,
+    /// Steps found after the first (`<verdict>@<start-up>`): false alarms, the truth has one.
+    pub(crate) later_steps: Vec<String>,
     pub(crate) wall_s: f64,
 }
 
@@ -234,24 +237,35 @@ fn one_sequence(
     let error_fitted = error(&points);
     let recovers = crate::trend::RECOVERED_BY_WASH;
     let onset = sequence::onset(&points, recovers);
+    // As the wash advice does: every step from the first onset on ([`sequence::attribute_steps`]),
+    // each with the signatures of a gap analysis of its own onset. The truth has one step: the
+    // first is scored, and any later one is a false alarm (`later_steps`).
+    let signatures_at = |k: usize| -> Vec<Signature> {
+        aliases(engine, &recs[k], cfg, &fits[k])
+            .map(|a| {
+                a.aliases
+                    .iter()
+                    .map(|x| Signature {
+                        effect: x.effect.clone(),
+                        unit: x.unit.to_string(),
+                        nominal: x.nominal,
+                        shift: x.health_shift.to_array(),
+                        max_magnitude: x.max_magnitude,
+                    })
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    let mut later_steps = Vec::new();
     let (verdict, correct, fitted, corrected, fitted_until) = match onset {
         None => ("not_found".to_string(), false, None, points.clone(), None),
         Some(k) => {
-            let signatures: Vec<Signature> = aliases(engine, &recs[k], cfg, &fits[k])
-                .map(|a| {
-                    a.aliases
-                        .iter()
-                        .map(|x| Signature {
-                            effect: x.effect.clone(),
-                            unit: x.unit.to_string(),
-                            nominal: x.nominal,
-                            shift: x.health_shift.to_array(),
-                            max_magnitude: x.max_magnitude,
-                        })
-                        .collect()
-                })
-                .unwrap_or_default();
-            let a = sequence::attribute_at(&points, k, &signatures);
+            let steps = sequence::attribute_steps(&points, k, recovers, None, signatures_at);
+            let a = &steps[0];
+            later_steps = steps[1..]
+                .iter()
+                .map(|s| format!("{}@{}", s.verdict.label(), s.onset))
+                .collect();
             let names = input_instances(kind);
             let ok = match &a.verdict {
                 SequenceVerdict::Instrument { effect, .. } => names.contains(&effect.as_str()),
@@ -261,7 +275,8 @@ fn one_sequence(
                 SequenceVerdict::HealthStep { .. } | SequenceVerdict::NoStep => names.is_empty(),
             };
             let (v, fitted) = (a.verdict.label(), a.verdict.instrument_magnitude());
-            (v, ok, fitted, a.corrected(&points), a.verdict.until())
+            let corrected = sequence::corrected_by_all(&steps, &points);
+            (v, ok, fitted, corrected, a.verdict.until())
         }
     };
     // A control is right when no instrument is named (a step not found is right for `none`).
@@ -280,6 +295,7 @@ fn one_sequence(
         fitted_magnitude_sigma: fitted.map(|f| f.1),
         error_fitted,
         error_corrected: error(&corrected),
+        later_steps,
         wall_s: started.elapsed().as_secs_f64(),
     })
 }
@@ -323,6 +339,8 @@ pub(crate) fn summarise(cases: &[SequenceCase]) -> serde_json::Value {
         "named_corrected_within_0_3": rate(&named, &|c| c.error_corrected <= 0.3),
         // Of the named instruments, those whose end (a repair, or none) is the truth's.
         "named_end_right": rate(&named, &|c| c.fitted_until == c.repaired_at),
+        // Sequences (of one step) in which a second step was found: false alarms.
+        "later_step_found": rate(&cases.iter().collect::<Vec<_>>(), &|c| !c.later_steps.is_empty()),
         "median_wall_s": median_wall,
     })
 }

@@ -246,7 +246,13 @@ fn advice_of(commands: &Commands, run: &Run, s: &Sections) -> anyhow::Result<Adv
             .segment(id)?
             .and_then(|g| day_of(g.start_ms, EPOCH_MS)))
     };
-    let (step_verdict, step_onset_day, instrument_magnitude) = match &r.step {
+    // The step an instrument explains, else the first.
+    let step = r
+        .steps
+        .iter()
+        .find(|s| s.corrected)
+        .or_else(|| r.steps.first());
+    let (step_verdict, step_onset_day, instrument_magnitude) = match step {
         None => (None, None, None),
         Some(st) => {
             let v = st.attribution.verdict.label();

@@ -18,6 +18,11 @@
 //!   repaired or recalibrated in between: 2 parameters, its size and the start-up it ended
 //!   before; at least [`MIN_WINDOW`] start-ups long, since one start-up alone is an outlier).
 //!
+//! Steps are attributed one after another ([`attribute_steps`]): when a free step from a later
+//! start-up, beside the best explanation, fits decisively better, the first step is fitted on
+//! the start-ups before it, its explanation taken out, and the next attributed in the rest (a
+//! noisy start-up, a component fault or one instrument must not hide or bend the next).
+//!
 //! Hypotheses are compared by BIC (χ² + parameters · ln N): an instrument wins only when its one
 //! parameter explains the step as well as the engine's six, and better than any one-component
 //! fault. Each estimate's variance is its own σ² plus the scatter the trend before the onset
@@ -33,7 +38,6 @@
 
 use crate::health::{HealthBounds, HEALTH_NAMES};
 use crate::trend::{steps_against_trend, TrendPoint};
-use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
 /// Fewest start-ups before the onset: a trend needs three.
@@ -223,6 +227,35 @@ impl SequenceAttribution {
         }
     }
 
+    /// `points` without this step's best explanation (its first hypothesis): nothing for
+    /// `none`, the onset's offset for an outlier, else the fitted step from the onset on (to
+    /// the start-up before an instrument read right again). What the next step is looked for
+    /// and attributed in; not a correction (a step the engine took is its health).
+    pub(crate) fn explained(&self, points: &[SeqPoint]) -> Vec<SeqPoint> {
+        let Some(best) = self.hypotheses.first() else {
+            return points.to_vec();
+        };
+        let n = points.len();
+        let range = match best.name.as_str() {
+            "none" => 0..0,
+            "outlier" => self.onset..(self.onset + 1).min(n),
+            _ => self.onset..best.until.unwrap_or(n).min(n),
+        };
+        points
+            .iter()
+            .enumerate()
+            .map(|(j, p)| {
+                if !range.contains(&j) {
+                    return *p;
+                }
+                SeqPoint {
+                    health: std::array::from_fn(|i| p.health[i] - best.step[i]),
+                    ..*p
+                }
+            })
+            .collect()
+    }
+
     /// The health and 1σ each start-up would have without the instrument's error (unchanged
     /// unless the verdict names an instrument; the start-ups of [`Self::corrected_range`] are
     /// corrected).
@@ -312,6 +345,11 @@ fn sigma_of(s: f64) -> f64 {
 /// those before it; `recovers` as for [`steps_against_trend`] (a compressor recovering is a
 /// wash, judged elsewhere).
 pub(crate) fn onset(points: &[SeqPoint], recovers: [bool; 6]) -> Option<usize> {
+    onset_from(points, 0, recovers)
+}
+
+/// [`onset`], looking from start-up `min_k` on.
+pub(crate) fn onset_from(points: &[SeqPoint], min_k: usize, recovers: [bool; 6]) -> Option<usize> {
     let as_trend = |p: &SeqPoint| -> [TrendPoint; 6] {
         std::array::from_fn(|i| TrendPoint {
             t_days: p.t_days,
@@ -320,8 +358,59 @@ pub(crate) fn onset(points: &[SeqPoint], recovers: [bool; 6]) -> Option<usize> {
         })
     };
     let trend: Vec<[TrendPoint; 6]> = points.iter().map(as_trend).collect();
-    (MIN_BEFORE..points.len())
+    (MIN_BEFORE.max(min_k)..points.len())
         .find(|&k| !steps_against_trend(&trend[..k], &trend[k], recovers).is_empty())
+}
+
+/// Most steps attributed in one sequence (since the last firm wash).
+pub(crate) const MAX_STEPS: usize = 3;
+
+/// Attributes the steps in `points` one after another, the first from start-up `first` on
+/// ([`attribute_at`]), at most [`MAX_STEPS`]. Each next step is looked for, from the start-up
+/// after the earlier onset on, in what the earlier steps' best explanations leave
+/// ([`SequenceAttribution::explained`]: an outlier, a step the engine took and an
+/// instrument's error are each taken out), so that a noisy start-up or a component fault does
+/// not hide an instrument's step after it, nor one instrument another. A step followed by
+/// another is fitted on the start-ups before the next onset only, so the later step does not
+/// bend its fit. `wash_at`: a detected wash from that start-up on, before the first onset, that
+/// every hypothesis has beside its own step. `signatures(k)`: the instruments' signatures for a
+/// step from start-up `k`.
+pub(crate) fn attribute_steps(
+    points: &[SeqPoint],
+    first: usize,
+    recovers: [bool; 6],
+    wash_at: Option<usize>,
+    mut signatures: impl FnMut(usize) -> Vec<Signature>,
+) -> Vec<SequenceAttribution> {
+    let mut out: Vec<SequenceAttribution> = Vec::new();
+    let mut work = points.to_vec();
+    let mut next = Some(first);
+    while let Some(k) = next.filter(|k| out.len() < MAX_STEPS && *k < points.len()) {
+        let sigs = signatures(k);
+        let mut att = attribute_at(&work, k, &sigs, wash_at);
+        let single_bic = att.hypotheses.first().map_or(f64::INFINITY, |h| h.bic);
+        next = later_step(&work, k, &sigs, wash_at, single_bic);
+        if let Some(m) = next {
+            att = attribute_at(&work[..m], k, &sigs, wash_at);
+        }
+        work = att.explained(&work);
+        // A step the joint fits do not see as such (below the decisive margin) may still leave
+        // the trend in what this one leaves.
+        next = next.or_else(|| onset_from(&work, k + 1, recovers));
+        out.push(att);
+    }
+    out
+}
+
+/// The health each start-up would have without the errors of the instruments `steps` name
+/// ([`SequenceAttribution::corrected`] of each, in turn).
+pub(crate) fn corrected_by_all(
+    steps: &[SequenceAttribution],
+    points: &[SeqPoint],
+) -> Vec<SeqPoint> {
+    steps
+        .iter()
+        .fold(points.to_vec(), |seen, step| step.corrected(&seen))
 }
 
 /// Attributes the first step in `points` (the start-ups since the last wash, oldest first) to
@@ -335,15 +424,40 @@ pub(crate) fn attribute(
     recovers: [bool; 6],
 ) -> Option<SequenceAttribution> {
     let k = onset(points, recovers)?;
-    Some(attribute_at(points, k, signatures))
+    Some(attribute_at(points, k, signatures, None))
 }
 
-/// [`attribute`] with the onset given.
-pub(crate) fn attribute_at(
+/// [`attribute`] with the onset given, every hypothesis beside a detected wash from start-up
+/// `wash_at` on, when given (before the onset).
+fn attribute_at(
     points: &[SeqPoint],
     k: usize,
     signatures: &[Signature],
+    wash_at: Option<usize>,
 ) -> SequenceAttribution {
+    let breaks = Breaks {
+        later: None,
+        wash_at: wash_at.filter(|&w| w > 0 && w < k),
+    };
+    let mut hyps = hypotheses(points, k, signatures, breaks);
+    hyps.sort_by(|a, b| a.bic.total_cmp(&b.bic));
+    let verdict = verdict_of(&hyps, signatures);
+    SequenceAttribution {
+        onset: k,
+        verdict,
+        hypotheses: hyps,
+    }
+}
+
+/// Every explanation of a step from start-up `k` on, fitted (unsorted), each beside the
+/// `breaks`; with a later step, no instrument that ended (its end would be that step).
+fn hypotheses(
+    points: &[SeqPoint],
+    k: usize,
+    signatures: &[Signature],
+    breaks: Breaks,
+) -> Vec<Hypothesis> {
+    let later = breaks.later;
     let var = variances(points, k);
     let n_obs = points
         .iter()
@@ -356,8 +470,13 @@ pub(crate) fn attribute_at(
     let engine_fit = |name: String, cols: &[[f64; 6]], only_onset: bool| {
         let spec = Spec {
             cols,
-            until: if only_onset { k + 1 } else { n },
+            until: if only_onset {
+                k + 1
+            } else {
+                later.unwrap_or(n)
+            },
             mismatch_sigma: None,
+            breaks,
         };
         solve(points, k, &var, &spec).map(|s| hypothesis(name, false, s, cols, n_obs))
     };
@@ -370,11 +489,14 @@ pub(crate) fn attribute_at(
     hyps.extend(engine_fit("outlier".into(), &unit, true));
     hyps.extend(engine_fit("wash".into(), &unit[..2], false));
     for s in signatures {
-        hyps.extend(instrument_fit(points, k, &var, s, n_obs, n));
+        hyps.extend(instrument_fit(points, k, &var, s, n_obs, n, breaks));
+        if later.is_some() {
+            continue;
+        }
         // The same instrument repaired before the newest start-up: the best end (by χ²),
         // counted as one parameter more.
         let ended = (k + MIN_WINDOW..n)
-            .filter_map(|m| instrument_fit(points, k, &var, s, n_obs, m))
+            .filter_map(|m| instrument_fit(points, k, &var, s, n_obs, m, breaks))
             .min_by(|a, b| a.chi2.total_cmp(&b.chi2));
         hyps.extend(ended.map(|mut h| {
             h.extra_params += 1;
@@ -382,13 +504,44 @@ pub(crate) fn attribute_at(
             h
         }));
     }
-    hyps.sort_by(|a, b| a.bic.total_cmp(&b.bic));
-    let verdict = verdict_of(&hyps, signatures);
-    SequenceAttribution {
-        onset: k,
-        verdict,
-        hypotheses: hyps,
-    }
+    hyps
+}
+
+/// A second step in what follows a step from start-up `k`: the start-up `m` from which a free
+/// step in all six parameters, beside the best explanation of the first, fits the sequence
+/// better by [`DECISIVE_BIC`] than any single explanation does (`single_bic`, the best
+/// hypothesis's BIC; the second step's start-up counts as one parameter more). Each step
+/// keeps at least [`MIN_WINDOW`] start-ups. Without it an instrument that "ended" at `m`, or
+/// a step averaged over both, would explain two steps as one: a component fault at start-up 4
+/// and a fuel meter reading high from start-up 9 were named a fuel meter reading *low* from 4
+/// until 9.
+fn later_step(
+    points: &[SeqPoint],
+    k: usize,
+    signatures: &[Signature],
+    wash_at: Option<usize>,
+    single_bic: f64,
+) -> Option<usize> {
+    let n = points.len();
+    let n_obs = points
+        .iter()
+        .map(|p| p.at_limit.iter().filter(|c| !**c).count())
+        .sum::<usize>() as f64;
+    (k + MIN_WINDOW..=n.saturating_sub(MIN_WINDOW))
+        .filter_map(|m| {
+            let breaks = Breaks {
+                later: Some(m),
+                wash_at: wash_at.filter(|&w| w > 0 && w < k),
+            };
+            let best = hypotheses(points, k, signatures, breaks)
+                .into_iter()
+                .map(|h| h.bic)
+                .min_by(f64::total_cmp)?;
+            Some((m, best + n_obs.ln()))
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .filter(|(_, bic)| *bic + DECISIVE_BIC < single_bic)
+        .map(|(m, _)| m)
 }
 
 /// An instrument's hypothesis: its signature times the error, from the onset to start-up
@@ -405,7 +558,9 @@ fn instrument_fit(
     s: &Signature,
     n_obs: f64,
     until: usize,
+    breaks: Breaks,
 ) -> Option<Hypothesis> {
+    let later = breaks.later;
     if s.nominal == 0.0 || s.shift.iter().all(|v| *v == 0.0) {
         return None;
     }
@@ -418,8 +573,9 @@ fn instrument_fit(
         var,
         &Spec {
             cols: &cols,
-            until,
+            until: later.unwrap_or(until),
             mismatch_sigma: None,
+            breaks,
         },
     )?;
     let step_norm = col
@@ -434,8 +590,9 @@ fn instrument_fit(
         var,
         &Spec {
             cols: &cols,
-            until,
+            until: later.unwrap_or(until),
             mismatch_sigma: Some(prior),
+            breaks,
         },
     )?;
     let mut h = hypothesis(s.effect.clone(), true, second, &cols, n_obs);
@@ -517,167 +674,9 @@ fn verdict_of(hyps: &[Hypothesis], signatures: &[Signature]) -> SequenceVerdict 
     }
 }
 
-/// Each estimate's variance: its own σ² plus, per parameter, the scatter the start-ups before
-/// the onset show about their own line beyond their σ (method of moments).
-fn variances(points: &[SeqPoint], k: usize) -> Vec<[f64; 6]> {
-    let before = &points[..k];
-    let t_mean = before.iter().map(|p| p.t_days).sum::<f64>() / k as f64;
-    let mut extra = [0.0; 6];
-    for (i, e) in extra.iter_mut().enumerate() {
-        // Weighted line through the points before the onset.
-        let (mut sw, mut st, mut stt, mut sy, mut sty) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for p in before.iter().filter(|p| !p.at_limit[i]) {
-            let w = 1.0 / sigma_of(p.sigma[i]).powi(2);
-            let t = p.t_days - t_mean;
-            sw += w;
-            st += w * t;
-            stt += w * t * t;
-            sy += w * p.health[i];
-            sty += w * t * p.health[i];
-        }
-        let det = sw * stt - st * st;
-        let (a, b) = if det.abs() > 1e-12 {
-            ((stt * sy - st * sty) / det, (sw * sty - st * sy) / det)
-        } else {
-            (sy / sw, 0.0)
-        };
-        let used: Vec<&SeqPoint> = before.iter().filter(|p| !p.at_limit[i]).collect();
-        if used.is_empty() || sw <= 0.0 {
-            continue;
-        }
-        let dof = (used.len() as f64 - 2.0).max(1.0);
-        let ss: f64 = used
-            .iter()
-            .map(|p| (p.health[i] - a - b * (p.t_days - t_mean)).powi(2))
-            .sum();
-        let own: f64 = used
-            .iter()
-            .map(|p| sigma_of(p.sigma[i]).powi(2))
-            .sum::<f64>()
-            / used.len() as f64;
-        *e = (ss / dof - own).max(0.0);
-    }
-    points
-        .iter()
-        .map(|p| std::array::from_fn(|i| sigma_of(p.sigma[i]).powi(2) + extra[i]))
-        .collect()
-}
-
-struct Solved {
-    /// χ², the mismatch's prior included.
-    chi2: f64,
-    /// Parameters fitted (trend lines and extra columns an estimate informs; the mismatch,
-    /// held by its prior, is not counted).
-    params: usize,
-    /// The extra columns' coefficients and their 1σ.
-    coef: Vec<f64>,
-    coef_sigma: Vec<f64>,
-    /// The shared mismatch (0 without one).
-    mismatch: [f64; 6],
-    /// 1σ of the whole step (extra columns and mismatch) in each parameter.
-    step_sigma: [f64; 6],
-    /// Each parameter's trend line: value at `t_ref_days` and rate per day.
-    lines: [[f64; 2]; 6],
-    t_ref_days: f64,
-}
-
-/// What one hypothesis adds to the six trend lines.
-struct Spec<'a> {
-    /// Health-space directions switched on from the onset (each one coefficient).
-    cols: &'a [[f64; 6]],
-    /// Switched on from the onset to this start-up (exclusive): the onset alone for an
-    /// outlier, the sequence's length for a step that lasts.
-    until: usize,
-    /// A mismatch in every direction shared from the onset on, held to 0 with this 1σ.
-    mismatch_sigma: Option<f64>,
-}
-
-/// Weighted least squares of all estimates on six lines plus what `spec` adds.
-fn solve(points: &[SeqPoint], k: usize, var: &[[f64; 6]], spec: &Spec<'_>) -> Option<Solved> {
-    let n = points.len();
-    let t_ref = points.iter().map(|p| p.t_days).sum::<f64>() / n as f64;
-    let nc = spec.cols.len();
-    let md = if spec.mismatch_sigma.is_some() { 6 } else { 0 };
-    let p = 12 + nc + md;
-    let rows = n * 6 + md;
-    let mut a = DMatrix::<f64>::zeros(rows, p);
-    let mut y = DVector::<f64>::zeros(rows);
-    for (j, pt) in points.iter().enumerate() {
-        let on = j >= k && j < spec.until.max(k + 1);
-        for i in 0..6 {
-            let r = j * 6 + i;
-            // A censored estimate weighs nothing.
-            let w = if pt.at_limit[i] {
-                0.0
-            } else {
-                1.0 / var[j][i].sqrt()
-            };
-            a[(r, 2 * i)] = w;
-            a[(r, 2 * i + 1)] = w * (pt.t_days - t_ref);
-            if on {
-                for (c, col) in spec.cols.iter().enumerate() {
-                    a[(r, 12 + c)] = w * col[i];
-                }
-                if md > 0 {
-                    a[(r, 12 + nc + i)] = w;
-                }
-            }
-            y[r] = w * pt.health[i];
-        }
-    }
-    if let Some(sm) = spec.mismatch_sigma {
-        for i in 0..6 {
-            a[(n * 6 + i, 12 + nc + i)] = 1.0 / sm;
-        }
-    }
-    // Columns no uncensored estimate informs (a parameter on its limit at every start-up
-    // from the onset) are left out, and count as no parameter.
-    let kept: Vec<usize> = (0..p)
-        .filter(|&c| a.rows(0, n * 6).column(c).norm() > 1e-12)
-        .collect();
-    let a = a.select_columns(kept.iter());
-    let inv = (a.transpose() * &a).try_inverse()?;
-    let x = &inv * (a.transpose() * &y);
-    let chi2 = (&a * &x - &y).norm_squared();
-    let mut full = vec![0.0; p];
-    let mut full_sigma = vec![0.0; p];
-    for (pos, &c) in kept.iter().enumerate() {
-        full[c] = x[pos];
-        full_sigma[c] = inv[(pos, pos)].max(0.0).sqrt();
-    }
-    if !chi2.is_finite() || full.iter().any(|v| !v.is_finite()) {
-        return None;
-    }
-    // 1σ of the step in each parameter: g'·C·g over the columns that make it.
-    let step_sigma: [f64; 6] = std::array::from_fn(|i| {
-        let g = |c: usize| -> f64 {
-            if (12..12 + nc).contains(&c) {
-                spec.cols[c - 12][i]
-            } else if c == 12 + nc + i && md > 0 {
-                1.0
-            } else {
-                0.0
-            }
-        };
-        let mut v = 0.0;
-        for (pa, &ca) in kept.iter().enumerate() {
-            for (pb, &cb) in kept.iter().enumerate() {
-                v += g(ca) * inv[(pa, pb)] * g(cb);
-            }
-        }
-        v.max(0.0).sqrt()
-    });
-    Some(Solved {
-        step_sigma,
-        chi2,
-        params: kept.iter().filter(|&&c| c < 12 + nc).count(),
-        coef: full[12..12 + nc].to_vec(),
-        coef_sigma: full_sigma[12..12 + nc].to_vec(),
-        mismatch: std::array::from_fn(|i| if md > 0 { full[12 + nc + i] } else { 0.0 }),
-        lines: std::array::from_fn(|i| [full[2 * i], full[2 * i + 1]]),
-        t_ref_days: t_ref,
-    })
-}
+mod fit;
+pub(crate) use fit::Breaks;
+use fit::{solve, variances, Solved, Spec};
 
 #[cfg(test)]
 mod tests;
