@@ -120,7 +120,9 @@ fn build_edge(path: &Path, startups: usize, t0_ms: i64) {
     c.execute(
         "INSERT INTO gap_analyses (segment_id, effect, shrinkage, confidence, baseline_fit_quality,
            normalised_residual, report_json, gtwatch_version, created_at_ms)
-         VALUES (?1, 'none', 0.1, 0.2, 'good', 0.9, '{}', 'test', ?2)",
+         VALUES (?1, 'fuel_meter', 0.1, 0.2, 'suspect', 0.9,
+           '{\"verdict\": {\"health_after\": {\"D_GC\": 0.5, \"D_EC\": 0.25, \"D_GT\": 0.125,
+             \"D_ET\": 0.0, \"D_GP\": 0.0, \"D_EP\": -0.25}}}', 'test', ?2)",
         rusqlite::params![segs[0], t0_ms],
     )
     .expect("gap");
@@ -223,11 +225,13 @@ fn fleet_history_equals_each_edges_history(url: &str, dir: &Path, units: &[&str]
             r["sigma"],
             r["fit_quality"],
             r["gap_verdict"],
+            r["gap_health_after"],
             r["instrument_step"]
         ])
     };
     let mut total = 0;
     let mut corrected = 0;
+    let mut corrected_lines = 0;
     for unit in units {
         let db = dir.join(format!("{unit}.db"));
         let edge = json(gtwatch(&[
@@ -251,6 +255,10 @@ fn fleet_history_equals_each_edges_history(url: &str, dir: &Path, units: &[&str]
         corrected += edge
             .iter()
             .filter(|r| r["instrument_step"]["effect"] == "fuel_meter")
+            .count();
+        let table = gtwatch(&["history", "--db", db.to_str().expect("utf8")]);
+        corrected_lines += String::from_utf8_lossy(&table.stdout)
+            .matches("corrected:")
             .count();
         assert_eq!(
             one.iter().map(key).collect::<Vec<_>>(),
@@ -286,10 +294,20 @@ fn fleet_history_equals_each_edges_history(url: &str, dir: &Path, units: &[&str]
         "{text}"
     );
     assert_eq!(text.matches(",fuel_meter +2.").count(), corrected, "{text}");
-    // The table: a `corrected:` line under each corrected result, as the edge's history.
+    // The table: a `corrected:` line under each result the edge's history shows one under (the
+    // wash advice's corrections, and a first start-up whose own gap analysis names the meter).
     let table = gtwatch(&["fleet", "history", "--postgres-url", url]);
     let text = String::from_utf8_lossy(&table.stdout);
-    assert_eq!(text.matches("corrected:").count(), corrected, "{text}");
+    assert!(corrected_lines > corrected, "{corrected_lines} lines");
+    assert_eq!(
+        text.matches("corrected:").count(),
+        corrected_lines,
+        "{text}"
+    );
+    assert!(
+        text.contains("instrument fuel_meter (this start-up's gap analysis)"),
+        "{text}"
+    );
     assert!(
         text.contains("instrument fuel_meter +2.50 ± 0.20 % from start-up"),
         "{text}"

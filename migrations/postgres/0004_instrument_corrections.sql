@@ -18,5 +18,6 @@ CREATE TABLE instrument_corrections (
     sigma_gc DOUBLE PRECISION, sigma_ec DOUBLE PRECISION, sigma_gt DOUBLE PRECISION,
     sigma_et DOUBLE PRECISION, sigma_gp DOUBLE PRECISION, sigma_ep DOUBLE PRECISION,
     refreshed_ms     BIGINT,
+    also             TEXT,              -- the other instruments the health is corrected for
     PRIMARY KEY (unit_id, edge_id)
 );

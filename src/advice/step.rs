@@ -226,7 +226,8 @@ pub(super) fn attribute_since(
 /// What the store should hold of the corrected health of `since` (the start-ups the joint fit
 /// saw, `seen` their health as the trends see it) after this refresh: `None` when `stored`
 /// already says it, so a refresh that changes nothing writes nothing. A start-up two named
-/// instruments moved is corrected for both; its row names the newer step's instrument.
+/// instruments moved is corrected for both; its row names the newer step's instrument and, in
+/// `also`, the older.
 pub(super) fn corrections_write(
     since: &[HistoryRow],
     seen: &[SeqPoint],
@@ -237,10 +238,10 @@ pub(super) fn corrections_write(
     let fitted: Vec<i64> = since.iter().map(|r| r.segment_id).collect();
     let mut rows: Vec<InstrumentCorrection> = Vec::new();
     for (j, (r, p)) in since.iter().zip(seen).enumerate() {
-        let newest = steps
+        // The named instruments whose error moved this start-up, oldest step first.
+        let moved: Vec<InstrumentCorrection> = steps
             .iter()
-            .rev()
-            .find_map(|s| match &s.attribution.verdict {
+            .filter_map(|s| match &s.attribution.verdict {
                 SequenceVerdict::Instrument {
                     effect,
                     unit,
@@ -248,20 +249,29 @@ pub(super) fn corrections_write(
                     magnitude_sigma,
                     ..
                 } if s.corrected && s.attribution.corrected_range(since.len()).contains(&j) => {
-                    Some((s, effect, unit, magnitude, magnitude_sigma))
+                    Some(InstrumentCorrection {
+                        segment_id: r.segment_id,
+                        onset_segment_id: s.onset_segment_id,
+                        effect: effect.clone(),
+                        unit: unit.clone(),
+                        magnitude: *magnitude,
+                        magnitude_sigma: *magnitude_sigma,
+                        health: p.health,
+                        sigma: p.sigma,
+                        also: String::new(),
+                    })
                 }
                 _ => None,
-            });
-        if let Some((s, effect, unit, magnitude, magnitude_sigma)) = newest {
+            })
+            .collect();
+        if let Some((newest, older)) = moved.split_last() {
+            let also: Vec<String> = older
+                .iter()
+                .map(|c| format!("{} from start-up {}", c.describe(), c.onset_segment_id))
+                .collect();
             rows.push(InstrumentCorrection {
-                segment_id: r.segment_id,
-                onset_segment_id: s.onset_segment_id,
-                effect: effect.clone(),
-                unit: unit.clone(),
-                magnitude: *magnitude,
-                magnitude_sigma: *magnitude_sigma,
-                health: p.health,
-                sigma: p.sigma,
+                also: also.join("; "),
+                ..newest.clone()
             });
         }
     }

@@ -421,7 +421,8 @@ fn an_instrument_step_after_an_unconfirmed_wash_is_named() {
 /// Two instruments one after the other since the last wash: a fuel meter reading 3 % high from
 /// start-up 5 and the inlet temperature reading 3 K high from start-up 10 of 14. Both are
 /// named, each from its own onset; `history` shows the start-ups from 5 corrected for the
-/// meter and those from 10 for both (named by the newer), within 0.3 points of the truth; the
+/// meter and those from 10 for both (named by the newer, the older in `also`), within 0.3
+/// points of the truth; the
 /// stored advice says both. Stored results with known health, no model runs (the synthetic
 /// draws of `gap::sequence`'s tests measure what attributing one step alone did).
 #[test]
@@ -511,8 +512,25 @@ fn two_instrument_steps_one_after_the_other_are_both_named_and_corrected() {
             for (i, v) in c.health.iter().enumerate() {
                 worst = worst.max((v - truth(j)[i]).abs());
             }
+            // The newer step's row says the older instrument is corrected for too.
+            if j >= INLET {
+                assert!(
+                    c.also.starts_with("fuel_meter +3.0") && c.also.ends_with("from start-up 6"),
+                    "start-up {j}: {}",
+                    c.describe_all()
+                );
+            } else {
+                assert_eq!(c.also, "", "start-up {j}");
+            }
         }
     }
+    eprintln!(
+        "{}",
+        rows[N - 1]
+            .instrument_step
+            .as_ref()
+            .map_or(String::new(), |c| c.describe_all())
+    );
     eprintln!("corrected health off by at most {worst:.2} points");
     assert!(worst <= 0.3, "corrected health off by {worst:.2} points");
     let message = store

@@ -109,6 +109,16 @@ pub(super) fn run(args: &FleetHistoryArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// What a central result shows as corrected, as `gtwatch history` decides it at the edge.
+fn shown_correction(r: &FleetHistoryRow) -> Option<ShownCorrection> {
+    ShownCorrection::of(
+        r.instrument_step.as_ref(),
+        &r.method,
+        r.gap_verdict.as_deref(),
+        r.gap_health_after,
+    )
+}
+
 fn write_json(out: &mut dyn Write, rows: &[FleetHistoryRow]) -> anyhow::Result<()> {
     let docs: Vec<serde_json::Value> = rows
         .iter()
@@ -124,6 +134,13 @@ fn write_json(out: &mut dyn Write, rows: &[FleetHistoryRow]) -> anyhow::Result<(
                 "residual_level": r.residual_level,
                 "fit_quality": r.fit_quality,
                 "gap_verdict": r.gap_verdict,
+                "gap_health_after": r.gap_health_after.map(|h| {
+                    HEALTH_NAMES
+                        .iter()
+                        .zip(h)
+                        .map(|(n, v)| ((*n).to_string(), v))
+                        .collect::<std::collections::BTreeMap<_, _>>()
+                }),
                 "instrument_step": r
                     .instrument_step
                     .as_ref()
@@ -167,9 +184,8 @@ fn write_csv(out: &mut dyn Write, rows: &[FleetHistoryRow]) -> anyhow::Result<()
         );
         cells.push(r.fit_quality.clone().unwrap_or_default());
         cells.push(r.gap_verdict.clone().unwrap_or_default());
-        let corrected = r.instrument_step.as_ref().map(ShownCorrection::of_step);
         cells.extend(ShownCorrection::csv_cells(
-            corrected.as_ref(),
+            shown_correction(r).as_ref(),
             &HEALTH_NAMES,
         ));
         writeln!(out, "{}", cells.join(","))?;
@@ -203,10 +219,10 @@ fn write_table(out: &mut dyn Write, rows: &[FleetHistoryRow]) -> anyhow::Result<
             r.gap_verdict.as_deref(),
             None,
         )?;
-        if let Some(c) = &r.instrument_step {
+        if let Some(c) = shown_correction(r) {
             // Under the unit's columns, as `gtwatch history` writes it under the segment's.
             write!(out, "{:<16} ", "")?;
-            write_corrected_line(out, &ShownCorrection::of_step(c), &HEALTH_NAMES)?;
+            write_corrected_line(out, &c, &HEALTH_NAMES)?;
         }
     }
     if rows.is_empty() {

@@ -151,12 +151,17 @@ pub(super) struct ShownCorrection {
 impl ShownCorrection {
     /// The wash advice's joint fit's correction of a start-up.
     pub(super) fn of_step(c: &InstrumentCorrection) -> ShownCorrection {
+        let also = if c.also.is_empty() {
+            String::new()
+        } else {
+            format!("; also {}", c.also)
+        };
         ShownCorrection {
             health: c.health,
             sigma: Some(c.sigma),
-            label: c.describe(),
+            label: c.describe_all(),
             source: format!(
-                "instrument {} from start-up {} on (wash advice's joint fit)",
+                "instrument {} from start-up {} on{also} (wash advice's joint fit)",
                 c.describe(),
                 c.onset_segment_id
             ),
@@ -183,6 +188,7 @@ pub(super) fn instrument_step_json(c: &InstrumentCorrection, names: &[&str]) -> 
         "magnitude": c.magnitude,
         "magnitude_sigma": c.magnitude_sigma,
         "onset_segment_id": c.onset_segment_id,
+        "also": c.also,
         "health_corrected": shown(&c.health, names),
         "sigma_corrected": shown(&c.sigma, names),
     })
@@ -193,19 +199,37 @@ pub(super) fn instrument_step_json(c: &InstrumentCorrection, names: &[&str]) -> 
 /// (the start-up the advice sets aside), that analysis's health after (it refits the
 /// transient: not Method A's).
 fn correction_of(r: &HistoryRow) -> Option<ShownCorrection> {
-    if let Some(c) = &r.instrument_step {
-        return Some(ShownCorrection::of_step(c));
+    ShownCorrection::of(
+        r.instrument_step.as_ref(),
+        &r.method,
+        r.gap_verdict.as_deref(),
+        r.gap_health_after,
+    )
+}
+
+impl ShownCorrection {
+    /// What a result (its method, correction, gap verdict and that analysis's health after)
+    /// shows as corrected: see [`correction_of`]. `fleet history` shows the same.
+    pub(super) fn of(
+        step: Option<&InstrumentCorrection>,
+        method: &str,
+        gap_verdict: Option<&str>,
+        gap_health_after: Option<[f64; 6]>,
+    ) -> Option<ShownCorrection> {
+        if let Some(c) = step {
+            return Some(ShownCorrection::of_step(c));
+        }
+        let effect = gap_verdict?;
+        if method != "B" || !is_instrument(effect) {
+            return None;
+        }
+        gap_health_after.map(|health| ShownCorrection {
+            health,
+            sigma: None,
+            label: format!("{effect} (gap analysis)"),
+            source: format!("instrument {effect} (this start-up's gap analysis)"),
+        })
     }
-    let effect = r.gap_verdict.as_deref()?;
-    if r.method != "B" || !is_instrument(effect) {
-        return None;
-    }
-    r.gap_health_after.map(|health| ShownCorrection {
-        health,
-        sigma: None,
-        label: format!("{effect} (gap analysis)"),
-        source: format!("instrument {effect} (this start-up's gap analysis)"),
-    })
 }
 
 /// The table's line under a result an instrument moved: its corrected health under the
@@ -413,6 +437,7 @@ mod tests {
                 magnitude_sigma: 0.0021,
                 health: [1.25, 0.5, 0.0, 0.0, 0.0, 0.75],
                 sigma: [0.125; 6],
+                also: String::new(),
             }),
         };
         let text = |format: Format| {

@@ -131,12 +131,12 @@ pub(super) fn run_sync(args: &SyncArgs) -> anyhow::Result<ExitCode> {
 fn print_report(r: &SyncReport) {
     println!("unit {} → {} (centre {})", r.unit_id, r.centre, r.centre_id);
     println!(
-        "{:<16} {:>10} {:>10} {:>8} {:>8}",
+        "{:<22} {:>10} {:>10} {:>8} {:>8}",
         "table", "sent", "new", "batches", "removed"
     );
     for s in &r.streams {
         println!(
-            "{:<16} {:>10} {:>10} {:>8} {:>8}",
+            "{:<22} {:>10} {:>10} {:>8} {:>8}",
             s.table, s.sent, s.applied, s.batches, s.removed
         );
     }

@@ -37,6 +37,9 @@ pub struct FleetHistoryRow {
     /// advice last said (`instrument_corrections`; the edges' own results only: a
     /// re-diagnosis under another configuration is not what that joint fit corrected).
     pub instrument_step: Option<InstrumentCorrection>,
+    /// The health after of the start-up's newest synced gap analysis, when it named something
+    /// (`verdict.health_after`; the edges' own results only), as `gtwatch history` shows it.
+    pub gap_health_after: Option<[f64; 6]>,
 }
 
 impl FleetHistoryRow {
@@ -66,6 +69,13 @@ pub struct FleetHistoryFilter {
     pub config_hash: Option<String>,
 }
 
+/// The health after of the newest synced gap analysis of `d`'s start-up, as JSON text (the
+/// edges' own results only: `$3`, the configuration hash, NULL).
+const EDGE_GAP_HEALTH_AFTER: &str = "CASE WHEN $3::text IS NULL THEN
+                 (SELECT g.report_json::jsonb -> 'verdict' ->> 'health_after' FROM gap_analyses g
+                  WHERE g.unit_id = d.unit_id AND g.segment_id = d.segment_id
+                  ORDER BY g.created_at_ms DESC, g.edge_id DESC LIMIT 1) END";
+
 /// The newest synced gap verdict of `d`'s start-up.
 const EDGE_GAP: &str = "(SELECT g.effect FROM gap_analyses g
                   WHERE g.unit_id = d.unit_id AND g.segment_id = d.segment_id
@@ -75,7 +85,7 @@ const EDGE_GAP: &str = "(SELECT g.effect FROM gap_analyses g
 /// column 19 on.
 const CORRECTION_COLUMNS: &str = "c.onset_segment_id, c.effect, c.unit, c.magnitude,
     c.magnitude_sigma, c.d_gc, c.d_ec, c.d_gt, c.d_et, c.d_gp, c.d_ep,
-    c.sigma_gc, c.sigma_ec, c.sigma_gt, c.sigma_et, c.sigma_gp, c.sigma_ep";
+    c.sigma_gc, c.sigma_ec, c.sigma_gt, c.sigma_et, c.sigma_gp, c.sigma_ep, c.also";
 
 /// `c` joined to a Method B result of the edges' own (`$3`, the configuration hash, NULL).
 const CORRECTION_JOIN: &str = "LEFT JOIN instrument_corrections c
@@ -86,7 +96,7 @@ const CORRECTION_JOIN: &str = "LEFT JOIN instrument_corrections c
 const NO_CORRECTION_COLUMNS: &str = "NULL::bigint, NULL::text, NULL::text, NULL::float8,
     NULL::float8, NULL::float8, NULL::float8, NULL::float8, NULL::float8, NULL::float8,
     NULL::float8, NULL::float8, NULL::float8, NULL::float8, NULL::float8, NULL::float8,
-    NULL::float8";
+    NULL::float8, NULL::text";
 
 /// The columns every history query returns, from `d` (a results table) joined with its
 /// start-up `s` and its correction `c` when `corrections`; `{table}`, `{gap}` (the verdict) and
@@ -101,7 +111,7 @@ fn history_query(table: &str, gap: &str, filter: &str, order: &str, corrections:
         "SELECT d.unit_id, d.segment_id, s.start_ms, d.method,
                 d.d_gc, d.d_ec, d.d_gt, d.d_et, d.d_gp, d.d_ep,
                 d.sigma_gc, d.sigma_ec, d.sigma_gt, d.sigma_et, d.sigma_gp, d.sigma_ep,
-                d.residual_level, d.fit_quality, {gap}, {columns}
+                d.residual_level, d.fit_quality, {gap}, {columns}, {EDGE_GAP_HEALTH_AFTER}
          FROM {table} d
          JOIN segments s ON s.unit_id = d.unit_id AND s.edge_id = d.segment_id
          {join}
@@ -176,6 +186,10 @@ pub fn fleet_history(
             fit_quality: r.get(17),
             gap_verdict: r.get(18),
             instrument_step: correction(r, segment_id),
+            gap_health_after: r
+                .get::<_, Option<String>>(37)
+                .and_then(|j| serde_json::from_str::<crate::health::HealthParams>(&j).ok())
+                .map(|h| h.to_array()),
         });
     }
     Ok(out)
@@ -200,6 +214,7 @@ fn correction(r: &postgres::Row, segment_id: i64) -> Option<InstrumentCorrection
         magnitude_sigma: r.get::<_, Option<f64>>(23)?,
         health,
         sigma,
+        also: r.get::<_, Option<String>>(36).unwrap_or_default(),
     })
 }
 

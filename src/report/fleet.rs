@@ -225,6 +225,7 @@ mod tests {
             fit_quality: Some("good".into()),
             gap_verdict: None,
             instrument_step: None,
+            gap_health_after: None,
         }
     }
 
@@ -294,6 +295,7 @@ mod tests {
                     magnitude_sigma: 0.002,
                     health: [truth, truth / 3.0, 0.0, 0.0, 0.0, 0.0],
                     sigma: [0.05; 6],
+                    also: String::new(),
                 });
                 r
             })

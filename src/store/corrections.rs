@@ -27,6 +27,10 @@ pub struct InstrumentCorrection {
     /// Corrected health, percent (`HEALTH_NAMES` order), and its 1σ.
     pub health: [f64; 6],
     pub sigma: [f64; 6],
+    /// The other instruments the health is corrected for, when several steps moved this
+    /// start-up: each as [`InstrumentCorrection::describe`] says it, with its onset
+    /// (`fuel_meter +3.03 ± 0.25 % from start-up 6`), '; '-joined; empty when none.
+    pub also: String,
 }
 
 impl InstrumentCorrection {
@@ -39,6 +43,15 @@ impl InstrumentCorrection {
             (self.magnitude, self.magnitude_sigma, self.unit.as_str())
         };
         format!("{} {m:+.2} ± {s:.2} {u}", self.effect)
+    }
+
+    /// [`Self::describe`] with the other instruments the health is corrected for, if any.
+    pub fn describe_all(&self) -> String {
+        if self.also.is_empty() {
+            self.describe()
+        } else {
+            format!("{}; also {}", self.describe(), self.also)
+        }
     }
 }
 
@@ -65,7 +78,7 @@ pub(super) fn replace(tx: &Transaction<'_>, w: &CorrectionsWrite) -> Result<(), 
         correction_columns!(""),
         ", refreshed_ms)
          VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17,
-                 ?18, ?19)"
+                 ?18, ?19, ?20)"
     ))?;
     for c in &w.rows {
         let h = &c.health;
@@ -89,13 +102,14 @@ pub(super) fn replace(tx: &Transaction<'_>, w: &CorrectionsWrite) -> Result<(), 
             s[3],
             s[4],
             s[5],
+            c.also,
             w.refreshed_ms
         ])?;
     }
     Ok(())
 }
 
-/// The correction from columns `first..first + 17` of `r` (`correction_columns!`, `segment_id`
+/// The correction from columns `first..first + 18` of `r` (`correction_columns!`, `segment_id`
 /// given), `None` when the row has none (a LEFT JOIN's NULLs).
 pub(super) fn from_row(
     r: &rusqlite::Row<'_>,
@@ -120,6 +134,7 @@ pub(super) fn from_row(
         magnitude_sigma: r.get(first + 4)?,
         health,
         sigma,
+        also: r.get(first + 17)?,
     }))
 }
 
@@ -169,6 +184,7 @@ mod tests {
             magnitude_sigma: 0.002,
             health: [1.0, 0.5, -0.25, 0.5, 0.125, segment_id as f64],
             sigma: [0.1; 6],
+            also: String::new(),
         }
     }
 

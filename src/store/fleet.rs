@@ -150,6 +150,7 @@ pub const FLEET_CORRECTIONS: FleetTable = FleetTable {
         ("sigma_gp", Real),
         ("sigma_ep", Real),
         ("refreshed_ms", Int),
+        ("also", Text),
     ],
     cursor: FleetCursor::Whole,
 };

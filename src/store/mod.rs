@@ -66,7 +66,9 @@ macro_rules! correction_columns {
             $p,
             "sigma_gp, ",
             $p,
-            "sigma_ep"
+            "sigma_ep, ",
+            $p,
+            "also"
         )
     };
 }

@@ -47,6 +47,10 @@ const MIGRATION_SQL: &[(&str, &str)] = &[
         "0009_instrument_corrections.sql",
         include_str!("../../migrations/0009_instrument_corrections.sql"),
     ),
+    (
+        "0010_corrections_also.sql",
+        include_str!("../../migrations/0010_corrections_also.sql"),
+    ),
 ];
 
 #[cfg(test)]
@@ -60,6 +64,7 @@ const MIGRATION_LIST: &[M<'static>] = &[
     M::up(MIGRATION_SQL[6].1),
     M::up(MIGRATION_SQL[7].1),
     M::up(MIGRATION_SQL[8].1),
+    M::up(MIGRATION_SQL[9].1),
 ];
 
 /// All migrations in order (for `rusqlite_migration`'s validation in tests).
