@@ -241,19 +241,10 @@ impl SequenceAttribution {
             "outlier" => self.onset..(self.onset + 1).min(n),
             _ => self.onset..best.until.unwrap_or(n).min(n),
         };
-        points
-            .iter()
-            .enumerate()
-            .map(|(j, p)| {
-                if !range.contains(&j) {
-                    return *p;
-                }
-                SeqPoint {
-                    health: std::array::from_fn(|i| p.health[i] - best.step[i]),
-                    ..*p
-                }
-            })
-            .collect()
+        map_within(points, range, |p| SeqPoint {
+            health: std::array::from_fn(|i| p.health[i] - best.step[i]),
+            ..*p
+        })
     }
 
     /// The health and 1σ each start-up would have without the instrument's error (unchanged
@@ -271,34 +262,40 @@ impl SequenceAttribution {
             return points.to_vec();
         };
         let range = self.corrected_range(points.len());
-        points
-            .iter()
-            .enumerate()
-            .map(|(j, p)| {
-                if !range.contains(&j) {
-                    return *p;
-                }
-                // A censored estimate says only that the health lies beyond the limit; under
-                // the instrument's hypothesis the health follows its trend, so that is the
-                // corrected value, with the trend's scatter.
-                let line = |i: usize| h.trend[i][0] + h.trend[i][1] * (p.t_days - h.t_ref_days);
-                SeqPoint {
-                    t_days: p.t_days,
-                    health: std::array::from_fn(|i| {
-                        if p.at_limit[i] {
-                            line(i)
-                        } else {
-                            p.health[i] - h.step[i]
-                        }
-                    }),
-                    sigma: std::array::from_fn(|i| {
-                        (sigma_of(p.sigma[i]).powi(2) + h.step_sigma[i].powi(2)).sqrt()
-                    }),
-                    at_limit: [false; 6],
-                }
-            })
-            .collect()
+        map_within(points, range, |p| {
+            // A censored estimate says only that the health lies beyond the limit; under
+            // the instrument's hypothesis the health follows its trend, so that is the
+            // corrected value, with the trend's scatter.
+            let line = |i: usize| h.trend[i][0] + h.trend[i][1] * (p.t_days - h.t_ref_days);
+            SeqPoint {
+                t_days: p.t_days,
+                health: std::array::from_fn(|i| {
+                    if p.at_limit[i] {
+                        line(i)
+                    } else {
+                        p.health[i] - h.step[i]
+                    }
+                }),
+                sigma: std::array::from_fn(|i| {
+                    (sigma_of(p.sigma[i]).powi(2) + h.step_sigma[i].powi(2)).sqrt()
+                }),
+                at_limit: [false; 6],
+            }
+        })
     }
+}
+
+/// `points` with `f` applied to those in `range`, the others as they are.
+fn map_within(
+    points: &[SeqPoint],
+    range: std::ops::Range<usize>,
+    f: impl Fn(&SeqPoint) -> SeqPoint,
+) -> Vec<SeqPoint> {
+    points
+        .iter()
+        .enumerate()
+        .map(|(j, p)| if range.contains(&j) { f(p) } else { *p })
+        .collect()
 }
 
 /// The instrument signatures of a stored gap report (its `aliases`, as [`super::alias`] wrote
