@@ -13,7 +13,7 @@
 //! `report::fleet` builds from the centre's results, washes and advice.
 
 use super::history::{
-    health_csv_cells, instrument_step_json, write_corrected_line, write_health_cells,
+    health_csv_cells, instrument_step_json, shown, write_corrected_line, write_health_cells,
     write_quality_and_gap, MethodFilter, ShownCorrection,
 };
 use crate::fleet::{
@@ -134,13 +134,7 @@ fn write_json(out: &mut dyn Write, rows: &[FleetHistoryRow]) -> anyhow::Result<(
                 "residual_level": r.residual_level,
                 "fit_quality": r.fit_quality,
                 "gap_verdict": r.gap_verdict,
-                "gap_health_after": r.gap_health_after.map(|h| {
-                    HEALTH_NAMES
-                        .iter()
-                        .zip(h)
-                        .map(|(n, v)| ((*n).to_string(), v))
-                        .collect::<std::collections::BTreeMap<_, _>>()
-                }),
+                "gap_health_after": r.gap_health_after.map(|h| shown(&h, &HEALTH_NAMES)),
                 "instrument_step": r
                     .instrument_step
                     .as_ref()

@@ -123,7 +123,7 @@ pub(super) fn write_quality_and_gap(
 }
 
 /// The values of `names` among six in `HEALTH_NAMES` order, by name.
-fn shown(values: &[f64; 6], names: &[&str]) -> BTreeMap<String, f64> {
+pub(super) fn shown(values: &[f64; 6], names: &[&str]) -> BTreeMap<String, f64> {
     HEALTH_NAMES
         .iter()
         .zip(values)

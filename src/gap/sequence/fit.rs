@@ -77,7 +77,7 @@ pub(super) struct Spec<'a> {
     /// Health-space directions switched on from the onset (each one coefficient).
     pub(super) cols: &'a [[f64; 6]],
     /// Switched on from the onset to this start-up (exclusive): the onset alone for an
-    /// outlier, the sequence's length for a step that lasts.
+    /// outlier, the sequence's length for a step that lasts (ended earlier by a later step).
     pub(super) until: usize,
     /// A mismatch in every direction shared from the onset on, held to 0 with this 1σ.
     pub(super) mismatch_sigma: Option<f64>,
@@ -104,6 +104,8 @@ pub(super) fn solve(
     spec: &Spec<'_>,
 ) -> Option<Solved> {
     let n = points.len();
+    // A later step ends this one's columns where it begins.
+    let until = spec.breaks.later.map_or(spec.until, |m| spec.until.min(m));
     let t_ref = points.iter().map(|p| p.t_days).sum::<f64>() / n as f64;
     let nc = spec.cols.len();
     let md = if spec.mismatch_sigma.is_some() { 6 } else { 0 };
@@ -115,7 +117,7 @@ pub(super) fn solve(
     let mut a = DMatrix::<f64>::zeros(rows, p);
     let mut y = DVector::<f64>::zeros(rows);
     for (j, pt) in points.iter().enumerate() {
-        let on = j >= k && j < spec.until.max(k + 1);
+        let on = j >= k && j < until.max(k + 1);
         for i in 0..6 {
             let r = j * 6 + i;
             // A censored estimate weighs nothing.

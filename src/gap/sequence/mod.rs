@@ -434,7 +434,7 @@ fn attribute_at(
 ) -> SequenceAttribution {
     let breaks = Breaks {
         later: None,
-        wash_at: wash_at.filter(|&w| w > 0 && w < k),
+        wash_at,
     };
     let mut hyps = hypotheses(points, k, signatures, breaks);
     hyps.sort_by(|a, b| a.bic.total_cmp(&b.bic));
@@ -447,19 +447,20 @@ fn attribute_at(
 }
 
 /// Every explanation of a step from start-up `k` on, fitted (unsorted), each beside the
-/// `breaks`; with a later step, no instrument that ended (its end would be that step).
+/// `breaks` (a wash only when it lies before the onset); with a later step, no instrument that
+/// ended (its end would be that step).
 fn hypotheses(
     points: &[SeqPoint],
     k: usize,
     signatures: &[Signature],
     breaks: Breaks,
 ) -> Vec<Hypothesis> {
-    let later = breaks.later;
+    let breaks = Breaks {
+        wash_at: breaks.wash_at.filter(|&w| w > 0 && w < k),
+        ..breaks
+    };
     let var = variances(points, k);
-    let n_obs = points
-        .iter()
-        .map(|p| p.at_limit.iter().filter(|c| !**c).count())
-        .sum::<usize>() as f64;
+    let n_obs = observations(points);
     let unit: Vec<[f64; 6]> = (0..6)
         .map(|i| std::array::from_fn(|j| f64::from(u8::from(i == j))))
         .collect();
@@ -467,11 +468,7 @@ fn hypotheses(
     let engine_fit = |name: String, cols: &[[f64; 6]], only_onset: bool| {
         let spec = Spec {
             cols,
-            until: if only_onset {
-                k + 1
-            } else {
-                later.unwrap_or(n)
-            },
+            until: if only_onset { k + 1 } else { n },
             mismatch_sigma: None,
             breaks,
         };
@@ -487,7 +484,7 @@ fn hypotheses(
     hyps.extend(engine_fit("wash".into(), &unit[..2], false));
     for s in signatures {
         hyps.extend(instrument_fit(points, k, &var, s, n_obs, n, breaks));
-        if later.is_some() {
+        if breaks.later.is_some() {
             continue;
         }
         // The same instrument repaired before the newest start-up: the best end (by χ²),
@@ -520,15 +517,12 @@ fn later_step(
     single_bic: f64,
 ) -> Option<usize> {
     let n = points.len();
-    let n_obs = points
-        .iter()
-        .map(|p| p.at_limit.iter().filter(|c| !**c).count())
-        .sum::<usize>() as f64;
+    let n_obs = observations(points);
     (k + MIN_WINDOW..=n.saturating_sub(MIN_WINDOW))
         .filter_map(|m| {
             let breaks = Breaks {
                 later: Some(m),
-                wash_at: wash_at.filter(|&w| w > 0 && w < k),
+                wash_at,
             };
             let best = hypotheses(points, k, signatures, breaks)
                 .into_iter()
@@ -539,6 +533,14 @@ fn later_step(
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .filter(|(_, bic)| *bic + DECISIVE_BIC < single_bic)
         .map(|(m, _)| m)
+}
+
+/// Estimates that take part in the joint fit (those not on a search limit): the N of BIC.
+fn observations(points: &[SeqPoint]) -> f64 {
+    points
+        .iter()
+        .map(|p| p.at_limit.iter().filter(|c| !**c).count())
+        .sum::<usize>() as f64
 }
 
 /// An instrument's hypothesis: its signature times the error, from the onset to start-up
@@ -557,7 +559,6 @@ fn instrument_fit(
     until: usize,
     breaks: Breaks,
 ) -> Option<Hypothesis> {
-    let later = breaks.later;
     if s.nominal == 0.0 || s.shift.iter().all(|v| *v == 0.0) {
         return None;
     }
@@ -570,7 +571,7 @@ fn instrument_fit(
         var,
         &Spec {
             cols: &cols,
-            until: later.unwrap_or(until),
+            until,
             mismatch_sigma: None,
             breaks,
         },
@@ -587,7 +588,7 @@ fn instrument_fit(
         var,
         &Spec {
             cols: &cols,
-            until: later.unwrap_or(until),
+            until,
             mismatch_sigma: Some(prior),
             breaks,
         },
