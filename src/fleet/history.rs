@@ -69,17 +69,20 @@ pub struct FleetHistoryFilter {
     pub config_hash: Option<String>,
 }
 
-/// The health after of the newest synced gap analysis of `d`'s start-up, as JSON text (the
-/// edges' own results only: `$3`, the configuration hash, NULL).
-const EDGE_GAP_HEALTH_AFTER: &str = "CASE WHEN $3::text IS NULL THEN
-                 (SELECT g.report_json::jsonb -> 'verdict' ->> 'health_after' FROM gap_analyses g
-                  WHERE g.unit_id = d.unit_id AND g.segment_id = d.segment_id
-                  ORDER BY g.created_at_ms DESC, g.edge_id DESC LIMIT 1) END";
+/// The newest synced gap analysis of `d`'s start-up, `g` (looked up once per result; both the
+/// verdict and the health after are read from it).
+const EDGE_GAP_JOIN: &str = "LEFT JOIN LATERAL (
+             SELECT n.effect, n.report_json FROM gap_analyses n
+             WHERE n.unit_id = d.unit_id AND n.segment_id = d.segment_id
+             ORDER BY n.created_at_ms DESC, n.edge_id DESC LIMIT 1) g ON TRUE";
+
+/// The health after of `g`, as JSON text (the edges' own results only: `$3`, the
+/// configuration hash, NULL).
+const EDGE_GAP_HEALTH_AFTER: &str =
+    "CASE WHEN $3::text IS NULL THEN g.report_json::jsonb -> 'verdict' ->> 'health_after' END";
 
 /// The newest synced gap verdict of `d`'s start-up.
-const EDGE_GAP: &str = "(SELECT g.effect FROM gap_analyses g
-                  WHERE g.unit_id = d.unit_id AND g.segment_id = d.segment_id
-                  ORDER BY g.created_at_ms DESC, g.edge_id DESC LIMIT 1)";
+const EDGE_GAP: &str = "g.effect";
 
 /// The corrected start-up's columns of `c` (`instrument_corrections`) the history reads, from
 /// column 19 on.
@@ -99,7 +102,7 @@ const NO_CORRECTION_COLUMNS: &str = "NULL::bigint, NULL::text, NULL::text, NULL:
     NULL::float8, NULL::text";
 
 /// The columns every history query returns, from `d` (a results table) joined with its
-/// start-up `s` and its correction `c` when `corrections`; `{table}`, `{gap}` (the verdict) and
+/// start-up `s`, its newest gap analysis `g` and its correction `c` when `corrections`; `{table}`, `{gap}` (the verdict) and
 /// `{filter}` are filled in by the caller.
 fn history_query(table: &str, gap: &str, filter: &str, order: &str, corrections: bool) -> String {
     let (columns, join) = if corrections {
@@ -114,6 +117,7 @@ fn history_query(table: &str, gap: &str, filter: &str, order: &str, corrections:
                 d.residual_level, d.fit_quality, {gap}, {columns}, {EDGE_GAP_HEALTH_AFTER}
          FROM {table} d
          JOIN segments s ON s.unit_id = d.unit_id AND s.edge_id = d.segment_id
+         {EDGE_GAP_JOIN}
          {join}
          WHERE ($1::text IS NULL OR d.unit_id = $1)
            AND ($2::text IS NULL OR d.method = $2)
