@@ -34,6 +34,9 @@ pub(crate) struct StepAttribution {
     /// start-up that read right again.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub(crate) until_segment_id: Option<i64>,
+    /// When the named instrument drifts: the last start-up it read right at.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(crate) drift_from_segment_id: Option<i64>,
     pub(crate) attribution: SequenceAttribution,
 }
 
@@ -55,6 +58,7 @@ pub(crate) fn step_line(step: &StepAttribution) -> String {
             unit,
             magnitude,
             magnitude_sigma,
+            drift,
             ..
         } => {
             let (m, s, u) = if unit == "fraction" {
@@ -62,6 +66,17 @@ pub(crate) fn step_line(step: &StepAttribution) -> String {
             } else {
                 (*magnitude, *magnitude_sigma, unit.as_str())
             };
+            if let (Some(d), Some(from)) = (drift, step.drift_from_segment_id) {
+                let per = if unit == "fraction" { 100.0 } else { 1.0 };
+                return head
+                    + &format!(
+                        "the instrument {effect} drifts since start-up {from}, the last it read \
+                         right at: {:+.3} ± {:.3} {u} a day, {m:+.2} ± {s:.2} {u} at the newest; \
+                         the trends use the health corrected for it",
+                        d.rate_per_day * per,
+                        d.rate_sigma * per
+                    );
+            }
             match step.until_segment_id {
                 Some(back) => format!(
                     "the instrument {effect} was off by {m:+.2} ± {s:.2} {u} until start-up {back}, \
@@ -142,7 +157,9 @@ fn newest_signatures(
 /// Attributes the steps in the results since the last firm wash ([`sequence::attribute_steps`];
 /// from a detected wash before the first onset on, when one lies there: see the body), each
 /// with the instruments' signatures from the newest stored gap analysis of a start-up from its
-/// onset on (the daemon analyses every start-up that steps against its trend). Returns the
+/// onset on (the daemon analyses every start-up that steps against its trend), else of any
+/// since the wash; when no start-up steps, the drift of an instrument
+/// ([`sequence::drift_onset`]) is looked for. Returns the
 /// steps, oldest first, and each result's health and σ as the trends should see them: corrected
 /// for every instrument a step names, else as stored.
 pub(super) fn attribute_since(
@@ -154,8 +171,18 @@ pub(super) fn attribute_since(
     let points: Vec<SeqPoint> = since.iter().map(|r| seq_point(r, bounds)).collect();
     // A wash recovers the compressor: its improvement is not a step.
     let recovers = crate::trend::RECOVERED_BY_WASH;
-    let Some(k) = sequence::onset(&points, recovers) else {
-        return Ok((Vec::new(), points));
+    // No start-up steps away from the trend: an instrument may still drift (each start-up a
+    // little further off than the last bends the trend it is compared with), looked for with
+    // the signatures of the newest stored gap analysis since the wash.
+    let k = match sequence::onset(&points, recovers) {
+        Some(k) => k,
+        None => {
+            let (signatures, _) = newest_signatures(store, since)?;
+            match sequence::drift_onset(&points, &signatures) {
+                Some(k) => k,
+                None => return Ok((Vec::new(), points)),
+            }
+        }
     };
     // The trend lines are straight between washes: a wash the trend detected (not yet
     // confirmed) before the onset restarts them, when enough start-ups lie between for a trend;
@@ -182,7 +209,14 @@ pub(super) fn attribute_since(
     let mut sources: Vec<Option<i64>> = Vec::new();
     let attributions =
         sequence::attribute_steps(&points[from..], k - from, recovers, wash_at, |kk| {
-            match newest_signatures(store, &since[from + kk..]) {
+            // Those of a start-up from the onset on, else of any since the wash (a
+            // linearisation at a start-up before the step serves as well: the signature is how
+            // the health answers an instrument's error, not the error itself).
+            let found = newest_signatures(store, &since[from + kk..]).and_then(|got| match got {
+                (sigs, Some(src)) => Ok((sigs, Some(src))),
+                _ => newest_signatures(store, &since[from..]),
+            });
+            match found {
                 Ok((signatures, source)) => {
                     sources.push(source);
                     signatures
@@ -216,6 +250,10 @@ pub(super) fn attribute_since(
                     .verdict
                     .until()
                     .and_then(|m| since.get(m).map(|r| r.segment_id)),
+                drift_from_segment_id: attribution
+                    .verdict
+                    .drift()
+                    .and_then(|d| since.get(d.from).map(|r| r.segment_id)),
                 attribution,
             }
         })
@@ -247,15 +285,25 @@ pub(super) fn corrections_write(
                     unit,
                     magnitude,
                     magnitude_sigma,
+                    drift,
                     ..
                 } if s.corrected && s.attribution.corrected_range(since.len()).contains(&j) => {
+                    // A drifting instrument was off at this start-up by what it had drifted
+                    // since the last start-up it read right at.
+                    let (magnitude, magnitude_sigma) = match drift {
+                        Some(d) => {
+                            let days = (p.t_days - seen[d.from].t_days).max(0.0);
+                            (d.rate_per_day * days, d.rate_sigma * days)
+                        }
+                        None => (*magnitude, *magnitude_sigma),
+                    };
                     Some(InstrumentCorrection {
                         segment_id: r.segment_id,
                         onset_segment_id: s.onset_segment_id,
                         effect: effect.clone(),
                         unit: unit.clone(),
-                        magnitude: *magnitude,
-                        magnitude_sigma: *magnitude_sigma,
+                        magnitude,
+                        magnitude_sigma,
                         health: p.health,
                         sigma: p.sigma,
                         also: String::new(),

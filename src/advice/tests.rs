@@ -362,6 +362,99 @@ fn a_fuel_meter_recalibrated_later_is_corrected_for_its_start_ups_only() {
     assert!((advised_days(&r) - advised_days(&c)).abs() <= 1.0);
 }
 
+/// The same meter drifting instead of stepping: right at start-up 3, then 0.4 % further off a
+/// day, 2 % high at the newest (8); no start-up steps away from the trend of those before it.
+/// (Further, to 3 %, the HP turbine's estimate of the last two start-ups sits on its −3 limit,
+/// the others bend with it, and the newest is seen as a step of its own, `ambiguous`.)
+/// The only gap analysis is one of the newest start-up (as the daemon's schedule makes). The
+/// advice names the meter's drift and the start-up it last read right at, `history` shows each
+/// later start-up corrected by what the meter had drifted by then (within 0.3 points of the
+/// truth), and the advice stays within a day of the advice on a correct meter. Looked for as
+/// steps only, nothing was found: the health stayed as fitted, up to 2 points off.
+#[test]
+fn a_drifting_fuel_meter_is_named_corrected_and_leaves_the_advice() {
+    const LAST_RIGHT: usize = 3;
+    const NEWEST: f64 = 0.02;
+    let drift =
+        |j: usize| 1.0 + NEWEST * j.saturating_sub(LAST_RIGHT) as f64 / (N - 1 - LAST_RIGHT) as f64;
+    let engine = Engine::reference().expect("engine");
+    let econ = WashEconomics::default();
+    let dir = tempfile::tempdir().expect("dir");
+    let mut faulty = Store::open(&dir.path().join("faulty.db")).expect("db");
+    let mut clean = Store::open(&dir.path().join("clean.db")).expect("db");
+    for j in 0..N {
+        let rec = startup(&engine, j, drift(j));
+        let fit = diagnose_transient(&engine, &rec, &cfg()).expect("fit");
+        let seg = store_result(&mut faulty, j, &fit);
+        if j > LAST_RIGHT {
+            let clean_fit =
+                diagnose_transient(&engine, &startup(&engine, j, 1.0), &cfg()).expect("fit");
+            store_result(&mut clean, j, &clean_fit);
+        } else {
+            store_result(&mut clean, j, &fit);
+        }
+        if j == N - 1 {
+            let a = aliases(&engine, &rec, &cfg(), &fit).expect("aliases");
+            store_gap_report(&mut faulty, seg, serde_json::json!({ "aliases": a }));
+        }
+    }
+    let det = WashDetection::default();
+    let r = refresh(&mut faulty, &engine, &econ, &det, &HealthBounds::default()).expect("advice");
+    let lines: Vec<String> = r.steps.iter().map(step_line).collect();
+    let [step] = r.steps.as_slice() else {
+        panic!("one step: {lines:#?}");
+    };
+    let line = step_line(step);
+    eprintln!("{line}");
+    let SequenceVerdict::Instrument {
+        effect,
+        magnitude,
+        drift: Some(d),
+        ..
+    } = &step.attribution.verdict
+    else {
+        panic!("not named a drift: {:?}", step.attribution.verdict);
+    };
+    assert_eq!(effect, "fuel_meter");
+    assert!((magnitude - NEWEST).abs() < 0.005, "size {magnitude}");
+    assert!(
+        (LAST_RIGHT - 1..=LAST_RIGHT + 1).contains(&d.from),
+        "from {}",
+        d.from
+    );
+    assert_eq!(step.drift_from_segment_id, Some(1 + d.from as i64));
+    assert!(line.contains("drifts since start-up"), "{line}");
+    let rows = faulty.history(&HistoryFilter::default()).expect("history");
+    let mut worst = 0.0_f64;
+    for (j, row) in rows.iter().enumerate() {
+        match &row.instrument_step {
+            Some(c) => {
+                assert!(j > d.from, "start-up {j} corrected");
+                // Each start-up's own error: what the meter had drifted by then.
+                assert!(
+                    (c.magnitude - (drift(j) - 1.0)).abs() < 0.005,
+                    "start-up {j}: {}",
+                    c.describe()
+                );
+                for (i, v) in c.health.iter().enumerate() {
+                    worst = worst.max((v - truth(j)[i]).abs());
+                }
+            }
+            None => assert!(j <= d.from, "start-up {j} not corrected"),
+        }
+    }
+    eprintln!("corrected health off by at most {worst:.2} points");
+    assert!(worst <= 0.3, "corrected health off by {worst:.2} points");
+    let c = refresh(&mut clean, &engine, &econ, &det, &HealthBounds::default()).expect("advice");
+    assert!(c.steps.is_empty(), "{:?}", c.steps);
+    eprintln!(
+        "advised day {:.2} with the meter corrected, {:.2} with a correct meter",
+        advised_days(&r) - T0 as f64 / DAY as f64,
+        advised_days(&c) - T0 as f64 / DAY as f64
+    );
+    assert!((advised_days(&r) - advised_days(&c)).abs() <= 1.0);
+}
+
 /// Twelve stored results with known health (no model runs): a compressor fouling at
 /// 0.25 %/day, a wash the trend detected (nobody confirmed it) recovering 1.5 and 0.6 points
 /// before start-up `wash`, and the fuel meter reading 3 % high from start-up `step` on (its alias

@@ -42,6 +42,10 @@ pub struct BenchGapArgs {
     /// start-ups with the error, so the joint fit must find where it ended too.
     #[arg(long)]
     pub repair_after: Option<usize>,
+    /// With `--sequence`: the instrument's error grows across the start-ups (none at the
+    /// fourth, its drawn size at the newest) instead of stepping at the fifth.
+    #[arg(long)]
+    pub drift: bool,
     /// Print JSON (the only format).
     #[arg(long)]
     pub json: bool,
@@ -116,6 +120,7 @@ fn run_sequences(
         seed: a.seed,
         only: a.kinds.clone(),
         repair_after: a.repair_after,
+        drift: a.drift,
     };
     let cases = sb::run_sequences(engine, &run, cfg, |c| {
         eprintln!(
@@ -145,6 +150,7 @@ fn run_sequences(
     v["seed"] = serde_json::json!(a.seed);
     v["start_ups_per_sequence"] = serde_json::json!(a.sequence);
     v["repair_after"] = serde_json::json!(a.repair_after);
+    v["drift"] = serde_json::json!(a.drift);
     v["wall_s"] = serde_json::json!(start.elapsed().as_secs_f64());
     v["per_case"] = serde_json::to_value(&cases)?;
     println!("{}", serde_json::to_string_pretty(&v)?);

@@ -108,6 +108,10 @@ pub(crate) struct SequenceRun {
     pub(crate) only: Vec<String>,
     /// The instrument is repaired after this many start-ups with the error (`None`: never).
     pub(crate) repair_after: Option<usize>,
+    /// The instrument's error grows across the start-ups instead of stepping: none at the one
+    /// before [`ONSET`], its drawn size at the newest, in equal steps a day (a meter's
+    /// calibration drifting).
+    pub(crate) drift: bool,
 }
 
 /// Runs `run.cases` sequences of `run.start_ups` each, cycling through the kinds.
@@ -206,7 +210,12 @@ fn one_sequence(
     for j in 0..start_ups {
         let h = true_health(base, rate, j, turbine);
         let wrong = j >= ONSET && repaired_at.is_none_or(|m| j < m);
-        let hid = if wrong { &hidden } else { &Hidden::None };
+        let grown = if run.drift {
+            hidden.scaled((j + 1 - ONSET) as f64 / (start_ups - ONSET) as f64)
+        } else {
+            hidden.clone()
+        };
+        let hid = if wrong { &grown } else { &Hidden::None };
         let (plant, samples) = hid.simulate(engine, &HealthParams::from_array(h))?;
         let noise_seed = 7_000 + 100 * index as u64 + j as u64;
         let rec = hid.record(&plant, &samples, noise_seed, true)?;
@@ -236,7 +245,6 @@ fn one_sequence(
     };
     let error_fitted = error(&points);
     let recovers = crate::trend::RECOVERED_BY_WASH;
-    let onset = sequence::onset(&points, recovers);
     // As the wash advice does: every step from the first onset on ([`sequence::attribute_steps`]),
     // each with the signatures of a gap analysis of its own onset. The truth has one step: the
     // first is scored, and any later one is a false alarm (`later_steps`).
@@ -256,6 +264,10 @@ fn one_sequence(
             })
             .unwrap_or_default()
     };
+    // When no start-up steps away from the trend, a drift is looked for with the signatures
+    // of the newest start-up's gap analysis (as the advice does with the newest stored one).
+    let onset = sequence::onset(&points, recovers)
+        .or_else(|| sequence::drift_onset(&points, &signatures_at(start_ups - 1)));
     let mut later_steps = Vec::new();
     let (verdict, correct, fitted, corrected, fitted_until) = match onset {
         None => ("not_found".to_string(), false, None, points.clone(), None),

@@ -63,9 +63,10 @@ pub(super) struct Solved {
     /// The extra columns' coefficients and their 1σ.
     pub(super) coef: Vec<f64>,
     pub(super) coef_sigma: Vec<f64>,
-    /// The shared mismatch (0 without one).
+    /// The shared mismatch (0 without one; per day of a drift).
     pub(super) mismatch: [f64; 6],
-    /// 1σ of the whole step (extra columns and mismatch) in each parameter.
+    /// 1σ of the whole step (extra columns and mismatch) in each parameter (per day of a
+    /// drift).
     pub(super) step_sigma: [f64; 6],
     /// Each parameter's trend line: value at `t_ref_days` and rate per day.
     pub(super) lines: [[f64; 2]; 6],
@@ -79,10 +80,21 @@ pub(super) struct Spec<'a> {
     /// Switched on from the onset to this start-up (exclusive): the onset alone for an
     /// outlier, the sequence's length for a step that lasts (ended earlier by a later step).
     pub(super) until: usize,
-    /// A mismatch in every direction shared from the onset on, held to 0 with this 1σ.
+    /// A mismatch in every direction shared from the onset on (growing with a drift's share),
+    /// held to 0 with this 1σ, in points at the newest start-up it is on.
     pub(super) mismatch_sigma: Option<f64>,
     /// Steps every hypothesis of the sequence has besides its own.
     pub(super) breaks: Breaks,
+    /// `None`: the columns are a step (the same at every start-up they are on). `Some(t0)`: a
+    /// drift, each start-up's share growing with its time since `t0` (days), so a column's
+    /// coefficient is a rate per day.
+    pub(super) ramp_from_days: Option<f64>,
+}
+
+/// How much of a hypothesis's columns a start-up at `t_days` carries: all of a step, the days
+/// since its start of a drift.
+pub(super) fn share(ramp_from_days: Option<f64>, t_days: f64) -> f64 {
+    ramp_from_days.map_or(1.0, |t0| (t_days - t0).max(0.0))
 }
 
 /// Steps in a sequence besides the one a hypothesis explains, each free.
@@ -109,6 +121,11 @@ pub(super) fn solve(
     let t_ref = points.iter().map(|p| p.t_days).sum::<f64>() / n as f64;
     let nc = spec.cols.len();
     let md = if spec.mismatch_sigma.is_some() { 6 } else { 0 };
+    // The share at the newest start-up the columns are on: the mismatch's scale.
+    let reach = (k..until.max(k + 1).min(n))
+        .map(|j| share(spec.ramp_from_days, points[j].t_days))
+        .fold(0.0, f64::max);
+    let reach = if reach > 0.0 { reach } else { 1.0 };
     // The later step's six columns come after the hypothesis's, then the wash's two.
     let lc = 12 + nc + md;
     let wc = lc + if spec.breaks.later.is_some() { 6 } else { 0 };
@@ -118,6 +135,7 @@ pub(super) fn solve(
     let mut y = DVector::<f64>::zeros(rows);
     for (j, pt) in points.iter().enumerate() {
         let on = j >= k && j < until.max(k + 1);
+        let g = share(spec.ramp_from_days, pt.t_days);
         for i in 0..6 {
             let r = j * 6 + i;
             // A censored estimate weighs nothing.
@@ -130,10 +148,10 @@ pub(super) fn solve(
             a[(r, 2 * i + 1)] = w * (pt.t_days - t_ref);
             if on {
                 for (c, col) in spec.cols.iter().enumerate() {
-                    a[(r, 12 + c)] = w * col[i];
+                    a[(r, 12 + c)] = w * g * col[i];
                 }
                 if md > 0 {
-                    a[(r, 12 + nc + i)] = w;
+                    a[(r, 12 + nc + i)] = w * g / reach;
                 }
             }
             if spec.breaks.later.is_some_and(|m| j >= m) {
@@ -146,7 +164,7 @@ pub(super) fn solve(
         }
     }
     if let Some(sm) = spec.mismatch_sigma {
-        for i in 0..6 {
+        for i in 0..md {
             a[(n * 6 + i, 12 + nc + i)] = 1.0 / sm;
         }
     }
@@ -174,7 +192,7 @@ pub(super) fn solve(
             if (12..12 + nc).contains(&c) {
                 spec.cols[c - 12][i]
             } else if c == 12 + nc + i && md > 0 {
-                1.0
+                1.0 / reach
             } else {
                 0.0
             }
@@ -193,7 +211,13 @@ pub(super) fn solve(
         params: kept.iter().filter(|&&c| c < 12 + nc || c >= lc).count(),
         coef: full[12..12 + nc].to_vec(),
         coef_sigma: full_sigma[12..12 + nc].to_vec(),
-        mismatch: std::array::from_fn(|i| if md > 0 { full[12 + nc + i] } else { 0.0 }),
+        mismatch: std::array::from_fn(|i| {
+            if md > 0 {
+                full[12 + nc + i] / reach
+            } else {
+                0.0
+            }
+        }),
         lines: std::array::from_fn(|i| [full[2 * i], full[2 * i + 1]]),
         t_ref_days: t_ref,
     })

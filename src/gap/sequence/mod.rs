@@ -16,7 +16,16 @@
 //! - `θ·s` for each instrument signature (1 parameter each);
 //! - `θ·s` from the onset until a later start-up, each instrument again (the instrument was
 //!   repaired or recalibrated in between: 2 parameters, its size and the start-up it ended
-//!   before; at least [`MIN_WINDOW`] start-ups long, since one start-up alone is an outlier).
+//!   before; at least [`MIN_WINDOW`] start-ups long, since one start-up alone is an outlier);
+//! - `r·(t − t_m)·s`, each instrument drifting from the last start-up `m` it read right at
+//!   (at most the one before the onset: a slow drift leaves the trend later than it began; 2
+//!   parameters, its rate and `m`), and, as what the engine may do the same way, a change of
+//!   rate from `m` in one health parameter, in both compressor parameters (fouling that speeds
+//!   up) or in all six.
+//!
+//! A drift that never steps far enough from the trend of the start-ups before it for any
+//! [`onset`] is looked for by [`drift_onset`]: an instrument's drift that beats the trend alone
+//! decisively gives the onset, and the attribution then weighs it against everything above.
 //!
 //! Steps are attributed one after another ([`attribute_steps`]): when a free step from a later
 //! start-up, beside the best explanation, fits decisively better, the first step is fitted on
@@ -125,11 +134,26 @@ pub(crate) struct Hypothesis {
     /// error lasted from the onset to the one before). `None`: from the onset on.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub(crate) until: Option<usize>,
+    /// An instrument drifting rather than stepped: the last start-up it read right at (its
+    /// error grows from that start-up's time on, `step` and `magnitude` are per day).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(crate) drift_from: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(crate) drift_from_days: Option<f64>,
     /// 1σ of `step`, points.
     pub(crate) step_sigma: [f64; 6],
     /// Each parameter's trend under this hypothesis: value at `t_ref_days`, rate per day.
     pub(crate) trend: [[f64; 2]; 6],
     pub(crate) t_ref_days: f64,
+}
+
+impl Hypothesis {
+    /// How much this explanation moves the health of a start-up at `t_days` that it is on:
+    /// the step, or what the drift had reached by then.
+    pub(crate) fn shift_at(&self, t_days: f64) -> [f64; 6] {
+        let g = share(self.drift_from_days, t_days);
+        std::array::from_fn(|i| g * self.step[i])
+    }
 }
 
 /// What the sequence says.
@@ -149,6 +173,10 @@ pub(crate) enum SequenceVerdict {
         /// it still reads wrong at the newest.
         #[serde(skip_serializing_if = "Option::is_none")]
         until: Option<usize>,
+        /// The instrument drifts: its error grows from the last start-up it read right at
+        /// (`magnitude` is then the error it reached at the newest start-up it moved).
+        #[serde(skip_serializing_if = "Option::is_none")]
+        drift: Option<Drift>,
     },
     /// An instrument explains the step best, but not decisively: these are within
     /// [`DECISIVE_BIC`] of it (instruments and engine explanations).
@@ -179,6 +207,14 @@ impl SequenceVerdict {
         }
     }
 
+    /// The named instrument's drift, when it drifts.
+    pub(crate) fn drift(&self) -> Option<Drift> {
+        match self {
+            SequenceVerdict::Instrument { drift, .. } => *drift,
+            _ => None,
+        }
+    }
+
     /// The instrument's fitted magnitude and its 1σ, when the verdict names one.
     pub(crate) fn instrument_magnitude(&self) -> Option<(f64, f64)> {
         match self {
@@ -190,6 +226,17 @@ impl SequenceVerdict {
             _ => None,
         }
     }
+}
+
+/// An instrument's error that grows with time rather than stepped (a meter's calibration
+/// drifting, a thermocouple decaying).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub(crate) struct Drift {
+    /// Index of the last start-up it read right at: the error grows from its time on.
+    pub(crate) from: usize,
+    /// Growth of the error per day, in the instrument's unit, and its 1σ.
+    pub(crate) rate_per_day: f64,
+    pub(crate) rate_sigma: f64,
 }
 
 /// The attribution of the first step in a sequence.
@@ -207,11 +254,19 @@ impl SequenceAttribution {
     /// on the whole sequence (indices moved by `by`).
     pub(crate) fn shifted(mut self, by: usize) -> SequenceAttribution {
         self.onset += by;
-        if let SequenceVerdict::Instrument { until: Some(m), .. } = &mut self.verdict {
-            *m += by;
+        if let SequenceVerdict::Instrument { until, drift, .. } = &mut self.verdict {
+            if let Some(m) = until {
+                *m += by;
+            }
+            if let Some(d) = drift {
+                d.from += by;
+            }
         }
         for h in &mut self.hypotheses {
             if let Some(m) = &mut h.until {
+                *m += by;
+            }
+            if let Some(m) = &mut h.drift_from {
                 *m += by;
             }
         }
@@ -222,7 +277,9 @@ impl SequenceAttribution {
     /// or to the start-up before it read right again. Empty unless the verdict names one.
     pub(crate) fn corrected_range(&self, n: usize) -> std::ops::Range<usize> {
         match &self.verdict {
-            SequenceVerdict::Instrument { until, .. } => self.onset..until.unwrap_or(n).min(n),
+            SequenceVerdict::Instrument { until, drift, .. } => {
+                drift.map_or(self.onset, |d| d.from + 1)..until.unwrap_or(n).min(n)
+            }
             _ => 0..0,
         }
     }
@@ -239,11 +296,14 @@ impl SequenceAttribution {
         let range = match best.name.as_str() {
             "none" => 0..0,
             "outlier" => self.onset..(self.onset + 1).min(n),
-            _ => self.onset..best.until.unwrap_or(n).min(n),
+            _ => best.drift_from.map_or(self.onset, |m| m + 1)..best.until.unwrap_or(n).min(n),
         };
-        map_within(points, range, |p| SeqPoint {
-            health: std::array::from_fn(|i| p.health[i] - best.step[i]),
-            ..*p
+        map_within(points, range, |p| {
+            let shift = best.shift_at(p.t_days);
+            SeqPoint {
+                health: std::array::from_fn(|i| p.health[i] - shift[i]),
+                ..*p
+            }
         })
     }
 
@@ -251,14 +311,18 @@ impl SequenceAttribution {
     /// unless the verdict names an instrument; the start-ups of [`Self::corrected_range`] are
     /// corrected).
     pub(crate) fn corrected(&self, points: &[SeqPoint]) -> Vec<SeqPoint> {
-        let SequenceVerdict::Instrument { effect, until, .. } = &self.verdict else {
+        let SequenceVerdict::Instrument {
+            effect,
+            until,
+            drift,
+            ..
+        } = &self.verdict
+        else {
             return points.to_vec();
         };
-        let Some(h) = self
-            .hypotheses
-            .iter()
-            .find(|h| &h.name == effect && h.until == *until)
-        else {
+        let Some(h) = self.hypotheses.iter().find(|h| {
+            &h.name == effect && h.until == *until && h.drift_from == drift.map(|d| d.from)
+        }) else {
             return points.to_vec();
         };
         let range = self.corrected_range(points.len());
@@ -267,17 +331,19 @@ impl SequenceAttribution {
             // the instrument's hypothesis the health follows its trend, so that is the
             // corrected value, with the trend's scatter.
             let line = |i: usize| h.trend[i][0] + h.trend[i][1] * (p.t_days - h.t_ref_days);
+            let g = share(h.drift_from_days, p.t_days);
+            let shift = h.shift_at(p.t_days);
             SeqPoint {
                 t_days: p.t_days,
                 health: std::array::from_fn(|i| {
                     if p.at_limit[i] {
                         line(i)
                     } else {
-                        p.health[i] - h.step[i]
+                        p.health[i] - shift[i]
                     }
                 }),
                 sigma: std::array::from_fn(|i| {
-                    (sigma_of(p.sigma[i]).powi(2) + h.step_sigma[i].powi(2)).sqrt()
+                    (sigma_of(p.sigma[i]).powi(2) + (g * h.step_sigma[i]).powi(2)).sqrt()
                 }),
                 at_limit: [false; 6],
             }
@@ -359,6 +425,46 @@ pub(crate) fn onset_from(points: &[SeqPoint], min_k: usize, recovers: [bool; 6])
         .find(|&k| !steps_against_trend(&trend[..k], &trend[k], recovers).is_empty())
 }
 
+/// The first start-up of an instrument's drift in a sequence none of whose start-ups steps
+/// away from the trend of those before it ([`onset`] finds none: a slow drift bends the trend
+/// it is compared with): the start-up after the last one read right at, for the drift of an
+/// instrument in `signatures` that fits better than the trend alone by [`DECISIVE_BIC`] (its
+/// rate and its start counted as parameters). `None` when no drift does, or the sequence is
+/// too short. Whether it is the instrument's is then for [`attribute_steps`] to weigh, beside
+/// the engine's own rate changes.
+pub(crate) fn drift_onset(points: &[SeqPoint], signatures: &[Signature]) -> Option<usize> {
+    let n = points.len();
+    let n_obs = observations(points);
+    (MIN_BEFORE - 1..n.saturating_sub(MIN_WINDOW))
+        .filter_map(|m| {
+            let var = variances(points, m + 1);
+            let none = solve(
+                points,
+                m + 1,
+                &var,
+                &Spec {
+                    cols: &[],
+                    until: n,
+                    mismatch_sigma: None,
+                    breaks: Breaks::default(),
+                    ramp_from_days: None,
+                },
+            )?;
+            let none_bic = none.chi2 + none.params as f64 * n_obs.ln();
+            signatures
+                .iter()
+                .filter_map(|s| {
+                    instrument_fit(points, m + 1, &var, s, n_obs, n, Breaks::default(), Some(m))
+                })
+                .map(|h| h.bic + n_obs.ln())
+                .filter(|bic| bic + DECISIVE_BIC < none_bic)
+                .min_by(f64::total_cmp)
+                .map(|bic| (m, bic))
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(m, _)| m + 1)
+}
+
 /// Most steps attributed in one sequence (since the last firm wash).
 pub(crate) const MAX_STEPS: usize = 3;
 
@@ -438,7 +544,7 @@ fn attribute_at(
     };
     let mut hyps = hypotheses(points, k, signatures, breaks);
     hyps.sort_by(|a, b| a.bic.total_cmp(&b.bic));
-    let verdict = verdict_of(&hyps, signatures);
+    let verdict = verdict_of(&hyps, signatures, points);
     SequenceAttribution {
         onset: k,
         verdict,
@@ -465,32 +571,75 @@ fn hypotheses(
         .map(|i| std::array::from_fn(|j| f64::from(u8::from(i == j))))
         .collect();
     let n = points.len();
-    let engine_fit = |name: String, cols: &[[f64; 6]], only_onset: bool| {
-        let spec = Spec {
-            cols,
-            until: if only_onset { k + 1 } else { n },
-            mismatch_sigma: None,
-            breaks,
+    let engine_fit =
+        |name: String, cols: &[[f64; 6]], only_onset: bool, drift_from: Option<usize>| {
+            let ramp_from_days = drift_from.map(|m| points[m].t_days);
+            let spec = Spec {
+                cols,
+                until: if only_onset { k + 1 } else { n },
+                mismatch_sigma: None,
+                breaks,
+                ramp_from_days,
+            };
+            let on = drift_from.map_or(k, |m| m + 1);
+            solve(points, on, &var, &spec).map(|s| {
+                let mut h = hypothesis(name, false, s, cols, n_obs);
+                h.drift_from = drift_from;
+                h.drift_from_days = ramp_from_days;
+                h
+            })
         };
-        solve(points, k, &var, &spec).map(|s| hypothesis(name, false, s, cols, n_obs))
+    // The engine's health changing its rate from the last start-up before the onset or an
+    // earlier one (the best start by χ², one parameter more): a fault that develops, fouling
+    // that speeds up. Beside an instrument's drift, what the engine may do the same way.
+    let rate_change = |name: String, cols: &[[f64; 6]]| {
+        (MIN_BEFORE - 1..k)
+            .filter_map(|m| engine_fit(name.clone(), cols, false, Some(m)))
+            .min_by(|a, b| a.chi2.total_cmp(&b.chi2))
+            .map(|mut h| {
+                h.extra_params += 1;
+                h.bic += n_obs.ln();
+                h
+            })
     };
     let mut hyps: Vec<Hypothesis> = Vec::new();
-    hyps.extend(engine_fit("none".into(), &[], false));
+    hyps.extend(engine_fit("none".into(), &[], false, None));
     for (i, name) in HEALTH_NAMES.iter().enumerate() {
-        hyps.extend(engine_fit(format!("step:{name}"), &unit[i..=i], false));
+        hyps.extend(engine_fit(
+            format!("step:{name}"),
+            &unit[i..=i],
+            false,
+            None,
+        ));
+        hyps.extend(rate_change(format!("rate:{name}"), &unit[i..=i]));
     }
-    hyps.extend(engine_fit("step:all".into(), &unit, false));
-    hyps.extend(engine_fit("outlier".into(), &unit, true));
-    hyps.extend(engine_fit("wash".into(), &unit[..2], false));
+    hyps.extend(engine_fit("step:all".into(), &unit, false, None));
+    hyps.extend(rate_change("rate:all".into(), &unit));
+    hyps.extend(engine_fit("outlier".into(), &unit, true, None));
+    hyps.extend(engine_fit("wash".into(), &unit[..2], false, None));
+    // Compressor fouling speeding up or slowing down (a dusty season, a filter change): both
+    // compressor parameters, as a wash steps them.
+    hyps.extend(rate_change("rate:fouling".into(), &unit[..2]));
     for s in signatures {
-        hyps.extend(instrument_fit(points, k, &var, s, n_obs, n, breaks));
+        hyps.extend(instrument_fit(points, k, &var, s, n_obs, n, breaks, None));
+        // The same instrument drifting from the last start-up it read right at, at most the
+        // one before the onset (a slow drift leaves the trend later than it began): the best
+        // start (by χ²), counted as one parameter more.
+        let drifting = (MIN_BEFORE - 1..k)
+            .filter_map(|m| instrument_fit(points, k, &var, s, n_obs, n, breaks, Some(m)))
+            .min_by(|a, b| a.chi2.total_cmp(&b.chi2));
+        hyps.extend(drifting.map(|mut h| {
+            h.extra_params += 1;
+            h.bic += n_obs.ln();
+            h
+        }));
         if breaks.later.is_some() {
             continue;
         }
         // The same instrument repaired before the newest start-up: the best end (by χ²),
         // counted as one parameter more.
         let ended = (k + MIN_WINDOW..n)
-            .filter_map(|m| instrument_fit(points, k, &var, s, n_obs, m, breaks))
+            .filter_map(|m| instrument_fit(points, k, &var, s, n_obs, m, breaks, None))
             .min_by(|a, b| a.chi2.total_cmp(&b.chi2));
         hyps.extend(ended.map(|mut h| {
             h.extra_params += 1;
@@ -550,6 +699,7 @@ fn observations(points: &[SeqPoint]) -> f64 {
 /// fit; a 3 % fuel-meter error is not small). Two passes: the error's size first, then the
 /// mismatch's prior from it. `None` when the signature is empty, the fit fails or the error
 /// is beyond the credible.
+#[allow(clippy::too_many_arguments)] // one fit's whole specification, each a different kind
 fn instrument_fit(
     points: &[SeqPoint],
     k: usize,
@@ -558,6 +708,7 @@ fn instrument_fit(
     n_obs: f64,
     until: usize,
     breaks: Breaks,
+    drift_from: Option<usize>,
 ) -> Option<Hypothesis> {
     if s.nominal == 0.0 || s.shift.iter().all(|v| *v == 0.0) {
         return None;
@@ -565,6 +716,20 @@ fn instrument_fit(
     // The column is the shift per unit error, so the coefficient is the error itself.
     let col: [f64; 6] = std::array::from_fn(|i| s.shift[i] / s.nominal);
     let cols = [col];
+    let ramp_from_days = drift_from.map(|m| points[m].t_days);
+    // A drift moves every start-up after the last it read right at, before the onset too.
+    let k = drift_from.map_or(k, |m| m + 1);
+    // The newest start-up the error moved, and its share of the column (1 for a step; for a
+    // drift the days it has run, by which its rate's prior floor is divided).
+    let last_on = until
+        .min(breaks.later.unwrap_or(until))
+        .min(points.len())
+        .max(k + 1)
+        - 1;
+    let reached = share(ramp_from_days, points[last_on].t_days);
+    if reached <= 0.0 {
+        return None;
+    }
     let first = solve(
         points,
         k,
@@ -574,6 +739,7 @@ fn instrument_fit(
             until,
             mismatch_sigma: None,
             breaks,
+            ramp_from_days,
         },
     )?;
     let step_norm = col
@@ -581,7 +747,7 @@ fn instrument_fit(
         .map(|c| (c * first.coef[0]).powi(2))
         .sum::<f64>()
         .sqrt();
-    let prior = (SIGNATURE_REL_ERROR * step_norm / 6f64.sqrt()).max(SIGMA_FLOOR);
+    let prior = (SIGNATURE_REL_ERROR * step_norm * reached / 6f64.sqrt()).max(SIGMA_FLOOR);
     let second = solve(
         points,
         k,
@@ -591,12 +757,17 @@ fn instrument_fit(
             until,
             mismatch_sigma: Some(prior),
             breaks,
+            ramp_from_days,
         },
     )?;
     let mut h = hypothesis(s.effect.clone(), true, second, &cols, n_obs);
     h.until = (until < points.len()).then_some(until);
+    h.drift_from = drift_from;
+    h.drift_from_days = ramp_from_days;
+    // A drift's coefficient is its rate: the error it reached at the newest start-up it moved
+    // is what must be credible.
     h.magnitude
-        .is_some_and(|m| m.abs() <= s.max_magnitude)
+        .is_some_and(|m| (m * reached).abs() <= s.max_magnitude)
         .then_some(h)
 }
 
@@ -624,6 +795,8 @@ fn hypothesis(
         step,
         magnitude: instrument.then(|| s.coef[0]),
         until: None,
+        drift_from: None,
+        drift_from_days: None,
         magnitude_sigma: instrument.then(|| s.coef_sigma[0]),
         step_sigma: s.step_sigma,
         trend: s.lines,
@@ -631,7 +804,11 @@ fn hypothesis(
     }
 }
 
-fn verdict_of(hyps: &[Hypothesis], signatures: &[Signature]) -> SequenceVerdict {
+fn verdict_of(
+    hyps: &[Hypothesis],
+    signatures: &[Signature],
+    points: &[SeqPoint],
+) -> SequenceVerdict {
     let Some(best) = hyps.first() else {
         return SequenceVerdict::NoStep;
     };
@@ -639,6 +816,21 @@ fn verdict_of(hyps: &[Hypothesis], signatures: &[Signature]) -> SequenceVerdict 
         return SequenceVerdict::NoStep;
     }
     if !best.instrument {
+        // An instrument as close as an instrument must beat the engine by: the data cannot
+        // tell them apart (a power transducer drifting and the power turbine wearing on look
+        // alike), so neither is taken.
+        let mut candidates = vec![best.name.clone()];
+        for h in hyps[1..]
+            .iter()
+            .filter(|h| h.instrument && h.bic - best.bic < DECISIVE_BIC)
+        {
+            if !candidates.contains(&h.name) {
+                candidates.push(h.name.clone());
+            }
+        }
+        if candidates.len() > 1 {
+            return SequenceVerdict::Ambiguous { candidates };
+        }
         return SequenceVerdict::HealthStep {
             explanation: best.name.clone(),
         };
@@ -663,18 +855,30 @@ fn verdict_of(hyps: &[Hypothesis], signatures: &[Signature]) -> SequenceVerdict 
         .find(|s| s.effect == best.name)
         .map(|s| s.unit.clone())
         .unwrap_or_default();
+    let magnitude = best.magnitude.unwrap_or(0.0);
+    let magnitude_sigma = best.magnitude_sigma.unwrap_or(0.0);
+    let drift = best.drift_from.map(|from| Drift {
+        from,
+        rate_per_day: magnitude,
+        rate_sigma: magnitude_sigma,
+    });
+    // A drift is stated by the error it reached at the newest start-up it moved.
+    let reached = points
+        .get(best.until.unwrap_or(points.len()).saturating_sub(1))
+        .map_or(1.0, |p| share(best.drift_from_days, p.t_days));
     SequenceVerdict::Instrument {
         effect: best.name.clone(),
         unit,
-        magnitude: best.magnitude.unwrap_or(0.0),
-        magnitude_sigma: best.magnitude_sigma.unwrap_or(0.0),
+        magnitude: magnitude * reached,
+        magnitude_sigma: magnitude_sigma * reached,
         until: best.until,
+        drift,
     }
 }
 
 mod fit;
 pub(crate) use fit::Breaks;
-use fit::{solve, variances, Solved, Spec};
+use fit::{share, solve, variances, Solved, Spec};
 
 #[cfg(test)]
 mod tests;

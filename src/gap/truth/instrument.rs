@@ -79,6 +79,42 @@ fn sign(rng: &mut impl Rng) -> f64 {
 }
 
 impl Alteration {
+    /// The same alteration with its error's size times `share` (an error that has grown to that
+    /// share of its size; a lag or a lead, which has no size, as it is).
+    pub(crate) fn scaled(self, share: f64) -> Alteration {
+        match self {
+            Alteration::Offset { signal, offset } => Alteration::Offset {
+                signal,
+                offset: offset * share,
+            },
+            Alteration::Ripple {
+                signal,
+                amplitude,
+                hz,
+            } => Alteration::Ripple {
+                signal,
+                amplitude: amplitude * share,
+                hz,
+            },
+            Alteration::Scale { signal, factor } => Alteration::Scale {
+                signal,
+                factor: 1.0 + (factor - 1.0) * share,
+            },
+            Alteration::Drift { signal, rel_end } => Alteration::Drift {
+                signal,
+                rel_end: rel_end * share,
+            },
+            Alteration::FuelCutoff {
+                offset_kg_s,
+                cutoff_kg_s,
+            } => Alteration::FuelCutoff {
+                offset_kg_s: offset_kg_s * share,
+                cutoff_kg_s,
+            },
+            Alteration::TwoPath { .. } | Alteration::FuelLead { .. } => self,
+        }
+    }
+
     /// Draws the alteration of instrument truth `kind`, with its magnitude; `None` for a kind
     /// that is not an instrument truth.
     pub(crate) fn draw(kind: &str, rng: &mut impl Rng) -> Option<(Alteration, f64)> {

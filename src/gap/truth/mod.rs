@@ -155,6 +155,17 @@ pub(crate) enum Hidden {
     },
 }
 
+impl Hidden {
+    /// The same truth with an instrument's error at `share` of its size (an error that grows
+    /// across start-ups); an effect inside the plant as it is.
+    pub(crate) fn scaled(&self, share: f64) -> Hidden {
+        match self {
+            Hidden::Instrument(a) => Hidden::Instrument(a.scaled(share)),
+            other => other.clone(),
+        }
+    }
+}
+
 /// A drawn truth and its magnitude (unit per kind: see each truth's documentation).
 #[derive(Debug, Clone)]
 pub(crate) struct Drawn {
