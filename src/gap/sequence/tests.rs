@@ -469,6 +469,7 @@ fn a_drifting_inlet_temperature_is_named() {
                 && matches!(s.verdict, SequenceVerdict::Instrument { drift: Some(_), .. }))
         })
         .count();
+    eprintln!("named {named} of 50");
     assert!(named >= 45, "named {named} of 50");
 }
 
