@@ -295,6 +295,37 @@ fn a_fuel_meter_step_in_a_sequence_is_named_corrected_and_leaves_the_advice() {
     assert!(!b.detected_now.is_empty() || (advised_days(&b) - advised_days(&c)).abs() > 1.0);
 }
 
+/// The `N` daily start-ups with the fuel meter reading `meter(j)` × the flow, each fitted by
+/// Method B: stored in a faulty store (with the gap analysis's aliases of start-up `analysed`,
+/// as the daemon stores them) and, fitted again with a correct meter where it was not, in a
+/// clean one. Returns the directory that holds both.
+fn faulty_and_clean(
+    engine: &Engine,
+    meter: impl Fn(usize) -> f64,
+    analysed: usize,
+) -> (tempfile::TempDir, Store, Store) {
+    let dir = tempfile::tempdir().expect("dir");
+    let mut faulty = Store::open(&dir.path().join("faulty.db")).expect("db");
+    let mut clean = Store::open(&dir.path().join("clean.db")).expect("db");
+    for j in 0..N {
+        let rec = startup(engine, j, meter(j));
+        let fit = diagnose_transient(engine, &rec, &cfg()).expect("fit");
+        let seg = store_result(&mut faulty, j, &fit);
+        if meter(j) != 1.0 {
+            let clean_fit =
+                diagnose_transient(engine, &startup(engine, j, 1.0), &cfg()).expect("fit");
+            store_result(&mut clean, j, &clean_fit);
+        } else {
+            store_result(&mut clean, j, &fit);
+        }
+        if j == analysed {
+            let a = aliases(engine, &rec, &cfg(), &fit).expect("aliases");
+            store_gap_report(&mut faulty, seg, serde_json::json!({ "aliases": a }));
+        }
+    }
+    (dir, faulty, clean)
+}
+
 /// The same meter recalibrated after three start-ups (4, 5 and 6 read 3 % high, 7 and 8 right
 /// again), with the gap analysis the daemon stores for the first stepped start-up: the joint
 /// fit names the meter and the start-up it read right from, `history` shows the three as
@@ -305,26 +336,14 @@ fn a_fuel_meter_recalibrated_later_is_corrected_for_its_start_ups_only() {
     const BACK: usize = ONSET + 3;
     let engine = Engine::reference().expect("engine");
     let econ = WashEconomics::default();
-    let dir = tempfile::tempdir().expect("dir");
-    let mut faulty = Store::open(&dir.path().join("faulty.db")).expect("db");
-    let mut clean = Store::open(&dir.path().join("clean.db")).expect("db");
-    for j in 0..N {
-        let wrong = (ONSET..BACK).contains(&j);
-        let rec = startup(&engine, j, if wrong { METER } else { 1.0 });
-        let fit = diagnose_transient(&engine, &rec, &cfg()).expect("fit");
-        let seg = store_result(&mut faulty, j, &fit);
-        if wrong {
-            let clean_fit =
-                diagnose_transient(&engine, &startup(&engine, j, 1.0), &cfg()).expect("fit");
-            store_result(&mut clean, j, &clean_fit);
+    let meter = |j: usize| {
+        if (ONSET..BACK).contains(&j) {
+            METER
         } else {
-            store_result(&mut clean, j, &fit);
+            1.0
         }
-        if j == ONSET {
-            let a = aliases(&engine, &rec, &cfg(), &fit).expect("aliases");
-            store_gap_report(&mut faulty, seg, serde_json::json!({ "aliases": a }));
-        }
-    }
+    };
+    let (_dir, mut faulty, mut clean) = faulty_and_clean(&engine, meter, ONSET);
     let det = WashDetection::default();
     let r = refresh(&mut faulty, &engine, &econ, &det, &HealthBounds::default()).expect("advice");
     let step = r.steps.first().expect("a step is found");
@@ -379,25 +398,7 @@ fn a_drifting_fuel_meter_is_named_corrected_and_leaves_the_advice() {
         |j: usize| 1.0 + NEWEST * j.saturating_sub(LAST_RIGHT) as f64 / (N - 1 - LAST_RIGHT) as f64;
     let engine = Engine::reference().expect("engine");
     let econ = WashEconomics::default();
-    let dir = tempfile::tempdir().expect("dir");
-    let mut faulty = Store::open(&dir.path().join("faulty.db")).expect("db");
-    let mut clean = Store::open(&dir.path().join("clean.db")).expect("db");
-    for j in 0..N {
-        let rec = startup(&engine, j, drift(j));
-        let fit = diagnose_transient(&engine, &rec, &cfg()).expect("fit");
-        let seg = store_result(&mut faulty, j, &fit);
-        if j > LAST_RIGHT {
-            let clean_fit =
-                diagnose_transient(&engine, &startup(&engine, j, 1.0), &cfg()).expect("fit");
-            store_result(&mut clean, j, &clean_fit);
-        } else {
-            store_result(&mut clean, j, &fit);
-        }
-        if j == N - 1 {
-            let a = aliases(&engine, &rec, &cfg(), &fit).expect("aliases");
-            store_gap_report(&mut faulty, seg, serde_json::json!({ "aliases": a }));
-        }
-    }
+    let (_dir, mut faulty, mut clean) = faulty_and_clean(&engine, drift, N - 1);
     let det = WashDetection::default();
     let r = refresh(&mut faulty, &engine, &econ, &det, &HealthBounds::default()).expect("advice");
     let lines: Vec<String> = r.steps.iter().map(step_line).collect();

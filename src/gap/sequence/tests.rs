@@ -84,6 +84,17 @@ impl Errors {
         }
     }
 
+    /// Prints [`Self::summary`] and asserts at least `least` of 50 draws named and the
+    /// corrected error within the noise (RMS 0.15, worst 0.6, noise 0.08).
+    fn assert_within_noise(&self, named: usize, least: usize) {
+        let (rms, worst) = self.summary(named);
+        assert!(named >= least, "named {named} of 50");
+        assert!(
+            rms <= 0.15 && worst <= 0.6,
+            "RMS {rms:.3}, worst {worst:.3}"
+        );
+    }
+
     /// RMS and worst, after printing them with how many of 50 draws were named.
     fn summary(&self, named: usize) -> (f64, f64) {
         let rms = (self.ss / self.count).sqrt();
@@ -130,13 +141,8 @@ fn an_instrument_step_is_named_sized_and_corrected() {
             }
         }
     }
-    let (rms, worst) = errors.summary(named);
-    assert!(named >= 48, "named {named} of 50");
     // Without a correction the error would be the step itself (up to 3.8 points).
-    assert!(
-        rms <= 0.15 && worst <= 0.6,
-        "RMS {rms:.3}, worst {worst:.3}"
-    );
+    errors.assert_within_noise(named, 48);
 }
 
 /// A turbine losing a point and a half at start-up 4 is the engine's, not an instrument's.
@@ -221,12 +227,7 @@ fn a_repaired_instrument_is_named_with_its_end() {
             }
         }
     }
-    let (rms, worst) = errors.summary(named);
-    assert!(named >= 45, "named {named} of 50");
-    assert!(
-        rms <= 0.15 && worst <= 0.6,
-        "RMS {rms:.3}, worst {worst:.3}"
-    );
+    errors.assert_within_noise(named, 45);
 }
 
 /// A turbine that lost a point and a half for good is not an instrument repaired later, in
@@ -321,12 +322,7 @@ fn attributed_over_draws(
             errors.add(c, t);
         }
     }
-    let (rms, worst) = errors.summary(named);
-    assert!(named >= 45, "named {named} of 50");
-    assert!(
-        rms <= 0.15 && worst <= 0.6,
-        "RMS {rms:.3}, worst {worst:.3}"
-    );
+    errors.assert_within_noise(named, 45);
 }
 
 /// One noisy start-up (a bad fit, off in every parameter) and then, four start-ups later, a
@@ -449,12 +445,7 @@ fn a_drifting_fuel_meter_is_named_with_its_start_and_corrected() {
             errors.add(c, t);
         }
     }
-    let (rms, worst) = errors.summary(named);
-    assert!(named >= 45, "named {named} of 50");
-    assert!(
-        rms <= 0.15 && worst <= 0.6,
-        "RMS {rms:.3}, worst {worst:.3}"
-    );
+    errors.assert_within_noise(named, 45);
 }
 
 /// The inlet temperature's sensor drifting to 3 K high: named the same way.
