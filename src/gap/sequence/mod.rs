@@ -138,6 +138,8 @@ pub(crate) struct Hypothesis {
     /// error grows from that start-up's time on, `step` and `magnitude` are per day).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub(crate) drift_from: Option<usize>,
+    /// The time of `drift_from`, days: the hypothesis answers how far its drift had gone at
+    /// any time ([`Hypothesis::shift_at`]) without the points it was fitted to.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub(crate) drift_from_days: Option<f64>,
     /// 1σ of `step`, points.
@@ -602,15 +604,12 @@ fn hypotheses(
         MIN_BEFORE - 1..k
     };
     let rate_change = |name: String, cols: &[[f64; 6]]| {
-        drift_starts
-            .clone()
-            .filter_map(|m| engine_fit(name.clone(), cols, false, Some(m)))
-            .min_by(|a, b| a.chi2.total_cmp(&b.chi2))
-            .map(|mut h| {
-                h.extra_params += 1;
-                h.bic += n_obs.ln();
-                h
-            })
+        best_searched(
+            drift_starts
+                .clone()
+                .filter_map(|m| engine_fit(name.clone(), cols, false, Some(m))),
+            n_obs,
+        )
     };
     let mut hyps: Vec<Hypothesis> = Vec::new();
     hyps.extend(engine_fit("none".into(), &[], false, None));
@@ -635,30 +634,52 @@ fn hypotheses(
         // The same instrument drifting from the last start-up it read right at, at most the
         // one before the onset (a slow drift leaves the trend later than it began): the best
         // start (by χ²), counted as one parameter more.
-        let drifting = drift_starts
-            .clone()
-            .filter_map(|m| instrument_fit(points, k, &var, s, n_obs, n, breaks, Some(m)))
-            .min_by(|a, b| a.chi2.total_cmp(&b.chi2));
-        hyps.extend(drifting.map(|mut h| {
-            h.extra_params += 1;
-            h.bic += n_obs.ln();
-            h
-        }));
+        hyps.extend(best_searched(
+            drift_starts
+                .clone()
+                .filter_map(|m| instrument_fit(points, k, &var, s, n_obs, n, breaks, Some(m))),
+            n_obs,
+        ));
         if breaks.later.is_some() {
             continue;
         }
         // The same instrument repaired before the newest start-up: the best end (by χ²),
         // counted as one parameter more.
-        let ended = (k + MIN_WINDOW..n)
-            .filter_map(|m| instrument_fit(points, k, &var, s, n_obs, m, breaks, None))
-            .min_by(|a, b| a.chi2.total_cmp(&b.chi2));
-        hyps.extend(ended.map(|mut h| {
-            h.extra_params += 1;
-            h.bic += n_obs.ln();
-            h
-        }));
+        hyps.extend(best_searched(
+            (k + MIN_WINDOW..n)
+                .filter_map(|m| instrument_fit(points, k, &var, s, n_obs, m, breaks, None)),
+            n_obs,
+        ));
     }
     hyps
+}
+
+/// The best of one hypothesis fitted at each candidate start-up (a drift's start, an
+/// instrument's end): the least χ², with the start-up searched counted as one parameter more.
+fn best_searched(fits: impl Iterator<Item = Hypothesis>, n_obs: f64) -> Option<Hypothesis> {
+    fits.min_by(|a, b| a.chi2.total_cmp(&b.chi2)).map(|mut h| {
+        h.extra_params += 1;
+        h.bic += n_obs.ln();
+        h
+    })
+}
+
+/// The names, each once and best first, of the hypotheses after the best that `admit` takes
+/// and that come within [`DECISIVE_BIC`] of it: what the data cannot tell from the best.
+fn close_to_best(hyps: &[Hypothesis], admit: impl Fn(&Hypothesis) -> bool) -> Vec<String> {
+    let Some(best) = hyps.first() else {
+        return Vec::new();
+    };
+    let mut names = vec![best.name.clone()];
+    for h in hyps[1..]
+        .iter()
+        .filter(|h| admit(h) && h.bic - best.bic < DECISIVE_BIC)
+    {
+        if !names.contains(&h.name) {
+            names.push(h.name.clone());
+        }
+    }
+    names
 }
 
 /// A second step in what follows a step from start-up `k`: the start-up `m` from which a free
@@ -830,15 +851,7 @@ fn verdict_of(
         // An instrument as close as an instrument must beat the engine by: the data cannot
         // tell them apart (a power transducer drifting and the power turbine wearing on look
         // alike), so neither is taken.
-        let mut candidates = vec![best.name.clone()];
-        for h in hyps[1..]
-            .iter()
-            .filter(|h| h.instrument && h.bic - best.bic < DECISIVE_BIC)
-        {
-            if !candidates.contains(&h.name) {
-                candidates.push(h.name.clone());
-            }
-        }
+        let candidates = close_to_best(hyps, |h| h.instrument);
         if candidates.len() > 1 {
             return SequenceVerdict::Ambiguous { candidates };
         }
@@ -847,18 +860,8 @@ fn verdict_of(
         };
     }
     // The same instrument ended or not is one candidate (the best of the two is taken).
-    let mut close: Vec<String> = Vec::new();
-    for h in hyps[1..]
-        .iter()
-        .filter(|h| h.bic - best.bic < DECISIVE_BIC && h.name != best.name)
-    {
-        if !close.contains(&h.name) {
-            close.push(h.name.clone());
-        }
-    }
-    if !close.is_empty() {
-        let mut candidates = vec![best.name.clone()];
-        candidates.extend(close);
+    let candidates = close_to_best(hyps, |_| true);
+    if candidates.len() > 1 {
         return SequenceVerdict::Ambiguous { candidates };
     }
     let unit = signatures
