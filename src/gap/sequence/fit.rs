@@ -70,6 +70,8 @@ pub(super) struct Solved {
     pub(super) step_sigma: [f64; 6],
     /// Each parameter's trend line: value at `t_ref_days` and rate per day.
     pub(super) lines: [[f64; 2]; 6],
+    /// Each line's covariance: the value's variance, the rate's, and theirs.
+    pub(super) line_cov: [[f64; 3]; 6],
     pub(super) t_ref_days: f64,
 }
 
@@ -205,7 +207,23 @@ pub(super) fn solve(
         }
         v.max(0.0).sqrt()
     });
+    let cov = |ca: usize, cb: usize| -> f64 {
+        match (
+            kept.iter().position(|&c| c == ca),
+            kept.iter().position(|&c| c == cb),
+        ) {
+            (Some(pa), Some(pb)) => inv[(pa, pb)],
+            _ => 0.0,
+        }
+    };
     Some(Solved {
+        line_cov: std::array::from_fn(|i| {
+            [
+                cov(2 * i, 2 * i).max(0.0),
+                cov(2 * i + 1, 2 * i + 1).max(0.0),
+                cov(2 * i, 2 * i + 1),
+            ]
+        }),
         step_sigma,
         chi2,
         params: kept.iter().filter(|&&c| c < 12 + nc || c >= lc).count(),

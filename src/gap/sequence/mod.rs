@@ -146,10 +146,24 @@ pub(crate) struct Hypothesis {
     pub(crate) step_sigma: [f64; 6],
     /// Each parameter's trend under this hypothesis: value at `t_ref_days`, rate per day.
     pub(crate) trend: [[f64; 2]; 6],
+    /// Each trend line's covariance (value at `t_ref_days`, rate, theirs): how well the line
+    /// is known where it stands for an estimate on its limit.
+    #[serde(skip)]
+    pub(crate) trend_cov: [[f64; 3]; 6],
     pub(crate) t_ref_days: f64,
 }
 
 impl Hypothesis {
+    /// The trend line of parameter `i` at `t_days` under this hypothesis, and its 1σ.
+    pub(crate) fn line_at(&self, i: usize, t_days: f64) -> (f64, f64) {
+        let dt = t_days - self.t_ref_days;
+        let [va, vb, cab] = self.trend_cov[i];
+        (
+            self.trend[i][0] + self.trend[i][1] * dt,
+            (va + dt * dt * vb + 2.0 * dt * cab).max(0.0).sqrt(),
+        )
+    }
+
     /// How much this explanation moves the health of a start-up at `t_days` that it is on:
     /// the step, or what the drift had reached by then.
     pub(crate) fn shift_at(&self, t_days: f64) -> [f64; 6] {
@@ -331,21 +345,27 @@ impl SequenceAttribution {
         map_within(points, range, |p| {
             // A censored estimate says only that the health lies beyond the limit; under
             // the instrument's hypothesis the health follows its trend, so that is the
-            // corrected value, with the trend's scatter.
-            let line = |i: usize| h.trend[i][0] + h.trend[i][1] * (p.t_days - h.t_ref_days);
+            // corrected value, with the line's 1σ where it stands: the estimate's own σ, at a
+            // bound, says nothing, and a line carried days beyond the last estimate it was
+            // fitted to is known less well than where they lie.
             let g = share(h.drift_from_days, p.t_days);
             let shift = h.shift_at(p.t_days);
+            let on_line: [(f64, f64); 6] = std::array::from_fn(|i| h.line_at(i, p.t_days));
             SeqPoint {
                 t_days: p.t_days,
                 health: std::array::from_fn(|i| {
                     if p.at_limit[i] {
-                        line(i)
+                        on_line[i].0
                     } else {
                         p.health[i] - shift[i]
                     }
                 }),
                 sigma: std::array::from_fn(|i| {
-                    (sigma_of(p.sigma[i]).powi(2) + (g * h.step_sigma[i]).powi(2)).sqrt()
+                    if p.at_limit[i] {
+                        on_line[i].1
+                    } else {
+                        (sigma_of(p.sigma[i]).powi(2) + (g * h.step_sigma[i]).powi(2)).sqrt()
+                    }
                 }),
                 at_limit: [false; 6],
             }
@@ -832,6 +852,7 @@ fn hypothesis(
         magnitude_sigma: instrument.then(|| s.coef_sigma[0]),
         step_sigma: s.step_sigma,
         trend: s.lines,
+        trend_cov: s.line_cov,
         t_ref_days: s.t_ref_days,
     }
 }
