@@ -188,6 +188,9 @@ pub fn replay_file_checked(
     }
     let clock = LocalClock::new(&cfg.time_zone)
         .map_err(|e| ReplayError::Config(format!("replay.time_zone: {e}")))?;
+    let units = cfg
+        .column_units()
+        .map_err(|e| ReplayError::Config(format!("replay.units.{}: {}", e.key, e.reason)))?;
     let started = Instant::now();
     let io_err = |source| ReplayError::Io {
         path: path.to_path_buf(),
@@ -198,6 +201,7 @@ pub fn replay_file_checked(
     let mut rdr = csv_reader(cfg, file, 1 << 20);
     let plan = plan_from_reader(&mut rdr, cfg, path)?;
     let mut sink = Sink::new(store, cfg, quality, path, file_len, progress);
+    sink.units = units;
     sink.report.ignored_columns = plan.ignored.clone();
     let reader = Reader {
         rdr,

@@ -44,5 +44,6 @@ pub mod store;
 pub mod thermo;
 pub mod time;
 pub mod trend;
+pub mod units;
 pub mod wash;
 pub(crate) mod worker;

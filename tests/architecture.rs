@@ -33,6 +33,7 @@ const FLOORS: &[(&str, u8)] = &[
     ("time", 0),
     ("config_problem", 0),
     ("metrics", 0),
+    ("units", 0),
     // 1 — the engine model.
     ("engine", 1),
     // 2 — what is computed with the model: diagnosis, calibration, gap analysis, trends, wash

@@ -417,6 +417,10 @@ fn a_column_in_the_wrong_unit_is_named() {
         err.contains("'t1_k'") && err.contains("looks like °C"),
         "{err}"
     );
+    assert!(
+        err.contains("--units t1_k=degC"),
+        "how to state the unit is said: {err}"
+    );
     // The line named is the file line of the value quoted.
     let line: usize = err
         .split("line ")
@@ -450,6 +454,109 @@ fn a_column_in_the_wrong_unit_is_named() {
         err.contains("line 2, column 'P_cdp'") && err.contains("looks like bar"),
         "{err}"
     );
+}
+
+/// A file in the plant's own units (°C, bar, mbar, kg/h, kW, an n1 in rad/s) is read once each
+/// column's unit is stated (`--units`): the same health as the file in the model's units, to
+/// the digits written; a unit of the wrong kind, or a gauge pressure, is refused naming the
+/// column.
+#[test]
+fn a_file_in_the_plants_own_units_is_read_once_they_are_stated() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let snaps = dir.path().join("snapshots.csv");
+    let mild = HealthParams {
+        D_GC: 1.5,
+        D_EC: 0.8,
+        ..HealthParams::HEALTHY
+    };
+    write_snapshots(&snaps, &[("2026-01-10", mild)]);
+    let plant = dir.path().join("plant_units.csv");
+    let mut lines = std::fs::read_to_string(&snaps)
+        .expect("csv")
+        .lines()
+        .map(str::to_string)
+        .collect::<Vec<_>>();
+    for (column, f) in [
+        ("T_inlet", (|v| v - 273.15) as fn(f64) -> f64),
+        ("T_cdp", |v| v - 273.15),
+        ("T_egt", |v| (v - 273.15) * 1.8 + 32.0),
+        ("P_baro", |v| v * 10.0),
+        ("P_cdp", |v| v / 100.0),
+        ("P_hpt", |v| v / 6.894_757_293_168),
+        ("NGG", |v| v * std::f64::consts::PI / 30.0),
+        ("FUEL", |v| v * 3600.0),
+        ("MW", |v| v * 1000.0),
+    ] {
+        std::fs::write(&plant, lines.join("\n")).expect("write");
+        lines = alter_column(&plant, column, |_, v| Some(format!("{:.10}", f(v))));
+    }
+    std::fs::write(&plant, lines.join("\n")).expect("write");
+    let map = "t1_k=T_inlet,p_amb_kpa=P_baro,n1_rpm=NGG,n2_rpm=NPT,t2_k=T_cdp,p2_kpa=P_cdp,\
+               t34_k=T_egt,p34_kpa=P_hpt,fuel_kg_s=FUEL,power_mw=MW";
+    let units = "T1=degC,t2_k=C,t34_k=degF,p_amb_kpa=mbar,p2_kpa=bara,p34_kpa=psia,n1_rpm=rad/s,\
+                 fuel_kg_s=kg/h,power_mw=kW";
+    let run = |file: &std::path::Path, units: Option<&str>| {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_gtwatch"));
+        cmd.args(["diagnose", "--method", "steady", "--json", "--input"])
+            .arg(file)
+            .args(["--group-by", "day", "--map", map]);
+        if let Some(u) = units {
+            cmd.args(["--units", u]);
+        }
+        cmd.output().expect("runs")
+    };
+    let own = run(&snaps, None);
+    assert!(
+        own.status.success(),
+        "{}",
+        String::from_utf8_lossy(&own.stderr)
+    );
+    // Unstated, the first column out of place is named with the unit to state.
+    let unstated = run(&plant, None);
+    let err = String::from_utf8_lossy(&unstated.stderr);
+    assert!(!unstated.status.success(), "{err}");
+    assert!(
+        err.contains("--units p_amb_kpa=") || err.contains("--units t1_k=degC"),
+        "{err}"
+    );
+    let stated = run(&plant, Some(units));
+    assert!(
+        stated.status.success(),
+        "{}",
+        String::from_utf8_lossy(&stated.stderr)
+    );
+    let health = |out: &std::process::Output| {
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+        let g = &v["groups"][0]["health"];
+        ["D_GC", "D_EC", "D_GT", "D_ET", "D_GP", "D_EP"].map(|p| g[p].as_f64().expect("health"))
+    };
+    let (a, b) = (health(&own), health(&stated));
+    for p in 0..6 {
+        assert!(
+            (a[p] - b[p]).abs() < 1e-3,
+            "parameter {p}: {} vs {}",
+            a[p],
+            b[p]
+        );
+    }
+    assert!(
+        (a[0] - 1.5).abs() < 0.2,
+        "the diagnosis itself is right: {a:?}"
+    );
+    for (bad, says) in [
+        ("t2_k=bar", "'bar' is a unit of an absolute pressure"),
+        ("p2_kpa=barg", "gauge pressure"),
+        ("n1_rpm=%", "design speed"),
+        ("t2_k=kelvinish", "unknown unit"),
+    ] {
+        let out = run(&plant, Some(bad));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{bad}: {err}");
+        assert!(
+            err.contains("--units: unit of '") && err.contains(says),
+            "{bad}: {err}"
+        );
+    }
 }
 
 /// A row the model has no steady point for (fuel 1 % of design, below the lowest fuel the

@@ -10,8 +10,8 @@ use crate::calibrate::candidates::{candidate, candidate_in, default_candidates, 
 use crate::calibrate::edit::{rewrite, NewValue};
 use crate::calibrate::startup::{rest_readings, startup_snapshots};
 use crate::calibrate::{calibrate, Calibration, CalibrationSettings};
-use crate::diagnosis::csv_input::{parse_mapping, read_recording};
-use crate::diagnosis::snapshot::read_snapshots;
+use crate::diagnosis::csv_input::{parse_mapping, read_recording_checked};
+use crate::diagnosis::snapshot::read_snapshots_in;
 use crate::engine::{Engine, EngineConfig};
 use anyhow::{bail, Context};
 use clap::{Args, ValueEnum};
@@ -81,6 +81,12 @@ pub struct CalibrateArgs {
     /// Column mapping for the snapshot file: `t1_k=T_inlet,n1_rpm=NGG,…`.
     #[arg(long)]
     pub map: Option<String>,
+    /// Units of columns not in the model's (K, kPa absolute, rpm, kg/s, MW, kN·m), converted as
+    /// read: `t2_k=degC,p2_kpa=bar,fuel_kg_s=kg/h` (canonical or short signal names, and
+    /// `p_amb_kpa`; units such as degC, degF, bar, mbar, psi, Pa, MPa, kg/h, t/h, lb/s, kW, hp,
+    /// Nm, rad/s; gauge pressures are refused).
+    #[arg(long)]
+    pub units: Option<String>,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -400,12 +406,13 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
         Some(m) => parse_mapping(m)?,
         None => HashMap::new(),
     };
+    let units = super::common::column_units(a.units.as_deref())?;
     let mut rows = Vec::new();
     let mut rest = Vec::new();
     if let Some(input) = &a.input {
         let file =
             std::fs::File::open(input).with_context(|| format!("opening {}", input.display()))?;
-        let mut snaps = read_snapshots(BufReader::new(file), &mapping, None)
+        let mut snaps = read_snapshots_in(BufReader::new(file), &mapping, &units, None)
             .with_context(|| format!("reading {}", input.display()))?;
         for r in &mut snaps {
             r.group = input.display().to_string();
@@ -416,8 +423,13 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
     for path in &a.startup {
         let file =
             std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
-        let rec = read_recording(BufReader::new(file), &mapping)
-            .with_context(|| format!("reading {}", path.display()))?;
+        let (rec, _) = read_recording_checked(
+            BufReader::new(file),
+            &mapping,
+            &units,
+            &crate::quality::QualityConfig::default(),
+        )
+        .with_context(|| format!("reading {}", path.display()))?;
         let windows = startup_snapshots(&rec, engine.cfg(), &criteria, &path.display().to_string());
         if windows.is_empty() {
             bail!(

@@ -80,3 +80,14 @@ pub(super) fn parse_cli_time(s: &str) -> anyhow::Result<i64> {
         )
     })
 }
+
+/// The `--units` option's statement of the columns not in the model's units (none: every column
+/// is in the model's units).
+pub(super) fn column_units(text: Option<&str>) -> anyhow::Result<crate::units::ColumnUnits> {
+    match text {
+        Some(t) => {
+            Ok(crate::units::ColumnUnits::parse(t).map_err(|e| anyhow::anyhow!("--units: {e}"))?)
+        }
+        None => Ok(crate::units::ColumnUnits::default()),
+    }
+}

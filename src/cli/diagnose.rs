@@ -158,6 +158,12 @@ pub struct DiagnoseArgs {
     /// Column mapping for other CSVs: `time_s=Time,phase=State,n1_rpm=NGG,…`.
     #[arg(long)]
     pub map: Option<String>,
+    /// Units of columns not in the model's (K, kPa absolute, rpm, kg/s, MW, kN·m), converted as
+    /// read: `t2_k=degC,p2_kpa=bar,fuel_kg_s=kg/h` (canonical or short signal names, and
+    /// `p_amb_kpa`; units such as degC, degF, bar, mbar, psi, Pa, MPa, kg/h, t/h, lb/s, kW, hp,
+    /// Nm, rad/s; gauge pressures are refused).
+    #[arg(long)]
+    pub units: Option<String>,
     /// Method(s). `steady` on a file without a phase column (or with --snapshots/--group-by)
     /// diagnoses snapshots: each row one averaged steady point with its own ambient, PT speed
     /// and fuel flow.
@@ -311,14 +317,16 @@ pub(super) fn run(a: &DiagnoseArgs) -> anyhow::Result<ExitCode> {
         Some(m) => parse_mapping(m)?,
         None => HashMap::new(),
     };
+    let units = super::common::column_units(a.units.as_deref())?;
     if super::diagnose_snapshots::wants_snapshots(a, input, &mapping)? {
-        return super::diagnose_snapshots::run(a, input, &engine, &cfg, &mapping);
+        return super::diagnose_snapshots::run(a, input, &engine, &cfg, &mapping, &units);
     }
     let file =
         std::fs::File::open(input).with_context(|| format!("opening {}", input.display()))?;
     let (seg, flagged) = read_recording_checked(
         std::io::BufReader::new(file),
         &mapping,
+        &units,
         &crate::quality::QualityConfig::default(),
     )
     .with_context(|| format!("reading {}", input.display()))?;

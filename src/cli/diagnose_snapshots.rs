@@ -8,10 +8,11 @@
 //! lines with the header as line 1: the first data row is line 2.
 
 use super::diagnose::{print_text_of, result_json, DiagnoseArgs};
-use crate::diagnosis::snapshot::{diagnose_snapshots, read_snapshots};
+use crate::diagnosis::snapshot::{diagnose_snapshots, read_snapshots_in};
 use crate::diagnosis::steady::model_error_note;
 use crate::diagnosis::{DiagnosisConfig, Method};
 use crate::engine::Engine;
+use crate::units::ColumnUnits;
 use anyhow::{bail, Context};
 use serde_json::json;
 use std::collections::HashMap;
@@ -51,13 +52,14 @@ pub(super) fn run(
     engine: &Engine,
     cfg: &DiagnosisConfig,
     mapping: &HashMap<String, String>,
+    units: &ColumnUnits,
 ) -> anyhow::Result<ExitCode> {
     if a.method != super::diagnose::MethodArg::Steady {
         bail!("snapshot files are diagnosed with --method steady (no start-up to run Method B on)");
     }
     let file =
         std::fs::File::open(input).with_context(|| format!("opening {}", input.display()))?;
-    let rows = read_snapshots(BufReader::new(file), mapping, a.group_by.as_deref())
+    let rows = read_snapshots_in(BufReader::new(file), mapping, units, a.group_by.as_deref())
         .with_context(|| format!("reading {}", input.display()))?;
     let report = diagnose_snapshots(engine, &rows, cfg)?;
     if a.json {

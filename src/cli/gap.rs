@@ -6,7 +6,7 @@
 //! logic of its own (that is `crate::gap`) or a database handle across the analysis.
 
 use super::diagnose::FitArgs;
-use crate::diagnosis::csv_input::{parse_mapping, read_recording};
+use crate::diagnosis::csv_input::{parse_mapping, read_recording_checked};
 use crate::recording::Recording;
 use anyhow::{bail, Context};
 use clap::Args;
@@ -45,6 +45,12 @@ pub struct GapArgs {
     /// Column mapping for other CSVs: `time_s=Time,phase=State,n1_rpm=NGG,…`.
     #[arg(long)]
     pub map: Option<String>,
+    /// Units of columns not in the model's (K, kPa absolute, rpm, kg/s, MW, kN·m), converted as
+    /// read: `t2_k=degC,p2_kpa=bar,fuel_kg_s=kg/h` (canonical or short signal names, and
+    /// `p_amb_kpa`; units such as degC, degF, bar, mbar, psi, Pa, MPa, kg/h, t/h, lb/s, kW, hp,
+    /// Nm, rad/s; gauge pressures are refused).
+    #[arg(long)]
+    pub units: Option<String>,
     /// Engine TOML (default: the built-in reference engine).
     #[arg(long)]
     pub engine: Option<PathBuf>,
@@ -95,14 +101,21 @@ fn adopt(a: &GapArgs, report: &crate::gap::GapReport, out: &Path) -> anyhow::Res
     ))
 }
 
-fn read(path: &Path, map: &Option<String>) -> anyhow::Result<Recording> {
-    let mapping = match map {
+fn read(path: &Path, a: &GapArgs) -> anyhow::Result<Recording> {
+    let mapping = match &a.map {
         Some(m) => parse_mapping(m)?,
         None => HashMap::new(),
     };
+    let units = super::common::column_units(a.units.as_deref())?;
     let file = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
-    read_recording(std::io::BufReader::new(file), &mapping)
-        .with_context(|| format!("reading {}", path.display()))
+    read_recording_checked(
+        std::io::BufReader::new(file),
+        &mapping,
+        &units,
+        &crate::quality::QualityConfig::default(),
+    )
+    .map(|(rec, _)| rec)
+    .with_context(|| format!("reading {}", path.display()))
 }
 
 pub(super) fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
@@ -194,12 +207,12 @@ fn inputs(a: &GapArgs) -> anyhow::Result<Inputs> {
     match (&a.input, a.segment) {
         (Some(input), _) => {
             let holdout = match &a.holdout {
-                Some(p) => Some(read(p, &a.map)?),
+                Some(p) => Some(read(p, a)?),
                 None => None,
             };
             Ok(Inputs {
                 engine: super::load_engine(a.engine.as_deref())?,
-                rec: read(input, &a.map)?,
+                rec: read(input, a)?,
                 holdout,
                 store: None,
             })

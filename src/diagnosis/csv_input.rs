@@ -11,6 +11,7 @@
 use crate::quality::{Point, Quality, QualityConfig, QualityCounts, SpikeFilter};
 use crate::recording::{Recording, RecordingError};
 use crate::signals::{Phase, Signal, Values, NSIG};
+use crate::units::ColumnUnits;
 use std::collections::HashMap;
 use std::io::Read;
 
@@ -54,7 +55,7 @@ pub enum CsvError {
 
 /// Canonical name of the ambient (barometric) pressure column, kPa: read by the snapshot
 /// diagnosis (`diagnosis::snapshot`); a start-up's ambient pressure comes from P1 at rest.
-pub const AMBIENT_PRESSURE_COLUMN: &str = "p_amb_kpa";
+pub use crate::units::AMBIENT_PRESSURE_COLUMN;
 
 /// Parses a mapping `time_s=Time,phase=State,n1_rpm=NGG` (canonical = file header).
 pub fn parse_mapping(s: &str) -> Result<HashMap<String, String>, CsvError> {
@@ -108,7 +109,13 @@ pub fn read_recording<R: Read>(
     reader: R,
     mapping: &HashMap<String, String>,
 ) -> Result<Recording, CsvError> {
-    read_recording_checked(reader, mapping, &QualityConfig::default()).map(|(r, _)| r)
+    read_recording_checked(
+        reader,
+        mapping,
+        &ColumnUnits::default(),
+        &QualityConfig::default(),
+    )
+    .map(|(r, _)| r)
 }
 
 /// Cells the bad-value policy flagged, per signal column (only columns with any flagged).
@@ -240,11 +247,13 @@ pub(crate) fn find_column(
 }
 
 /// Reads a recording. `mapping` maps canonical names to the file's headers (empty = the
-/// `gtwatch simulate` layout). The rows must also pass [`Recording::new`]'s checks; an error
+/// `gtwatch simulate` layout); `units` states the columns not in the model's units (converted
+/// as read, before any check). The rows must also pass [`Recording::new`]'s checks; an error
 /// there names the file line of the offending sample.
 pub fn read_recording_checked<R: Read>(
     reader: R,
     mapping: &HashMap<String, String>,
+    units: &ColumnUnits,
     quality: &QualityConfig,
 ) -> Result<(Recording, CsvQuality), CsvError> {
     let (mut rdr, headers) = open_csv(reader)?;
@@ -302,11 +311,12 @@ pub fn read_recording_checked<R: Read>(
         })?;
         let mut v: Values = [f64::NAN; NSIG];
         for &(s, c) in &sig_cols {
-            v[s.index()] = parse_value(cell(c)).map_err(|reason| CsvError::Cell {
+            let raw = parse_value(cell(c)).map_err(|reason| CsvError::Cell {
                 line,
                 column: col_name(c),
                 reason,
             })?;
+            v[s.index()] = units.to_model(s.column(), raw);
         }
         t_s.push(t);
         phases.push(ph);
@@ -344,7 +354,7 @@ fn check_units(
         return Ok(());
     };
     let row: Vec<(Signal, f64)> = sig_cols.iter().map(|(s, _)| (*s, v[s.index()])).collect();
-    match super::units::check_fired_point(&row) {
+    match super::unit_check::check_fired_point(&row) {
         Some(x) => {
             let c = sig_cols
                 .iter()
@@ -377,6 +387,28 @@ mod tests {
             );
         }
         assert_eq!(crlf_to_lf(b"a\r\nb\rc\n".to_vec()), b"a\nb\rc\n".to_vec());
+    }
+
+    #[test]
+    fn stated_units_are_converted_as_read() {
+        let csv =
+            "Time,State,NGG,CDT,CDP,FUEL\n0,standstill,0,15,1.01325,0\n1,crank,125,16,1.1,36\n";
+        let map =
+            parse_mapping("time_s=Time,phase=State,n1=NGG,t2_k=CDT,p2_kpa=CDP,fuel_kg_s=FUEL")
+                .expect("mapping");
+        let units =
+            ColumnUnits::parse("n1_rpm=Hz,t2_k=degC,p2_kpa=bar,fuel_kg_s=kg/h").expect("units");
+        let (seg, _) =
+            read_recording_checked(csv.as_bytes(), &map, &units, &QualityConfig::default())
+                .expect("reads");
+        let near = |a: Option<f64>, b: f64| a.is_some_and(|a| (a - b).abs() < 1e-9);
+        assert!(near(seg.value(1, Signal::N1), 7500.0));
+        assert!(near(seg.value(0, Signal::T2), 288.15));
+        assert!(near(seg.value(0, Signal::P2), 101.325));
+        assert!(near(seg.value(1, Signal::FuelFlow), 0.01));
+        // Unstated, the same file is judged as it stands: a GG at 125 "rpm" is refused.
+        let e = read_recording(csv.as_bytes(), &map).expect_err("unstated");
+        assert!(e.to_string().contains("column 'NGG'"), "{e}");
     }
 
     #[test]
@@ -459,7 +491,8 @@ mod tests {
             ..QualityConfig::default()
         };
         let (rec, report) =
-            read_recording_checked(csv.as_bytes(), &HashMap::new(), &q).expect("reads");
+            read_recording_checked(csv.as_bytes(), &HashMap::new(), &ColumnUnits::default(), &q)
+                .expect("reads");
         let k = Signal::T34.index();
         let t34: Vec<f64> = rec.rows().iter().map(|r| r[k]).collect();
         assert!(t34[5].is_nan(), "spike kept: {t34:?}");

@@ -53,7 +53,7 @@ pub(crate) mod separability;
 pub mod snapshot;
 pub mod steady;
 pub mod transient;
-pub(crate) mod units;
+pub(crate) mod unit_check;
 
 pub use config::{DiagnosisConfig, Method, Optimiser, SteadyCriteria, Window};
 pub use params::{

@@ -33,6 +33,7 @@ use crate::engine::steady::{solve, Demand, SteadyInputs};
 use crate::engine::Engine;
 use crate::health::HealthParams;
 use crate::signals::Signal;
+use crate::units::ColumnUnits;
 use serde::Serialize;
 use std::collections::HashMap;
 use std::io::Read;
@@ -66,6 +67,17 @@ pub(crate) const INPUTS: [Signal; 3] = [Signal::T1, Signal::N2, Signal::FuelFlow
 pub fn read_snapshots<R: Read>(
     reader: R,
     mapping: &HashMap<String, String>,
+    group_by: Option<&str>,
+) -> Result<Vec<Snapshot>, CsvError> {
+    read_snapshots_in(reader, mapping, &ColumnUnits::default(), group_by)
+}
+
+/// [`read_snapshots`] of a file whose columns `units` states are not in the model's units:
+/// each such value is converted as it is read, before any check.
+pub fn read_snapshots_in<R: Read>(
+    reader: R,
+    mapping: &HashMap<String, String>,
+    units: &ColumnUnits,
     group_by: Option<&str>,
 ) -> Result<Vec<Snapshot>, CsvError> {
     let (mut rdr, headers) = open_csv(reader)?;
@@ -116,16 +128,18 @@ pub fn read_snapshots<R: Read>(
         let (mut t1, mut n2, mut fuel) = (f64::NAN, f64::NAN, f64::NAN);
         let mut row: Vec<(Signal, f64)> = Vec::with_capacity(sig_cols.len());
         for &(s, c) in &sig_cols {
-            row.push((s, number(c)?));
+            row.push((s, units.to_model(s.column(), number(c)?)));
         }
         let p_amb = match pamb_col {
             Some(c) => {
-                let v = number(c)?;
+                let v = units.to_model(AMBIENT_PRESSURE_COLUMN, number(c)?);
                 if v.is_finite() && !(10.0..=200.0).contains(&v) {
                     let hint = if (0.1..=2.0).contains(&v) {
-                        " (it looks like bar: give kPa)"
+                        " (it looks like bar: state `--units p_amb_kpa=bar` or give kPa)"
+                    } else if (400.0..=1_150.0).contains(&v) {
+                        " (it looks like mbar or hPa: state `--units p_amb_kpa=mbar` or give kPa)"
                     } else if (10_000.0..=200_000.0).contains(&v) {
-                        " (it looks like Pa: give kPa)"
+                        " (it looks like Pa: state `--units p_amb_kpa=Pa` or give kPa)"
                     } else {
                         ""
                     };
@@ -145,7 +159,7 @@ pub fn read_snapshots<R: Read>(
         if let (false, Some(p)) = (has_p1, p_amb.filter(|p| (40.0..=115.0).contains(p))) {
             judged.push((Signal::P1, p));
         }
-        if let Some(x) = super::units::check_fired_point(&judged) {
+        if let Some(x) = super::unit_check::check_fired_point(&judged) {
             let c = sig_cols
                 .iter()
                 .find(|(s, _)| *s == x.signal)

@@ -8,6 +8,7 @@ use crate::config_problem::{check_range, Bounds, ConfigProblem};
 use crate::signals::Signal;
 use crate::store::TagInfo;
 use crate::time::TimeFormat;
+use crate::units::{ColumnUnits, UnitError};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -58,6 +59,11 @@ pub struct ReplayConfig {
     /// column name, e.g. `n1_rpm`) or any other tag name. Empty (default): every column (or
     /// tag) whose name is a signal name is replayed, others are ignored.
     pub columns: BTreeMap<String, String>,
+    /// Units of the signals the log does not give in the model's units (K, kPa absolute, rpm,
+    /// kg/s, MW, kN·m), keyed by signal (`t2_k = "degC"`, `p2_kpa = "bar"`, `fuel_kg_s =
+    /// "kg/h"`): converted as read, before the bad-value policy judges them (`crate::units`).
+    /// Default: none (every signal in the model's unit).
+    pub units: BTreeMap<String, String>,
     /// `skip` (default) or `stop`.
     pub on_malformed: OnMalformed,
     /// How many malformed rows are listed in the report (all are counted). Default 20.
@@ -87,6 +93,7 @@ impl Default for ReplayConfig {
             time_zone: "UTC".into(),
             delimiter: ",".into(),
             columns: BTreeMap::new(),
+            units: BTreeMap::new(),
             on_malformed: OnMalformed::Skip,
             max_reported: 20,
             transaction_samples: 200_000,
@@ -98,9 +105,27 @@ impl Default for ReplayConfig {
 }
 
 impl ReplayConfig {
+    /// The stated units of `[replay.units]`, parsed.
+    pub fn column_units(&self) -> Result<ColumnUnits, UnitError> {
+        ColumnUnits::from_pairs(self.units.iter().map(|(k, v)| (k.as_str(), v.as_str())))
+    }
+
     /// Problems with this section; keys are prefixed `replay.`.
     pub fn validate(&self) -> Vec<ConfigProblem> {
         let mut p = Vec::new();
+        for (key, unit) in &self.units {
+            if let Err(e) = ColumnUnits::from_pairs([(key.as_str(), unit.as_str())]) {
+                p.push(ConfigProblem::new(format!("replay.units.{key}"), e.reason));
+            }
+        }
+        if let Err(e) = self.column_units() {
+            if !p.iter().any(|x| x.key.ends_with(&e.key)) {
+                p.push(ConfigProblem::new(
+                    format!("replay.units.{}", e.key),
+                    e.reason,
+                ));
+            }
+        }
         if self.time_column.trim().is_empty() {
             p.push(ConfigProblem::new(
                 "replay.time_column",

@@ -10,6 +10,7 @@ use super::{MalformedRow, OnMalformed, Progress, ReplayConfig, ReplayError, Repl
 use crate::quality::{Point, Quality, QualityConfig, SpikeFilter, ValueChecker};
 use crate::signals::Signal;
 use crate::store::{Gap, Sample, Store, TagId, TagInfo, CHUNK_SPAN_MS, DEFAULT_MAX_CHUNK_SAMPLES};
+use crate::units::{ColumnUnits, Unit};
 use std::io::IsTerminal;
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -20,6 +21,9 @@ pub(super) struct Column {
     pub index: usize,
     pub name: String,
     pub tag: TagId,
+    /// The unit `[replay.units]` states for its signal, when not the model's: values are
+    /// converted before they are judged and stored.
+    pub unit: Option<&'static Unit>,
 }
 
 /// The bad-value policy's state for one column.
@@ -104,6 +108,8 @@ pub(super) struct Sink<'a> {
     /// samples become one chunk per tag).
     window_opened: Option<i64>,
     pub report: ReplayReport,
+    /// `[replay.units]`, parsed (the replay refuses a config where it does not parse).
+    pub units: ColumnUnits,
     file_len: u64,
     bar: Option<indicatif::ProgressBar>,
     log_progress: bool,
@@ -156,6 +162,7 @@ impl<'a> Sink<'a> {
                 file: path.to_path_buf(),
                 ..ReplayReport::default()
             },
+            units: ColumnUnits::default(),
             file_len,
             bar,
             log_progress,
@@ -182,7 +189,16 @@ impl<'a> Sink<'a> {
         if info.signal == Some(Signal::N1) && self.n1_column.is_none() {
             self.n1_column = Some(self.columns.len());
         }
-        self.columns.push(Column { index, name, tag });
+        let unit = info
+            .signal
+            .and_then(|s| self.units.of(s.column()))
+            .filter(|u| !u.is_identity());
+        self.columns.push(Column {
+            index,
+            name,
+            tag,
+            unit,
+        });
         Ok(self.columns.len() - 1)
     }
 
@@ -213,6 +229,12 @@ impl<'a> Sink<'a> {
         self.prev_t = Some(t);
         self.report.first_t_ms.get_or_insert(t);
         self.report.last_t_ms = Some(t);
+        // Into the model's units first: the GG speed judges the other values.
+        for cell in cells.iter_mut().filter(|c| c.problem.is_none()) {
+            if let Some(u) = self.columns[cell.column].unit {
+                cell.sample.value = u.to_model(cell.sample.value);
+            }
+        }
         let n1 = self.n1_column.and_then(|i| {
             cells
                 .iter()

@@ -297,6 +297,87 @@ fn a_row_dated_far_in_the_future_is_reported_not_stored() {
 }
 
 /// Issue 12 #3: implausible values are stored flagged, never as good, and counted.
+/// A log in the plant's units (°C, bar, kg/h, kW, a GG speed in Hz; wide and long layouts) is
+/// stored in the model's units once `[replay.units]` states them, and judged after conversion
+/// (every value good); a unit of the wrong kind or an unknown signal is a config problem
+/// naming its key.
+#[test]
+fn stated_units_are_converted_before_they_are_judged_and_stored() {
+    let cfg: ReplayConfig = toml::from_str(
+        "[columns]\nNGG = \"n1\"\nCDT = \"t2_k\"\nCDP = \"p2_kpa\"\nFuel = \"fuel_flow\"\n\
+         Load = \"power_mw\"\n[units]\nN1 = \"Hz\"\nt2_k = \"degC\"\np2_kpa = \"bara\"\n\
+         fuel_kg_s = \"kg/h\"\npower_mw = \"kW\"",
+    )
+    .expect("parse");
+    assert!(cfg.validate().is_empty(), "{:?}", cfg.validate());
+    let wide = "time,NGG,CDT,CDP,Fuel,Load\n\
+                2024-03-01T00:00:00Z,125,326.85,20.5,7200,30000\n\
+                2024-03-01T00:00:01Z,125.5,327.85,20.6,7236,30100\n";
+    let long = "time,tag,value\n\
+                2024-03-01T00:00:00Z,NGG,125\n2024-03-01T00:00:00Z,CDT,326.85\n\
+                2024-03-01T00:00:00Z,CDP,20.5\n2024-03-01T00:00:00Z,Fuel,7200\n\
+                2024-03-01T00:00:00Z,Load,30000\n\
+                2024-03-01T00:00:01Z,NGG,125.5\n2024-03-01T00:00:01Z,CDT,327.85\n\
+                2024-03-01T00:00:01Z,CDP,20.6\n2024-03-01T00:00:01Z,Fuel,7236\n\
+                2024-03-01T00:00:01Z,Load,30100\n";
+    for csv in [wide, long] {
+        let (_d, mut store, path) = setup(csv);
+        let r = replay_file(&mut store, &cfg, &path, Progress::Silent).expect("replay");
+        assert_eq!(r.samples_inserted, 10, "{r:?}");
+        assert_eq!(
+            r.quality.good, 10,
+            "judged in the model's units: {:?}",
+            r.quality
+        );
+        let v = |tag: &str, t: i64| -> f64 {
+            store
+                .conn()
+                .query_row(
+                    "SELECT s.value FROM samples s JOIN tags t ON t.id = s.tag_id
+                     WHERE t.name = ?1 AND s.t_ms = ?2",
+                    rusqlite::params![tag, 1_709_251_200_000_i64 + 1000 * t],
+                    |r| r.get(0),
+                )
+                .expect("sample")
+        };
+        for (tag, t, want) in [
+            ("n1_rpm", 0, 7500.0),
+            ("n1_rpm", 1, 7530.0),
+            ("t2_k", 0, 600.0),
+            ("p2_kpa", 1, 2060.0),
+            ("fuel_kg_s", 0, 2.0),
+            ("fuel_kg_s", 1, 2.01),
+            ("power_mw", 0, 30.0),
+        ] {
+            assert!(
+                (v(tag, t) - want).abs() < 1e-9,
+                "{tag} at {t}: {}",
+                v(tag, t)
+            );
+        }
+    }
+    let mut bad = cfg.clone();
+    bad.units.insert("t34_k".into(), "bar".into());
+    bad.units.insert("vibration".into(), "mm/s".into());
+    bad.units.insert("p34_kpa".into(), "psig".into());
+    let problems = bad.validate();
+    let keys: Vec<&str> = problems.iter().map(|p| p.key.as_str()).collect();
+    for k in [
+        "replay.units.t34_k",
+        "replay.units.vibration",
+        "replay.units.p34_kpa",
+    ] {
+        assert!(keys.contains(&k), "{k} missing from {problems:?}");
+    }
+    assert!(
+        problems.iter().any(|p| p.message.contains("gauge")),
+        "{problems:?}"
+    );
+    let (_d, mut store, path) = setup(wide);
+    let e = replay_file(&mut store, &bad, &path, Progress::Silent).expect_err("refused");
+    assert!(e.to_string().contains("replay.units.t34_k"), "{e}");
+}
+
 #[test]
 fn implausible_values_are_flagged_not_good() {
     let csv = "time,n1_rpm,t2_k,fuel_kg_s,power_mw\n\

@@ -7,66 +7,60 @@
 //! (T1 200–330 K, P1 40–115 kPa), the compressor raises pressure and temperature, the hot end
 //! is hotter than the inlet, the GG turns at thousands of rpm, the fuel flow is below a few
 //! kg/s per 10 MW. The first check that fails *and* holds again after one unit conversion names
-//! that unit. Pure: no I/O; it reads values, never changes them.
+//! that unit, and the message says how to state it (`--units`, `crate::units`), so the file
+//! is read as it is. Pure: no I/O; it reads values, never changes them.
 
 use crate::signals::Signal;
+use crate::units::{model_unit, quantity_of, unit_for, Quantity, Unit};
 
 /// A column that looks like it is in another unit.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct UnitSuspect {
     pub(crate) signal: Signal,
     pub(crate) value: f64,
-    /// The unit it looks like, e.g. "°C".
+    /// The unit it looks like, as people write it, e.g. "°C".
     pub(crate) likely_unit: &'static str,
+    /// That unit's name for `--units` (`degC`), when it is one the files may state.
+    pub(crate) stated_as: Option<&'static str>,
     /// The value converted from that unit into the expected one.
     pub(crate) converted: f64,
 }
 
 impl UnitSuspect {
-    /// Plain words: "15.2 looks like °C (288.15 K): convert the column to K".
+    /// Plain words: "15.2 looks like °C (288.15 K), not K: state the column's unit (`--units
+    /// t1_k=degC`) or convert it to K".
     pub(crate) fn describe(&self) -> String {
-        let unit = unit_of(self.signal);
+        let unit = model_unit(self.signal);
         let converted = if self.converted.is_finite() {
             format!(" ({:.4} {unit})", self.converted)
         } else {
             String::new()
         };
+        let what = match self.stated_as {
+            Some(name) => format!(
+                "state the column's unit (`--units {}={name}`) or convert it to {unit}",
+                self.signal.column()
+            ),
+            None => format!("convert the column to {unit}"),
+        };
         format!(
-            "{} looks like {}{converted}, not {unit}: convert the column to {unit}",
+            "{} looks like {}{converted}, not {unit}: {what}",
             self.value, self.likely_unit
         )
     }
 }
 
-/// The unit the model reads a signal in.
-pub(crate) fn unit_of(s: Signal) -> &'static str {
-    match s {
-        Signal::T1 | Signal::T2 | Signal::T3 | Signal::T34 | Signal::T4 => "K",
-        Signal::P1 | Signal::P2 | Signal::P3 | Signal::P34 | Signal::P4 => "kPa",
-        Signal::InletDepression => "kPa",
-        Signal::N1 | Signal::N2 => "rpm",
-        Signal::FuelFlow => "kg/s",
-        Signal::Power => "MW",
-        Signal::Torque => "kN·m",
-        Signal::SurgeMargin => "fraction",
+/// The units a column of `quantity` is most often mistakenly given in, in the order they are
+/// tried (names of [`crate::units::UNITS`]).
+fn likely(quantity: Quantity) -> &'static [&'static str] {
+    match quantity {
+        Quantity::Temperature => &["degC", "degF"],
+        Quantity::Pressure => &["bar", "MPa", "psi", "Pa", "mbar"],
+        Quantity::Power => &["kW", "W"],
+        Quantity::MassFlow => &["kg/h", "t/h"],
+        _ => &[],
     }
 }
-
-type Conversion = (&'static str, fn(f64) -> f64);
-
-const TEMPERATURE: [Conversion; 2] = [
-    ("°C", |v| v + 273.15),
-    ("°F", |v| (v - 32.0) / 1.8 + 273.15),
-];
-const PRESSURE: [Conversion; 5] = [
-    ("bar", |v| v * 100.0),
-    ("MPa", |v| v * 1000.0),
-    ("psi", |v| v * 6.894_757),
-    ("Pa", |v| v / 1000.0),
-    ("mbar", |v| v / 10.0),
-];
-const POWER: [Conversion; 2] = [("kW", |v| v / 1000.0), ("W", |v| v / 1.0e6)];
-const FUEL: [Conversion; 2] = [("kg/h", |v| v / 3600.0), ("t/h", |v| v / 3.6)];
 
 /// Limits: a hot-end temperature (T34, T4) in °C beside a T1 in K reads as a plausible K value
 /// and passes; so does a P2 in MPa that would be a low but possible pressure ratio in bar.
@@ -79,16 +73,18 @@ pub(crate) fn check_fired_point(values: &[(Signal, f64)]) -> Option<UnitSuspect>
             .find(|(x, v)| *x == s && v.is_finite())
             .map(|(_, v)| *v)
     };
-    let suspect = |s: Signal, v: f64, table: &[Conversion], ok: &dyn Fn(f64) -> bool| {
+    let suspect = |s: Signal, v: f64, ok: &dyn Fn(f64) -> bool| {
         if ok(v) {
             return None;
         }
-        table.iter().find_map(|(unit, f)| {
-            let c = f(v);
+        likely(quantity_of(s)).iter().find_map(|name| {
+            let u: &Unit = unit_for(quantity_of(s), name).ok()?;
+            let c = u.to_model(v);
             ok(c).then_some(UnitSuspect {
                 signal: s,
                 value: v,
-                likely_unit: unit,
+                likely_unit: u.label,
+                stated_as: Some(u.name),
                 converted: c,
             })
         })
@@ -96,15 +92,13 @@ pub(crate) fn check_fired_point(values: &[(Signal, f64)]) -> Option<UnitSuspect>
     // The inlet first: it anchors the ratios below.
     let t1 = get(Signal::T1);
     if let Some(v) = t1 {
-        if let Some(x) = suspect(Signal::T1, v, &TEMPERATURE, &|k| {
-            (200.0..=330.0).contains(&k)
-        }) {
+        if let Some(x) = suspect(Signal::T1, v, &|k| (200.0..=330.0).contains(&k)) {
             return Some(x);
         }
     }
     let p1 = get(Signal::P1);
     if let Some(v) = p1 {
-        if let Some(x) = suspect(Signal::P1, v, &PRESSURE, &|k| (40.0..=115.0).contains(&k)) {
+        if let Some(x) = suspect(Signal::P1, v, &|k| (40.0..=115.0).contains(&k)) {
             return Some(x);
         }
     }
@@ -118,7 +112,7 @@ pub(crate) fn check_fired_point(values: &[(Signal, f64)]) -> Option<UnitSuspect>
         ] {
             if let Some(v) = get(s) {
                 let ok = |k: f64| (lo * p1..=hi * p1).contains(&k);
-                if let Some(x) = suspect(s, v, &PRESSURE, &ok) {
+                if let Some(x) = suspect(s, v, &ok) {
                     return Some(x);
                 }
             }
@@ -146,7 +140,7 @@ pub(crate) fn check_fired_point(values: &[(Signal, f64)]) -> Option<UnitSuspect>
         ] {
             if let Some(v) = get(s) {
                 let ok = |k: f64| (lo..=hi).contains(&k);
-                if let Some(x) = suspect(s, v, &TEMPERATURE, &ok) {
+                if let Some(x) = suspect(s, v, &ok) {
                     return Some(x);
                 }
             }
@@ -154,13 +148,13 @@ pub(crate) fn check_fired_point(values: &[(Signal, f64)]) -> Option<UnitSuspect>
     }
     // Power: an industrial gas turbine's shaft, 0.1–600 MW at a fired point.
     if let Some(v) = get(Signal::Power) {
-        if let Some(x) = suspect(Signal::Power, v, &POWER, &|k| (-1.0..=600.0).contains(&k)) {
+        if let Some(x) = suspect(Signal::Power, v, &|k| (-1.0..=600.0).contains(&k)) {
             return Some(x);
         }
     }
     // Fuel: at most ≈ 0.1 kg/s per MW, and never above 40 kg/s.
     if let Some(v) = get(Signal::FuelFlow) {
-        if let Some(x) = suspect(Signal::FuelFlow, v, &FUEL, &|k| k > 0.0 && k <= 40.0) {
+        if let Some(x) = suspect(Signal::FuelFlow, v, &|k| k > 0.0 && k <= 40.0) {
             return Some(x);
         }
     }
@@ -171,6 +165,7 @@ pub(crate) fn check_fired_point(values: &[(Signal, f64)]) -> Option<UnitSuspect>
             signal: Signal::N1,
             value: v,
             likely_unit: "percent of a design speed",
+            stated_as: None,
             converted: f64::NAN,
         });
     }
