@@ -1,8 +1,10 @@
 //! Wash advice from the stored history: reads Method B results, records washes the trend
 //! detects, fits the fouling trend since the last wash and stores the recommendation.
 //!
-//! Results whose start-up a stored gap analysis explains by an instrument's error are set aside
-//! ([`SetAside`]): a step an instrument made must not move the advice.
+//! Results whose start-up a stored gap analysis explains by an instrument's error stay in the
+//! joint fit of the start-ups since the last wash, which names and sizes an instrument's step
+//! once for all the start-ups it moved; one that no step corrects is set aside ([`SetAside`]):
+//! a step an instrument made must not move the advice.
 //!
 //! The one place where `trend` and `wash` (pure) meet the store; called by the diagnosis worker
 //! after each stored result and by `gtwatch wash advise`. Reads through a [`Db`] and writes
@@ -50,8 +52,9 @@ pub(crate) struct ParamTrend {
 }
 
 /// A Method B result the trends leave out: its start-up's newest gap analysis names an
-/// instrument's error (a fuel meter, an inlet thermometer, a sensor), so its health is the
-/// instrument's as much as the engine's. A step such a start-up shows neither moves the fouling
+/// instrument's error (a fuel meter, an inlet thermometer, a sensor), and the joint fit of the
+/// start-ups since the last wash names no instrument's step that corrects it, so its health is
+/// the instrument's as much as the engine's. A step such a start-up shows neither moves the fouling
 /// trend nor counts as a wash.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub(crate) struct SetAside {
@@ -119,7 +122,7 @@ pub(crate) fn refresh(
     let store = db.read();
     let TrendRows {
         rows,
-        set_aside,
+        explained,
         poor_fits,
     } = trend_rows(store.history(&HistoryFilter {
         method: Some("B".into()),
@@ -135,11 +138,13 @@ pub(crate) fn refresh(
         .filter(|w| !w.is_detected())
         .map(|w| w.t_ms)
         .max();
-    let basis_from = rows
-        .iter()
-        .position(|r| firm_ms.is_none_or(|w| r.start_ms > w))
-        .unwrap_or(rows.len());
-    let (steps, corrected) = attribute_since(store, &rows[basis_from..], &washes, bounds)?;
+    let Attributed {
+        rows,
+        set_aside,
+        basis_from,
+        steps,
+        corrected,
+    } = attribute_keeping_explained(store, rows, &explained, firm_ms, &washes, bounds)?;
     // The corrected health of those start-ups, for `history` (written with the advice).
     let corrections = corrections_write(
         &rows[basis_from..],
@@ -265,29 +270,33 @@ pub(crate) fn refresh(
     })
 }
 
-/// The Method B results the trends use, and those they leave out.
+/// The Method B results the trends may use, and those they leave out.
 struct TrendRows {
+    /// Those the trends may use, the start-ups in `explained` included.
     rows: Vec<HistoryRow>,
-    set_aside: Vec<SetAside>,
+    /// The start-ups of `rows` a stored gap analysis explains by an instrument's error.
+    explained: Vec<SetAside>,
     poor_fits: Vec<PoorFit>,
 }
 
-/// Splits the stored results: those an instrument explains are set aside, those whose fit is
-/// `poor` are left out (the model does not describe the start-up), the rest feed the trends.
+/// Splits the stored results: those whose fit is `poor` are left out (the model does not
+/// describe the start-up), unless a gap analysis explains them by an instrument, which is
+/// noted in `explained`; the rest may feed the trends.
 fn trend_rows(history: Vec<HistoryRow>) -> TrendRows {
     let mut out = TrendRows {
         rows: Vec::new(),
-        set_aside: Vec::new(),
+        explained: Vec::new(),
         poor_fits: Vec::new(),
     };
     let complete = |r: &HistoryRow| HEALTH_NAMES.iter().all(|p| r.value(p).is_finite());
     for r in history.into_iter().filter(complete) {
         if let Some(effect) = instrument_explaining(&r) {
-            out.set_aside.push(SetAside {
+            out.explained.push(SetAside {
                 segment_id: r.segment_id,
                 start_ms: r.start_ms,
                 effect: effect.to_string(),
             });
+            out.rows.push(r);
         } else if r.fit_quality.as_deref() == Some(Verdict::Poor.as_str()) {
             out.poor_fits.push(PoorFit {
                 segment_id: r.segment_id,
@@ -299,6 +308,85 @@ fn trend_rows(history: Vec<HistoryRow>) -> TrendRows {
         }
     }
     out
+}
+
+/// The rows the trends use, those set aside, and the steps since the last firm wash with the
+/// health of the start-ups from `rows[basis_from]` on as the trends see it.
+struct Attributed {
+    rows: Vec<HistoryRow>,
+    set_aside: Vec<SetAside>,
+    basis_from: usize,
+    steps: Vec<StepAttribution>,
+    corrected: Vec<SeqPoint>,
+}
+
+/// The steps since the last firm wash (`firm_ms`), attributed by the joint fit of those
+/// start-ups ([`attribute_since`]) with the start-ups their own gap analysis explains by an
+/// instrument (`explained`) kept in it, so an instrument's step over several start-ups is named
+/// and sized once for all of them, even when one of them alone was `ambiguous`. An explained
+/// start-up that no step names an instrument for is then set aside (its health is the
+/// instrument's as much as the engine's) and the fit made again without it; a start-up before
+/// the firm wash is never in a joint fit, so an explained one is set aside at once.
+fn attribute_keeping_explained(
+    store: &crate::store::Store,
+    rows: Vec<HistoryRow>,
+    explained: &[SetAside],
+    firm_ms: Option<i64>,
+    washes: &[WashRow],
+    bounds: &HealthBounds,
+) -> Result<Attributed, StoreError> {
+    let after_firm = |r: &HistoryRow| firm_ms.is_none_or(|w| r.start_ms > w);
+    let explained_by = |id: i64| explained.iter().find(|e| e.segment_id == id);
+    let mut aside: Vec<i64> = rows
+        .iter()
+        .filter(|r| explained_by(r.segment_id).is_some() && !after_firm(r))
+        .map(|r| r.segment_id)
+        .collect();
+    // At most three fits: all; without the explained start-ups no step corrected; and, should
+    // that fit leave some of the rest uncorrected, without every explained start-up (what the
+    // advice did before it kept them, and where this always ends: none is left to uncover).
+    let mut refits = 0;
+    loop {
+        let kept: Vec<HistoryRow> = rows
+            .iter()
+            .filter(|r| !aside.contains(&r.segment_id))
+            .cloned()
+            .collect();
+        let basis_from = kept.iter().position(after_firm).unwrap_or(kept.len());
+        let since = &kept[basis_from..];
+        let (steps, corrected) = attribute_since(store, since, washes, bounds)?;
+        let uncovered: Vec<i64> = since
+            .iter()
+            .enumerate()
+            .filter(|(j, r)| {
+                explained_by(r.segment_id).is_some()
+                    && !steps.iter().any(|s| {
+                        s.corrected && s.attribution.corrected_range(since.len()).contains(j)
+                    })
+            })
+            .map(|(_, r)| r.segment_id)
+            .collect();
+        if uncovered.is_empty() {
+            let set_aside = explained
+                .iter()
+                .filter(|e| aside.contains(&e.segment_id))
+                .cloned()
+                .collect();
+            return Ok(Attributed {
+                rows: kept,
+                set_aside,
+                basis_from,
+                steps,
+                corrected,
+            });
+        }
+        if refits == 0 {
+            aside.extend(uncovered);
+        } else {
+            aside.extend(explained.iter().map(|e| e.segment_id));
+        }
+        refits += 1;
+    }
 }
 
 /// The instrument error a start-up's newest gap analysis explains it by, if any: the effect it

@@ -5,6 +5,7 @@
 //! it). Must not fit engine models or write to the store (the refresh writes what it returns).
 
 use super::seq_point;
+use crate::engine::effects::is_instrument;
 use crate::gap::sequence::{self, SeqPoint, SequenceAttribution, SequenceVerdict};
 use crate::health::HealthBounds;
 use crate::store::{
@@ -51,6 +52,17 @@ pub(crate) fn step_line(step: &StepAttribution) -> String {
         step.from_onset,
         step.start_ups
     );
+    // A step the joint fit left open between an instrument and the engine, decided by what the
+    // stepped start-ups' own gap analyses named.
+    let decided = if step.attribution.undecided_between.is_empty() {
+        String::new()
+    } else {
+        format!(
+            " (the joint fit alone could not tell it from {}; the stepped start-ups' own gap \
+             analyses named it)",
+            step.attribution.undecided_between.join(", ")
+        )
+    };
     let tail = match &step.attribution.verdict {
         V::NoStep => "not persistent (the start-ups after it are back on the trend)".to_string(),
         V::Instrument {
@@ -75,7 +87,8 @@ pub(crate) fn step_line(step: &StepAttribution) -> String {
                          the trends use the health corrected for it",
                         d.rate_per_day * per,
                         d.rate_sigma * per
-                    );
+                    )
+                    + &decided;
             }
             match step.until_segment_id {
                 Some(back) => format!(
@@ -101,7 +114,7 @@ pub(crate) fn step_line(step: &StepAttribution) -> String {
             }
         ),
     };
-    head + &tail
+    head + &tail + &decided
 }
 
 /// The detected (unconfirmed) washes that lie just before the onset of a step the sequence
@@ -207,8 +220,17 @@ pub(super) fn attribute_since(
     };
     let mut failed: Option<StoreError> = None;
     let mut sources: Vec<Option<i64>> = Vec::new();
-    let attributions =
-        sequence::attribute_steps(&points[from..], k - from, recovers, wash_at, |kk| {
+    // What each start-up's own gap analysis named: it decides a step the joint fit cannot.
+    let named: Vec<Option<String>> = since[from..]
+        .iter()
+        .map(|r| r.gap_verdict.clone().filter(|v| is_instrument(v)))
+        .collect();
+    let attributions = sequence::attribute_steps(
+        &points[from..],
+        k - from,
+        recovers,
+        wash_at,
+        |kk| {
             // Those of a start-up from the onset on, else of any since the wash (a
             // linearisation at a start-up before the step serves as well: the signature is how
             // the health answers an instrument's error, not the error itself).
@@ -227,7 +249,9 @@ pub(super) fn attribute_since(
                     Vec::new()
                 }
             }
-        });
+        },
+        &named,
+    );
     if let Some(e) = failed {
         return Err(e);
     }

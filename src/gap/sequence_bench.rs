@@ -272,7 +272,7 @@ fn one_sequence(
     let (verdict, correct, fitted, corrected, fitted_until) = match onset {
         None => ("not_found".to_string(), false, None, points.clone(), None),
         Some(k) => {
-            let steps = sequence::attribute_steps(&points, k, recovers, None, signatures_at);
+            let steps = sequence::attribute_steps(&points, k, recovers, None, signatures_at, &[]);
             let a = &steps[0];
             later_steps = steps[1..]
                 .iter()

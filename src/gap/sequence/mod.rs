@@ -261,11 +261,60 @@ pub(crate) struct SequenceAttribution {
     /// Index of the first start-up that left the trend.
     pub(crate) onset: usize,
     pub(crate) verdict: SequenceVerdict,
+    /// The joint fit could not tell the named instrument from these (engine explanations
+    /// among them): the stepped start-ups' own gap analyses decided ([`Self::decided_by`]).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub(crate) undecided_between: Vec<String>,
     /// Every hypothesis, best (lowest BIC) first.
     pub(crate) hypotheses: Vec<Hypothesis>,
 }
 
 impl SequenceAttribution {
+    /// An `ambiguous` verdict decided by what the stepped start-ups' own gap analyses named
+    /// (`named[j]`: the instrument start-up `j`'s analysis named, if any): when the start-ups
+    /// this step moved whose analysis named an instrument all named the same one, and it is
+    /// among the candidates, it is the verdict, sized by its hypothesis. Each analysis fitted
+    /// the instrument to the whole transient of one start-up, where an instrument's error and
+    /// a change of health differ in shape (a power transducer reading low and a power turbine
+    /// gaining efficiency, alike in the health estimates the joint fit sees, are not alike in
+    /// time); the joint fit sees only the health estimates. Anything else stays as it is.
+    pub(crate) fn decided_by(
+        mut self,
+        named: &[Option<String>],
+        signatures: &[Signature],
+        points: &[SeqPoint],
+    ) -> SequenceAttribution {
+        let SequenceVerdict::Ambiguous { candidates } = &self.verdict else {
+            return self;
+        };
+        let mut said: Vec<&str> = named
+            .iter()
+            .skip(self.onset)
+            .flatten()
+            .map(String::as_str)
+            .collect();
+        said.sort_unstable();
+        said.dedup();
+        let [one] = said.as_slice() else {
+            return self;
+        };
+        if !candidates.iter().any(|c| c == one) {
+            return self;
+        }
+        let Some(h) = self
+            .hypotheses
+            .iter()
+            .find(|h| h.instrument && h.name == *one)
+        else {
+            return self;
+        };
+        let verdict = instrument_verdict(h, signatures, points);
+        let others: Vec<String> = candidates.iter().filter(|c| *c != one).cloned().collect();
+        self.verdict = verdict;
+        self.undecided_between = others;
+        self
+    }
+
     /// The same attribution of a sequence whose first `by` start-ups were left out, stated
     /// on the whole sequence (indices moved by `by`).
     pub(crate) fn shifted(mut self, by: usize) -> SequenceAttribution {
@@ -499,13 +548,16 @@ pub(crate) const MAX_STEPS: usize = 3;
 /// another is fitted on the start-ups before the next onset only, so the later step does not
 /// bend its fit. `wash_at`: a detected wash from that start-up on, before the first onset, that
 /// every hypothesis has beside its own step. `signatures(k)`: the instruments' signatures for a
-/// step from start-up `k`.
+/// step from start-up `k`. `named[j]`: the instrument start-up `j`'s own gap analysis named, if
+/// any (may be shorter than `points`), which decides a step the joint fit leaves `ambiguous`
+/// ([`SequenceAttribution::decided_by`]).
 pub(crate) fn attribute_steps(
     points: &[SeqPoint],
     first: usize,
     recovers: [bool; 6],
     wash_at: Option<usize>,
     mut signatures: impl FnMut(usize) -> Vec<Signature>,
+    named: &[Option<String>],
 ) -> Vec<SequenceAttribution> {
     let mut out: Vec<SequenceAttribution> = Vec::new();
     let mut work = points.to_vec();
@@ -515,9 +567,11 @@ pub(crate) fn attribute_steps(
         let mut att = attribute_at(&work, k, &sigs, wash_at);
         let single_bic = att.hypotheses.first().map_or(f64::INFINITY, |h| h.bic);
         next = later_step(&work, k, &sigs, wash_at, single_bic);
-        if let Some(m) = next {
-            att = attribute_at(&work[..m], k, &sigs, wash_at);
+        let end = next.unwrap_or(work.len());
+        if next.is_some() {
+            att = attribute_at(&work[..end], k, &sigs, wash_at);
         }
+        att = att.decided_by(&named[..named.len().min(end)], &sigs, &work[..end]);
         work = att.explained(&work);
         // A step the joint fits do not see as such (below the decisive margin) may still leave
         // the trend in what this one leaves.
@@ -570,6 +624,7 @@ fn attribute_at(
     SequenceAttribution {
         onset: k,
         verdict,
+        undecided_between: Vec::new(),
         hypotheses: hyps,
     }
 }
@@ -885,6 +940,15 @@ fn verdict_of(
     if candidates.len() > 1 {
         return SequenceVerdict::Ambiguous { candidates };
     }
+    instrument_verdict(best, signatures, points)
+}
+
+/// The verdict naming the instrument of hypothesis `best`, sized as it fitted.
+fn instrument_verdict(
+    best: &Hypothesis,
+    signatures: &[Signature],
+    points: &[SeqPoint],
+) -> SequenceVerdict {
     let unit = signatures
         .iter()
         .find(|s| s.effect == best.name)

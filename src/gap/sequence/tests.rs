@@ -270,9 +270,14 @@ fn scaled(s: &Signature, by: f64) -> [f64; 6] {
 /// Every step of `pts` from its first onset on, with both signatures at every onset.
 fn all_steps(pts: &[SeqPoint]) -> Vec<SequenceAttribution> {
     let k = onset(pts, crate::trend::RECOVERED_BY_WASH).expect("a step");
-    attribute_steps(pts, k, crate::trend::RECOVERED_BY_WASH, None, |_| {
-        vec![fuel(), t1()]
-    })
+    attribute_steps(
+        pts,
+        k,
+        crate::trend::RECOVERED_BY_WASH,
+        None,
+        |_| vec![fuel(), t1()],
+        &[],
+    )
 }
 
 /// Over 50 noise draws of `n` start-ups with `truth_steps` added (each over its range): how many
@@ -383,7 +388,7 @@ fn steps_or_drift(pts: &[SeqPoint]) -> Vec<SequenceAttribution> {
     let Some(k) = onset(pts, recovers).or_else(|| drift_onset(pts, &[fuel(), t1()])) else {
         return Vec::new();
     };
-    attribute_steps(pts, k, recovers, None, |_| vec![fuel(), t1()])
+    attribute_steps(pts, k, recovers, None, |_| vec![fuel(), t1()], &[])
 }
 
 /// `s`'s error growing linearly from none at start-up `last_right` to `size` (in nominals) at

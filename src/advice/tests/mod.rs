@@ -692,3 +692,5 @@ fn an_instrument_step_two_start_ups_after_a_detected_wash_is_corrected() {
     let line = meter_step_after_a_detected_wash(6, 8);
     assert!(line.contains("(4 of 12 start-ups since the wash"), "{line}");
 }
+
+mod explained;
