@@ -325,6 +325,76 @@ fn cli_writes_a_loadable_calibrated_engine_file() {
             "{key}: {got} vs {want}"
         );
     }
+    // The same baseline in the plant's units (°C, bar, kg/h, kW), stated with --units: the same
+    // calibration.
+    let text = std::fs::read_to_string(format!("{root}/examples/baseline_snapshots.csv"))
+        .expect("baseline");
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
+    let mut plant = header.join(",") + "\n";
+    for line in lines {
+        let cells: Vec<String> = line
+            .split(',')
+            .zip(&header)
+            .map(|(c, h)| match (*h, c.parse::<f64>()) {
+                ("t1_k" | "t2_k" | "t34_k", Ok(v)) => format!("{:.9}", v - 273.15),
+                ("p2_kpa" | "p34_kpa" | "p1_kpa" | "p_amb_kpa", Ok(v)) => {
+                    format!("{:.11}", v / 100.0)
+                }
+                ("fuel_kg_s", Ok(v)) => format!("{:.9}", v * 3600.0),
+                ("power_mw", Ok(v)) => format!("{:.9}", v * 1000.0),
+                _ => c.to_string(),
+            })
+            .collect();
+        plant += &(cells.join(",") + "\n");
+    }
+    let plant_csv = dir.path().join("plant_units.csv");
+    std::fs::write(&plant_csv, plant).expect("write");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(["calibrate", "--engine"])
+        .arg(format!("{root}/config/engine.toml"))
+        .arg("--input")
+        .arg(&plant_csv)
+        .args([
+            "--units",
+            "t1_k=degC,t2_k=degC,t34_k=degC,p1_kpa=bar,p2_kpa=bar,p34_kpa=bar,p_amb_kpa=bar,\
+             fuel_kg_s=kg/h,power_mw=kW",
+            "--threads",
+            "2",
+            "--json",
+        ])
+        .output()
+        .expect("run gtwatch");
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let stated: serde_json::Value = serde_json::from_slice(&run.stdout).expect("one JSON document");
+    let (a, b) = (
+        cal["rms_after"].as_f64().expect("rms"),
+        stated["calibration"]["rms_after"].as_f64().expect("rms"),
+    );
+    assert!(
+        (a - b).abs() < 1e-3 * a,
+        "rms after {a} in the model's units, {b} stated"
+    );
+    for (p, q) in cal["params"]
+        .as_array()
+        .expect("params")
+        .iter()
+        .zip(stated["calibration"]["params"].as_array().expect("params"))
+    {
+        let (x, y) = (
+            p["fitted"].as_f64().expect("x"),
+            q["fitted"].as_f64().expect("y"),
+        );
+        assert!(
+            (x - y).abs() <= 1e-4 * x.abs().max(1e-3),
+            "{}: {x} vs {y}",
+            p["key"]
+        );
+    }
     // Bad input names the file and line.
     let bad = dir.path().join("bad.csv");
     std::fs::write(&bad, "t1_k,n2_rpm,fuel_kg_s,p2_kpa\n288,3600,abc,1500\n").expect("write");

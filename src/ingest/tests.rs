@@ -297,6 +297,19 @@ fn a_row_dated_far_in_the_future_is_reported_not_stored() {
 }
 
 /// Issue 12 #3: implausible values are stored flagged, never as good, and counted.
+/// The stored value and quality code of `tag` at second `t` of 2024-03-01 (UTC).
+fn stored_at(store: &Store, tag: &str, t: i64) -> (f64, i64) {
+    store
+        .conn()
+        .query_row(
+            "SELECT s.value, s.quality FROM samples s JOIN tags t ON t.id = s.tag_id
+             WHERE t.name = ?1 AND s.t_ms = ?2",
+            rusqlite::params![tag, 1_709_251_200_000_i64 + 1000 * t],
+            |r| Ok((r.get(0)?, r.get(1)?)),
+        )
+        .expect("sample")
+}
+
 /// A log in the plant's units (°C, bar, kg/h, kW, a GG speed in Hz; wide and long layouts) is
 /// stored in the model's units once `[replay.units]` states them, and judged after conversion
 /// (every value good); a unit of the wrong kind or an unknown signal is a config problem
@@ -329,17 +342,7 @@ fn stated_units_are_converted_before_they_are_judged_and_stored() {
             "judged in the model's units: {:?}",
             r.quality
         );
-        let v = |tag: &str, t: i64| -> f64 {
-            store
-                .conn()
-                .query_row(
-                    "SELECT s.value FROM samples s JOIN tags t ON t.id = s.tag_id
-                     WHERE t.name = ?1 AND s.t_ms = ?2",
-                    rusqlite::params![tag, 1_709_251_200_000_i64 + 1000 * t],
-                    |r| r.get(0),
-                )
-                .expect("sample")
-        };
+        let v = |tag: &str, t: i64| -> f64 { stored_at(&store, tag, t).0 };
         for (tag, t, want) in [
             ("n1_rpm", 0, 7500.0),
             ("n1_rpm", 1, 7530.0),
@@ -401,17 +404,7 @@ fn implausible_values_are_flagged_not_good() {
     assert_eq!(r.quality.spike, 1, "{:?}", r.quality);
     assert_eq!(r.quality.bad, 1, "{:?}", r.quality);
     assert_eq!(r.quality.good, 19, "{:?}", r.quality);
-    let q = |col: &str, t: i64| -> i64 {
-        store
-            .conn()
-            .query_row(
-                "SELECT s.quality FROM samples s JOIN tags t ON t.id = s.tag_id
-                 WHERE t.name = ?1 AND s.t_ms = ?2",
-                rusqlite::params![col, 1_709_251_200_000_i64 + 1000 * t],
-                |r| r.get(0),
-            )
-            .expect("sample")
-    };
+    let q = |col: &str, t: i64| -> i64 { stored_at(&store, col, t).1 };
     assert_eq!(q("n1_rpm", 1), Quality::OutOfRange.code() as i64);
     assert_eq!(q("t2_k", 1), Quality::OutOfRange.code() as i64);
     assert_eq!(q("fuel_kg_s", 1), Quality::OutOfRange.code() as i64);

@@ -181,16 +181,16 @@ const POWER_SHIFT: [f64; 6] = [0.05, 0.02, 0.06, 0.07, -0.03, 0.75];
 
 /// A gap report whose aliases are the fuel meter's and the power transducer's signatures.
 fn meter_and_power_report() -> serde_json::Value {
-    let shift = |s: [f64; 6]| {
-        serde_json::json!({"D_GC": s[0], "D_EC": s[1], "D_GT": s[2],
-                           "D_ET": s[3], "D_GP": s[4], "D_EP": s[5]})
-    };
-    serde_json::json!({"aliases": {"aliases": [
-        {"effect": "fuel_meter", "unit": "fraction", "nominal": 0.02,
-         "max_magnitude": 0.06, "health_shift": shift(FUEL_SHIFT)},
-        {"effect": "sensor_scale:power_mw", "unit": "fraction", "nominal": -0.01,
-         "max_magnitude": 0.05, "health_shift": shift(POWER_SHIFT)},
-    ]}})
+    report_of(&[
+        FUEL_ALIAS,
+        Alias(
+            "sensor_scale:power_mw",
+            "fraction",
+            -0.01,
+            0.05,
+            POWER_SHIFT,
+        ),
+    ])
 }
 
 /// A power transducer reading 2.2 % low from start-up 4 of 8, whose signature is nearly a step

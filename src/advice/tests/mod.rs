@@ -120,18 +120,32 @@ const FUEL_SHIFT: [f64; 6] = [0.05, 0.2, -1.28, 0.1, -0.87, 2.56];
 /// An inlet-temperature signature, per 2 K.
 const INLET_SHIFT: [f64; 6] = [0.6, 0.4, 0.3, -0.2, 0.5, 0.2];
 
+/// One alias of a stored gap report: the instrument, the unit of its error, the error its
+/// `shift` is given for, the largest credible error, and the shift of the six estimates.
+struct Alias(&'static str, &'static str, f64, f64, [f64; 6]);
+
+/// A stored gap report whose aliases are `aliases`.
+fn report_of(aliases: &[Alias]) -> serde_json::Value {
+    let list: Vec<serde_json::Value> = aliases
+        .iter()
+        .map(|Alias(effect, unit, nominal, max, s)| {
+            serde_json::json!({"effect": effect, "unit": unit, "nominal": nominal,
+                "max_magnitude": max, "health_shift": {"D_GC": s[0], "D_EC": s[1],
+                "D_GT": s[2], "D_ET": s[3], "D_GP": s[4], "D_EP": s[5]}})
+        })
+        .collect();
+    serde_json::json!({"aliases": {"aliases": list}})
+}
+
+/// The fuel meter's alias: its signature per 2 % high, credible to 6 %.
+const FUEL_ALIAS: Alias = Alias("fuel_meter", "fraction", 0.02, 0.06, FUEL_SHIFT);
+
 /// A stored gap report's aliases: the fuel meter's and the inlet temperature's signatures.
 fn meter_and_inlet_report() -> serde_json::Value {
-    let shift = |s: [f64; 6]| {
-        serde_json::json!({"D_GC": s[0], "D_EC": s[1], "D_GT": s[2],
-                           "D_ET": s[3], "D_GP": s[4], "D_EP": s[5]})
-    };
-    serde_json::json!({"aliases": {"aliases": [
-        {"effect": "fuel_meter", "unit": "fraction", "nominal": 0.02,
-         "max_magnitude": 0.06, "health_shift": shift(FUEL_SHIFT)},
-        {"effect": "inlet_temperature", "unit": "K", "nominal": 2.0,
-         "max_magnitude": 6.0, "health_shift": shift(INLET_SHIFT)},
-    ]}})
+    report_of(&[
+        FUEL_ALIAS,
+        Alias("inlet_temperature", "K", 2.0, 6.0, INLET_SHIFT),
+    ])
 }
 
 /// A wash a refresh detected just before start-up `j`, which nobody confirmed.
