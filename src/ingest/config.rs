@@ -114,7 +114,15 @@ impl ReplayConfig {
     pub fn validate(&self) -> Vec<ConfigProblem> {
         let mut p = Vec::new();
         for (key, unit) in &self.units {
-            if let Err(e) = ColumnUnits::from_pairs([(key.as_str(), unit.as_str())]) {
+            if key
+                .trim()
+                .eq_ignore_ascii_case(crate::units::AMBIENT_PRESSURE_COLUMN)
+            {
+                p.push(ConfigProblem::new(
+                    format!("replay.units.{key}"),
+                    "not a signal: a replay converts signals only (a free tag is stored as it is)",
+                ));
+            } else if let Err(e) = ColumnUnits::from_pairs([(key.as_str(), unit.as_str())]) {
                 p.push(ConfigProblem::new(format!("replay.units.{key}"), e.reason));
             }
         }

@@ -363,12 +363,14 @@ fn stated_units_are_converted_before_they_are_judged_and_stored() {
     bad.units.insert("t34_k".into(), "bar".into());
     bad.units.insert("vibration".into(), "mm/s".into());
     bad.units.insert("p34_kpa".into(), "psig".into());
+    bad.units.insert("p_amb_kpa".into(), "mbar".into());
     let problems = bad.validate();
     let keys: Vec<&str> = problems.iter().map(|p| p.key.as_str()).collect();
     for k in [
         "replay.units.t34_k",
         "replay.units.vibration",
         "replay.units.p34_kpa",
+        "replay.units.p_amb_kpa",
     ] {
         assert!(keys.contains(&k), "{k} missing from {problems:?}");
     }
