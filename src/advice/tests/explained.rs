@@ -8,18 +8,8 @@ use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 
 /// Stores a gap analysis of `segment_id` with verdict `effect` (`fuel_meter`, `ambiguous`) and
-/// the fuel meter's and inlet temperature's signatures as its aliases.
-fn store_analysis(store: &mut Store, segment_id: i64, effect: &str) {
-    store_analysis_with(store, segment_id, effect, meter_and_inlet_report());
-}
-
-/// [`store_analysis`] with `report` as the analysis's JSON (its aliases).
-fn store_analysis_with(
-    store: &mut Store,
-    segment_id: i64,
-    effect: &str,
-    report: serde_json::Value,
-) {
+/// `report` as its JSON (its aliases).
+fn store_analysis(store: &mut Store, segment_id: i64, effect: &str, report: serde_json::Value) {
     store
         .insert_gap_analysis(&NewGapAnalysis {
             segment_id,
@@ -48,18 +38,31 @@ fn sequence(
     meter: impl Fn(usize) -> f64,
     analysis: impl Fn(usize) -> Option<&'static str>,
 ) -> (tempfile::TempDir, Store, Vec<i64>) {
+    let shift = |j: usize| FUEL_SHIFT.map(|s| meter(j) * s);
+    sequence_with(n, 23, shift, analysis, meter_and_inlet_report)
+}
+
+/// `n` daily start-ups (noise seeded with `seed`), each moved by `shift(j)` on top of
+/// [`truth_at`], each start-up's own gap analysis as `analysis(j)` says, with `report()`'s
+/// aliases.
+fn sequence_with(
+    n: usize,
+    seed: u64,
+    shift: impl Fn(usize) -> [f64; 6],
+    analysis: impl Fn(usize) -> Option<&'static str>,
+    report: fn() -> serde_json::Value,
+) -> (tempfile::TempDir, Store, Vec<i64>) {
     let dir = tempfile::tempdir().expect("dir");
     let mut store = Store::open(&dir.path().join("w.db")).expect("db");
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(23);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let noise = Normal::new(0.0, 0.05).expect("normal");
     let mut ids = Vec::new();
     for j in 0..n {
-        let h: [f64; 6] = std::array::from_fn(|i| {
-            truth_at(j)[i] + noise.sample(&mut rng) + meter(j) * FUEL_SHIFT[i]
-        });
+        let d = shift(j);
+        let h: [f64; 6] = std::array::from_fn(|i| truth_at(j)[i] + noise.sample(&mut rng) + d[i]);
         let id = store_health(&mut store, j, h, [0.05; 6]);
         if let Some(effect) = analysis(j) {
-            store_analysis(&mut store, id, effect);
+            store_analysis(&mut store, id, effect, report());
         }
         ids.push(id);
     }
@@ -204,25 +207,9 @@ fn the_start_ups_own_analyses_decide_a_step_the_joint_fit_cannot() {
     const N: usize = 8;
     const ONSET: usize = 4;
     let run = |analysis: &dyn Fn(usize) -> &'static str| {
-        let dir = tempfile::tempdir().expect("dir");
-        let mut store = Store::open(&dir.path().join("w.db")).expect("db");
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(31);
-        let noise = Normal::new(0.0, 0.05).expect("normal");
-        for j in 0..N {
-            let h: [f64; 6] = std::array::from_fn(|i| {
-                truth_at(j)[i]
-                    + noise.sample(&mut rng)
-                    + if j >= ONSET {
-                        2.2 * POWER_SHIFT[i]
-                    } else {
-                        0.0
-                    }
-            });
-            let id = store_health(&mut store, j, h, [0.05; 6]);
-            if j >= ONSET {
-                store_analysis_with(&mut store, id, analysis(j), meter_and_power_report());
-            }
-        }
+        let shift = |j: usize| POWER_SHIFT.map(|s| if j >= ONSET { 2.2 * s } else { 0.0 });
+        let named = |j: usize| (j >= ONSET).then(|| analysis(j));
+        let (dir, mut store, _) = sequence_with(N, 31, shift, named, meter_and_power_report);
         let r = refresh_defaults(&mut store);
         let rows = store.history(&HistoryFilter::default()).expect("history");
         (r, rows, dir)
