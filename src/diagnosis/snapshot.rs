@@ -27,13 +27,14 @@ use super::steady::{
     relative_gg_speeds, with_input_noise, with_model_error, InputSigma, SteadyData, SteadyProblem,
     SteadyWindow,
 };
+use super::unit_check::likely_unit;
 use super::{fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, Method, MethodResult};
 use crate::engine::sensors::noise_sigma;
 use crate::engine::steady::{solve, Demand, SteadyInputs};
 use crate::engine::Engine;
 use crate::health::HealthParams;
 use crate::signals::Signal;
-use crate::units::ColumnUnits;
+use crate::units::{ColumnUnits, Quantity};
 use serde::Serialize;
 use std::collections::HashMap;
 use std::io::Read;
@@ -133,16 +134,19 @@ pub fn read_snapshots_in<R: Read>(
         let p_amb = match pamb_col {
             Some(c) => {
                 let v = units.to_model(AMBIENT_PRESSURE_COLUMN, number(c)?);
-                if v.is_finite() && !(10.0..=200.0).contains(&v) {
-                    let hint = if (0.1..=2.0).contains(&v) {
-                        " (it looks like bar: state `--units p_amb_kpa=bar` or give kPa)"
-                    } else if (400.0..=1_150.0).contains(&v) {
-                        " (it looks like mbar or hPa: state `--units p_amb_kpa=mbar` or give kPa)"
-                    } else if (10_000.0..=200_000.0).contains(&v) {
-                        " (it looks like Pa: state `--units p_amb_kpa=Pa` or give kPa)"
-                    } else {
-                        ""
-                    };
+                let plausible = |k: f64| (10.0..=200.0).contains(&k);
+                if v.is_finite() && !plausible(v) {
+                    // The unit it most likely is, as the fired-point check names a P1's.
+                    let hint = likely_unit(Quantity::Pressure, v, &plausible).map_or(
+                        String::new(),
+                        |(u, _)| {
+                            format!(
+                                " (it looks like {}: state `--units {AMBIENT_PRESSURE_COLUMN}={}` \
+                                 or give kPa)",
+                                u.label, u.name
+                            )
+                        },
+                    );
                     return Err(err(
                         c,
                         format!("ambient pressure {v} kPa is not plausible{hint}"),
@@ -642,6 +646,18 @@ mod tests {
         let csv = "t1_k,n2_rpm,fuel_kg_s\n2880,3000,1.2\n";
         let e = read_snapshots(csv.as_bytes(), &HashMap::new(), None).expect_err("range");
         assert!(e.to_string().contains("plausible"), "{e}");
+        // An ambient pressure in another unit names it, and what to state.
+        for (v, unit) in [("1.013", "bar"), ("1013", "mbar"), ("101300", "Pa")] {
+            let csv = format!("t1_k,p_amb_kpa,n2_rpm,fuel_kg_s\n288,{v},3000,1.2\n");
+            let e = read_snapshots(csv.as_bytes(), &HashMap::new(), None).expect_err("unit");
+            let text = e.to_string();
+            assert!(
+                text.contains(&format!(
+                    "looks like {unit}: state `--units p_amb_kpa={unit}`"
+                )),
+                "{v}: {text}"
+            );
+        }
     }
 
     #[test]

@@ -62,6 +62,21 @@ fn likely(quantity: Quantity) -> &'static [&'static str] {
     }
 }
 
+/// The first of the units a column of `quantity` is most often mistakenly given in that takes
+/// `value` into the range `ok` accepts, with the value converted: what an implausible value
+/// most likely is. `None` when no such unit does.
+pub(crate) fn likely_unit(
+    quantity: Quantity,
+    value: f64,
+    ok: &dyn Fn(f64) -> bool,
+) -> Option<(&'static Unit, f64)> {
+    likely(quantity).iter().find_map(|name| {
+        let u = unit_for(quantity, name).ok()?;
+        let c = u.to_model(value);
+        ok(c).then_some((u, c))
+    })
+}
+
 /// Limits: a hot-end temperature (T34, T4) in °C beside a T1 in K reads as a plausible K value
 /// and passes; so does a P2 in MPa that would be a low but possible pressure ratio in bar.
 /// The first unit problem of one fired steady operating point (`values`: the row's signals;
@@ -77,16 +92,12 @@ pub(crate) fn check_fired_point(values: &[(Signal, f64)]) -> Option<UnitSuspect>
         if ok(v) {
             return None;
         }
-        likely(quantity_of(s)).iter().find_map(|name| {
-            let u: &Unit = unit_for(quantity_of(s), name).ok()?;
-            let c = u.to_model(v);
-            ok(c).then_some(UnitSuspect {
-                signal: s,
-                value: v,
-                likely_unit: u.label,
-                stated_as: Some(u.name),
-                converted: c,
-            })
+        likely_unit(quantity_of(s), v, ok).map(|(u, c)| UnitSuspect {
+            signal: s,
+            value: v,
+            likely_unit: u.label,
+            stated_as: Some(u.name),
+            converted: c,
         })
     };
     // The inlet first: it anchors the ratios below.
