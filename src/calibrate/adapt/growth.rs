@@ -1,6 +1,7 @@
 //! The adaptation's growth (steps 1–3 of the parent module): the curves the data identify at
 //! one knot, their fit, then one knot more per component while every knot stays identified
-//! and the fit gains, and the report; or, with [`AdaptStrategy::Continuation`], every curve
+//! and the fit gains (a curve whose new knots are not identified while the component's others
+//! are is left out, and the others grow on), and the report; or, with [`AdaptStrategy::Continuation`], every curve
 //! the data inform at every knot their speeds carry, fitted through a sequence of smoothness
 //! scales. Must not do I/O.
 
@@ -15,6 +16,16 @@ use super::{
 };
 use crate::engine::config::{curves_of, CalibratedRange, COMPONENTS};
 use crate::engine::Engine;
+
+/// What one growth trial decided ([`Growth::accepted`]).
+struct Decision {
+    /// The grown shape (`None` when no component grew).
+    next: Option<Shape>,
+    /// Components whose new knots were not identified beside the others': to try alone.
+    deferred: Vec<usize>,
+    /// A component tried alone and the curves to leave out so that its others can grow.
+    reducible: Option<(usize, Vec<String>)>,
+}
 
 /// The adaptation in progress: the shape fitted so far, the engine with it, and what the
 /// report will say.
@@ -231,21 +242,40 @@ impl<'a> Growth<'a> {
         // All growing components at once first; a component whose new knots are not
         // identified beside the others' is tried alone before it stops (the others' new knots
         // can be what takes its information).
-        let mut tries: Vec<Vec<usize>> = vec![growing.clone()];
+        // A component tried alone whose new knots leave some of its curves unidentified grows
+        // on without those curves (when others remain): one curve the data cannot resolve at
+        // more knots (say the compressor's flow beside its speed re-labelling) must not stop
+        // the others bending where the unit needs it. The fit's gain decides, as for any growth.
+        let mut tries: Vec<(Vec<usize>, Shape)> = vec![(growing.clone(), self.shape.clone())];
         let mut grown = None;
-        while let Some(group) = tries.pop() {
-            let (keys, pass, trial) = self.trial(&group)?;
+        while let Some((group, base)) = tries.pop() {
+            let (keys, pass, trial) = self.trial(&base, &group)?;
             let alone = group.len() == 1;
-            let (next, deferred) = self.accepted(&group, &trial, &keys, &pass, alone);
+            let Decision {
+                next,
+                deferred,
+                reducible,
+            } = self.accepted(&base, &group, &trial, &keys, &pass, alone);
             if let Some(next) = next {
                 grown = Some((next, keys, pass));
                 break;
             }
-            tries.extend(deferred.into_iter().rev().map(|ci| vec![ci]));
+            tries.extend(
+                deferred
+                    .into_iter()
+                    .rev()
+                    .map(|ci| (vec![ci], self.shape.clone())),
+            );
+            if let Some((ci, drop)) = reducible {
+                let mut reduced = base.clone();
+                reduced.curves[ci].retain(|(curve, _)| !drop.contains(curve));
+                tries.push((vec![ci], reduced));
+            }
         }
         let Some((next, keys, pass)) = grown else {
             return Ok(false);
         };
+        let dropped = self.dropped_curves(&next);
         self.design_free.retain(|k| {
             keys.iter()
                 .position(|x| x == k)
@@ -282,6 +312,16 @@ impl<'a> Growth<'a> {
             // still grow alone.
             return Ok(self.frozen.iter().any(|f| !f));
         }
+        for (ci, curve) in dropped {
+            self.not_fitted[ci].push((
+                curve,
+                format!(
+                    "fitted up to {} knot(s), then not identified beside the component's other \
+                     curves at {}: left out so they could take more knots",
+                    level_before[ci], self.level[ci]
+                ),
+            ));
+        }
         self.current = fitted;
         self.shape = next;
         self.shape.read_back(&self.current);
@@ -306,10 +346,28 @@ impl<'a> Growth<'a> {
         }
     }
 
-    /// The current shape with one knot more on each of `group`, the keys fitted with it
-    /// (the free design values first) and the identifiability pass at its start.
-    fn trial(&mut self, group: &[usize]) -> Result<(Vec<String>, Pass, Shape), CalibrateError> {
-        let mut trial = self.shape.clone();
+    /// The curves of the current shape that `next` no longer has, per component.
+    fn dropped_curves(&self, next: &Shape) -> Vec<(usize, String)> {
+        let mut out = Vec::new();
+        for ci in 0..3 {
+            for (curve, _) in &self.shape.curves[ci] {
+                if !next.curves[ci].iter().any(|(c, _)| c == curve) {
+                    out.push((ci, curve.clone()));
+                }
+            }
+        }
+        out
+    }
+
+    /// `base` (the current shape, or it with curves left out) with one knot more on each of
+    /// `group`, the keys fitted with it (the free design values first) and the
+    /// identifiability pass at its start.
+    fn trial(
+        &mut self,
+        base: &Shape,
+        group: &[usize],
+    ) -> Result<(Vec<String>, Pass, Shape), CalibrateError> {
+        let mut trial = base.clone();
         for &ci in group {
             trial = trial.resampled(ci, knots(self.ranges[ci], self.level[ci] + 1));
         }
@@ -328,45 +386,58 @@ impl<'a> Growth<'a> {
     /// The shape with the growth of each `growing` component whose knots `pass` all
     /// identifies (`None` when none grew), and the components whose knots it does not: frozen
     /// with the reason when `final_word` (the growth was tried alone) or when another grew,
-    /// else returned to be tried alone.
+    /// else returned to be tried alone; and, tried alone, the component with the curves to
+    /// leave out when it has others whose knots are all identified.
     fn accepted(
         &mut self,
+        base: &Shape,
         growing: &[usize],
         trial: &Shape,
         keys: &[String],
         pass: &Pass,
         final_word: bool,
-    ) -> (Option<Shape>, Vec<usize>) {
+    ) -> Decision {
         let mut accepted = false;
-        let mut failed: Vec<(usize, Vec<String>)> = Vec::new();
-        let mut next = self.shape.clone();
+        let mut failed: Vec<(usize, Vec<String>, Vec<String>)> = Vec::new();
+        let mut next = base.clone();
+        let unidentified = |k: &String| {
+            keys.iter()
+                .position(|x| x == k)
+                .is_none_or(|j| !pass.identified[j])
+        };
         for &ci in growing {
             let name = COMPONENTS[ci];
-            let bad: Vec<String> = trial.curves[ci]
-                .iter()
-                .flat_map(|(curve, values)| (0..values.len()).map(move |i| key(name, curve, i)))
-                .filter(|k| {
-                    keys.iter()
-                        .position(|x| x == k)
-                        .is_none_or(|j| !pass.identified[j])
-                })
-                .collect();
+            let mut bad: Vec<String> = Vec::new();
+            let mut bad_curves: Vec<String> = Vec::new();
+            for (curve, values) in &trial.curves[ci] {
+                let unknown: Vec<String> = (0..values.len())
+                    .map(|i| key(name, curve, i))
+                    .filter(|k| unidentified(k))
+                    .collect();
+                if !unknown.is_empty() {
+                    bad.extend(unknown);
+                    bad_curves.push(curve.clone());
+                }
+            }
             if bad.is_empty() {
                 next.knots[ci] = trial.knots[ci].clone();
                 next.curves[ci] = trial.curves[ci].clone();
                 self.level[ci] += 1;
                 accepted = true;
             } else {
-                failed.push((ci, bad));
+                failed.push((ci, bad, bad_curves));
             }
         }
         let mut deferred = Vec::new();
-        for (ci, bad) in failed {
+        let mut reducible = None;
+        for (ci, bad, bad_curves) in failed {
             if !final_word {
                 // Beside a growth that was kept, the next step tries it again; else now alone.
                 if !accepted {
                     deferred.push(ci);
                 }
+            } else if bad_curves.len() < trial.curves[ci].len() {
+                reducible = Some((ci, bad_curves));
             } else {
                 self.frozen[ci] = true;
                 self.knots_reason[ci] = format!(
@@ -377,7 +448,11 @@ impl<'a> Growth<'a> {
                 );
             }
         }
-        (accepted.then_some(next), deferred)
+        Decision {
+            next: accepted.then_some(next),
+            deferred,
+            reducible,
+        }
     }
 
     /// The closing fit of [`AdaptStrategy::Grown`]: every design value the calibration offered
