@@ -213,6 +213,7 @@ pub(super) fn result_json(r: &MethodResult) -> Value {
         "fit_quality": r.fit_quality,
         "separability": r.separability,
         "localisation": r.localisation,
+        "left_out": r.left_out,
     })
 }
 
@@ -268,6 +269,9 @@ pub(crate) fn print_text_of(title: &str, subject: &str, m: Method, r: &MethodRes
             longest.to_s,
             longest.phase.name()
         );
+    }
+    for note in &r.left_out {
+        println!("  left out: {note}");
     }
     if !r.separability.statement.is_empty() {
         println!("  separability: {}", r.separability.statement);

@@ -278,6 +278,11 @@ pub struct MethodResult {
     pub separability: separability::Separability,
     /// Residual map, signals × phases (Method B; empty for Method A).
     pub localisation: Vec<fit_quality::ResidualCell>,
+    /// What the fit left out and why: on an adapted engine file, the steady windows (Method A)
+    /// or the samples (Method B) whose GG runs beyond the speeds the adaptation was calibrated
+    /// at (`[adaptation.calibrated]`), where its curves are extrapolated.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub left_out: Vec<String>,
     /// The fitted model's instrument values, rows like the data's (Method B; empty for Method
     /// A). For plots (before/after traces); not serialised.
     #[serde(skip)]
@@ -564,6 +569,7 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
         localisation: Vec::new(),
         fuel_meter_zero: None,
         record_holes: Vec::new(),
+        left_out: Vec::new(),
         model_values: Vec::new(),
     }
 }

@@ -106,11 +106,13 @@ pub fn objective_for(engine: &Engine, segment: &Recording, cfg: &DiagnosisConfig
         .copied()
         .filter(|s| !is_input(*s, cfg.drive_mode, cfg.fit_ambient_pressure))
         .collect();
+    let calibrated = within_calibration(engine, segment);
     let in_window: Vec<bool> = segment
         .times()
         .iter()
         .zip(segment.phases())
-        .map(|(&t, &p)| cfg.window.contains(t, p))
+        .zip(&calibrated)
+        .map(|((&t, &p), &c)| c && cfg.window.contains(t, p))
         .collect();
     Objective::new(
         segment.times(),
@@ -120,6 +122,64 @@ pub fn objective_for(engine: &Engine, segment: &Recording, cfg: &DiagnosisConfig
         &engine.cfg().sensors,
         cfg.rate_weight,
     )
+}
+
+/// Per sample of `segment`, whether its measured GG speed lies within the speeds an adapted
+/// engine file was calibrated at (`[adaptation.calibrated]`, with its margin). Beyond them the
+/// curves are extrapolated and the model's error is not known: a start-up's acceleration and
+/// idle lie below any load baseline, and on a unit of another make the model can be far off
+/// there (an aero-derivative of GSPy's maps: the fit at its search limits, `poor`, on a healthy
+/// start-up), so those samples are not compared. Every sample counts when the file states no
+/// range or the sample has no GG speed.
+pub fn within_calibration(engine: &Engine, segment: &Recording) -> Vec<bool> {
+    let range = engine.cfg().adaptation.as_ref().and_then(|a| a.calibrated);
+    let t_default = engine.cfg().ambient.temperature_k;
+    segment
+        .rows()
+        .iter()
+        .map(|v| {
+            let Some(range) = range else { return true };
+            let n1 = v[Signal::N1.index()];
+            if !n1.is_finite() {
+                return true;
+            }
+            let t1 = Some(v[Signal::T1.index()])
+                .filter(|t| t.is_finite() && *t > 0.0)
+                .unwrap_or(t_default);
+            range
+                .beyond(super::steady::relative_gg_speed_at(engine, n1, t1))
+                .is_none()
+        })
+        .collect()
+}
+
+/// What [`within_calibration`] leaves out of `segment`'s diagnosis window, for the result
+/// (`None` when nothing).
+fn left_out_note(
+    engine: &Engine,
+    segment: &Recording,
+    cfg: &DiagnosisConfig,
+    within: &[bool],
+) -> Option<String> {
+    let range = engine.cfg().adaptation.as_ref()?.calibrated?;
+    let out: Vec<f64> = segment
+        .times()
+        .iter()
+        .zip(segment.phases())
+        .zip(within)
+        .filter(|((&t, &p), &c)| !c && cfg.window.contains(t, p))
+        .map(|((&t, _), _)| t)
+        .collect();
+    let (first, last) = (out.first()?, out.last()?);
+    let [lo, hi] = range.gg_speed;
+    Some(format!(
+        "{} sample(s) between {first:.0} and {last:.0} s left out of the fit: their GG runs \
+         beyond the relative corrected speeds the adapted model was calibrated at ({lo:.3}…\
+         {hi:.3}, [adaptation.calibrated]), where its curves are extrapolated; the start-up's \
+         acceleration is still simulated through them, only not compared (calibrate on a \
+         baseline that covers them, e.g. start-ups' idle holds with --startup)",
+        out.len()
+    ))
 }
 
 impl TransientProblem {
@@ -374,20 +434,38 @@ pub fn diagnose_transient(
         n_res,
         Vec::new(),
     );
+    let within = within_calibration(engine, segment);
+    r.left_out
+        .extend(left_out_note(engine, segment, cfg, &within));
     // The residual map at the result: one more model run.
     if let Ok(model) = problem.simulate(&out.x) {
         let sigs = r.signals.clone();
+        // The samples the fit left out are not judged either.
+        let compared: Vec<Values> = segment
+            .rows()
+            .iter()
+            .zip(&within)
+            .map(|(v, &c)| {
+                let mut v = *v;
+                if !c {
+                    for s in &sigs {
+                        v[s.index()] = f64::NAN;
+                    }
+                }
+                v
+            })
+            .collect();
         r.localisation = super::fit_quality::localise(
             segment.times(),
             segment.phases(),
-            segment.rows(),
+            &compared,
             &model,
             &sigs,
             &engine.cfg().sensors,
         );
         let periodic = super::periodic::find(
             segment.times(),
-            segment.rows(),
+            &compared,
             &model,
             &sigs,
             &engine.cfg().sensors,

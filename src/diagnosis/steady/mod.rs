@@ -308,8 +308,13 @@ pub(crate) fn relative_gg_speed(engine: &Engine, data: &SteadyData) -> Option<f6
         .iter()
         .find(|(s, _, _)| *s == Signal::N1)
         .map(|&(_, v, _)| v)?;
+    Some(relative_gg_speed_at(engine, n1, data.inputs.t_amb_k))
+}
+
+/// The relative corrected GG speed of a GG speed `n1_rpm` at inlet temperature `t1_k`.
+pub(crate) fn relative_gg_speed_at(engine: &Engine, n1_rpm: f64, t1_k: f64) -> f64 {
     let d = engine.design();
-    Some(corrected_speed(n1, data.inputs.t_amb_k) / corrected_speed(d.n1_rpm, d.t1_k))
+    corrected_speed(n1_rpm, t1_k) / corrected_speed(d.n1_rpm, d.t1_k)
 }
 
 /// Why `data` is left out of a steady diagnosis on an adapted model: its measured GG speed
@@ -587,10 +592,26 @@ pub fn diagnose_steady(
             "no steady window found (see SteadyCriteria)".into(),
         ));
     }
-    let points = average_windows(segment, engine.cfg(), &windows, &cfg.signals)
+    // On an adapted file a window beyond the calibrated GG speeds (a start-up's idle or
+    // low-load hold below the baseline's lowest load) is left out, as a snapshot is.
+    let mut left_out = Vec::new();
+    let points: Vec<SteadyData> = average_windows(segment, engine.cfg(), &windows, &cfg.signals)
         .into_iter()
+        .filter(|d| match beyond_calibration(engine, d) {
+            Some(reason) => {
+                left_out.push(format!("{}: {reason}", d.label));
+                false
+            }
+            None => true,
+        })
         .map(|d| with_model_error(engine, with_input_noise(engine, &cfg.base, d)))
         .collect();
+    if points.is_empty() {
+        return Err(DiagnosisError::Data(format!(
+            "no steady window within the adapted model's calibrated speeds: {}",
+            left_out.join("; ")
+        )));
+    }
     let mut problem = SteadyProblem::new(engine, points, cfg)?;
     let out = fit(&mut problem, cfg, &pool)?;
     let signals = problem.objective().signals().to_vec();
@@ -607,6 +628,7 @@ pub fn diagnose_steady(
         &relative_gg_speeds(engine, problem.points()),
     );
     r.fuel_meter_zero = fuel_zero;
+    r.left_out = left_out;
     r.wall_s = start.elapsed().as_secs_f64();
     Ok(r)
 }

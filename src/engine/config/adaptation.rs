@@ -120,7 +120,7 @@ impl CalibratedRange {
         Some(format!(
             "relative corrected GG speed {rel:.3} is {side} the adapted model was calibrated at \
              ({lo:.3}…{hi:.3}, [adaptation.calibrated]): its curves are extrapolated there and \
-             its own error is not known, so the snapshot is left out; calibrate on a baseline \
+             its own error is not known, so the point is left out; calibrate on a baseline \
              that covers it ({covers})"
         ))
     }
