@@ -201,10 +201,22 @@ impl TransientProblem {
         }
         let objective = objective_for(&engine, segment, cfg);
         if objective.len() <= cfg.n_fitted() {
+            let beyond = within_calibration(&engine, segment)
+                .iter()
+                .filter(|c| !**c)
+                .count();
             return Err(DiagnosisError::Data(format!(
-                "only {} valid measured samples in the window for {} parameters",
+                "only {} valid measured samples in the window for {} parameters{}",
                 objective.len(),
-                cfg.n_fitted()
+                cfg.n_fitted(),
+                if beyond > 0 {
+                    format!(
+                        " ({beyond} sample(s) run beyond the speeds the adapted engine file was \
+                         calibrated at, [adaptation.calibrated], and are not compared)"
+                    )
+                } else {
+                    String::new()
+                }
             )));
         }
         if !segment.phases().iter().any(|p| {
