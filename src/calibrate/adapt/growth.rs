@@ -1,9 +1,9 @@
 //! The adaptation's growth (steps 1–3 of the parent module): the curves the data identify at
 //! one knot, their fit, then one knot more per component while every knot stays identified
 //! and the fit gains (a curve whose new knots are not identified while the component's others
-//! are is left out, and the others grow on), and the report; or, with [`AdaptStrategy::Continuation`], every curve
-//! the data inform at every knot their speeds carry, fitted through a sequence of smoothness
-//! scales. Must not do I/O.
+//! are is left out, and the others grow on), and the report; or, with
+//! [`AdaptStrategy::Continuation`], every curve the data inform at every knot their speeds
+//! carry, fitted through a sequence of smoothness scales. Must not do I/O.
 
 use super::super::CalibrateError;
 use super::knots::{knots, SIDE_REACH};
