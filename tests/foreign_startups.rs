@@ -15,7 +15,7 @@
 
 use gtwatch::calibrate::adapt::AdaptSettings;
 use gtwatch::calibrate::candidates::default_candidates;
-use gtwatch::calibrate::synthetic::{snapshot_csv_at_speeds, OperatingPoint};
+use gtwatch::calibrate::synthetic::generator_baseline_csv;
 use gtwatch::calibrate::{calibrate, CalibrationSettings};
 use gtwatch::diagnosis::bench::synthetic_startup;
 use gtwatch::diagnosis::fit_quality::Verdict;
@@ -35,39 +35,7 @@ fn root() -> PathBuf {
 /// The generator's healthy baseline: 9 loads from 30 % to 100 % at 6 100 rpm, days from 278
 /// to 298 K, each row a 100-s average, with what such a unit measures.
 fn baseline(truth: &Engine) -> Vec<Snapshot> {
-    let design_mw = truth.cfg().design.power_mw;
-    let n2 = truth.cfg().design.pt_speed_rpm;
-    let points: Vec<OperatingPoint> = (0..9)
-        .map(|k| {
-            let j = (k * 4) % 9;
-            OperatingPoint {
-                t_amb_k: 278.0 + 20.0 * j as f64 / 8.0,
-                p_amb_kpa: 99.0 + 3.0 * ((j * 5) % 9) as f64 / 8.0,
-                power_mw: design_mw * (0.3 + 0.7 * k as f64 / 8.0),
-            }
-        })
-        .collect();
-    let csv = snapshot_csv_at_speeds(
-        truth,
-        &HealthParams::HEALTHY,
-        &points,
-        &vec![n2; points.len()],
-        "baseline",
-        100.0,
-        7,
-        &[
-            Signal::N1,
-            Signal::P1,
-            Signal::T2,
-            Signal::P2,
-            Signal::T34,
-            Signal::P34,
-            Signal::T4,
-            Signal::P4,
-            Signal::Power,
-        ],
-    )
-    .expect("snapshots");
+    let csv = generator_baseline_csv(truth, 7).expect("snapshots");
     read_snapshots(csv.as_bytes(), &HashMap::new(), Some("test")).expect("rows")
 }
 

@@ -1,7 +1,7 @@
 //! Synthetic steady snapshots with known truth: the rows a plant historian would export, made
 //! with the steady model of a given engine and health plus instrument noise. Used by the
 //! calibration twin test and to write `examples/baseline_snapshots.csv`
-//! (`cargo run --example baseline_snapshots`).
+//! (`cargo run --example baseline_snapshots`) and the foreign generator unit's baseline.
 //!
 //! What it is for: one CSV text in the snapshot layout (`diagnosis::snapshot`), canonical
 //! column names, with T1, ambient pressure, n2 and fuel flow as exact inputs and the other
@@ -94,6 +94,50 @@ pub fn load_sweep(engine: &Engine, n: usize) -> Vec<OperatingPoint> {
             }
         })
         .collect()
+}
+
+/// What a generator unit's baseline carries besides its inputs (T1, ambient pressure, PT
+/// speed, fuel flow): [`generator_baseline_csv`].
+pub const GENERATOR_WRITTEN: [Signal; 9] = [
+    Signal::N1,
+    Signal::P1,
+    Signal::T2,
+    Signal::P2,
+    Signal::T34,
+    Signal::P34,
+    Signal::T4,
+    Signal::P4,
+    Signal::Power,
+];
+
+/// The healthy steady baseline of `truth` run as a generator: 9 loads from 30 % to 100 % of
+/// its design power at its design PT speed, days from 278 to 298 K and 99 to 102 kPa in a
+/// shuffled order, each row a 100-s average of the [`GENERATOR_WRITTEN`] signals with
+/// instrument noise (`seed`), group `baseline`. The baseline of the foreign generator unit
+/// (`tests/foreign_startups.rs`, `cargo run --example foreign_baseline`).
+pub fn generator_baseline_csv(truth: &Engine, seed: u64) -> Result<String, String> {
+    let design_mw = truth.cfg().design.power_mw;
+    let points: Vec<OperatingPoint> = (0..9)
+        .map(|k| {
+            let j = (k * 4) % 9;
+            OperatingPoint {
+                t_amb_k: 278.0 + 20.0 * j as f64 / 8.0,
+                p_amb_kpa: 99.0 + 3.0 * ((j * 5) % 9) as f64 / 8.0,
+                power_mw: design_mw * (0.3 + 0.7 * k as f64 / 8.0),
+            }
+        })
+        .collect();
+    let n2 = vec![truth.cfg().design.pt_speed_rpm; points.len()];
+    snapshot_csv_at_speeds(
+        truth,
+        &HealthParams::HEALTHY,
+        &points,
+        &n2,
+        "baseline",
+        100.0,
+        seed,
+        &GENERATOR_WRITTEN,
+    )
 }
 
 /// Snapshot CSV text of `engine` at `health` over `points`; `group` fills a `test` column.

@@ -176,8 +176,8 @@ fn left_out_note(
         "{} sample(s) between {first:.0} and {last:.0} s left out of the fit: their GG runs \
          beyond the relative corrected speeds the adapted model was calibrated at ({lo:.3}…\
          {hi:.3}, [adaptation.calibrated]), where its curves are extrapolated; the start-up's \
-         acceleration is still simulated through them, only not compared (calibrate on a \
-         baseline that covers them, e.g. start-ups' idle holds with --startup)",
+         acceleration is still simulated through them, only not compared (a baseline with \
+         lower loads covers more of them)",
         out.len()
     ))
 }
