@@ -508,6 +508,40 @@ mod tests {
     use crate::diagnosis::FitParam;
     use crate::health::HealthParams;
 
+    #[test]
+    fn only_the_samples_within_the_calibrated_speeds_are_compared() {
+        let engine = Engine::reference().expect("reference");
+        let rec = synthetic_startup(&engine, &HealthParams::HEALTHY, 1, true).expect("start-up");
+        let cfg = DiagnosisConfig::default();
+        assert!(within_calibration(&engine, &rec).iter().all(|c| *c));
+        let mut file = engine.cfg().clone();
+        file.adaptation = Some(crate::engine::config::AdaptationConfig {
+            calibrated: Some(crate::engine::config::CalibratedRange {
+                gg_speed: [0.9, 1.0],
+            }),
+            ..Default::default()
+        });
+        let adapted = engine.with_config(file).expect("adapted");
+        let within = within_calibration(&adapted, &rec);
+        let n1 = rec.series(Signal::N1);
+        let design = engine.design().n1_rpm;
+        // Idle and acceleration lie below 0.9 of the design speed, the loaded end within.
+        assert!(within
+            .iter()
+            .zip(&n1)
+            .any(|(c, n)| !c && *n < 0.85 * design));
+        assert!(within
+            .iter()
+            .zip(&n1)
+            .any(|(c, n)| *c && *n > 0.95 * design));
+        let all = objective_for(&engine, &rec, &cfg).len();
+        let kept = objective_for(&adapted, &rec, &cfg).len();
+        assert!(kept > 0 && kept < all, "{kept} of {all}");
+        let note = left_out_note(&adapted, &rec, &cfg, &within).expect("a note");
+        assert!(note.contains("[adaptation.calibrated]"), "{note}");
+        assert!(left_out_note(&engine, &rec, &cfg, &within).is_none());
+    }
+
     /// The same start-up recorded at 1 Hz and at 10 Hz (the same noise per sample) gives the
     /// same health within 2σ: lags, objective and replay follow the data's own period, not the
     /// engine file's `sequence.sample_period_s` (1 s), which the diagnosis engine keeps. (With
