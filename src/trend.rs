@@ -248,6 +248,48 @@ const STEP_SIGMAS: f64 = 4.0;
 /// Diagnoses of the trend a step is judged against (the most recent ones since the wash).
 const STEP_WINDOW: usize = 8;
 
+/// How far one parameter of a start-up lies from what the trend before it predicts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Departure {
+    pub value: f64,
+    pub expected: f64,
+    /// The largest difference the trend allows, percent (`STEP_SIGMAS` combined σ, at least
+    /// [`MIN_STEP`]).
+    pub tolerance: f64,
+}
+
+impl Departure {
+    /// `value − expected`, percent.
+    pub fn offset(&self) -> f64 {
+        self.value - self.expected
+    }
+}
+
+/// Each parameter of `current` against the trend of `previous` (the same parameter's
+/// diagnoses since the last wash, oldest first; the last `STEP_WINDOW` of them): `None`
+/// where fewer than 3 are there to fit a trend.
+pub fn departures(
+    previous: &[[TrendPoint; 6]],
+    current: &[TrendPoint; 6],
+) -> [Option<Departure>; 6] {
+    let tail = &previous[previous.len().saturating_sub(STEP_WINDOW)..];
+    std::array::from_fn(|k| {
+        let points: Vec<TrendPoint> = tail.iter().map(|p| p[k]).collect();
+        let fit = fit_rate(&points).ok()?;
+        let cur = current[k];
+        let expected = fit.value_at(cur.t_days);
+        let mean_var =
+            points.iter().map(|p| sigma_of(p).powi(2)).sum::<f64>() / points.len() as f64;
+        let spread = fit.scatter.max(mean_var.sqrt());
+        let sigma = (sigma_of(&cur).powi(2) + spread.powi(2)).sqrt();
+        Some(Departure {
+            value: cur.value,
+            expected,
+            tolerance: (STEP_SIGMAS * sigma).max(MIN_STEP),
+        })
+    })
+}
+
 /// The parameters of `current` that step away from the trend of `previous` (the same
 /// parameter's diagnoses since the last wash, oldest first; at least 3 are needed, else none).
 /// A compressor parameter (`recovers[i]`) that improves is left out: that is what a wash
@@ -257,31 +299,40 @@ pub fn steps_against_trend(
     current: &[TrendPoint; 6],
     recovers: [bool; 6],
 ) -> Vec<HealthStep> {
-    let tail = &previous[previous.len().saturating_sub(STEP_WINDOW)..];
+    steps_of(&departures(previous, current), recovers)
+}
+
+/// The steps among `departures` (see [`steps_against_trend`]).
+pub fn steps_of(departures: &[Option<Departure>; 6], recovers: [bool; 6]) -> Vec<HealthStep> {
     let mut out = Vec::new();
-    for k in 0..6 {
-        let points: Vec<TrendPoint> = tail.iter().map(|p| p[k]).collect();
-        let Ok(fit) = fit_rate(&points) else {
+    for (k, d) in departures.iter().enumerate() {
+        let Some(d) = d else {
             continue;
         };
-        let cur = current[k];
-        let expected = fit.value_at(cur.t_days);
-        let mean_var =
-            points.iter().map(|p| sigma_of(p).powi(2)).sum::<f64>() / points.len() as f64;
-        let spread = fit.scatter.max(mean_var.sqrt());
-        let sigma = (sigma_of(&cur).powi(2) + spread.powi(2)).sqrt();
-        let tolerance = (STEP_SIGMAS * sigma).max(MIN_STEP);
-        let d = cur.value - expected;
-        if d.abs() > tolerance && !(recovers[k] && d < 0.0) {
+        let off = d.offset();
+        if off.abs() > d.tolerance && !(recovers[k] && off < 0.0) {
             out.push(HealthStep {
                 param: k,
-                value: cur.value,
-                expected,
-                tolerance,
+                value: d.value,
+                expected: d.expected,
+                tolerance: d.tolerance,
             });
         }
     }
     out
+}
+
+/// Whether a start-up that departs from the trend as `now` does carries on the step of an
+/// earlier one that departed as `then` from the same trend (judged against it, since the
+/// same wash): every parameter's offset from the trend within `now`'s tolerance of the
+/// earlier one's. An input instrument that changed keeps the health it shifts shifted at
+/// every start-up after; that is one step, not a new one each day.
+pub fn same_step(now: &[Option<Departure>; 6], then: &[Option<Departure>; 6]) -> bool {
+    now.iter().zip(then).all(|(a, b)| match (a, b) {
+        (Some(a), Some(b)) => (a.offset() - b.offset()).abs() <= a.tolerance,
+        (None, None) => true,
+        _ => false,
+    })
 }
 
 #[cfg(test)]

@@ -293,6 +293,46 @@ mod tests {
         assert_eq!(steps[0].1[0].param, 2);
     }
 
+    /// A step that persists (an input instrument changed for good) is selected at its first
+    /// start-up only, while the fouling goes on under it; a second step on top of it, and the
+    /// step seen again after it went away, are new.
+    #[test]
+    fn a_persisting_step_is_selected_once() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut store = Store::open(&dir.path().join("w.db")).unwrap();
+        fill(&mut store);
+        let t0 = 1_700_000_000_000_i64;
+        // D_GC follows its trend (0.1 %/day since the wash on day 12); D_GT 1.5 points up
+        // from day 24 on.
+        let day = |store: &mut Store, d: i64, gt: f64, et: f64| {
+            let age = (d - 12) as f64;
+            insert_result(
+                store,
+                t0 + d * DAY,
+                [0.1 * age, 0.1 / 3.0 * age, gt, et, 0.0, 0.0],
+            )
+        };
+        let first = day(&mut store, 24, 1.7, 0.1);
+        for d in 25..28 {
+            day(&mut store, d, 1.7, 0.1);
+        }
+        let steps = crate::worker::gap::health_steps(&store).unwrap();
+        assert_eq!(steps.len(), 1, "{steps:?}");
+        assert_eq!(steps[0].0, first);
+        // D_ET steps too on day 28: a new step, though D_GT's persists.
+        let second = day(&mut store, 28, 1.7, 1.6);
+        day(&mut store, 29, 1.7, 1.6);
+        // Both back to the trend on day 30, then D_GT's step again on day 31: new.
+        day(&mut store, 30, 0.2, 0.1);
+        let again = day(&mut store, 31, 1.7, 0.1);
+        let ids: Vec<i64> = crate::worker::gap::health_steps(&store)
+            .unwrap()
+            .into_iter()
+            .map(|(id, _)| id)
+            .collect();
+        assert_eq!(ids, vec![first, second, again]);
+    }
+
     #[test]
     fn wash_detected_on_its_day_and_advice_recomputes_from_the_stored_basis() {
         let dir = tempfile::tempdir().unwrap();

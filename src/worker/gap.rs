@@ -1,7 +1,7 @@
 //! The gap question inside the loop (issue 23 item 4): one step of the daemon's background gap
 //! analysis. It picks the oldest start-up that needs one — its Method B fit stored as not
 //! `good` or refused as `residual_too_high`, its health stepping away from the unit's own
-//! trend since the last wash (`trend::steps_against_trend`), or every n-th start-up on a
+//! trend since the last wash (`trend::steps_against_trend`; a step that persists once), or every n-th start-up on a
 //! schedule (`[diagnosis] gap_on_poor_fit`, `gap_on_health_step`, `gap_every_n`) — runs `gap::analyse` on it with the worker's
 //! engine and fit settings ([`analyse_startup`], which the fleet's gap jobs run too), and
 //! writes the report through [`Db`]. It yields to the diagnosis
@@ -18,7 +18,7 @@ use crate::recording::Recording;
 use crate::store::{
     Db, GapSelection, HistoryFilter, HistoryRow, NewGapAnalysis, Store, StoreError,
 };
-use crate::trend::{steps_against_trend, HealthStep, TrendPoint};
+use crate::trend::{departures, same_step, steps_of, Departure, HealthStep, TrendPoint};
 use std::collections::HashSet;
 
 /// What one step did.
@@ -63,6 +63,12 @@ fn trend_points(row: &HistoryRow) -> [TrendPoint; 6] {
 
 /// Start-ups whose `good` Method B health steps away from the trend of the good results
 /// before them since the same wash, oldest first, with their steps.
+///
+/// A step that persists is listed once: a start-up that departs from the trend as the last
+/// stepped one did (every parameter's offset within tolerance of its offset, `trend::same_step`)
+/// carries on that step — a fuel meter that reads 3 % high from one day on shifts the health of
+/// every start-up after — and the analysis of the step's first start-up stands for it, where
+/// re-analysing each would cost the gap task an analysis a day and tell nothing new.
 pub(crate) fn health_steps(read: &Store) -> Result<Vec<(i64, Vec<HealthStep>)>, StoreError> {
     let rows = read.history(&HistoryFilter {
         method: Some("B".into()),
@@ -72,6 +78,7 @@ pub(crate) fn health_steps(read: &Store) -> Result<Vec<(i64, Vec<HealthStep>)>, 
     let recovers = crate::trend::RECOVERED_BY_WASH;
     let mut out = Vec::new();
     let mut window: Vec<[TrendPoint; 6]> = Vec::new();
+    let mut last_step: Option<[Option<Departure>; 6]> = None;
     let mut since_wash: Option<i64> = None;
     for row in rows
         .iter()
@@ -79,16 +86,23 @@ pub(crate) fn health_steps(read: &Store) -> Result<Vec<(i64, Vec<HealthStep>)>, 
     {
         if row.wash_id_before != since_wash {
             window.clear();
+            last_step = None;
             since_wash = row.wash_id_before;
         }
         let points = trend_points(row);
-        let steps = steps_against_trend(&window, &points, recovers);
+        let departures = departures(&window, &points);
+        let steps = steps_of(&departures, recovers);
         if steps.is_empty() {
+            // Back on the trend: a step seen after this is a new one.
             window.push(points);
-        } else {
-            // A stepped start-up is left out of the trend the next ones are judged against.
+            last_step = None;
+            continue;
+        }
+        // A stepped start-up is left out of the trend the next ones are judged against.
+        if !last_step.is_some_and(|then| same_step(&departures, &then)) {
             out.push((row.segment_id, steps));
         }
+        last_step = Some(departures);
     }
     Ok(out)
 }
