@@ -46,9 +46,25 @@ pub struct BenchGapArgs {
     /// fourth, its drawn size at the newest) instead of stepping at the fifth.
     #[arg(long)]
     pub drift: bool,
+    /// With `--sequence`: the engine file the start-ups are diagnosed with (an engine
+    /// calibrated to the unit, e.g. `calibrate --adapt`'s output); default the reference engine.
+    #[arg(long, value_name = "FILE")]
+    pub engine: Option<std::path::PathBuf>,
+    /// With `--sequence`: the engine file the start-ups are simulated on (the "true" unit),
+    /// when it is not the model: another maker's unit, other maps. Default: `--engine`'s.
+    #[arg(long, value_name = "FILE")]
+    pub plant: Option<std::path::PathBuf>,
     /// Print JSON (the only format).
     #[arg(long)]
     pub json: bool,
+}
+
+/// An engine file as `--engine`/`--plant` name it (`None`: the reference engine).
+fn engine_of(path: Option<&std::path::Path>, flag: &str) -> anyhow::Result<crate::engine::Engine> {
+    use anyhow::Context;
+    let cfg = crate::engine::EngineConfig::load_or_reference(path)
+        .with_context(|| format!("{flag}: loading the engine file"))?;
+    crate::engine::Engine::new(cfg).with_context(|| format!("{flag}: building the engine model"))
 }
 
 /// The cases `a` asks for.
@@ -63,14 +79,24 @@ fn selection(a: &BenchGapArgs) -> crate::gap::bench::CaseSelection {
 }
 
 pub(crate) fn run(a: BenchGapArgs) -> anyhow::Result<ExitCode> {
-    let engine = crate::engine::Engine::reference()?;
+    if a.sequence == 0 && (a.engine.is_some() || a.plant.is_some()) {
+        anyhow::bail!(
+            "--engine and --plant are for --sequence runs: the single-start-up cases draw \
+             effects the reference engine's library describes"
+        );
+    }
+    let engine = engine_of(a.engine.as_deref(), "--engine")?;
+    let plant = match &a.plant {
+        Some(p) => engine_of(Some(p), "--plant")?,
+        None => engine.clone(),
+    };
     let cfg = crate::diagnosis::DiagnosisConfig {
         threads: a.threads,
         ..Default::default()
     };
     let start = std::time::Instant::now();
     if a.sequence > 0 {
-        return run_sequences(&a, &engine, &cfg, start);
+        return run_sequences(&a, &engine, &plant, &cfg, start);
     }
     let run = crate::gap::bench::run_cases(&engine, &selection(&a), &cfg, |c| {
         eprintln!(
@@ -110,6 +136,7 @@ pub(crate) fn run(a: BenchGapArgs) -> anyhow::Result<ExitCode> {
 fn run_sequences(
     a: &BenchGapArgs,
     engine: &crate::engine::Engine,
+    plant: &crate::engine::Engine,
     cfg: &crate::diagnosis::DiagnosisConfig,
     start: std::time::Instant,
 ) -> anyhow::Result<ExitCode> {
@@ -122,10 +149,10 @@ fn run_sequences(
         repair_after: a.repair_after,
         drift: a.drift,
     };
-    let cases = sb::run_sequences(engine, &run, cfg, |c| {
+    let cases = sb::run_sequences(engine, plant, &run, cfg, |c| {
         eprintln!(
             "sequence {:3} {:13} magnitude {:+.3} → {:40} {} (onset {}, until {} [{}], fitted {}, \
-             max health error {:.2} → {:.2}, {:.0} s){}",
+             max health error {:.2} → {:.2}, before the onset {:.2}, as a change {:.2}, {:.0} s){}",
             c.index,
             c.kind,
             c.magnitude,
@@ -138,6 +165,8 @@ fn run_sequences(
                 .map_or("-".to_string(), |m| format!("{m:+.4}")),
             c.error_fitted,
             c.error_corrected,
+            c.error_before_onset,
+            c.change_error_corrected,
             c.wall_s,
             if c.later_steps.is_empty() {
                 String::new()
@@ -151,6 +180,10 @@ fn run_sequences(
     v["start_ups_per_sequence"] = serde_json::json!(a.sequence);
     v["repair_after"] = serde_json::json!(a.repair_after);
     v["drift"] = serde_json::json!(a.drift);
+    // Which model diagnosed which unit (null: the reference engine; the plant null: the model's
+    // own twin).
+    v["engine"] = serde_json::json!(a.engine);
+    v["plant"] = serde_json::json!(a.plant);
     v["wall_s"] = serde_json::json!(start.elapsed().as_secs_f64());
     v["per_case"] = serde_json::to_value(&cases)?;
     println!("{}", serde_json::to_string_pretty(&v)?);

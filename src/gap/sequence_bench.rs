@@ -79,6 +79,14 @@ pub(crate) struct SequenceCase {
     /// included), as fitted and as corrected (equal when nothing was corrected), points.
     pub(crate) error_fitted: f64,
     pub(crate) error_corrected: f64,
+    /// Largest |estimate − truth| over the start-ups before [`ONSET`], where every instrument
+    /// reads right: the model's own error on this unit (≈ 0 on its own twin; on another
+    /// maker's unit, what the calibrated file still misses), points.
+    pub(crate) error_before_onset: f64,
+    /// As `error_corrected`, less the model's own error on this unit (per parameter, the mean
+    /// of the corrected estimate − truth over the start-ups before [`ONSET`]): the error of the
+    /// change a trend and the wash advice read, points.
+    pub(crate) change_error_corrected: f64,
     /// Steps found after the first (`<verdict>@<start-up>`): false alarms, the truth has one.
     pub(crate) later_steps: Vec<String>,
     pub(crate) wall_s: f64,
@@ -114,9 +122,12 @@ pub(crate) struct SequenceRun {
     pub(crate) drift: bool,
 }
 
-/// Runs `run.cases` sequences of `run.start_ups` each, cycling through the kinds.
+/// Runs `run.cases` sequences of `run.start_ups` each, cycling through the kinds: the
+/// start-ups simulated on `plant`, diagnosed and attributed with `engine` (the model; the same
+/// engine as `plant` for the model's own twin, else an engine file calibrated to that unit).
 pub(crate) fn run_sequences(
     engine: &Engine,
+    plant: &Engine,
     run: &SequenceRun,
     cfg: &DiagnosisConfig,
     mut progress: impl FnMut(&SequenceCase),
@@ -159,7 +170,7 @@ pub(crate) fn run_sequences(
     let mut out = Vec::new();
     for index in 0..run.cases {
         let kind = kinds[index % kinds.len()];
-        let c = one_sequence(engine, index, kind, run, &mut rng, cfg)?;
+        let c = one_sequence(engine, plant, index, kind, run, &mut rng, cfg)?;
         progress(&c);
         out.push(c);
     }
@@ -168,6 +179,7 @@ pub(crate) fn run_sequences(
 
 fn one_sequence(
     engine: &Engine,
+    plant: &Engine,
     index: usize,
     kind: &str,
     run: &SequenceRun,
@@ -196,8 +208,8 @@ fn one_sequence(
             (Hidden::None, step, step)
         }
         _ => {
-            let (_, core) = Hidden::None.simulate(engine, &HealthParams::from_array(base))?;
-            let scale = PlantScale::of(engine, &core);
+            let (_, core) = Hidden::None.simulate(plant, &HealthParams::from_array(base))?;
+            let scale = PlantScale::of(plant, &core);
             let d = truth::draw(kind, rng, &scale).ok_or_else(|| {
                 DiagnosisError::Config(format!("hidden truth {kind:?} cannot be drawn"))
             })?;
@@ -216,9 +228,9 @@ fn one_sequence(
             hidden.clone()
         };
         let hid = if wrong { &grown } else { &Hidden::None };
-        let (plant, samples) = hid.simulate(engine, &HealthParams::from_array(h))?;
+        let (trace, samples) = hid.simulate(plant, &HealthParams::from_array(h))?;
         let noise_seed = 7_000 + 100 * index as u64 + j as u64;
-        let rec = hid.record(&plant, &samples, noise_seed, true)?;
+        let rec = hid.record(&trace, &samples, noise_seed, true)?;
         fits.push(diagnose_transient(engine, &rec, cfg)?);
         recs.push(rec);
         truths.push(h);
@@ -307,9 +319,41 @@ fn one_sequence(
         fitted_magnitude_sigma: fitted.map(|f| f.1),
         error_fitted,
         error_corrected: error(&corrected),
+        error_before_onset: error_before_onset(&points, &truths),
+        change_error_corrected: change_error(&corrected, &truths),
         later_steps,
         wall_s: started.elapsed().as_secs_f64(),
     })
+}
+
+/// Largest |estimate − truth| over the start-ups before [`ONSET`] (every instrument right).
+fn error_before_onset(points: &[SeqPoint], truths: &[[f64; 6]]) -> f64 {
+    points
+        .iter()
+        .zip(truths)
+        .take(ONSET)
+        .flat_map(|(p, t)| p.health.iter().zip(t).map(|(a, b)| (a - b).abs()))
+        .fold(0.0, f64::max)
+}
+
+/// Largest |estimate − truth − offset| from [`ONSET`] on, the offset being the model's own
+/// error on this unit: per parameter, the mean of estimate − truth over the start-ups before.
+fn change_error(points: &[SeqPoint], truths: &[[f64; 6]]) -> f64 {
+    let offset: [f64; 6] = std::array::from_fn(|i| {
+        points
+            .iter()
+            .zip(truths)
+            .take(ONSET)
+            .map(|(p, t)| p.health[i] - t[i])
+            .sum::<f64>()
+            / ONSET as f64
+    });
+    points
+        .iter()
+        .zip(truths)
+        .skip(ONSET)
+        .flat_map(|(p, t)| (0..6).map(move |i| (p.health[i] - t[i] - offset[i]).abs()))
+        .fold(0.0, f64::max)
 }
 
 /// The summary: attribution rate over input-channel sequences, false attribution on the
@@ -349,6 +393,12 @@ pub(crate) fn summarise(cases: &[SequenceCase]) -> serde_json::Value {
         "named_max_error_fitted": max(&named, &|c| c.error_fitted),
         "named_max_error_corrected": max(&named, &|c| c.error_corrected),
         "named_corrected_within_0_3": rate(&named, &|c| c.error_corrected <= 0.3),
+        // The model's own error where every instrument reads right (before the onset), and the
+        // corrected change from the start-up before the onset: on another maker's unit the
+        // first carries the calibrated file's misfit, the second is what a trend reads.
+        "max_error_before_onset": max(&cases.iter().collect::<Vec<_>>(), &|c| c.error_before_onset),
+        "named_max_change_error_corrected": max(&named, &|c| c.change_error_corrected),
+        "named_change_corrected_within_0_3": rate(&named, &|c| c.change_error_corrected <= 0.3),
         // Of the named instruments, those whose end (a repair, or none) is the truth's.
         "named_end_right": rate(&named, &|c| c.fitted_until == c.repaired_at),
         // Sequences (of one step) in which a second step was found: false alarms.
@@ -360,6 +410,31 @@ pub(crate) fn summarise(cases: &[SequenceCase]) -> serde_json::Value {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The model's own error on a unit (a constant offset before the onset) is what
+    /// `error_before_onset` reports and what `change_error` takes out of the later error.
+    #[test]
+    fn the_models_own_error_is_taken_out_of_the_change_error() {
+        let truths: Vec<[f64; 6]> = (0..ONSET + 2)
+            .map(|j| [0.2 * j as f64, 0.1, 0.0, 0.0, 0.0, 0.0])
+            .collect();
+        let bounds = HealthBounds::default();
+        let points: Vec<SeqPoint> = truths
+            .iter()
+            .enumerate()
+            .map(|(j, t)| {
+                let mut h = *t;
+                h[0] += 0.5;
+                h[3] -= 0.4;
+                if j == ONSET + 1 {
+                    h[2] += 0.1;
+                }
+                SeqPoint::new(j as f64, h, [0.05; 6], &bounds)
+            })
+            .collect();
+        assert!((error_before_onset(&points, &truths) - 0.5).abs() < 1e-12);
+        assert!((change_error(&points, &truths) - 0.1).abs() < 1e-12);
+    }
 
     /// The default sequence kinds are the five instruments the health can hide; the cut-off
     /// offset, which one start-up names, is not among them.
