@@ -394,8 +394,9 @@ pub(crate) fn summarise(cases: &[SequenceCase]) -> serde_json::Value {
         "named_max_error_corrected": max(&named, &|c| c.error_corrected),
         "named_corrected_within_0_3": rate(&named, &|c| c.error_corrected <= 0.3),
         // The model's own error where every instrument reads right (before the onset), and the
-        // corrected change from the start-up before the onset: on another maker's unit the
-        // first carries the calibrated file's misfit, the second is what a trend reads.
+        // corrected error less it (its mean before the onset, per parameter): on another
+        // maker's unit the first carries the calibrated file's misfit, the second is what a
+        // trend reads.
         "max_error_before_onset": max(&cases.iter().collect::<Vec<_>>(), &|c| c.error_before_onset),
         "named_max_change_error_corrected": max(&named, &|c| c.change_error_corrected),
         "named_change_corrected_within_0_3": rate(&named, &|c| c.change_error_corrected <= 0.3),
