@@ -80,7 +80,8 @@ pub struct DiagnosisSettings {
     pub health_bounds: [f64; 2],
     /// `gtwatch run` analyses the model–plant gap (`gtwatch gap`) of every start-up whose
     /// Method B fit is not `good`, in the background once the diagnosis queue is empty, and
-    /// stores it for the report. Default true.
+    /// stores it for the report; not one that carries on an analysed misfit
+    /// (`worker::gap::covered_poor_fits`). Default true.
     pub gap_on_poor_fit: bool,
     /// Also analyse a start-up whose Method B health steps away from the unit's own trend
     /// since the last wash (`trend::steps_against_trend`): an input instrument that changed is

@@ -3,7 +3,7 @@
 //! high from the sixth start-up on and whose third start-up runs with heat soak the model does
 //! not describe, replays the log through `gtwatch replay`'s own path, and reports
 //! what was stored. Nobody runs `gtwatch gap` here: the analyses must have been asked for by
-//! the replay's gap step (the daemon's selection). Then `gtwatch report` must show the
+//! the replay's gap step (the daemon's selection), the meter's misfit once, not every day. Then `gtwatch report` must show the
 //! verdicts, and the advice must not move by more than a day against the same month with a
 //! correct meter.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
@@ -81,6 +81,15 @@ fn a_replayed_month_gets_its_gap_analyses_unasked_and_the_meter_step_leaves_the_
         !onset.is_empty(),
         "the meter's first start-up was not analysed"
     );
+    // The meter stays wrong after its first start-up: the next fits are as poor, in the same
+    // way, and that first analysis stands for them (not one analysis a day).
+    for day in METER_FROM + 1..DAYS.parse::<usize>().expect("days") {
+        assert!(
+            verdicts(day).is_empty(),
+            "day {day} analysed again: {:?}",
+            verdicts(day)
+        );
+    }
     assert!(
         r["poor_explained"].as_bool().expect("poor_explained"),
         "the poor start-up's analysis named {poor:?}, not fuel_system"

@@ -203,7 +203,7 @@ impl Store {
 mod tests {
     use super::*;
     use crate::engine::Engine;
-    use crate::store::NewDiagnosis;
+    use crate::store::{NewDiagnosis, NewGapAnalysis};
     use crate::trend::WashDetection;
     use crate::wash::{advise, sensitivity, FoulingTrend, WashEconomics};
 
@@ -236,6 +236,16 @@ mod tests {
         health: [f64; 6],
         fit_quality: &str,
     ) -> i64 {
+        insert_result_with_residual(store, start, health, fit_quality, 0.8)
+    }
+
+    fn insert_result_with_residual(
+        store: &mut Store,
+        start: i64,
+        health: [f64; 6],
+        fit_quality: &str,
+        residual_level: f64,
+    ) -> i64 {
         store
             .conn
             .execute(
@@ -251,7 +261,7 @@ mod tests {
             health,
             sigma: [0.05, 0.03, 0.05, 0.05, 0.05, 0.05],
             objective: 1.0,
-            residual_level: 0.8,
+            residual_level,
             fit_quality: fit_quality.into(),
             model_runs: 300,
             wall_s: 5.0,
@@ -331,6 +341,67 @@ mod tests {
             .map(|(id, _)| id)
             .collect();
         assert_eq!(ids, vec![first, second, again]);
+    }
+
+    /// A poor fit that carries on one whose analysis named its cause (an instrument that
+    /// stays wrong) is not analysed again; one with more residual, another health shift, after
+    /// a good fit, or after an analysis that named nothing, is.
+    #[test]
+    fn a_persisting_misfit_is_analysed_once() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut store = Store::open(&dir.path().join("w.db")).unwrap();
+        fill(&mut store);
+        let t0 = 1_700_000_000_000_i64;
+        // D_GC on its trend (0.1 %/day since the wash on day 12); `gt` on top of D_GT's 0.2.
+        let day = |store: &mut Store, d: i64, gt: f64, quality: &str, residual: f64| {
+            let age = (d - 12) as f64;
+            let health = [0.1 * age, 0.1 / 3.0 * age, 0.2 + gt, 0.1, 0.0, 0.0];
+            insert_result_with_residual(store, t0 + d * DAY, health, quality, residual)
+        };
+        let analysed = |store: &mut Store, id: i64, effect: &str| {
+            store
+                .insert_gap_analysis(&NewGapAnalysis {
+                    segment_id: id,
+                    holdout_segment_id: None,
+                    effect: effect.into(),
+                    shrinkage: 0.9,
+                    confidence: 0.9,
+                    baseline_fit_quality: "suspect".into(),
+                    normalised_residual: 3.0,
+                    report_json: "{}".into(),
+                })
+                .unwrap();
+        };
+        let covered = |store: &Store| {
+            let mut ids: Vec<i64> = crate::worker::gap::covered_poor_fits(store)
+                .unwrap()
+                .into_iter()
+                .collect();
+            ids.sort_unstable();
+            ids
+        };
+        let first = day(&mut store, 24, 1.5, "suspect", 3.0);
+        let same = day(&mut store, 25, 1.5, "suspect", 3.3);
+        let worse = day(&mut store, 26, 1.5, "suspect", 6.0);
+        // Nothing is covered before the first is analysed.
+        assert_eq!(covered(&store), Vec::<i64>::new());
+        analysed(&mut store, first, "fuel_meter");
+        assert_eq!(covered(&store), vec![same]);
+        // Back to a good fit on the trend: the misfit after it is a new run.
+        day(&mut store, 27, 0.0, "good", 0.8);
+        let again = day(&mut store, 28, 1.5, "suspect", 3.0);
+        analysed(&mut store, again, "ambiguous");
+        let after_ambiguous = day(&mut store, 29, 1.5, "suspect", 3.0);
+        day(&mut store, 30, 0.0, "good", 0.8);
+        let third = day(&mut store, 31, 1.5, "poor", 3.0);
+        analysed(&mut store, third, "inlet_temperature");
+        let shifted = day(&mut store, 32, 3.5, "poor", 3.0);
+        let covered_now = covered(&store);
+        assert_eq!(
+            covered_now,
+            vec![same],
+            "worse {worse}, after an ambiguous {after_ambiguous}, shifted {shifted}"
+        );
     }
 
     #[test]

@@ -1,7 +1,8 @@
 //! The gap question inside the loop (issue 23 item 4): one step of the daemon's background gap
 //! analysis. It picks the oldest start-up that needs one — its Method B fit stored as not
 //! `good` or refused as `residual_too_high`, its health stepping away from the unit's own
-//! trend since the last wash (`trend::steps_against_trend`; a step that persists once), or every n-th start-up on a
+//! trend since the last wash (`trend::steps_against_trend`; a step that persists once; a poor
+//! fit that carries on an analysed one is not analysed again), or every n-th start-up on a
 //! schedule (`[diagnosis] gap_on_poor_fit`, `gap_on_health_step`, `gap_every_n`) — runs `gap::analyse` on it with the worker's
 //! engine and fit settings ([`analyse_startup`], which the fleet's gap jobs run too), and
 //! writes the report through [`Db`]. It yields to the diagnosis
@@ -107,6 +108,75 @@ pub(crate) fn health_steps(read: &Store) -> Result<Vec<(i64, Vec<HealthStep>)>, 
     Ok(out)
 }
 
+/// Residual levels within this factor of each other count as the same misfit.
+const SAME_MISFIT_RATIO: f64 = 1.5;
+
+/// The first poor fit of a run whose analysis named a cause: what the next poor fits of the
+/// run are compared with.
+struct ExplainedMisfit {
+    departures: [Option<Departure>; 6],
+    residual_level: f64,
+}
+
+/// Start-ups whose Method B fit is not `good` but which carry on the misfit of the poor fit
+/// before them, whose analysis named its cause: no good fit between them, every parameter's
+/// offset from the trend of the good results since the wash within tolerance of the analysed
+/// one's (`trend::same_step`), and a residual level within [`SAME_MISFIT_RATIO`] of it.
+///
+/// A fuel meter that reads 3 % high from one day on spoils the fit of every start-up after;
+/// the analysis of the first names it, and re-analysing each would cost the gap task an
+/// analysis a day (a year's replay, hundreds) and tell nothing new. A run whose first analysis
+/// named nothing (`none`, `unexplained`, `ambiguous`) covers nothing: each is analysed. A
+/// second effect on top changes the residual or the health and is analysed, as is the misfit
+/// again after a good fit or a wash.
+pub(crate) fn covered_poor_fits(read: &Store) -> Result<HashSet<i64>, StoreError> {
+    let rows = read.history(&HistoryFilter {
+        method: Some("B".into()),
+        ..HistoryFilter::default()
+    })?;
+    let mut covered = HashSet::new();
+    let mut window: Vec<[TrendPoint; 6]> = Vec::new();
+    let mut explained: Option<ExplainedMisfit> = None;
+    let mut since_wash: Option<i64> = None;
+    for row in &rows {
+        if row.wash_id_before != since_wash {
+            window.clear();
+            explained = None;
+            since_wash = row.wash_id_before;
+        }
+        let points = trend_points(row);
+        let departures = departures(&window, &points);
+        if row.fit_quality.as_deref() == Some("good") {
+            // A good fit ends the run; on the trend, it is part of what the next are judged by.
+            if steps_of(&departures, crate::trend::RECOVERED_BY_WASH).is_empty() {
+                window.push(points);
+            }
+            explained = None;
+            continue;
+        }
+        let alike = |e: &ExplainedMisfit| {
+            row.residual_level.is_some_and(|r| {
+                r > 0.0 && (r / e.residual_level).max(e.residual_level / r) <= SAME_MISFIT_RATIO
+            }) && same_step(&departures, &e.departures)
+        };
+        if explained.as_ref().is_some_and(alike) {
+            covered.insert(row.segment_id);
+            continue;
+        }
+        explained = row
+            .gap_verdict
+            .as_deref()
+            .filter(|v| crate::gap::names_effect(v))
+            .and(row.residual_level)
+            .filter(|r| *r > 0.0)
+            .map(|residual_level| ExplainedMisfit {
+                departures,
+                residual_level,
+            });
+    }
+    Ok(covered)
+}
+
 /// The next start-up to analyse (oldest first), outside `skip`.
 fn next_segment(
     read: &Store,
@@ -114,7 +184,20 @@ fn next_segment(
     sel: GapSelection,
     skip: &HashSet<i64>,
 ) -> Result<Option<i64>, StoreError> {
-    let mut ids = read.segments_for_gap(sel, skip.len() + 1)?;
+    // A poor fit that carries on an analysed one is left out, unless the schedule picks it.
+    let covered: HashSet<i64> = if sel.not_good {
+        covered_poor_fits(read)?
+            .into_iter()
+            .filter(|id| sel.every_n == 0 || id % i64::from(sel.every_n) != 0)
+            .collect()
+    } else {
+        HashSet::new()
+    };
+    let mut ids: Vec<i64> = read
+        .segments_for_gap(sel, skip.len() + covered.len() + 1)?
+        .into_iter()
+        .filter(|id| !covered.contains(id))
+        .collect();
     if ctx.settings.gap_on_health_step {
         for (id, _) in health_steps(read)? {
             if !skip.contains(&id) && read.gap_analyses(id)?.is_empty() {
