@@ -94,7 +94,7 @@ fn show(label: &str, truth: [f64; 6], r: &MethodResult) -> [f64; 6] {
 }
 
 #[test]
-#[ignore = "85 s on 2 cores (a calibration and three Method B fits): CI's 20 minutes are spent; \
+#[ignore = "32 s on 2 cores (a calibration and three Method B fits): CI's 20 minutes are spent; \
             run with `-- --ignored`"]
 fn start_ups_of_a_foreign_unit_are_diagnosed_within_its_calibrated_speeds() {
     let truth = Engine::new(
