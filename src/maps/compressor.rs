@@ -108,7 +108,8 @@ pub struct CompressorMap {
     /// line that rises from its surge end (a positive-slope hump) is lifted there to fall with
     /// its extrapolation slope (module docs, "Inverse").
     pr_inv: Vec<f64>,
-    /// Per line, the beta keys `0..lifted[line]` whose `pr_inv` is lifted above `pr` (0: none).
+    /// Per line, one past the highest beta key whose `pr_inv` is lifted above `pr` (0: none):
+    /// below that key the cubic map keeps the bilinear inverse.
     lifted: Vec<usize>,
     /// Extrapolation slopes per line: below the first and above the last beta key.
     slope_lo: Vec<[f64; 3]>,
