@@ -248,13 +248,7 @@ fn one_sequence(
             )
         })
         .collect();
-    let error = |pts: &[SeqPoint]| -> f64 {
-        pts.iter()
-            .zip(&truths)
-            .skip(ONSET)
-            .flat_map(|(p, t)| p.health.iter().zip(t).map(|(a, b)| (a - b).abs()))
-            .fold(0.0, f64::max)
-    };
+    let error = |pts: &[SeqPoint]| max_error(pts.iter().zip(&truths).skip(ONSET), &[0.0; 6]);
     let error_fitted = error(&points);
     let recovers = crate::trend::RECOVERED_BY_WASH;
     // As the wash advice does: every step from the first onset on ([`sequence::attribute_steps`]),
@@ -326,14 +320,20 @@ fn one_sequence(
     })
 }
 
+/// Largest |estimate − truth − `offset`| over `pairs` of a start-up's point and its truth, on
+/// any parameter, points.
+fn max_error<'a>(
+    pairs: impl Iterator<Item = (&'a SeqPoint, &'a [f64; 6])>,
+    offset: &[f64; 6],
+) -> f64 {
+    pairs
+        .flat_map(|(p, t)| (0..6).map(move |i| (p.health[i] - t[i] - offset[i]).abs()))
+        .fold(0.0, f64::max)
+}
+
 /// Largest |estimate − truth| over the start-ups before [`ONSET`] (every instrument right).
 fn error_before_onset(points: &[SeqPoint], truths: &[[f64; 6]]) -> f64 {
-    points
-        .iter()
-        .zip(truths)
-        .take(ONSET)
-        .flat_map(|(p, t)| p.health.iter().zip(t).map(|(a, b)| (a - b).abs()))
-        .fold(0.0, f64::max)
+    max_error(points.iter().zip(truths).take(ONSET), &[0.0; 6])
 }
 
 /// Largest |estimate − truth − offset| from [`ONSET`] on, the offset being the model's own
@@ -348,12 +348,7 @@ fn change_error(points: &[SeqPoint], truths: &[[f64; 6]]) -> f64 {
             .sum::<f64>()
             / ONSET as f64
     });
-    points
-        .iter()
-        .zip(truths)
-        .skip(ONSET)
-        .flat_map(|(p, t)| (0..6).map(move |i| (p.health[i] - t[i] - offset[i]).abs()))
-        .fold(0.0, f64::max)
+    max_error(points.iter().zip(truths).skip(ONSET), &offset)
 }
 
 /// The summary: attribution rate over input-channel sequences, false attribution on the
