@@ -226,6 +226,11 @@ mod tests {
     }
 
     /// A closed start-up at `start` with one `good` Method B result `health`; its segment id.
+    /// Every Method B result, as the gap task's selection reads them.
+    fn history(store: &Store) -> Vec<crate::store::HistoryRow> {
+        crate::worker::gap::method_b_history(store).unwrap()
+    }
+
     fn insert_result(store: &mut Store, start: i64, health: [f64; 6]) -> i64 {
         insert_result_of_quality(store, start, health, "good")
     }
@@ -292,11 +297,11 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let mut store = Store::open(&dir.path().join("w.db")).unwrap();
         fill(&mut store);
-        assert_eq!(crate::worker::gap::health_steps(&store).unwrap(), vec![]);
+        assert_eq!(crate::worker::gap::health_steps(&history(&store)), vec![]);
         let t0 = 1_700_000_000_000_i64;
         let stepped = insert_result(&mut store, t0 + 24 * DAY, [1.2, 0.4, 1.7, 0.1, 0.0, 0.0]);
         insert_result(&mut store, t0 + 25 * DAY, [1.3, 0.43, 0.2, 0.1, 0.0, 0.0]);
-        let steps = crate::worker::gap::health_steps(&store).unwrap();
+        let steps = crate::worker::gap::health_steps(&history(&store));
         assert_eq!(steps.len(), 1, "{steps:?}");
         assert_eq!(steps[0].0, stepped);
         assert_eq!(steps[0].1.len(), 1, "{steps:?}");
@@ -326,7 +331,7 @@ mod tests {
         for d in 25..28 {
             day(&mut store, d, 1.7, 0.1);
         }
-        let steps = crate::worker::gap::health_steps(&store).unwrap();
+        let steps = crate::worker::gap::health_steps(&history(&store));
         assert_eq!(steps.len(), 1, "{steps:?}");
         assert_eq!(steps[0].0, first);
         // D_ET steps too on day 28: a new step, though D_GT's persists.
@@ -335,8 +340,7 @@ mod tests {
         // Both back to the trend on day 30, then D_GT's step again on day 31: new.
         day(&mut store, 30, 0.2, 0.1);
         let again = day(&mut store, 31, 1.7, 0.1);
-        let ids: Vec<i64> = crate::worker::gap::health_steps(&store)
-            .unwrap()
+        let ids: Vec<i64> = crate::worker::gap::health_steps(&history(&store))
             .into_iter()
             .map(|(id, _)| id)
             .collect();
@@ -373,8 +377,7 @@ mod tests {
                 .unwrap();
         };
         let covered = |store: &Store| {
-            let mut ids: Vec<i64> = crate::worker::gap::covered_poor_fits(store)
-                .unwrap()
+            let mut ids: Vec<i64> = crate::worker::gap::covered_poor_fits(&history(store))
                 .into_iter()
                 .collect();
             ids.sort_unstable();

@@ -62,50 +62,91 @@ fn trend_points(row: &HistoryRow) -> [TrendPoint; 6] {
     })
 }
 
+/// Every Method B result, oldest first: what [`health_steps`] and [`covered_poor_fits`] walk.
+pub(crate) fn method_b_history(read: &Store) -> Result<Vec<HistoryRow>, StoreError> {
+    read.history(&HistoryFilter {
+        method: Some("B".into()),
+        ..HistoryFilter::default()
+    })
+}
+
+/// The trend each Method B result is judged against, walked oldest first: the good results on
+/// the trend since the same wash. [`health_steps`] and [`covered_poor_fits`] share it, so a
+/// step and a persisting misfit are measured from the same trend.
+#[derive(Default)]
+struct TrendWalk {
+    window: Vec<[TrendPoint; 6]>,
+    since_wash: Option<i64>,
+}
+
+/// One result as [`TrendWalk::judge`] saw it.
+struct Judged {
+    /// A wash came between it and the result before: what the caller carried is over.
+    washed: bool,
+    /// Its fit is `good`.
+    good: bool,
+    departures: [Option<Departure>; 6],
+    /// Its steps away from the trend (a compressor that recovers is a wash, not a step).
+    steps: Vec<HealthStep>,
+}
+
+impl TrendWalk {
+    /// `row` against the trend before it. A good result without a step joins the trend; a
+    /// stepped or poorly fitting one is left out of what the next are judged against.
+    fn judge(&mut self, row: &HistoryRow) -> Judged {
+        let washed = row.wash_id_before != self.since_wash;
+        if washed {
+            self.window.clear();
+            self.since_wash = row.wash_id_before;
+        }
+        let points = trend_points(row);
+        let departures = departures(&self.window, &points);
+        let steps = steps_of(&departures, crate::trend::RECOVERED_BY_WASH);
+        let good = row.fit_quality.as_deref() == Some("good");
+        if good && steps.is_empty() {
+            self.window.push(points);
+        }
+        Judged {
+            washed,
+            good,
+            departures,
+            steps,
+        }
+    }
+}
+
 /// Start-ups whose `good` Method B health steps away from the trend of the good results
-/// before them since the same wash, oldest first, with their steps.
+/// before them since the same wash, oldest first, with their steps (`rows`:
+/// [`method_b_history`]).
 ///
 /// A step that persists is listed once: a start-up that departs from the trend as the last
 /// stepped one did (every parameter's offset within tolerance of its offset, `trend::same_step`)
 /// carries on that step — a fuel meter that reads 3 % high from one day on shifts the health of
 /// every start-up after — and the analysis of the step's first start-up stands for it, where
 /// re-analysing each would cost the gap task an analysis a day and tell nothing new.
-pub(crate) fn health_steps(read: &Store) -> Result<Vec<(i64, Vec<HealthStep>)>, StoreError> {
-    let rows = read.history(&HistoryFilter {
-        method: Some("B".into()),
-        ..HistoryFilter::default()
-    })?;
-    // A wash recovers the compressor: its improvement is not a step.
-    let recovers = crate::trend::RECOVERED_BY_WASH;
+pub(crate) fn health_steps(rows: &[HistoryRow]) -> Vec<(i64, Vec<HealthStep>)> {
     let mut out = Vec::new();
-    let mut window: Vec<[TrendPoint; 6]> = Vec::new();
+    let mut walk = TrendWalk::default();
     let mut last_step: Option<[Option<Departure>; 6]> = None;
-    let mut since_wash: Option<i64> = None;
-    for row in rows
-        .iter()
-        .filter(|r| r.fit_quality.as_deref() == Some("good"))
-    {
-        if row.wash_id_before != since_wash {
-            window.clear();
+    for row in rows {
+        let j = walk.judge(row);
+        if j.washed {
             last_step = None;
-            since_wash = row.wash_id_before;
         }
-        let points = trend_points(row);
-        let departures = departures(&window, &points);
-        let steps = steps_of(&departures, recovers);
-        if steps.is_empty() {
+        if !j.good {
+            continue;
+        }
+        if j.steps.is_empty() {
             // Back on the trend: a step seen after this is a new one.
-            window.push(points);
             last_step = None;
             continue;
         }
-        // A stepped start-up is left out of the trend the next ones are judged against.
-        if !last_step.is_some_and(|then| same_step(&departures, &then)) {
-            out.push((row.segment_id, steps));
+        if !last_step.is_some_and(|then| same_step(&j.departures, &then)) {
+            out.push((row.segment_id, j.steps));
         }
-        last_step = Some(departures);
+        last_step = Some(j.departures);
     }
-    Ok(out)
+    out
 }
 
 /// Residual levels within this factor of each other count as the same misfit.
@@ -121,7 +162,8 @@ struct ExplainedMisfit {
 /// Start-ups whose Method B fit is not `good` but which carry on the misfit of the poor fit
 /// before them, whose analysis named its cause: no good fit between them, every parameter's
 /// offset from the trend of the good results since the wash within tolerance of the analysed
-/// one's (`trend::same_step`), and a residual level within [`SAME_MISFIT_RATIO`] of it.
+/// one's (`trend::same_step`), and a residual level within [`SAME_MISFIT_RATIO`] of it
+/// (`rows`: [`method_b_history`]).
 ///
 /// A fuel meter that reads 3 % high from one day on spoils the fit of every start-up after;
 /// the analysis of the first names it, and re-analysing each would cost the gap task an
@@ -129,35 +171,23 @@ struct ExplainedMisfit {
 /// named nothing (`none`, `unexplained`, `ambiguous`) covers nothing: each is analysed. A
 /// second effect on top changes the residual or the health and is analysed, as is the misfit
 /// again after a good fit or a wash.
-pub(crate) fn covered_poor_fits(read: &Store) -> Result<HashSet<i64>, StoreError> {
-    let rows = read.history(&HistoryFilter {
-        method: Some("B".into()),
-        ..HistoryFilter::default()
-    })?;
+pub(crate) fn covered_poor_fits(rows: &[HistoryRow]) -> HashSet<i64> {
     let mut covered = HashSet::new();
-    let mut window: Vec<[TrendPoint; 6]> = Vec::new();
+    let mut walk = TrendWalk::default();
     let mut explained: Option<ExplainedMisfit> = None;
-    let mut since_wash: Option<i64> = None;
-    for row in &rows {
-        if row.wash_id_before != since_wash {
-            window.clear();
+    for row in rows {
+        let j = walk.judge(row);
+        // A wash, or a good fit, ends the run.
+        if j.washed || j.good {
             explained = None;
-            since_wash = row.wash_id_before;
         }
-        let points = trend_points(row);
-        let departures = departures(&window, &points);
-        if row.fit_quality.as_deref() == Some("good") {
-            // A good fit ends the run; on the trend, it is part of what the next are judged by.
-            if steps_of(&departures, crate::trend::RECOVERED_BY_WASH).is_empty() {
-                window.push(points);
-            }
-            explained = None;
+        if j.good {
             continue;
         }
         let alike = |e: &ExplainedMisfit| {
             row.residual_level.is_some_and(|r| {
                 r > 0.0 && (r / e.residual_level).max(e.residual_level / r) <= SAME_MISFIT_RATIO
-            }) && same_step(&departures, &e.departures)
+            }) && same_step(&j.departures, &e.departures)
         };
         if explained.as_ref().is_some_and(alike) {
             covered.insert(row.segment_id);
@@ -170,11 +200,11 @@ pub(crate) fn covered_poor_fits(read: &Store) -> Result<HashSet<i64>, StoreError
             .and(row.residual_level)
             .filter(|r| *r > 0.0)
             .map(|residual_level| ExplainedMisfit {
-                departures,
+                departures: j.departures,
                 residual_level,
             });
     }
-    Ok(covered)
+    covered
 }
 
 /// The next start-up to analyse (oldest first), outside `skip`.
@@ -184,9 +214,10 @@ fn next_segment(
     sel: GapSelection,
     skip: &HashSet<i64>,
 ) -> Result<Option<i64>, StoreError> {
+    let history = method_b_history(read)?;
     // A poor fit that carries on an analysed one is left out, unless the schedule picks it.
     let covered: HashSet<i64> = if sel.not_good {
-        covered_poor_fits(read)?
+        covered_poor_fits(&history)
             .into_iter()
             .filter(|id| sel.every_n == 0 || id % i64::from(sel.every_n) != 0)
             .collect()
@@ -199,7 +230,7 @@ fn next_segment(
         .filter(|id| !covered.contains(id))
         .collect();
     if ctx.settings.gap_on_health_step {
-        for (id, _) in health_steps(read)? {
+        for (id, _) in health_steps(&history) {
             if !skip.contains(&id) && read.gap_analyses(id)?.is_empty() {
                 ids.push(id);
                 break;
