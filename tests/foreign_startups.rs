@@ -22,9 +22,10 @@ use gtwatch::diagnosis::fit_quality::Verdict;
 use gtwatch::diagnosis::snapshot::{read_snapshots, Snapshot};
 use gtwatch::diagnosis::transient::diagnose_transient;
 use gtwatch::diagnosis::{DiagnosisConfig, MethodResult};
-use gtwatch::engine::{Engine, EngineConfig};
+use gtwatch::engine::simulation::run_scenario;
+use gtwatch::engine::{Engine, EngineConfig, Scenario};
 use gtwatch::health::{HealthParams, HEALTH_NAMES};
-use gtwatch::signals::Signal;
+use gtwatch::signals::{Phase, Signal};
 use std::collections::HashMap;
 use std::path::PathBuf;
 
@@ -181,4 +182,60 @@ fn start_ups_of_a_foreign_unit_are_diagnosed_within_its_calibrated_speeds() {
     show("healthy start-up, every sample compared", healthy, &all);
     assert!(all.left_out.is_empty());
     assert_eq!(all.fit_quality.verdict, Verdict::Poor);
+}
+
+/// A day of operations on the foreign unit (start, base load, normal stop, an aborted start, a hot
+/// restart), as `gtwatch simulate --scenario operations` runs it. It failed twice: the breaker
+/// opened at 4 MW (a load rejection: the PT overspeeds, its governor cuts the fuel and the GG ran
+/// down to 6 % speed burning), and the hot restart's PT, still turning, overspeeded on idle power
+/// alone while the GG held idle, then the GG dived to 500 rpm burning.
+#[test]
+fn a_day_of_operations_runs_on_the_foreign_unit() {
+    let truth = Engine::new(
+        EngineConfig::load(&root().join("tests/data/foreign/aero25_truth.toml")).unwrap(),
+    )
+    .unwrap();
+    let cfg = truth.cfg();
+    let model = truth.model(&HealthParams::HEALTHY);
+    let (s, _) = run_scenario(&model, &Scenario::operations(cfg)).expect("runs to its end");
+    let phases: Vec<Phase> = s.iter().map(|x| x.phase).collect();
+    let count = |p: Phase| phases.windows(2).filter(|w| w[0] != p && w[1] == p).count();
+    assert_eq!(count(Phase::Crank), 3, "three starts");
+    assert_eq!(
+        count(Phase::Steady),
+        2,
+        "the first start and the hot restart reach base load"
+    );
+    assert_eq!(count(Phase::Trip), 1, "only the aborted start trips");
+    assert_eq!(count(Phase::Shutdown), 1, "one normal stop");
+    let last = s.last().unwrap();
+    assert!((last.stations.power_mw - cfg.sequence.base_load_mw).abs() < 0.1);
+    // Burning after idle, the GG stays above its minimum-speed floor's region, and the PT never
+    // overspeeds by more than 2 % (its protection would trip it at 10 %).
+    let idle = cfg.sequence.idle_speed_rpm;
+    let sync = cfg.design.pt_speed_rpm;
+    let running = |p: Phase| {
+        matches!(
+            p,
+            Phase::Idle
+                | Phase::Synchronisation
+                | Phase::Loading
+                | Phase::Steady
+                | Phase::Unloading
+        )
+    };
+    for x in s.iter().filter(|x| running(x.phase)) {
+        assert!(
+            x.stations.n1_rpm >= 0.5 * idle,
+            "GG at {:.0} rpm burning at t = {} s",
+            x.stations.n1_rpm,
+            x.t_s
+        );
+        assert!(
+            x.stations.n2_rpm <= 1.02 * sync,
+            "PT at {:.0} rpm at t = {} s",
+            x.stations.n2_rpm,
+            x.t_s
+        );
+    }
 }

@@ -3,7 +3,7 @@
 
 use super::engine_args::EngineArgs;
 use crate::engine::sensors::MeasurementOptions;
-use crate::engine::simulation::run_scenario_observed;
+use crate::engine::simulation::{run_scenario_observed, TruthSample};
 use crate::engine::{Scenario, Trace};
 use anyhow::Context;
 use std::io::Write;
@@ -58,7 +58,11 @@ pub(super) fn run(a: SimulateArgs) -> anyhow::Result<ExitCode> {
     // scenario's time limit): say how far it has come rather than nothing.
     let started = Instant::now();
     let mut next_report = PROGRESS_EVERY;
-    let (samples, stats) = run_scenario_observed(&model, &scenario, |s| {
+    // The samples as they come, so that a run the integrator gives up on still leaves its trace
+    // up to the failure (where it went wrong is what the user needs to see).
+    let mut so_far: Vec<TruthSample> = Vec::new();
+    let run = run_scenario_observed(&model, &scenario, |s| {
+        so_far.push(*s);
         let wall = started.elapsed();
         if wall >= next_report {
             next_report = wall + PROGRESS_EVERY;
@@ -71,7 +75,11 @@ pub(super) fn run(a: SimulateArgs) -> anyhow::Result<ExitCode> {
                 wall.as_secs_f64()
             );
         }
-    })?;
+    });
+    let (samples, stats, failure) = match run {
+        Ok((samples, stats)) => (samples, Some(stats), None),
+        Err(e) => (so_far, None, Some(e)),
+    };
     let meas = (!a.no_lags || a.noise || a.bias).then_some(MeasurementOptions {
         lags: !a.no_lags,
         noise: a.noise,
@@ -87,13 +95,21 @@ pub(super) fn run(a: SimulateArgs) -> anyhow::Result<ExitCode> {
         let mut w = std::io::BufWriter::new(f);
         trace.write_csv(&mut w)?;
         w.flush()?;
-        tracing::info!(
-            "wrote {} samples ({:.0} s simulated, {} steps) to {}",
-            trace.len(),
-            trace.t_s.last().copied().unwrap_or(0.0),
-            stats.steps,
-            a.out
-        );
+        match &stats {
+            Some(stats) => tracing::info!(
+                "wrote {} samples ({:.0} s simulated, {} steps) to {}",
+                trace.len(),
+                trace.t_s.last().copied().unwrap_or(0.0),
+                stats.steps,
+                a.out
+            ),
+            None => tracing::info!(
+                "wrote the {} samples before the failure ({:.0} s simulated) to {}",
+                trace.len(),
+                trace.t_s.last().copied().unwrap_or(0.0),
+                a.out
+            ),
+        }
     }
     // A start that hangs runs to the scenario's time limit without an error of the integrator:
     // say where it stuck (the trace is written above, to look at).
@@ -116,6 +132,11 @@ pub(super) fn run(a: SimulateArgs) -> anyhow::Result<ExitCode> {
         let title = format!("{} — {:?}, {health_text}", engine.cfg().name, a.scenario);
         let svg = crate::chart::startup::startup_svg(&trace, &title);
         std::fs::write(&path, svg).with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(e) = failure {
+        return Err(anyhow::Error::new(e).context(
+            "the simulation stopped (the trace up to the failure was written, to look at)",
+        ));
     }
     if let Some(stuck) = stuck {
         anyhow::bail!("{stuck} (the trace was written, to look at)");

@@ -69,13 +69,24 @@ impl Feedback {
     }
 }
 
-/// Fuel-flow limits: acceleration and deceleration schedules in ratio units (fuel / P2).
+/// Fuel-flow limits: acceleration and deceleration schedules in ratio units (fuel / P2), the
+/// flame-holding minimum, and optionally a gas-generator minimum-speed floor.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FuelLimits {
     accel_speed_rpm: Vec<f64>,
     accel_ratio: Vec<f64>,
     decel_ratio: f64,
     min_fuel: f64,
+    gg_floor: Option<GgFloor>,
+}
+
+/// A proportional (droop) minimum-speed limit on the gas generator: below `speed_rpm` the fuel's
+/// lower limit is `gain · (speed_rpm − n1)`. A limit, not a loop: it is continuous in the state
+/// and the governing loop's anti-windup sees it like any other limit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GgFloor {
+    pub speed_rpm: f64,
+    pub gain_kg_s_per_rpm: f64,
 }
 
 impl FuelLimits {
@@ -85,14 +96,27 @@ impl FuelLimits {
             accel_ratio: c.accel_limit_ratio_kg_s_per_kpa.clone(),
             decel_ratio: c.decel_limit_ratio_kg_s_per_kpa,
             min_fuel: c.min_fuel_kg_s,
+            gg_floor: None,
         }
+    }
+
+    /// These limits with a gas-generator minimum-speed floor.
+    pub fn with_gg_floor(mut self, floor: GgFloor) -> FuelLimits {
+        self.gg_floor = Some(floor);
+        self
     }
 
     /// (lower, upper) fuel limit at this speed and compressor delivery pressure.
     pub fn bounds(&self, n1_rpm: f64, p2_kpa: f64) -> (f64, f64) {
         let ru = interp(&self.accel_speed_rpm, &self.accel_ratio, n1_rpm);
         let hi = ru * p2_kpa;
-        let lo = (self.decel_ratio * p2_kpa).max(self.min_fuel).min(hi);
+        let floor = self
+            .gg_floor
+            .map_or(0.0, |f| f.gain_kg_s_per_rpm * (f.speed_rpm - n1_rpm));
+        let lo = (self.decel_ratio * p2_kpa)
+            .max(self.min_fuel)
+            .max(floor)
+            .min(hi);
         (lo, hi)
     }
 }
@@ -605,12 +629,36 @@ mod tests {
     }
 
     #[test]
+    fn the_gg_floor_raises_the_lower_limit_below_its_speed_only() {
+        let plain = FuelLimits {
+            accel_speed_rpm: vec![0.0, 10000.0],
+            accel_ratio: vec![1e-3, 1e-3],
+            decel_ratio: 1e-4,
+            min_fuel: 0.05,
+            gg_floor: None,
+        };
+        let floored = plain.clone().with_gg_floor(GgFloor {
+            speed_rpm: 3000.0,
+            gain_kg_s_per_rpm: 2e-4,
+        });
+        // Above the floor's speed the limits are the plain ones.
+        assert_eq!(floored.bounds(3500.0, 300.0), plain.bounds(3500.0, 300.0));
+        // 1000 rpm below it: 0.2 kg/s, above the flame-holding minimum.
+        let (lo, hi) = floored.bounds(2000.0, 300.0);
+        assert!((lo - 0.2).abs() < 1e-12, "{lo}");
+        assert_eq!(hi, plain.bounds(2000.0, 300.0).1);
+        // Never above the acceleration limit.
+        assert_eq!(floored.bounds(0.0, 100.0), (0.1, 0.1));
+    }
+
+    #[test]
     fn pid_antiwindup_pulls_integrator_to_limit() {
         let limits = Arc::new(FuelLimits {
             accel_speed_rpm: vec![0.0, 10000.0],
             accel_ratio: vec![1e-3, 1e-3],
             decel_ratio: 1e-4,
             min_fuel: 0.05,
+            gg_floor: None,
         });
         let cmd = FuelCommand::Pid {
             loop_kind: Loop::GgSpeed,

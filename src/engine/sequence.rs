@@ -3,7 +3,8 @@
 //! The sequencer is the discrete part of the engine control (REFERENCE §2): standstill → crank →
 //! purge → light-off (coast to light-off speed, ignition) → acceleration (starter cut-out) →
 //! idle (PT break-away, PT speed governing) → synchronisation → loading (warm-up at minimum load,
-//! ramp) → steady, and on command unloading → cool-down → shutdown, or a trip at any time.
+//! ramp) → steady, and on command unloading (to 1 % of base load, then the breaker opens) →
+//! cool-down (PT governed at synchronous speed) → shutdown, or a trip at any time.
 //! It chooses the drive (fuel command, starter, breaker) for each integration step and acts on
 //! the engine only through [`Actuator`] at its transitions; `simulation.rs` runs the model
 //! under it.
@@ -22,7 +23,8 @@
 
 use super::config::EngineConfig;
 use super::control::{
-    Approach, Feedback, FuelCommand, FuelLimits, Loop, Ramp, Series, Setpoint, StarterCommand,
+    Approach, Feedback, FuelCommand, FuelLimits, GgFloor, Loop, Ramp, Series, Setpoint,
+    StarterCommand,
 };
 use super::dynamic::{Drive, Stations};
 use super::load::PtLoad;
@@ -169,6 +171,9 @@ enum Mode {
 pub struct Sequencer {
     cfg: EngineConfig,
     limits: Arc<FuelLimits>,
+    /// The limits of the loops that do not govern the GG (PT speed, power): with the GG
+    /// minimum-speed floor (`control.min_gg_speed_fraction`).
+    governed_limits: Arc<FuelLimits>,
     mode: Mode,
     starter_engaged: bool,
     fuel: FuelCommand,
@@ -187,9 +192,15 @@ impl Sequencer {
         let cfg = model.cfg();
         let mut events = scenario.events.clone();
         events.sort_by(|a, b| a.t_s.total_cmp(&b.t_s));
+        let limits = FuelLimits::from_config(&cfg.control);
+        let floor = GgFloor {
+            speed_rpm: cfg.control.min_gg_speed_fraction * cfg.sequence.idle_speed_rpm,
+            gain_kg_s_per_rpm: cfg.control.speed_kp_kg_s_per_rpm,
+        };
         Sequencer {
             cfg: cfg.clone(),
-            limits: Arc::new(FuelLimits::from_config(&cfg.control)),
+            governed_limits: Arc::new(limits.clone().with_gg_floor(floor)),
+            limits: Arc::new(limits),
             mode: Mode::Standstill,
             starter_engaged: false,
             fuel: FuelCommand::Off,
@@ -291,6 +302,9 @@ impl Sequencer {
                 }
                 w
             }
+            // A PT already turning (a hot restart) can reach its governed range while the GG
+            // holds core idle: the governor takes over there instead of letting it overspeed.
+            Mode::Idle { .. } => vec![n2(self.pt_handover_rpm(), true)],
             Mode::PtGovern => vec![n2(0.99 * self.pt_governor_target_rpm(), true)],
             Mode::Sync {
                 announced: false, ..
@@ -308,7 +322,13 @@ impl Sequencer {
     }
 
     fn pid(&self, loop_kind: Loop, setpoint: Setpoint) -> FuelCommand {
-        FuelCommand::pid(&self.cfg.control, self.limits.clone(), loop_kind, setpoint)
+        let limits = match loop_kind {
+            Loop::GgSpeed => self.limits.clone(),
+            // A PT governor cutting the fuel against an overspeed (a load rejection, a hot
+            // restart's PT arriving fast) would otherwise run the burning GG down to rest.
+            Loop::PtSpeed | Loop::Power => self.governed_limits.clone(),
+        };
+        FuelCommand::pid(&self.cfg.control, limits, loop_kind, setpoint)
     }
 
     /// Applies every transition due at time `t` with state `y`. Returns whether anything changed.
@@ -356,12 +376,16 @@ impl Sequencer {
                     self.mechanical_stop(t, act, st);
                 }
                 Mode::Steady | Mode::Loading { .. } => {
+                    // A unit is unloaded to a small forward power before its breaker opens: a
+                    // breaker opened at minimum load is a load rejection (the PT overspeeds, the
+                    // governor cuts the fuel to its minimum and a small gas generator dives
+                    // towards flame-out).
                     let p0 = st.pt_shaft_mw;
                     let ramp = Ramp {
                         t0: t,
                         v0: p0,
                         rate: q.load_ramp_mw_s,
-                        target: q.min_load_mw.min(p0),
+                        target: (BREAKER_OPEN_FRACTION * q.base_load_mw).min(p0),
                     };
                     let cmd = self.pid(Loop::Power, Setpoint::Ramp(ramp));
                     self.switch_fuel(t, act, st, cmd);
@@ -446,7 +470,7 @@ impl Sequencer {
                     until: t + q.idle_hold_s,
                 };
             }
-            Mode::Idle { until } if t >= until - 1e-9 => {
+            Mode::Idle { until } if t >= until - 1e-9 || self.pt_in_governed_range(n2) => {
                 // The PT governor takes over: a PT speed ramp from wherever the PT has got to,
                 // blending into an exponential approach to synchronous speed, so the PT's
                 // acceleration power (≈ 2 MW at full rate) fades out smoothly, the GG is not
@@ -527,6 +551,29 @@ impl Sequencer {
         true
     }
 
+    /// Whether the PT has reached its governed range during the idle hold: a hot restart's PT,
+    /// still turning, gets there on the GG's idle power alone and, left to it, overspeeds.
+    fn pt_in_governed_range(&self, n2: f64) -> bool {
+        n2 >= self.pt_handover_rpm() * (1.0 - 1e-6)
+    }
+
+    /// The PT speed at which the governor takes over from the idle hold: where its set-point
+    /// would leave the ramp for the final approach (generator: `pt_accel_rate_rpm_s ·
+    /// pt_approach_tau_s` below synchronous speed, within 90–99 % of it; mechanical drive: the
+    /// knee at 95 % of the minimum governed speed), so the approach has its whole length to
+    /// take up the PT's momentum.
+    fn pt_handover_rpm(&self) -> f64 {
+        let target = self.pt_governor_target_rpm();
+        match &self.pt_load {
+            None => {
+                let q = &self.cfg.sequence;
+                (target - q.pt_accel_rate_rpm_s * q.pt_approach_tau_s)
+                    .clamp(0.9 * target, 0.99 * target)
+            }
+            Some(_) => 0.95 * target,
+        }
+    }
+
     /// The PT speed the governor ramps to after core idle: synchronous speed for a generator, the
     /// minimum governed speed of a mechanical drive.
     fn pt_governor_target_rpm(&self) -> f64 {
@@ -550,7 +597,7 @@ impl Sequencer {
         let n_min = law.speed_for_power_rpm(q.min_load_mw);
         let tol = 1e-6;
         match self.mode {
-            Mode::Idle { until } if t >= until - 1e-9 => {
+            Mode::Idle { until } if t >= until - 1e-9 || self.pt_in_governed_range(n2) => {
                 // As the generator's PT governor, with the minimum governed speed as the target.
                 let r = q.pt_accel_rate_rpm_s;
                 let knee = (0.95 * n_min).max(n2).min(n_min);
@@ -652,6 +699,9 @@ impl Controller for Sequencer {
     }
 }
 
+/// The forward power, as a fraction of base load, a normal stop unloads to before the breaker
+/// opens (the reverse-power relay's margin).
+const BREAKER_OPEN_FRACTION: f64 = 0.01;
 /// Rate at which the set-point takes the minimum (block) load when the breaker closes, MW/s.
 const BLOCK_LOAD_RATE_MW_S: f64 = 1.0;
 /// The sequence logic's scan period, s: a timer it starts from a computed time begins on this

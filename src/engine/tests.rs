@@ -286,6 +286,35 @@ fn operations_scenario_has_stop_trip_and_hot_restart() {
     assert!((s.last().expect("samples").stations.power_mw - 31.4).abs() < 0.1);
 }
 
+#[test]
+fn a_normal_stop_unloads_before_the_breaker_opens() {
+    // A breaker opened at minimum load (3 MW) was a load rejection: the PT overshot synchronous
+    // speed by 1.1 % and the governor cut the fuel to its minimum.
+    let engine = Engine::reference().expect("engine");
+    let cfg = engine.cfg();
+    let model = engine.model(&HealthParams::HEALTHY);
+    let (s, _) = run_scenario(&model, &Scenario::operations(cfg)).expect("runs");
+    let open = s
+        .iter()
+        .position(|x| x.phase == Phase::Unloading && x.stations.power_mw == 0.0)
+        .expect("the breaker opens during the stop");
+    let before = s[open - 1].stations.power_mw;
+    assert!(
+        before <= 0.02 * cfg.sequence.base_load_mw,
+        "{before} MW on the breaker one sample before it opens"
+    );
+    let sync = cfg.design.pt_speed_rpm;
+    let top = s[open..]
+        .iter()
+        .take_while(|x| x.phase == Phase::Unloading)
+        .map(|x| x.stations.n2_rpm)
+        .fold(0.0, f64::max);
+    assert!(
+        top <= 1.005 * sync,
+        "PT at {top} rpm after the breaker opened"
+    );
+}
+
 /// Bit patterns of a healthy reference start-up, first recorded before the state-layout refactor
 /// (issue 8 item 4) and re-recorded when the start-up itself changed (issue 22 item 5: the damped
 /// PT approach and the synchroniser; the end state at base load kept all but its last bits), and

@@ -273,6 +273,10 @@ fn default_load_exponent() -> f64 {
     3.0
 }
 
+fn default_min_gg_speed_fraction() -> f64 {
+    0.5
+}
+
 fn default_pt_approach_tau_s() -> f64 {
     10.0
 }
@@ -339,6 +343,12 @@ pub struct ControlConfig {
     pub accel_limit_ratio_kg_s_per_kpa: Vec<f64>,
     /// Deceleration limit (flame-out protection), kg/s per kPa.
     pub decel_limit_ratio_kg_s_per_kpa: f64,
+    /// Gas-generator minimum-speed limit while the PT governor or the power loop has the fuel,
+    /// as a fraction of `sequence.idle_speed_rpm` (0: none). Below it the fuel's lower limit
+    /// rises by the GG speed loop's proportional gain per rpm (a droop floor), so a governor
+    /// cutting the fuel against a PT overspeed cannot run the burning GG down to a standstill.
+    #[serde(default = "default_min_gg_speed_fraction")]
+    pub min_gg_speed_fraction: f64,
 }
 
 /// Start-up sequence timings and set-points (REFERENCE §2).

@@ -166,6 +166,7 @@ const RANGES: &[(&str, ParamRange)] = &[
         "control.decel_limit_ratio_kg_s_per_kpa",
         ParamRange::new(0.0, 1.0),
     ),
+    ("control.min_gg_speed_fraction", ParamRange::new(0.0, 1.0)),
     ("sequence.standstill_s", ParamRange::new(0.0, 86_400.0)),
     ("sequence.purge_speed_rpm", ParamRange::new(1.0, 200_000.0)),
     ("sequence.purge_s", ParamRange::new(0.0, 86_400.0)),
