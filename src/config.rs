@@ -171,7 +171,8 @@ impl Config {
     }
 
     /// Reads and parses the file; relative `storage.path` and `plant.engine_model` are
-    /// resolved against the file's directory. Does not run [`Config::check`].
+    /// resolved against the file's directory, and the `[detector]` engine speeds it does not
+    /// set are the engine file's. Does not run [`Config::check`].
     pub fn load(path: &Path) -> Result<Config, ConfigError> {
         let shown = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
@@ -188,6 +189,16 @@ impl Config {
                     *m = dir.join(&*m);
                 }
             }
+        }
+        // The detector's engine speeds come from the engine file unless `[detector]` sets them.
+        // An engine file that does not load leaves the built-in engine's: `check` and the
+        // daemon's own loading of the engine report it.
+        if let Ok(engine) = crate::engine::config::EngineConfig::load_or_reference(
+            cfg.plant.engine_model.as_deref(),
+        ) {
+            let raw: Option<toml::Table> = toml::from_str(&text).ok();
+            let section = raw.as_ref().and_then(|t| t.get("detector"));
+            cfg.detector.fill_from_engine(section, &engine);
         }
         Ok(cfg)
     }
@@ -302,6 +313,35 @@ impl Config {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_detectors_engine_speeds_come_from_the_engine_file() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let md22 = Path::new(env!("CARGO_MANIFEST_DIR")).join("config/engine_md22.toml");
+        let text = include_str!("../config/gtwatch.toml").replace(
+            "# engine_model = \"engine.toml\"",
+            &format!("engine_model = {:?}", md22.display().to_string()),
+        );
+        let path = dir.path().join("gtwatch.toml");
+        std::fs::write(&path, &text).expect("write");
+        let cfg = Config::load(&path).expect("loads");
+        let d = &cfg.detector;
+        assert_eq!((d.idle_speed_rpm, d.pt_sync_speed_rpm), (6600.0, 6500.0));
+        assert_eq!(d.base_load_mw, 22.0);
+        // One the section sets stays; without an engine file they are the built-in engine's.
+        std::fs::write(
+            &path,
+            text.replace("[detector]\n", "[detector]\nidle_speed_rpm = 6000.0\n"),
+        )
+        .expect("write");
+        let d = Config::load(&path).expect("loads").detector;
+        assert_eq!((d.idle_speed_rpm, d.pt_sync_speed_rpm), (6000.0, 6500.0));
+        std::fs::write(&path, include_str!("../config/gtwatch.toml")).expect("write");
+        assert_eq!(
+            Config::load(&path).expect("loads").detector,
+            DetectorConfig::default()
+        );
+    }
 
     /// The shipped reference file claims to list the defaults: each section it sets must equal
     /// what the code uses when the section (or key) is left out.

@@ -13,7 +13,11 @@ use gtwatch::segment::{Outcome, SegmentRecord};
 use gtwatch::signals::{Phase, Signal};
 
 fn detect(trace: &Trace, with_n2: bool) -> Vec<SegmentRecord> {
-    let mut m = Machine::new(DetectorConfig::default(), None);
+    detect_with(DetectorConfig::default(), trace, with_n2)
+}
+
+fn detect_with(cfg: DetectorConfig, trace: &Trace, with_n2: bool) -> Vec<SegmentRecord> {
+    let mut m = Machine::new(cfg, None);
     for (k, v) in trace.measured.iter().enumerate() {
         m.push(Frame {
             t_ms: (trace.t_s[k] * 1000.0).round() as i64,
@@ -102,4 +106,77 @@ fn detector_finds_every_start_of_the_engine_model() {
             assert!(checked >= 15, "checked {checked} boundaries");
         }
     }
+}
+
+/// A unit whose speeds are not the built-in engine's (`tests/data/foreign/aero25_truth.toml`:
+/// idle 5 200 rpm, purge 1 950 rpm, PT 6 100 rpm, 22 MW): with the built-in engine's numbers,
+/// which the shipped `[detector]` section used to set, every start read as aborted in crank;
+/// with the section's engine speeds taken from the unit's engine file, every start is found with
+/// its outcome, and its phases where the simulator put them.
+#[test]
+fn the_detector_takes_a_foreign_units_speeds_from_its_engine_file() {
+    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/foreign/aero25_truth.toml");
+    let engine =
+        Engine::new(gtwatch::engine::EngineConfig::load(&file).expect("loads")).expect("builds");
+    let model = engine.model(&HealthParams::HEALTHY);
+    let (samples, _) = run_scenario(&model, &Scenario::operations(engine.cfg())).expect("runs");
+    let o = MeasurementOptions {
+        lags: true,
+        noise: true,
+        bias: false,
+        seed: 3,
+    };
+    let trace = Trace::from_truth(&engine, &samples, Some(&o));
+    let plain = detect_with(DetectorConfig::default(), &trace, true);
+    assert!(
+        plain.iter().all(|s| s.outcome == Outcome::Aborted),
+        "the built-in engine's speeds do not fit this unit: {plain:#?}"
+    );
+    let mut cfg = DetectorConfig::default();
+    cfg.fill_from_engine(None, engine.cfg());
+    assert_eq!(cfg.idle_speed_rpm, 5200.0);
+    assert_eq!(cfg.pt_sync_speed_rpm, 6100.0);
+    let segs = detect_with(cfg, &trace, true);
+    let outcomes: Vec<Outcome> = segs.iter().map(|s| s.outcome).collect();
+    assert_eq!(
+        outcomes,
+        vec![Outcome::Completed, Outcome::Aborted, Outcome::Completed],
+        "{segs:#?}"
+    );
+    assert!(!segs[0].hot_restart && segs[1].hot_restart && segs[2].hot_restart);
+    let mut checked = 0;
+    for phase in [
+        Phase::Crank,
+        Phase::Purge,
+        Phase::LightOff,
+        Phase::Acceleration,
+        Phase::Idle,
+        Phase::Loading,
+        Phase::Steady,
+    ] {
+        let truth = truth_starts(&trace, phase);
+        for seg in &segs {
+            let Some(span) = seg.phase(phase) else {
+                continue;
+            };
+            let nearest = truth
+                .iter()
+                .map(|t| (t - span.start_ms).abs())
+                .min()
+                .expect("truth has the phase");
+            assert!(
+                nearest <= 2000,
+                "{phase} starts {nearest} ms from the truth: detected {} truth {truth:?}",
+                span.start_ms
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked >= 15, "checked {checked} boundaries");
+    // A key the section sets is kept.
+    let section: toml::Value = toml::from_str("idle_speed_rpm = 5000.0").expect("toml");
+    let mut cfg: DetectorConfig = section.clone().try_into().expect("a [detector] section");
+    cfg.fill_from_engine(Some(&section), engine.cfg());
+    assert_eq!((cfg.idle_speed_rpm, cfg.purge_speed_rpm), (5000.0, 1950.0));
 }

@@ -53,6 +53,19 @@ pub(super) fn report(file: &std::path::Path) -> (bool, String) {
         out.push_str(&format!("  warning: {f}\n"));
     }
     out.push_str(&format!("  storage: {}\n", cfg.storage.path.display()));
+    let d = &cfg.detector;
+    out.push_str(&format!(
+        "  detector: purge {:.0}, light-off {:.0}, idle {:.0}, PT {:.0} rpm, base load {} MW ({})\n",
+        d.purge_speed_rpm,
+        d.light_off_speed_rpm,
+        d.idle_speed_rpm,
+        d.pt_sync_speed_rpm,
+        d.base_load_mw,
+        match &cfg.plant.engine_model {
+            Some(m) => format!("engine file {} unless [detector] sets them", m.display()),
+            None => "the built-in engine's unless [detector] sets them".to_string(),
+        }
+    ));
     match &cfg.modbus {
         Some(m) => {
             let tags = m.fields().count();

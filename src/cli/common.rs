@@ -40,6 +40,26 @@ impl DataSections {
         let mut sections: DataSections = pick
             .try_into()
             .with_context(|| format!("config {}", path.display()))?;
+        // The detector's engine speeds come from the engine file unless the section sets them.
+        let engine_file = value
+            .get("plant")
+            .and_then(|p| p.get("engine_model"))
+            .and_then(|m| m.as_str())
+            .map(|m| match path.parent() {
+                Some(dir) if Path::new(m).is_relative() => dir.join(m),
+                _ => PathBuf::from(m),
+            });
+        match crate::engine::config::EngineConfig::load_or_reference(engine_file.as_deref()) {
+            Ok(engine) => sections
+                .detector
+                .fill_from_engine(value.get("detector"), &engine),
+            // Commands that only read the database must not fail on the engine file; the
+            // commands that use the engine report it themselves.
+            Err(e) => tracing::warn!(
+                "[detector]: the engine file could not be read ({e}); its speeds are the \
+                 built-in engine's"
+            ),
+        }
         let mut problems = sections.storage.validate();
         problems.extend(sections.replay.validate());
         problems.extend(sections.detector.validate());

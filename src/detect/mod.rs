@@ -15,12 +15,15 @@ pub(crate) mod machine;
 pub use machine::{Frame, Machine};
 
 use crate::config_problem::ConfigProblem;
+use crate::engine::config::EngineConfig;
 use crate::segment::SegmentRecord;
 use crate::signals::Signal;
 use crate::store::{Db, ScanWrite, Store, StoreError, TagId};
 use serde::{Deserialize, Serialize};
 
-/// `[detector]` section: start-up detection thresholds (defaults from the daemon contract).
+/// `[detector]` section: start-up detection thresholds. The engine's own speeds and base load
+/// ([`ENGINE_KEYS`]) default to the engine file's ([`DetectorConfig::fill_from_engine`]; the
+/// defaults written here are the built-in engine's), the rest to the daemon contract.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct DetectorConfig {
@@ -207,6 +210,58 @@ impl DetectorConfig {
             ));
         }
         p
+    }
+}
+
+/// The `[detector]` keys that describe the engine's own start sequence. Unless the section sets
+/// them they are the engine file's (`[plant] engine_model`, else the built-in engine): a unit
+/// whose idle, purge or PT speed differs from the reference engine's was otherwise detected
+/// with the reference's numbers, and every start of it read as aborted.
+pub const ENGINE_KEYS: [&str; 6] = [
+    "purge_speed_rpm",
+    "light_off_speed_rpm",
+    "starter_cutout_rpm",
+    "idle_speed_rpm",
+    "pt_sync_speed_rpm",
+    "base_load_mw",
+];
+
+impl DetectorConfig {
+    /// Sets each of [`ENGINE_KEYS`] that the `[detector]` section (`section`, as written; `None`
+    /// when there is none) does not set from the engine file: purge, light-off and idle speeds
+    /// and base load from its `[sequence]`, the starter's cut-out speed, the PT's design speed.
+    pub fn fill_from_engine(&mut self, section: Option<&toml::Value>, engine: &EngineConfig) {
+        let written = |key: &str| section.and_then(|v| v.get(key)).is_some();
+        let q = &engine.sequence;
+        let from_engine = [
+            (
+                &mut self.purge_speed_rpm,
+                "purge_speed_rpm",
+                q.purge_speed_rpm,
+            ),
+            (
+                &mut self.light_off_speed_rpm,
+                "light_off_speed_rpm",
+                q.light_off_speed_rpm,
+            ),
+            (
+                &mut self.starter_cutout_rpm,
+                "starter_cutout_rpm",
+                engine.starter.cutout_rpm,
+            ),
+            (&mut self.idle_speed_rpm, "idle_speed_rpm", q.idle_speed_rpm),
+            (
+                &mut self.pt_sync_speed_rpm,
+                "pt_sync_speed_rpm",
+                engine.design.pt_speed_rpm,
+            ),
+            (&mut self.base_load_mw, "base_load_mw", q.base_load_mw),
+        ];
+        for (field, key, value) in from_engine {
+            if !written(key) {
+                *field = value;
+            }
+        }
     }
 }
 
