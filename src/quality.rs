@@ -85,7 +85,12 @@ pub struct SignalLimits {
     pub max_rate_per_s: f64,
 }
 
-/// Default limits of every engine signal (GG design 9 500 rpm, PT 3 600 rpm, ~30 MW class).
+/// Default limits of every engine signal: what the class of machine (industrial two-shaft
+/// units up to ~100 MW) can physically show, not one engine's envelope. The shaft speeds span
+/// the class (gas generators to 25 000 rpm, power turbines to 20 000 rpm): a 4 500 rpm PT limit,
+/// right for a 3 600 rpm generator, flagged every PT reading of a 6 100 rpm unit as out of range
+/// and so took it from the detector and the diagnosis. A unit's own tighter range is a
+/// `[quality.limits.<tag>]` override.
 pub fn default_limits(signal: Signal) -> SignalLimits {
     let l = |lo: f64, hi: f64, max_rate_per_s: f64| SignalLimits {
         lo,
@@ -93,8 +98,8 @@ pub fn default_limits(signal: Signal) -> SignalLimits {
         max_rate_per_s,
     };
     match signal {
-        Signal::N1 => l(-100.0, 12_000.0, 2_000.0),
-        Signal::N2 => l(-100.0, 4_500.0, 1_500.0),
+        Signal::N1 => l(-100.0, 25_000.0, 2_000.0),
+        Signal::N2 => l(-100.0, 20_000.0, 1_500.0),
         Signal::T1 => l(200.0, 340.0, 10.0),
         Signal::P1 => l(50.0, 120.0, 20.0),
         Signal::T2 => l(200.0, 1_000.0, 300.0),

@@ -21,6 +21,29 @@ fn nan_inf_and_range() {
 }
 
 #[test]
+fn the_default_speed_ranges_cover_the_class_not_one_engine() {
+    // A 6 100 rpm power turbine (an aero-derivative's high-speed PT) and a 15 000 rpm gas
+    // generator are good readings; a unit's own envelope is an override.
+    let mut cfg = QualityConfig::default();
+    let mut n2 = q(&cfg, Signal::N2);
+    assert_eq!(n2.check(0, 6100.0, None), Quality::Good);
+    assert_eq!(n2.check(1, 30_000.0, None), Quality::OutOfRange);
+    let mut n1 = q(&cfg, Signal::N1);
+    assert_eq!(n1.check(0, 15_000.0, None), Quality::Good);
+    cfg.limits.insert(
+        "n2_rpm".into(),
+        LimitOverride {
+            hi: Some(4500.0),
+            ..LimitOverride::default()
+        },
+    );
+    assert_eq!(
+        q(&cfg, Signal::N2).check(0, 6100.0, None),
+        Quality::OutOfRange
+    );
+}
+
+#[test]
 fn overrides_apply_and_are_validated() {
     let mut cfg = QualityConfig::default();
     cfg.limits.insert(
