@@ -221,7 +221,10 @@ impl WorkerContext {
         let shown = engine_file.map_or("<built-in reference engine>".to_string(), |p| {
             p.display().to_string()
         });
-        WorkerContext::from_text(text, &shown, settings)
+        // Map files named relative to the engine file are read from beside it, as every other
+        // command reads them (the daemon runs from /, a replay from anywhere).
+        let dir = engine_file.and_then(|p| p.parent());
+        WorkerContext::build(text, &shown, dir, settings)
     }
 
     /// From an engine file's text (`shown` names it in messages): what a fleet re-diagnosis
@@ -231,7 +234,20 @@ impl WorkerContext {
         shown: &str,
         settings: DiagnosisSettings,
     ) -> anyhow::Result<WorkerContext> {
-        let cfg = crate::engine::EngineConfig::from_toml_str(&text, shown)?;
+        WorkerContext::build(text, shown, None, settings)
+    }
+
+    /// The engine of `text`, its relative map paths resolved against `dir` when given.
+    fn build(
+        text: String,
+        shown: &str,
+        dir: Option<&std::path::Path>,
+        settings: DiagnosisSettings,
+    ) -> anyhow::Result<WorkerContext> {
+        let mut cfg = crate::engine::EngineConfig::from_toml_str(&text, shown)?;
+        if let Some(dir) = dir {
+            cfg.maps.resolve_relative_to(dir);
+        }
         let engine = Engine::new(cfg).map_err(|e| anyhow::anyhow!("engine: {e}"))?;
         let fit = serde_json::to_string(&settings.fit_config(&Cancel::new()))?;
         let config_hash = format!("{:016x}", fnv1a(&[text.as_bytes(), fit.as_bytes()]));

@@ -4,6 +4,8 @@
 //! samples of the simulator's truth.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
+use crate::common;
+
 use gtwatch::detect::{DetectorConfig, Frame, Machine};
 use gtwatch::engine::sensors::MeasurementOptions;
 use gtwatch::engine::simulation::run_scenario;
@@ -179,4 +181,72 @@ fn the_detector_takes_a_foreign_units_speeds_from_its_engine_file() {
     let mut cfg: DetectorConfig = section.clone().try_into().expect("a [detector] section");
     cfg.fill_from_engine(Some(&section), engine.cfg());
     assert_eq!((cfg.idle_speed_rpm, cfg.purge_speed_rpm), (5000.0, 1950.0));
+}
+
+/// The same unit as a user replays it: its operations log and the shipped config with only
+/// `[plant] engine_model` pointed at the unit's engine file (diagnosis off: detection is the
+/// subject). The replay takes the detector's speeds from that file and keeps the 6 100 rpm PT
+/// speed as good data: every start found with its outcome, the completed ones with their
+/// synchronisation (which needs the PT speed) and steady load. The engine file names its maps
+/// relative to itself; the replay's diagnosis context read them relative to the working
+/// directory and failed.
+#[test]
+fn a_foreign_units_log_replays_with_its_own_speeds() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/foreign/aero25_truth.toml");
+    let engine =
+        Engine::new(gtwatch::engine::EngineConfig::load(&file).expect("loads")).expect("builds");
+    let model = engine.model(&HealthParams::HEALTHY);
+    let (samples, _) = run_scenario(&model, &Scenario::operations(engine.cfg())).expect("runs");
+    let csv = dir.path().join("ops.csv");
+    common::write_daily_log(&engine, vec![(samples, 4)], &csv);
+    let cfg = common::replay_config_text(&dir.path().join("f.db"))
+        .replace(
+            "# engine_model = \"engine.toml\"",
+            &format!("engine_model = {:?}", file.display().to_string()),
+        )
+        .replace("\nenabled = true\n", "\nenabled = false\n");
+    assert!(cfg.contains("\nengine_model = ") && cfg.contains("\nenabled = false\n"));
+    let cfg_path = dir.path().join("gtwatch.toml");
+    std::fs::write(&cfg_path, cfg).expect("config");
+    let gtwatch = |args: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+            .args(args)
+            .arg("--config")
+            .arg(&cfg_path)
+            .output()
+            .expect("runs");
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        out.stdout
+    };
+    gtwatch(&["replay", csv.to_str().expect("utf-8")]);
+    let segs: serde_json::Value =
+        serde_json::from_slice(&gtwatch(&["segments", "--format", "json"])).expect("json");
+    let segs = segs.as_array().expect("array");
+    let outcomes: Vec<&str> = segs
+        .iter()
+        .map(|s| s["outcome"].as_str().expect("outcome"))
+        .collect();
+    assert_eq!(outcomes, ["completed", "aborted", "completed"], "{segs:#?}");
+    let hot: Vec<bool> = segs
+        .iter()
+        .map(|s| s["hot_restart"].as_bool().expect("bool"))
+        .collect();
+    assert_eq!(hot, [false, true, true]);
+    for s in [&segs[0], &segs[2]] {
+        let phases: Vec<&str> = s["phases"]
+            .as_array()
+            .expect("phases")
+            .iter()
+            .map(|p| p["phase"].as_str().expect("name"))
+            .collect();
+        for want in ["idle", "synchronisation", "loading", "steady"] {
+            assert!(phases.contains(&want), "{want} missing: {phases:?}");
+        }
+    }
 }
