@@ -45,6 +45,44 @@ fn truth_starts(trace: &Trace, phase: Phase) -> Vec<i64> {
     out
 }
 
+/// The phases whose start the detector is checked on.
+const PHASES: [Phase; 8] = [
+    Phase::Crank,
+    Phase::Purge,
+    Phase::LightOff,
+    Phase::Acceleration,
+    Phase::Idle,
+    Phase::Synchronisation,
+    Phase::Loading,
+    Phase::Steady,
+];
+
+/// Asserts that each detected start of `phases` is within 2 samples of one in the truth;
+/// returns how many were checked.
+fn check_boundaries(trace: &Trace, segs: &[SegmentRecord], phases: &[Phase]) -> usize {
+    let mut checked = 0;
+    for &phase in phases {
+        let truth = truth_starts(trace, phase);
+        for seg in segs {
+            let Some(span) = seg.phase(phase) else {
+                continue;
+            };
+            let nearest = truth
+                .iter()
+                .map(|t| (t - span.start_ms).abs())
+                .min()
+                .expect("truth has the phase");
+            assert!(
+                nearest <= 2000,
+                "{phase} starts {nearest} ms from the truth: detected {} truth {truth:?}",
+                span.start_ms
+            );
+            checked += 1;
+        }
+    }
+    checked
+}
+
 #[test]
 fn detector_finds_every_start_of_the_engine_model() {
     let engine = Engine::reference().expect("engine");
@@ -77,35 +115,15 @@ fn detector_finds_every_start_of_the_engine_model() {
                 !segs[0].hot_restart && segs[2].hot_restart,
                 "third start is a hot restart"
             );
-            let mut checked = 0;
-            for phase in [
-                Phase::Crank,
-                Phase::Purge,
-                Phase::LightOff,
-                Phase::Acceleration,
-                Phase::Idle,
-                Phase::Synchronisation,
-                Phase::Loading,
-                Phase::Steady,
-            ] {
-                if phase == Phase::Synchronisation && !with_n2 {
-                    continue;
-                }
-                let truth = truth_starts(&trace, phase);
-                for seg in &segs {
-                    let Some(span) = seg.phase(phase) else {
-                        continue;
-                    };
-                    let nearest = truth
-                        .iter()
-                        .map(|t| (t - span.start_ms).abs())
-                        .min()
-                        .expect("truth has the phase");
-                    assert!(nearest <= 2000, "{phase} starts {} ms from the truth (n2: {with_n2}): detected {} truth {truth:?}", nearest, span.start_ms);
-                    checked += 1;
-                }
-            }
-            assert!(checked >= 15, "checked {checked} boundaries");
+            let phases: Vec<Phase> = PHASES
+                .into_iter()
+                .filter(|p| with_n2 || *p != Phase::Synchronisation)
+                .collect();
+            let checked = check_boundaries(&trace, &segs, &phases);
+            assert!(
+                checked >= 15,
+                "checked {checked} boundaries (n2: {with_n2})"
+            );
         }
     }
 }
@@ -147,34 +165,7 @@ fn the_detector_takes_a_foreign_units_speeds_from_its_engine_file() {
         "{segs:#?}"
     );
     assert!(!segs[0].hot_restart && segs[1].hot_restart && segs[2].hot_restart);
-    let mut checked = 0;
-    for phase in [
-        Phase::Crank,
-        Phase::Purge,
-        Phase::LightOff,
-        Phase::Acceleration,
-        Phase::Idle,
-        Phase::Loading,
-        Phase::Steady,
-    ] {
-        let truth = truth_starts(&trace, phase);
-        for seg in &segs {
-            let Some(span) = seg.phase(phase) else {
-                continue;
-            };
-            let nearest = truth
-                .iter()
-                .map(|t| (t - span.start_ms).abs())
-                .min()
-                .expect("truth has the phase");
-            assert!(
-                nearest <= 2000,
-                "{phase} starts {nearest} ms from the truth: detected {} truth {truth:?}",
-                span.start_ms
-            );
-            checked += 1;
-        }
-    }
+    let checked = check_boundaries(&trace, &segs, &PHASES);
     assert!(checked >= 15, "checked {checked} boundaries");
     // A key the section sets is kept.
     let section: toml::Value = toml::from_str("idle_speed_rpm = 5000.0").expect("toml");

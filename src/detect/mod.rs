@@ -22,8 +22,8 @@ use crate::store::{Db, ScanWrite, Store, StoreError, TagId};
 use serde::{Deserialize, Serialize};
 
 /// `[detector]` section: start-up detection thresholds. The engine's own speeds and base load
-/// ([`ENGINE_KEYS`]) default to the engine file's ([`DetectorConfig::fill_from_engine`]; the
-/// defaults written here are the built-in engine's), the rest to the daemon contract.
+/// default to the engine file's ([`DetectorConfig::fill_from_engine`]; the defaults written
+/// here are the built-in engine's), the rest to the daemon contract.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct DetectorConfig {
@@ -213,23 +213,13 @@ impl DetectorConfig {
     }
 }
 
-/// The `[detector]` keys that describe the engine's own start sequence. Unless the section sets
-/// them they are the engine file's (`[plant] engine_model`, else the built-in engine): a unit
-/// whose idle, purge or PT speed differs from the reference engine's was otherwise detected
-/// with the reference's numbers, and every start of it read as aborted.
-pub const ENGINE_KEYS: [&str; 6] = [
-    "purge_speed_rpm",
-    "light_off_speed_rpm",
-    "starter_cutout_rpm",
-    "idle_speed_rpm",
-    "pt_sync_speed_rpm",
-    "base_load_mw",
-];
-
 impl DetectorConfig {
-    /// Sets each of [`ENGINE_KEYS`] that the `[detector]` section (`section`, as written; `None`
-    /// when there is none) does not set from the engine file: purge, light-off and idle speeds
+    /// Sets each key that describes the engine's own start sequence and that the `[detector]`
+    /// section (`section`, as written; `None` when there is none) does not set, from the engine
+    /// file (`[plant] engine_model`, else the built-in engine): purge, light-off and idle speeds
     /// and base load from its `[sequence]`, the starter's cut-out speed, the PT's design speed.
+    /// A unit whose speeds differ from the reference engine's was otherwise detected with the
+    /// reference's numbers, and every start of it read as aborted.
     pub fn fill_from_engine(&mut self, section: Option<&toml::Value>, engine: &EngineConfig) {
         let written = |key: &str| section.and_then(|v| v.get(key)).is_some();
         let q = &engine.sequence;
