@@ -483,19 +483,25 @@ impl CompressorMap {
     /// of `point` there. With the cubic interpolation, the bilinear inverse is refined by
     /// Newton steps on [`CompressorMap::point`] outside the lifted stretches.
     pub fn beta_for_pr(&self, nc: f64, pr: f64) -> f64 {
-        let bl = self.blend(nc);
-        let mut b = self.beta_for_pr_in(&bl, pr);
-        if self.cubic.is_none() || self.in_lifted(&bl, b) {
+        self.beta_for_pr_on(&self.blend(nc), nc, pr)
+    }
+
+    /// [`CompressorMap::beta_for_pr`] on the speed blend `bl` of `nc` already found (the
+    /// Newton steps of a cubic map read the surface on it too).
+    #[inline]
+    fn beta_for_pr_on(&self, bl: &Blend, nc: f64, pr: f64) -> f64 {
+        let mut b = self.beta_for_pr_in(bl, pr);
+        if self.cubic.is_none() || self.in_lifted(bl, b) {
             return b;
         }
         for _ in 0..30 {
-            let p = self.point(nc, b).pr;
+            let p = self.point_in(bl, nc, b).pr;
             let err = p - pr;
             if err.abs() <= 1e-13 * pr.abs().max(1.0) {
                 break;
             }
             let db = 1e-7;
-            let slope = (self.point(nc, b + db).pr - p) / db;
+            let slope = (self.point_in(bl, nc, b + db).pr - p) / db;
             if slope >= 0.0 || !slope.is_finite() {
                 break;
             }
@@ -547,11 +553,8 @@ impl CompressorMap {
     /// to the bit, with one speed blend for the inverse and the point (the dynamic model's
     /// first compressor read needs the flow alone, and no surge line).
     pub fn wc_at_pr(&self, nc: f64, pr: f64) -> f64 {
-        if self.cubic.is_some() {
-            return self.point(nc, self.beta_for_pr(nc, pr)).wc;
-        }
         let bl = self.blend(nc);
-        self.point_in(&bl, nc, self.beta_for_pr_in(&bl, pr)).wc
+        self.point_in(&bl, nc, self.beta_for_pr_on(&bl, nc, pr)).wc
     }
 
     /// Pressure ratio on the surge line at corrected flow `wc` (map units).
