@@ -225,12 +225,12 @@ mod tests {
         .unwrap()
     }
 
-    /// A closed start-up at `start` with one `good` Method B result `health`; its segment id.
     /// Every Method B result, as the gap task's selection reads them.
     fn history(store: &Store) -> Vec<crate::store::HistoryRow> {
         crate::worker::gap::method_b_history(store).unwrap()
     }
 
+    /// A closed start-up at `start` with one `good` Method B result `health`; its segment id.
     fn insert_result(store: &mut Store, start: i64, health: [f64; 6]) -> i64 {
         insert_result_of_quality(store, start, health, "good")
     }

@@ -214,7 +214,12 @@ fn next_segment(
     sel: GapSelection,
     skip: &HashSet<i64>,
 ) -> Result<Option<i64>, StoreError> {
-    let history = method_b_history(read)?;
+    // Both selections below walk the Method B history: read once, and only for them.
+    let history = if sel.not_good || ctx.settings.gap_on_health_step {
+        method_b_history(read)?
+    } else {
+        Vec::new()
+    };
     // A poor fit that carries on an analysed one is left out, unless the schedule picks it.
     let covered: HashSet<i64> = if sel.not_good {
         covered_poor_fits(&history)
