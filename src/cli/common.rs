@@ -41,14 +41,7 @@ impl DataSections {
             .try_into()
             .with_context(|| format!("config {}", path.display()))?;
         // The detector's engine speeds come from the engine file unless the section sets them.
-        let engine_file = value
-            .get("plant")
-            .and_then(|p| p.get("engine_model"))
-            .and_then(|m| m.as_str())
-            .map(|m| match path.parent() {
-                Some(dir) if Path::new(m).is_relative() => dir.join(m),
-                _ => PathBuf::from(m),
-            });
+        let engine_file = engine_model_path(&value, path);
         match crate::engine::config::EngineConfig::load_or_reference(engine_file.as_deref()) {
             Ok(engine) => sections
                 .detector
@@ -76,6 +69,16 @@ impl DataSections {
         }
         Ok(sections)
     }
+}
+
+/// `[plant] engine_model` of the config file `config` read as `table`, a relative path taken
+/// from the file's folder; `None` when not set (the built-in engine).
+pub(super) fn engine_model_path(table: &toml::Table, config: &Path) -> Option<PathBuf> {
+    let m = PathBuf::from(table.get("plant")?.get("engine_model")?.as_str()?);
+    Some(match config.parent() {
+        Some(dir) if m.is_relative() => dir.join(m),
+        _ => m,
+    })
 }
 
 /// The database path from `--db`, else from `--config`'s `[storage].path`.

@@ -12,7 +12,7 @@ use crate::worker::{
     WorkerContext,
 };
 use anyhow::{bail, Context};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// The worker's context from a config file (`None`: built-in engine, default settings).
 pub(super) fn worker_context(config: Option<&Path>) -> anyhow::Result<WorkerContext> {
@@ -35,17 +35,7 @@ pub(super) fn worker_context(config: Option<&Path>) -> anyhow::Result<WorkerCont
         let list: Vec<String> = problems.iter().map(|p| p.to_string()).collect();
         bail!("config {}:\n  {}", path.display(), list.join("\n  "));
     }
-    let engine: Option<PathBuf> = table
-        .get("plant")
-        .and_then(|p| p.get("engine_model"))
-        .and_then(|v| v.as_str())
-        .map(|m| {
-            let m = PathBuf::from(m);
-            match path.parent() {
-                Some(dir) if m.is_relative() => dir.join(m),
-                _ => m,
-            }
-        });
+    let engine = super::common::engine_model_path(&table, path);
     WorkerContext::load(engine.as_deref(), settings)
 }
 

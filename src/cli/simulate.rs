@@ -76,10 +76,12 @@ pub(super) fn run(a: SimulateArgs) -> anyhow::Result<ExitCode> {
             );
         }
     });
-    let (samples, stats, failure) = match run {
-        Ok((samples, stats)) => (samples, Some(stats), None),
-        Err(e) => (so_far, None, Some(e)),
+    // `so_far` holds every sample the run produced, those it returns on success included.
+    let (stats, failure) = match run {
+        Ok((_, stats)) => (Some(stats), None),
+        Err(e) => (None, Some(e)),
     };
+    let samples = so_far;
     let meas = (!a.no_lags || a.noise || a.bias).then_some(MeasurementOptions {
         lags: !a.no_lags,
         noise: a.noise,
