@@ -128,6 +128,21 @@ fn detector_finds_every_start_of_the_engine_model() {
     }
 }
 
+/// The foreign unit's engine file, its engine, and its healthy day of operations.
+fn foreign_day() -> (
+    std::path::PathBuf,
+    Engine,
+    Vec<gtwatch::engine::TruthSample>,
+) {
+    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/foreign/aero25_truth.toml");
+    let engine =
+        Engine::new(gtwatch::engine::EngineConfig::load(&file).expect("loads")).expect("builds");
+    let model = engine.model(&HealthParams::HEALTHY);
+    let (samples, _) = run_scenario(&model, &Scenario::operations(engine.cfg())).expect("runs");
+    (file, engine, samples)
+}
+
 /// A unit whose speeds are not the built-in engine's (`tests/data/foreign/aero25_truth.toml`:
 /// idle 5 200 rpm, purge 1 950 rpm, PT 6 100 rpm, 22 MW): with the built-in engine's numbers,
 /// which the shipped `[detector]` section used to set, every start read as aborted in crank;
@@ -135,12 +150,7 @@ fn detector_finds_every_start_of_the_engine_model() {
 /// its outcome, and its phases where the simulator put them.
 #[test]
 fn the_detector_takes_a_foreign_units_speeds_from_its_engine_file() {
-    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/foreign/aero25_truth.toml");
-    let engine =
-        Engine::new(gtwatch::engine::EngineConfig::load(&file).expect("loads")).expect("builds");
-    let model = engine.model(&HealthParams::HEALTHY);
-    let (samples, _) = run_scenario(&model, &Scenario::operations(engine.cfg())).expect("runs");
+    let (_, engine, samples) = foreign_day();
     let o = MeasurementOptions {
         lags: true,
         noise: true,
@@ -184,12 +194,7 @@ fn the_detector_takes_a_foreign_units_speeds_from_its_engine_file() {
 #[test]
 fn a_foreign_units_log_replays_with_its_own_speeds() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/foreign/aero25_truth.toml");
-    let engine =
-        Engine::new(gtwatch::engine::EngineConfig::load(&file).expect("loads")).expect("builds");
-    let model = engine.model(&HealthParams::HEALTHY);
-    let (samples, _) = run_scenario(&model, &Scenario::operations(engine.cfg())).expect("runs");
+    let (file, engine, samples) = foreign_day();
     let csv = dir.path().join("ops.csv");
     common::write_daily_log(&engine, vec![(samples, 4)], &csv);
     let cfg = common::replay_config_text(&dir.path().join("f.db"))
@@ -201,23 +206,12 @@ fn a_foreign_units_log_replays_with_its_own_speeds() {
     assert!(cfg.contains("\nengine_model = ") && cfg.contains("\nenabled = false\n"));
     let cfg_path = dir.path().join("gtwatch.toml");
     std::fs::write(&cfg_path, cfg).expect("config");
-    let gtwatch = |args: &[&str]| {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_gtwatch"))
-            .args(args)
-            .arg("--config")
-            .arg(&cfg_path)
-            .output()
-            .expect("runs");
-        assert!(
-            out.status.success(),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        out.stdout
-    };
-    gtwatch(&["replay", csv.to_str().expect("utf-8")]);
-    let segs: serde_json::Value =
-        serde_json::from_slice(&gtwatch(&["segments", "--format", "json"])).expect("json");
+    common::gtwatch_ok(&["replay", csv.to_str().expect("utf-8")], &cfg_path);
+    let segs: serde_json::Value = serde_json::from_slice(&common::gtwatch_ok(
+        &["segments", "--format", "json"],
+        &cfg_path,
+    ))
+    .expect("json");
     let segs = segs.as_array().expect("array");
     let outcomes: Vec<&str> = segs
         .iter()

@@ -45,18 +45,7 @@ fn write_log(engine: &Engine, seeds: &[u64], csv: &Path) {
 }
 
 fn run(args: &[&str], cfg: &Path) -> serde_json::Value {
-    let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
-        .args(args)
-        .arg("--config")
-        .arg(cfg)
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("one JSON document")
+    serde_json::from_slice(&common::gtwatch_ok(args, cfg)).expect("one JSON document")
 }
 
 /// Replays the log of `seeds` on `engine_file` (None: the reference engine) and checks every

@@ -389,6 +389,23 @@ pub fn write_daily_log(
         .expect("write");
 }
 
+/// Runs `gtwatch ARGS --config CFG`, asserts that it succeeded (its stderr in the message) and
+/// returns its standard output.
+pub fn gtwatch_ok(args: &[&str], cfg: &Path) -> Vec<u8> {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(args)
+        .arg("--config")
+        .arg(cfg)
+        .output()
+        .expect("runs");
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out.stdout
+}
+
 /// The shipped config for replaying such a log into `db`: epoch-second `time_s` column,
 /// diagnosis on 2 threads.
 pub fn replay_config_text(db: &Path) -> String {
