@@ -175,6 +175,14 @@ fn the_detector_takes_a_foreign_units_speeds_from_its_engine_file() {
         "{segs:#?}"
     );
     assert!(!segs[0].hot_restart && segs[1].hot_restart && segs[2].hot_restart);
+    // The second start trips while the PT governor is pulling the fuel back: a trip, not the
+    // operator's ramped stop it used to be read as.
+    assert_eq!(
+        segs[1].abort_cause,
+        Some(gtwatch::segment::AbortCause::Trip),
+        "{:#?}",
+        segs[1]
+    );
     let checked = check_boundaries(&trace, &segs, &PHASES);
     assert!(checked >= 15, "checked {checked} boundaries");
     // A key the section sets is kept.

@@ -49,7 +49,15 @@ struct Active {
     /// Purge: speed level the starter holds.
     ignition_ms: Option<i64>,
     ignition_n1: f64,
+    /// Fuel flow the light-off held before acceleration (the unit's lowest burning level).
+    light_off_fuel: Option<f64>,
 }
+
+/// How far back the fuel's trend is read before a cut, to tell a trip from a ramped stop.
+const TREND_BEFORE_CUT_MS: i64 = 10_000;
+
+/// A ramped stop's fuel is compared this far back to find where the ramp began.
+const RAMP_LOOK_BACK_MS: i64 = 5_000;
 
 /// Frames kept before a start, for finding its onset (at 1 Hz: 15 min).
 const CONTEXT_FRAMES: usize = 900;
@@ -284,6 +292,7 @@ impl Machine {
             peak_fuel: 0.0,
             ignition_ms: None,
             ignition_n1: 0.0,
+            light_off_fuel: None,
         };
         // Catch up on the frames between the onset and now (they are already in `hist`).
         let start_idx = self.index_at_or_after(start_ms);
@@ -310,7 +319,7 @@ impl Machine {
 
         // Fuel cut during a fuelled phase: trip (abrupt) or operator stop (ramped).
         if fuel_just_off && a.ignition_ms.is_some() {
-            let (abrupt, knee) = self.classify_fuel_cut(f.t_ms);
+            let (abrupt, knee) = self.classify_fuel_cut(f.t_ms, a.light_off_fuel);
             let cause = if abrupt {
                 AbortCause::Trip
             } else {
@@ -388,6 +397,7 @@ impl Machine {
                             let band = (0.02 * hold)
                                 .max(4.0 * self.noise_between(ign, f.t_ms - 1, |x| x.fuel));
                             let knee = self.knee_back(|x| x.fuel, hold, band).max(ign);
+                            a.light_off_fuel = Some(hold);
                             enter(&mut a, Phase::Acceleration, knee);
                         }
                     }
@@ -511,7 +521,15 @@ impl Machine {
     }
 
     /// Was the fuel that just went off cut abruptly? Also returns when the cut began.
-    fn classify_fuel_cut(&self, now_ms: i64) -> (bool, i64) {
+    ///
+    /// A trip closes the valve from wherever the fuel is; an operator's stop ramps it down to
+    /// the unit's lowest burning level first. So a cut is abrupt when the fuel
+    /// `trip_fuel_cut_s` before it was still at least half its recent peak, or, the fuel
+    /// already falling (the PT governor pulls the gas generator back while synchronising), when
+    /// the fall before could not have brought it down within that time — its trend over the
+    /// 10 s before would have left at least half of it — and it was at least twice the level
+    /// the light-off held (`light_off_fuel`, known once acceleration began).
+    fn classify_fuel_cut(&self, now_ms: i64, light_off_fuel: Option<f64>) -> (bool, i64) {
         let c = &self.cfg;
         let cut_ms = (c.trip_fuel_cut_s * 1000.0) as i64;
         let before = self.value_at(now_ms - cut_ms, |x| x.fuel);
@@ -522,16 +540,29 @@ impl Machine {
             .take_while(|x| x.t_ms >= now_ms - 60_000)
             .map(|x| x.fuel)
             .fold(0.0, f64::max);
-        let abrupt = before >= 0.5 * recent_max && before > c.fuel_on_kg_s;
+        let earlier = self.value_at(now_ms - cut_ms - TREND_BEFORE_CUT_MS, |x| x.fuel);
+        let fall_rate = ((earlier - before) / (TREND_BEFORE_CUT_MS as f64 / 1000.0)).max(0.0);
+        let projected = before - fall_rate * c.trip_fuel_cut_s;
+        let cut_off_a_trend =
+            light_off_fuel.is_some_and(|hold| projected >= 0.5 * before && before >= 2.0 * hold);
+        let abrupt = (before >= 0.5 * recent_max || cut_off_a_trend) && before > c.fuel_on_kg_s;
         if abrupt {
             // A trip ends the start at the first sample without fuel.
             return (true, now_ms);
         }
-        // A ramped stop began where the fuel started to fall.
+        // A ramped stop began where the fuel started to fall: walk back while the fuel a few
+        // seconds earlier was higher. Compared over a few seconds rather than sample to sample,
+        // so a slow ramp's fall per sample, within the meter's noise, still counts as falling.
         let tol = 0.01 * recent_max;
         let mut i = self.hist.len() - 1;
-        while i > 0 && self.hist[i - 1].fuel > self.hist[i].fuel + tol {
-            i -= 1;
+        while i > 0 {
+            let t_back = self.hist[i].t_ms - RAMP_LOOK_BACK_MS;
+            let j = self.hist.partition_point(|x| x.t_ms < t_back).min(i - 1);
+            if self.hist[j].fuel > self.hist[i].fuel + tol {
+                i -= 1;
+            } else {
+                break;
+            }
         }
         (false, self.hist[i].t_ms)
     }

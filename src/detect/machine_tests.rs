@@ -276,6 +276,71 @@ fn aborted_start_by_flame_out() {
     assert!((end - 205.0).abs() <= 2.0, "flame-out at {end}");
 }
 
+/// A normal start whose fuel, from `from_s` on idle, follows `fuel` (the GG speed falling with
+/// it from 6 800 to 5 000 rpm) and is then cut at `cut_s`; the rotor coasts from there.
+fn fuel_path_then_cut(from_s: f64, fuel: &[(f64, f64)], cut_s: f64) -> Vec<SegmentRecord> {
+    let mut s = empty_script();
+    let k = push_start(&mut s, 30.0, 0.0);
+    assert!(
+        from_s > k.at_idle && cut_s < k.breaker,
+        "cut before the breaker closes"
+    );
+    let fuel_at_from = s.fuel.at(from_s);
+    for pl in [&mut s.n1, &mut s.fuel, &mut s.power, &mut s.n2] {
+        pl.0.retain(|p| p.0 < from_s);
+    }
+    s.fuel.0.push((from_s, fuel_at_from));
+    s.fuel.0.extend_from_slice(fuel);
+    s.fuel
+        .0
+        .extend([(cut_s - 0.5, s.fuel.at(cut_s - 0.5)), (cut_s, 0.0)]);
+    s.n1.0.extend([
+        (from_s, 6800.0),
+        (cut_s, 5000.0),
+        (cut_s + 5000.0 / 150.0, 0.0),
+    ]);
+    s.n2.0
+        .extend([(from_s, 3000.0), (cut_s, 3000.0), (cut_s + 60.0, 0.0)]);
+    let (done, open) = run(&frames(&s, 600, 11, true));
+    assert!(open.is_none());
+    assert_eq!(done.len(), 1, "{done:?}");
+    done
+}
+
+/// A trip while the governor is already pulling the fuel back (the PT governor decelerating the
+/// gas generator while synchronising, as the foreign unit's operations day does): the fuel three
+/// seconds before the cut is below half its recent peak, but its trend would have taken far
+/// longer to bring it down, and it is well above the light-off level — a trip, not a ramped stop.
+#[test]
+fn a_trip_while_the_governor_pulls_the_fuel_back_is_a_trip() {
+    let done = fuel_path_then_cut(230.0, &[(250.0, 0.2)], 250.5);
+    assert_eq!(done[0].abort_cause, Some(AbortCause::Trip), "{done:?}");
+    let end = (done[0].end_ms.expect("closed") - T0_MS) as f64 / 1000.0;
+    assert!((end - 251.0).abs() <= 1.0, "tripped at {end}");
+}
+
+/// An operator's stop ramps the fuel down to the light-off level before the valve closes:
+/// a fast ramp (20 s) and a slow one (60 s) are both stops, not trips; the stop began where the
+/// ramp began.
+#[test]
+fn a_ramped_stop_is_an_operator_stop_fast_or_slow() {
+    for ramp_s in [20.0, 60.0] {
+        let end_ramp = 230.0 + ramp_s;
+        let done = fuel_path_then_cut(230.0, &[(end_ramp, 0.08)], end_ramp + 1.0);
+        let seg = &done[0];
+        assert_eq!(
+            seg.abort_cause,
+            Some(AbortCause::OperatorStop),
+            "{ramp_s} s: {done:?}"
+        );
+        let end = (seg.end_ms.expect("closed") - T0_MS) as f64 / 1000.0;
+        assert!(
+            (end - 230.0).abs() <= 3.0,
+            "{ramp_s} s ramp: stop began at {end}"
+        );
+    }
+}
+
 #[test]
 fn operator_stop_during_purge() {
     let mut s = empty_script();
