@@ -202,7 +202,8 @@ pub struct WorkerContext {
     pub settings: DiagnosisSettings,
     /// FNV-1a of the engine file's text and the fit settings: equal hash = same result.
     pub config_hash: String,
-    /// The engine file's text (what the hash covers; a fleet re-diagnosis job carries it).
+    /// The engine file's text with its map files written into it (what the hash covers; a
+    /// fleet re-diagnosis job carries it, so a worker anywhere needs no other file).
     pub engine_text: String,
 }
 
@@ -237,17 +238,19 @@ impl WorkerContext {
         WorkerContext::build(text, shown, None, settings)
     }
 
-    /// The engine of `text`, its relative map paths resolved against `dir` when given.
+    /// The engine of `text` with its map files written into it (relative paths read from
+    /// `dir` when given).
     fn build(
         text: String,
         shown: &str,
         dir: Option<&std::path::Path>,
         settings: DiagnosisSettings,
     ) -> anyhow::Result<WorkerContext> {
-        let mut cfg = crate::engine::EngineConfig::from_toml_str(&text, shown)?;
-        if let Some(dir) = dir {
-            cfg.maps.resolve_relative_to(dir);
-        }
+        // The map files are written into the text, so the text is the whole engine: the hash
+        // changes with a map's contents, and a fleet job carrying the text needs no file.
+        let text = crate::engine::config::inline_map_files(&text, dir)
+            .map_err(|e| anyhow::anyhow!("engine {shown}: {e}"))?;
+        let cfg = crate::engine::EngineConfig::from_toml_str(&text, shown)?;
         let engine = Engine::new(cfg).map_err(|e| anyhow::anyhow!("engine: {e}"))?;
         let fit = serde_json::to_string(&settings.fit_config(&Cancel::new()))?;
         let config_hash = format!("{:016x}", fnv1a(&[text.as_bytes(), fit.as_bytes()]));

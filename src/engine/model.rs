@@ -179,14 +179,36 @@ fn map_error(key: &str) -> impl Fn(maps::MapError) -> EngineError + '_ {
     }
 }
 
-fn load_compressor(file: &str, interp: MapInterpolation) -> Result<CompressorMap, EngineError> {
-    let key = "maps.compressor_file";
-    let parsed = if file.is_empty() {
-        maps::gasturb::parse(maps::HPC_MAP, "embedded hpc.map")
+/// A map's GasTurb text as the engine file gives it: inline (`inline`, the `*_map` key), from
+/// a file (`file`), else the embedded one. Returns the key errors are reported under.
+fn parse_map(
+    component: &str,
+    file: &str,
+    inline: &str,
+    embedded: &str,
+    name: &str,
+) -> (String, Result<maps::gasturb::GasTurbFile, maps::MapError>) {
+    if !inline.is_empty() {
+        let key = format!("maps.{component}_map");
+        let parsed = maps::gasturb::parse(inline, &key);
+        (key, parsed)
+    } else if !file.is_empty() {
+        let parsed = maps::gasturb::read_file(Path::new(file));
+        (format!("maps.{component}_file"), parsed)
     } else {
-        maps::gasturb::read_file(Path::new(file))
+        let parsed = maps::gasturb::parse(embedded, name);
+        (format!("maps.{component}_file"), parsed)
     }
-    .map_err(map_error(key))?;
+}
+
+fn load_compressor(
+    file: &str,
+    inline: &str,
+    interp: MapInterpolation,
+) -> Result<CompressorMap, EngineError> {
+    let (key, parsed) = parse_map("compressor", file, inline, maps::HPC_MAP, "embedded hpc.map");
+    let key = key.as_str();
+    let parsed = parsed.map_err(map_error(key))?;
     let map = CompressorMap::from_gasturb(&parsed).map_err(map_error(key))?;
     match interp {
         MapInterpolation::Linear => Ok(map),
@@ -195,18 +217,16 @@ fn load_compressor(file: &str, interp: MapInterpolation) -> Result<CompressorMap
 }
 
 fn load_turbine(
-    key: &str,
+    component: &str,
     file: &str,
+    inline: &str,
     embedded: &str,
     name: &str,
     interp: MapInterpolation,
 ) -> Result<TurbineMap, EngineError> {
-    let parsed = if file.is_empty() {
-        maps::gasturb::parse(embedded, name)
-    } else {
-        maps::gasturb::read_file(Path::new(file))
-    }
-    .map_err(map_error(key))?;
+    let (key, parsed) = parse_map(component, file, inline, embedded, name);
+    let key = key.as_str();
+    let parsed = parsed.map_err(map_error(key))?;
     let map = TurbineMap::from_gasturb(&parsed).map_err(map_error(key))?;
     match interp {
         MapInterpolation::Linear => Ok(map),
@@ -235,18 +255,21 @@ impl Engine {
         let maps = RawMaps {
             comp: Arc::new(load_compressor(
                 &cfg.maps.compressor_file,
+                &cfg.maps.compressor_map,
                 cfg.maps.interpolation,
             )?),
             hpt: Arc::new(load_turbine(
-                "maps.hpt_file",
+                "hpt",
                 &cfg.maps.hpt_file,
+                &cfg.maps.hpt_map,
                 maps::HPT_MAP,
                 "embedded hpt.map",
                 cfg.maps.interpolation,
             )?),
             pt: Arc::new(load_turbine(
-                "maps.pt_file",
+                "pt",
                 &cfg.maps.pt_file,
+                &cfg.maps.pt_map,
                 maps::LPT_MAP,
                 "embedded lpt.map",
                 cfg.maps.interpolation,

@@ -212,6 +212,12 @@ impl Engine {
             ),
             ("maps.hpt_file", old.hpt_file != new.hpt_file),
             ("maps.pt_file", old.pt_file != new.pt_file),
+            (
+                "maps.compressor_map",
+                old.compressor_map != new.compressor_map,
+            ),
+            ("maps.hpt_map", old.hpt_map != new.hpt_map),
+            ("maps.pt_map", old.pt_map != new.pt_map),
             ("maps.interpolation", old.interpolation != new.interpolation),
         ];
         if let Some((key, _)) = changed.iter().find(|(_, c)| *c) {

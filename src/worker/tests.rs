@@ -524,3 +524,30 @@ fn backlog_on_two_cores_stores_what_one_core_stores() {
         "{rep:?}"
     );
 }
+
+/// A unit's engine file naming its maps relative to itself: the context's text carries the
+/// maps, so a fleet worker building the job's context from that text alone (no file beside
+/// it, another working directory) computes the same hash and the same engine; and a changed
+/// map is another configuration (its hash changes), as a changed number is.
+#[test]
+fn a_context_carries_its_map_files_so_a_fleet_job_needs_none() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    std::fs::write(dir.path().join("hpc.map"), crate::maps::HPC_MAP).expect("write map");
+    let text = crate::engine::config::REFERENCE_ENGINE_TOML
+        .replace("compressor_file = \"\"", "compressor_file = \"hpc.map\"");
+    let file = dir.path().join("unit.toml");
+    std::fs::write(&file, &text).expect("write engine");
+    let settings = DiagnosisSettings::default();
+    let edge = WorkerContext::load(Some(&file), settings.clone()).expect("edge context");
+    assert!(!edge.engine_text.contains("hpc.map"), "the map is in the text");
+    let centre = WorkerContext::from_text(edge.engine_text.clone(), "job", settings.clone())
+        .expect("the job's text alone builds");
+    assert_eq!(centre.config_hash, edge.config_hash);
+    assert_eq!(centre.engine.design(), edge.engine.design());
+    // The same engine file, its map file changed (here only by a trailing line): another
+    // hash, where it used to cover the file's text alone.
+    let other_map = format!("{}\n", crate::maps::HPC_MAP);
+    std::fs::write(dir.path().join("hpc.map"), other_map).expect("rewrite map");
+    let changed = WorkerContext::load(Some(&file), settings).expect("changed map");
+    assert_ne!(changed.config_hash, edge.config_hash);
+}

@@ -83,6 +83,51 @@ fn map_paths_resolve_against_the_engine_file() {
     assert!(std::error::Error::source(&e).is_none());
 }
 
+/// A map named by path is written into the file as its text: the engine built from the
+/// self-contained text is the one built from the file and its map, wherever it is read; a map
+/// given both ways is refused with the key named; a file without map paths is returned as it
+/// was; a map file that cannot be read is named with its key.
+#[test]
+fn map_files_are_written_into_a_self_contained_engine_text() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    std::fs::write(dir.path().join("c.map"), crate::maps::HPC_MAP).expect("write map");
+    std::fs::write(dir.path().join("t.map"), crate::maps::HPT_MAP).expect("write map");
+    let text = REFERENCE_ENGINE_TOML
+        .replace("compressor_file = \"\"", "compressor_file = \"c.map\"")
+        .replace("hpt_file = \"\"", "hpt_file = \"t.map\"");
+    let inlined = inline_map_files(&text, Some(dir.path())).expect("inlines");
+    assert!(!inlined.contains("c.map") && !inlined.contains("t.map"), "{inlined}");
+    let cfg = EngineConfig::from_toml_str(&inlined, "inlined").expect("parses");
+    assert_eq!(cfg.maps.compressor_file, "");
+    assert_eq!(cfg.maps.compressor_map, crate::maps::HPC_MAP);
+    assert_eq!(cfg.maps.hpt_map, crate::maps::HPT_MAP);
+    assert_eq!(cfg.maps.pt_map, "", "the embedded PT map stays embedded");
+    let from_text = crate::engine::Engine::new(cfg).expect("engine");
+    let r = crate::engine::Engine::reference().expect("reference");
+    assert_eq!(from_text.design(), r.design());
+    // The reference engine names no file: its text is unchanged.
+    assert_eq!(
+        inline_map_files(REFERENCE_ENGINE_TOML, None).expect("nothing to do"),
+        REFERENCE_ENGINE_TOML
+    );
+    // Both ways at once: refused, the key named.
+    let both = inlined.replace("compressor_file = \"\"", "compressor_file = \"c.map\"");
+    let err = EngineConfig::from_toml_str(&both, "both.toml")
+        .expect_err("twice")
+        .to_string();
+    assert!(err.contains("maps.compressor_map") && err.contains("twice"), "{err}");
+    // A map file that is not there.
+    let err = inline_map_files(&text, Some(&dir.path().join("elsewhere")))
+        .expect_err("missing")
+        .to_string();
+    assert!(err.contains("maps.compressor_file") && err.contains("c.map"), "{err}");
+    // An inline map that does not parse is reported under its key.
+    let mut cfg = EngineConfig::from_toml_str(&inlined, "inlined").expect("parses");
+    cfg.maps.compressor_map = "not a map".into();
+    let err = crate::engine::Engine::new(cfg).expect_err("bad map").to_string();
+    assert!(err.contains("maps.compressor_map"), "{err}");
+}
+
 /// Efficiencies are in (0, 1]: exactly 1 is accepted (ideal combustion, lossless shafts),
 /// 0, above 1 and non-finite values are refused with the key named.
 #[test]
