@@ -206,7 +206,13 @@ fn load_compressor(
     inline: &str,
     interp: MapInterpolation,
 ) -> Result<CompressorMap, EngineError> {
-    let (key, parsed) = parse_map("compressor", file, inline, maps::HPC_MAP, "embedded hpc.map");
+    let (key, parsed) = parse_map(
+        "compressor",
+        file,
+        inline,
+        maps::HPC_MAP,
+        "embedded hpc.map",
+    );
     let key = key.as_str();
     let parsed = parsed.map_err(map_error(key))?;
     let map = CompressorMap::from_gasturb(&parsed).map_err(map_error(key))?;

@@ -2,7 +2,9 @@
 //! aliases, the first batch (seed refits, the baseline's folds or held-out start-up, the
 //! screen), the screen's ranking, the shortlist's scoring, the leader's refit and the verdict.
 
-use super::candidates::{fit_params, gate_instruments, worth_trying, Trial, Unscreened};
+use super::candidates::{
+    fit_params, gate_instruments, refined_params, worth_trying, Trial, Unscreened,
+};
 use super::{
     alias, Candidate, GapReport, GapVerdict, Scoring, SignalTraces, StageWalls, AMBIGUOUS,
     CV_BLOCK_S, MIN_SHRINKAGE, SCREEN_BUDGET, SEED_REFITS, SHORTLIST, SHORTLIST_RATIO,
@@ -21,6 +23,56 @@ use std::time::Instant;
 fn bic(r: &MethodResult, k: usize) -> f64 {
     let n = r.residuals.max(1) as f64;
     n * (r.ssr / n).max(1e-300).ln() + k as f64 * n.ln()
+}
+
+/// BIC decrease a refinement must bring to be kept: "very strong" evidence on the usual scale
+/// (a difference above 10), so a refinement is not kept for the noise it fits.
+const REFINEMENT_BIC_GAIN: f64 = 10.0;
+
+/// Where the refinement of `effect` starts, from the simple form's `fit`: for each start, the
+/// refinement's parameters and values (the effect's `refinement_starts`, else its defaults).
+fn refinement_starts(effect: &str, fit: &MethodResult) -> Vec<Vec<(String, f64)>> {
+    let Some(spec) = crate::engine::effects::spec(effect) else {
+        return Vec::new();
+    };
+    let fitted = effect_params(fit);
+    let key = |p: &str| format!("effects.{effect}.{p}");
+    let simple: Vec<f64> = spec
+        .params
+        .iter()
+        .map(|p| fitted.get(&key(p.name)).map_or(p.default, |&(v, _)| v))
+        .collect();
+    let names: Vec<&str> = spec
+        .params
+        .iter()
+        .filter(|p| p.refinement)
+        .map(|p| p.name)
+        .collect();
+    let starts = match spec.refinement_starts {
+        Some(f) => f(&simple),
+        None => vec![spec
+            .params
+            .iter()
+            .filter(|p| p.refinement)
+            .map(|p| p.default)
+            .collect()],
+    };
+    starts
+        .into_iter()
+        .map(|values| names.iter().map(|n| key(n)).zip(values).collect())
+        .collect()
+}
+
+/// Whether a fitted value of `params` lies on its interval's bound (within half a percent of
+/// the interval).
+fn on_a_bound(fit: &MethodResult, params: &[FitParam]) -> bool {
+    params.iter().any(|p| {
+        let margin = 0.005 * (p.upper - p.lower);
+        fit.params
+            .iter()
+            .find(|q| q.name == p.name)
+            .is_some_and(|q| q.value <= p.lower + margin || q.value >= p.upper - margin)
+    })
 }
 
 /// `cfg` restricted to one fold of the blocked cross-validation.
@@ -691,6 +743,8 @@ impl Run<'_> {
         };
         fitted.fits += 1;
         if let Ok(fit) = diagnose_transient(&e, self.rec, &c_cfg) {
+            let (fit, refits) = self.refine(&best.effect, &e, fit);
+            fitted.fits += refits;
             fitted
                 .models
                 .insert(best.effect.clone(), fit.model_values.clone());
@@ -701,6 +755,72 @@ impl Run<'_> {
         }
         fitted.stages.leader = fitted.lap.elapsed().as_secs_f64();
         Ok(())
+    }
+
+    /// The named effect's refinement, when it has one (`tip_clearance`'s slow casing node):
+    /// fitted from `fit`'s solution with every parameter free, and kept when the start-up
+    /// supports its extra parameters (BIC lower by [`REFINEMENT_BIC_GAIN`]). The screen and
+    /// the scoring compare every candidate in its simple form, so a refinement cannot win a
+    /// verdict for its effect; it only sharpens the health once that effect is named — where
+    /// a plant's form differs from the library's (a casing of two time constants against one),
+    /// what the simple form leaves is otherwise read as health. Returns the fit to keep and the
+    /// refits run.
+    fn refine(&self, effect: &str, engine: &Engine, fit: MethodResult) -> (MethodResult, usize) {
+        let refined = refined_params(effect, self.rec);
+        if refined.is_empty() {
+            return (fit, 0);
+        }
+        let Ok(e) = with_effect_params(engine, &fit) else {
+            return (fit, 0);
+        };
+        let k_simple = self.k_base + fit_params(effect, self.rec).len();
+        let k_refined = self.k_base + refined.len();
+        let r_cfg = DiagnosisConfig {
+            max_model_runs: candidate_runs(self.cfg, refined.len()),
+            base: fit.health,
+            extra_params: refined,
+            ..self.cfg.clone()
+        };
+        // At its default a refinement does nothing and its parameters have no gradient, so each
+        // start sets them where they act (the effect says where); the fits run in parallel,
+        // the lowest is kept.
+        let starts: Vec<Engine> = refinement_starts(effect, &fit)
+            .into_iter()
+            .filter_map(|set| {
+                let mut s = e.clone();
+                set.iter()
+                    .try_for_each(|(k, v)| s.set_param(k, *v))
+                    .ok()
+                    .map(|()| s)
+            })
+            .collect();
+        let runs = starts.len();
+        // A refined fit with a parameter on its bound is not identified: a casing node that
+        // never warms within the record (its time constant at the limit) acts as a constant
+        // efficiency change, which the health's D_ET already is, and the two trade along a
+        // valley the fit ends anywhere in (measured: D_ET 0.66 points off with a fit `good`).
+        let bounds = r_cfg.extra_params.clone();
+        let best = in_parallel(self.threads, &starts, |s| {
+            diagnose_transient(
+                s,
+                self.rec,
+                &DiagnosisConfig {
+                    threads: Some(1),
+                    ..r_cfg.clone()
+                },
+            )
+            .ok()
+        })
+        .ok()
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter(|r| !on_a_bound(r, &bounds))
+        .min_by(|a, b| a.ssr.total_cmp(&b.ssr));
+        match best {
+            Some(r) if bic(&fit, k_simple) - bic(&r, k_refined) > REFINEMENT_BIC_GAIN => (r, runs),
+            _ => (fit, runs),
+        }
     }
 
     /// The verdict over the sorted candidates `out`.
@@ -817,5 +937,67 @@ impl Run<'_> {
                         .map(|m| (verdict.effect.clone(), column(m))),
                 }
             })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gap::truth::clearance_nodes::ClearanceNodes;
+    use crate::gap::truth::Hidden;
+    use std::sync::Arc;
+
+    /// A casing whose flanges lag with 1 491 s, twice the record, beside a shell of 85 s (the
+    /// 40-case benchmark's case 11): the library's single-node `tip_clearance` is named, but
+    /// what one node cannot follow of the slow tail is still acting at the end of the record,
+    /// where it looks like HPT efficiency, and D_ET came out 1.70 points low. Refined with its
+    /// second node once named, the casing's two nodes are found and the health is right.
+    #[test]
+    fn a_named_tip_clearance_is_refined_to_the_casings_two_nodes() {
+        let engine = Engine::reference().expect("engine");
+        let truth = HealthParams {
+            D_GC: 0.36,
+            D_EC: 0.13,
+            D_GT: 1.35,
+            D_ET: 2.36,
+            D_GP: 0.42,
+            D_EP: 0.72,
+        };
+        let hidden = Hidden::Plant {
+            effect: Arc::new(ClearanceNodes {
+                per_k: -1.81 / 100.0 / 100.0,
+                tau_shell_s: 85.0,
+                tau_flange_s: 1491.0,
+                w_shell: 0.567,
+            }),
+            plant_params: &[],
+        };
+        let (plant, samples) = hidden.simulate(&engine, &truth).expect("simulates");
+        let rec = hidden
+            .record(&plant, &samples, 1011, true)
+            .expect("records");
+        let candidates = ["tip_clearance".to_string(), "heat_soak".to_string()];
+        let r = analyse(
+            &engine,
+            &rec,
+            None,
+            &candidates,
+            &DiagnosisConfig::default(),
+        )
+        .expect("analyses");
+        assert_eq!(r.verdict.effect, "tip_clearance", "{:?}", r.verdict);
+        let winner = &r.candidates[0];
+        let share = winner.params["effects.tip_clearance.node2_share"].0;
+        assert!(share > 0.2, "the second node kept: {:?}", winner.params);
+        let (got, want) = (r.verdict.health_after.to_array(), truth.to_array());
+        for (i, (g, w)) in got.iter().zip(want).enumerate() {
+            assert!((g - w).abs() < 0.3, "parameter {i}: {g:.2} against {w:.2}");
+        }
+        assert_eq!(
+            r.verdict.fit_quality_after,
+            Verdict::Good,
+            "{:?}",
+            r.verdict
+        );
     }
 }

@@ -48,14 +48,32 @@ fn peak_abs(rec: &Recording, s: Signal) -> f64 {
         .fold(0.0, |m: f64, v| m.max(v.abs()))
 }
 
-/// The fit parameters of one candidate instance, bounded for `rec`.
+/// The fit parameters of one candidate instance, bounded for `rec`: its simple form's (a
+/// refinement's parameters stay at their defaults).
 pub(crate) fn fit_params(instance: &str, rec: &Recording) -> Vec<FitParam> {
+    params_of(instance, rec, false)
+}
+
+/// The fit parameters of the instance with its refinement (empty when it has none): what the
+/// analysis fits once it has named the instance.
+pub(crate) fn refined_params(instance: &str, rec: &Recording) -> Vec<FitParam> {
+    let has_refinement =
+        effects::spec(instance).is_some_and(|s| s.params.iter().any(|p| p.refinement));
+    if has_refinement {
+        params_of(instance, rec, true)
+    } else {
+        Vec::new()
+    }
+}
+
+fn params_of(instance: &str, rec: &Recording, refined: bool) -> Vec<FitParam> {
     let Some(spec) = effects::spec(instance) else {
         return Vec::new();
     };
     let channel: Option<Signal> = instance.split_once(':').and_then(|(_, c)| c.parse().ok());
     spec.params
         .iter()
+        .filter(|p| refined || !p.refinement)
         .map(|p| {
             let (lo, hi) = match (spec.name, channel) {
                 ("sensor_bias", Some(s)) => {

@@ -539,7 +539,10 @@ fn a_context_carries_its_map_files_so_a_fleet_job_needs_none() {
     std::fs::write(&file, &text).expect("write engine");
     let settings = DiagnosisSettings::default();
     let edge = WorkerContext::load(Some(&file), settings.clone()).expect("edge context");
-    assert!(!edge.engine_text.contains("hpc.map"), "the map is in the text");
+    assert!(
+        !edge.engine_text.contains("hpc.map"),
+        "the map is in the text"
+    );
     let centre = WorkerContext::from_text(edge.engine_text.clone(), "job", settings.clone())
         .expect("the job's text alone builds");
     assert_eq!(centre.config_hash, edge.config_hash);

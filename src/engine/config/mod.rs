@@ -192,12 +192,12 @@ pub fn inline_map_files(text: &str, dir: Option<&Path>) -> Result<String, Engine
         key: key.into(),
         reason,
     };
-    let mut doc: toml_edit::DocumentMut = text.parse().map_err(|e: toml_edit::TomlError| {
-        EngineConfigError::Parse {
-            path: "<engine file>".into(),
-            message: e.to_string(),
-        }
-    })?;
+    let mut doc: toml_edit::DocumentMut =
+        text.parse()
+            .map_err(|e: toml_edit::TomlError| EngineConfigError::Parse {
+                path: "<engine file>".into(),
+                message: e.to_string(),
+            })?;
     let Some(maps) = doc.get_mut("maps").and_then(|m| m.as_table_like_mut()) else {
         return Ok(text.to_string());
     };
@@ -225,7 +225,11 @@ pub fn inline_map_files(text: &str, dir: Option<&Path>) -> Result<String, Engine
         maps.insert(map_key, toml_edit::value(map_text));
         changed = true;
     }
-    Ok(if changed { doc.to_string() } else { text.to_string() })
+    Ok(if changed {
+        doc.to_string()
+    } else {
+        text.to_string()
+    })
 }
 
 impl MapsConfig {

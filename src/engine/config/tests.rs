@@ -96,7 +96,10 @@ fn map_files_are_written_into_a_self_contained_engine_text() {
         .replace("compressor_file = \"\"", "compressor_file = \"c.map\"")
         .replace("hpt_file = \"\"", "hpt_file = \"t.map\"");
     let inlined = inline_map_files(&text, Some(dir.path())).expect("inlines");
-    assert!(!inlined.contains("c.map") && !inlined.contains("t.map"), "{inlined}");
+    assert!(
+        !inlined.contains("c.map") && !inlined.contains("t.map"),
+        "{inlined}"
+    );
     let cfg = EngineConfig::from_toml_str(&inlined, "inlined").expect("parses");
     assert_eq!(cfg.maps.compressor_file, "");
     assert_eq!(cfg.maps.compressor_map, crate::maps::HPC_MAP);
@@ -115,16 +118,24 @@ fn map_files_are_written_into_a_self_contained_engine_text() {
     let err = EngineConfig::from_toml_str(&both, "both.toml")
         .expect_err("twice")
         .to_string();
-    assert!(err.contains("maps.compressor_map") && err.contains("twice"), "{err}");
+    assert!(
+        err.contains("maps.compressor_map") && err.contains("twice"),
+        "{err}"
+    );
     // A map file that is not there.
     let err = inline_map_files(&text, Some(&dir.path().join("elsewhere")))
         .expect_err("missing")
         .to_string();
-    assert!(err.contains("maps.compressor_file") && err.contains("c.map"), "{err}");
+    assert!(
+        err.contains("maps.compressor_file") && err.contains("c.map"),
+        "{err}"
+    );
     // An inline map that does not parse is reported under its key.
     let mut cfg = EngineConfig::from_toml_str(&inlined, "inlined").expect("parses");
     cfg.maps.compressor_map = "not a map".into();
-    let err = crate::engine::Engine::new(cfg).expect_err("bad map").to_string();
+    let err = crate::engine::Engine::new(cfg)
+        .expect_err("bad map")
+        .to_string();
     assert!(err.contains("maps.compressor_map"), "{err}");
 }
 

@@ -31,6 +31,7 @@ pub(crate) static SPEC: EffectSpec = EffectSpec {
             min: 0.0,
             max: 0.25,
             doc: "fraction of compressor flow bled when fully open",
+            refinement: false,
         },
         ParamSpec {
             name: "close_at",
@@ -39,8 +40,10 @@ pub(crate) static SPEC: EffectSpec = EffectSpec {
             min: 0.4,
             max: 1.0,
             doc: "corrected GG speed (fraction of design) where the valve is half closed",
+            refinement: false,
         },
     ],
+    refinement_starts: None,
     build,
 };
 

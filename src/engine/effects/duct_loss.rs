@@ -31,6 +31,7 @@ pub(crate) static SPEC: EffectSpec = EffectSpec {
             min: 0.0,
             max: 6.0,
             doc: "multiplier on the engine file's inlet pressure loss",
+            refinement: false,
         },
         ParamSpec {
             name: "exhaust_scale",
@@ -39,8 +40,10 @@ pub(crate) static SPEC: EffectSpec = EffectSpec {
             min: 0.0,
             max: 6.0,
             doc: "multiplier on the engine file's exhaust back-pressure excess",
+            refinement: false,
         },
     ],
+    refinement_starts: None,
     build,
 };
 

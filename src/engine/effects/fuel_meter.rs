@@ -28,7 +28,9 @@ pub(crate) static SPEC: EffectSpec = EffectSpec {
         min: -0.1,
         max: 0.1,
         doc: "relative error of the metered fuel flow (0.02 = the meter reads 2 % high)",
+        refinement: false,
     }],
+    refinement_starts: None,
     build,
 };
 

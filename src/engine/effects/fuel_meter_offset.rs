@@ -34,7 +34,9 @@ pub(crate) static SPEC: EffectSpec = EffectSpec {
         min: -0.2,
         max: 0.2,
         doc: "metered minus burnt fuel flow while fuel flows (0.005 = the meter reads 5 g/s high)",
+        refinement: false,
     }],
+    refinement_starts: None,
     build,
 };
 

@@ -37,6 +37,7 @@ pub(crate) static SPEC: EffectSpec = EffectSpec {
             min: 0.0,
             max: 10.0,
             doc: "time constant of the manifold lag",
+            refinement: false,
         },
         ParamSpec {
             name: "delay_s",
@@ -45,8 +46,10 @@ pub(crate) static SPEC: EffectSpec = EffectSpec {
             min: 0.0,
             max: 10.0,
             doc: "transport delay from the metering valve to the burners",
+            refinement: false,
         },
     ],
+    refinement_starts: None,
     build,
 };
 

@@ -32,6 +32,7 @@ pub(crate) static SPEC: EffectSpec = EffectSpec {
             min: 0.0,
             max: 5.0,
             doc: "gas-to-metal heat transfer conductance",
+            refinement: false,
         },
         ParamSpec {
             name: "tau_s",
@@ -40,8 +41,10 @@ pub(crate) static SPEC: EffectSpec = EffectSpec {
             min: 10.0,
             max: 3000.0,
             doc: "time constant of the metal node (heat capacity = UA·τ)",
+            refinement: false,
         },
     ],
+    refinement_starts: None,
     build,
 };
 

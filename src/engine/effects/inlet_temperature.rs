@@ -28,7 +28,9 @@ pub(crate) static SPEC: EffectSpec = EffectSpec {
         min: -10.0,
         max: 10.0,
         doc: "what the T1 instrument adds to the true inlet temperature",
+        refinement: false,
     }],
+    refinement_starts: None,
     build,
 };
 

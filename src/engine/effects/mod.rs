@@ -64,6 +64,10 @@ pub(crate) struct ParamSpec {
     pub(crate) min: f64,
     pub(crate) max: f64,
     pub(crate) doc: &'static str,
+    /// Fitted only when the gap analysis refines the effect it named (a second time constant,
+    /// say): at its default the effect is its simpler form, and the screen and the scoring of
+    /// every candidate keep that form's few parameters.
+    pub(crate) refinement: bool,
 }
 
 /// Which instances of an effect exist: one for the engine, or one per measured channel
@@ -94,6 +98,10 @@ impl Channels {
     }
 }
 
+/// Where a refinement's fits start, from the simple form's fitted parameters (see
+/// [`EffectSpec::refinement_starts`]).
+pub(crate) type RefinementStarts = fn(&[f64]) -> Vec<Vec<f64>>;
+
 /// A registry entry: what the effect is called, what it does, its parameters and how to build it.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct EffectSpec {
@@ -109,6 +117,11 @@ pub(crate) struct EffectSpec {
     /// Where the effect shows in the data (its signature), for the gap analysis and the user.
     pub(crate) signature: &'static str,
     pub(crate) params: &'static [ParamSpec],
+    /// Where the gap analysis starts fitting the refinement (the parameters marked
+    /// `refinement`) from the simple form's fitted parameters (in `params` order, complete):
+    /// one vector of the refinement's values, in `params` order, per start. `None`: from their
+    /// defaults, once.
+    pub(crate) refinement_starts: Option<RefinementStarts>,
     /// Builds the effect from a complete, validated parameter set (in `params` order) and, for
     /// per-channel effects, its channel.
     pub(crate) build: fn(&[f64], Option<Signal>) -> Arc<dyn Effect>,
@@ -577,6 +590,32 @@ mod tests {
                     s.name,
                     p.name
                 );
+            }
+        }
+    }
+
+    /// A refinement's starts give one value per refinement parameter, within its range; an
+    /// effect with starts has a refinement to start.
+    #[test]
+    fn refinement_starts_fit_the_refinement_parameters() {
+        for s in REGISTRY {
+            let refinement: Vec<&ParamSpec> = s.params.iter().filter(|p| p.refinement).collect();
+            let Some(starts) = s.refinement_starts else {
+                continue;
+            };
+            assert!(
+                !refinement.is_empty(),
+                "{}: starts without a refinement",
+                s.name
+            );
+            let defaults: Vec<f64> = s.params.iter().map(|p| p.default).collect();
+            let all = starts(&defaults);
+            assert!(!all.is_empty(), "{}", s.name);
+            for start in all {
+                assert_eq!(start.len(), refinement.len(), "{}", s.name);
+                for (p, v) in refinement.iter().zip(start) {
+                    assert!(p.min <= v && v <= p.max, "{}.{} start {v}", s.name, p.name);
+                }
             }
         }
     }

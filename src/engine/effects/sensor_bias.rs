@@ -26,7 +26,9 @@ pub(crate) static SPEC: EffectSpec = EffectSpec {
         min: -1.0e5,
         max: 1.0e5,
         doc: "what the instrument adds to the true value",
+        refinement: false,
     }],
+    refinement_starts: None,
     build,
 };
 

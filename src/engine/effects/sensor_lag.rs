@@ -28,7 +28,9 @@ pub(crate) static SPEC: EffectSpec = EffectSpec {
         min: 0.0,
         max: 60.0,
         doc: "extra time constant of the instrument",
+        refinement: false,
     }],
+    refinement_starts: None,
     build,
 };
 

@@ -26,7 +26,9 @@ pub(crate) static SPEC: EffectSpec = EffectSpec {
         min: -0.1,
         max: 0.1,
         doc: "relative error of the reading (−0.016 = reads 1.6 % low)",
+        refinement: false,
     }],
+    refinement_starts: None,
     build,
 };
 

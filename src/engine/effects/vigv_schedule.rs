@@ -33,6 +33,7 @@ pub(crate) static SPEC: EffectSpec = EffectSpec {
             min: -15.0,
             max: 15.0,
             doc: "compressor flow change at the low-speed end of the fade",
+            refinement: false,
         },
         ParamSpec {
             name: "below",
@@ -41,8 +42,10 @@ pub(crate) static SPEC: EffectSpec = EffectSpec {
             min: 0.4,
             max: 1.0,
             doc: "corrected GG speed (fraction of design) below which the offset appears",
+            refinement: false,
         },
     ],
+    refinement_starts: None,
     build,
 };
 
