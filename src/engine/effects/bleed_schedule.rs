@@ -78,21 +78,7 @@ mod tests {
     #[test]
     fn open_at_low_speed_closed_at_design() {
         let e = build(&[0.1, 0.8], None);
-        let at = |n: f64| {
-            let c = CoreView {
-                t_s: 0.0,
-                n1_rpm: n,
-                n2_rpm: 0.0,
-                p2_kpa: 101.0,
-                t3_k: 300.0,
-                p34_kpa: 101.0,
-                t_amb_k: T_STD_K,
-                p_amb_kpa: 101.325,
-                n1_design_rpm: 10_000.0,
-                fuel_design_kg_s: 2.0,
-            };
-            e.bleed_fraction(&c, &[])
-        };
+        let at = |n: f64| e.bleed_fraction(&CoreView::for_tests(n, 300.0), &[]);
         assert!((at(5_000.0) - 0.1).abs() < 1e-6);
         assert!((at(8_000.0) - 0.05).abs() < 1e-9);
         assert!(at(10_000.0) < 1e-6);

@@ -237,6 +237,26 @@ pub struct CoreView {
     pub fuel_design_kg_s: f64,
 }
 
+#[cfg(test)]
+impl CoreView {
+    /// A core view for an effect's tests: a standard day, the GG at `n1_rpm` of a 10 000 rpm
+    /// design, the combustor gas at `t3_k`, the rest at round values.
+    pub(crate) fn for_tests(n1_rpm: f64, t3_k: f64) -> CoreView {
+        CoreView {
+            t_s: 0.0,
+            n1_rpm,
+            n2_rpm: 0.0,
+            p2_kpa: 101.0,
+            t3_k,
+            p34_kpa: 101.0,
+            t_amb_k: crate::engine::cycle::T_STD_K,
+            p_amb_kpa: 101.325,
+            n1_design_rpm: 10_000.0,
+            fuel_design_kg_s: 2.0,
+        }
+    }
+}
+
 /// What [`Effect::derivatives`] may look at: the core view, the finished station table and the
 /// fuel flow the controller metered.
 #[derive(Debug, Clone, Copy)]

@@ -144,18 +144,7 @@ mod tests {
     use super::*;
 
     fn core(t3_k: f64) -> CoreView {
-        CoreView {
-            t_s: 0.0,
-            n1_rpm: 7000.0,
-            n2_rpm: 3000.0,
-            p2_kpa: 900.0,
-            t3_k,
-            p34_kpa: 300.0,
-            t_amb_k: 288.15,
-            p_amb_kpa: 101.325,
-            n1_design_rpm: 7600.0,
-            fuel_design_kg_s: 2.0,
-        }
+        CoreView::for_tests(9000.0, t3_k)
     }
 
     fn hpt_eff(e: &Arc<dyn Effect>, t3_k: f64, x: &[f64]) -> f64 {
