@@ -119,11 +119,27 @@ fn a_slow_t34_thermocouple_is_found_and_named() {
         },
     );
 
+    // The unit's engine file names its compressor map relative to itself, in another folder
+    // than the adopted file: the adopted file restates the path and loads with its map.
+    let src = dir.path().join("engine_src");
+    std::fs::create_dir_all(src.join("maps")).expect("mkdir");
+    std::fs::write(src.join("maps/hpc.map"), gtwatch::maps::HPC_MAP).expect("map");
+    let engine = src.join("engine.toml");
+    std::fs::write(
+        &engine,
+        gtwatch::engine::config::REFERENCE_ENGINE_TOML.replace(
+            "compressor_file = \"\"",
+            "compressor_file = \"maps/hpc.map\"",
+        ),
+    )
+    .expect("engine file");
     let unit = dir.path().join("unit.toml");
     let svg = dir.path().join("gap.svg");
     let out = gtwatch()
         .args(["gap", "--input"])
         .arg(&plant)
+        .arg("--engine")
+        .arg(&engine)
         .args([
             "--effects",
             "sensor_lag:t34_k,sensor_bias:t34_k",
@@ -184,6 +200,20 @@ fn a_slow_t34_thermocouple_is_found_and_named() {
         (gc_after - 2.0).abs() < (gc_before - 2.0).abs(),
         "{gc_before} -> {gc_after}"
     );
+
+    // The adopted file: the named effect added, the map found from its folder.
+    let adopted = std::fs::read_to_string(&unit).expect("adopted file written");
+    assert!(
+        adopted.contains("[effects.\"sensor_lag:t34_k\"]"),
+        "{adopted}"
+    );
+    let cfg = gtwatch::engine::EngineConfig::load(&unit).expect("adopted file loads");
+    assert!(
+        std::path::Path::new(&cfg.maps.compressor_file).is_absolute(),
+        "{}",
+        cfg.maps.compressor_file
+    );
+    gtwatch::engine::Engine::new(cfg).expect("adopted file builds with its map");
 
     let out = gtwatch()
         .args(["gap", "--list-effects", "--json"])

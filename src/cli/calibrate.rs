@@ -5,6 +5,7 @@
 //! Must not fit anything itself (that is `crate::calibrate`) or write any file but the output
 //! engine file.
 
+use super::common::moved_map_paths;
 use crate::calibrate::adapt::{AdaptSettings, AdaptStrategy};
 use crate::calibrate::candidates::{candidate, candidate_in, default_candidates, offset_candidate};
 use crate::calibrate::edit::{rewrite, NewValue};
@@ -109,45 +110,6 @@ impl From<AdaptStrategyArg> for AdaptStrategy {
             AdaptStrategyArg::Continuation => AdaptStrategy::Continuation,
         }
     }
-}
-
-/// Map-path keys rewritten when the new file lives in another folder.
-const MAP_KEYS: [&str; 3] = ["maps.compressor_file", "maps.hpt_file", "maps.pt_file"];
-
-/// The map paths of `original` (as written, relative to `from_dir`) restated for a file in
-/// `to_dir`: unchanged when both folders are the same, else absolute.
-fn moved_map_paths(
-    original: &str,
-    engine_path: &Path,
-    from_dir: &Path,
-    to_dir: &Path,
-) -> anyhow::Result<Vec<(String, NewValue)>> {
-    let raw = EngineConfig::from_toml_str(original, &engine_path.display().to_string())?;
-    let canon = |d: &Path| {
-        let d = if d.as_os_str().is_empty() {
-            Path::new(".")
-        } else {
-            d
-        };
-        d.canonicalize()
-            .with_context(|| format!("resolving folder {}", d.display()))
-    };
-    let (from, to) = (canon(from_dir)?, canon(to_dir)?);
-    if from == to {
-        return Ok(Vec::new());
-    }
-    let m = &raw.maps;
-    let mut out = Vec::new();
-    for (key, file) in MAP_KEYS
-        .iter()
-        .zip([&m.compressor_file, &m.hpt_file, &m.pt_file])
-    {
-        if !file.is_empty() && Path::new(file.as_str()).is_relative() {
-            let abs = from.join(file.as_str());
-            out.push((key.to_string(), NewValue::Text(abs.display().to_string())));
-        }
-    }
-    Ok(out)
 }
 
 /// The data files of a run, as the header and the JSON name them.

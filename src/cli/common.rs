@@ -4,7 +4,9 @@
 //! Reads only the three sections the data side owns and ignores the others (they belong to the
 //! full `Config`, which validates them); must not validate other sections.
 
+use crate::calibrate::edit::NewValue;
 use crate::detect::DetectorConfig;
+use crate::engine::EngineConfig;
 use crate::ingest::ReplayConfig;
 use crate::store::StorageConfig;
 use anyhow::{bail, Context};
@@ -113,4 +115,44 @@ pub(super) fn column_units(text: Option<&str>) -> anyhow::Result<crate::units::C
         }
         None => Ok(crate::units::ColumnUnits::default()),
     }
+}
+
+/// Map-path keys rewritten when the new file lives in another folder.
+const MAP_KEYS: [&str; 3] = ["maps.compressor_file", "maps.hpt_file", "maps.pt_file"];
+
+/// The map paths of `original` (as written, relative to `from_dir`) restated for a file in
+/// `to_dir`: unchanged when both folders are the same, else absolute (`calibrate` and `gap
+/// --adopt` write a new engine file wherever the user says).
+pub(super) fn moved_map_paths(
+    original: &str,
+    engine_path: &Path,
+    from_dir: &Path,
+    to_dir: &Path,
+) -> anyhow::Result<Vec<(String, NewValue)>> {
+    let raw = EngineConfig::from_toml_str(original, &engine_path.display().to_string())?;
+    let canon = |d: &Path| {
+        let d = if d.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            d
+        };
+        d.canonicalize()
+            .with_context(|| format!("resolving folder {}", d.display()))
+    };
+    let (from, to) = (canon(from_dir)?, canon(to_dir)?);
+    if from == to {
+        return Ok(Vec::new());
+    }
+    let m = &raw.maps;
+    let mut out = Vec::new();
+    for (key, file) in MAP_KEYS
+        .iter()
+        .zip([&m.compressor_file, &m.hpt_file, &m.pt_file])
+    {
+        if !file.is_empty() && Path::new(file.as_str()).is_relative() {
+            let abs = from.join(file.as_str());
+            out.push((key.to_string(), NewValue::Text(abs.display().to_string())));
+        }
+    }
+    Ok(out)
 }

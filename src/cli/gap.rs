@@ -74,9 +74,19 @@ fn adopt(a: &GapArgs, report: &crate::gap::GapReport, out: &Path) -> anyhow::Res
     if out.exists() {
         bail!("{} exists: --adopt writes a new engine file", out.display());
     }
+    let to_dir = out.parent().unwrap_or_else(|| Path::new(""));
     let base = match &a.engine {
         Some(p) => {
-            std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?
+            let text =
+                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+            // Map paths relative to the engine file, restated for the new file's folder.
+            let from_dir = p.parent().unwrap_or_else(|| Path::new(""));
+            let moved = super::common::moved_map_paths(&text, p, from_dir, to_dir)?;
+            if moved.is_empty() {
+                text
+            } else {
+                crate::calibrate::edit::rewrite(&text, &p.display().to_string(), &moved, &[])?
+            }
         }
         None => crate::engine::config::REFERENCE_ENGINE_TOML.to_string(),
     };
@@ -90,8 +100,11 @@ fn adopt(a: &GapArgs, report: &crate::gap::GapReport, out: &Path) -> anyhow::Res
             report.verdict.effect
         ));
     };
-    crate::engine::EngineConfig::from_toml_str(&text, &out.display().to_string())
+    // The new file must load where it is written, maps included.
+    let mut check = crate::engine::EngineConfig::from_toml_str(&text, &out.display().to_string())
         .context("the adopted engine file does not load")?;
+    check.maps.resolve_relative_to(to_dir);
+    crate::engine::Engine::new(check).context("the adopted engine file does not build")?;
     std::fs::write(out, text).with_context(|| format!("writing {}", out.display()))?;
     Ok(format!(
         "adopted {} into {} (diagnose with --engine {})",
