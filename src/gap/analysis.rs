@@ -43,24 +43,14 @@ fn refinement_starts(effect: &str, fit: &MethodResult) -> Vec<Vec<(String, f64)>
         .iter()
         .map(|p| fitted.get(&key(p.name)).map_or(p.default, |&(v, _)| v))
         .collect();
-    let names: Vec<&str> = spec
-        .params
-        .iter()
-        .filter(|p| p.refinement)
-        .map(|p| p.name)
-        .collect();
+    let refinement: Vec<_> = spec.params.iter().filter(|p| p.refinement).collect();
     let starts = match spec.refinement_starts {
         Some(f) => f(&simple),
-        None => vec![spec
-            .params
-            .iter()
-            .filter(|p| p.refinement)
-            .map(|p| p.default)
-            .collect()],
+        None => vec![refinement.iter().map(|p| p.default).collect()],
     };
     starts
         .into_iter()
-        .map(|values| names.iter().map(|n| key(n)).zip(values).collect())
+        .map(|values| refinement.iter().map(|p| key(p.name)).zip(values).collect())
         .collect()
 }
 
