@@ -167,7 +167,8 @@ pub(crate) struct GapReport {
     pub(crate) wall_s: f64,
     /// Wall time of each stage, s: the baseline fit, the first batch (seed refits, the
     /// baseline's folds or held-out start-up, the screen), the shortlist's scoring, and the
-    /// leader's refit on the whole start-up (cross-validation only).
+    /// leader's refit on the whole start-up (cross-validation) or its effect's refinement
+    /// (held-out scoring, when the effect has one).
     pub(crate) stage_wall_s: StageWalls,
     /// The worst signal of the baseline's residual map: measured, modelled before and after
     /// the winning effect (for the SVG; not serialised).
