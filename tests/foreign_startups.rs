@@ -10,7 +10,11 @@
 //! there, a healthy start-up read D_GC at its −3 % search limit and D_EC at +5 (normalised
 //! residual 614, `poor`). Method B now compares only the samples within the calibrated speeds
 //! (`[adaptation.calibrated]`) and says which it left out; the start-up is still simulated
-//! through the rest.
+//! through the rest. Within them the adapted model still misses the unit by a few tenths of a
+//! percent, which over the loading's hundreds of samples is many instrument σ: Method B weighs
+//! each sample with the file's own model error (`[adaptation.model_error_by_speed]`) beside the
+//! instrument's noise, as a steady diagnosis does (without it: healthy D_GC −0.50, degraded
+//! D_GC 0.51 low, both `suspect`).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use gtwatch::calibrate::adapt::AdaptSettings;
@@ -139,9 +143,10 @@ fn start_ups_of_a_foreign_unit_are_diagnosed_within_its_calibrated_speeds() {
     let h1 = method_b(&adapted, &truth, degraded, 4);
     let e1 = show("degraded start-up", degraded, &h1);
 
-    // Measured 2026-12-03: healthy within 0.50 points of zero, degraded within 0.51 of the
-    // truth (normalised residuals 1.13 / 1.27, `suspect`: the adapted model's own error);
-    // the change from the healthy start-up within 0.17 of the truth's.
+    // Measured 2026-12-04: healthy within 0.31 points of zero, degraded within 0.21 of the
+    // truth, both `good` (normalised residuals 0.81 / 0.83); with the instrument noise alone
+    // in σ they read 0.50 and 0.51 off, `suspect` (1.13 / 1.27). The change from the healthy
+    // start-up within 0.17 of the truth's.
     for (label, r, e, t) in [
         ("healthy", &h0, e0, healthy),
         ("degraded", &h1, e1, degraded),
@@ -150,10 +155,10 @@ fn start_ups_of_a_foreign_unit_are_diagnosed_within_its_calibrated_speeds() {
             !r.left_out.is_empty(),
             "{label}: the samples below the calibrated speeds are said to be left out"
         );
-        assert_ne!(r.fit_quality.verdict, Verdict::Poor, "{label}");
+        assert_eq!(r.fit_quality.verdict, Verdict::Good, "{label}");
         for i in 0..6 {
             assert!(
-                (e[i] - t[i]).abs() <= 0.65,
+                (e[i] - t[i]).abs() <= 0.35,
                 "{label}: {} {:+.2} against {:+.1}",
                 HEALTH_NAMES[i],
                 e[i],

@@ -189,6 +189,26 @@ impl Objective {
         }
     }
 
+    /// The objective with each term's σ widened by `extra(k, s, z)` in quadrature (sample `k`,
+    /// signal `s`, measured value `z`; in the signal's unit, 0 = unchanged): an error the
+    /// model itself makes, beside the instrument's noise (an adapted engine file's
+    /// `[adaptation.model_error_pct]`).
+    pub(crate) fn with_extra_sigma(
+        mut self,
+        extra: impl Fn(usize, Signal, f64) -> f64,
+    ) -> Objective {
+        for t in &mut self.terms {
+            let Some(s) = Signal::ALL.get(t.s).copied() else {
+                continue;
+            };
+            let e = extra(t.k, s, t.z);
+            if e.is_finite() && e > 0.0 {
+                t.inv_sigma = 1.0 / (1.0 / t.inv_sigma).hypot(e);
+            }
+        }
+        self
+    }
+
     /// The objective with shared errors within each point (`from_points`' sample axis):
     /// `response(k, s)` gives, for point `k` and signal `s`, the change of that signal's value per
     /// 1σ of each of the errors the point's values share (in the signal's unit; empty when
@@ -360,6 +380,29 @@ mod tests {
         v[Signal::N1.index()] = n1;
         v[Signal::T2.index()] = t2;
         v
+    }
+
+    /// A model error widens σ in quadrature where it is stated and nowhere else: T2's 2 K
+    /// instrument σ beside a 1.5 K model error is 2.5 K; N1 stays at its own.
+    #[test]
+    fn an_extra_sigma_adds_in_quadrature_where_stated() {
+        let cfg = EngineConfig::reference().sensors;
+        let t = [0.0, 1.0];
+        let meas = [row(9000.0, 700.0), row(9000.0, 700.0)];
+        let win = [true; 2];
+        let obj = Objective::new(&t, &meas, &win, &[Signal::N1, Signal::T2], &cfg, 0.0)
+            .with_extra_sigma(|_, s, _| if s == Signal::T2 { 1.5 } else { 0.0 });
+        let mut off = meas;
+        off.iter_mut().for_each(|v| v[Signal::T2.index()] += 2.5);
+        assert!((obj.eq10(&off) - 1.0).abs() < 1e-12, "{}", obj.eq10(&off));
+        let mut n1_off = meas;
+        let sd = noise_sigma(&cfg, Signal::N1, 9000.0);
+        n1_off.iter_mut().for_each(|v| v[Signal::N1.index()] += sd);
+        assert!(
+            (obj.eq10(&n1_off) - 1.0).abs() < 1e-12,
+            "{}",
+            obj.eq10(&n1_off)
+        );
     }
 
     #[test]

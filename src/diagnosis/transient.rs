@@ -114,14 +114,48 @@ pub fn objective_for(engine: &Engine, segment: &Recording, cfg: &DiagnosisConfig
         .zip(&calibrated)
         .map(|((&t, &p), &c)| c && cfg.window.contains(t, p))
         .collect();
-    Objective::new(
+    let objective = Objective::new(
         segment.times(),
         segment.rows(),
         &in_window,
         &signals,
         &engine.cfg().sensors,
         cfg.rate_weight,
-    )
+    );
+    // An adapted file's own error (estimated by its calibration on points left out) in each
+    // σ, at each sample's GG speed, as a steady diagnosis weighs it: on a unit of another
+    // make the model misses its calibrated line by a few tenths of a percent, which over a
+    // start-up's hundreds of samples is many instrument σ, and the fit bent the health to
+    // chase it (a healthy start-up of GSPy's maps read D_GC −0.50, `suspect`).
+    match &engine.cfg().adaptation {
+        Some(a) => {
+            let speeds = sample_speeds(engine, segment);
+            objective.with_extra_sigma(|k, s, z| {
+                a.model_error_fraction(s, speeds.get(k).copied().flatten()) * z.abs()
+            })
+        }
+        None => objective,
+    }
+}
+
+/// Per sample of `segment`, the relative corrected GG speed of its measured GG speed at its
+/// measured inlet temperature (the file's ambient where none); `None` without a GG speed.
+pub(crate) fn sample_speeds(engine: &Engine, segment: &Recording) -> Vec<Option<f64>> {
+    let t_default = engine.cfg().ambient.temperature_k;
+    segment
+        .rows()
+        .iter()
+        .map(|v| {
+            let n1 = v[Signal::N1.index()];
+            if !n1.is_finite() {
+                return None;
+            }
+            let t1 = Some(v[Signal::T1.index()])
+                .filter(|t| t.is_finite() && *t > 0.0)
+                .unwrap_or(t_default);
+            Some(super::steady::relative_gg_speed_at(engine, n1, t1))
+        })
+        .collect()
 }
 
 /// Per sample of `segment`, whether its measured GG speed lies within the speeds an adapted
@@ -132,24 +166,12 @@ pub fn objective_for(engine: &Engine, segment: &Recording, cfg: &DiagnosisConfig
 /// start-up), so those samples are not compared. Every sample counts when the file states no
 /// range or the sample has no GG speed.
 pub fn within_calibration(engine: &Engine, segment: &Recording) -> Vec<bool> {
-    let range = engine.cfg().adaptation.as_ref().and_then(|a| a.calibrated);
-    let t_default = engine.cfg().ambient.temperature_k;
-    segment
-        .rows()
-        .iter()
-        .map(|v| {
-            let Some(range) = range else { return true };
-            let n1 = v[Signal::N1.index()];
-            if !n1.is_finite() {
-                return true;
-            }
-            let t1 = Some(v[Signal::T1.index()])
-                .filter(|t| t.is_finite() && *t > 0.0)
-                .unwrap_or(t_default);
-            range
-                .beyond(super::steady::relative_gg_speed_at(engine, n1, t1))
-                .is_none()
-        })
+    let Some(range) = engine.cfg().adaptation.as_ref().and_then(|a| a.calibrated) else {
+        return vec![true; segment.rows().len()];
+    };
+    sample_speeds(engine, segment)
+        .into_iter()
+        .map(|rel| rel.is_none_or(|rel| range.beyond(rel).is_none()))
         .collect()
 }
 
@@ -492,6 +514,15 @@ pub fn diagnose_transient(
             },
             &r.fit_quality.thresholds,
         );
+        // A model error that leaves the health unresolved over every compared sample makes
+        // the fit `suspect`, as in a steady diagnosis.
+        let speeds: Vec<Option<f64>> = sample_speeds(engine, segment)
+            .into_iter()
+            .zip(&within)
+            .filter(|(_, &c)| c)
+            .map(|(v, _)| v)
+            .collect();
+        r.fit_quality = r.fit_quality.with_model_error(engine.cfg(), &sigs, &speeds);
         r.model_values = model;
         r.model_runs += 1;
     }

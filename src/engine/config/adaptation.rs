@@ -16,8 +16,9 @@
 //! `[adaptation.model_error_pct]` (written by `calibrate --adapt`, or set by hand) states, per
 //! compared signal (CSV name, e.g. `n1_rpm = 0.4`), the 1σ of the adapted model's own error in
 //! % of the value: how well it predicted operating points left out of its calibration. Steady
-//! diagnosis adds it to the instrument's noise σ, so a signal the model predicts no better than
-//! that is weighted for what the model can do, not for what the instrument can.
+//! diagnosis adds it to the instrument's noise σ, and Method B to each compared sample's, so a
+//! signal the model predicts no better than that is weighted for what the model can do, not
+//! for what the instrument can.
 //!
 //! `[adaptation.model_error_by_speed]` (written with it) states the same where it varies along
 //! the operating line: `speed_knots` (relative corrected GG speed, n1/√(T1/T1_design) over the
