@@ -299,6 +299,30 @@ pub fn localise(
     signals: &[Signal],
     sensors: &SensorsConfig,
 ) -> Vec<ResidualCell> {
+    localise_with(
+        t_s,
+        phases,
+        measured,
+        model,
+        signals,
+        sensors,
+        &|_, _, _| 0.0,
+    )
+}
+
+/// [`localise`] with each sample's σ widened by `extra(k, s, z)` in quadrature (sample `k`,
+/// signal `s`, measured value `z`, in the signal's unit): the model's own error of an adapted
+/// engine file, as Method B's objective weighs it, so a cell is judged against what the model
+/// can do and an offset within its stated error is not called a disagreement.
+pub(crate) fn localise_with(
+    t_s: &[f64],
+    phases: &[Phase],
+    measured: &[Values],
+    model: &[Values],
+    signals: &[Signal],
+    sensors: &SensorsConfig,
+    extra: &dyn Fn(usize, Signal, f64) -> f64,
+) -> Vec<ResidualCell> {
     let n = t_s
         .len()
         .min(phases.len())
@@ -331,7 +355,9 @@ pub fn localise(
             if idx.len() < MIN_CELL_SAMPLES {
                 continue;
             }
-            cells.push(cell(t_s, measured, model, &idx, s, p, sensors, floor));
+            cells.push(cell(
+                t_s, measured, model, &idx, s, p, sensors, floor, extra,
+            ));
         }
     }
     cells
@@ -347,6 +373,7 @@ fn cell(
     p: Phase,
     sensors: &SensorsConfig,
     floor: f64,
+    extra: &dyn Fn(usize, Signal, f64) -> f64,
 ) -> ResidualCell {
     let i = s.index();
     let m = idx.len() as f64;
@@ -368,8 +395,12 @@ fn cell(
     };
     let step = |k: usize| step_in(measured, k).min(step_in(model, k));
     let sig = |k: usize| {
-        let n = noise_sigma(sensors, s, measured[k][i]).max(floor);
-        (n * n + step(k).powi(2)).sqrt()
+        let z = measured[k][i];
+        let n = noise_sigma(sensors, s, z).max(floor);
+        let x = Some(extra(k, s, z))
+            .filter(|x| x.is_finite())
+            .unwrap_or(0.0);
+        (n * n + x * x + step(k).powi(2)).sqrt()
     };
     let e: Vec<f64> = idx.iter().map(|&k| measured[k][i] - model[k][i]).collect();
     let r: Vec<f64> = idx.iter().zip(&e).map(|(&k, d)| d / sig(k)).collect();
@@ -774,6 +805,25 @@ mod tests {
             "{off:?}"
         );
         assert!(character(&off).starts_with("offset"), "{}", character(&off));
+        // The same offset judged beside a model error of 8 K (an adapted file's own): σ
+        // widened in quadrature, the cell's normalised error falls by that much.
+        let with_model = localise_with(
+            &t,
+            &phases,
+            &offset,
+            &model,
+            &[Signal::T34],
+            &cfg.sensors,
+            &|_, _, _| 8.0,
+        )
+        .pop()
+        .expect("one cell");
+        assert!(
+            with_model.norm_error < 0.8 * off.norm_error && with_model.norm_error < 1.0,
+            "{} against {}",
+            with_model.norm_error,
+            off.norm_error
+        );
 
         let th = Thresholds::default();
         assert_eq!(

@@ -127,14 +127,29 @@ pub fn objective_for(engine: &Engine, segment: &Recording, cfg: &DiagnosisConfig
     // make the model misses its calibrated line by a few tenths of a percent, which over a
     // start-up's hundreds of samples is many instrument σ, and the fit bent the health to
     // chase it (a healthy start-up of GSPy's maps read D_GC −0.50, `suspect`).
-    match &engine.cfg().adaptation {
-        Some(a) => {
-            let speeds = sample_speeds(engine, segment);
-            objective.with_extra_sigma(|k, s, z| {
-                a.model_error_fraction(s, speeds.get(k).copied().flatten()) * z.abs()
-            })
-        }
-        None => objective,
+    if engine.cfg().adaptation.is_some() {
+        objective.with_extra_sigma(model_error_sigma(engine, segment))
+    } else {
+        objective
+    }
+}
+
+/// The 1σ of an adapted engine file's own error for sample `k` of `segment`, signal `s`,
+/// measured value `z` (its unit), at the sample's measured GG speed: 0 without an adaptation
+/// or a stated error.
+pub(crate) fn model_error_sigma(
+    engine: &Engine,
+    segment: &Recording,
+) -> impl Fn(usize, Signal, f64) -> f64 {
+    let adaptation = engine.cfg().adaptation.clone();
+    let speeds = match &adaptation {
+        Some(_) => sample_speeds(engine, segment),
+        None => Vec::new(),
+    };
+    move |k, s, z| {
+        adaptation.as_ref().map_or(0.0, |a| {
+            a.model_error_fraction(s, speeds.get(k).copied().flatten()) * z.abs()
+        })
     }
 }
 
@@ -489,13 +504,14 @@ pub fn diagnose_transient(
                 v
             })
             .collect();
-        r.localisation = super::fit_quality::localise(
+        r.localisation = super::fit_quality::localise_with(
             segment.times(),
             segment.phases(),
             &compared,
             &model,
             &sigs,
             &engine.cfg().sensors,
+            &model_error_sigma(engine, segment),
         );
         let periodic = super::periodic::find(
             segment.times(),
