@@ -45,13 +45,8 @@ fn baseline(truth: &Engine) -> Vec<Snapshot> {
 }
 
 /// The user's md22 copy: design point from the healthy full-load row (pressure ratio, power,
-/// both speeds; the datasheet's air flow, 3 % off), a generator, and the unit's own start
-/// sequence and starter (which the user knows).
-fn user_model(truth: &Engine, full: &Snapshot) -> Engine {
-    user_model_with(truth, full, 70.0 * 1.03)
-}
-
-/// [`user_model`] with the datasheet's exhaust flow `datasheet_flow`, kg/s.
+/// both speeds; the datasheet's exhaust flow `datasheet_flow`, kg/s, 3 % off the truth's), a
+/// generator, and the unit's own start sequence and starter (which the user knows).
 fn user_model_with(truth: &Engine, full: &Snapshot, datasheet_flow: f64) -> Engine {
     let md22 =
         Engine::new(EngineConfig::load(&root().join("config/engine_md22.toml")).unwrap()).unwrap();
@@ -72,6 +67,36 @@ fn user_model_with(truth: &Engine, full: &Snapshot, datasheet_flow: f64) -> Engi
     cfg.sequence = truth.cfg().sequence.clone();
     cfg.starter = truth.cfg().starter.clone();
     md22.with_config(cfg).expect("user model")
+}
+
+/// The foreign unit of engine file `file` (relative to the crate), and the user's md22 copy
+/// (datasheet flow `datasheet_flow`) after `calibrate --adapt` on its baseline (2 threads): the
+/// truth, the calibration's report and the adapted engine.
+fn adapted_unit(
+    file: &str,
+    datasheet_flow: f64,
+) -> (Engine, gtwatch::calibrate::Calibration, Engine) {
+    let truth = Engine::new(EngineConfig::load(&root().join(file)).unwrap()).unwrap();
+    let rows = baseline(&truth);
+    let full = rows
+        .iter()
+        .max_by(|a, b| a.fuel_kg_s.total_cmp(&b.fuel_kg_s))
+        .expect("full load");
+    let model = user_model_with(&truth, full, datasheet_flow);
+    let settings = CalibrationSettings {
+        threads: Some(2),
+        adapt: Some(AdaptSettings::default()),
+        ..CalibrationSettings::default()
+    };
+    let (report, adapted) = calibrate(
+        &model,
+        &rows,
+        &[],
+        default_candidates(&model).unwrap(),
+        &settings,
+    )
+    .expect("calibrate");
+    (truth, report, adapted)
 }
 
 fn method_b(engine: &Engine, truth: &Engine, health: [f64; 6], seed: u64) -> MethodResult {
@@ -103,33 +128,32 @@ fn show(label: &str, truth: [f64; 6], r: &MethodResult) -> [f64; 6] {
     h
 }
 
+/// A start-up's Method B result `r` (health `e`) on an adapted file against the truth `t`: the
+/// samples below the calibrated speeds said to be left out, the fit `good`, each parameter
+/// within 0.35 points.
+fn within_calibrated_speeds(label: &str, r: &MethodResult, e: [f64; 6], t: [f64; 6]) {
+    assert!(
+        !r.left_out.is_empty(),
+        "{label}: the samples below the calibrated speeds are said to be left out"
+    );
+    assert_eq!(r.fit_quality.verdict, Verdict::Good, "{label}");
+    for i in 0..6 {
+        assert!(
+            (e[i] - t[i]).abs() <= 0.35,
+            "{label}: {} {:+.2} against {:+.1}",
+            HEALTH_NAMES[i],
+            e[i],
+            t[i]
+        );
+    }
+}
+
 /// 32 s on 2 cores (a calibration and three Method B fits; 85 s while the unit's start-ups
 /// chattered across its compressor map's surge-end jump, when it was left out of CI).
 #[test]
 fn start_ups_of_a_foreign_unit_are_diagnosed_within_its_calibrated_speeds() {
-    let truth = Engine::new(
-        EngineConfig::load(&root().join("tests/data/foreign/aero25_truth.toml")).unwrap(),
-    )
-    .unwrap();
-    let rows = baseline(&truth);
-    let full = rows
-        .iter()
-        .max_by(|a, b| a.fuel_kg_s.total_cmp(&b.fuel_kg_s))
-        .expect("full load");
-    let model = user_model(&truth, full);
-    let settings = CalibrationSettings {
-        threads: Some(2),
-        adapt: Some(AdaptSettings::default()),
-        ..CalibrationSettings::default()
-    };
-    let (report, adapted) = calibrate(
-        &model,
-        &rows,
-        &[],
-        default_candidates(&model).unwrap(),
-        &settings,
-    )
-    .expect("calibrate");
+    let (truth, report, adapted) =
+        adapted_unit("tests/data/foreign/aero25_truth.toml", 70.0 * 1.03);
     let range = adapted
         .cfg()
         .adaptation
@@ -156,20 +180,7 @@ fn start_ups_of_a_foreign_unit_are_diagnosed_within_its_calibrated_speeds() {
         ("healthy", &h0, e0, healthy),
         ("degraded", &h1, e1, degraded),
     ] {
-        assert!(
-            !r.left_out.is_empty(),
-            "{label}: the samples below the calibrated speeds are said to be left out"
-        );
-        assert_eq!(r.fit_quality.verdict, Verdict::Good, "{label}");
-        for i in 0..6 {
-            assert!(
-                (e[i] - t[i]).abs() <= 0.35,
-                "{label}: {} {:+.2} against {:+.1}",
-                HEALTH_NAMES[i],
-                e[i],
-                t[i]
-            );
-        }
+        within_calibrated_speeds(label, r, e, t);
     }
     for i in 0..6 {
         let change = e1[i] - e0[i];
@@ -203,29 +214,7 @@ fn start_ups_of_a_foreign_unit_are_diagnosed_within_its_calibrated_speeds() {
 /// nearly nothing to σ here.
 #[test]
 fn start_ups_of_a_second_foreign_unit_are_diagnosed_within_its_calibrated_speeds() {
-    let truth = Engine::new(
-        EngineConfig::load(&root().join("tests/data/foreign/pyc30_truth.toml")).unwrap(),
-    )
-    .unwrap();
-    let rows = baseline(&truth);
-    let full = rows
-        .iter()
-        .max_by(|a, b| a.fuel_kg_s.total_cmp(&b.fuel_kg_s))
-        .expect("full load");
-    let model = user_model_with(&truth, full, 88.0 * 0.97);
-    let settings = CalibrationSettings {
-        threads: Some(2),
-        adapt: Some(AdaptSettings::default()),
-        ..CalibrationSettings::default()
-    };
-    let (report, adapted) = calibrate(
-        &model,
-        &rows,
-        &[],
-        default_candidates(&model).unwrap(),
-        &settings,
-    )
-    .expect("calibrate");
+    let (truth, report, adapted) = adapted_unit("tests/data/foreign/pyc30_truth.toml", 88.0 * 0.97);
     eprintln!("adapted: RMS {:.2} σ", report.rms_after);
     for (label, t, seed) in [
         ("healthy", [0.0; 6], 5),
@@ -242,17 +231,7 @@ fn start_ups_of_a_second_foreign_unit_are_diagnosed_within_its_calibrated_speeds
     ] {
         let r = method_b(&adapted, &truth, t, seed);
         let e = show(label, t, &r);
-        assert!(!r.left_out.is_empty(), "{label}: idle and below left out");
-        assert_eq!(r.fit_quality.verdict, Verdict::Good, "{label}");
-        for i in 0..6 {
-            assert!(
-                (e[i] - t[i]).abs() <= 0.35,
-                "{label}: {} {:+.2} against {:+.1}",
-                HEALTH_NAMES[i],
-                e[i],
-                t[i]
-            );
-        }
+        within_calibrated_speeds(label, &r, e, t);
     }
 }
 
