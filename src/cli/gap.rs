@@ -369,14 +369,23 @@ fn print_candidates(report: &crate::gap::GapReport) {
     }
     for c in &report.candidates {
         println!(
-            "  {:24} score {:+.2} (train {:+.2}{}) BIC gain {:.0} → {}",
+            "  {:24} score {:+.2} (train {:+.2}{}) BIC gain {:.0} → {}{}",
             c.effect,
             c.score,
             c.train_shrinkage,
             c.heldout_shrinkage
                 .map_or(String::new(), |h| format!(", held out {h:+.2}")),
             c.bic_gain,
-            c.fit_quality.as_str()
+            c.fit_quality.as_str(),
+            if c.within_model_error() {
+                format!(
+                    " (within the adapted model's own error on its channel, {:.3e}: not told \
+                     from the model's miss)",
+                    c.model_error.unwrap_or(0.0)
+                )
+            } else {
+                String::new()
+            }
         );
     }
     if !report.unscreened.is_empty() {

@@ -112,6 +112,12 @@ pub(crate) struct Candidate {
     pub(crate) health: HealthParams,
     pub(crate) fit_quality: Verdict,
     pub(crate) normalised_residual: f64,
+    /// An instrument's scale or offset on a predicted channel of an adapted engine file: the
+    /// file's own error on that channel over the compared samples, in the parameter's unit
+    /// (fraction or the channel's unit). A candidate whose magnitude is within it is not told
+    /// from the model's own miss and is not named ([`Candidate::within_model_error`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(crate) model_error: Option<f64>,
 }
 
 /// What the analysis concludes.
