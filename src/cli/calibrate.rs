@@ -259,7 +259,7 @@ fn print_text(report: &Calibration, wall_s: f64) {
                 .collect();
             println!(
                 "  model error on points left out (1σ, % of the value; added to the instrument \
-                 σ in steady diagnosis): {}\n    ({})",
+                 σ in steady diagnosis and in Method B): {}\n    ({})",
                 list.join(", "),
                 me.note
             );
