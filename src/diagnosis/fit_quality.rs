@@ -290,31 +290,12 @@ const MAX_SHIFT_S: f64 = 15.0;
 const MOVES_SIGMA: f64 = 10.0;
 
 /// The residual map of `measured` against `model` (rows indexed like `t_s`) for `signals`.
-/// Cells are ordered by signal, then phase order of first appearance.
+/// Cells are ordered by signal, then phase order of first appearance. Each sample's σ is the
+/// instrument's, widened by `extra(k, s, z)` in quadrature (sample `k`, signal `s`, measured
+/// value `z`, in the signal's unit; 0 = none): the model's own error of an adapted engine file,
+/// as Method B's objective weighs it, so a cell is judged against what the model can do and an
+/// offset within its stated error is not called a disagreement.
 pub fn localise(
-    t_s: &[f64],
-    phases: &[Phase],
-    measured: &[Values],
-    model: &[Values],
-    signals: &[Signal],
-    sensors: &SensorsConfig,
-) -> Vec<ResidualCell> {
-    localise_with(
-        t_s,
-        phases,
-        measured,
-        model,
-        signals,
-        sensors,
-        &|_, _, _| 0.0,
-    )
-}
-
-/// [`localise`] with each sample's σ widened by `extra(k, s, z)` in quadrature (sample `k`,
-/// signal `s`, measured value `z`, in the signal's unit): the model's own error of an adapted
-/// engine file, as Method B's objective weighs it, so a cell is judged against what the model
-/// can do and an offset within its stated error is not called a disagreement.
-pub(crate) fn localise_with(
     t_s: &[f64],
     phases: &[Phase],
     measured: &[Values],
@@ -783,9 +764,17 @@ mod tests {
         }
         let offset: Vec<Values> = t.iter().map(|&x| row(truth(x) + 8.0)).collect();
         let map = |meas: &[Values]| {
-            localise(&t, &phases, meas, &model, &[Signal::T34], &cfg.sensors)
-                .pop()
-                .expect("one cell")
+            localise(
+                &t,
+                &phases,
+                meas,
+                &model,
+                &[Signal::T34],
+                &cfg.sensors,
+                &|_, _, _| 0.0,
+            )
+            .pop()
+            .expect("one cell")
         };
         let exact = map(&model);
         assert_eq!(exact.norm_error, 0.0);
@@ -807,7 +796,7 @@ mod tests {
         assert!(character(&off).starts_with("offset"), "{}", character(&off));
         // The same offset judged beside a model error of 8 K (an adapted file's own): σ
         // widened in quadrature, the cell's normalised error falls by that much.
-        let with_model = localise_with(
+        let with_model = localise(
             &t,
             &phases,
             &offset,

@@ -504,7 +504,7 @@ pub fn diagnose_transient(
                 v
             })
             .collect();
-        r.localisation = super::fit_quality::localise_with(
+        r.localisation = super::fit_quality::localise(
             segment.times(),
             segment.phases(),
             &compared,

@@ -141,6 +141,7 @@ pub(crate) fn signature_sigma(
         &model.measured,
         &signals,
         &engine.cfg().sensors,
+        &|_, _, _| 0.0,
     );
     Ok(cells
         .iter()
