@@ -117,9 +117,6 @@ pub(super) fn column_units(text: Option<&str>) -> anyhow::Result<crate::units::C
     }
 }
 
-/// Map-path keys rewritten when the new file lives in another folder.
-const MAP_KEYS: [&str; 3] = ["maps.compressor_file", "maps.hpt_file", "maps.pt_file"];
-
 /// The map paths of `original` (as written, relative to `from_dir`) restated for a file in
 /// `to_dir`: unchanged when both folders are the same, else absolute (`calibrate` and `gap
 /// --adopt` write a new engine file wherever the user says).
@@ -143,15 +140,14 @@ pub(super) fn moved_map_paths(
     if from == to {
         return Ok(Vec::new());
     }
-    let m = &raw.maps;
     let mut out = Vec::new();
-    for (key, file) in MAP_KEYS
-        .iter()
-        .zip([&m.compressor_file, &m.hpt_file, &m.pt_file])
-    {
-        if !file.is_empty() && Path::new(file.as_str()).is_relative() {
-            let abs = from.join(file.as_str());
-            out.push((key.to_string(), NewValue::Text(abs.display().to_string())));
+    for (component, file, _) in raw.maps.sources() {
+        if !file.is_empty() && Path::new(file).is_relative() {
+            let abs = from.join(file);
+            out.push((
+                format!("maps.{component}_file"),
+                NewValue::Text(abs.display().to_string()),
+            ));
         }
     }
     Ok(out)
