@@ -137,10 +137,7 @@ pub fn objective_for(engine: &Engine, segment: &Recording, cfg: &DiagnosisConfig
 /// The 1σ of an adapted engine file's own error for sample `k` of `segment`, signal `s`,
 /// measured value `z` (its unit), at the sample's measured GG speed: 0 without an adaptation
 /// or a stated error.
-pub(crate) fn model_error_sigma(
-    engine: &Engine,
-    segment: &Recording,
-) -> impl Fn(usize, Signal, f64) -> f64 {
+fn model_error_sigma(engine: &Engine, segment: &Recording) -> impl Fn(usize, Signal, f64) -> f64 {
     let adaptation = engine.cfg().adaptation.clone();
     let speeds = match &adaptation {
         Some(_) => sample_speeds(engine, segment),

@@ -13,7 +13,7 @@ use super::{
 use crate::diagnosis::config::Blocks;
 use crate::diagnosis::fit_quality::Verdict;
 use crate::diagnosis::transient::{
-    diagnose_transient, model_error_sigma, objective_for, within_calibration,
+    diagnose_transient, objective_for, sample_speeds, within_calibration,
 };
 use crate::diagnosis::{DiagnosisConfig, DiagnosisError, FitParam, MethodResult};
 use crate::engine::trace::Values;
@@ -987,17 +987,22 @@ pub(crate) fn model_error_of(engine: &Engine, rec: &Recording, effect: &str) -> 
         _ => return None,
     };
     let signal = column.parse::<Signal>().ok()?;
-    let sigma = model_error_sigma(engine, rec);
+    let adaptation = engine.cfg().adaptation.as_ref()?;
     let within = within_calibration(engine, rec);
     let i = signal.index();
     let (mut error, mut n) = (0.0, 0usize);
-    for (k, v) in rec.rows().iter().enumerate() {
+    for ((v, rel), compared) in rec
+        .rows()
+        .iter()
+        .zip(sample_speeds(engine, rec))
+        .zip(within)
+    {
         let z = v[i];
-        if !within.get(k).copied().unwrap_or(true) || !z.is_finite() || z == 0.0 {
+        if !compared || !z.is_finite() || z == 0.0 {
             continue;
         }
-        let e = sigma(k, signal, z);
-        error += if scale { e / z.abs() } else { e };
+        let fraction = adaptation.model_error_fraction(signal, rel);
+        error += if scale { fraction } else { fraction * z.abs() };
         n += 1;
     }
     (n > 0 && error > 0.0).then(|| error / n as f64)
