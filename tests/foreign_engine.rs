@@ -43,8 +43,8 @@
 
 use gtwatch::calibrate::adapt::{AdaptSettings, AdaptStrategy};
 use gtwatch::calibrate::candidates::default_candidates;
-use gtwatch::calibrate::problem::{prepare, residuals_on};
 use gtwatch::calibrate::synthetic::{snapshot_csv_at_speeds, OperatingPoint};
+use gtwatch::calibrate::validate::{left_out, prediction_errors_pct};
 use gtwatch::calibrate::{calibrate, Calibration, CalibrationSettings};
 use gtwatch::diagnosis::snapshot::{diagnose_snapshots, read_snapshots, Snapshot};
 use gtwatch::diagnosis::DiagnosisConfig;
@@ -196,19 +196,9 @@ fn user_model_with(full_load: &Snapshot, datasheet_flow: f64) -> Engine {
 }
 
 /// Per measured signal, (model − measured)/measured in % of `engine` on `row` (`None` when
-/// the row cannot be solved).
+/// the row cannot be solved): what `calibrate --validate` reports.
 pub(crate) fn errors_pct(engine: &Engine, row: &Snapshot) -> Option<Vec<(Signal, f64)>> {
-    let prep = prepare(engine, std::slice::from_ref(row));
-    let p = prep.points.first()?;
-    let r = residuals_on(engine, &prep.points, &[]).ok()?;
-    Some(
-        p.data
-            .outputs
-            .iter()
-            .zip(&r)
-            .map(|(&(s, v, sd), r)| (s, 100.0 * r * sd / v))
-            .collect(),
-    )
+    prediction_errors_pct(engine, row)
 }
 
 /// Design values only (`None`), or with the adaptation of `strategy`.
@@ -270,28 +260,31 @@ fn leave_out(
     label: &str,
     strategy: AdaptStrategy,
 ) -> [[f64; 2]; 2] {
-    let train: Vec<Snapshot> = rows
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| *i != k)
-        .map(|(_, r)| r.clone())
-        .collect();
+    let cands = default_candidates(model).expect("candidates");
     let mut cells = [[f64::NAN; 2]; 2];
     for (m, adapt) in [None, Some(strategy)].into_iter().enumerate() {
-        let e = calibrated(model, &train, adapt);
-        let Some(err) = errors_pct(&e, &rows[k]) else {
-            panic!("left-out row {k} cannot be solved (adapt {adapt:?})");
-        };
-        let mean = err.iter().map(|(_, x)| x.abs()).sum::<f64>() / err.len() as f64;
-        let worst = err.iter().map(|(_, x)| x.abs()).fold(0.0, f64::max);
+        // `calibrate --validate`'s own fold: the calibration without row k, the row predicted.
+        let started = std::time::Instant::now();
+        let (p, runs) =
+            left_out(model, rows, k, &[], &cands, &settings(adapt)).expect("row k exists");
+        if let Some(why) = &p.failed {
+            panic!("left-out row {k} (adapt {adapt:?}): {why}");
+        }
         eprintln!(
-            "{label}left out line {} (adapt {adapt:?}): mean {mean:.3} %, worst {worst:.3} % {:?}",
-            rows[k].line,
-            err.iter()
-                .map(|(s, x)| format!("{s} {x:+.3}"))
+            "{label}left out line {} ({}, relative GG speed {:.3?}; adapt {adapt:?}, {:.1} s, {runs} \
+             model runs): mean {:.3} %, worst {:.3} % {:?}",
+            p.line,
+            p.position.as_str(),
+            p.gg_speed,
+            started.elapsed().as_secs_f64(),
+            p.mean_abs_pct,
+            p.worst_abs_pct,
+            p.errors
+                .iter()
+                .map(|e| format!("{} {:+.3}", e.signal, e.pct))
                 .collect::<Vec<_>>()
         );
-        cells[m] = [mean, worst];
+        cells[m] = [p.mean_abs_pct, p.worst_abs_pct];
     }
     cells
 }

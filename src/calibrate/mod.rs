@@ -30,6 +30,7 @@ pub mod inlet_law;
 pub mod problem;
 pub mod startup;
 pub mod synthetic;
+pub mod validate;
 
 use crate::diagnosis::residual_table::{Cell, ResidualTable};
 use crate::diagnosis::snapshot::lines_of;

@@ -10,6 +10,7 @@ use crate::calibrate::adapt::{AdaptSettings, AdaptStrategy};
 use crate::calibrate::candidates::{candidate, candidate_in, default_candidates, offset_candidate};
 use crate::calibrate::edit::{rewrite, NewValue};
 use crate::calibrate::startup::{rest_readings, startup_snapshots};
+use crate::calibrate::validate::{leave_one_out, Summary, Validation};
 use crate::calibrate::{calibrate, Calibration, CalibrationSettings};
 use crate::diagnosis::csv_input::{parse_mapping, read_recording_checked};
 use crate::diagnosis::snapshot::read_snapshots_in;
@@ -79,6 +80,13 @@ pub struct CalibrateArgs {
     /// and predicted no better).
     #[arg(long, requires = "adapt", value_parser = clap::value_parser!(u8).range(1..=12))]
     pub adapt_max_knots: Option<u8>,
+    /// Also validate the calibration on points it was not fitted to: calibrate again once per
+    /// operating point with that point left out (the same settings, --adapt included) and
+    /// predict it; per point the error of each measured signal in % of its value, placed
+    /// against the others' GG speeds (`interior`, or `below`/`above`: an extrapolation).
+    /// Costs one more calibration per point.
+    #[arg(long)]
+    pub validate: bool,
     /// Column mapping for the snapshot file: `t1_k=T_inlet,n1_rpm=NGG,…`.
     #[arg(long)]
     pub map: Option<String>,
@@ -455,6 +463,12 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
         adapt: adapt_settings(&a),
         ..CalibrationSettings::default()
     };
+    // The validation first, while `candidates` are still ours to lend.
+    let validation = if a.validate {
+        Some(leave_one_out(&engine, &rows, &rest, &candidates, &settings).context("--validate")?)
+    } else {
+        None
+    };
     let (report, _calibrated) = calibrate(&engine, &rows, &rest, candidates, &settings)
         .with_context(|| {
             format!(
@@ -494,13 +508,86 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
                 "rows": rows.len(),
                 "rest_readings": rest,
                 "calibration": report,
+                "validation": validation,
                 "wall_s": wall_s,
             }))?
         );
     } else {
         print_text(&report, wall_s);
+        if let Some(v) = &validation {
+            print_validation(v);
+        }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The `--validate` table: each point left out, its prediction errors, and the summaries.
+fn print_validation(v: &Validation) {
+    println!(
+        "\nvalidation: each operating point left out in turn, the calibration run again on the \
+         others and the point predicted ((model − measured)/measured, %; {} model runs)",
+        v.model_runs
+    );
+    let signals: Vec<String> = {
+        let mut s: Vec<String> = Vec::new();
+        for p in &v.points {
+            for e in &p.errors {
+                if !s.contains(&e.signal) {
+                    s.push(e.signal.clone());
+                }
+            }
+        }
+        s
+    };
+    let head: Vec<String> = signals.iter().map(|s| format!("{s:>9}")).collect();
+    println!(
+        "  {:>6} {:>8} {:<9} {:>7} {:>7}  {}",
+        "line",
+        "rel. N1",
+        "position",
+        "mean %",
+        "worst %",
+        head.join("")
+    );
+    for p in &v.points {
+        let speed = p.gg_speed.map_or("-".into(), |x| format!("{x:.3}"));
+        if let Some(why) = &p.failed {
+            println!(
+                "  {:>6} {:>8} {:<9} not predicted: {why}",
+                p.line,
+                speed,
+                p.position.as_str()
+            );
+            continue;
+        }
+        let cells: Vec<String> = signals
+            .iter()
+            .map(|s| {
+                p.errors
+                    .iter()
+                    .find(|e| &e.signal == s)
+                    .map_or(format!("{:>9}", "-"), |e| format!("{:>+9.3}", e.pct))
+            })
+            .collect();
+        println!(
+            "  {:>6} {:>8} {:<9} {:>7.3} {:>7.3}  {}",
+            p.line,
+            speed,
+            p.position.as_str(),
+            p.mean_abs_pct,
+            p.worst_abs_pct,
+            cells.join("")
+        );
+    }
+    let line = |label: &str, s: &Option<Summary>| match s {
+        Some(s) => println!(
+            "  {label}: mean |error| {:.3} %, worst {:.3} % ({} point(s))",
+            s.mean_pct, s.worst_pct, s.points
+        ),
+        None => println!("  {label}: no point predicted"),
+    };
+    line("interior points (interpolated)", &v.interior);
+    line("every point (extrapolations included)", &v.all);
 }
 
 #[cfg(test)]

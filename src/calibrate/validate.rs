@@ -1,0 +1,333 @@
+//! Leave-one-point-out validation of a calibration (`gtwatch calibrate --validate`): the
+//! calibration run again once per operating point with that point left out, and the point
+//! predicted by the result — per measured signal, (model − measured)/measured in %.
+//!
+//! Why: a calibration that fits its baseline within noise says nothing of how well it predicts
+//! an operating point it was not fitted to, and that is what every later diagnosis asks of it.
+//! The multiple-point adaptation literature reports its accuracy this way (prediction on
+//! points not used); a plant engineer checks a model against the unit before trusting it. The
+//! linearised estimate the adaptation writes (`[adaptation.model_error_pct]`,
+//! [`adapt::model_error`](super::adapt)) keeps the shape the full fit chose; this re-runs the
+//! whole calibration, knot growth included, so it is the exact test, at the cost of one
+//! calibration per point.
+//!
+//! Each left-out point is placed against the others' relative corrected GG speeds: `interior`
+//! (between the lowest and highest of the others: an interpolation), `below` or `above` (an
+//! extrapolation of the curves, which diagnosis on an adapted file leaves out; reported, and
+//! summarised apart). Pure: no I/O, no printing.
+
+use super::candidates::Candidate;
+use super::problem::{prepare, residuals_on};
+use super::startup::RestReading;
+use super::{calibrate, CalibrateError, CalibrationSettings};
+use crate::diagnosis::snapshot::Snapshot;
+use crate::diagnosis::steady::relative_gg_speed_at;
+use crate::engine::Engine;
+use crate::signals::Signal;
+use serde::Serialize;
+
+/// Where a left-out point lies against the GG speeds of the points it was predicted from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Position {
+    /// Between the lowest and highest of the others: the curves interpolate.
+    Interior,
+    /// Below every other point's speed: the curves extrapolate.
+    Below,
+    /// Above every other point's speed: the curves extrapolate.
+    Above,
+    /// The row has no GG speed to place it by.
+    Unknown,
+}
+
+impl Position {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Position::Interior => "interior",
+            Position::Below => "below",
+            Position::Above => "above",
+            Position::Unknown => "unknown",
+        }
+    }
+}
+
+/// One measured signal's prediction error at a left-out point.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SignalError {
+    /// The signal's CSV name.
+    pub signal: String,
+    /// (model − measured)/measured, %.
+    pub pct: f64,
+}
+
+/// One operating point left out and predicted.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LeftOutPoint {
+    /// The snapshot's file line (a start-up window's: its first sample's).
+    pub line: u64,
+    /// The snapshot's file or group.
+    pub source: String,
+    /// Relative corrected GG speed of the point (measured n1 and T1 on the engine file's
+    /// design), when the row has n1.
+    pub gg_speed: Option<f64>,
+    pub position: Position,
+    /// Per measured signal (empty when `failed`).
+    pub errors: Vec<SignalError>,
+    /// Mean |error| over the signals, %.
+    pub mean_abs_pct: f64,
+    /// Largest |error|, % , and its signal.
+    pub worst_abs_pct: f64,
+    pub worst_signal: String,
+    /// Why the point has no prediction (the calibration without it failed, or the calibrated
+    /// model cannot solve it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub failed: Option<String>,
+}
+
+/// Mean and worst over a set of predicted points.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Summary {
+    /// Points predicted.
+    pub points: usize,
+    /// Mean over the points of each one's mean |error|, %.
+    pub mean_pct: f64,
+    /// Largest |error| of any signal at any of the points, %.
+    pub worst_pct: f64,
+}
+
+impl Summary {
+    fn of<'a>(points: impl Iterator<Item = &'a LeftOutPoint>) -> Option<Summary> {
+        let ok: Vec<&LeftOutPoint> = points.filter(|p| p.failed.is_none()).collect();
+        (!ok.is_empty()).then(|| Summary {
+            points: ok.len(),
+            mean_pct: ok.iter().map(|p| p.mean_abs_pct).sum::<f64>() / ok.len() as f64,
+            worst_pct: ok.iter().map(|p| p.worst_abs_pct).fold(0.0, f64::max),
+        })
+    }
+}
+
+/// The validation: every point left out in turn.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Validation {
+    pub points: Vec<LeftOutPoint>,
+    /// Over the interior points (interpolations), when any was predicted.
+    pub interior: Option<Summary>,
+    /// Over every point predicted, extrapolations included.
+    pub all: Option<Summary>,
+    /// Model evaluations of all the calibrations.
+    pub model_runs: usize,
+}
+
+/// Fewest operating points a validation needs: with fewer, a point left out leaves nothing to
+/// calibrate an off-design shape on.
+pub const MIN_POINTS: usize = 3;
+
+/// Per measured signal of `row`, (model − measured)/measured in % of `engine` (`None` when the
+/// row cannot be solved on it, or has nothing to compare).
+pub fn prediction_errors_pct(engine: &Engine, row: &Snapshot) -> Option<Vec<(Signal, f64)>> {
+    let prep = prepare(engine, std::slice::from_ref(row));
+    let p = prep.points.first()?;
+    let r = residuals_on(engine, &prep.points, &[]).ok()?;
+    let out: Vec<(Signal, f64)> = p
+        .data
+        .outputs
+        .iter()
+        .zip(&r)
+        .filter(|((_, v, _), r)| *v != 0.0 && r.is_finite())
+        .map(|(&(s, v, sd), r)| (s, 100.0 * r * sd / v))
+        .collect();
+    (!out.is_empty()).then_some(out)
+}
+
+/// Leaves each of `rows` out in turn: `engine` (the guesses) calibrated to the others (and
+/// `rest`) over `candidates` with `settings`, as [`calibrate`] would, and the point predicted.
+pub fn leave_one_out(
+    engine: &Engine,
+    rows: &[Snapshot],
+    rest: &[RestReading],
+    candidates: &[Candidate],
+    settings: &CalibrationSettings,
+) -> Result<Validation, CalibrateError> {
+    if rows.len() < MIN_POINTS {
+        return Err(CalibrateError::Data(format!(
+            "{} operating point(s): a leave-one-out validation needs at least {MIN_POINTS}",
+            rows.len()
+        )));
+    }
+    let mut points = Vec::with_capacity(rows.len());
+    let mut model_runs = 0;
+    for k in 0..rows.len() {
+        if let Some((point, runs)) = left_out(engine, rows, k, rest, candidates, settings) {
+            model_runs += runs;
+            points.push(point);
+        }
+    }
+    let interior = Summary::of(points.iter().filter(|p| p.position == Position::Interior));
+    let all = Summary::of(points.iter());
+    Ok(Validation {
+        points,
+        interior,
+        all,
+        model_runs,
+    })
+}
+
+/// Row `k` of `rows` left out: `engine` calibrated to the others as [`leave_one_out`] does, and
+/// the row predicted; the model runs it took (`None` when there is no row `k`).
+pub fn left_out(
+    engine: &Engine,
+    rows: &[Snapshot],
+    k: usize,
+    rest: &[RestReading],
+    candidates: &[Candidate],
+    settings: &CalibrationSettings,
+) -> Option<(LeftOutPoint, usize)> {
+    let row = rows.get(k)?;
+    let others: Vec<Snapshot> = rows
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i != k)
+        .map(|(_, r)| r.clone())
+        .collect();
+    let others_speeds: Vec<f64> = others.iter().filter_map(|r| gg_speed(engine, r)).collect();
+    let speed = gg_speed(engine, row);
+    let mut point = LeftOutPoint {
+        line: row.line,
+        source: row.group.clone(),
+        gg_speed: speed,
+        position: position(speed, &others_speeds),
+        errors: Vec::new(),
+        mean_abs_pct: f64::NAN,
+        worst_abs_pct: f64::NAN,
+        worst_signal: String::new(),
+        failed: None,
+    };
+    let mut runs = 0;
+    match calibrate(engine, &others, rest, candidates.to_vec(), settings) {
+        Err(e) => point.failed = Some(format!("the calibration without it failed: {e}")),
+        Ok((report, fitted)) => {
+            runs = report.model_runs;
+            match prediction_errors_pct(&fitted, row) {
+                None => {
+                    point.failed = Some("the model calibrated without it cannot solve it".into())
+                }
+                Some(err) => fill(&mut point, &err),
+            }
+        }
+    }
+    Some((point, runs))
+}
+
+/// The row's relative corrected GG speed on `engine`'s design (`None` without a measured n1).
+fn gg_speed(engine: &Engine, row: &Snapshot) -> Option<f64> {
+    row.values
+        .iter()
+        .find(|(s, _)| *s == Signal::N1)
+        .map(|(_, n1)| relative_gg_speed_at(engine, *n1, row.t_amb_k))
+        .filter(|v| v.is_finite())
+}
+
+/// Where `speed` lies against the `others`' speeds (a margin of 0.001 counts as level).
+fn position(speed: Option<f64>, others: &[f64]) -> Position {
+    let Some(v) = speed else {
+        return Position::Unknown;
+    };
+    let (Some(lo), Some(hi)) = (
+        others.iter().copied().reduce(f64::min),
+        others.iter().copied().reduce(f64::max),
+    ) else {
+        return Position::Unknown;
+    };
+    const LEVEL: f64 = 1e-3;
+    if v < lo - LEVEL {
+        Position::Below
+    } else if v > hi + LEVEL {
+        Position::Above
+    } else {
+        Position::Interior
+    }
+}
+
+/// `point`'s errors, mean and worst from the per-signal errors `err`.
+fn fill(point: &mut LeftOutPoint, err: &[(Signal, f64)]) {
+    point.errors = err
+        .iter()
+        .map(|(s, pct)| SignalError {
+            signal: s.column().to_string(),
+            pct: *pct,
+        })
+        .collect();
+    point.mean_abs_pct = err.iter().map(|(_, x)| x.abs()).sum::<f64>() / err.len() as f64;
+    let (s, w) = err
+        .iter()
+        .map(|(s, x)| (*s, x.abs()))
+        .fold((Signal::N1, -1.0), |a, b| if b.1 > a.1 { b } else { a });
+    point.worst_abs_pct = w;
+    point.worst_signal = s.column().to_string();
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
+    use super::*;
+
+    /// A point below, between or above the others' speeds is placed so; one without a speed,
+    /// or with no other speed to compare, is unknown.
+    #[test]
+    fn a_left_out_point_is_placed_against_the_others_speeds() {
+        let others = [0.80, 0.90, 0.85];
+        assert_eq!(position(Some(0.75), &others), Position::Below);
+        assert_eq!(position(Some(0.95), &others), Position::Above);
+        assert_eq!(position(Some(0.87), &others), Position::Interior);
+        // Level with the lowest within the margin: an interpolation.
+        assert_eq!(position(Some(0.7995), &others), Position::Interior);
+        assert_eq!(position(None, &others), Position::Unknown);
+        assert_eq!(position(Some(0.8), &[]), Position::Unknown);
+    }
+
+    /// Mean and worst are over the points predicted; a failed point is left out of both.
+    #[test]
+    fn the_summary_skips_failed_points() {
+        let mk = |mean: f64, worst: f64, failed: bool| LeftOutPoint {
+            line: 2,
+            source: String::new(),
+            gg_speed: None,
+            position: Position::Interior,
+            errors: Vec::new(),
+            mean_abs_pct: mean,
+            worst_abs_pct: worst,
+            worst_signal: String::new(),
+            failed: failed.then(|| "x".to_string()),
+        };
+        let pts = [mk(0.2, 0.5, false), mk(0.4, 0.9, false), mk(9.0, 9.0, true)];
+        let s = Summary::of(pts.iter()).unwrap();
+        assert_eq!(s.points, 2);
+        assert!((s.mean_pct - 0.3).abs() < 1e-12);
+        assert!((s.worst_pct - 0.9).abs() < 1e-12);
+        assert!(Summary::of(pts[2..].iter()).is_none());
+    }
+
+    /// The worst signal is the one with the largest |error|, whatever its sign.
+    #[test]
+    fn fill_finds_the_worst_signal_by_magnitude() {
+        let mut p = LeftOutPoint {
+            line: 2,
+            source: String::new(),
+            gg_speed: None,
+            position: Position::Interior,
+            errors: Vec::new(),
+            mean_abs_pct: f64::NAN,
+            worst_abs_pct: f64::NAN,
+            worst_signal: String::new(),
+            failed: None,
+        };
+        fill(
+            &mut p,
+            &[(Signal::N1, 0.1), (Signal::T4, -0.9), (Signal::P2, 0.5)],
+        );
+        assert_eq!(p.worst_signal, "t4_k");
+        assert!((p.worst_abs_pct - 0.9).abs() < 1e-12);
+        assert!((p.mean_abs_pct - 0.5).abs() < 1e-12);
+        assert_eq!(p.errors.len(), 3);
+    }
+}
