@@ -44,7 +44,7 @@
 use gtwatch::calibrate::adapt::{AdaptSettings, AdaptStrategy};
 use gtwatch::calibrate::candidates::default_candidates;
 use gtwatch::calibrate::synthetic::{snapshot_csv_at_speeds, OperatingPoint};
-use gtwatch::calibrate::validate::{left_out, prediction_errors_pct};
+use gtwatch::calibrate::validate::left_out;
 use gtwatch::calibrate::{calibrate, Calibration, CalibrationSettings};
 use gtwatch::diagnosis::snapshot::{diagnose_snapshots, read_snapshots, Snapshot};
 use gtwatch::diagnosis::DiagnosisConfig;
@@ -193,12 +193,6 @@ fn user_model_with(full_load: &Snapshot, datasheet_flow: f64) -> Engine {
     // A propeller on a combinator: the PT speed is measured, a load law does not hold.
     cfg.load = None;
     md22.with_config(cfg).expect("user model")
-}
-
-/// Per measured signal, (model − measured)/measured in % of `engine` on `row` (`None` when
-/// the row cannot be solved): what `calibrate --validate` reports.
-pub(crate) fn errors_pct(engine: &Engine, row: &Snapshot) -> Option<Vec<(Signal, f64)>> {
-    prediction_errors_pct(engine, row)
 }
 
 /// Design values only (`None`), or with the adaptation of `strategy`.

@@ -22,6 +22,7 @@
 use gtwatch::calibrate::adapt::{AdaptSettings, AdaptStrategy};
 use gtwatch::calibrate::candidates::default_candidates;
 use gtwatch::calibrate::synthetic::{snapshot_csv_at_speeds, OperatingPoint};
+use gtwatch::calibrate::validate::{left_out, Position};
 use gtwatch::calibrate::{calibrate, Calibration, CalibrationSettings};
 use gtwatch::diagnosis::snapshot::{diagnose_snapshots, read_snapshots, Snapshot};
 use gtwatch::engine::config::PressureLossLaw;
@@ -31,7 +32,7 @@ use gtwatch::signals::Signal;
 use std::collections::HashMap;
 use std::path::PathBuf;
 
-use crate::foreign_engine::{self, diagnosis_cfg};
+use crate::foreign_engine::diagnosis_cfg;
 use crate::ranking::Rank;
 
 fn root() -> PathBuf {
@@ -113,19 +114,6 @@ fn calibrated(model: &Engine, rows: &[Snapshot]) -> (Calibration, Engine) {
     calibrate(model, rows, &[], cands, &settings).expect("calibrate")
 }
 
-/// Mean and worst |model − measured| in % of the measured value over `row`'s signals.
-fn errors_pct(engine: &Engine, row: &Snapshot) -> [f64; 2] {
-    let e: Vec<f64> = foreign_engine::errors_pct(engine, row)
-        .expect("solved")
-        .iter()
-        .map(|(_, x)| x.abs())
-        .collect();
-    [
-        e.iter().sum::<f64>() / e.len() as f64,
-        e.iter().copied().fold(0.0, f64::max),
-    ]
-}
-
 #[test]
 fn md22_adapted_to_gspys_turboshaft_fits_it_and_predicts_its_interior_points() {
     let rows = snapshots();
@@ -184,15 +172,18 @@ fn md22_adapted_to_gspys_turboshaft_fits_it_and_predicts_its_interior_points() {
 
     // Each interior point left out of the calibration, predicted by the others'.
     let mut means = Vec::new();
+    let settings = CalibrationSettings {
+        threads: Some(2),
+        adapt: Some(AdaptSettings::of(AdaptStrategy::Grown)),
+        ..CalibrationSettings::default()
+    };
+    let cands = default_candidates(&model).expect("candidates");
     for k in 1..rows.len() - 1 {
-        let train: Vec<Snapshot> = rows
-            .iter()
-            .enumerate()
-            .filter(|(i, _)| *i != k)
-            .map(|(_, r)| r.clone())
-            .collect();
-        let (_, e) = calibrated(&model, &train);
-        let [mean, worst] = errors_pct(&e, &rows[k]);
+        // `calibrate --validate`'s fold: the calibration without row k, the row predicted.
+        let (p, _) = left_out(&model, &rows, k, &[], &cands, &settings).expect("row k");
+        assert!(p.failed.is_none(), "line {}: {:?}", p.line, p.failed);
+        assert_eq!(p.position, Position::Interior, "line {}", p.line);
+        let (mean, worst) = (p.mean_abs_pct, p.worst_abs_pct);
         eprintln!(
             "left out line {}: mean {mean:.3} %, worst {worst:.3} %",
             rows[k].line
