@@ -736,6 +736,13 @@ fn cli_validate_predicts_each_point_left_out() {
     assert_eq!(lowest["position"], "below");
     let interior = v["interior"]["mean_pct"].as_f64().expect("interior mean");
     assert!(interior < 0.1, "interior mean {interior:.3} %");
+    // With --adapt, the same with the design values only, for comparison.
+    let d = &doc["validation_design_only"];
+    assert_eq!(
+        d["points"].as_array().expect("design-only points").len(),
+        points.len()
+    );
+    assert!(d["all"]["mean_pct"].as_f64().expect("mean").is_finite());
     let text = run(false);
     assert!(
         text.contains("\nvalidation: each operating point left out"),

@@ -463,9 +463,22 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
         adapt: adapt_settings(&a),
         ..CalibrationSettings::default()
     };
-    // The validation first, while `candidates` are still ours to lend.
+    // The validation first, while `candidates` are still ours to lend; with --adapt also with
+    // the design values only, which is what the adaptation is to improve on.
     let validation = if a.validate {
         Some(leave_one_out(&engine, &rows, &rest, &candidates, &settings).context("--validate")?)
+    } else {
+        None
+    };
+    let validation_design_only = if a.validate && settings.adapt.is_some() {
+        let design_only = CalibrationSettings {
+            adapt: None,
+            ..settings.clone()
+        };
+        Some(
+            leave_one_out(&engine, &rows, &rest, &candidates, &design_only)
+                .context("--validate (design values only)")?,
+        )
     } else {
         None
     };
@@ -509,20 +522,22 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
                 "rest_readings": rest,
                 "calibration": report,
                 "validation": validation,
+                "validation_design_only": validation_design_only,
                 "wall_s": wall_s,
             }))?
         );
     } else {
         print_text(&report, wall_s);
         if let Some(v) = &validation {
-            print_validation(v);
+            print_validation(v, validation_design_only.as_ref());
         }
     }
     Ok(ExitCode::SUCCESS)
 }
 
-/// The `--validate` table: each point left out, its prediction errors, and the summaries.
-fn print_validation(v: &Validation) {
+/// The `--validate` table: each point left out, its prediction errors, and the summaries (and
+/// those of the design values alone, `design_only`, when the calibration adapted).
+fn print_validation(v: &Validation, design_only: Option<&Validation>) {
     println!(
         "\nvalidation: each operating point left out in turn, the calibration run again on the \
          others and the point predicted ((model − measured)/measured, %; {} model runs)",
@@ -588,6 +603,25 @@ fn print_validation(v: &Validation) {
     };
     line("interior points (interpolated)", &v.interior);
     line("every point (extrapolations included)", &v.all);
+    if let Some(d) = design_only {
+        let per_point: Vec<String> = d
+            .points
+            .iter()
+            .map(|p| match &p.failed {
+                None => format!(
+                    "line {} {:.2} / {:.2}",
+                    p.line, p.mean_abs_pct, p.worst_abs_pct
+                ),
+                Some(_) => format!("line {} not predicted", p.line),
+            })
+            .collect();
+        println!(
+            "  the same with the design values only (no adaptation), mean / worst %: {}",
+            per_point.join(", ")
+        );
+        line("  design values only, interior points", &d.interior);
+        line("  design values only, every point", &d.all);
+    }
 }
 
 #[cfg(test)]
