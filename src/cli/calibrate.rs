@@ -463,25 +463,9 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
         adapt: adapt_settings(&a),
         ..CalibrationSettings::default()
     };
-    // The validation first, while `candidates` are still ours to lend; with --adapt also with
-    // the design values only, which is what the adaptation is to improve on.
-    let validation = if a.validate {
-        Some(leave_one_out(&engine, &rows, &rest, &candidates, &settings).context("--validate")?)
-    } else {
-        None
-    };
-    let validation_design_only = if a.validate && settings.adapt.is_some() {
-        let design_only = CalibrationSettings {
-            adapt: None,
-            ..settings.clone()
-        };
-        Some(
-            leave_one_out(&engine, &rows, &rest, &candidates, &design_only)
-                .context("--validate (design values only)")?,
-        )
-    } else {
-        None
-    };
+    // The validation first, while `candidates` are still ours to lend.
+    let (validation, validation_design_only) =
+        validations(a.validate, &engine, &rows, &rest, &candidates, &settings)?;
     let (report, _calibrated) = calibrate(&engine, &rows, &rest, candidates, &settings)
         .with_context(|| {
             format!(
@@ -533,6 +517,36 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// With `validate`, every point left out in turn ([`leave_one_out`]) with `settings`, and with
+/// an adaptation also with the design values only (what the adaptation is to improve on).
+fn validations(
+    validate: bool,
+    engine: &Engine,
+    rows: &[crate::diagnosis::snapshot::Snapshot],
+    rest: &[crate::calibrate::startup::RestReading],
+    candidates: &[crate::calibrate::candidates::Candidate],
+    settings: &CalibrationSettings,
+) -> anyhow::Result<(Option<Validation>, Option<Validation>)> {
+    if !validate {
+        return Ok((None, None));
+    }
+    let v = leave_one_out(engine, rows, rest, candidates, settings).context("--validate")?;
+    let design_only = match settings.adapt {
+        None => None,
+        Some(_) => {
+            let plain = CalibrationSettings {
+                adapt: None,
+                ..settings.clone()
+            };
+            Some(
+                leave_one_out(engine, rows, rest, candidates, &plain)
+                    .context("--validate (design values only)")?,
+            )
+        }
+    };
+    Ok((Some(v), design_only))
 }
 
 /// The `--validate` table: each point left out, its prediction errors, and the summaries (and
