@@ -973,6 +973,17 @@ fn take_fit(best: &mut Candidate, fit: &MethodResult, models: &mut BTreeMap<Stri
     best.normalised_residual = fit.fit_quality.normalised_residual;
 }
 
+/// The parameter that sizes instrument candidate `effect` against the model's own error:
+/// `scale` of a `sensor_scale:<column>`, `offset` of a `sensor_bias:<column>` (`None` for any
+/// other effect).
+fn instrument_param(effect: &str) -> Option<&'static str> {
+    match effect.split_once(':')?.0 {
+        "sensor_scale" => Some("scale"),
+        "sensor_bias" => Some("offset"),
+        _ => None,
+    }
+}
+
 /// The adapted engine file's own error on the channel of instrument candidate `effect`
 /// (`sensor_scale:<column>`, `sensor_bias:<column>`) over the samples of `rec` Method B
 /// compares, in the candidate parameter's unit: the mean over those samples of the file's
@@ -980,13 +991,8 @@ fn take_fit(best: &mut Candidate, fit: &MethodResult, models: &mut BTreeMap<Stri
 /// `model_error_pct`), as a fraction of the reading for a scale, in the channel's unit for an
 /// offset. `None` for another kind of effect, or a file without a stated error there.
 pub(crate) fn model_error_of(engine: &Engine, rec: &Recording, effect: &str) -> Option<f64> {
-    let (kind, column) = effect.split_once(':')?;
-    let scale = match kind {
-        "sensor_scale" => true,
-        "sensor_bias" => false,
-        _ => return None,
-    };
-    let signal = column.parse::<Signal>().ok()?;
+    let scale = instrument_param(effect)? == "scale";
+    let signal = effect.split_once(':')?.1.parse::<Signal>().ok()?;
     let adaptation = engine.cfg().adaptation.as_ref()?;
     let within = within_calibration(engine, rec);
     let i = signal.index();
@@ -1019,10 +1025,8 @@ impl Candidate {
         let Some(error) = self.model_error else {
             return false;
         };
-        let param = if self.effect.starts_with("sensor_scale:") {
-            "scale"
-        } else {
-            "offset"
+        let Some(param) = instrument_param(&self.effect) else {
+            return false;
         };
         self.params
             .get(&format!("effects.{}.{param}", self.effect))
