@@ -464,7 +464,8 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
         ..CalibrationSettings::default()
     };
     // The validation first, while `candidates` are still ours to lend.
-    let (validation, validation_design_only) =
+    // The calibration's own wall time is reported without the validation's.
+    let (validation, validation_design_only, validation_s) =
         validations(a.validate, &engine, &rows, &rest, &candidates, &settings)?;
     let (report, _calibrated) = calibrate(&engine, &rows, &rest, candidates, &settings)
         .with_context(|| {
@@ -493,7 +494,7 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
     } else {
         eprintln!("no --out given: nothing written");
     }
-    let wall_s = start.elapsed().as_secs_f64();
+    let wall_s = start.elapsed().as_secs_f64() - validation_s;
     if a.json {
         println!(
             "{}",
@@ -507,20 +508,22 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
                 "calibration": report,
                 "validation": validation,
                 "validation_design_only": validation_design_only,
+                "validation_s": validation.as_ref().map(|_| validation_s),
                 "wall_s": wall_s,
             }))?
         );
     } else {
         print_text(&report, wall_s);
         if let Some(v) = &validation {
-            print_validation(v, validation_design_only.as_ref());
+            print_validation(v, validation_design_only.as_ref(), validation_s);
         }
     }
     Ok(ExitCode::SUCCESS)
 }
 
 /// With `validate`, every point left out in turn ([`leave_one_out`]) with `settings`, and with
-/// an adaptation also with the design values only (what the adaptation is to improve on).
+/// an adaptation also with the design values only (what the adaptation is to improve on); the
+/// wall time of both, s.
 fn validations(
     validate: bool,
     engine: &Engine,
@@ -528,10 +531,11 @@ fn validations(
     rest: &[crate::calibrate::startup::RestReading],
     candidates: &[crate::calibrate::candidates::Candidate],
     settings: &CalibrationSettings,
-) -> anyhow::Result<(Option<Validation>, Option<Validation>)> {
+) -> anyhow::Result<(Option<Validation>, Option<Validation>, f64)> {
     if !validate {
-        return Ok((None, None));
+        return Ok((None, None, 0.0));
     }
+    let start = Instant::now();
     let v = leave_one_out(engine, rows, rest, candidates, settings).context("--validate")?;
     let design_only = match settings.adapt {
         None => None,
@@ -546,15 +550,16 @@ fn validations(
             )
         }
     };
-    Ok((Some(v), design_only))
+    Ok((Some(v), design_only, start.elapsed().as_secs_f64()))
 }
 
 /// The `--validate` table: each point left out, its prediction errors, and the summaries (and
 /// those of the design values alone, `design_only`, when the calibration adapted).
-fn print_validation(v: &Validation, design_only: Option<&Validation>) {
+fn print_validation(v: &Validation, design_only: Option<&Validation>, wall_s: f64) {
     println!(
         "\nvalidation: each operating point left out in turn, the calibration run again on the \
-         others and the point predicted ((model − measured)/measured, %; {} model runs)",
+         others and the point predicted ((model − measured)/measured, %; {} model runs; {wall_s:.1} s \
+         in all)",
         v.model_runs
     );
     let signals: Vec<String> = {
