@@ -249,8 +249,9 @@ impl BaselineFit {
             let next = match adapt.map(|a| a.strategy) {
                 None => "if the unit is of another make than the file's maps, add --adapt",
                 Some(s) if s == adapt::AdaptStrategy::Grown.name() => {
-                    "try --adapt-strategy continuation (every informed curve), and check the \
-                     data (units, instrument offsets, steadiness)"
+                    "try --adapt-strategy continuation (every informed curve; --validate \
+                     compares how each predicts the points left out), and check the data \
+                     (units, instrument offsets, steadiness)"
                 }
                 Some(_) => {
                     "the curves of corrected speed cannot follow this unit; check the data \
