@@ -690,13 +690,16 @@ fn calibration_fits_pressure_offsets_from_the_samples_at_rest() {
 #[test]
 fn cli_validate_predicts_each_point_left_out() {
     let root = env!("CARGO_MANIFEST_DIR");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("validated.toml");
     let run = |json: bool| {
         let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_gtwatch"));
         cmd.args(["calibrate", "--engine"])
             .arg(format!("{root}/config/engine.toml"))
             .arg("--input")
             .arg(format!("{root}/examples/baseline_snapshots.csv"))
-            .args(["--adapt", "--validate", "--threads", "2"]);
+            .args(["--adapt", "--validate", "--threads", "2", "--out"])
+            .arg(&out);
         if json {
             cmd.arg("--json");
         }
@@ -751,5 +754,19 @@ fn cli_validate_predicts_each_point_left_out() {
     assert!(
         text.contains("interior points (interpolated): mean |error|"),
         "{text}"
+    );
+    assert!(
+        text.contains("design values only, interior points"),
+        "{text}"
+    );
+    // The written file says how it was validated.
+    let file = std::fs::read_to_string(&out).expect("written");
+    assert!(
+        file.contains("#   validated (--validate: each point left out in turn and predicted)"),
+        "{file}"
+    );
+    assert!(
+        file.contains("#   the design values alone, likewise"),
+        "{file}"
     );
 }

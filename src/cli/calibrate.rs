@@ -475,25 +475,12 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
                 sources(&a).join(", ")
             )
         })?;
-    if let Some(out) = &a.out {
-        let from_dir = a.engine.parent().unwrap_or_else(|| Path::new(""));
-        let to_dir = out.parent().unwrap_or_else(|| Path::new(""));
-        let mut values = fitted_values(&report);
-        values.extend(moved_map_paths(&original, &a.engine, from_dir, to_dir)?);
-        let text = rewrite(
-            &original,
-            &a.engine.display().to_string(),
-            &values,
-            &header(&a, &report, rows.len()),
-        )?;
-        std::fs::write(out, &text).with_context(|| format!("writing {}", out.display()))?;
-        // The written file must load, maps included.
-        let check = EngineConfig::load(out)?;
-        Engine::new(check).with_context(|| format!("checking the written {}", out.display()))?;
-        eprintln!("wrote {}", out.display());
-    } else {
-        eprintln!("no --out given: nothing written");
-    }
+    let head = with_validation(
+        header(&a, &report, rows.len()),
+        validation.as_ref(),
+        validation_design_only.as_ref(),
+    );
+    write_out(&a, &original, &report, &head)?;
     let wall_s = start.elapsed().as_secs_f64() - validation_s;
     if a.json {
         println!(
@@ -551,6 +538,65 @@ fn validations(
         }
     };
     Ok((Some(v), design_only, start.elapsed().as_secs_f64()))
+}
+
+/// Writes the calibrated engine file to `--out` (the file's text `original` with the fitted
+/// values and the header lines `head`) and checks it loads, maps included; says so when there
+/// is no `--out`.
+fn write_out(
+    a: &CalibrateArgs,
+    original: &str,
+    report: &Calibration,
+    head: &[String],
+) -> anyhow::Result<()> {
+    let Some(out) = &a.out else {
+        eprintln!("no --out given: nothing written");
+        return Ok(());
+    };
+    let from_dir = a.engine.parent().unwrap_or_else(|| Path::new(""));
+    let to_dir = out.parent().unwrap_or_else(|| Path::new(""));
+    let mut values = fitted_values(report);
+    values.extend(moved_map_paths(original, &a.engine, from_dir, to_dir)?);
+    let text = rewrite(original, &a.engine.display().to_string(), &values, head)?;
+    std::fs::write(out, &text).with_context(|| format!("writing {}", out.display()))?;
+    // The written file must load, maps included.
+    let check = EngineConfig::load(out)?;
+    Engine::new(check).with_context(|| format!("checking the written {}", out.display()))?;
+    eprintln!("wrote {}", out.display());
+    Ok(())
+}
+
+/// `header` with the `--validate` summaries, when run: the file then says how well it predicted
+/// the points left out of its own calibration.
+fn with_validation(
+    mut header: Vec<String>,
+    v: Option<&Validation>,
+    design_only: Option<&Validation>,
+) -> Vec<String> {
+    let Some(v) = v else {
+        return header;
+    };
+    let said = |s: &Option<Summary>| {
+        s.map_or("none predicted".to_string(), |s| {
+            format!(
+                "mean |error| {:.3} %, worst {:.3} % ({} point(s))",
+                s.mean_pct, s.worst_pct, s.points
+            )
+        })
+    };
+    header.push(format!(
+        "  validated (--validate: each point left out in turn and predicted): interior points {}; \
+         every point {}",
+        said(&v.interior),
+        said(&v.all)
+    ));
+    if let Some(d) = design_only {
+        header.push(format!(
+            "  the design values alone, likewise: interior points {}",
+            said(&d.interior)
+        ));
+    }
+    header
 }
 
 /// The `--validate` table: each point left out, its prediction errors, and the summaries (and
