@@ -784,6 +784,92 @@ fn second_unit(strategy: AdaptStrategy) {
     assert_eq!(good, levels, "{good} of {levels} fits good");
 }
 
+/// A user writes the design point from the full-load row into the copied engine file to a few
+/// digits, not to the last: the calibration must not hang on them. Each written form of the
+/// first unit's design pressure ratio, power and GG speed (the file as a user edits it, loaded
+/// as `gtwatch calibrate` loads it) is calibrated with the grown adaptation, and each must
+/// reproduce the healthy baseline (`good`) and state the adapted model's own error (at least
+/// three interior loads left out). Before the growth's second look, four decimals (20.9291,
+/// 24.9893 MW, 9 831.37 rpm) stopped the compressor and the HP turbine at one knot (5.16 σ,
+/// `poor`), where the full digits grew five (0.62 σ); and before the model error was estimated
+/// with the design values held, two decimals (20.93, 24.99 MW, 9 831.4 rpm) grew the
+/// compressor to six knots and left every fold out, so the file stated no model error at all.
+#[test]
+fn a_design_point_written_to_a_few_digits_calibrates_alike() {
+    let (_, rows, model) = first_unit();
+    let exact = model.cfg().design.clone();
+    let md22 = std::fs::read_to_string(root().join("config/engine_md22.toml")).expect("md22");
+    let maps = root().join("config/maps");
+    let dir = tempfile::tempdir().expect("dir");
+    // Decimals of the pressure ratio and the power, and of the GG speed.
+    for (digits, speed_digits) in [(4, 2), (2, 1)] {
+        let fmt = |v: f64, d: usize| format!("{v:.d$}");
+        let mut in_load = false;
+        let mut text = String::new();
+        for line in md22.lines() {
+            if line.starts_with('[') {
+                // A propeller on a combinator: the PT speed is measured, no load law.
+                in_load = line.starts_with("[load]");
+            }
+            if in_load {
+                continue;
+            }
+            let key = line.split('=').next().unwrap_or("").trim();
+            let written = match key {
+                _ if line.starts_with('#') => None,
+                "pressure_ratio" => Some(fmt(exact.pressure_ratio, digits)),
+                "power_mw" => Some(fmt(exact.power_mw, digits)),
+                "gg_speed_rpm" => Some(fmt(exact.gg_speed_rpm, speed_digits)),
+                "pt_speed_rpm" => Some(fmt(exact.pt_speed_rpm, 0)),
+                "exhaust_flow_kg_s" => Some(fmt(exact.exhaust_flow_kg_s, 1)),
+                _ => None,
+            };
+            text += &match written {
+                Some(v) => format!("{key} = {v}\n"),
+                None => format!(
+                    "{}\n",
+                    line.replace("\"maps/", &format!("\"{}/", maps.display()))
+                ),
+            };
+        }
+        let path = dir.path().join(format!("engine_{digits}.toml"));
+        std::fs::write(&path, &text).expect("write");
+        let written = Engine::new(EngineConfig::load(&path).expect("the written file loads"))
+            .expect("builds");
+        assert!(written.cfg().load.is_none());
+        let cands = default_candidates(&written).expect("candidates");
+        let (report, _) = calibrate(
+            &written,
+            &rows,
+            &[],
+            cands,
+            &settings(Some(AdaptStrategy::Grown)),
+        )
+        .expect("calibrate");
+        let a = report.adaptation.as_ref().expect("adapted");
+        eprintln!(
+            "{digits} decimals (PR {}): RMS {:.2} σ, {:?}, knots {:?}; model error from {} folds: {}",
+            fmt(exact.pressure_ratio, digits),
+            report.rms_after,
+            report.baseline_fit.verdict,
+            a.components.iter().map(|c| c.knots.len()).collect::<Vec<_>>(),
+            a.model_error.folds,
+            a.model_error.note
+        );
+        assert_eq!(
+            format!("{:?}", report.baseline_fit.verdict),
+            "Good",
+            "{digits} decimals: {}",
+            report.baseline_fit.summary
+        );
+        assert!(
+            a.model_error.folds >= 3,
+            "{digits} decimals: {}",
+            a.model_error.note
+        );
+    }
+}
+
 /// The unit with fixed inlet vanes, its 9 healthy rows, and the user's md22 copy calibrated
 /// to them with the grown adaptation of at most `max_knots` knots per component: the
 /// calibration and the adapted engine.

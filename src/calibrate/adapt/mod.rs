@@ -30,6 +30,10 @@
 //!    is tried again at the next step and, when none grows, alone, before it stops (the others'
 //!    new knots can be what takes its information: on a foreign unit's lowest load left out,
 //!    the compressor stopped at 1 knot beside the HP turbine's second, at 2.3 σ against 0.6 σ).
+//!    When nothing grows any more and the fit is still not within noise, a component the
+//!    analysis stopped gets a second look: its knot more fitted, and judged by the analysis at
+//!    the fitted values rather than at the re-sampled start, where a fit many σ off the data
+//!    gave a verdict that flipped with the design values' last digits.
 //! 3. **Fit.** Bounded Levenberg–Marquardt over the identified design values and every knot,
 //!    with a smoothness penalty (each curve's second divided difference over
 //!    [`AdaptSettings::curvature_scale`] is one residual), so a knot the data barely pin cannot
