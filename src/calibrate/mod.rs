@@ -246,8 +246,15 @@ impl BaselineFit {
                 .map_or(String::new(), |s| {
                     format!(" (worst: {} at {:.1} σ RMS)", s.signal, s.rms_after)
                 });
+            let tried_both = adapt.is_some_and(|a| a.fallback.is_some());
             let next = match adapt.map(|a| a.strategy) {
                 None => "if the unit is of another make than the file's maps, add --adapt",
+                Some(s) if s == adapt::AdaptStrategy::Grown.name() && tried_both => {
+                    "the --adapt-strategy continuation, tried in its place, did no better; with \
+                     --adapt-max-knots below the default, raise it; else the curves of corrected \
+                     speed cannot follow this unit: check the data (units, instrument offsets, \
+                     steadiness) and the file's maps"
+                }
                 Some(s) if s == adapt::AdaptStrategy::Grown.name() => {
                     "try --adapt-strategy continuation (every informed curve; --validate \
                      compares how each predicts the points left out), and check the data \

@@ -219,6 +219,9 @@ fn print_text(report: &Calibration, wall_s: f64) {
              speed): RMS {:.2} σ → {:.2} σ",
             ad.strategy, ad.rms_before, ad.rms_after
         );
+        if let Some(f) = &ad.fallback {
+            println!("  {f}");
+        }
         for c in &ad.components {
             let knots: Vec<String> = c.knots.iter().map(|k| format!("{k:.3}")).collect();
             println!(

@@ -61,12 +61,13 @@ use super::identify::{identify, MAX_SIGMA_FRACTION};
 use super::problem::{CalibrationPoint, CalibrationProblem, SmoothnessRow};
 use super::startup::RestReading;
 use super::CalibrateError;
+use crate::diagnosis::fit_quality::Thresholds;
 use crate::engine::config::{CalibratedRange, COMPONENTS};
 use crate::engine::cycle::corrected_speed;
 use crate::engine::Engine;
 use crate::health::HealthParams;
 use crate::optim::lm::jacobian_unit;
-use crate::optim::{refine, JacobianOptions, LmOptions, Problem, RefineResult};
+use crate::optim::{refine, JacobianOptions, LmOptions, Problem, RefineResult, RefineStop};
 use crate::signals::Signal;
 use growth::Growth;
 use knots::{distinct_speeds, has_reach, knot_limit};
@@ -210,6 +211,10 @@ pub struct AdaptReport {
     pub model_runs: usize,
     /// The strategy that chose and fitted the curves (`grown`, `continuation`).
     pub strategy: &'static str,
+    /// When the grown shape could not reproduce the baseline (`poor`) and the continuation
+    /// was tried in its place: what each reached and which is kept.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fallback: Option<String>,
     /// The adapted model's own error per signal on points left out (written as
     /// `[adaptation.model_error_pct]`).
     pub model_error: ModelError,
@@ -346,7 +351,7 @@ fn fit(
     cands: Vec<Candidate>,
     shape: &Shape,
     ctx: Ctx,
-) -> Result<(Engine, usize, String), CalibrateError> {
+) -> Result<Fitted, CalibrateError> {
     fit_within(
         engine,
         cands,
@@ -391,7 +396,7 @@ fn fit_within(
     ctx: Ctx,
     iterations: usize,
     starts: Starts,
-) -> Result<(Engine, usize, String), CalibrateError> {
+) -> Result<Fitted, CalibrateError> {
     let keys: Vec<String> = cands.iter().map(|c| c.key.clone()).collect();
     let rows = penalty_rows(shape, &keys, ctx.settings);
     let prob = CalibrationProblem::new(engine, ctx.points.to_vec(), ctx.rest.to_vec(), cands)?
@@ -450,7 +455,21 @@ fn fit_within(
         out.stop,
         (out.ssr / prob.layout().len().max(1) as f64).sqrt()
     );
-    Ok((prob.engine_at(&out.x)?, prob.runs() + runs_on_speed, step))
+    Ok(Fitted {
+        engine: prob.engine_at(&out.x)?,
+        runs: prob.runs() + runs_on_speed,
+        step,
+        at_limit: out.stop == RefineStop::MaxIterations,
+    })
+}
+
+/// A fit's result: the engine at its optimum, the model runs it took, its line for the report's
+/// steps, and whether it stopped on its iteration limit (short of the optimum).
+struct Fitted {
+    engine: Engine,
+    runs: usize,
+    step: String,
+    at_limit: bool,
 }
 
 fn rms_of(engine: &Engine, ctx: Ctx) -> Result<f64, CalibrateError> {
@@ -466,6 +485,55 @@ fn rms_of(engine: &Engine, ctx: Ctx) -> Result<f64, CalibrateError> {
 /// keeping the curves the data identify, and its fit; the knots grown while every knot stays
 /// identified; the σ of the final knots and the report.
 pub fn adapt(
+    engine: &Engine,
+    design_keys: &[String],
+    ctx: Ctx,
+) -> Result<(AdaptReport, Engine), CalibrateError> {
+    let (mut grown, adapted) = adapt_as(engine, design_keys, ctx)?;
+    let poor = |r: &AdaptReport| r.rms_after.powi(2) > Thresholds::default().poor_level;
+    if ctx.settings.strategy != AdaptStrategy::Grown || !poor(&grown) {
+        return Ok((grown, adapted));
+    }
+    // The grown shape is decided one knot at a time, and a fit many σ off the data can stop it
+    // early (on the first foreign unit of `tests/foreign_engine.rs`, a design GG speed written
+    // 9 800 rpm instead of 9 831 ended it at 1.77 σ where 9 831 reached 0.61 σ); the
+    // continuation places every knot at once and has no such path. A baseline the grown shape
+    // cannot reproduce is no diagnosis's basis, so the continuation is tried in its place and
+    // kept when it reproduces the baseline (not `poor`) better.
+    let settings = AdaptSettings {
+        strategy: AdaptStrategy::Continuation,
+        ..ctx.settings.clone()
+    };
+    let (mut continued, other) = adapt_as(
+        engine,
+        design_keys,
+        Ctx {
+            settings: &settings,
+            ..ctx
+        },
+    )?;
+    let runs = grown.model_runs + continued.model_runs;
+    if !poor(&continued) && continued.rms_after < grown.rms_after {
+        continued.fallback = Some(format!(
+            "the grown shape ended at {:.2} σ RMS (poor: the baseline not reproduced); the \
+             continuation's, at {:.2} σ, is kept",
+            grown.rms_after, continued.rms_after
+        ));
+        continued.model_runs = runs;
+        Ok((continued, other))
+    } else {
+        grown.fallback = Some(format!(
+            "the grown shape ended at {:.2} σ RMS (poor); the continuation, tried in its place, \
+             at {:.2} σ, is not kept",
+            grown.rms_after, continued.rms_after
+        ));
+        grown.model_runs = runs;
+        Ok((grown, adapted))
+    }
+}
+
+/// [`adapt`] with the context's strategy alone.
+fn adapt_as(
     engine: &Engine,
     design_keys: &[String],
     ctx: Ctx,
@@ -580,6 +648,7 @@ fn report(
         steps: Vec::new(),
         model_runs: 0,
         strategy: "",
+        fallback: None,
         model_error: ModelError::default(),
         calibrated: None,
     }
