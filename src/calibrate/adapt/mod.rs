@@ -45,7 +45,11 @@
 //! curve the data inform (correlated ones too), puts every knot the speeds carry at once, and
 //! fits them through a sequence of smoothness scales from nearly straight curves to the final
 //! one, with a weak prior towards the map: the better prediction of the healthy unit between
-//! its loads, the weaker separation of degradation (see the variant's doc).
+//! its loads, the weaker separation of degradation (see the variant's doc). A grown shape that
+//! ends `poor` has the continuation tried in its place ([`adapt`]); one that ends `suspect`
+//! keeps its shape (tried on GSPy's generator unit: the continuation fitted that baseline
+//! within noise, 0.66 against 1.51 σ, but its healthy start-up came out `suspect` and its
+//! degradation grid ranked D_GT at 0.934, below the test's floor).
 //!
 //! What it must not do: I/O; fit health (a baseline is healthy by definition).
 
