@@ -171,6 +171,16 @@ fn header(a: &CalibrateArgs, report: &Calibration, n_rows: usize) -> Vec<String>
         "  RMS residual {:.2} σ before, {:.2} σ after",
         report.rms_before, report.rms_after
     ));
+    if let Some(ad) = &report.adaptation {
+        // Which shape the file holds: the grown one, or the continuation kept in its place.
+        h.push(format!(
+            "  adaptation: {} curves{}",
+            ad.strategy,
+            ad.fallback
+                .as_ref()
+                .map_or(String::new(), |f| format!(" ({f})"))
+        ));
+    }
     h.push(format!(
         "  baseline fit: {} ({})",
         report.baseline_fit.verdict.as_str(),
