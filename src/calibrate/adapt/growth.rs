@@ -375,15 +375,21 @@ impl<'a> Growth<'a> {
                 ),
             ));
         }
+        self.adopt(fitted, next, &keys, &pass);
+        Ok(true)
+    }
+
+    /// Takes `fitted` (the fit of `shape`) as the adaptation so far, with the σ of `keys` from
+    /// the identifiability `pass` that accepted it.
+    fn adopt(&mut self, fitted: Engine, shape: Shape, keys: &[String], pass: &Pass) {
         self.current = fitted;
-        self.shape = next;
+        self.shape = shape;
         self.shape.read_back(&self.current);
         self.last_sigma = keys
             .iter()
             .cloned()
             .zip(pass.sigma.iter().copied())
             .collect();
-        Ok(true)
     }
 
     /// When nothing grows any more and the fit is not within noise: the components the
@@ -474,14 +480,7 @@ impl<'a> Growth<'a> {
             }
             self.level = levels;
             self.design_free.retain(|k| identified(k));
-            self.current = fitted;
-            self.shape = trial;
-            self.shape.read_back(&self.current);
-            self.last_sigma = keys
-                .iter()
-                .cloned()
-                .zip(pass.sigma.iter().copied())
-                .collect();
+            self.adopt(fitted, trial, &keys, &pass);
             return Ok(true);
         }
         for ci in stalled {
