@@ -82,6 +82,11 @@ pub struct LeftOutPoint {
     /// model cannot solve it).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub failed: Option<String>,
+    /// The adaptation shape the calibration without the point kept (`grown`, or
+    /// `continuation`, also when tried in place of a `poor` grown shape); `None` without an
+    /// adaptation.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shape: Option<&'static str>,
 }
 
 /// Mean and worst over a set of predicted points.
@@ -201,12 +206,14 @@ pub fn left_out(
         worst_abs_pct: f64::NAN,
         worst_signal: String::new(),
         failed: None,
+        shape: None,
     };
     let mut runs = 0;
     match calibrate(engine, &others, rest, candidates.to_vec(), settings) {
         Err(e) => point.failed = Some(format!("the calibration without it failed: {e}")),
         Ok((report, fitted)) => {
             runs = report.model_runs;
+            point.shape = report.adaptation.as_ref().map(|a| a.strategy);
             match prediction_errors_pct(&fitted, row) {
                 None => {
                     point.failed = Some("the model calibrated without it cannot solve it".into())
@@ -298,6 +305,7 @@ mod tests {
             worst_abs_pct: worst,
             worst_signal: String::new(),
             failed: failed.then(|| "x".to_string()),
+            shape: None,
         };
         let pts = [mk(0.2, 0.5, false), mk(0.4, 0.9, false), mk(9.0, 9.0, true)];
         let s = Summary::of(pts.iter()).unwrap();
@@ -320,6 +328,7 @@ mod tests {
             worst_abs_pct: f64::NAN,
             worst_signal: String::new(),
             failed: None,
+            shape: None,
         };
         fill(
             &mut p,

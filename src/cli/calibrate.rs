@@ -679,6 +679,29 @@ fn print_validation(v: &Validation, design_only: Option<&Validation>, wall_s: f6
         ),
         None => println!("  {label}: no point predicted"),
     };
+    // A fold's calibration may keep another shape than the whole one's (the continuation in
+    // place of a `poor` grown shape): the table then compares two models, and says so.
+    let mut shapes: Vec<&str> = v.points.iter().filter_map(|p| p.shape).collect();
+    shapes.sort_unstable();
+    shapes.dedup();
+    if shapes.len() > 1 {
+        let which: Vec<String> = shapes
+            .iter()
+            .map(|shape| {
+                let lines: Vec<String> = v
+                    .points
+                    .iter()
+                    .filter(|p| p.shape == Some(*shape))
+                    .map(|p| p.line.to_string())
+                    .collect();
+                format!("{shape} (left out: line {})", lines.join(", "))
+            })
+            .collect();
+        println!(
+            "  the folds' calibrations kept different adaptation shapes: {}",
+            which.join("; ")
+        );
+    }
     line("interior points (interpolated)", &v.interior);
     line("every point (extrapolations included)", &v.all);
     if let Some(d) = design_only {
