@@ -10,11 +10,10 @@ use super::knots::{knots, SIDE_REACH};
 use super::model_error::{self, ModelError};
 use super::shape::{key, Shape};
 use super::{
-    candidates_for, fit, fit_within, identify_at, report, rms_of, shaped, AdaptReport,
-    AdaptSettings, AdaptStrategy, Ctx, Fitted, Pass, SpeedRanges, Starts, ADAPT_MIN_ITERATIONS,
-    CONTINUATION_SCALES, CONTINUATION_STAGE_ITERATIONS, MIN_GAIN,
+    candidates_for, fit, fit_within, identify_at, report, rms_of, shaped, within_noise,
+    AdaptReport, AdaptSettings, AdaptStrategy, Ctx, Fitted, Pass, SpeedRanges, Starts,
+    ADAPT_MIN_ITERATIONS, CONTINUATION_SCALES, CONTINUATION_STAGE_ITERATIONS, MIN_GAIN,
 };
-use crate::diagnosis::fit_quality::Thresholds;
 use crate::engine::config::{curves_of, CalibratedRange, COMPONENTS};
 use crate::engine::Engine;
 
@@ -131,11 +130,7 @@ impl<'a> Growth<'a> {
         }
         let design_free: Vec<String> = design_keys
             .iter()
-            .filter(|k| {
-                keys.iter()
-                    .position(|x| x == *k)
-                    .is_some_and(|j| pass.identified[j])
-            })
+            .filter(|k| pass.identifies(&keys, k))
             .cloned()
             .collect();
         let current = shaped(&base, &shape)?;
@@ -295,11 +290,7 @@ impl<'a> Growth<'a> {
             return self.second_look();
         };
         let dropped = self.dropped_curves(&next);
-        self.design_free.retain(|k| {
-            keys.iter()
-                .position(|x| x == k)
-                .is_some_and(|j| pass.identified[j])
-        });
+        self.design_free.retain(|k| pass.identifies(&keys, k));
         let start = shaped(&self.current, &next)?;
         let mut all: Vec<String> = self.design_free.clone();
         all.extend(next.keys());
@@ -324,7 +315,7 @@ impl<'a> Growth<'a> {
         while rms_new > rms_old * (1.0 - MIN_GAIN)
             && at_limit
             && extensions < MAX_EXTENSIONS
-            && rms_old.powi(2) > Thresholds::default().good_level
+            && !within_noise(rms_old)
         {
             extensions += 1;
             let more = fit_within(
@@ -414,7 +405,7 @@ impl<'a> Growth<'a> {
             return Ok(false);
         }
         let rms_old = rms_of(&self.current, self.ctx)?;
-        if rms_old.powi(2) <= Thresholds::default().good_level {
+        if within_noise(rms_old) {
             return Ok(false);
         }
         let mut groups = vec![stalled.clone()];
@@ -449,14 +440,10 @@ impl<'a> Growth<'a> {
             }
             let pass = identify_at(&fitted, &candidates_for(&fitted, &keys)?, self.ctx)?;
             self.runs += pass.runs;
-            let identified = |k: &String| {
-                keys.iter()
-                    .position(|x| x == k)
-                    .is_some_and(|j| pass.identified[j])
-            };
             let all_identified = group.iter().all(|&ci| {
                 trial.curves[ci].iter().all(|(curve, values)| {
-                    (0..values.len()).all(|i| identified(&key(COMPONENTS[ci], curve, i)))
+                    (0..values.len())
+                        .all(|i| pass.identifies(&keys, &key(COMPONENTS[ci], curve, i)))
                 })
             });
             if !all_identified {
@@ -479,7 +466,7 @@ impl<'a> Growth<'a> {
                 }
             }
             self.level = levels;
-            self.design_free.retain(|k| identified(k));
+            self.design_free.retain(|k| pass.identifies(&keys, k));
             self.adopt(fitted, trial, &keys, &pass);
             return Ok(true);
         }
@@ -559,11 +546,7 @@ impl<'a> Growth<'a> {
         let mut accepted = false;
         let mut failed: Vec<(usize, Vec<String>, Vec<String>)> = Vec::new();
         let mut next = base.clone();
-        let unidentified = |k: &String| {
-            keys.iter()
-                .position(|x| x == k)
-                .is_none_or(|j| !pass.identified[j])
-        };
+        let unidentified = |k: &String| !pass.identifies(keys, k);
         for &ci in growing {
             let name = COMPONENTS[ci];
             let mut bad: Vec<String> = Vec::new();

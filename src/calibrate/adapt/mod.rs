@@ -295,6 +295,21 @@ struct Pass {
     runs: usize,
 }
 
+impl Pass {
+    /// Whether the pass over `keys` (its candidates, in order) identifies `key`.
+    fn identifies(&self, keys: &[String], key: &str) -> bool {
+        keys.iter()
+            .position(|x| x == key)
+            .is_some_and(|j| self.identified[j])
+    }
+}
+
+/// Whether a fit at data RMS `rms` (noise σ) reproduces its data within noise (the baseline
+/// verdict's `good` level), where more shape is not needed.
+fn within_noise(rms: f64) -> bool {
+    rms.powi(2) <= Thresholds::default().good_level
+}
+
 fn identify_at(engine: &Engine, cands: &[Candidate], ctx: Ctx) -> Result<Pass, CalibrateError> {
     let prob = CalibrationProblem::new(
         engine,
