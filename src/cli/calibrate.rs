@@ -249,9 +249,11 @@ fn print_text(report: &Calibration, wall_s: f64) {
                     k.curve,
                     v.join(", "),
                     if k.at_bound {
-                        "  AT BOUND: the data want more than the interval allows"
+                        "  AT BOUND: the data want more than the interval allows".to_string()
+                    } else if let Some(why) = &k.held {
+                        format!("  ({why})")
                     } else {
-                        ""
+                        String::new()
                     }
                 );
             }

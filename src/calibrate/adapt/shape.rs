@@ -19,6 +19,11 @@ pub(super) struct Shape {
     pub(super) knots: [Vec<f64>; 3],
     /// Per component: active curves and their values at the knots.
     pub(super) curves: [Vec<(String, Vec<f64>)>; 3],
+    /// Per component: curves held at the shape they were fitted to at fewer knots (values at
+    /// the component's knots, re-sampled as they move), in the file but not fitted: a curve
+    /// the data no longer resolve beside the others at more knots keeps what it took, rather
+    /// than its correction being thrown away.
+    pub(super) held: [Vec<(String, Vec<f64>)>; 3],
 }
 
 impl Shape {
@@ -26,14 +31,15 @@ impl Shape {
         let mut a = AdaptationConfig::default();
         let mut any = false;
         for (ci, name) in COMPONENTS.iter().enumerate() {
-            if self.knots[ci].is_empty() || self.curves[ci].is_empty() {
+            if self.knots[ci].is_empty() || (self.curves[ci].is_empty() && self.held[ci].is_empty())
+            {
                 continue;
             }
             let mut c = ComponentCurves {
                 speed_knots: self.knots[ci].clone(),
                 ..Default::default()
             };
-            for (curve, values) in &self.curves[ci] {
+            for (curve, values) in self.curves[ci].iter().chain(&self.held[ci]) {
                 if let Some(slot) = c.curve_mut(curve) {
                     *slot = values.clone();
                 }
@@ -62,10 +68,10 @@ impl Shape {
         out
     }
 
-    /// Component `ci` moved to `new_knots`, each active curve re-sampled there.
+    /// Component `ci` moved to `new_knots`, each active and held curve re-sampled there.
     pub(super) fn resampled(&self, ci: usize, new_knots: Vec<f64>) -> Shape {
         let mut s = self.clone();
-        for (_, values) in &mut s.curves[ci] {
+        for (_, values) in s.curves[ci].iter_mut().chain(s.held[ci].iter_mut()) {
             let old = SpeedCurve::new(&self.knots[ci], values);
             *values = new_knots
                 .iter()
@@ -73,6 +79,17 @@ impl Shape {
                 .collect();
         }
         s.knots[ci] = new_knots;
+        s
+    }
+
+    /// Component `ci`'s curves `names` moved from the fitted to the held ones.
+    pub(super) fn with_held(&self, ci: usize, names: &[String]) -> Shape {
+        let mut s = self.clone();
+        let (held, kept): (Vec<_>, Vec<_>) = std::mem::take(&mut s.curves[ci])
+            .into_iter()
+            .partition(|(curve, _)| names.contains(curve));
+        s.curves[ci] = kept;
+        s.held[ci].extend(held);
         s
     }
 
@@ -144,6 +161,51 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_held_curve_stays_in_the_file_but_not_in_the_fit() {
+        let shape = Shape {
+            knots: [vec![0.75, 0.875], vec![], vec![]],
+            curves: [
+                vec![
+                    ("speed".to_string(), vec![0.15, 0.07]),
+                    ("flow".to_string(), vec![0.10, 0.03]),
+                ],
+                vec![],
+                vec![],
+            ],
+            held: Default::default(),
+        };
+        let held = shape.with_held(0, &["flow".to_string()]);
+        assert_eq!(
+            held.keys(),
+            vec![
+                "adaptation.compressor.speed[0]",
+                "adaptation.compressor.speed[1]"
+            ]
+        );
+        assert!(held.smoothness(&held.keys(), 1.0).len() == 1);
+        let a = held.config().expect("adapted");
+        let c = a.compressor.as_ref().expect("compressor");
+        assert_eq!(c.flow, vec![0.10, 0.03]);
+        assert_eq!(c.speed, vec![0.15, 0.07]);
+        // Grown to three knots, the held curve is re-sampled with the others: its file values
+        // follow the knots, and it still has no key.
+        let grown = held.resampled(0, vec![0.75, 0.8333, 0.9167]);
+        assert_eq!(grown.keys().len(), 3);
+        let c = grown
+            .config()
+            .expect("adapted")
+            .compressor
+            .expect("compressor");
+        assert_eq!(c.flow.len(), 3);
+        assert!((c.flow[0] - 0.10).abs() < 1e-12, "{:?}", c.flow);
+        assert!(c.flow[1] < 0.10 && c.flow[2] > 0.0, "{:?}", c.flow);
+        // A component with only held curves is still written.
+        let only = held.with_held(0, &["speed".to_string()]);
+        assert!(only.keys().is_empty());
+        assert!(only.config().is_some_and(|a| a.compressor.is_some()));
+    }
+
+    #[test]
     fn smoothness_takes_the_anchor_in_its_place_among_knots_on_both_sides() {
         // Knots 0.8, 0.9 below the design speed and 1.1 above: the second differences run over
         // 0.8, 0.9, (1.0, 0), 1.1.
@@ -154,6 +216,7 @@ mod tests {
                 vec![],
                 vec![("flow".to_string(), vec![0.01, 0.02, 0.03])],
             ],
+            held: Default::default(),
         };
         let keys = shape.keys();
         assert_eq!(keys.len(), 3);
@@ -179,6 +242,7 @@ mod tests {
                 vec![],
                 vec![],
             ],
+            held: Default::default(),
         };
         let rows = below.smoothness(&below.keys(), 1.0);
         assert_eq!(rows.len(), 1);
