@@ -22,6 +22,17 @@ use crate::engine::Engine;
 /// goes on before the knots are judged (each as many iterations again).
 const MAX_EXTENSIONS: usize = 2;
 
+/// What a second look found ([`Growth::look`]).
+enum Look {
+    /// The fit did not gain.
+    NoGain,
+    /// It gained, but these curves of the components that grew are not identified at the
+    /// fitted values.
+    Unidentified(Vec<(usize, String)>),
+    /// Kept: the fitted engine, its keys and the identifiability pass at the fitted values.
+    Kept(Engine, Vec<String>, Pass),
+}
+
 /// What one growth trial decided ([`Growth::accepted`]).
 struct Decision {
     /// The grown shape (`None` when no component grew).
@@ -58,9 +69,11 @@ pub(super) struct Growth<'a> {
     frozen: [bool; 3],
     /// σ of the keys at the last accepted growth's identifiability pass.
     last_sigma: Vec<(String, Option<f64>)>,
-    /// Components the identifiability analysis stopped at a growth's start, whose second look
-    /// ([`Self::second_look`]) is still to come.
-    stalled: Vec<usize>,
+    /// Components stopped while the fit is not within noise, whose second look
+    /// ([`Self::second_look`]) is still to come, each with the knots it is to look at more:
+    /// one where the identifiability analysis stopped it at a growth's start, two where its
+    /// next knot was fitted and no better.
+    stalled: Vec<(usize, usize)>,
 }
 
 impl<'a> Growth<'a> {
@@ -380,6 +393,9 @@ impl<'a> Growth<'a> {
         if rms_new > rms_old * (1.0 - MIN_GAIN) {
             for (ci, frozen) in self.frozen.iter_mut().enumerate() {
                 if self.level[ci] != level_before[ci] {
+                    if !within_noise(rms_old) {
+                        self.stalled.push((ci, 2));
+                    }
                     *frozen = true;
                     self.knots_reason[ci] = format!(
                         "{} knot(s): at {} the fit was no better (data RMS {rms_old:.3} → \
@@ -453,10 +469,15 @@ impl<'a> Growth<'a> {
     /// knot (data RMS 5.16 σ, `poor`) where the exact value grew them to five (0.62 σ, `good`).
     /// A fit within noise needs no more shape, so the second look costs nothing there.
     fn second_look(&mut self) -> Result<bool, CalibrateError> {
-        let stalled: Vec<usize> = std::mem::take(&mut self.stalled)
-            .into_iter()
-            .filter(|&ci| self.frozen[ci] && self.level[ci] < self.max_level[ci])
-            .collect();
+        let mut stalled: Vec<(usize, usize)> = Vec::new();
+        for (ci, more) in std::mem::take(&mut self.stalled) {
+            if self.frozen[ci]
+                && self.level[ci] + more <= self.max_level[ci]
+                && !stalled.iter().any(|(c, _)| *c == ci)
+            {
+                stalled.push((ci, more));
+            }
+        }
         if stalled.is_empty() {
             return Ok(false);
         }
@@ -466,57 +487,57 @@ impl<'a> Growth<'a> {
         }
         let mut groups = vec![stalled.clone()];
         if stalled.len() > 1 {
-            groups.extend(stalled.iter().map(|&ci| vec![ci]));
+            groups.extend(stalled.iter().map(|&look| vec![look]));
         }
-        for group in groups {
-            let mut trial = self.shape.clone();
-            for &ci in &group {
-                trial = trial.resampled(ci, knots(self.ranges[ci], self.level[ci] + 1));
-            }
-            let start = shaped(&self.current, &trial)?;
-            let mut keys: Vec<String> = self.design_free.clone();
-            keys.extend(trial.keys());
-            let Fitted {
-                engine: fitted,
-                runs: n,
-                step,
-                ..
-            } = fit(&start, candidates_for(&start, &keys)?, &trial, self.ctx)?;
-            self.runs += n;
-            let levels: Vec<usize> = (0..3)
-                .map(|ci| self.level[ci] + usize::from(group.contains(&ci)))
+        for looks in groups {
+            let more = |ci: usize| looks.iter().find(|(c, _)| *c == ci).map_or(0, |(_, m)| *m);
+            let levels: Vec<usize> = (0..3).map(|ci| self.level[ci] + more(ci)).collect();
+            let new_knots: Vec<(usize, Vec<f64>)> = looks
+                .iter()
+                .map(|&(ci, m)| (ci, knots(self.ranges[ci], self.level[ci] + m)))
                 .collect();
-            let rms_new = rms_of(&fitted, self.ctx)?;
-            if rms_new > rms_old * (1.0 - MIN_GAIN) {
-                self.steps.push(format!(
-                    "knots {levels:?} (second look, the fit not within noise): {step}; data RMS \
-                     {rms_old:.3} → {rms_new:.3} σ, not kept"
-                ));
-                continue;
+            let grown = |base: &Shape| {
+                new_knots
+                    .iter()
+                    .fold(base.clone(), |t, (ci, k)| t.resampled(*ci, k.clone()))
+            };
+            let mut trial = grown(&self.shape);
+            let mut look = self.look(&trial, &levels, rms_old)?;
+            // One component whose new knots leave some of its curves unidentified at the fitted
+            // values: those held at their fit, as in a growth (on GSPy's generator unit with its
+            // design GG speed written 9 831 rpm, the compressor's flow at 4 knots).
+            let retry = match (&look, looks.as_slice()) {
+                (Look::Unidentified(bad), [(ci, _)])
+                    if !bad.is_empty() && bad.len() < trial.curves[*ci].len() =>
+                {
+                    Some((*ci, bad.iter().map(|(_, c)| c.clone()).collect::<Vec<_>>()))
+                }
+                _ => None,
+            };
+            if let Some((ci, bad)) = retry {
+                {
+                    let held = self.shape.with_held(ci, &bad);
+                    trial = grown(&held);
+                    let why = format!(
+                        "held at its fit with {} knot(s): not identified beside the \
+                         component's other curves at {} knot(s), at the fitted values",
+                        self.level[ci], levels[ci]
+                    );
+                    look = self.look(&trial, &levels, rms_old)?;
+                    if matches!(look, Look::Kept(..)) {
+                        self.held_reason[ci].extend(bad.iter().map(|c| (c.clone(), why.clone())));
+                    }
+                }
             }
-            let pass = identify_at(&fitted, &candidates_for(&fitted, &keys)?, self.ctx)?;
-            self.runs += pass.runs;
-            let all_identified = group.iter().all(|&ci| {
-                trial.curves[ci].iter().all(|(curve, values)| {
-                    (0..values.len())
-                        .all(|i| pass.identifies(&keys, &key(COMPONENTS[ci], curve, i)))
-                })
-            });
-            if !all_identified {
-                self.steps.push(format!(
-                    "knots {levels:?} (second look, the fit not within noise): {step}; not every \
-                     knot identified at the fitted values, not kept"
-                ));
+            let Look::Kept(fitted, keys, pass) = look else {
                 continue;
-            }
-            self.steps.push(format!(
-                "knots {levels:?} (second look, the fit not within noise: identified at the \
-                 fitted values): {step}; data RMS {rms_old:.3} → {rms_new:.3} σ"
-            ));
+            };
             // The shape has changed under every component: one stopped before (its knots no
             // better, or not identified, beside the old shape) is tried again.
+            // (One that looked and reached its most knots is unfrozen too, so that the next
+            // growth's `freeze_full` states why it stops there.)
             for (ci, &level) in levels.iter().enumerate() {
-                if !trial.curves[ci].is_empty() && level < self.max_level[ci] {
+                if !trial.curves[ci].is_empty() && (level < self.max_level[ci] || more(ci) > 0) {
                     self.frozen[ci] = false;
                     self.knots_reason[ci].clear();
                 }
@@ -526,13 +547,75 @@ impl<'a> Growth<'a> {
             self.adopt(fitted, trial, &keys, &pass);
             return Ok(true);
         }
-        for ci in stalled {
+        for (ci, _) in stalled {
             self.knots_reason[ci].push_str(
-                "; fitted with it (the fit not within noise), no better or not identified at \
+                "; fitted with more (the fit not within noise), no better or not identified at \
                  the fitted values either (see the steps)",
             );
         }
         Ok(false)
+    }
+
+    /// One second look: `trial` (at knots `levels`) fitted from the current values, kept when
+    /// the data's RMS falls by [`MIN_GAIN`] from `rms_old` and the identifiability analysis at
+    /// the fitted values identifies every knot of the components that grew; else the curves
+    /// of those components it does not (all of one component's listed).
+    fn look(
+        &mut self,
+        trial: &Shape,
+        levels: &[usize],
+        rms_old: f64,
+    ) -> Result<Look, CalibrateError> {
+        let start = shaped(&self.current, trial)?;
+        let mut keys: Vec<String> = self.design_free.clone();
+        keys.extend(trial.keys());
+        let Fitted {
+            engine: fitted,
+            runs: n,
+            step,
+            ..
+        } = fit(&start, candidates_for(&start, &keys)?, trial, self.ctx)?;
+        self.runs += n;
+        let rms_new = rms_of(&fitted, self.ctx)?;
+        if rms_new > rms_old * (1.0 - MIN_GAIN) {
+            self.steps.push(format!(
+                "knots {levels:?} (second look, the fit not within noise): {step}; data RMS \
+                 {rms_old:.3} → {rms_new:.3} σ, not kept"
+            ));
+            return Ok(Look::NoGain);
+        }
+        let pass = identify_at(&fitted, &candidates_for(&fitted, &keys)?, self.ctx)?;
+        self.runs += pass.runs;
+        let mut bad: Vec<(usize, String)> = Vec::new();
+        for (ci, level) in levels.iter().enumerate() {
+            if *level == self.level[ci] {
+                continue;
+            }
+            for (curve, values) in &trial.curves[ci] {
+                if !(0..values.len())
+                    .all(|i| pass.identifies(&keys, &key(COMPONENTS[ci], curve, i)))
+                {
+                    bad.push((ci, curve.clone()));
+                }
+            }
+        }
+        if !bad.is_empty() {
+            self.steps.push(format!(
+                "knots {levels:?} (second look, the fit not within noise): {step}; data RMS \
+                 {rms_old:.3} → {rms_new:.3} σ, not every knot identified at the fitted values \
+                 ({}), not kept",
+                bad.iter()
+                    .map(|(ci, curve)| format!("{} {curve}", COMPONENTS[*ci]))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+            return Ok(Look::Unidentified(bad));
+        }
+        self.steps.push(format!(
+            "knots {levels:?} (second look, the fit not within noise: identified at the fitted \
+             values): {step}; data RMS {rms_old:.3} → {rms_new:.3} σ"
+        ));
+        Ok(Look::Kept(fitted, keys, pass))
     }
 
     /// Freezes each component that has as many knots as its speeds support.
@@ -639,7 +722,7 @@ impl<'a> Growth<'a> {
                 reducible = Some((ci, bad_curves));
             } else {
                 self.frozen[ci] = true;
-                self.stalled.push(ci);
+                self.stalled.push((ci, 1));
                 self.knots_reason[ci] = format!(
                     "{} knot(s): at {} the identifiability analysis no longer identifies {}",
                     self.level[ci],
