@@ -30,7 +30,7 @@ enum Look {
     /// fitted values.
     Unidentified(Vec<(usize, String)>),
     /// Kept: the fitted engine, its keys and the identifiability pass at the fitted values.
-    Kept(Engine, Vec<String>, Pass),
+    Kept(Box<(Engine, Vec<String>, Pass)>),
 }
 
 /// What one growth trial decided ([`Growth::accepted`]).
@@ -326,36 +326,17 @@ impl<'a> Growth<'a> {
         let start = shaped(&self.current, &next)?;
         let mut all: Vec<String> = self.design_free.clone();
         all.extend(next.keys());
+        let first = fit(&start, candidates_for(&start, &all)?, &next, self.ctx)?;
+        self.runs += first.runs;
         let Fitted {
             engine: mut fitted,
-            runs: n,
-            mut step,
+            step,
             mut at_limit,
-        } = fit(&start, candidates_for(&start, &all)?, &next, self.ctx)?;
-        self.runs += n;
-        // A curve left out so that the component's others can take more knots either goes
-        // (its correction with it) or is held at its fit; each start ends at its own optimum
-        // and the better fit of the data is kept. On GSPy's generator unit (README recipe) the
-        // compressor's flow, not identified beside its speed re-labelling at 3 knots, left out
-        // cost +10 % of flow at the lowest load: that fit ended at 1.68 σ against 1.51 σ
-        // before, the compressor stopped at 2 knots and the calibration at 1.51 σ (`suspect`);
-        // held, the compressor grew to 4 knots, 0.79 σ (`good`). On the first foreign unit
-        // (combinator) with a design GG speed written 9 800 rpm, leaving the compressor's
-        // efficiency out was the better start.
-        if let Some(held) = held {
-            let start = shaped(&self.current, &held)?;
-            let other = fit(&start, candidates_for(&start, &all)?, &held, self.ctx)?;
-            self.runs += other.runs;
-            if rms_of(&other.engine, self.ctx)? < rms_of(&fitted, self.ctx)? {
-                fitted = other.engine;
-                at_limit = other.at_limit;
-                step = format!(
-                    "{} (the curves not identified at more knots held at their fit)",
-                    other.step
-                );
-                next = held;
-            }
-        }
+            ..
+        } = match held {
+            Some(held) => self.held_if_better(first, &mut next, held, &all)?,
+            None => first,
+        };
         self.steps.push(format!("knots {:?}: {step}", self.level));
         // More knots can only fit the data better at the optimum; a fit that does not (by
         // MIN_GAIN) stopped short of it, or the knots add nothing the data support: either way
@@ -440,6 +421,39 @@ impl<'a> Growth<'a> {
         }
         self.adopt(fitted, next, &keys, &pass);
         Ok(true)
+    }
+
+    /// `fitted` (the fit of `next`, whose reduced curves are left out) or the fit of `held`
+    /// (the same with them held at their fit), whichever fits the data better; `next` becomes
+    /// `held` when it is. Why both: a curve left out so that the component's others can take
+    /// more knots goes with its correction; each start ends at its own optimum. On GSPy's
+    /// generator unit (README recipe) the compressor's flow, not identified beside its speed
+    /// re-labelling at 3 knots, left out cost +10 % of flow at the lowest load: that fit ended
+    /// at 1.68 σ against 1.51 σ before, the compressor stopped at 2 knots and the calibration
+    /// at 1.51 σ (`suspect`); held, the compressor grew to 4 knots, 0.79 σ (`good`). On the
+    /// first foreign unit (combinator) with a design GG speed written 9 800 rpm, leaving the
+    /// compressor's efficiency out was the better start.
+    fn held_if_better(
+        &mut self,
+        fitted: Fitted,
+        next: &mut Shape,
+        held: Shape,
+        keys: &[String],
+    ) -> Result<Fitted, CalibrateError> {
+        let start = shaped(&self.current, &held)?;
+        let other = fit(&start, candidates_for(&start, keys)?, &held, self.ctx)?;
+        self.runs += other.runs;
+        if rms_of(&other.engine, self.ctx)? < rms_of(&fitted.engine, self.ctx)? {
+            *next = held;
+            return Ok(Fitted {
+                step: format!(
+                    "{} (the curves not identified at more knots held at their fit)",
+                    other.step
+                ),
+                ..other
+            });
+        }
+        Ok(fitted)
     }
 
     /// Takes `fitted` (the fit of `shape`) as the adaptation so far, with the σ of `keys` from
@@ -529,9 +543,10 @@ impl<'a> Growth<'a> {
                     }
                 }
             }
-            let Look::Kept(fitted, keys, pass) = look else {
+            let Look::Kept(kept) = look else {
                 continue;
             };
+            let (fitted, keys, pass) = *kept;
             // The shape has changed under every component: one stopped before (its knots no
             // better, or not identified, beside the old shape) is tried again.
             // (One that looked and reached its most knots is unfrozen too, so that the next
@@ -615,7 +630,7 @@ impl<'a> Growth<'a> {
             "knots {levels:?} (second look, the fit not within noise: identified at the fitted \
              values): {step}; data RMS {rms_old:.3} → {rms_new:.3} σ"
         ));
-        Ok(Look::Kept(fitted, keys, pass))
+        Ok(Look::Kept(Box::new((fitted, keys, pass))))
     }
 
     /// Freezes each component that has as many knots as its speeds support.
