@@ -470,10 +470,16 @@ impl<'a> Growth<'a> {
     }
 
     /// When nothing grows any more and the fit is not within noise: the components the
-    /// identifiability analysis stopped at a growth's start, given one knot more and fitted,
-    /// judged by the same analysis at the fitted values (all together, then each alone), and
-    /// kept where every knot is identified there and the data's RMS falls by [`MIN_GAIN`].
-    /// `true` when one grew (it grows on as any other).
+    /// identifiability analysis stopped at a growth's start, given one knot more, and those
+    /// whose next knot was fitted and no better, two more; fitted, judged by the same analysis
+    /// at the fitted values (all together, then each alone), and kept where every knot is
+    /// identified there and the data's RMS falls by [`MIN_GAIN`]; a component alone whose
+    /// knots are identified on some curves only is tried again with the others held at their
+    /// fit. `true` when one grew (it grows on as any other).
+    ///
+    /// Why two knots: one more knot can gain nothing where two gain much (on GSPy's generator
+    /// unit with its design GG speed written 9 831 rpm, the compressor's third knot took the
+    /// data's RMS from 1.54 to 1.52 σ, its fourth to 0.94 σ, with its flow held).
     ///
     /// Why: the analysis at a growth's start looks at the re-sampled curves of a fit that
     /// misses the data by many σ, where the Jacobian is not the one at the optimum; whether it
