@@ -76,13 +76,28 @@ fn adapted_unit(
     file: &str,
     datasheet_flow: f64,
 ) -> (Engine, gtwatch::calibrate::Calibration, Engine) {
+    adapted_unit_with(file, datasheet_flow, None)
+}
+
+/// [`adapted_unit`] with the user's design GG speed written `gg_speed_rpm` (`None`: the
+/// full-load row's).
+fn adapted_unit_with(
+    file: &str,
+    datasheet_flow: f64,
+    gg_speed_rpm: Option<f64>,
+) -> (Engine, gtwatch::calibrate::Calibration, Engine) {
     let truth = Engine::new(EngineConfig::load(&root().join(file)).unwrap()).unwrap();
     let rows = baseline(&truth);
     let full = rows
         .iter()
         .max_by(|a, b| a.fuel_kg_s.total_cmp(&b.fuel_kg_s))
         .expect("full load");
-    let model = user_model_with(&truth, full, datasheet_flow);
+    let mut model = user_model_with(&truth, full, datasheet_flow);
+    if let Some(n) = gg_speed_rpm {
+        let mut cfg = model.cfg().clone();
+        cfg.design.gg_speed_rpm = n;
+        model = model.with_config(cfg).unwrap();
+    }
     let settings = CalibrationSettings {
         threads: Some(2),
         adapt: Some(AdaptSettings::default()),
@@ -155,31 +170,11 @@ fn within_calibrated_speeds(label: &str, r: &MethodResult, e: [f64; 6], t: [f64;
 /// better, 1.54 σ, `suspect` (the compressor stopped at 2 knots). About 30 s on 2 cores.
 #[test]
 fn a_generator_unit_calibrates_alike_with_its_gg_speed_written_otherwise() {
-    let truth = Engine::new(
-        EngineConfig::load(&root().join("tests/data/foreign/aero25_truth.toml")).unwrap(),
-    )
-    .unwrap();
-    let rows = baseline(&truth);
-    let full = rows
-        .iter()
-        .max_by(|a, b| a.fuel_kg_s.total_cmp(&b.fuel_kg_s))
-        .expect("full load");
-    let mut cfg = user_model_with(&truth, full, 70.0 * 1.03).cfg().clone();
-    cfg.design.gg_speed_rpm = 9831.0;
-    let model = Engine::new(cfg).unwrap();
-    let settings = CalibrationSettings {
-        threads: Some(2),
-        adapt: Some(AdaptSettings::default()),
-        ..CalibrationSettings::default()
-    };
-    let (report, _) = calibrate(
-        &model,
-        &rows,
-        &[],
-        default_candidates(&model).unwrap(),
-        &settings,
-    )
-    .expect("calibrate");
+    let (_, report, _) = adapted_unit_with(
+        "tests/data/foreign/aero25_truth.toml",
+        70.0 * 1.03,
+        Some(9831.0),
+    );
     let a = report.adaptation.as_ref().expect("adapted");
     eprintln!(
         "GG speed written 9 831 rpm: {} shape, RMS {:.2} σ, {}",
