@@ -535,18 +535,15 @@ impl<'a> Growth<'a> {
                 _ => None,
             };
             if let Some((ci, bad)) = retry {
-                {
-                    let held = self.shape.with_held(ci, &bad);
-                    trial = grown(&held);
+                trial = grown(&self.shape.with_held(ci, &bad));
+                look = self.look(&trial, &levels, rms_old)?;
+                if matches!(look, Look::Kept(..)) {
                     let why = format!(
-                        "held at its fit with {} knot(s): not identified beside the \
-                         component's other curves at {} knot(s), at the fitted values",
+                        "held at its fit with {} knot(s): not identified beside the component's \
+                         other curves at {} knot(s), at the fitted values",
                         self.level[ci], levels[ci]
                     );
-                    look = self.look(&trial, &levels, rms_old)?;
-                    if matches!(look, Look::Kept(..)) {
-                        self.held_reason[ci].extend(bad.iter().map(|c| (c.clone(), why.clone())));
-                    }
+                    self.held_reason[ci].extend(bad.iter().map(|c| (c.clone(), why.clone())));
                 }
             }
             let Look::Kept(kept) = look else {
@@ -579,8 +576,8 @@ impl<'a> Growth<'a> {
 
     /// One second look: `trial` (at knots `levels`) fitted from the current values, kept when
     /// the data's RMS falls by [`MIN_GAIN`] from `rms_old` and the identifiability analysis at
-    /// the fitted values identifies every knot of the components that grew; else the curves
-    /// of those components it does not (all of one component's listed).
+    /// the fitted values identifies every knot of the components that grew; else whether it
+    /// gained, and if so which curves of those components the analysis does not identify.
     fn look(
         &mut self,
         trial: &Shape,
@@ -652,7 +649,8 @@ impl<'a> Growth<'a> {
         }
     }
 
-    /// The curves of the current shape that `next` no longer fits (holds), per component.
+    /// The curves of the current shape that `next` no longer fits (left out or held), per
+    /// component.
     fn dropped_curves(&self, next: &Shape) -> Vec<(usize, String)> {
         let mut out = Vec::new();
         for ci in 0..3 {
