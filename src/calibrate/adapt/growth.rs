@@ -74,6 +74,9 @@ pub(super) struct Growth<'a> {
     /// one where the identifiability analysis stopped it at a growth's start, two where its
     /// next knot was fitted and no better.
     stalled: Vec<(usize, usize)>,
+    /// Whether a curve not identified at more knots may be held at its fit (else it is left
+    /// out, as before holding was tried; see [`super::adapt`]).
+    may_hold: bool,
 }
 
 impl<'a> Growth<'a> {
@@ -169,7 +172,14 @@ impl<'a> Growth<'a> {
             frozen: [false; 3],
             last_sigma: Vec::new(),
             stalled: Vec::new(),
+            may_hold: true,
         })
+    }
+
+    /// The growth with every curve not identified at more knots left out, none held.
+    pub(super) fn without_holding(mut self) -> Self {
+        self.may_hold = false;
+        self
     }
 
     /// No curve is identifiable at one knot: the adaptation has nothing to fit.
@@ -315,7 +325,8 @@ impl<'a> Growth<'a> {
             if let Some((ci, drop)) = reducible {
                 let mut reduced = base.clone();
                 reduced.curves[ci].retain(|(curve, _)| !drop.contains(curve));
-                tries.push((vec![ci], reduced, Some(base.with_held(ci, &drop))));
+                let held = self.may_hold.then(|| base.with_held(ci, &drop));
+                tries.push((vec![ci], reduced, held));
             }
         }
         let Some((mut next, held, keys, pass)) = grown else {
@@ -528,7 +539,7 @@ impl<'a> Growth<'a> {
             // design GG speed written 9 831 rpm, the compressor's flow at 4 knots).
             let retry = match (&look, looks.as_slice()) {
                 (Look::Unidentified(bad), [(ci, _)])
-                    if !bad.is_empty() && bad.len() < trial.curves[*ci].len() =>
+                    if self.may_hold && !bad.is_empty() && bad.len() < trial.curves[*ci].len() =>
                 {
                     Some((*ci, bad.iter().map(|(_, c)| c.clone()).collect::<Vec<_>>()))
                 }
