@@ -35,6 +35,7 @@ mod faults_restart;
 mod fleet_rediagnose;
 mod fleet_sync;
 mod foreign_engine;
+mod foreign_generator;
 mod foreign_startups;
 mod fuzz_regressions;
 mod gap_cli;
