@@ -61,8 +61,6 @@ pub(super) struct Growth<'a> {
     runs: usize,
     steps: Vec<String>,
     not_fitted: [Vec<(String, String)>; 3],
-    /// Why each held curve ([`Shape::held`]) is held.
-    held_reason: [Vec<(String, String)>; 3],
     knots_reason: [String; 3],
     /// Knots per component, and whether a component has stopped growing.
     level: Vec<usize>,
@@ -166,7 +164,6 @@ impl<'a> Growth<'a> {
             runs: pass.runs,
             steps: Vec::new(),
             not_fitted,
-            held_reason: Default::default(),
             knots_reason,
             level: Vec::new(),
             frozen: [false; 3],
@@ -193,7 +190,6 @@ impl<'a> Growth<'a> {
             &self.shape,
             &self.ranges,
             self.not_fitted,
-            Default::default(),
             self.knots_reason,
             &[],
             &[],
@@ -325,7 +321,13 @@ impl<'a> Growth<'a> {
             if let Some((ci, drop)) = reducible {
                 let mut reduced = base.clone();
                 reduced.curves[ci].retain(|(curve, _)| !drop.contains(curve));
-                let held = self.may_hold.then(|| base.with_held(ci, &drop));
+                let why = format!(
+                    "held at its fit with {} knot(s): not identified beside the component's \
+                     other curves at {} knot(s), which took more knots",
+                    self.level[ci],
+                    self.level[ci] + 1
+                );
+                let held = self.may_hold.then(|| base.with_held(ci, &drop, &why));
                 tries.push((vec![ci], reduced, held));
             }
         }
@@ -411,15 +413,8 @@ impl<'a> Growth<'a> {
                 "not identified beside the component's other curves at {} knot(s)",
                 self.level[ci]
             );
-            if next.held[ci].iter().any(|(c, _)| *c == curve) {
-                self.held_reason[ci].push((
-                    curve,
-                    format!(
-                        "held at its fit with {} knot(s): {why}, which took more knots",
-                        level_before[ci]
-                    ),
-                ));
-            } else {
+            // A held curve carries its reason in the shape.
+            if !next.held[ci].iter().any(|h| h.curve == curve) {
                 self.not_fitted[ci].push((
                     curve,
                     format!(
@@ -546,16 +541,13 @@ impl<'a> Growth<'a> {
                 _ => None,
             };
             if let Some((ci, bad)) = retry {
-                trial = grown(&self.shape.with_held(ci, &bad));
+                let why = format!(
+                    "held at its fit with {} knot(s): not identified beside the component's \
+                     other curves at {} knot(s), at the fitted values",
+                    self.level[ci], levels[ci]
+                );
+                trial = grown(&self.shape.with_held(ci, &bad, &why));
                 look = self.look(&trial, &levels, rms_old)?;
-                if matches!(look, Look::Kept(..)) {
-                    let why = format!(
-                        "held at its fit with {} knot(s): not identified beside the component's \
-                         other curves at {} knot(s), at the fitted values",
-                        self.level[ci], levels[ci]
-                    );
-                    self.held_reason[ci].extend(bad.iter().map(|c| (c.clone(), why.clone())));
-                }
             }
             let Look::Kept(kept) = look else {
                 continue;
@@ -882,7 +874,6 @@ impl<'a> Growth<'a> {
             &self.shape,
             &self.ranges,
             self.not_fitted,
-            self.held_reason,
             self.knots_reason,
             &sigma,
             &bounds,

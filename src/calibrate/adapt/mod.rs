@@ -665,7 +665,6 @@ fn report(
     shape: &Shape,
     ranges: &[[f64; 2]],
     not_fitted: [Vec<(String, String)>; 3],
-    held_reason: [Vec<(String, String)>; 3],
     knots_reason: [String; 3],
     sigma: &[(String, Option<f64>)],
     bounds: &[(String, f64, f64)],
@@ -675,50 +674,41 @@ fn report(
         .enumerate()
         .zip(not_fitted)
         .zip(knots_reason)
-        .zip(held_reason)
-        .map(
-            |((((ci, name), not_fitted), knots_reason), held_reason)| ComponentFit {
-                component: name.to_string(),
-                speed_range: ranges[ci],
-                knots: shape.knots[ci].clone(),
-                curves: shape.curves[ci]
-                    .iter()
-                    .map(|(curve, values)| {
-                        let keys: Vec<String> =
-                            (0..values.len()).map(|i| key(name, curve, i)).collect();
-                        CurveFit {
-                            curve: curve.clone(),
-                            values: values.clone(),
-                            sigma: keys
-                                .iter()
-                                .map(|k| sigma.iter().find(|(x, _)| x == k).and_then(|(_, s)| *s))
-                                .collect(),
-                            at_bound: keys.iter().zip(values).any(|(k, v)| {
-                                bounds.iter().any(|(x, lo, hi)| {
-                                    x == k && ((v - lo).abs() < 1e-4 || (hi - v).abs() < 1e-4)
-                                })
-                            }),
-                            held: None,
-                        }
-                    })
-                    .chain(shape.held[ci].iter().map(|(curve, values)| {
-                        CurveFit {
-                            curve: curve.clone(),
-                            values: values.clone(),
-                            sigma: vec![None; values.len()],
-                            at_bound: false,
-                            held: held_reason
-                                .iter()
-                                .find(|(c, _)| c == curve)
-                                .map(|(_, why)| why.clone())
-                                .or_else(|| Some("held".into())),
-                        }
-                    }))
-                    .collect(),
-                not_fitted,
-                knots_reason,
-            },
-        )
+        .map(|(((ci, name), not_fitted), knots_reason)| ComponentFit {
+            component: name.to_string(),
+            speed_range: ranges[ci],
+            knots: shape.knots[ci].clone(),
+            curves: shape.curves[ci]
+                .iter()
+                .map(|(curve, values)| {
+                    let keys: Vec<String> =
+                        (0..values.len()).map(|i| key(name, curve, i)).collect();
+                    CurveFit {
+                        curve: curve.clone(),
+                        values: values.clone(),
+                        sigma: keys
+                            .iter()
+                            .map(|k| sigma.iter().find(|(x, _)| x == k).and_then(|(_, s)| *s))
+                            .collect(),
+                        at_bound: keys.iter().zip(values).any(|(k, v)| {
+                            bounds.iter().any(|(x, lo, hi)| {
+                                x == k && ((v - lo).abs() < 1e-4 || (hi - v).abs() < 1e-4)
+                            })
+                        }),
+                        held: None,
+                    }
+                })
+                .chain(shape.held[ci].iter().map(|h| CurveFit {
+                    curve: h.curve.clone(),
+                    values: h.values.clone(),
+                    sigma: vec![None; h.values.len()],
+                    at_bound: false,
+                    held: Some(h.reason.clone()),
+                }))
+                .collect(),
+            not_fitted,
+            knots_reason,
+        })
         .collect();
     AdaptReport {
         components,

@@ -23,7 +23,16 @@ pub(super) struct Shape {
     /// the component's knots, re-sampled as they move), in the file but not fitted: a curve
     /// the data no longer resolve beside the others at more knots keeps what it took, rather
     /// than its correction being thrown away.
-    pub(super) held: [Vec<(String, Vec<f64>)>; 3],
+    pub(super) held: [Vec<Held>; 3],
+}
+
+/// A curve held at the shape it was fitted to at fewer knots, and why (the report says it).
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Held {
+    pub(super) curve: String,
+    /// Values at the component's knots.
+    pub(super) values: Vec<f64>,
+    pub(super) reason: String,
 }
 
 impl Shape {
@@ -39,7 +48,8 @@ impl Shape {
                 speed_knots: self.knots[ci].clone(),
                 ..Default::default()
             };
-            for (curve, values) in self.curves[ci].iter().chain(&self.held[ci]) {
+            let held = self.held[ci].iter().map(|h| (&h.curve, &h.values));
+            for (curve, values) in self.curves[ci].iter().map(|(c, v)| (c, v)).chain(held) {
                 if let Some(slot) = c.curve_mut(curve) {
                     *slot = values.clone();
                 }
@@ -71,7 +81,8 @@ impl Shape {
     /// Component `ci` moved to `new_knots`, each active and held curve re-sampled there.
     pub(super) fn resampled(&self, ci: usize, new_knots: Vec<f64>) -> Shape {
         let mut s = self.clone();
-        for (_, values) in s.curves[ci].iter_mut().chain(s.held[ci].iter_mut()) {
+        let held = s.held[ci].iter_mut().map(|h| &mut h.values);
+        for values in s.curves[ci].iter_mut().map(|(_, v)| v).chain(held) {
             let old = SpeedCurve::new(&self.knots[ci], values);
             *values = new_knots
                 .iter()
@@ -82,14 +93,18 @@ impl Shape {
         s
     }
 
-    /// Component `ci`'s curves `names` moved from the fitted to the held ones.
-    pub(super) fn with_held(&self, ci: usize, names: &[String]) -> Shape {
+    /// Component `ci`'s curves `names` moved from the fitted to the held ones, for `reason`.
+    pub(super) fn with_held(&self, ci: usize, names: &[String], reason: &str) -> Shape {
         let mut s = self.clone();
         let (held, kept): (Vec<_>, Vec<_>) = std::mem::take(&mut s.curves[ci])
             .into_iter()
             .partition(|(curve, _)| names.contains(curve));
         s.curves[ci] = kept;
-        s.held[ci].extend(held);
+        s.held[ci].extend(held.into_iter().map(|(curve, values)| Held {
+            curve,
+            values,
+            reason: reason.to_string(),
+        }));
         s
     }
 
@@ -174,7 +189,7 @@ mod tests {
             ],
             held: Default::default(),
         };
-        let held = shape.with_held(0, &["flow".to_string()]);
+        let held = shape.with_held(0, &["flow".to_string()], "not identified");
         assert_eq!(
             held.keys(),
             vec![
@@ -200,8 +215,13 @@ mod tests {
         assert!((c.flow[0] - 0.10).abs() < 1e-12, "{:?}", c.flow);
         assert!(c.flow[1] < 0.10 && c.flow[2] > 0.0, "{:?}", c.flow);
         // A component with only held curves is still written.
-        let only = held.with_held(0, &["speed".to_string()]);
+        let only = held.with_held(0, &["speed".to_string()], "neither");
         assert!(only.keys().is_empty());
+        let reasons: Vec<(&str, &str)> = only.held[0]
+            .iter()
+            .map(|h| (h.curve.as_str(), h.reason.as_str()))
+            .collect();
+        assert_eq!(reasons, [("flow", "not identified"), ("speed", "neither")]);
         assert!(only.config().is_some_and(|a| a.compressor.is_some()));
     }
 
