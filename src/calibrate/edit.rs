@@ -49,6 +49,13 @@ fn has_value(doc: &DocumentMut, key: &str) -> bool {
     item.is_value()
 }
 
+/// `key` split into the list's key and the index of one of its elements, for a key that names
+/// one knot of a list (`adaptation.compressor.speed[0]`, a value `calibrate --params` fits).
+fn element_of(key: &str) -> Option<(&str, usize)> {
+    let (list, rest) = key.strip_suffix(']')?.rsplit_once('[')?;
+    Some((list, rest.parse().ok()?))
+}
+
 /// The table `[section.name]`, made (the section implicit, so only `[section.name]` headers
 /// appear) where missing; `None` when either exists as something other than a table.
 fn sub_table<'d>(
@@ -73,7 +80,8 @@ fn sub_table<'d>(
 /// in the file as a value of the same kind (an error names the key otherwise), except an
 /// effect's number (`effects.<instance>.<param>`), whose table is added when missing, and a
 /// word of a section the file has (`design.inlet_loss_law`), added when the file leaves it
-/// at its default.
+/// at its default. One element of a list the file has (`adaptation.<component>.<curve>[i]`) is
+/// replaced in place, the rest of the list and of its section kept.
 pub(crate) fn rewrite(
     original: &str,
     path_name: &str,
@@ -85,8 +93,12 @@ pub(crate) fn rewrite(
         reason: format!("not TOML: {e}"),
     })?;
     // A new adaptation replaces the file's whole `[adaptation]` section: curves the new fit
-    // does not have must not survive from an older one.
-    if values.iter().any(|(k, _)| k.starts_with("adaptation.")) {
+    // does not have must not survive from an older one. (Knot values refitted on the file's own
+    // curves, `adaptation.<component>.<curve>[i]`, keep it.)
+    if values
+        .iter()
+        .any(|(k, _)| k.starts_with("adaptation.") && element_of(k).is_none())
+    {
         doc.remove("adaptation");
     }
     for (key, new) in values {
@@ -94,6 +106,23 @@ pub(crate) fn rewrite(
             path: path_name.to_string(),
             reason: format!("key `{key}`: {reason}"),
         };
+        if let Some((list, i)) = element_of(key) {
+            // Looked up without inserting (`has_value`) before `item_mut`, which would.
+            let NewValue::Number(v) = new else {
+                return Err(bad("one element of a list is a number"));
+            };
+            let element = has_value(&doc, list)
+                .then(|| item_mut(&mut doc, list))
+                .flatten()
+                .and_then(Item::as_array_mut)
+                .and_then(|a| a.get_mut(i))
+                .filter(|e| matches!(e, Value::Float(_) | Value::Integer(_)))
+                .ok_or_else(|| bad(&format!("`{list}` has no number at index {i} in the file")))?;
+            let decor = element.decor().clone();
+            *element = Value::from(rounded(*v));
+            *element.decor_mut() = decor;
+            continue;
+        }
         // Before any look-up by `item_mut`: toml_edit's `get_mut` on a table inserts the
         // missing key (as an inline table once indexed further), which would shadow the
         // `[adaptation.<component>]` table made here.
@@ -310,5 +339,66 @@ mod tests {
         let a = cfg.adaptation.expect("section");
         assert!(a.compressor.is_none() && a.pt.is_none() && a.model_error_pct.is_empty());
         assert_eq!(a.hpt.expect("hpt").efficiency, vec![0.01]);
+    }
+
+    /// `calibrate --params adaptation.pt.flow[1],…` on an adapted file refits knot values of its
+    /// own curves: each is replaced in its list, and the rest of the section (knots, other
+    /// curves, the model error) stays. Before, the section was dropped and a key
+    /// `"flow[1]" = …` written, which the engine file then refused.
+    #[test]
+    fn a_refitted_knot_value_replaces_its_element_and_keeps_the_section() {
+        let adapted = rewrite(
+            REFERENCE_ENGINE_TOML,
+            "engine.toml",
+            &[
+                (
+                    "adaptation.pt.speed_knots".into(),
+                    NewValue::Numbers(vec![0.8, 0.9]),
+                ),
+                (
+                    "adaptation.pt.flow".into(),
+                    NewValue::Numbers(vec![-0.02, -0.01]),
+                ),
+                (
+                    "adaptation.pt.efficiency".into(),
+                    NewValue::Numbers(vec![0.01, 0.005]),
+                ),
+                (
+                    "adaptation.model_error_pct.n1_rpm".into(),
+                    NewValue::Number(0.2),
+                ),
+            ],
+            &[],
+        )
+        .expect("adapted");
+        let text = rewrite(
+            &adapted,
+            "engine.toml",
+            &[
+                ("adaptation.pt.flow[1]".into(), NewValue::Number(-0.0123)),
+                ("design.hpt_efficiency".into(), NewValue::Number(0.88)),
+            ],
+            &[],
+        )
+        .expect("rewrite");
+        let cfg = EngineConfig::from_toml_str(&text, "x").expect("loads");
+        let a = cfg.adaptation.expect("section kept");
+        let pt = a.pt.expect("pt");
+        assert_eq!(pt.speed_knots, vec![0.8, 0.9]);
+        assert_eq!(pt.flow, vec![-0.02, -0.0123]);
+        assert_eq!(pt.efficiency, vec![0.01, 0.005]);
+        assert_eq!(a.model_error_pct.get("n1_rpm"), Some(&0.2));
+        assert_eq!(cfg.design.hpt_efficiency, 0.88);
+        // An element the file does not have is an error naming the key, not a new entry.
+        for key in ["adaptation.pt.flow[2]", "adaptation.hpt.flow[0]"] {
+            let err = rewrite(
+                &adapted,
+                "engine.toml",
+                &[(key.into(), NewValue::Number(0.1))],
+                &[],
+            )
+            .expect_err(key);
+            assert!(err.to_string().contains(key), "{err}");
+        }
     }
 }
