@@ -165,32 +165,38 @@ fn rows_at(
     read_snapshots(csv.as_bytes(), &HashMap::new(), Some("test")).expect("rows")
 }
 
-/// The user's md22 copy with its design point set from the healthy full-load row: pressure
-/// ratio P2/P1, power from torque × speed, both speeds; the air flow is the datasheet's (3 %
-/// off the truth, which nobody knows).
+/// The user's md22 copy with its design point set from the healthy full-load row (power from
+/// torque × speed); the air flow is the datasheet's (3 % off the truth, which nobody knows).
 fn user_model(full_load: &Snapshot) -> Engine {
     user_model_with(full_load, 70.0 * 1.03)
 }
 
 fn user_model_with(full_load: &Snapshot, datasheet_flow: f64) -> Engine {
+    md22_from_full_load(full_load, datasheet_flow)
+}
+
+/// What a user does first with a foreign unit: `config/engine_md22.toml` copied, its design
+/// point set from the healthy full-load row `full` — pressure ratio P2/P1 (P2 over the ambient
+/// pressure where P1 is not measured), the power (metered, else torque × PT speed), both
+/// speeds — and the datasheet's exhaust flow `datasheet_flow` (kg/s). The PT speed is measured
+/// in every row (a propeller on a combinator, a generator): no load law.
+pub(crate) fn md22_from_full_load(full: &Snapshot, datasheet_flow: f64) -> Engine {
     let path = root().join("config/engine_md22.toml");
     let md22 = Engine::new(EngineConfig::load(&path).expect("md22")).expect("md22");
-    let v = |s: Signal| {
-        full_load
-            .values
-            .iter()
-            .find(|(x, _)| *x == s)
-            .map(|(_, v)| *v)
-            .expect("signal")
-    };
-    let omega = full_load.n2_rpm * std::f64::consts::PI / 30.0;
+    let v = |s: Signal| full.values.iter().find(|(x, _)| *x == s).map(|(_, v)| *v);
+    let omega = full.n2_rpm * std::f64::consts::PI / 30.0;
+    let p1 = v(Signal::P1)
+        .or(full.p_amb_kpa)
+        .expect("P1 or the ambient pressure");
+    let power = v(Signal::Power)
+        .or_else(|| v(Signal::Torque).map(|t| t * omega / 1e3))
+        .expect("power or torque");
     let mut cfg = md22.cfg().clone();
-    cfg.design.pressure_ratio = v(Signal::P2) / v(Signal::P1);
-    cfg.design.power_mw = v(Signal::Torque) * omega / 1e3;
-    cfg.design.gg_speed_rpm = v(Signal::N1);
-    cfg.design.pt_speed_rpm = full_load.n2_rpm;
+    cfg.design.pressure_ratio = v(Signal::P2).expect("P2") / p1;
+    cfg.design.power_mw = power;
+    cfg.design.gg_speed_rpm = v(Signal::N1).expect("N1");
+    cfg.design.pt_speed_rpm = full.n2_rpm;
     cfg.design.exhaust_flow_kg_s = datasheet_flow;
-    // A propeller on a combinator: the PT speed is measured, a load law does not hold.
     cfg.load = None;
     md22.with_config(cfg).expect("user model")
 }

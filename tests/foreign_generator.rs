@@ -33,7 +33,7 @@ use gtwatch::signals::Signal;
 use std::collections::HashMap;
 use std::path::PathBuf;
 
-use crate::foreign_engine::diagnosis_cfg;
+use crate::foreign_engine::{diagnosis_cfg, md22_from_full_load};
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -116,32 +116,10 @@ fn rows(truth: &Engine, health: [f64; 6], level: usize, written: &[Signal]) -> V
     read_snapshots(csv.as_bytes(), &HashMap::new(), Some("test")).expect("rows")
 }
 
-/// The user's md22 copy, its design point from the healthy full-load row: pressure ratio P2/P1
-/// (P2 over the ambient pressure where P1 is not measured), the metered power, both speeds, a
-/// generator load; the air flow is the datasheet's (3 % off the truth).
+/// The user's md22 copy, its design point from the healthy full-load row (the metered power);
+/// the air flow is the datasheet's (3 % off the truth).
 fn user_model(full_load: &Snapshot) -> Engine {
-    let md22 =
-        Engine::new(EngineConfig::load(&root().join("config/engine_md22.toml")).expect("md22"))
-            .expect("md22");
-    let v = |s: Signal| {
-        full_load
-            .values
-            .iter()
-            .find(|(x, _)| *x == s)
-            .map(|(_, v)| *v)
-    };
-    let p1 = v(Signal::P1)
-        .or(full_load.p_amb_kpa)
-        .expect("P1 or the ambient pressure");
-    let mut cfg = md22.cfg().clone();
-    cfg.design.pressure_ratio = v(Signal::P2).expect("P2") / p1;
-    cfg.design.power_mw = v(Signal::Power).expect("power");
-    cfg.design.gg_speed_rpm = v(Signal::N1).expect("N1");
-    cfg.design.pt_speed_rpm = full_load.n2_rpm;
-    cfg.design.exhaust_flow_kg_s = 88.0 * 1.03;
-    // A generator: the PT speed is the measured synchronous speed of every row.
-    cfg.load = None;
-    md22.with_config(cfg).expect("user model")
+    md22_from_full_load(full_load, 88.0 * 1.03)
 }
 
 fn settings() -> CalibrationSettings {

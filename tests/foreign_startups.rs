@@ -29,9 +29,11 @@ use gtwatch::diagnosis::{DiagnosisConfig, MethodResult};
 use gtwatch::engine::simulation::run_scenario;
 use gtwatch::engine::{Engine, EngineConfig, Scenario};
 use gtwatch::health::{HealthParams, HEALTH_NAMES};
-use gtwatch::signals::{Phase, Signal};
+use gtwatch::signals::Phase;
 use std::collections::HashMap;
 use std::path::PathBuf;
+
+use crate::foreign_engine::md22_from_full_load;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -48,22 +50,8 @@ fn baseline(truth: &Engine) -> Vec<Snapshot> {
 /// both speeds; the datasheet's exhaust flow `datasheet_flow`, kg/s, 3 % off the truth's), a
 /// generator, and the unit's own start sequence and starter (which the user knows).
 fn user_model_with(truth: &Engine, full: &Snapshot, datasheet_flow: f64) -> Engine {
-    let md22 =
-        Engine::new(EngineConfig::load(&root().join("config/engine_md22.toml")).unwrap()).unwrap();
-    let v = |s: Signal| {
-        full.values
-            .iter()
-            .find(|(x, _)| *x == s)
-            .map(|(_, v)| *v)
-            .expect("signal")
-    };
+    let md22 = md22_from_full_load(full, datasheet_flow);
     let mut cfg = md22.cfg().clone();
-    cfg.design.pressure_ratio = v(Signal::P2) / v(Signal::P1);
-    cfg.design.power_mw = v(Signal::Power);
-    cfg.design.gg_speed_rpm = v(Signal::N1);
-    cfg.design.pt_speed_rpm = full.n2_rpm;
-    cfg.design.exhaust_flow_kg_s = datasheet_flow;
-    cfg.load = None;
     cfg.sequence = truth.cfg().sequence.clone();
     cfg.starter = truth.cfg().starter.clone();
     md22.with_config(cfg).expect("user model")
