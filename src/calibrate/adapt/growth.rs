@@ -22,6 +22,12 @@ use crate::engine::Engine;
 /// goes on before the knots are judged (each as many iterations again).
 const MAX_EXTENSIONS: usize = 2;
 
+/// Why a curve stops being fitted: the identifiability analysis does not resolve it at `knots`
+/// beside its component's other curves (the report's words for a curve left out or held).
+fn unresolved_at(knots: usize) -> String {
+    format!("not identified beside the component's other curves at {knots} knot(s)")
+}
+
 /// What a second look found ([`Growth::look`]).
 enum Look {
     /// The fit did not gain.
@@ -322,10 +328,9 @@ impl<'a> Growth<'a> {
                 let mut reduced = base.clone();
                 reduced.curves[ci].retain(|(curve, _)| !drop.contains(curve));
                 let why = format!(
-                    "held at its fit with {} knot(s): not identified beside the component's \
-                     other curves at {} knot(s), which took more knots",
+                    "held at its fit with {} knot(s): {}, which took more knots",
                     self.level[ci],
-                    self.level[ci] + 1
+                    unresolved_at(self.level[ci] + 1)
                 );
                 let held = self.may_hold.then(|| base.with_held(ci, &drop, &why));
                 tries.push((vec![ci], reduced, held));
@@ -409,18 +414,15 @@ impl<'a> Growth<'a> {
             return Ok(true);
         }
         for (ci, curve) in dropped {
-            let why = format!(
-                "not identified beside the component's other curves at {} knot(s)",
-                self.level[ci]
-            );
             // A held curve carries its reason in the shape.
             if !next.held[ci].iter().any(|h| h.curve == curve) {
                 self.not_fitted[ci].push((
                     curve,
                     format!(
-                        "fitted up to {} knot(s), then {why}: left out so they could take more \
+                        "fitted up to {} knot(s), then {}: left out so they could take more \
                          knots",
-                        level_before[ci]
+                        level_before[ci],
+                        unresolved_at(self.level[ci])
                     ),
                 ));
             }
@@ -542,9 +544,9 @@ impl<'a> Growth<'a> {
             };
             if let Some((ci, bad)) = retry {
                 let why = format!(
-                    "held at its fit with {} knot(s): not identified beside the component's \
-                     other curves at {} knot(s), at the fitted values",
-                    self.level[ci], levels[ci]
+                    "held at its fit with {} knot(s): {}, at the fitted values",
+                    self.level[ci],
+                    unresolved_at(levels[ci])
                 );
                 trial = grown(&self.shape.with_held(ci, &bad, &why));
                 look = self.look(&trial, &levels, rms_old)?;
