@@ -150,6 +150,27 @@ fn calibrated(written: &[Signal]) -> (Engine, Vec<Snapshot>, Engine, Calibration
         report.baseline_fit.verdict,
         report.model_runs
     );
+    if let Some(a) = &report.adaptation {
+        eprintln!(
+            "  its error in health units: {:?} ({})",
+            a.health_error.points, a.health_error.note
+        );
+        for h in &a.health_error.parts {
+            let f = |m: &std::collections::BTreeMap<String, f64>| {
+                m.iter()
+                    .map(|(k, v)| format!("{k} {v:+.2}"))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            };
+            eprintln!(
+                "    healthy lines {:?} read {} ({}), its σ {}",
+                h.diagnosed_lines,
+                f(&h.health),
+                h.fit,
+                f(&h.sigma)
+            );
+        }
+    }
     (truth, base, model, report, adapted)
 }
 

@@ -189,6 +189,68 @@ fn header(a: &CalibrateArgs, report: &Calibration, n_rows: usize) -> Vec<String>
     h
 }
 
+/// The adapted model's own errors: per signal (with its profile along the GG speed) and in
+/// health units.
+fn print_model_errors(ad: &crate::calibrate::adapt::AdaptReport) {
+    let me = &ad.model_error;
+    if me.signals.is_empty() {
+        println!("  model error: {}", me.note);
+    } else {
+        let list: Vec<String> = me
+            .signals
+            .iter()
+            .map(|s| format!("{} {:.2} % ({:.1} σ)", s.signal, s.pct, s.rms_sigma))
+            .collect();
+        println!(
+            "  model error on points left out (1σ, % of the value; added to the instrument \
+             σ in steady diagnosis and in Method B): {}\n    ({})",
+            list.join(", "),
+            me.note
+        );
+        if let Some(t) = &me.by_speed {
+            println!(
+                "  along the operating line (each speed with its neighbours; a point is \
+                 weighted by the error at its own GG speed):"
+            );
+            let knots: Vec<String> = t.speed_knots.iter().map(|k| format!("{k:>6.3}")).collect();
+            println!("    {:<12} {}", "rel. N1 corr", knots.join(" "));
+            for (signal, v) in &t.pct {
+                let row: Vec<String> = v.iter().map(|p| format!("{p:>6.2}")).collect();
+                println!("    {signal:<12} {}", row.join(" "));
+            }
+        }
+    }
+    let he = &ad.health_error;
+    if he.points.is_empty() {
+        println!("  model error in health units: {}", he.note);
+    } else {
+        let list: Vec<String> = he
+            .points
+            .iter()
+            .map(|(k, v)| format!("{k} {v:.2}"))
+            .collect();
+        println!(
+            "  model error in health units (1σ, points; added to each parameter's σ in \
+             steady diagnosis): {}\n    ({})",
+            list.join(", "),
+            he.note
+        );
+        for p in &he.parts {
+            let read: Vec<String> = p
+                .health
+                .iter()
+                .map(|(k, v)| format!("{k} {v:+.2}"))
+                .collect();
+            println!(
+                "    healthy lines {:?} read {} (fit {})",
+                p.diagnosed_lines,
+                read.join(", "),
+                p.fit
+            );
+        }
+    }
+}
+
 fn print_text(report: &Calibration, wall_s: f64) {
     println!(
         "{:<36} {:>12} {:>12} {:>10}  {:<17} why",
@@ -271,35 +333,7 @@ fn print_text(report: &Calibration, wall_s: f64) {
                 crate::engine::config::CALIBRATED_MARGIN
             );
         }
-        let me = &ad.model_error;
-        if me.signals.is_empty() {
-            println!("  model error: {}", me.note);
-        } else {
-            let list: Vec<String> = me
-                .signals
-                .iter()
-                .map(|s| format!("{} {:.2} % ({:.1} σ)", s.signal, s.pct, s.rms_sigma))
-                .collect();
-            println!(
-                "  model error on points left out (1σ, % of the value; added to the instrument \
-                 σ in steady diagnosis and in Method B): {}\n    ({})",
-                list.join(", "),
-                me.note
-            );
-            if let Some(t) = &me.by_speed {
-                println!(
-                    "  along the operating line (each speed with its neighbours; a point is \
-                     weighted by the error at its own GG speed):"
-                );
-                let knots: Vec<String> =
-                    t.speed_knots.iter().map(|k| format!("{k:>6.3}")).collect();
-                println!("    {:<12} {}", "rel. N1 corr", knots.join(" "));
-                for (signal, v) in &t.pct {
-                    let row: Vec<String> = v.iter().map(|p| format!("{p:>6.2}")).collect();
-                    println!("    {signal:<12} {}", row.join(" "));
-                }
-            }
-        }
+        print_model_errors(ad);
     }
     for a in &report.assumptions {
         println!("note: {a}");

@@ -129,6 +129,12 @@ pub trait DiagnosisProblem: ResidualProblem {
     fn params(&self) -> &ParamMap;
     /// The failed evaluations so far, by reason.
     fn failures(&self) -> Failures;
+    /// The model's own 1σ error in health units per health parameter (order of
+    /// [`HEALTH_NAMES`]), points, added in quadrature to each health parameter's σ: an adapted
+    /// file's `[adaptation.health_error]` for Method A (estimated from steady reads of loads
+    /// the curves were not fitted to), none for Method B, whose start-up weighs the operating
+    /// range otherwise.
+    fn model_health_sigma(&self) -> [f64; 6];
 }
 
 /// The optimiser-facing traits of a diagnosis problem, for a type with the fields `objective:
@@ -209,6 +215,9 @@ macro_rules! impl_diagnosis_problem {
             }
             fn params(&self) -> &$crate::diagnosis::ParamMap {
                 &self.params
+            }
+            fn model_health_sigma(&self) -> [f64; 6] {
+                self.health_sigma()
             }
             fn failures(&self) -> $crate::diagnosis::Failures {
                 self.failures.summary()
@@ -449,10 +458,19 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
     problem.residuals(&fit.x, &mut r);
     let ssr = r.iter().map(|v| v * v).sum();
     let inflation = problem.sigma_inflation(&r).sqrt();
-    // The residuals' σ (inflated for their correlation) and the inputs' σ, in quadrature.
-    let total = |k: usize, s: f64| {
+    let model_health = problem.model_health_sigma();
+    // The residuals' σ (inflated for their correlation), the inputs' σ and, for a health
+    // parameter, the model's own error in health units, in quadrature.
+    let fit_part = |k: usize, s: f64| {
         let input = fit.input_sigma.get(k).copied().unwrap_or(0.0);
         (s * inflation).hypot(input)
+    };
+    let total = |k: usize, s: f64| {
+        let model = match pm.params().get(k).map(|p| &p.target) {
+            Some(ParamTarget::Health(i)) => model_health.get(*i).copied().unwrap_or(0.0),
+            _ => 0.0,
+        };
+        fit_part(k, s).hypot(model)
     };
     for (k, (p, &s)) in pm.params().iter().zip(&fit.sigma).enumerate() {
         if let ParamTarget::Health(i) = p.target {
@@ -491,14 +509,26 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
             index: i,
             value: fit.x[k],
             sigma: fit.sigma.get(k).map_or(f64::INFINITY, |&s| total(k, s)),
+            // The model's own error, independent between parameters, weakens the fit's
+            // correlations: ρ·σₖσₗ over the totals.
             correlation: health_at
                 .iter()
                 .map(|&(l, _)| {
-                    fit.correlation
+                    let rho = fit
+                        .correlation
                         .get(k)
                         .and_then(|row| row.get(l))
                         .copied()
-                        .unwrap_or(0.0)
+                        .unwrap_or(0.0);
+                    let part =
+                        |j: usize| fit.sigma.get(j).map_or(f64::INFINITY, |&s| fit_part(j, s));
+                    let all = |j: usize| fit.sigma.get(j).map_or(f64::INFINITY, |&s| total(j, s));
+                    let scale = (part(k) * part(l)) / (all(k) * all(l));
+                    if k == l || !scale.is_finite() {
+                        rho
+                    } else {
+                        rho * scale
+                    }
                 })
                 .collect(),
         })
@@ -711,6 +741,24 @@ mod tests {
         .expect("diagnoses");
         assert_eq!(r1.health, r2.health);
         assert_eq!(r1.sigma, r2.sigma);
+        // An adapted file's own error in health units: the same read, D_GC's σ widened in
+        // quadrature and D_GC no longer called separable; the others as they were.
+        let mut file = engine.cfg().clone();
+        let mut a = crate::engine::config::AdaptationConfig::default();
+        a.health_error.insert("D_GC".into(), 0.6);
+        file.adaptation = Some(a);
+        let adapted = Engine::new(file).expect("engine");
+        let r3 = diagnose_steady(&adapted, &noisy, &cfg).expect("diagnoses");
+        assert_eq!(r3.health, r1.health);
+        let widened = r1.sigma["D_GC"].hypot(0.6);
+        assert!((r3.sigma["D_GC"] - widened).abs() < 1e-9, "{:?}", r3.sigma);
+        assert_eq!(r3.sigma["D_EC"], r1.sigma["D_EC"]);
+        assert!(r1.separability.separable.contains(&"D_GC".to_string()));
+        assert!(
+            !r3.separability.separable.contains(&"D_GC".to_string()),
+            "{:?}",
+            r3.separability
+        );
     }
 
     #[test]
@@ -742,6 +790,9 @@ mod tests {
             Err(EvalError::Model(
                 "simulation failed at t = 3.00 s: boom".into(),
             ))
+        }
+        fn health_sigma(&self) -> [f64; 6] {
+            [0.0; 6]
         }
         fn residual_inflation(&self, _r: &[f64]) -> f64 {
             1.0

@@ -23,9 +23,9 @@
 use super::csv_input::{find_column, open_csv, parse_value, CsvError, AMBIENT_PRESSURE_COLUMN};
 use super::residual_table::{Cell, ResidualTable};
 use super::steady::{
-    below_adaptation_note, beyond_calibration, input_noise_note, model_error_note,
-    relative_gg_speeds, with_input_noise, with_model_error, InputSigma, SteadyData, SteadyProblem,
-    SteadyWindow,
+    below_adaptation_note, beyond_calibration, health_error_note, input_noise_note,
+    model_error_note, relative_gg_speeds, with_input_noise, with_model_error, InputSigma,
+    SteadyData, SteadyProblem, SteadyWindow,
 };
 use super::unit_check::likely_unit;
 use super::{fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, Method, MethodResult};
@@ -455,7 +455,10 @@ pub fn diagnose_snapshots(
     for g in order {
         let members = groups.remove(&g).unwrap_or_default();
         let lines: Vec<u64> = members.iter().map(|(_, r)| r.line).collect();
-        let mut assumptions: Vec<String> = model_error_note(engine.cfg()).into_iter().collect();
+        let mut assumptions: Vec<String> = model_error_note(engine.cfg())
+            .into_iter()
+            .chain(health_error_note(engine.cfg()))
+            .collect();
         if cfg.snapshot_input_noise {
             assumptions.push(input_noise_note());
         }

@@ -7,6 +7,7 @@
 //! carry, fitted through a sequence of smoothness scales. Must not do I/O.
 
 use super::super::CalibrateError;
+use super::health_error::{self, HealthError};
 use super::knots::{knots, SIDE_REACH};
 use super::model_error::{self, ModelError};
 use super::shape::{key, Shape};
@@ -872,6 +873,9 @@ impl<'a> Growth<'a> {
             gg_speed: self.ranges[0],
         };
         let current = with_model_error_and_reach(&self.current, &error, reach)?;
+        let (health, runs) = health_error::estimate(&current, &final_keys, &self.shape, self.ctx)?;
+        self.runs += runs;
+        let current = with_health_error(&current, &health)?;
         let mut r = report(
             &self.shape,
             &self.ranges,
@@ -887,6 +891,7 @@ impl<'a> Growth<'a> {
         r.strategy = self.ctx.settings.strategy.name();
         r.steps = self.steps;
         r.model_error = error;
+        r.health_error = health;
         r.calibrated = Some(reach);
         Ok((r, current))
     }
@@ -909,6 +914,20 @@ fn with_model_error_and_reach(
             .collect();
         a.model_error_by_speed = error.by_speed.clone();
         a.calibrated = Some(reach);
+    }
+    engine
+        .with_config(cfg)
+        .map_err(|e| CalibrateError::Model(e.to_string()))
+}
+
+/// `engine` with `health` as its file's `[adaptation.health_error]` (when estimated).
+fn with_health_error(engine: &Engine, health: &HealthError) -> Result<Engine, CalibrateError> {
+    if health.points.is_empty() {
+        return Ok(engine.clone());
+    }
+    let mut cfg = engine.cfg().clone();
+    if let Some(a) = cfg.adaptation.as_mut() {
+        a.health_error = health.points.clone();
     }
     engine
         .with_config(cfg)

@@ -63,10 +63,12 @@
 //! What it must not do: I/O; fit health (a baseline is healthy by definition).
 
 mod growth;
+mod health_error;
 mod knots;
 mod model_error;
 mod shape;
 
+pub use health_error::{HealthError, PartRead};
 pub use model_error::{ModelError, SignalModelError};
 
 use super::candidates::{candidate, Candidate};
@@ -235,6 +237,9 @@ pub struct AdaptReport {
     /// The adapted model's own error per signal on points left out (written as
     /// `[adaptation.model_error_pct]`).
     pub model_error: ModelError,
+    /// The adapted model's own error in health units on loads left out of a refit (written
+    /// as `[adaptation.health_error]`).
+    pub health_error: HealthError,
     /// The speeds the curves were fitted on (written as `[adaptation.calibrated]`; `None` when
     /// no curve was fitted).
     #[serde(skip)]
@@ -720,6 +725,7 @@ fn report(
         strategy: "",
         fallback: None,
         model_error: ModelError::default(),
+        health_error: HealthError::default(),
         calibrated: None,
     }
 }

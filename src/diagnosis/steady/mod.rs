@@ -394,6 +394,25 @@ pub(crate) fn model_error_note(cfg: &EngineConfig) -> Option<String> {
     ))
 }
 
+/// What [`SteadyProblem`] adds to the health σ from `[adaptation.health_error]`, for a
+/// report's assumptions; `None` when the file states none above 0.
+pub(crate) fn health_error_note(cfg: &EngineConfig) -> Option<String> {
+    let a = cfg.adaptation.as_ref()?;
+    let list: Vec<String> = a
+        .health_error
+        .iter()
+        .filter(|(_, v)| **v > 0.0)
+        .map(|(k, v)| format!("{k} {v:.2}"))
+        .collect();
+    (!list.is_empty()).then(|| {
+        format!(
+            "the adapted model's own error in health units ([adaptation.health_error], \
+             points) added to each parameter's σ: {}",
+            list.join(", ")
+        )
+    })
+}
+
 /// Averages each window into a steady operating point.
 pub fn average_windows(
     seg: &Recording,
@@ -558,6 +577,15 @@ impl SteadyProblem {
 impl SteadyProblem {
     /// Variance inflation of the least-squares σ for correlated residuals (see
     /// [`DiagnosisProblem::sigma_inflation`]).
+    fn health_sigma(&self) -> [f64; 6] {
+        let mut out = [0.0; 6];
+        if let Some(a) = &self.engine.cfg().adaptation {
+            for (i, v) in out.iter_mut().enumerate() {
+                *v = a.health_error_pts(i);
+            }
+        }
+        out
+    }
     fn residual_inflation(&self, _r: &[f64]) -> f64 {
         1.0 // window means are independent
     }

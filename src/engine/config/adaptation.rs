@@ -29,6 +29,13 @@
 //! point by the one average error gives the low loads a say the model cannot back. Where a
 //! signal has no row here, `model_error_pct` holds at every speed.
 //!
+//! `[adaptation.health_error]` (written with them, or set by hand) states, per health parameter
+//! (`D_GC = 0.12`), the 1σ of the adapted model's own error in health points: what a healthy
+//! unit reads at loads the curves were not fitted to (estimated by calibrating on alternate
+//! loads with the final knots and diagnosing the others). Steady diagnosis adds it to each
+//! parameter's σ, so a parameter the adapted model cannot tell apart from its own error is not
+//! called separable however small the residual is.
+//!
 //! `[adaptation.calibrated]` (written with them) states the reach of the calibration:
 //! `gg_speed = [lo, hi]`, the relative corrected GG speeds of its lowest and highest operating
 //! point. Steady diagnosis leaves out a snapshot beyond them by more than
@@ -84,6 +91,10 @@ pub struct AdaptationConfig {
     /// How far the calibration reached (written by `calibrate --adapt`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub calibrated: Option<CalibratedRange>,
+    /// 1σ of the adapted model's own error in health units per health parameter (`D_GC` …),
+    /// points: what a healthy unit at loads the curves were not fitted to reads.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub health_error: BTreeMap<String, f64>,
 }
 
 /// The operating range the adaptation was fitted on: beyond it the curves are extrapolated
@@ -169,6 +180,22 @@ impl ModelErrorBySpeed {
 
 /// Largest model error a file may state, % of the value: beyond it the model predicts nothing.
 pub const MAX_MODEL_ERROR_PCT: f64 = 20.0;
+
+/// Largest model error in health units a file may state, points (the health parameters' own
+/// default limits span 13).
+pub const MAX_HEALTH_ERROR_PTS: f64 = 10.0;
+
+impl AdaptationConfig {
+    /// The model's own 1σ error of health parameter `index` (order of
+    /// [`crate::health::HEALTH_NAMES`]), points (0 when not stated).
+    pub fn health_error_pts(&self, index: usize) -> f64 {
+        crate::health::HEALTH_NAMES
+            .get(index)
+            .and_then(|n| self.health_error.get(*n))
+            .copied()
+            .unwrap_or(0.0)
+    }
+}
 
 /// Model error at which a signal no longer tells health, % of the value: a point of any
 /// component's degradation moves a gas-path signal by a few tenths of a percent (the power or
@@ -278,6 +305,17 @@ impl AdaptationConfig {
                 return Err((
                     format!("adaptation.model_error_pct.{name}"),
                     "is no signal's CSV name (e.g. n1_rpm, t34_k)".into(),
+                ));
+            }
+        }
+        for name in self.health_error.keys() {
+            if !crate::health::HEALTH_NAMES.contains(&name.as_str()) {
+                return Err((
+                    format!("adaptation.health_error.{name}"),
+                    format!(
+                        "is no health parameter (one of {})",
+                        crate::health::HEALTH_NAMES.join(", ")
+                    ),
                 ));
             }
         }
@@ -402,6 +440,18 @@ mod tests {
             (
                 "[adaptation.model_error_pct]\nt34_k = 30.0",
                 "adaptation.model_error_pct.t34_k",
+            ),
+            (
+                "[adaptation.health_error]\nD_XX = 0.3",
+                "adaptation.health_error.D_XX",
+            ),
+            (
+                "[adaptation.health_error]\nD_GC = -0.3",
+                "adaptation.health_error.D_GC",
+            ),
+            (
+                "[adaptation.health_error]\nD_GC = 12.0",
+                "adaptation.health_error.D_GC",
             ),
             (
                 "[adaptation.model_error_by_speed]\nspeed_knots = [0.8, 0.7]\nn1_rpm = [1, 1]",

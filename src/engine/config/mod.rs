@@ -14,7 +14,8 @@ mod fuel;
 mod ranges;
 pub use adaptation::{
     curves_of, AdaptationConfig, CalibratedRange, ComponentCurves, ModelErrorBySpeed,
-    CALIBRATED_MARGIN, COMPONENTS, MAX_MODEL_ERROR_PCT, UNRESOLVING_MODEL_ERROR_PCT,
+    CALIBRATED_MARGIN, COMPONENTS, MAX_HEALTH_ERROR_PTS, MAX_MODEL_ERROR_PCT,
+    UNRESOLVING_MODEL_ERROR_PCT,
 };
 pub use fuel::{FuelConfig, FuelKind, GasComposition};
 pub use ranges::{param_range, ParamRange};

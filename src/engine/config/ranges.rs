@@ -226,6 +226,12 @@ pub fn param_range(key: &str) -> Option<ParamRange> {
     {
         return Some(ParamRange::new(0.0, super::adaptation::MAX_MODEL_ERROR_PCT));
     }
+    if parts.len() == 3 && parts[0] == "adaptation" && parts[1] == "health_error" {
+        return Some(ParamRange::new(
+            0.0,
+            super::adaptation::MAX_HEALTH_ERROR_PTS,
+        ));
+    }
     if parts.len() == 3 && (parts[0] == "sensors" || parts[0] == "adaptation") {
         let wild = format!("{}.*.{}", parts[0], parts[2]);
         return RANGES.iter().find(|(k, _)| *k == wild).map(|(_, r)| *r);
