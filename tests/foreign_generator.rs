@@ -11,12 +11,14 @@
 //!
 //! What it asserts. With the full set (N1, P1, T2, P2, T34, P34, T4, power): the baseline fitted
 //! within noise, the inlet's constant law read from the data, the interior loads left out
-//! predicted within the floors, every level of the grid within 0.4 points on all six
-//! parameters and called `good`. With N1, T2, P2, T4 and power only (no P1, no HP-turbine exit
+//! predicted well within the floors (0.2 / 0.6 % against 0.3 / 1 %), every level of
+//! the grid within 0.4 points on all six parameters and called `good`. With N1, T2, P2, T4 and power only (no P1, no HP-turbine exit
 //! station), six health parameters are more than these signals separate: every level is then
 //! read within 0.5 points on what the diagnosis calls separable, and any parameter further off
 //! is named by the diagnosis as not identifiable or confounded (or the fit is not `good`): a
-//! miss is never presented as a plain, good value.
+//! miss is never presented as a plain, good value. The calibration's own error in health units
+//! (`[adaptation.health_error]`) says which: within 0.2 points on every parameter with the full
+//! set, half a point or more on D_ET, D_GP and D_EP with the five.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use gtwatch::calibrate::adapt::{AdaptSettings, AdaptStrategy};
@@ -130,6 +132,17 @@ fn settings() -> CalibrationSettings {
     }
 }
 
+/// The adapted file's own error in health units, points, by parameter.
+fn health_error(report: &Calibration) -> HashMap<String, f64> {
+    let a = report.adaptation.as_ref().expect("adapted");
+    assert_eq!(a.health_error.parts.len(), 3, "{}", a.health_error.note);
+    a.health_error
+        .points
+        .iter()
+        .map(|(k, v)| (k.clone(), *v))
+        .collect()
+}
+
 /// The baseline with `written` instruments, the user's model, and its adapted calibration.
 fn calibrated(written: &[Signal]) -> (Engine, Vec<Snapshot>, Engine, Calibration, Engine) {
     let truth = truth();
@@ -205,6 +218,11 @@ fn grid_results(truth: &Engine, adapted: &Engine, written: &[Signal]) -> Vec<Met
 #[test]
 fn a_generator_of_another_map_family_is_calibrated_and_diagnosed() {
     let (truth, base, model, report, adapted) = calibrated(&FULL);
+    // Every parameter is read on loads the curves did not see within a few tenths: the
+    // adapted model's own error in health units stays well below the half point the wash
+    // advice acts on.
+    let he = health_error(&report);
+    assert!(he.values().all(|v| *v <= 0.2), "{he:?}");
     // Within noise, and the inlet's constant loss read from P1 at 9 points.
     assert_eq!(
         format!("{:?}", report.baseline_fit.verdict),
@@ -224,8 +242,11 @@ fn a_generator_of_another_map_family_is_calibrated_and_diagnosed() {
     assert_eq!(law.chosen, PressureLossLaw::Constant, "{}", law.summary());
 
     // The interior loads left out in turn (the whole calibration re-run on the other 8):
-    // measured 2026-12-05 0.276 % mean, 0.893 % worst (the 7 interior loads; the two ends,
-    // extrapolations, 0.28 / 0.82 % and 0.25 / 0.67 %).
+    // measured 2026-12-05 0.102 % mean, 0.349 % worst (the 7 interior loads; the two ends,
+    // extrapolations, 0.28 / 0.82 % and 0.24 / 0.51 %); with the noise seeds 800 and 900
+    // 0.102 / 0.352 % and 0.123 / 0.387 %. Asserted well inside the floors (0.3 / 1 %);
+    // before the design values' identifiability was judged again at the fitted values, 0.276 /
+    // 0.893 %.
     let cands = default_candidates(&model).expect("candidates");
     let mut means = Vec::new();
     let mut worst = 0.0f64;
@@ -248,7 +269,7 @@ fn a_generator_of_another_map_family_is_calibrated_and_diagnosed() {
     let mean = means.iter().sum::<f64>() / means.len() as f64;
     assert!(means.len() >= 6, "{} interior loads", means.len());
     assert!(
-        mean <= 0.3 && worst <= 1.0,
+        mean <= 0.2 && worst <= 0.6,
         "interior loads left out: mean {mean:.3} %, worst {worst:.3} %"
     );
 
@@ -277,6 +298,19 @@ fn a_generator_of_another_map_family_is_calibrated_and_diagnosed() {
 #[test]
 fn with_few_instruments_a_miss_is_named_not_presented_as_good() {
     let (truth, _, _, report, adapted) = calibrated(&FEW);
+    // Without the HP-turbine exit station the curves can trade the turbines' efficiencies and
+    // the PT's capacity against each other: healthy loads the curves did not see read them
+    // half a point or more off, which the file states (and the diagnosis adds to their σ),
+    // while the compressor and the HP turbine's capacity stay within a few tenths.
+    let he = health_error(&report);
+    assert!(
+        ["D_ET", "D_GP", "D_EP"].iter().all(|k| he[*k] >= 0.4),
+        "{he:?}"
+    );
+    assert!(
+        ["D_GC", "D_EC", "D_GT"].iter().all(|k| he[*k] <= 0.25),
+        "{he:?}"
+    );
     assert_eq!(
         format!("{:?}", report.baseline_fit.verdict),
         "Good",

@@ -12,20 +12,26 @@
 //! reads on healthy data the curves did not see is that error, in the units the diagnosis
 //! reports.
 //!
-//! How: the baseline's points in order of GG speed split into two interleaved parts; on each,
-//! the final shape (its knots and curves kept, the design values and curve values refitted
-//! from the whole fit, the same smoothness) is calibrated again, and the other half diagnosed
-//! with it as one healthy group (steady diagnosis, every health parameter free, the file's
-//! model error in the instruments' σ). Per parameter the error is the RMS of the two reads
-//! with the diagnosis's own noise share (its σ at unit residual variance) removed. Tried by
-//! hand first on that generator: with every instrument both parts read within 0.15 points,
-//! where the whole file reads healthy days within 0.09; with five instruments D_EP −1.12, D_ET
-//! +0.64, D_GP −0.92 on one half and D_GP −2.93, D_GT −1.49 on the other. Two cruder estimates
-//! failed there: the leave-one-point-out misses put back on the baseline read too little (the
-//! misses at the baseline's own loads do not carry the error), and a whole calibration on half
-//! the loads read too much (half a baseline grows a coarser shape).
+//! How: the baseline's points in order of GG speed are split into interleaved parts (thirds
+//! with at least [`MIN_PART_POINTS`] each, else halves); for each part, the final shape is
+//! calibrated again on the other points (its knots and curves kept, the design values and
+//! curve values refitted from the whole fit, the same smoothness; with the design values held
+//! where the points cannot carry them all), and the part is diagnosed with it as one healthy
+//! group (steady diagnosis, every health parameter free, the file's model error in the
+//! instruments' σ). Per parameter the error is the RMS of the parts' reads. Their noise is not
+//! taken off: a third of the loads has a σ as large as the error it should reveal (on the
+//! five-instrument generator the reads D_EP −1.07, −0.15, +0.59 carried σ 0.85, 0.32, 0.82, and
+//! taking that off left nothing, where the nine-load grid read the healthy unit's D_EP −0.54
+//! at ± 0.24), so the estimate errs large by the reads' own scatter, which on averaged rows is
+//! small. Tried by hand first on that generator (halves): with every instrument both read
+//! within 0.15 points, where the whole file reads healthy days within 0.09; with five
+//! instruments D_EP −1.12, D_ET +0.64, D_GP −0.92 on one half and D_GP −2.93, D_GT −1.49 on the
+//! other. Two cruder estimates failed there: the leave-one-point-out misses put back on the
+//! baseline read too little (the misses at the baseline's own loads do not carry the error),
+//! and a whole calibration on half the loads read too much (half a baseline grows a coarser
+//! shape).
 //!
-//! Two parts are two draws: an estimate of the scale, not of each parameter's exact error.
+//! Three parts are three draws: an estimate of the scale, not of each parameter's exact error.
 //!
 //! What it must not do: I/O; change the adapted file's curves (the refits are thrown away).
 
@@ -144,8 +150,8 @@ pub(super) fn estimate(
         .map(|(k, v)| (k, v.min(MAX_HEALTH_ERROR_PTS)))
         .collect();
     let mut note = format!(
-        "calibrated on alternate loads (the final knots kept), the other loads diagnosed as \
-         healthy: {} of {parts} parts read",
+        "the final shape refitted without each of {parts} interleaved parts of the loads and \
+         the part diagnosed as healthy: {} of {parts} parts read (RMS of their reads)",
         reads.len()
     );
     if !skipped.is_empty() {
