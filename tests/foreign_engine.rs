@@ -929,13 +929,15 @@ fn fixed_vanes_calibrated(max_knots: usize) -> (Engine, Vec<Snapshot>, Calibrati
     (truth, rows, report, adapted)
 }
 
-/// The model error an adapted engine file states, on average and along the GG speed.
+/// The model error an adapted engine file states, on average, along the GG speed and in
+/// health units.
 fn model_error_text(adapted: &Engine) -> String {
     let a = adapted.cfg().adaptation.as_ref();
     format!(
-        "model error: {:.3?}\n  along the GG speed: {:.3?}",
+        "model error: {:.3?}\n  along the GG speed: {:.3?}\n  in health units: {:.3?}",
         a.map(|a| &a.model_error_pct),
-        a.and_then(|a| a.model_error_by_speed.as_ref())
+        a.and_then(|a| a.model_error_by_speed.as_ref()),
+        a.map(|a| &a.health_error)
     )
 }
 

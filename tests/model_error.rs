@@ -39,4 +39,15 @@ fn the_model_s_own_family_states_no_model_error() {
     // The adapted engine carries what the report states.
     let stated = &adapted.cfg().adaptation.as_ref().unwrap().model_error_pct;
     assert_eq!(stated.len(), me.signals.len());
+    // In health units too: healthy loads the refitted curves did not see read within the
+    // noise of a third of the baseline, and the file carries the estimate.
+    let he = &report.adaptation.as_ref().expect("adaptation").health_error;
+    eprintln!("{he:?}");
+    assert_eq!(he.parts.len(), 3, "{}", he.note);
+    assert_eq!(he.points.len(), 6);
+    assert!(he.points.values().all(|v| *v < 0.15), "{:?}", he.points);
+    assert_eq!(
+        &adapted.cfg().adaptation.as_ref().unwrap().health_error,
+        &he.points
+    );
 }
