@@ -461,6 +461,7 @@ pub fn calibrate(
         fit_identified(&sub, &chosen, &mut fitted, settings, jac_opts, &pool)?
     };
     let mut runs = lm.runs;
+    let mut rejudge_note = None;
     if !chosen.is_empty() {
         let rejudged = rejudge(
             engine,
@@ -471,6 +472,7 @@ pub fn calibrate(
             (settings, jac_opts, &pool),
         )?;
         runs += rejudged.runs;
+        rejudge_note = rejudged.note;
         if let Some(r) = rejudged.adopted {
             verdicts = r.verdicts;
             chosen = r.chosen;
@@ -518,7 +520,11 @@ pub fn calibrate(
         rms_after: rms(&r1),
         dropped_lines: lines_of(&prepared.dropped),
         dropped: prepared.dropped,
-        assumptions: prepared.assumptions,
+        assumptions: prepared
+            .assumptions
+            .into_iter()
+            .chain(rejudge_note)
+            .collect(),
         lm_iterations: lm.iterations,
         lm_stop: lm.stop,
         adaptation,
@@ -581,6 +587,8 @@ fn identifiability(
 struct Rejudged {
     adopted: Option<Adopted>,
     runs: usize,
+    /// What the second pass found and whether its fit was kept (`None`: nothing new).
+    note: Option<String>,
 }
 
 /// A larger identified set fitted from the first fit's values.
@@ -635,6 +643,7 @@ fn rejudge(
         return Ok(Rejudged {
             adopted: None,
             runs,
+            note: None,
         });
     }
     let sub = CalibrationProblem::new(
@@ -648,7 +657,19 @@ fn rejudge(
     let before = rms(&r1);
     let after = rms(&problem.residuals_at(&refitted)?);
     let runs = problem.runs() + lm.runs;
+    let added: Vec<&str> = now
+        .iter()
+        .filter(|j| !chosen.contains(j))
+        .map(|&j| at_fit[j].key.as_str())
+        .collect();
+    let note = format!(
+        "identifiability judged again at the fitted values also identifies {}: fitted with \
+         the others, data RMS {before:.2} → {after:.2} σ, {}",
+        added.join(", "),
+        if after < before { "kept" } else { "not kept" }
+    );
     Ok(Rejudged {
+        note: Some(note),
         adopted: (after < before).then_some(Adopted {
             verdicts,
             chosen: now,
