@@ -121,6 +121,10 @@ fn md22_adapted_to_gspys_turboshaft_fits_it_and_predicts_its_interior_points() {
     let model = user_model();
     let (report, adapted) = calibrated(&model, &rows);
     let a = report.adaptation.as_ref().expect("adapted");
+    eprintln!(
+        "in health units: {:.3?} ({})",
+        a.health_error.points, a.health_error.note
+    );
     let pt = a
         .components
         .iter()
@@ -289,6 +293,16 @@ fn md22_adapted_to_a_generator_unit_diagnoses_its_degradation() {
         );
     }
     eprintln!("RMS {:.2} → {:.2} σ", a.rms_before, a.rms_after);
+    eprintln!(
+        "in health units: {:.3?} ({})",
+        a.health_error.points, a.health_error.note
+    );
+    for p in &a.health_error.parts {
+        eprintln!(
+            "  lines {:?}: {:+.2?} {}",
+            p.diagnosed_lines, p.health, p.fit
+        );
+    }
     // GSPy's inlet holds its pressure ratio, and from 40 to 100 % load the measured P1 says so
     // decisively (χ² 35.5 for md22's flow-squared law, 0.1 for a constant loss).
     let law = report
