@@ -18,7 +18,7 @@
 //! is named by the diagnosis as not identifiable or confounded (or the fit is not `good`): a
 //! miss is never presented as a plain, good value. The calibration's own error in health units
 //! (`[adaptation.health_error]`) says which: within 0.2 points on every parameter with the full
-//! set, a quarter point or more on D_ET, D_GP and D_EP with the five.
+//! set, half a point or more on D_ET, D_GP and D_EP with the five.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use gtwatch::calibrate::adapt::{AdaptSettings, AdaptStrategy};
@@ -135,7 +135,7 @@ fn settings() -> CalibrationSettings {
 /// The adapted file's own error in health units, points, by parameter.
 fn health_error(report: &Calibration) -> HashMap<String, f64> {
     let a = report.adaptation.as_ref().expect("adapted");
-    assert_eq!(a.health_error.parts.len(), 2, "{}", a.health_error.note);
+    assert_eq!(a.health_error.parts.len(), 3, "{}", a.health_error.note);
     a.health_error
         .points
         .iter()
@@ -300,13 +300,13 @@ fn with_few_instruments_a_miss_is_named_not_presented_as_good() {
     let (truth, _, _, report, adapted) = calibrated(&FEW);
     // Without the HP-turbine exit station the curves can trade the turbines' efficiencies and
     // the PT's capacity against each other: healthy loads the curves did not see read them
-    // off by at least the 1σ a separable parameter may have (0.25 points; measured 0.65 / 1.26
-    // / 0.76 for D_ET / D_GP / D_EP, with the noise seeds 800 and 900 0.25–0.74), which the
+    // off by more than the 1σ a separable parameter may have (0.25 points; measured 1.13 / 2.35
+    // / 1.56 for D_ET / D_GP / D_EP, with the noise seeds 800 and 900 0.79–2.45), which the
     // file states and the diagnosis adds to their σ, while the compressor and the HP turbine's
     // capacity stay within a few tenths.
     let he = health_error(&report);
     assert!(
-        ["D_ET", "D_GP", "D_EP"].iter().all(|k| he[*k] >= 0.25),
+        ["D_ET", "D_GP", "D_EP"].iter().all(|k| he[*k] >= 0.5),
         "{he:?}"
     );
     assert!(
