@@ -609,7 +609,7 @@ struct Adopted {
 /// sat at 13 % of its interval against the 12.5 % allowed, stayed at the file's value, and the
 /// PT's adaptation curves bent to make up for it (−5 % flow, −3.7 % efficiency); at the
 /// fitted values it is 8 %. Refitted with it, the interior loads left out were predicted at
-/// 0.10 / 0.33 % (mean / worst) instead of 0.28 / 0.94 %.
+/// 0.10 / 0.35 % (mean / worst) instead of 0.28 / 0.89 %.
 fn rejudge(
     engine: &Engine,
     prepared: &PreparedPoints,
