@@ -16,6 +16,7 @@
 //! extrapolation of the curves, which diagnosis on an adapted file leaves out; reported, and
 //! summarised apart). Pure: no I/O, no printing.
 
+use super::adapt::AdaptSettings;
 use super::candidates::Candidate;
 use super::problem::{prepare, residuals_on};
 use super::startup::RestReading;
@@ -209,6 +210,14 @@ pub fn left_out(
         shape: None,
     };
     let mut runs = 0;
+    // The prediction needs the fitted curves only, not the error in health units.
+    let settings = &CalibrationSettings {
+        adapt: settings.adapt.clone().map(|a| AdaptSettings {
+            health_error: false,
+            ..a
+        }),
+        ..settings.clone()
+    };
     match calibrate(engine, &others, rest, candidates.to_vec(), settings) {
         Err(e) => point.failed = Some(format!("the calibration without it failed: {e}")),
         Ok((report, fitted)) => {

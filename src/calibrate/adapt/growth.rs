@@ -873,8 +873,17 @@ impl<'a> Growth<'a> {
             gg_speed: self.ranges[0],
         };
         let current = with_model_error_and_reach(&self.current, &error, reach)?;
-        let (health, runs) = health_error::estimate(&current, &final_keys, &self.shape, self.ctx)?;
-        self.runs += runs;
+        let health = if self.ctx.settings.health_error {
+            let (health, runs) =
+                health_error::estimate(&current, &final_keys, &self.shape, self.ctx)?;
+            self.runs += runs;
+            health
+        } else {
+            HealthError {
+                note: "not estimated (a calibration to predict a point left out)".into(),
+                ..HealthError::default()
+            }
+        };
         let current = with_health_error(&current, &health)?;
         let mut r = report(
             &self.shape,

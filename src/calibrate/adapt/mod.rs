@@ -148,6 +148,10 @@ pub struct AdaptSettings {
     pub curvature_scale: f64,
     /// How curves are chosen and fitted.
     pub strategy: AdaptStrategy,
+    /// Whether the adapted model's own error in health units is estimated at the end
+    /// (`[adaptation.health_error]`: three refits and three diagnoses); a calibration run only
+    /// to predict a left-out point (`--validate`) does not need it.
+    pub health_error: bool,
 }
 
 impl Default for AdaptSettings {
@@ -160,6 +164,7 @@ impl Default for AdaptSettings {
             max_knots: 6,
             curvature_scale: 2.0,
             strategy: AdaptStrategy::Grown,
+            health_error: true,
         }
     }
 }
