@@ -472,6 +472,9 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
         };
         fit_part(k, s).hypot(model)
     };
+    // Parameter k's σ from the fit alone and in all (∞ where the fit has none).
+    let fit_sigma = |k: usize| fit.sigma.get(k).map_or(f64::INFINITY, |&s| fit_part(k, s));
+    let total_sigma = |k: usize| fit.sigma.get(k).map_or(f64::INFINITY, |&s| total(k, s));
     for (k, (p, &s)) in pm.params().iter().zip(&fit.sigma).enumerate() {
         if let ParamTarget::Health(i) = p.target {
             sigma.insert(HEALTH_NAMES[i].to_string(), total(k, s));
@@ -508,7 +511,7 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
         .map(|&(k, i)| separability::HealthEstimate {
             index: i,
             value: fit.x[k],
-            sigma: fit.sigma.get(k).map_or(f64::INFINITY, |&s| total(k, s)),
+            sigma: total_sigma(k),
             // The model's own error, independent between parameters, weakens the fit's
             // correlations: ρ·σₖσₗ over the totals.
             correlation: health_at
@@ -520,10 +523,7 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
                         .and_then(|row| row.get(l))
                         .copied()
                         .unwrap_or(0.0);
-                    let part =
-                        |j: usize| fit.sigma.get(j).map_or(f64::INFINITY, |&s| fit_part(j, s));
-                    let all = |j: usize| fit.sigma.get(j).map_or(f64::INFINITY, |&s| total(j, s));
-                    let scale = (part(k) * part(l)) / (all(k) * all(l));
+                    let scale = (fit_sigma(k) * fit_sigma(l)) / (total_sigma(k) * total_sigma(l));
                     if k == l || !scale.is_finite() {
                         rho
                     } else {

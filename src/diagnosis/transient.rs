@@ -398,13 +398,14 @@ impl TransientProblem {
 }
 
 impl TransientProblem {
-    /// Variance inflation of the least-squares σ for correlated residuals (see
-    /// [`DiagnosisProblem::sigma_inflation`]).
+    /// None (see [`DiagnosisProblem::model_health_sigma`]): a start-up weighs the operating
+    /// range otherwise than the steady reads the file's `[adaptation.health_error]` was
+    /// estimated from.
     fn health_sigma(&self) -> [f64; 6] {
-        // A start-up weighs the operating range otherwise than the steady reads the file's
-        // `[adaptation.health_error]` was estimated from.
         [0.0; 6]
     }
+    /// Variance inflation of the least-squares σ for correlated residuals (see
+    /// [`DiagnosisProblem::sigma_inflation`]).
     fn residual_inflation(&self, r: &[f64]) -> f64 {
         self.objective.correlation_inflation(r, self.inflation_lag)
     }

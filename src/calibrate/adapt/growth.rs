@@ -908,7 +908,9 @@ impl<'a> Growth<'a> {
 
 /// `engine` with `error` as its file's `[adaptation.model_error_pct]` and
 /// `[adaptation.model_error_by_speed]`, and `reach` (the data's lowest and highest relative
-/// corrected GG speed) as `[adaptation.calibrated]` (replacing any older ones).
+/// corrected GG speed) as `[adaptation.calibrated]` (replacing any older ones); an older
+/// `[adaptation.health_error]` is cleared (estimated again on this engine by
+/// [`health_error::estimate`], which must not read with it).
 fn with_model_error_and_reach(
     engine: &Engine,
     error: &ModelError,
@@ -923,6 +925,7 @@ fn with_model_error_and_reach(
             .collect();
         a.model_error_by_speed = error.by_speed.clone();
         a.calibrated = Some(reach);
+        a.health_error.clear();
     }
     engine
         .with_config(cfg)

@@ -84,8 +84,9 @@ pub struct HealthError {
     pub note: String,
 }
 
-/// The error of `engine` (adapted, its model error stated; `keys` its fitted values, `shape`
-/// their curves) in health units on the context's points; the model runs it took.
+/// The error of `engine` (adapted, its model error stated and no health error: the reads must
+/// not carry one; `keys` its fitted values, `shape` their curves) in health units on the
+/// context's points; the model runs it took.
 pub(super) fn estimate(
     engine: &Engine,
     keys: &[String],
@@ -130,8 +131,6 @@ pub(super) fn estimate(
             .map(|(_, &i)| ctx.points[i].clone())
             .collect()
     };
-    // The file's own health error (a file calibrated before) is no part of the reads.
-    let engine = &without_health_error(engine)?;
     let mut runs = 0;
     let mut reads = Vec::new();
     let mut skipped = Vec::new();
@@ -185,17 +184,6 @@ pub(super) fn estimate(
         },
         runs,
     ))
-}
-
-/// `engine` without `[adaptation.health_error]`.
-fn without_health_error(engine: &Engine) -> Result<Engine, CalibrateError> {
-    let mut cfg = engine.cfg().clone();
-    if let Some(a) = cfg.adaptation.as_mut() {
-        a.health_error.clear();
-    }
-    engine
-        .with_config(cfg)
-        .map_err(|e| CalibrateError::Model(e.to_string()))
 }
 
 /// Calibrates `keys` of `engine` on `fitted_on` (the shape's knots kept) and diagnoses

@@ -575,17 +575,14 @@ impl SteadyProblem {
 }
 
 impl SteadyProblem {
+    /// The adapted file's `[adaptation.health_error]` (see
+    /// [`DiagnosisProblem::model_health_sigma`]).
+    fn health_sigma(&self) -> [f64; 6] {
+        let a = self.engine.cfg().adaptation.as_ref();
+        std::array::from_fn(|i| a.map_or(0.0, |a| a.health_error_pts(i)))
+    }
     /// Variance inflation of the least-squares σ for correlated residuals (see
     /// [`DiagnosisProblem::sigma_inflation`]).
-    fn health_sigma(&self) -> [f64; 6] {
-        let mut out = [0.0; 6];
-        if let Some(a) = &self.engine.cfg().adaptation {
-            for (i, v) in out.iter_mut().enumerate() {
-                *v = a.health_error_pts(i);
-            }
-        }
-        out
-    }
     fn residual_inflation(&self, _r: &[f64]) -> f64 {
         1.0 // window means are independent
     }

@@ -31,8 +31,8 @@
 //!
 //! `[adaptation.health_error]` (written with them, or set by hand) states, per health parameter
 //! (`D_GC = 0.12`), the 1σ of the adapted model's own error in health points: what a healthy
-//! unit reads at loads the curves were not fitted to (estimated by calibrating on alternate
-//! loads with the final knots and diagnosing the others). Steady diagnosis adds it to each
+//! unit reads at loads the curves were not fitted to (estimated by refitting the final curves
+//! without each of interleaved parts of the interior loads and diagnosing that part). Steady diagnosis adds it to each
 //! parameter's σ, so a parameter the adapted model cannot tell apart from its own error is not
 //! called separable however small the residual is.
 //!
