@@ -26,11 +26,12 @@ use gtwatch::calibrate::candidates::default_candidates;
 use gtwatch::calibrate::synthetic::{snapshot_csv_at_speeds, OperatingPoint};
 use gtwatch::calibrate::validate::{left_out, Position};
 use gtwatch::calibrate::{calibrate, Calibration, CalibrationSettings};
+use gtwatch::diagnosis::fit_quality::AT_LIMIT_FRACTION;
 use gtwatch::diagnosis::snapshot::{diagnose_snapshots, read_snapshots, Snapshot};
 use gtwatch::diagnosis::MethodResult;
 use gtwatch::engine::config::PressureLossLaw;
 use gtwatch::engine::{Engine, EngineConfig};
-use gtwatch::health::{HealthParams, HEALTH_NAMES};
+use gtwatch::health::{HealthParams, HEALTH_BOUNDS, HEALTH_NAMES};
 use gtwatch::signals::Signal;
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -136,6 +137,29 @@ fn settings() -> CalibrationSettings {
 fn health_error(report: &Calibration) -> HashMap<String, f64> {
     let a = report.adaptation.as_ref().expect("adapted");
     assert_eq!(a.health_error.parts.len(), 3, "{}", a.health_error.note);
+    // A read that ended on its search limit (the default health bounds) is named as such, in
+    // the part and in the note: the error stated for it is a floor.
+    for part in &a.health_error.parts {
+        for (name, v) in &part.health {
+            let (lo, hi) = HEALTH_BOUNDS;
+            let tol = AT_LIMIT_FRACTION * (hi - lo);
+            let on_limit = *v <= lo + tol || *v >= hi - tol;
+            assert_eq!(
+                on_limit,
+                part.at_limit.contains(name),
+                "lines {:?}: {name} {v:+.3}, at_limit {:?}",
+                part.diagnosed_lines,
+                part.at_limit
+            );
+        }
+        if !part.at_limit.is_empty() {
+            assert!(
+                a.health_error.note.contains("search limit"),
+                "{}",
+                a.health_error.note
+            );
+        }
+    }
     a.health_error
         .points
         .iter()

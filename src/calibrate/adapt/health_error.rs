@@ -71,6 +71,9 @@ pub struct PartRead {
     pub sigma: BTreeMap<String, f64>,
     /// The diagnosis's fit verdict (`good`, `suspect`, `poor`).
     pub fit: String,
+    /// Parameters whose read ended on its search limit (`[diagnosis] health_bounds`): the read
+    /// would have gone further, so the error stated for them is a floor.
+    pub at_limit: Vec<String>,
 }
 
 /// The estimate.
@@ -176,6 +179,18 @@ pub(super) fn estimate(
     if !skipped.is_empty() {
         note.push_str(&format!("; skipped: {}", skipped.join("; ")));
     }
+    let at_limit: Vec<String> = reads
+        .iter()
+        .filter(|r| !r.at_limit.is_empty())
+        .map(|r| format!("lines {:?} {}", r.diagnosed_lines, r.at_limit.join(", ")))
+        .collect();
+    if !at_limit.is_empty() {
+        note.push_str(&format!(
+            "; ended on a search limit: {} (the read would have gone further: the error \
+             stated for that parameter is a floor)",
+            at_limit.join("; ")
+        ));
+    }
     Ok((
         HealthError {
             points,
@@ -252,6 +267,12 @@ fn read_part(
             health: crate::diagnosis::health_map(&r.health),
             sigma,
             fit: r.fit_quality.verdict.as_str().to_string(),
+            at_limit: r
+                .fit_quality
+                .at_limit
+                .iter()
+                .map(|h| h.name.clone())
+                .collect(),
         },
         refit.runs + problem.model_runs(),
     ))

@@ -58,8 +58,13 @@ pub(super) fn print_model_errors(ad: &crate::calibrate::adapt::AdaptReport) {
                 .iter()
                 .map(|(k, v)| format!("{k} {v:+.2}"))
                 .collect();
+            let limit = if p.at_limit.is_empty() {
+                String::new()
+            } else {
+                format!("; on its search limit: {}", p.at_limit.join(", "))
+            };
             println!(
-                "    healthy lines {:?} read {} (fit {})",
+                "    healthy lines {:?} read {} (fit {}{limit})",
                 p.diagnosed_lines,
                 read.join(", "),
                 p.fit
