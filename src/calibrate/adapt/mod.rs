@@ -62,6 +62,7 @@
 //!
 //! What it must not do: I/O; fit health (a baseline is healthy by definition).
 
+mod coverage;
 mod fitting;
 mod growth;
 mod health_error;
@@ -69,6 +70,7 @@ mod knots;
 mod model_error;
 mod shape;
 
+pub use coverage::{CoverageAdvice, ADVICE_PCT};
 pub use health_error::{HealthError, PartRead};
 pub use model_error::{ModelError, SignalModelError};
 
@@ -246,6 +248,9 @@ pub struct AdaptReport {
     /// The adapted model's own error in health units on loads left out of a refit (written
     /// as `[adaptation.health_error]`).
     pub health_error: HealthError,
+    /// Where the baseline wants a healthy load more: beside interior loads the model predicts
+    /// no better than [`ADVICE_PCT`] on some signal (from `model_error.by_speed`).
+    pub coverage: Vec<CoverageAdvice>,
     /// The speeds the curves were fitted on (written as `[adaptation.calibrated]`; `None` when
     /// no curve was fitted).
     #[serde(skip)]
@@ -520,6 +525,7 @@ fn report(
         fallback: None,
         model_error: ModelError::default(),
         health_error: HealthError::default(),
+        coverage: Vec::new(),
         calibrated: None,
     }
 }

@@ -6,8 +6,8 @@
 use crate::calibrate::validate::{Summary, Validation};
 use crate::calibrate::Calibration;
 
-/// The adapted model's own errors: per signal (with its profile along the GG speed) and in
-/// health units.
+/// The adapted model's own errors: per signal (with its profile along the GG speed and where
+/// the baseline wants a load more) and in health units.
 pub(super) fn print_model_errors(ad: &crate::calibrate::adapt::AdaptReport) {
     let me = &ad.model_error;
     if me.signals.is_empty() {
@@ -35,6 +35,9 @@ pub(super) fn print_model_errors(ad: &crate::calibrate::adapt::AdaptReport) {
                 let row: Vec<String> = v.iter().map(|p| format!("{p:>6.2}")).collect();
                 println!("    {signal:<12} {}", row.join(" "));
             }
+        }
+        for c in &ad.coverage {
+            println!("  baseline coverage: {}", c.describe());
         }
     }
     let he = &ad.health_error;

@@ -58,6 +58,14 @@ impl<'a> Growth<'a> {
                 error = ModelError { note, ..held };
             }
         }
+        let coverage = match &error.by_speed {
+            Some(by) => {
+                let gg = &super::super::relative_speeds(&self.current, self.ctx.points)?[0];
+                let lines: Vec<u64> = self.ctx.points.iter().map(|p| p.line).collect();
+                super::super::coverage::advice(gg, &lines, by)
+            }
+            None => Vec::new(),
+        };
         let reach = CalibratedRange {
             gg_speed: self.ranges[0],
         };
@@ -90,6 +98,7 @@ impl<'a> Growth<'a> {
         r.steps = self.steps;
         r.model_error = error;
         r.health_error = health;
+        r.coverage = coverage;
         r.calibrated = Some(reach);
         Ok((r, current))
     }
