@@ -983,6 +983,9 @@ fn fixed_vanes_calibrated(max_knots: usize) -> (Engine, Vec<Snapshot>, Calibrati
                 c.component, c.knots, c.knots_reason
             );
         }
+        for c in &a.coverage {
+            eprintln!("  coverage: {}", c.describe());
+        }
     }
     eprintln!("  {}", model_error_text(&adapted));
     (truth, rows, report, adapted)

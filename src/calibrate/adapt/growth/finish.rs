@@ -58,14 +58,17 @@ impl<'a> Growth<'a> {
                 error = ModelError { note, ..held };
             }
         }
-        let coverage = match &error.by_speed {
-            Some(by) => {
-                let gg = &super::super::relative_speeds(&self.current, self.ctx.points)?[0];
-                let lines: Vec<u64> = self.ctx.points.iter().map(|p| p.line).collect();
-                super::super::coverage::advice(gg, &lines, by)
-            }
-            None => Vec::new(),
-        };
+        // Advice only: a point the fit solved that fails to solve here costs the advice, not
+        // the calibration.
+        let lines: Vec<u64> = self.ctx.points.iter().map(|p| p.line).collect();
+        let coverage = error
+            .by_speed
+            .as_ref()
+            .and_then(|by| {
+                let speeds = super::super::relative_speeds(&self.current, self.ctx.points).ok()?;
+                Some(super::super::coverage::advice(&speeds[0], &lines, by))
+            })
+            .unwrap_or_default();
         let reach = CalibratedRange {
             gg_speed: self.ranges[0],
         };
