@@ -14,7 +14,7 @@
 //! unit"; every load is left out in turn, about 5 s a grown calibration): the issue's floors on
 //! the loads from 56 % to 91 % (0.23 % / 0.55 % at worst); on the others, the floors this
 //! version meets (0.48 % mean over all nine, 2.40 % worst: the lowest and the full load, left
-//! out, are extrapolations, 0.95 % and 0.89 % mean; 37.5 % and 47.5 %, where the vanes close,
+//! out, are extrapolations, 0.95 % and 0.89 % mean; 38.75 % and 47.5 %, where the vanes close,
 //! 0.90 % and 0.67 %), and at most a third / half of the design calibration's; the healthy
 //! baseline `good` within 0.3 points of zero; the grid ranked at ρ ≥ 0.95 for all four
 //! parameters (D_GC, D_EC and D_ET at this grid's ceiling, 0.982: every pair of levels the
@@ -359,7 +359,7 @@ fn adapted_md22_predicts_left_out_loads_of_a_foreign_unit() {
     // The issue's floors (mean ≤ 0.3 %, no signal beyond 1 %) hold on the loads from 56 % to
     // 91 % (measured 0.23 % / 0.55 % at worst, 2026-11-29). Not yet on the others: the lowest
     // and the full load, left out, are extrapolations of the curves (0.95 % / 2.40 % and
-    // 0.89 % / 1.51 %), and 37.5 % and 47.5 %, where the vanes close and the loads are
+    // 0.89 % / 1.51 %), and 38.75 % and 47.5 %, where the vanes close and the loads are
     // sparsest, 0.90 % / 2.28 % and 0.67 % / 1.11 %: floors here are what this version meets.
     for (k, cells) in &folds {
         let [mean, worst] = cells[1];
@@ -394,7 +394,7 @@ fn adapted_md22_predicts_left_out_loads_of_a_foreign_unit() {
 /// The adapted calibration names where the baseline wants a healthy load more
 /// (`AdaptReport::coverage`: beside interior loads the model's own error along the GG speed
 /// reaches 1 % on some signal), and following that advice helps: on this unit it names the
-/// span between 37.5 % and 47.5 % load (torque 1.39 %); with a 42.5 % load added, the 47.5 %
+/// span between 38.75 % and 47.5 % load (torque 1.39 %); with a 42.5 % load added, the 47.5 %
 /// load left out is predicted within the issue's floors (measured 0.22 / 0.51 % against
 /// 0.67 / 1.11 % without it) and the advice moves to the span below.
 #[test]
@@ -450,7 +450,7 @@ fn the_calibration_names_where_the_baseline_wants_a_load_more() {
 /// `calibrate --adapt --adapt-strategy continuation` on the same unit: every curve the data
 /// inform (the compressor's flow and pressure ratio too), all knots at once, fitted through a
 /// sequence of smoothness scales. Every load left out in turn, it meets the issue's
-/// leave-one-load-out floors (mean ≤ 0.3 %, no signal beyond 1 %) on the loads from 37.5 % to
+/// leave-one-load-out floors (mean ≤ 0.3 %, no signal beyond 1 %) on the loads from 38.75 % to
 /// 91 %, and within 1 % on the full load, where the grown shape does not; not on the lowest
 /// load, an extrapolation (2.5 % mean). Its healthy baseline diagnoses `good` within 0.3
 /// points; what the correlated curves do off the operating line the healthy data do not pin,
@@ -474,7 +474,7 @@ fn continuation_predicts_left_out_loads_of_a_foreign_unit_within_the_floors() {
             rows[k].line, cells[0][0], cells[0][1], cells[1][0], cells[1][1]
         );
         let [mean, w] = cells[1];
-        // Measured 2026-11-29: 37.5–91 % within 0.28 % / 0.95 %; the full load 0.39 % /
+        // Measured 2026-11-29: 38.75–91 % within 0.28 % / 0.95 %; the full load 0.39 % /
         // 0.80 %; the lowest load 2.51 % / 3.94 %.
         let (mean_floor, worst_floor) = match k {
             0 => (2.8, 4.5),
