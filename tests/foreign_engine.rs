@@ -129,15 +129,17 @@ fn loads_of(design_mw: f64, level: usize) -> (Vec<OperatingPoint>, Vec<f64>) {
             }
         })
         .collect();
-    // Combinator: shaft speed 70 % at 30 % load rising to 100 % (a table, not P ∝ n^k).
     let n2 = pts
         .iter()
-        .map(|p| {
-            let f = p.power_mw / design_mw;
-            DESIGN_N2 * (0.70 + 0.30 * ((f - 0.3) / 0.7).clamp(0.0, 1.0).powf(0.8))
-        })
+        .map(|p| combinator_n2(p.power_mw / design_mw))
         .collect();
     (pts, n2)
+}
+
+/// The propeller's combinator schedule: PT speed (rpm) at load fraction `f` of the design
+/// power, 70 % at 30 % load rising to 100 % (a table, not P ∝ n^k).
+fn combinator_n2(f: f64) -> f64 {
+    DESIGN_N2 * (0.70 + 0.30 * ((f - 0.3) / 0.7).clamp(0.0, 1.0).powf(0.8))
 }
 
 fn rows_of(truth: &Engine, health: [f64; 6], level: usize, group: &str) -> Vec<Snapshot> {
@@ -429,7 +431,7 @@ fn the_calibration_names_where_the_baseline_wants_a_load_more() {
         p_amb_kpa: 100.5,
         power_mw: AERO25.design_mw * f,
     });
-    n2.push(DESIGN_N2 * (0.70 + 0.30 * ((f - 0.3) / 0.7).powf(0.8)));
+    n2.push(combinator_n2(f));
     let more = rows_at(&truth, (pts, n2), [0.0; 6], 0, "healthy");
     assert_eq!(more.len(), 10);
     let before = leave_out(&model, &rows, 2, "9 loads: ", AdaptStrategy::Grown)[1];

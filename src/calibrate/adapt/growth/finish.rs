@@ -60,12 +60,12 @@ impl<'a> Growth<'a> {
         }
         // Advice only: a point the fit solved that fails to solve here costs the advice, not
         // the calibration.
-        let lines: Vec<u64> = self.ctx.points.iter().map(|p| p.line).collect();
         let coverage = error
             .by_speed
             .as_ref()
             .and_then(|by| {
                 let speeds = super::super::relative_speeds(&self.current, self.ctx.points).ok()?;
+                let lines: Vec<u64> = self.ctx.points.iter().map(|p| p.line).collect();
                 Some(super::super::coverage::advice(&speeds[0], &lines, by))
             })
             .unwrap_or_default();
