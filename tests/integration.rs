@@ -34,6 +34,7 @@ mod faults_readonly;
 mod faults_restart;
 mod fleet_rediagnose;
 mod fleet_sync;
+mod foreign_ambient;
 mod foreign_engine;
 mod foreign_generator;
 mod foreign_startups;

@@ -1,0 +1,111 @@
+//! A foreign unit on days unlike its baseline's: the adapted model must stay similar (one
+//! corrected operating point, one non-dimensional state, at every ambient), or a healthy unit
+//! reads as degraded whenever a day pairs its ambient and load otherwise than the baseline did.
+//!
+//! The unit (`tests/data/foreign/pyc28_pipeline_truth.toml`): pyCycle's compressor and HP
+//! turbine maps, a VIGV schedule, a pipeline compressor's load law P ∝ n2^2.7, PR 19, 28 MW.
+//! Its rows (`tests/data/foreign/pyc28_days.csv`, written with `gtwatch steady --engine` that
+//! file at each load and ambient, plus noise of 100-s averages): a baseline of 9 loads from
+//! 30 % to 100 % with the ambient from 253 K to 308 K shuffled over them, and four healthy days
+//! of the same loads and ambients paired otherwise. The user's file
+//! (`tests/data/foreign/pyc28_user_md22.toml`): `config/engine_md22.toml` with the design point
+//! typed from one full-load reading on a 308 K day. The user's steps: `gtwatch calibrate
+//! --adapt` on the baseline, then `gtwatch diagnose --method steady --group-by group`.
+//!
+//! What this version does there (measured, `cargo test --release --test integration
+//! foreign_ambient -- --nocapture`): the baseline is fitted within noise (0.71 σ) and reads
+//! healthy, `good`; the four other days read D_GC +1.8…+2.9 and D_GT to −1.9 points, every one
+//! `poor` (residual 18–26): the adapted model is not similar. On a unit of the same kind with
+//! md22's turbines, at one corrected operating point, the adapted file gave T34/T1 3.230 at
+//! 253 K and 3.107 at 308 K where the unit gives 3.101 and 3.091. The cause, found by taking
+//! the curves out one component at a time: the HP turbine's curves are functions of its own
+//! corrected speed, whose temperature (T3) its flow and efficiency set, so they feed back into
+//! their own argument and amplify the small non-similarity of real gas. Read at the GG's
+//! corrected speed at the compressor inlet instead (a prototype, not in this version: it moves
+//! other foreign units' figures, which are to be settled first), the same days read within 0.52
+//! points, `good`; a part remains, from the compressor curves, which put this unit's operating
+//! line at the map's surge edge (β ≈ 0, flow +41 %, efficiency +15 % at the lowest knot), where
+//! the flat speed lines amplify the same real-gas effects (T34/T1 spread 0.8 % between 253 K
+//! and 308 K at one corrected point against the unit's 0.3 %). Asserted here is what must hold
+//! either way: the baseline within noise and read healthy, and no day read more than 0.5
+//! points off called `good`.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
+
+use gtwatch::calibrate::adapt::{AdaptSettings, AdaptStrategy};
+use gtwatch::calibrate::candidates::default_candidates;
+use gtwatch::calibrate::{calibrate, CalibrationSettings};
+use gtwatch::diagnosis::snapshot::{diagnose_snapshots, read_snapshots, Snapshot};
+use gtwatch::engine::{Engine, EngineConfig};
+use gtwatch::health::HEALTH_NAMES;
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+fn engine(file: &str) -> Engine {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(file);
+    Engine::new(EngineConfig::load(&path).expect("engine file")).expect("engine")
+}
+
+/// The rows of `tests/data/foreign/pyc28_days.csv`, by day (the baseline first).
+fn days() -> Vec<(String, Vec<Snapshot>)> {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/foreign/pyc28_days.csv");
+    let text = std::fs::read_to_string(path).expect("rows");
+    let rows = read_snapshots(text.as_bytes(), &HashMap::new(), Some("group")).expect("rows");
+    let mut out: Vec<(String, Vec<Snapshot>)> = Vec::new();
+    for r in rows {
+        match out.iter_mut().find(|(g, _)| *g == r.group) {
+            Some((_, v)) => v.push(r),
+            None => out.push((r.group.clone(), vec![r])),
+        }
+    }
+    out
+}
+
+#[test]
+fn a_foreign_unit_on_days_unlike_its_baseline_is_never_misread_as_good() {
+    let model = engine("tests/data/foreign/pyc28_user_md22.toml");
+    let days = days();
+    assert_eq!(days.len(), 5);
+    let (name, base) = &days[0];
+    assert_eq!((name.as_str(), base.len()), ("baseline", 9));
+    let settings = CalibrationSettings {
+        threads: Some(2),
+        adapt: Some(AdaptSettings::of(AdaptStrategy::Grown)),
+        ..CalibrationSettings::default()
+    };
+    let cands = default_candidates(&model).expect("candidates");
+    let (report, adapted) = calibrate(&model, base, &[], cands, &settings).expect("calibrate");
+    let rms = report.adaptation.as_ref().expect("adapted").rms_after;
+    eprintln!("baseline RMS after the adaptation {rms:.2} σ");
+    assert!(rms < 1.0, "baseline RMS {rms:.2} σ");
+    let cfg = crate::foreign_engine::diagnosis_cfg();
+    for (i, (group, rows)) in days.iter().enumerate() {
+        let report = diagnose_snapshots(&adapted, rows, &cfg).expect("diagnosis");
+        assert!(report.failed.is_empty(), "{:?}", report.failed);
+        let g = report.groups.first().expect("a group");
+        let est = g.result.health.to_array();
+        let verdict = format!("{:?}", g.result.fit_quality.verdict).to_lowercase();
+        let off = est.iter().fold(0.0f64, |w, v| w.max(v.abs()));
+        eprintln!(
+            "{group}: {} — {verdict} (residual {:.2}), {} row(s) left out",
+            HEALTH_NAMES
+                .iter()
+                .zip(est)
+                .map(|(n, v)| format!("{n} {v:+.2}"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            g.result.fit_quality.normalised_residual,
+            g.dropped.len()
+        );
+        if i == 0 {
+            // The baseline itself: healthy, `good`.
+            assert!(
+                off <= 0.3 && verdict == "good",
+                "baseline read {est:?} {verdict}"
+            );
+        }
+        assert!(
+            off <= 0.5 || verdict != "good",
+            "{group}: a healthy day read {off:.2} points off and called good"
+        );
+    }
+}
