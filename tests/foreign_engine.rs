@@ -250,6 +250,9 @@ fn calibrated(model: &Engine, rows: &[Snapshot], adapt: Option<AdaptStrategy>) -
             for c in &a.coverage {
                 eprintln!("  coverage: {}", c.describe());
             }
+            if let Some(sim) = &a.similarity {
+                eprintln!("  {}", sim.describe());
+            }
         }
     }
     engine

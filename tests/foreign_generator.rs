@@ -188,6 +188,9 @@ fn calibrated(written: &[Signal]) -> (Engine, Vec<Snapshot>, Engine, Calibration
         report.model_runs
     );
     if let Some(a) = &report.adaptation {
+        if let Some(sim) = &a.similarity {
+            eprintln!("  {}", sim.describe());
+        }
         eprintln!(
             "  its error in health units: {:?} ({})",
             a.health_error.points, a.health_error.note

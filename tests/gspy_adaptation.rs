@@ -111,7 +111,15 @@ fn calibrated(model: &Engine, rows: &[Snapshot]) -> (Calibration, Engine) {
         ..CalibrationSettings::default()
     };
     let cands = default_candidates(model).expect("candidates");
-    calibrate(model, rows, &[], cands, &settings).expect("calibrate")
+    let (report, adapted) = calibrate(model, rows, &[], cands, &settings).expect("calibrate");
+    if let Some(sim) = report
+        .adaptation
+        .as_ref()
+        .and_then(|a| a.similarity.as_ref())
+    {
+        eprintln!("  {}", sim.describe());
+    }
+    (report, adapted)
 }
 
 #[test]

@@ -69,10 +69,12 @@ mod health_error;
 mod knots;
 mod model_error;
 mod shape;
+mod similarity;
 
 pub use coverage::{CoverageAdvice, ADVICE_PCT};
 pub use health_error::{HealthError, PartRead};
 pub use model_error::{ModelError, SignalModelError};
+pub use similarity::{Similarity, DEPARTURE_PCT, SHIFT_K};
 
 use super::problem::CalibrationPoint;
 use super::startup::RestReading;
@@ -255,6 +257,10 @@ pub struct AdaptReport {
     /// no curve was fitted).
     #[serde(skip)]
     pub calibrated: Option<CalibratedRange>,
+    /// Whether the adapted model stays similar at the baseline's corrected operating points
+    /// on days [`SHIFT_K`] colder and warmer (`None` when no curve was fitted).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub similarity: Option<Similarity>,
 }
 
 /// Relative corrected speed of each component at each point: from the measured GG speed, T1,
@@ -321,6 +327,23 @@ pub struct Ctx<'a> {
 /// keeping the curves the data identify, and its fit; the knots grown while every knot stays
 /// identified; the σ of the final knots and the report.
 pub fn adapt(
+    engine: &Engine,
+    design_keys: &[String],
+    ctx: Ctx,
+) -> Result<(AdaptReport, Engine), CalibrateError> {
+    let (mut report, adapted) = adapt_shape(engine, design_keys, ctx)?;
+    // Whether the adapted model stays similar (a report, not a step of the fit): the baseline
+    // cannot show it, days that pair its loads and ambients otherwise do.
+    if !report.components.iter().all(|c| c.curves.is_empty()) {
+        if let Ok(speeds) = relative_speeds(&adapted, ctx.points) {
+            report.similarity = Some(similarity::check(engine, &adapted, ctx.points, &speeds[0]));
+        }
+    }
+    Ok((report, adapted))
+}
+
+/// [`adapt`]'s shape and fit (the grown shape; without holding; the continuation in its place).
+fn adapt_shape(
     engine: &Engine,
     design_keys: &[String],
     ctx: Ctx,
@@ -527,5 +550,6 @@ fn report(
         health_error: HealthError::default(),
         coverage: Vec::new(),
         calibrated: None,
+        similarity: None,
     }
 }

@@ -40,6 +40,9 @@ pub(super) fn print_model_errors(ad: &crate::calibrate::adapt::AdaptReport) {
             println!("  baseline coverage: {}", c.describe());
         }
     }
+    if let Some(sim) = &ad.similarity {
+        println!("  {}", sim.describe());
+    }
     let he = &ad.health_error;
     if he.points.is_empty() {
         println!("  model error in health units: {}", he.note);
