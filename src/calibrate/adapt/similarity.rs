@@ -30,7 +30,7 @@ pub const SHIFT_K: f64 = 25.0;
 /// 1.44 % (0.14 % before) at its lowest load and reads healthy days at 258–303 K paired
 /// otherwise within 0.5 points, `good`; the unit of `tests/foreign_ambient.rs` moves it 4.72 %
 /// (0.33 % before) and reads such days up to 2.9 points off. The other foreign units move
-/// 0.2–1.0 points more than before.
+/// 0.1–1.0 points more than before.
 pub const DEPARTURE_PCT: f64 = 2.0;
 
 /// The check's outcome.
