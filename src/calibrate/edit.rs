@@ -129,15 +129,22 @@ pub(crate) fn rewrite(
         if let Some(rest) = key.strip_prefix("adaptation.") {
             // A curve or its knots (`adaptation.<component>.<curve>`, a list) or a value of a
             // sub-table (`adaptation.model_error_pct.<signal>`, a number).
-            let value = match new {
-                NewValue::Numbers(list) => toml_edit::value(
-                    list.iter()
-                        .map(|v| rounded(*v))
-                        .collect::<toml_edit::Array>(),
-                ),
-                NewValue::Number(v) => toml_edit::value(rounded(*v)),
-                NewValue::Text(_) => return Err(bad("an adaptation value is a number or a list")),
-            };
+            let value =
+                match new {
+                    NewValue::Numbers(list) => toml_edit::value(
+                        list.iter()
+                            .map(|v| rounded(*v))
+                            .collect::<toml_edit::Array>(),
+                    ),
+                    NewValue::Number(v) => toml_edit::value(rounded(*v)),
+                    // Which speed a component's knots are in (`adaptation.hpt.speed_of`).
+                    NewValue::Text(word) if key.ends_with(".speed_of") => {
+                        toml_edit::value(word.as_str())
+                    }
+                    NewValue::Text(_) => return Err(bad(
+                        "an adaptation value is a number or a list (a word only for `speed_of`)",
+                    )),
+                };
             let (table_name, name) = rest
                 .split_once('.')
                 .ok_or_else(|| bad("use adaptation.<component>.<curve>"))?;

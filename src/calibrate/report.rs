@@ -7,6 +7,7 @@ use super::identify;
 use super::{adapt, inlet_law, problem};
 use super::{mean, rms};
 use crate::diagnosis::residual_table::{Cell, ResidualTable};
+use crate::engine::config::SpeedOf;
 use serde::Serialize;
 
 /// One candidate's outcome.
@@ -250,6 +251,22 @@ impl Calibration {
     /// component's `speed_knots` first, then the GG speeds it was calibrated on
     /// (`adaptation.calibrated.gg_speed`) and the model error along the GG speed
     /// (`adaptation.model_error_by_speed.<speed_knots | signal>`); empty without an adaptation.
+    /// The adaptation's words for the new file: which corrected speed a component's knots are
+    /// in, where it is not the component's own (`adaptation.hpt.speed_of = "gg_inlet"`).
+    pub fn adaptation_words(&self) -> Vec<(String, String)> {
+        self.adaptation
+            .iter()
+            .flat_map(|a| &a.components)
+            .filter(|c| !c.curves.is_empty() && c.speed_of != SpeedOf::OwnInlet.name())
+            .map(|c| {
+                (
+                    format!("adaptation.{}.speed_of", c.component),
+                    c.speed_of.to_string(),
+                )
+            })
+            .collect()
+    }
+
     pub fn adaptation_lists(&self) -> Vec<(String, Vec<f64>)> {
         let mut out = Vec::new();
         for c in self.adaptation.iter().flat_map(|a| &a.components) {

@@ -191,7 +191,9 @@ pub(crate) struct TurbineStation {
     pub(crate) power_w: f64,
 }
 
-/// Turbine on its map at expansion ratio `pr = p_in/p_out` (≥ 1 for expansion).
+/// Turbine on its map at expansion ratio `pr = p_in/p_out` (≥ 1 for expansion); `gg_nc_rpm`,
+/// the gas generator's corrected speed at the compressor inlet, is where adaptation curves read
+/// at that reference are read (`maps::CurveSpeed`).
 pub(crate) fn turbine(
     turb: &ScaledTurbine,
     gas: &Gas,
@@ -199,9 +201,10 @@ pub(crate) fn turbine(
     p_in_kpa: f64,
     n_rpm: f64,
     pr: f64,
+    gg_nc_rpm: f64,
 ) -> TurbineStation {
     let nc = corrected_speed(n_rpm, t_in);
-    let op = turb.at_pr(nc, pr);
+    let op = turb.at_pr_ref(nc, gg_nc_rpm, pr);
     let h_in = gas.h(t_in);
     // Below PR 1 the map's linear law gives reverse flow; the gas then does no work.
     let t_is = gas.isentropic_t(t_in, 1.0 / pr.max(1.0));

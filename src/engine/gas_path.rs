@@ -414,7 +414,10 @@ fn after_compressor(
         }
         HotSection::Plenum { t3_k, gas } => (t3_k, gas, None),
     };
-    let hpt = cycle::turbine(hpt_map, gas, t3, p3, n1.max(0.0), p3 / inp.p34_kpa);
+    // The GG's corrected speed at the compressor inlet: where the HP turbine's adaptation curves
+    // are read when its file says so (`engine::config::SpeedOf`).
+    let gg_nc = cycle::corrected_speed(n1.max(0.0), t1);
+    let hpt = cycle::turbine(hpt_map, gas, t3, p3, n1.max(0.0), p3 / inp.p34_kpa, gg_nc);
     let w3 = w_burn.unwrap_or(hpt.w_kg_s);
     let p4 = match losses {
         Some(l) if l.exhaust != 1.0 => p_amb + (c.p4(p_amb, w3, hpt.t_out_k) - p_amb) * l.exhaust,
@@ -426,7 +429,7 @@ fn after_compressor(
     // held constant below it (a turbine's torque-speed line is nearly flat near stall).
     let n2_eval = n2.max(PT_STALL_FRACTION * c.n2_design);
     let p34 = inp.p34_kpa;
-    let pt = cycle::turbine(pt_map, gas, hpt.t_out_k, p34, n2_eval, p34 / p4);
+    let pt = cycle::turbine(pt_map, gas, hpt.t_out_k, p34, n2_eval, p34 / p4, gg_nc);
     let pt_gas_torque = c.shaft.pt_shaft(pt.power_w) / (n2_eval * PI / 30.0);
     let pt_net = pt_gas_torque * n2.max(0.0) * PI / 30.0 - c.pt_loss_w(n2.max(0.0));
     let gg_net = c.shaft.gg_shaft_w(hpt.power_w) - p_comp - c.gg_loss_w(n1);

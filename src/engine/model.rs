@@ -5,7 +5,7 @@
 //! health vector applied; the steady solver and the dynamic model both run on a `Model`.
 //! Pure: map files are read only by [`Engine::new`] when the config names a file path.
 
-use super::config::{EngineConfig, MapInterpolation, PressureLossLaw};
+use super::config::{EngineConfig, MapInterpolation, PressureLossLaw, SpeedOf};
 use super::cycle::{ShaftLosses, P_STD_KPA, T_STD_K};
 use super::effects::EffectSet;
 use crate::health::HealthParams;
@@ -240,6 +240,15 @@ fn load_turbine(
     }
 }
 
+/// Which corrected speed the engine file's HP-turbine knots are in.
+fn hpt_speed_of(cfg: &EngineConfig) -> SpeedOf {
+    cfg.adaptation
+        .as_ref()
+        .and_then(|a| a.hpt.as_ref())
+        .and_then(|c| c.speed_of)
+        .unwrap_or_default()
+}
+
 /// The engine file's adaptation curves of `component` (none when the file has none).
 fn adaptation_of(cfg: &EngineConfig, component: &str) -> maps::ComponentAdaptation {
     let Some(c) = cfg.adaptation.as_ref().and_then(|a| a.component(component)) else {
@@ -324,7 +333,18 @@ impl Engine {
             design.hpt_pressure_ratio,
             d.hpt_efficiency,
         );
-        let hpt = hpt.with_adaptation(d.gg_speed_rpm / theta3.sqrt(), adaptation_of(&cfg, "hpt"));
+        // The HP turbine's curves are read at its own corrected speed, or at the GG's at the
+        // compressor inlet where the file says so (`SpeedOf`: why, in its docs).
+        let hpt = match hpt_speed_of(&cfg) {
+            SpeedOf::OwnInlet => {
+                hpt.with_adaptation(d.gg_speed_rpm / theta3.sqrt(), adaptation_of(&cfg, "hpt"))
+            }
+            SpeedOf::GgInlet => hpt.with_adaptation_at(
+                d.gg_speed_rpm / theta1.sqrt(),
+                adaptation_of(&cfg, "hpt"),
+                maps::CurveSpeed::Reference,
+            ),
+        };
         let theta34 = design.t34_k / T_STD_K;
         let wc34 = design.pt_flow_kg_s * theta34.sqrt() / (design.p34_kpa / P_STD_KPA);
         let pt = ScaledTurbine::calibrate(

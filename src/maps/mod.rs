@@ -33,7 +33,9 @@ pub mod turbine;
 pub use adapt::{ComponentAdaptation, SpeedCurve};
 pub use compressor::{CompressorMap, CompressorPoint};
 pub use gasturb::{parse, read_file, GasTurbFile, MapError, MapTable};
-pub use scaled::{CompressorOp, MapScalers, ScaledCompressor, ScaledTurbine, TurbineOp};
+pub use scaled::{
+    CompressorOp, CurveSpeed, MapScalers, ScaledCompressor, ScaledTurbine, TurbineOp,
+};
 pub use turbine::{TurbineMap, TurbinePoint};
 
 /// The engine's compressor map (JT9D HPC; design speed 1.0, beta 0.5: PR 23.0, eff 0.852).

@@ -212,6 +212,19 @@ impl ScaledCompressor {
     }
 }
 
+/// Which corrected speed a turbine's adaptation curves are read at.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum CurveSpeed {
+    /// The turbine's own corrected speed, the one its map is read at.
+    #[default]
+    Own,
+    /// A reference corrected speed the caller gives with each look-up
+    /// ([`ScaledTurbine::at_pr_ref`]; the engine gives the gas generator's at the compressor
+    /// inlet, see `engine::config::SpeedOf`), relative to the design speed the adaptation was
+    /// given in that reference.
+    Reference,
+}
+
 /// A turbine map scaled to an engine, with health factors.
 #[derive(Debug, Clone)]
 pub struct ScaledTurbine {
@@ -220,6 +233,7 @@ pub struct ScaledTurbine {
     flow_factor: f64,
     eff_factor: f64,
     adaptation: Option<Adaptation>,
+    curves_at: CurveSpeed,
 }
 
 impl ScaledTurbine {
@@ -252,6 +266,7 @@ impl ScaledTurbine {
             flow_factor: 1.0,
             eff_factor: 1.0,
             adaptation: None,
+            curves_at: CurveSpeed::Own,
         }
     }
 
@@ -263,14 +278,27 @@ impl ScaledTurbine {
             flow_factor,
             eff_factor,
             adaptation: self.adaptation.clone(),
+            curves_at: self.curves_at,
         }
     }
 
     /// The same turbine with the off-design adaptation `curves` (flow and efficiency curves;
     /// replacing any previous one), relative speeds referred to `design_nc_rpm`.
     pub fn with_adaptation(&self, design_nc_rpm: f64, curves: ComponentAdaptation) -> Self {
+        self.with_adaptation_at(design_nc_rpm, curves, CurveSpeed::Own)
+    }
+
+    /// [`Self::with_adaptation`] with the curves read at `at`; `design_nc_rpm` is the design
+    /// point's speed in that reference.
+    pub fn with_adaptation_at(
+        &self,
+        design_nc_rpm: f64,
+        curves: ComponentAdaptation,
+        at: CurveSpeed,
+    ) -> Self {
         ScaledTurbine {
             adaptation: Adaptation::of(design_nc_rpm, curves),
+            curves_at: at,
             ..self.clone()
         }
     }
@@ -285,10 +313,21 @@ impl ScaledTurbine {
         &self.map
     }
 
-    /// Operating point at corrected speed `nc_rpm` and engine pressure ratio `pr` (inlet/outlet).
+    /// Operating point at corrected speed `nc_rpm` and engine pressure ratio `pr` (inlet/outlet),
+    /// adaptation curves read at `nc_rpm` (see [`Self::at_pr_ref`]).
     pub fn at_pr(&self, nc_rpm: f64, pr: f64) -> TurbineOp {
+        self.at_pr_ref(nc_rpm, nc_rpm, pr)
+    }
+
+    /// [`Self::at_pr`] with `reference_nc_rpm`, the speed the adaptation curves are read at
+    /// when they are read at a reference ([`CurveSpeed::Reference`]; else unused).
+    pub fn at_pr_ref(&self, nc_rpm: f64, reference_nc_rpm: f64, pr: f64) -> TurbineOp {
         let s = &self.scalers;
-        let a = Adaptation::factors(&self.adaptation, nc_rpm);
+        let curve_nc = match self.curves_at {
+            CurveSpeed::Own => nc_rpm,
+            CurveSpeed::Reference => reference_nc_rpm,
+        };
+        let a = Adaptation::factors(&self.adaptation, curve_nc);
         let p = self
             .map
             .point(nc_rpm / s.speed, 1.0 + (pr - 1.0) / s.pr_minus_one);

@@ -112,7 +112,7 @@ pub(super) fn estimate(
             0,
         ));
     }
-    let gg = &relative_speeds(engine, ctx.points)?[0];
+    let gg = &relative_speeds(engine, ctx.points, ctx.settings.hpt_speed_of)?[0];
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by(|&a, &b| gg[a].total_cmp(&gg[b]));
     let parts = if interior >= THIRDS_FROM { 3 } else { 2 };

@@ -3,7 +3,7 @@
 //! the smoothness rows of the penalty. Must not fit (that is the parent module's `fit`).
 
 use super::super::problem::SmoothnessRow;
-use crate::engine::config::{AdaptationConfig, ComponentCurves, COMPONENTS};
+use crate::engine::config::{AdaptationConfig, ComponentCurves, SpeedOf, COMPONENTS};
 use crate::engine::Engine;
 use crate::maps::SpeedCurve;
 
@@ -24,6 +24,8 @@ pub(super) struct Shape {
     /// the data no longer resolve beside the others at more knots keeps what it took, rather
     /// than its correction being thrown away.
     pub(super) held: [Vec<Held>; 3],
+    /// Which corrected speed the HP turbine's knots are in.
+    pub(super) hpt_speed_of: SpeedOf,
 }
 
 /// A curve held at the shape it was fitted to at fewer knots, and why (the report says it).
@@ -44,8 +46,10 @@ impl Shape {
             {
                 continue;
             }
+            let speed_of = self.speed_of(name);
             let mut c = ComponentCurves {
                 speed_knots: self.knots[ci].clone(),
+                speed_of: (speed_of != SpeedOf::OwnInlet).then_some(speed_of),
                 ..Default::default()
             };
             let held = self.held[ci].iter().map(|h| (&h.curve, &h.values));
@@ -60,6 +64,15 @@ impl Shape {
             }
         }
         any.then_some(a)
+    }
+
+    /// Which corrected speed component `name`'s knots are in.
+    pub(super) fn speed_of(&self, name: &str) -> SpeedOf {
+        if name == "hpt" {
+            self.hpt_speed_of
+        } else {
+            SpeedOf::OwnInlet
+        }
     }
 
     /// Knots per component.
@@ -178,6 +191,7 @@ mod tests {
     #[test]
     fn a_held_curve_stays_in_the_file_but_not_in_the_fit() {
         let shape = Shape {
+            hpt_speed_of: SpeedOf::OwnInlet,
             knots: [vec![0.75, 0.875], vec![], vec![]],
             curves: [
                 vec![
@@ -230,6 +244,7 @@ mod tests {
         // Knots 0.8, 0.9 below the design speed and 1.1 above: the second differences run over
         // 0.8, 0.9, (1.0, 0), 1.1.
         let shape = Shape {
+            hpt_speed_of: SpeedOf::OwnInlet,
             knots: [vec![], vec![], vec![0.8, 0.9, 1.1]],
             curves: [
                 vec![],
@@ -256,6 +271,7 @@ mod tests {
         }
         // Below the design only, as before: the anchor last.
         let below = Shape {
+            hpt_speed_of: SpeedOf::OwnInlet,
             knots: [vec![0.8, 0.9], vec![], vec![]],
             curves: [
                 vec![("speed".to_string(), vec![0.02, 0.01])],

@@ -227,6 +227,12 @@ fn fitted_values(report: &Calibration) -> Vec<(String, NewValue)> {
     );
     values.extend(
         report
+            .adaptation_words()
+            .into_iter()
+            .map(|(k, v)| (k, NewValue::Text(v))),
+    );
+    values.extend(
+        report
             .model_error_values()
             .into_iter()
             .map(|(k, v)| (k, NewValue::Number(v))),

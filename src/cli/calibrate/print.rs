@@ -124,8 +124,14 @@ pub(super) fn print_text(report: &Calibration, wall_s: f64) {
         }
         for c in &ad.components {
             let knots: Vec<String> = c.knots.iter().map(|k| format!("{k:.3}")).collect();
+            // The HP turbine's knots are in the GG's corrected speed (`SpeedOf`): say so.
+            let of = if c.speed_of == "gg_inlet" {
+                " (the GG's corrected speed at the compressor inlet)"
+            } else {
+                ""
+            };
             println!(
-                "  {:<10} speeds {:.3}…{:.3}  knots [{}]  ({})",
+                "  {:<10} speeds{of} {:.3}…{:.3}  knots [{}]  ({})",
                 c.component,
                 c.speed_range[0],
                 c.speed_range[1],

@@ -10,8 +10,25 @@
 //! efficiency = [-0.01, 0.0, 0.0]        # isentropic efficiency × (1 + f)
 //! pressure_ratio = [0.0, 0.0, 0.0]      # (PR − 1) × (1 + f)
 //! [adaptation.hpt]                      # flow, efficiency
+//! speed_of = "gg_inlet"                 # knots in the GG's corrected speed (see below)
 //! [adaptation.pt]                       # flow, efficiency
 //! ```
+//!
+//! `speed_of` says which corrected speed a component's knots are in. `own_inlet` (the default):
+//! the component's own, its shaft speed over √ of its inlet temperature, relative to the
+//! design point's. `gg_inlet` (the HP turbine only; `calibrate --adapt` writes it): the gas
+//! generator's corrected speed at the compressor inlet, n1/√(T1/T1_design) over the design's.
+//! Why the HP turbine's curves are read there: its flow and efficiency set the combustor exit
+//! temperature T3 through the GG's power balance, and T3 is in its own corrected speed, so
+//! curves over that speed feed back into their own argument. On a foreign unit with another
+//! compressor map (pyCycle's axi5 under md22's file) the fitted HPT efficiency curve then made
+//! the adapted model depart from similarity: at one corrected GG speed and PT speed it gave
+//! T34/T1 3.230 at 253 K and 3.107 at 308 K, where the unit gives 3.101 and 3.091, and the unit
+//! on days whose ambient and load paired otherwise than on the baseline's read up to 2.1 points
+//! of D_GC off, `poor`. Over the GG's inlet-corrected speed (an input of every point) the curves
+//! have no such loop; the same days read within 0.46 points (`tests/foreign_ambient.rs`).
+//! Along the healthy operating line the two speeds map one to one, so the curves are as
+//! expressive there. Files written before `speed_of` existed keep their meaning (own inlet).
 //!
 //! `[adaptation.model_error_pct]` (written by `calibrate --adapt`, or set by hand) states, per
 //! compared signal (CSV name, e.g. `n1_rpm = 0.4`), the 1σ of the adapted model's own error in
@@ -70,6 +87,30 @@ pub struct ComponentCurves {
     /// Fractional re-labelling of the speed line read at each knot (compressor only).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub speed: Vec<f64>,
+    /// Which corrected speed the knots are in (absent: the component's own).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub speed_of: Option<SpeedOf>,
+}
+
+/// The corrected speed a component's adaptation knots are in (module docs).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SpeedOf {
+    /// The component's own: shaft speed over √ of its inlet temperature.
+    #[default]
+    OwnInlet,
+    /// The gas generator's at the compressor inlet (HP turbine only).
+    GgInlet,
+}
+
+impl SpeedOf {
+    /// The word the engine file uses.
+    pub fn name(self) -> &'static str {
+        match self {
+            SpeedOf::OwnInlet => "own_inlet",
+            SpeedOf::GgInlet => "gg_inlet",
+        }
+    }
 }
 
 /// The `[adaptation]` section.
@@ -346,6 +387,15 @@ impl AdaptationConfig {
                 continue;
             };
             let key = |k: &str| format!("adaptation.{name}.{k}");
+            if c.speed_of == Some(SpeedOf::GgInlet) && name != "hpt" {
+                return Err((
+                    key("speed_of"),
+                    format!(
+                        "`gg_inlet` is for the HP turbine's curves only (a {name}'s knots are in \
+                         its own corrected speed: leave `speed_of` out)"
+                    ),
+                ));
+            }
             check_knots(&c.speed_knots).map_err(|r| (key("speed_knots"), r))?;
             if let Some(k) = c.speed_knots.iter().find(|k| (**k - 1.0).abs() < 0.01) {
                 return Err((

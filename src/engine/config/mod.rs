@@ -15,7 +15,7 @@ mod load;
 mod maps;
 mod ranges;
 pub use adaptation::{
-    curves_of, AdaptationConfig, CalibratedRange, ComponentCurves, ModelErrorBySpeed,
+    curves_of, AdaptationConfig, CalibratedRange, ComponentCurves, ModelErrorBySpeed, SpeedOf,
     CALIBRATED_MARGIN, COMPONENTS, MAX_HEALTH_ERROR_PTS, MAX_MODEL_ERROR_PCT,
     UNRESOLVING_MODEL_ERROR_PCT,
 };

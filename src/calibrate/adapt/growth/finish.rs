@@ -64,7 +64,12 @@ impl<'a> Growth<'a> {
             .by_speed
             .as_ref()
             .and_then(|by| {
-                let speeds = super::super::relative_speeds(&self.current, self.ctx.points).ok()?;
+                let speeds = super::super::relative_speeds(
+                    &self.current,
+                    self.ctx.points,
+                    self.ctx.settings.hpt_speed_of,
+                )
+                .ok()?;
                 let lines: Vec<u64> = self.ctx.points.iter().map(|p| p.line).collect();
                 Some(super::super::coverage::advice(&speeds[0], &lines, by))
             })

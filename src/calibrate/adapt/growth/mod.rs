@@ -90,6 +90,7 @@ impl<'a> Growth<'a> {
         let mut not_fitted: [Vec<(String, String)>; 3] = Default::default();
         let mut knots_reason: [String; 3] = Default::default();
         let mut shape = Shape {
+            hpt_speed_of: ctx.settings.hpt_speed_of,
             knots: Default::default(),
             curves: Default::default(),
             held: Default::default(),
