@@ -11,9 +11,10 @@
 //! turbine's curves, functions of its own corrected speed whose temperature (T3) they set, fed
 //! back into their argument, and four healthy days read D_GC +1.8…+2.9 points, `poor`. The
 //! baseline cannot show it; this check needs no data beyond the points' inputs, so the
-//! calibration says so when it happens.
+//! calibration says so when it happens, and [`super::adapt`] then tries the HP turbine's knots
+//! in the GG's corrected speed at the compressor inlet.
 //!
-//! What it must not do: I/O; change the fit (it is a report).
+//! What it must not do: I/O; change the fit (it measures; `adapt` decides).
 
 use super::super::problem::CalibrationPoint;
 use crate::engine::steady::{solve, Demand, SteadyInputs, SteadyPoint};

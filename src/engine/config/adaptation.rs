@@ -16,19 +16,21 @@
 //!
 //! `speed_of` says which corrected speed a component's knots are in. `own_inlet` (the default):
 //! the component's own, its shaft speed over √ of its inlet temperature, relative to the
-//! design point's. `gg_inlet` (the HP turbine only; `calibrate --adapt` writes it): the gas
-//! generator's corrected speed at the compressor inlet, n1/√(T1/T1_design) over the design's.
-//! Why the HP turbine's curves are read there: its flow and efficiency set the combustor exit
-//! temperature T3 through the GG's power balance, and T3 is in its own corrected speed, so
-//! curves over that speed feed back into their own argument. On a foreign unit with another
-//! compressor map (pyCycle's axi5 under md22's file) the fitted HPT efficiency curve then made
-//! the adapted model depart from similarity: at one corrected GG speed and PT speed it gave
-//! T34/T1 3.230 at 253 K and 3.107 at 308 K, where the unit gives 3.101 and 3.091, and the unit
-//! on days whose ambient and load paired otherwise than on the baseline's read up to 2.1 points
-//! of D_GC off, `poor`. Over the GG's inlet-corrected speed (an input of every point) the curves
-//! have no such loop; the same days read within 0.46 points (`tests/foreign_ambient.rs`).
+//! design point's. `gg_inlet` (the HP turbine only): the gas generator's corrected speed at the
+//! compressor inlet, n1/√(T1/T1_design) over the design's. `calibrate --adapt` writes it where
+//! the HP turbine's own speed made the adapted model depart from similarity
+//! (`calibrate::adapt::Similarity`): its flow and efficiency set the combustor exit temperature
+//! T3 through the GG's power balance, and T3 is in its own corrected speed, so curves over that
+//! speed feed back into their own argument. On a foreign unit with pyCycle's compressor map
+//! under md22's file the adapted model then gave, at one corrected GG and PT speed, T34/T1
+//! 3.230 at 253 K and 3.107 at 308 K where the unit gives 3.101 and 3.091; on the unit of
+//! `tests/foreign_ambient.rs`, healthy days whose ambient and load paired otherwise than on the
+//! baseline's read D_GC +1.8…+2.9, `poor`. Over the GG's inlet-corrected speed (an input of
+//! every point) the curves have no such loop: the same days read within 0.52 points, `good`.
 //! Along the healthy operating line the two speeds map one to one, so the curves are as
-//! expressive there. Files written before `speed_of` existed keep their meaning (own inlet).
+//! expressive there; the HPT's own speed stays the first choice because on the other foreign
+//! units it gives their figures (the GG's moved them, not always for the better). Files
+//! written before `speed_of` existed keep their meaning (own inlet).
 //!
 //! `[adaptation.model_error_pct]` (written by `calibrate --adapt`, or set by hand) states, per
 //! compared signal (CSV name, e.g. `n1_rpm = 0.4`), the 1σ of the adapted model's own error in
