@@ -482,6 +482,11 @@ mod tests {
                 "adaptation.pt.flow",
             ),
             (
+                // The GG's corrected speed is for the HP turbine's knots only.
+                "[adaptation.pt]\nspeed_knots = [0.8]\nflow = [0.01]\nspeed_of = \"gg_inlet\"",
+                "adaptation.pt.speed_of",
+            ),
+            (
                 "[adaptation.model_error_pct]\nn1 = 0.3",
                 "adaptation.model_error_pct.n1",
             ),
