@@ -247,26 +247,26 @@ impl Calibration {
             .collect()
     }
 
-    /// The adaptation curves to write, as `(adaptation.<component>.<curve>, values)` with each
-    /// component's `speed_knots` first, then the GG speeds it was calibrated on
-    /// (`adaptation.calibrated.gg_speed`) and the model error along the GG speed
-    /// (`adaptation.model_error_by_speed.<speed_knots | signal>`); empty without an adaptation.
     /// The adaptation's words for the new file: which corrected speed a component's knots are
     /// in, where it is not the component's own (`adaptation.hpt.speed_of = "gg_inlet"`).
     pub fn adaptation_words(&self) -> Vec<(String, String)> {
         self.adaptation
             .iter()
             .flat_map(|a| &a.components)
-            .filter(|c| !c.curves.is_empty() && c.speed_of != SpeedOf::OwnInlet.name())
+            .filter(|c| !c.curves.is_empty() && c.speed_of != SpeedOf::OwnInlet)
             .map(|c| {
                 (
                     format!("adaptation.{}.speed_of", c.component),
-                    c.speed_of.to_string(),
+                    c.speed_of.name().to_string(),
                 )
             })
             .collect()
     }
 
+    /// The adaptation curves to write, as `(adaptation.<component>.<curve>, values)` with each
+    /// component's `speed_knots` first, then the GG speeds it was calibrated on
+    /// (`adaptation.calibrated.gg_speed`) and the model error along the GG speed
+    /// (`adaptation.model_error_by_speed.<speed_knots | signal>`); empty without an adaptation.
     pub fn adaptation_lists(&self) -> Vec<(String, Vec<f64>)> {
         let mut out = Vec::new();
         for c in self.adaptation.iter().flat_map(|a| &a.components) {

@@ -223,8 +223,8 @@ pub struct CurveFit {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ComponentFit {
     pub component: String,
-    /// Which corrected speed the knots are in (`own_inlet`, `gg_inlet`: `SpeedOf`).
-    pub speed_of: &'static str,
+    /// Which corrected speed the knots are in (`own_inlet`, `gg_inlet`).
+    pub speed_of: SpeedOf,
     /// Lowest and highest relative corrected speed of the data on the calibrated engine.
     pub speed_range: [f64; 2],
     /// Knot speeds chosen (the anchor 1.0 implicit).
@@ -574,7 +574,7 @@ fn report(
         .zip(knots_reason)
         .map(|(((ci, name), not_fitted), knots_reason)| ComponentFit {
             component: name.to_string(),
-            speed_of: shape.speed_of(name).name(),
+            speed_of: shape.speed_of(name),
             speed_range: ranges[ci],
             knots: shape.knots[ci].clone(),
             curves: shape.curves[ci]

@@ -125,7 +125,7 @@ pub(super) fn print_text(report: &Calibration, wall_s: f64) {
         for c in &ad.components {
             let knots: Vec<String> = c.knots.iter().map(|k| format!("{k:.3}")).collect();
             // The HP turbine's knots are in the GG's corrected speed (`SpeedOf`): say so.
-            let of = if c.speed_of == "gg_inlet" {
+            let of = if c.speed_of == crate::engine::config::SpeedOf::GgInlet {
                 " (the GG's corrected speed at the compressor inlet)"
             } else {
                 ""
