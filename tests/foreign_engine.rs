@@ -253,6 +253,9 @@ fn calibrated(model: &Engine, rows: &[Snapshot], adapt: Option<AdaptStrategy>) -
             if let Some(sim) = &a.similarity {
                 eprintln!("  {}", sim.describe());
             }
+            if let Some(line) = &a.operating_line {
+                eprintln!("  {}", line.describe());
+            }
         }
     }
     engine

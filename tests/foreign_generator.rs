@@ -191,6 +191,9 @@ fn calibrated(written: &[Signal]) -> (Engine, Vec<Snapshot>, Engine, Calibration
         if let Some(sim) = &a.similarity {
             eprintln!("  {}", sim.describe());
         }
+        if let Some(line) = &a.operating_line {
+            eprintln!("  {}", line.describe());
+        }
         eprintln!(
             "  its error in health units: {:?} ({})",
             a.health_error.points, a.health_error.note

@@ -119,6 +119,13 @@ fn calibrated(model: &Engine, rows: &[Snapshot]) -> (Calibration, Engine) {
     {
         eprintln!("  {}", sim.describe());
     }
+    if let Some(line) = report
+        .adaptation
+        .as_ref()
+        .and_then(|a| a.operating_line.as_ref())
+    {
+        eprintln!("  {}", line.describe());
+    }
     (report, adapted)
 }
 

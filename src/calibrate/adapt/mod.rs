@@ -19,9 +19,12 @@
 //!    residuals over the design parameters and all eight curves (compressor speed re-labelling,
 //!    flow, efficiency, (PR − 1); HPT and PT flow and efficiency) goes through the calibration's
 //!    identifiability analysis (`identify`): only curves it identifies are fitted. Each
-//!    component's knots are in its own corrected speed; where the adapted model then departs
-//!    from similarity (`similarity`), [`adapt`] tries the HP turbine's in the GG's corrected
-//!    speed at the compressor inlet (`engine::config::SpeedOf`, why in its docs).
+//!    component's knots are in its own corrected speed, and every curve starts at zero; where
+//!    the adapted model departs from similarity (`similarity`), [`adapt`] fits again: where
+//!    the compressor's healthy operating line also runs beyond its map's surge line
+//!    (`surge`), from the speed re-labelling the data show (`relabel`) with the HP turbine's
+//!    knots in either speed; else with the HP turbine's knots in the GG's corrected speed at
+//!    the compressor inlet (`engine::config::SpeedOf`, why in its docs).
 //! 2. **How many knots.** A component's knots grow one at a time (evenly spaced from each end
 //!    of its speeds towards the design speed, shared between the sides by their reach
 //!    (`knots`), the fitted curve re-sampled as the start) while the
@@ -71,13 +74,16 @@ mod growth;
 mod health_error;
 mod knots;
 mod model_error;
+mod relabel;
 mod shape;
 mod similarity;
+mod surge;
 
 pub use coverage::{CoverageAdvice, ADVICE_PCT};
 pub use health_error::{HealthError, PartRead};
 pub use model_error::{ModelError, SignalModelError};
 pub use similarity::{Similarity, DEPARTURE_PCT, SHIFT_K};
+pub use surge::OperatingLine;
 
 use super::problem::CalibrationPoint;
 use super::startup::RestReading;
@@ -164,6 +170,10 @@ pub struct AdaptSettings {
     /// tries the GG's at the compressor inlet where the adapted model departs from
     /// similarity).
     pub hpt_speed_of: SpeedOf,
+    /// Whether the compressor's speed re-labelling starts from the guess the data show
+    /// (`relabel`) rather than from zero ([`adapt`] sets it where the fit from zero put the
+    /// healthy operating line beyond the map's surge line and departs from similarity).
+    pub relabel_start: bool,
 }
 
 impl Default for AdaptSettings {
@@ -178,6 +188,7 @@ impl Default for AdaptSettings {
             strategy: AdaptStrategy::Grown,
             health_error: true,
             hpt_speed_of: SpeedOf::OwnInlet,
+            relabel_start: false,
         }
     }
 }
@@ -271,6 +282,14 @@ pub struct AdaptReport {
     /// on days [`SHIFT_K`] colder and warmer (`None` when no curve was fitted).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub similarity: Option<Similarity>,
+    /// Whether the adapted compressor's healthy operating line stays on its map (`None` when
+    /// no curve was fitted).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub operating_line: Option<OperatingLine>,
+    /// Where the first fit departed from similarity: why, and each alternative fitted with
+    /// what it reached and whether it is kept (empty when it was not run again).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub retried: Vec<String>,
 }
 
 /// Relative corrected speed of each component at each point, in the speed its knots are in
@@ -341,76 +360,171 @@ pub struct Ctx<'a> {
 ///
 /// The steps: the speed ranges the data cover; one knot per component at its furthest speed,
 /// keeping the curves the data identify, and its fit; the knots grown while every knot stays
-/// identified; the σ of the final knots and the report.
+/// identified; the σ of the final knots and the report. Then two checks of what the baseline
+/// cannot show, the similarity (`similarity`) and the compressor's operating line
+/// (`surge`); where the model departs from similarity the adaptation is run again otherwise
+/// (below) and an alternative kept when it fits within noise, stays similar and on the map.
 pub fn adapt(
     engine: &Engine,
     design_keys: &[String],
     ctx: Ctx,
 ) -> Result<(AdaptReport, Engine), CalibrateError> {
-    let (mut report, adapted) = adapt_shape(engine, design_keys, ctx)?;
-    report.similarity = similar(engine, &adapted, &report, ctx);
-    let hpt_fitted = report
+    let first = checked(engine, design_keys, ctx)?;
+    let departs = first.0.similarity.as_ref().is_some_and(|s| s.departs);
+    let off_map = first.0.operating_line.as_ref().is_some_and(|o| o.beyond());
+    let hpt_fitted = first
+        .0
         .components
         .iter()
         .any(|c| c.component == "hpt" && !c.curves.is_empty());
-    let departs = report.similarity.as_ref().is_some_and(|s| s.departs);
-    if !(departs && hpt_fitted && ctx.settings.hpt_speed_of == SpeedOf::OwnInlet) {
-        return Ok((report, adapted));
+    let own = ctx.settings.hpt_speed_of == SpeedOf::OwnInlet;
+    let mut tries: Vec<AdaptSettings> = Vec::new();
+    let relabel = off_map && departs && within_noise(first.0.rms_after);
+    if relabel && !ctx.settings.relabel_start {
+        // The compressor's curves trade one for another along the healthy line, and from zero
+        // the fit can end with the line beyond the map's surge line (the unit of
+        // `tests/foreign_ambient.rs`: speed line re-labelled 4 %, flow +41 %, efficiency +15 %,
+        // surge margin −10 % where the unit has 26 %), where the flat, extrapolated speed lines
+        // make the model depart from similarity (T34/T1 4.72 %, 0.33 % before; its healthy
+        // days read up to 2.9 points off). Fitted again from the re-labelling the data show,
+        // with the HP turbine's knots in either speed (that unit: 0.57 σ, 0.75 points from
+        // similarity beyond the model before, one day `poor`; 0.63 σ, 0.20, days within 0.39
+        // points, `good`, kept). Only where the model also departs from similarity: the
+        // combinator unit of `tests/foreign_engine.rs` runs its lowest load 4.7 % beyond the
+        // surge line (9 % inside it on the unit) and stays similar; fitted again on the map,
+        // its error in health units grew (0.16 → 0.43–0.44 points), so there the check's line
+        // is the user's to weigh.
+        tries.push(AdaptSettings {
+            relabel_start: true,
+            ..ctx.settings.clone()
+        });
+        if own {
+            tries.push(AdaptSettings {
+                relabel_start: true,
+                hpt_speed_of: SpeedOf::GgInlet,
+                ..ctx.settings.clone()
+            });
+        }
+    } else if departs && hpt_fitted && own {
+        // The HP turbine's curves over its own corrected speed feed back through T3, its
+        // inlet temperature, which they set, and can make the adapted model depart from
+        // similarity (the unit above fitted from zero: T34/T1 moved 4.72 % between days 50 K
+        // apart at one corrected point, 0.33 % before). The baseline cannot tell the two
+        // apart, so the HPT's knots go in the GG's corrected speed at the compressor inlet.
+        // Only then: on the other units the HPT's own speed gives other figures, not worse
+        // fits.
+        tries.push(AdaptSettings {
+            hpt_speed_of: SpeedOf::GgInlet,
+            ..ctx.settings.clone()
+        });
     }
-    // The HP turbine's curves over its own corrected speed feed back through T3, its inlet
-    // temperature, which they set, and can make the adapted model depart from similarity (the
-    // fourth foreign unit of `tests/foreign_ambient.rs`: T34/T1 moved 4.72 % between days 50 K
-    // apart at one corrected point, 0.33 % before, and healthy days paired otherwise read up to
-    // 2.9 points off). The baseline cannot tell the two apart, so where the check fails the
-    // adaptation is run again with the HPT's knots in the GG's corrected speed at the
-    // compressor inlet, and kept when that model is similar and fits the baseline within noise.
-    // Only then: on the other units the HPT's own speed gives other figures, not worse fits.
-    let settings = AdaptSettings {
-        hpt_speed_of: SpeedOf::GgInlet,
-        ..ctx.settings.clone()
-    };
-    let gg_ctx = Ctx {
-        settings: &settings,
-        ..ctx
-    };
-    let (mut other, other_engine) = adapt_shape(engine, design_keys, gg_ctx)?;
-    other.similarity = similar(engine, &other_engine, &other, gg_ctx);
-    let kept =
-        other.similarity.as_ref().is_some_and(|s| !s.departs) && within_noise(other.rms_after);
-    let line = format!(
-        "the adapted model departs from similarity with the HP turbine's knots in its own \
-         corrected speed; in the GG's at the compressor inlet: data RMS {:.2} σ (against {:.2} \
-         σ), {}",
-        other.rms_after,
-        report.rms_after,
-        other
-            .similarity
-            .as_ref()
-            .map_or_else(|| "similarity not checked".into(), Similarity::describe)
-    );
-    if kept {
-        other.model_runs += report.model_runs;
-        other.steps.push(format!("{line}: kept"));
-        Ok((other, other_engine))
+    if tries.is_empty() {
+        return Ok(first);
+    }
+    let why = if relabel {
+        "the first fit put the compressor's healthy operating line beyond its map's surge line \
+         and departs from similarity"
     } else {
-        report.model_runs += other.model_runs;
-        report.steps.push(format!("{line}: not kept"));
-        Ok((report, adapted))
+        "the first fit departs from similarity with the HP turbine's knots in its own \
+         corrected speed"
+    };
+    let mut runs = first.0.model_runs;
+    let mut lines: Vec<String> = vec![format!(
+        "{why} ({}); fitted again, an alternative is kept when it fits within noise, stays \
+         similar and on the map (of those, the one that moves least from similarity)",
+        summary(&first.0)
+    )];
+    let mut best = first;
+    let mut kept: Option<usize> = None;
+    for (i, settings) in tries.iter().enumerate() {
+        let c = Ctx { settings, ..ctx };
+        let other = checked(engine, design_keys, c)?;
+        runs += other.0.model_runs;
+        lines.push(format!("{}: {}", describe_try(settings), summary(&other.0)));
+        if passes(&other.0) && (kept.is_none() || excess(&other.0) < excess(&best.0)) {
+            best = other;
+            kept = Some(i);
+        }
     }
+    for (i, line) in lines.iter_mut().enumerate().skip(1) {
+        line.push_str(if kept == Some(i - 1) {
+            ": kept"
+        } else {
+            ": not kept"
+        });
+    }
+    if kept.is_none() {
+        lines[0].push_str("; none is, the first fit stands");
+    }
+    let (mut report, adapted) = best;
+    report.model_runs = runs;
+    report.retried = lines;
+    Ok((report, adapted))
 }
 
-/// The similarity check of `adapted` (none when no curve was fitted).
-fn similar(
+/// An adaptation and its two checks.
+fn checked(
     engine: &Engine,
-    adapted: &Engine,
-    report: &AdaptReport,
+    design_keys: &[String],
     ctx: Ctx,
-) -> Option<Similarity> {
-    if report.components.iter().all(|c| c.curves.is_empty()) {
-        return None;
+) -> Result<(AdaptReport, Engine), CalibrateError> {
+    let (mut report, adapted) = adapt_shape(engine, design_keys, ctx)?;
+    if report.components.iter().any(|c| !c.curves.is_empty()) {
+        if let Ok(speeds) = relative_speeds(&adapted, ctx.points, ctx.settings.hpt_speed_of) {
+            report.similarity = Some(similarity::check(engine, &adapted, ctx.points, &speeds[0]));
+            report.operating_line = Some(surge::check(engine, &adapted, ctx.points, &speeds[0]));
+        }
     }
-    let speeds = relative_speeds(adapted, ctx.points, ctx.settings.hpt_speed_of).ok()?;
-    Some(similarity::check(engine, adapted, ctx.points, &speeds[0]))
+    Ok((report, adapted))
+}
+
+/// An adaptation's fit and checks in one phrase, for the report.
+fn summary(r: &AdaptReport) -> String {
+    format!(
+        "data RMS {:.2} σ; {}; {}",
+        r.rms_after,
+        r.similarity
+            .as_ref()
+            .map_or_else(|| "similarity not checked".into(), Similarity::describe),
+        r.operating_line
+            .as_ref()
+            .map_or_else(|| "operating line not checked".into(), |o| o.describe()),
+    )
+}
+
+/// Whether an alternative adaptation may replace the first: it fits within noise and passes
+/// both checks. One that only moves the failure elsewhere does not: on the combinator unit of
+/// `tests/foreign_engine.rs` with its 38.75 % load left out, the first fit ran its lowest load
+/// 4.9 % beyond the surge line and both alternatives did too; the one a little more similar
+/// predicted the load left out at 3.3 % mean where the first predicts 0.3 %.
+fn passes(r: &AdaptReport) -> bool {
+    within_noise(r.rms_after)
+        && r.similarity.as_ref().is_some_and(|s| !s.departs)
+        && r.operating_line.as_ref().is_some_and(|o| !o.beyond())
+}
+
+/// How far an adaptation moves from similarity beyond the model before it (percentage
+/// points): among alternatives that pass, the least is kept.
+fn excess(r: &AdaptReport) -> f64 {
+    r.similarity
+        .as_ref()
+        .map_or(f64::INFINITY, |s| s.worst_pct - s.before_pct)
+}
+
+/// How an alternative was fitted, for the report's steps.
+fn describe_try(s: &AdaptSettings) -> String {
+    format!(
+        "the compressor's speed re-labelling started {}, the HP turbine's knots in {}",
+        if s.relabel_start {
+            "where the data put the points on the map's speed lines"
+        } else {
+            "from zero"
+        },
+        match s.hpt_speed_of {
+            SpeedOf::OwnInlet => "its own corrected speed",
+            SpeedOf::GgInlet => "the GG's corrected speed at the compressor inlet",
+        }
+    )
 }
 
 /// [`adapt`]'s shape and fit (the grown shape; without holding; the continuation in its place).
@@ -623,5 +737,7 @@ fn report(
         coverage: Vec::new(),
         calibrated: None,
         similarity: None,
+        operating_line: None,
+        retried: Vec::new(),
     }
 }

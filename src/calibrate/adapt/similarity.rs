@@ -12,7 +12,9 @@
 //! back into their argument, and four healthy days read D_GC +1.8…+2.9 points, `poor`. The
 //! baseline cannot show it; this check needs no data beyond the points' inputs, so the
 //! calibration says so when it happens, and [`super::adapt`] then tries the HP turbine's knots
-//! in the GG's corrected speed at the compressor inlet.
+//! in the GG's corrected speed at the compressor inlet (and, among alternatives fitted to keep
+//! the compressor on its map, keeps the one that moves least beyond the model before the
+//! adaptation).
 //!
 //! What it must not do: I/O; change the fit (it measures; `adapt` decides).
 

@@ -43,6 +43,12 @@ pub(super) fn print_model_errors(ad: &crate::calibrate::adapt::AdaptReport) {
     if let Some(sim) = &ad.similarity {
         println!("  {}", sim.describe());
     }
+    if let Some(line) = &ad.operating_line {
+        println!("  {}", line.describe());
+    }
+    for (i, line) in ad.retried.iter().enumerate() {
+        println!("  {}{line}", if i == 0 { "" } else { "  " });
+    }
     let he = &ad.health_error;
     if he.points.is_empty() {
         println!("  model error in health units: {}", he.note);

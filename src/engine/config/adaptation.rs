@@ -19,14 +19,18 @@
 //! design point's. `gg_inlet` (the HP turbine only): the gas generator's corrected speed at the
 //! compressor inlet, n1/√(T1/T1_design) over the design's. `calibrate --adapt` writes it where
 //! the HP turbine's own speed made the adapted model depart from similarity
-//! (`calibrate::adapt::Similarity`): its flow and efficiency set the combustor exit temperature
+//! (`calibrate::adapt::Similarity`), or moved it further from similarity than the GG's did when
+//! the fit was run again to keep the compressor on its map (`calibrate::adapt::OperatingLine`;
+//! on the unit below 1.15 % against 0.69 %, and a healthy day read `poor` against `good`): its
+//! flow and efficiency set the combustor exit temperature
 //! T3 through the GG's power balance, and T3 is in its own corrected speed, so curves over that
 //! speed feed back into their own argument. On a foreign unit with pyCycle's compressor map
 //! under md22's file the adapted model then gave, at one corrected GG and PT speed, T34/T1
 //! 3.230 at 253 K and 3.107 at 308 K where the unit gives 3.101 and 3.091; on the unit of
 //! `tests/foreign_ambient.rs`, healthy days whose ambient and load paired otherwise than on the
 //! baseline's read D_GC +1.8…+2.9, `poor`. Over the GG's inlet-corrected speed (an input of
-//! every point) the curves have no such loop: the same days read within 0.52 points, `good`.
+//! every point) the curves have no such loop: the same days read within 0.52 points, `good`
+//! (within 0.39 with the compressor kept on its map).
 //! Along the healthy operating line the two speeds map one to one, so the curves are as
 //! expressive there; the HPT's own speed stays the first choice because on the other foreign
 //! units it gives their figures (the GG's moved them, not always for the better). Files

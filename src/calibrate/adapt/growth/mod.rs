@@ -19,6 +19,7 @@ use super::super::CalibrateError;
 use super::health_error::{self, HealthError};
 use super::knots::{knots, SIDE_REACH};
 use super::model_error::{self, ModelError};
+use super::relabel::{relabel_guess, RELABEL_GUESS_LIMIT};
 use super::shape::{key, Shape};
 use super::{
     candidates_for, fit, fit_within, identify_at, report, rms_of, shaped, within_noise,
@@ -128,6 +129,19 @@ impl<'a> Growth<'a> {
                 }
             }
             shape.curves[ci] = kept;
+            if *name == "compressor" && ctx.settings.relabel_start {
+                // Start the speed re-labelling where the unit's points sit on the map's speed
+                // lines (why: `relabel`).
+                let knot = shape.knots[ci].first().copied();
+                if let (Some((_, values)), Some(k)) = (
+                    shape.curves[ci].iter_mut().find(|(c, _)| c == "speed"),
+                    knot,
+                ) {
+                    if let Some(f) = relabel_guess(engine, ctx.points, k) {
+                        values[0] = f.clamp(-RELABEL_GUESS_LIMIT, RELABEL_GUESS_LIMIT);
+                    }
+                }
+            }
             if shape.curves[ci].is_empty() && max_level[ci] > 0 {
                 shape.knots[ci].clear();
                 knots_reason[ci] =
