@@ -48,6 +48,17 @@ pub struct CalibrationPoint {
     pub data: SteadyData,
 }
 
+impl CalibrationPoint {
+    /// The point's healthy steady solution on `engine` at its own inputs.
+    pub fn healthy_on(&self, engine: &Engine) -> Result<SteadyPoint, CalibrateError> {
+        let inp = &self.data.inputs;
+        let m = engine.model_at(&HealthParams::HEALTHY, inp.t_amb_k, inp.p_amb_kpa);
+        self.data
+            .solve_on(&m)
+            .map_err(|e| CalibrateError::Model(format!("line {}: steady solve: {e}", self.line)))
+    }
+}
+
 /// A point's measured shaft power for the load-law residual: power W, and σ of the speed
 /// residual, rpm.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -40,7 +40,7 @@
 use super::super::problem::CalibrationPoint;
 use super::super::CalibrateError;
 use super::shape::Shape;
-use super::{candidates_for, fit_within, relative_speeds, Ctx, Starts, ADAPT_MIN_ITERATIONS};
+use super::{candidates_for, fit_within, gg_speeds, Ctx, Starts, ADAPT_MIN_ITERATIONS};
 use crate::diagnosis::steady::{with_model_error, SteadyProblem};
 use crate::diagnosis::{fit, result_of, DiagnosisConfig, DiagnosisProblem, Method};
 use crate::engine::config::MAX_HEALTH_ERROR_PTS;
@@ -112,7 +112,7 @@ pub(super) fn estimate(
             0,
         ));
     }
-    let gg = &relative_speeds(engine, ctx.points, ctx.settings.hpt_speed_of)?[0];
+    let gg = &gg_speeds(engine, ctx.points)?;
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by(|&a, &b| gg[a].total_cmp(&gg[b]));
     let parts = if interior >= THIRDS_FROM { 3 } else { 2 };

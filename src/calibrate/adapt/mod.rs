@@ -89,10 +89,10 @@ use super::problem::CalibrationPoint;
 use super::startup::RestReading;
 use super::CalibrateError;
 use crate::diagnosis::fit_quality::Thresholds;
+use crate::diagnosis::steady::{relative_gg_speed, relative_gg_speed_at};
 use crate::engine::config::{CalibratedRange, SpeedOf, COMPONENTS};
 use crate::engine::cycle::corrected_speed;
 use crate::engine::Engine;
-use crate::health::HealthParams;
 use crate::signals::Signal;
 use fitting::{
     candidates_for, fit, fit_within, identify_at, penalty_rows, rms_of, within_noise, Fitted, Pass,
@@ -302,45 +302,47 @@ fn relative_speeds(
     hpt: SpeedOf,
 ) -> Result<[Vec<f64>; 3], CalibrateError> {
     let d = engine.design();
-    let design = [
-        corrected_speed(d.n1_rpm, d.t1_k),
-        corrected_speed(d.n1_rpm, d.t3_k),
-        corrected_speed(d.n2_rpm, d.t34_k),
-    ];
+    let design_hpt = corrected_speed(d.n1_rpm, d.t3_k);
+    let design_pt = corrected_speed(d.n2_rpm, d.t34_k);
     let mut out: [Vec<f64>; 3] = [Vec::new(), Vec::new(), Vec::new()];
     for p in points {
         let inp = &p.data.inputs;
-        let m = engine.model_at(&HealthParams::HEALTHY, inp.t_amb_k, inp.p_amb_kpa);
-        let s = p
-            .data
-            .solve_on(&m)
-            .map_err(|e| CalibrateError::Model(format!("line {}: steady solve: {e}", p.line)))?
-            .stations;
+        let s = p.healthy_on(engine)?.stations;
         // Measured speeds and temperatures where the point has them (the model's speeds are
         // outputs, and on a foreign unit far from the truth before the adaptation).
-        let measured = |sig: Signal| {
-            p.data
-                .outputs
-                .iter()
-                .find(|(x, _, _)| *x == sig)
-                .map(|&(_, v, _)| v)
-        };
-        let n1 = measured(Signal::N1).unwrap_or(s.n1_rpm);
-        let t34 = measured(Signal::T34).unwrap_or(s.t34_k);
-        // The GG's as steady diagnosis reads a point's speed (the model error along the
-        // operating line is looked up by it), the model's where the point has no GG speed.
-        let gg = crate::diagnosis::steady::relative_gg_speed(engine, &p.data)
-            .unwrap_or(corrected_speed(n1, inp.t_amb_k) / design[0]);
+        let n1 = p.data.measured(Signal::N1).unwrap_or(s.n1_rpm);
+        let t34 = p.data.measured(Signal::T34).unwrap_or(s.t34_k);
+        let gg = gg_speed(engine, p, s.n1_rpm);
         out[0].push(gg);
         // The HP turbine's knots in the GG's corrected speed at the compressor inlet are the
         // same number as the compressor's.
         out[1].push(match hpt {
             SpeedOf::GgInlet => gg,
-            SpeedOf::OwnInlet => corrected_speed(n1, s.t3_k) / design[1],
+            SpeedOf::OwnInlet => corrected_speed(n1, s.t3_k) / design_hpt,
         });
-        out[2].push(corrected_speed(inp.n2_rpm, t34) / design[2]);
+        out[2].push(corrected_speed(inp.n2_rpm, t34) / design_pt);
     }
     Ok(out)
+}
+
+/// Relative corrected GG speed of point `p`: as steady diagnosis reads a point's speed (the
+/// model error along the operating line is looked up by it), from its measured GG speed;
+/// `model_n1_rpm` (the healthy model's) where the point has none.
+fn gg_speed(engine: &Engine, p: &CalibrationPoint, model_n1_rpm: f64) -> f64 {
+    relative_gg_speed(engine, &p.data)
+        .unwrap_or_else(|| relative_gg_speed_at(engine, model_n1_rpm, p.data.inputs.t_amb_k))
+}
+
+/// [`gg_speed`] of every point, solving the healthy model only where a point has no measured
+/// GG speed (the other components' speeds, which need the solution, are [`relative_speeds`]).
+fn gg_speeds(engine: &Engine, points: &[CalibrationPoint]) -> Result<Vec<f64>, CalibrateError> {
+    points
+        .iter()
+        .map(|p| match relative_gg_speed(engine, &p.data) {
+            Some(g) => Ok(g),
+            None => Ok(gg_speed(engine, p, p.healthy_on(engine)?.stations.n1_rpm)),
+        })
+        .collect()
 }
 
 /// What every step works on: the data, the threads, the settings.
@@ -379,8 +381,9 @@ pub fn adapt(
         .any(|c| c.component == "hpt" && !c.curves.is_empty());
     let own = ctx.settings.hpt_speed_of == SpeedOf::OwnInlet;
     let mut tries: Vec<AdaptSettings> = Vec::new();
-    let relabel = off_map && departs && within_noise(first.0.rms_after);
-    if relabel && !ctx.settings.relabel_start {
+    let relabel =
+        off_map && departs && within_noise(first.0.rms_after) && !ctx.settings.relabel_start;
+    if relabel {
         // The compressor's curves trade one for another along the healthy line, and from zero
         // the fit can end with the line beyond the map's surge line (the unit of
         // `tests/foreign_ambient.rs`: speed line re-labelled 4 %, flow +41 %, efficiency +15 %,
@@ -472,9 +475,9 @@ fn checked(
 ) -> Result<(AdaptReport, Engine), CalibrateError> {
     let (mut report, adapted) = adapt_shape(engine, design_keys, ctx)?;
     if report.components.iter().any(|c| !c.curves.is_empty()) {
-        if let Ok(speeds) = relative_speeds(&adapted, ctx.points, ctx.settings.hpt_speed_of) {
-            report.similarity = Some(similarity::check(engine, &adapted, ctx.points, &speeds[0]));
-            report.operating_line = Some(surge::check(engine, &adapted, ctx.points, &speeds[0]));
+        if let Ok(gg) = gg_speeds(&adapted, ctx.points) {
+            report.similarity = Some(similarity::check(engine, &adapted, ctx.points, &gg));
+            report.operating_line = Some(surge::check(engine, &adapted, ctx.points, &gg));
         }
     }
     Ok((report, adapted))
@@ -510,7 +513,7 @@ fn passes(r: &AdaptReport) -> bool {
 fn excess(r: &AdaptReport) -> f64 {
     r.similarity
         .as_ref()
-        .map_or(f64::INFINITY, |s| s.worst_pct - s.before_pct)
+        .map_or(f64::INFINITY, Similarity::excess)
 }
 
 /// How an alternative was fitted, for the report's steps.

@@ -46,7 +46,7 @@
 use super::super::problem::CalibrationProblem;
 use super::super::CalibrateError;
 use super::shape::Shape;
-use super::{candidates_for, penalty_rows, relative_speeds, Ctx};
+use super::{candidates_for, gg_speeds, penalty_rows, Ctx};
 use crate::engine::config::{AdaptationConfig, ModelErrorBySpeed, MAX_MODEL_ERROR_PCT};
 use crate::engine::Engine;
 use crate::optim::lm::jacobian_unit;
@@ -316,7 +316,7 @@ pub(super) fn estimate(
 /// Indices of the points strictly between the lowest and highest relative GG speed, and every
 /// point's relative corrected GG speed.
 fn interior_points(engine: &Engine, ctx: Ctx) -> Result<(Vec<usize>, Vec<f64>), CalibrateError> {
-    let [n1, _, _] = relative_speeds(engine, ctx.points, ctx.settings.hpt_speed_of)?;
+    let n1 = gg_speeds(engine, ctx.points)?;
     let lo = n1.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = n1.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let margin = 1e-3;

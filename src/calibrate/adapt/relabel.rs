@@ -20,7 +20,6 @@
 use super::super::problem::CalibrationPoint;
 use crate::diagnosis::steady::relative_gg_speed;
 use crate::engine::Engine;
-use crate::health::HealthParams;
 use crate::maps::SpeedCurve;
 use crate::signals::Signal;
 
@@ -45,13 +44,7 @@ pub(super) fn relabel_guess(
     let mut num = 0.0;
     let mut den = 0.0;
     for p in points {
-        let Some(n_meas) = p
-            .data
-            .outputs
-            .iter()
-            .find(|(s, _, _)| *s == Signal::N1)
-            .map(|&(_, v, _)| v)
-        else {
+        let Some(n_meas) = p.data.measured(Signal::N1) else {
             continue;
         };
         let Some(speed) = relative_gg_speed(engine, &p.data) else {
@@ -61,9 +54,7 @@ pub(super) fn relabel_guess(
         if g.abs() < MIN_WEIGHT || n_meas <= 0.0 {
             continue;
         }
-        let inp = &p.data.inputs;
-        let model = engine.model_at(&HealthParams::HEALTHY, inp.t_amb_k, inp.p_amb_kpa);
-        let Ok(solved) = p.data.solve_on(&model) else {
+        let Ok(solved) = p.healthy_on(engine) else {
             continue;
         };
         let y = solved.stations.n1_rpm / n_meas - 1.0;

@@ -55,6 +55,12 @@ pub struct Similarity {
 }
 
 impl Similarity {
+    /// How far the worst value moves beyond its move on the model before the adaptation,
+    /// percentage points.
+    pub fn excess(&self) -> f64 {
+        self.worst_pct - self.before_pct
+    }
+
     /// One line for the report.
     pub fn describe(&self) -> String {
         if self.points == 0 {
@@ -98,8 +104,7 @@ fn state(p: &SteadyPoint) -> [(&'static str, f64); 6] {
 /// warmer than point `p`'s at its corrected speeds on `engine`, or `None` where a solve fails.
 fn moves(engine: &Engine, p: &CalibrationPoint) -> Option<[(&'static str, f64); 6]> {
     let inp = &p.data.inputs;
-    let m = engine.model_at(&HealthParams::HEALTHY, inp.t_amb_k, inp.p_amb_kpa);
-    let at = p.data.solve_on(&m).ok()?;
+    let at = p.healthy_on(engine).ok()?;
     let day = |dt: f64| -> Option<SteadyPoint> {
         let t = inp.t_amb_k + dt;
         let r = (t / inp.t_amb_k).sqrt();
@@ -146,6 +151,6 @@ pub fn check(
             }
         }
     }
-    out.departs = out.points > 0 && out.worst_pct > out.before_pct + DEPARTURE_PCT;
+    out.departs = out.points > 0 && out.excess() > DEPARTURE_PCT;
     out
 }

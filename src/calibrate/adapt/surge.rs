@@ -16,7 +16,6 @@
 
 use super::super::problem::CalibrationPoint;
 use crate::engine::Engine;
-use crate::health::HealthParams;
 use serde::Serialize;
 
 /// The check's outcome.
@@ -66,9 +65,7 @@ impl OperatingLine {
 
 /// The surge margin of point `p` (healthy, its own inputs) on `engine`, %.
 fn margin(engine: &Engine, p: &CalibrationPoint) -> Option<f64> {
-    let inp = &p.data.inputs;
-    let m = engine.model_at(&HealthParams::HEALTHY, inp.t_amb_k, inp.p_amb_kpa);
-    let s = p.data.solve_on(&m).ok()?;
+    let s = p.healthy_on(engine).ok()?;
     s.stations
         .surge_margin_pct
         .is_finite()

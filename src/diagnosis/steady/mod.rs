@@ -193,6 +193,14 @@ pub struct SteadyData {
 }
 
 impl SteadyData {
+    /// The measured value of compared signal `s`, `None` when the data have none.
+    pub fn measured(&self, s: Signal) -> Option<f64> {
+        self.outputs
+            .iter()
+            .find(|(x, _, _)| *x == s)
+            .map(|&(_, v, _)| v)
+    }
+
     /// The healthy (or `m`'s) steady point of this data, started at the measured GG speed's
     /// running point when there is a hint (see [`SteadyData::n1_hint_rpm`]).
     pub fn solve_on(&self, m: &Model) -> Result<SteadyPoint, crate::engine::EngineError> {
@@ -303,11 +311,7 @@ pub(crate) fn relative_gg_speeds(engine: &Engine, points: &[SteadyData]) -> Vec<
 /// The relative corrected GG speed of `data` (its measured GG speed at its ambient over the
 /// design's), `None` when it has no GG speed.
 pub(crate) fn relative_gg_speed(engine: &Engine, data: &SteadyData) -> Option<f64> {
-    let n1 = data
-        .outputs
-        .iter()
-        .find(|(s, _, _)| *s == Signal::N1)
-        .map(|&(_, v, _)| v)?;
+    let n1 = data.measured(Signal::N1)?;
     Some(relative_gg_speed_at(engine, n1, data.inputs.t_amb_k))
 }
 

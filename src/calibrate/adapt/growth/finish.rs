@@ -64,14 +64,9 @@ impl<'a> Growth<'a> {
             .by_speed
             .as_ref()
             .and_then(|by| {
-                let speeds = super::super::relative_speeds(
-                    &self.current,
-                    self.ctx.points,
-                    self.ctx.settings.hpt_speed_of,
-                )
-                .ok()?;
+                let gg = super::super::gg_speeds(&self.current, self.ctx.points).ok()?;
                 let lines: Vec<u64> = self.ctx.points.iter().map(|p| p.line).collect();
-                Some(super::super::coverage::advice(&speeds[0], &lines, by))
+                Some(super::super::coverage::advice(&gg, &lines, by))
             })
             .unwrap_or_default();
         let reach = CalibratedRange {
