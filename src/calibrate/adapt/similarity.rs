@@ -19,6 +19,7 @@
 //! What it must not do: I/O; change the fit (it measures; `adapt` decides).
 
 use super::super::problem::CalibrationPoint;
+use super::before::Before;
 use crate::engine::steady::{solve, Demand, SteadyInputs, SteadyPoint};
 use crate::engine::Engine;
 use crate::health::HealthParams;
@@ -85,8 +86,11 @@ impl Similarity {
     }
 }
 
+/// The non-dimensional values compared, each with its name and value (a state) or move (%).
+pub type Moves = [(&'static str, f64); 6];
+
 /// The non-dimensional values compared, with their names.
-fn state(p: &SteadyPoint) -> [(&'static str, f64); 6] {
+fn state(p: &SteadyPoint) -> Moves {
     let s = &p.stations;
     let theta = s.t1_k / crate::engine::cycle::T_STD_K;
     let delta = s.p1_kpa / crate::engine::cycle::P_STD_KPA;
@@ -102,7 +106,7 @@ fn state(p: &SteadyPoint) -> [(&'static str, f64); 6] {
 
 /// The moves (%) of the non-dimensional values between a day [`SHIFT_K`] colder and one as much
 /// warmer than point `p`'s at its corrected speeds on `engine`, or `None` where a solve fails.
-fn moves(engine: &Engine, p: &CalibrationPoint) -> Option<[(&'static str, f64); 6]> {
+pub(super) fn moves(engine: &Engine, p: &CalibrationPoint) -> Option<Moves> {
     let inp = &p.data.inputs;
     let at = p.healthy_on(engine).ok()?;
     let day = |dt: f64| -> Option<SteadyPoint> {
@@ -125,10 +129,10 @@ fn moves(engine: &Engine, p: &CalibrationPoint) -> Option<[(&'static str, f64); 
     out.iter().all(|(_, v)| v.is_finite()).then_some(out)
 }
 
-/// The check of `adapted` against `before` (the same file before the adaptation) at `points`,
-/// each with its relative corrected GG speed in `gg_speeds`.
-pub fn check(
-    before: &Engine,
+/// The check of `adapted` against `before` (the same file before the adaptation, at the same
+/// points) at `points`, each with its relative corrected GG speed in `gg_speeds`.
+pub(super) fn check(
+    before: &Before,
     adapted: &Engine,
     points: &[CalibrationPoint],
     gg_speeds: &[f64],
@@ -136,8 +140,8 @@ pub fn check(
     let mut out = Similarity::default();
     // The value that moves most beyond what it moves on the model before the adaptation.
     let mut excess = f64::NEG_INFINITY;
-    for (p, &speed) in points.iter().zip(gg_speeds) {
-        let (Some(a), Some(b)) = (moves(adapted, p), moves(before, p)) else {
+    for (i, (p, &speed)) in points.iter().zip(gg_speeds).enumerate() {
+        let (Some(a), Some(b)) = (moves(adapted, p), before.moves(i)) else {
             continue;
         };
         out.points += 1;

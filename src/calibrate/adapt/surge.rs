@@ -15,6 +15,7 @@
 //! What it must not do: I/O; change the fit (it measures; `adapt` decides).
 
 use super::super::problem::CalibrationPoint;
+use super::before::Before;
 use crate::engine::Engine;
 use serde::Serialize;
 
@@ -64,7 +65,7 @@ impl OperatingLine {
 }
 
 /// The surge margin of point `p` (healthy, its own inputs) on `engine`, %.
-fn margin(engine: &Engine, p: &CalibrationPoint) -> Option<f64> {
+pub(super) fn margin(engine: &Engine, p: &CalibrationPoint) -> Option<f64> {
     let s = p.healthy_on(engine).ok()?;
     s.stations
         .surge_margin_pct
@@ -72,10 +73,11 @@ fn margin(engine: &Engine, p: &CalibrationPoint) -> Option<f64> {
         .then_some(s.stations.surge_margin_pct)
 }
 
-/// The check of `adapted` (with `before`, the same file before the adaptation, for the
-/// report) at `points`, each with its relative corrected GG speed in `gg_speeds`.
-pub fn check(
-    before: &Engine,
+/// The check of `adapted` (with `before`, the same file before the adaptation at the same
+/// points, for the report) at `points`, each with its relative corrected GG speed in
+/// `gg_speeds`.
+pub(super) fn check(
+    before: &Before,
     adapted: &Engine,
     points: &[CalibrationPoint],
     gg_speeds: &[f64],
@@ -84,7 +86,7 @@ pub fn check(
         min_surge_margin_pct: f64::INFINITY,
         ..OperatingLine::default()
     };
-    for (p, &speed) in points.iter().zip(gg_speeds) {
+    for (i, (p, &speed)) in points.iter().zip(gg_speeds).enumerate() {
         let Some(sm) = margin(adapted, p) else {
             continue;
         };
@@ -95,7 +97,7 @@ pub fn check(
         if sm < out.min_surge_margin_pct {
             out.min_surge_margin_pct = sm;
             out.at_gg_speed = speed;
-            out.before_pct = margin(before, p).unwrap_or(f64::NAN);
+            out.before_pct = before.margin(i).unwrap_or(f64::NAN);
         }
     }
     if out.points == 0 {
@@ -122,7 +124,8 @@ mod tests {
         let points = prepare(&model, &rows).points;
         let speeds: Vec<f64> = vec![0.9; points.len()];
         // The file itself: on its map, each margin its own.
-        let same = check(&model, &model, &points, &speeds);
+        let before = Before::new(&model, &points);
+        let same = check(&before, &model, &points, &speeds);
         assert_eq!((same.points, same.beyond_surge), (9, 0), "{same:?}");
         assert!(
             !same.beyond() && same.min_surge_margin_pct > 0.0,
@@ -141,7 +144,7 @@ mod tests {
             ..AdaptationConfig::default()
         });
         let pushed = model.with_config(cfg).expect("adapted");
-        let off = check(&model, &pushed, &points, &speeds);
+        let off = check(&before, &pushed, &points, &speeds);
         assert!(off.beyond() && off.min_surge_margin_pct < 0.0, "{off:?}");
         assert!(off.describe().contains("beyond the map's surge line"));
     }

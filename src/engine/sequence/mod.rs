@@ -21,6 +21,11 @@
 //! minimum governed speed, holds it for the cool-down, then cuts the fuel.
 //! Pure and deterministic: no I/O, no randomness (sensor noise is applied afterwards).
 
+mod mechanical;
+mod scenario;
+
+pub use scenario::{Command, End, Event, Scenario};
+
 use super::config::EngineConfig;
 use super::control::{
     Approach, Feedback, FuelCommand, FuelLimits, GgFloor, Loop, Ramp, Series, Setpoint,
@@ -37,94 +42,6 @@ use std::sync::Arc;
 /// Fraction of `sequence.purge_speed_rpm` the cranking GG must reach before the purge starts
 /// (the starter's speed hold droops a little below its set point).
 pub(crate) const PURGE_SPEED_FRACTION: f64 = 0.98;
-
-/// An operator or protection command at a given time.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Command {
-    Start,
-    /// Normal stop: unload, cool down, fuel off.
-    Stop,
-    /// Protective trip: fuel off and breaker open at once.
-    Trip,
-}
-
-/// A command scheduled at `t_s`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Event {
-    pub t_s: f64,
-    pub command: Command,
-}
-
-/// When a scenario ends.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum End {
-    /// At a fixed time.
-    At(f64),
-    /// This long after the engine first reaches steady load (with `max_s` as a guard).
-    AfterSteady { hold_s: f64, max_s: f64 },
-}
-
-/// A sequence of commands and an end condition.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Scenario {
-    pub events: Vec<Event>,
-    pub end: End,
-}
-
-impl Scenario {
-    /// REFERENCE §2 start-up from standstill to steady base load.
-    pub fn startup(cfg: &EngineConfig) -> Scenario {
-        Scenario {
-            events: vec![Event {
-                t_s: cfg.sequence.standstill_s,
-                command: Command::Start,
-            }],
-            end: End::AfterSteady {
-                hold_s: cfg.sequence.steady_s,
-                max_s: 3600.0,
-            },
-        }
-    }
-}
-
-impl Scenario {
-    /// A stretch of operations for the plant simulator and the detector's tests: a start to base
-    /// load, a normal stop, an aborted start (tripped during acceleration), and a hot restart
-    /// soon after the trip that runs to base load.
-    pub fn operations(cfg: &EngineConfig) -> Scenario {
-        let s0 = cfg.sequence.standstill_s;
-        // A start takes ~13 min; hold base load 5 min, then stop (cool-down + coast ≈ 6 min).
-        let stop = s0 + 1100.0;
-        let second = stop + 600.0;
-        let trip = second + 120.0;
-        let hot = trip + 240.0;
-        Scenario {
-            events: vec![
-                Event {
-                    t_s: s0,
-                    command: Command::Start,
-                },
-                Event {
-                    t_s: stop,
-                    command: Command::Stop,
-                },
-                Event {
-                    t_s: second,
-                    command: Command::Start,
-                },
-                Event {
-                    t_s: trip,
-                    command: Command::Trip,
-                },
-                Event {
-                    t_s: hot,
-                    command: Command::Start,
-                },
-            ],
-            end: End::At(hot + 1100.0),
-        }
-    }
-}
 
 /// Internal sequencer mode (finer than the reported [`Phase`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -581,83 +498,6 @@ impl Sequencer {
             None => self.cfg.design.pt_speed_rpm,
             Some(law) => law.speed_for_power_rpm(self.cfg.sequence.min_load_mw),
         }
-    }
-
-    /// The transitions in which a mechanical drive differs from a generator (module docs);
-    /// `None` for modes it shares with the generator sequence.
-    fn mechanical_transition(
-        &mut self,
-        t: f64,
-        act: &mut Actuator<'_>,
-        st: &Stations,
-        law: &PtLoad,
-        n2: f64,
-    ) -> Option<bool> {
-        let q = self.cfg.sequence.clone();
-        let n_min = law.speed_for_power_rpm(q.min_load_mw);
-        let tol = 1e-6;
-        match self.mode {
-            Mode::Idle { until } if t >= until - 1e-9 || self.pt_in_governed_range(n2) => {
-                // As the generator's PT governor, with the minimum governed speed as the target.
-                let r = q.pt_accel_rate_rpm_s;
-                let knee = (0.95 * n_min).max(n2).min(n_min);
-                let t1 = t + (knee - n2).max(0.0) / r;
-                let t2 = t1 + (n_min - knee) / (r / 6.0);
-                let series = Series {
-                    t_s: vec![t, t1, t2],
-                    value: vec![n2.min(knee), knee, n_min],
-                };
-                let cmd = self.pid(Loop::PtSpeed, Setpoint::Series(Arc::new(series)));
-                self.switch_fuel(t, act, st, cmd);
-                self.mode = Mode::PtGovern;
-            }
-            Mode::PtGovern if n2 >= 0.99 * n_min * (1.0 - tol) => {
-                // Warm-up at the minimum governed speed, then the speed ramp to base load.
-                let n_base = law.speed_for_power_rpm(q.base_load_mw);
-                let t1 = t + q.warmup_s;
-                let t2 = t1 + (q.base_load_mw - q.min_load_mw) / q.load_ramp_mw_s;
-                let series = Series {
-                    t_s: vec![t, t1, t2],
-                    value: vec![n_min, n_min, n_base],
-                };
-                let cmd = self.pid(Loop::PtSpeed, Setpoint::Series(Arc::new(series)));
-                self.switch_fuel(t, act, st, cmd);
-                self.mode = Mode::Loading { ramp_done_at: t2 };
-            }
-            Mode::Unloading { ramp_done_at } if t >= ramp_done_at - 1e-9 => {
-                let cmd = self.pid(Loop::PtSpeed, Setpoint::Ramp(Ramp::hold(n_min)));
-                self.switch_fuel(t, act, st, cmd);
-                self.mode = Mode::Cooldown {
-                    until: t + q.cooldown_s,
-                };
-            }
-            Mode::Idle { .. } | Mode::PtGovern | Mode::Unloading { .. } => return Some(false),
-            _ => return None,
-        }
-        Some(true)
-    }
-
-    /// Normal stop of a mechanical drive: the PT speed set-point ramps down to the minimum
-    /// governed speed at the loading ramp's speed rate.
-    fn mechanical_stop(&mut self, t: f64, act: &mut Actuator<'_>, st: &Stations) {
-        let Some(law) = self.pt_load.clone() else {
-            return;
-        };
-        let q = &self.cfg.sequence;
-        let n_min = law.speed_for_power_rpm(q.min_load_mw);
-        let n_base = law.speed_for_power_rpm(q.base_load_mw);
-        let rate = (n_base - n_min) * q.load_ramp_mw_s / (q.base_load_mw - q.min_load_mw).max(1e-9);
-        let ramp = Ramp {
-            t0: t,
-            v0: st.n2_rpm,
-            rate: rate.max(1.0),
-            target: n_min.min(st.n2_rpm),
-        };
-        let cmd = self.pid(Loop::PtSpeed, Setpoint::Ramp(ramp));
-        self.switch_fuel(t, act, st, cmd);
-        self.mode = Mode::Unloading {
-            ramp_done_at: ramp.end_time().max(t + 1.0),
-        };
     }
 
     /// Whether `update` must be called after every step (conditions that are not thresholds).
