@@ -26,7 +26,10 @@
 //! runs beyond the calibrated speeds (`[adaptation.calibrated]`) left out. Not met yet: the 0.3 % / 1 % floors over all nine
 //! loads; the cross-talk as a rank; and `good` fits on the whole grid (10 of 15): curves of
 //! speed alone follow the operating line, not how the unit's maps differ across it, where
-//! degradation moves the points.
+//! degradation moves the points. Nor is the grid's reading a property of the unit: calibrations
+//! of the same unit on a load more, each within noise, read it with 4 to 15 of 15 `good`, and
+//! one reads fouling 0.77 points off and calls it `good` (the ignored test
+//! [`a_baseline_with_a_load_more_reads_the_grid_honestly`] reproduces it).
 //!
 //! A second foreign unit (`tests/data/foreign/pyc30_truth.toml`: pyCycle's map family, its own
 //! VIGV schedule, PR 17, 30 MW), with the same settings, meets the issue's floors but one:
@@ -1112,4 +1115,59 @@ fn a_foreign_unit_the_adaptation_cannot_fit_is_said_to_be_unfit() {
     assert_ne!(q, "good");
     // Its degradation grid is not re-run: every level was `poor` with estimates on their
     // limits (measured 2026-11-28); the grid above is the one whose residuals could mislead.
+}
+
+/// A known defect, kept as a test that reproduces it (run with `--ignored`): the healthy
+/// baseline fixes the curves along the healthy operating line only, and degradation is read
+/// off it, where calibrations that fit the same unit equally well differ — by a scale the
+/// residuals cannot see, since a model whose sensitivity to fouling is off fits the degraded
+/// points at another, wrong health. One healthy load more than the 9, on a 283 K day
+/// (`GTWATCH_FOREIGN_EXTRA_LOADS`: load fractions, comma-separated; empty: the 9 loads alone),
+/// measured 2026-12-06 (`cargo test --release --test integration a_baseline_with_a_load_more
+/// -- --ignored --nocapture`), each
+/// baseline fitted within noise and read `good` within 0.15 points:
+///
+/// | baseline | fit | grid `good` | worst error (D_GC…D_ET) | D_GT ρ | a miss called `good` |
+/// |---|---|---|---|---|---|
+/// | the 9 loads | 0.62 σ | 10 of 15 | 0.26 | 0.960 | no |
+/// | + 34.4 % | 0.59 σ | 4 of 15 | 0.52 | 0.877 | no |
+/// | + 42.5 % | 0.72 σ | 15 of 15 | 0.77 (D_GC 4.77 for 4.0) | 0.982 | **yes** |
+/// | + 60 % | 0.62 σ | 9 of 15 | 0.41 | 0.949 | no |
+///
+/// Fixing it needs information off the healthy line (rows from before a compressor wash, their
+/// fouling found with the calibration, read such a grid within 0.24–0.53 points in scratch
+/// trials) or a measure of this uncertainty in the diagnosis; until then no verdict can promise
+/// that a `good` fit on an adapted foreign unit is within 0.5 points.
+#[test]
+#[ignore = "known defect (issue 22): a baseline with a 42.5 % load more reads compressor fouling 0.77 points off and calls it good"]
+fn a_baseline_with_a_load_more_reads_the_grid_honestly() {
+    let (truth, _, model) = first_unit();
+    let extra: Vec<f64> = std::env::var("GTWATCH_FOREIGN_EXTRA_LOADS")
+        .map(|v| {
+            v.split(',')
+                .filter(|x| !x.trim().is_empty())
+                .map(|x| x.trim().parse().expect("load fractions like 0.34375,0.425"))
+                .collect()
+        })
+        .unwrap_or_else(|_| vec![0.425]);
+    let (mut pts, mut n2) = loads(0);
+    for (i, f) in extra.iter().enumerate() {
+        pts.push(OperatingPoint {
+            t_amb_k: 283.0 + 5.0 * i as f64,
+            p_amb_kpa: 101.0 - 0.5 * i as f64,
+            power_mw: AERO25.design_mw * f,
+        });
+        n2.push(combinator_n2(*f));
+    }
+    let more = rows_at(&truth, (pts, n2), [0.0; 6], 0, "healthy");
+    let (adapted, cfg, baseline, quality) = adapted_baseline(&model, &more, AdaptStrategy::Grown);
+    eprintln!(
+        "healthy baseline on {} loads: {baseline:.3?} {quality}",
+        more.len()
+    );
+    assert_eq!(quality, "good");
+    assert!(baseline.iter().all(|v| v.abs() <= 0.3), "{baseline:?}");
+    let (est, verdicts) = grid_estimates(&truth, AERO25, &adapted, &cfg);
+    grid_ranks(&est, &verdicts);
+    assert_no_miss_called_good(&est, &verdicts);
 }
