@@ -25,34 +25,33 @@ impl Machine {
         self.hist.get(i.saturating_sub(1)).map_or(0.0, get)
     }
 
+    /// A signal's values over the frames from `from_ms` to `to_ms`, both included.
+    fn values_between(&self, from_ms: i64, to_ms: i64, get: impl Fn(&Frame) -> f64) -> Vec<f64> {
+        self.hist
+            .iter()
+            .filter(|x| x.t_ms >= from_ms && x.t_ms <= to_ms)
+            .map(get)
+            .collect()
+    }
+
+    /// The median of a signal from `from_ms` to `to_ms`.
     pub(super) fn median_between(
         &self,
         from_ms: i64,
         to_ms: i64,
         get: impl Fn(&Frame) -> f64,
     ) -> f64 {
-        let v: Vec<f64> = self
-            .hist
-            .iter()
-            .filter(|x| x.t_ms >= from_ms && x.t_ms <= to_ms)
-            .map(get)
-            .collect();
-        median(v)
+        median(self.values_between(from_ms, to_ms, get))
     }
 
+    /// The noise of a signal from `from_ms` to `to_ms` ([`noise`]).
     pub(super) fn noise_between(
         &self,
         from_ms: i64,
         to_ms: i64,
         get: impl Fn(&Frame) -> f64,
     ) -> f64 {
-        let v: Vec<f64> = self
-            .hist
-            .iter()
-            .filter(|x| x.t_ms >= from_ms && x.t_ms <= to_ms)
-            .map(get)
-            .collect();
-        noise(&v)
+        noise(&self.values_between(from_ms, to_ms, get))
     }
 
     /// Level of a signal over the frames before the newest one (median of up to 30).
