@@ -19,6 +19,7 @@ use crate::engine::sensors::MeasurementOptions;
 use crate::engine::simulation::run_scenario;
 use crate::engine::{Engine, Scenario, Trace};
 use crate::health::{HealthParams, HEALTH_NAMES};
+use crate::optim::median;
 use crate::recording::Recording;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -89,19 +90,6 @@ pub struct MethodStats {
     pub z_rms: BTreeMap<String, f64>,
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
 impl MethodStats {
     fn from(truths: &[HealthParams], results: &[Option<MethodResult>]) -> MethodStats {
         let mut sq = [0.0; 6];
@@ -140,8 +128,8 @@ impl MethodStats {
                 .zip(zsq)
                 .map(|(k, s)| (k.to_string(), (s / n).sqrt()))
                 .collect(),
-            median_wall_s: median(walls),
-            median_model_runs: median(runs),
+            median_wall_s: median(walls).unwrap_or(f64::NAN),
+            median_model_runs: median(runs).unwrap_or(f64::NAN),
             cases: ok,
             failures: results.len() - ok,
         }
@@ -254,7 +242,8 @@ pub fn bench_diagnosis(
         .map(|(&o, rs)| OptimiserStats {
             optimiser: o,
             stats: MethodStats::from(&truths, rs),
-            median_objective: median(rs.iter().flatten().map(|r| r.objective).collect()),
+            median_objective: median(rs.iter().flatten().map(|r| r.objective).collect())
+                .unwrap_or(f64::NAN),
         })
         .collect();
     let verdicts: Vec<&str> = per_case

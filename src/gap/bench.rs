@@ -22,6 +22,7 @@ use crate::diagnosis::{DiagnosisConfig, DiagnosisError};
 use crate::engine::measured_drive::{simulate_segment, DriveMode};
 use crate::engine::Engine;
 use crate::health::{HealthParams, HEALTH_NAMES};
+use crate::optim::median;
 use crate::recording::Recording;
 use crate::signals::Signal;
 use rand::{Rng, SeedableRng};
@@ -293,19 +294,6 @@ pub(crate) fn run_cases(
         out.cases.push(c);
     }
     Ok(out)
-}
-
-fn median(mut v: Vec<f64>) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    })
 }
 
 fn rate(v: &[&Case], f: impl Fn(&Case) -> bool) -> Option<f64> {

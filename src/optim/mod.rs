@@ -59,6 +59,7 @@ pub(crate) mod de;
 pub(crate) mod levy;
 pub(crate) mod lm;
 pub(crate) mod problem;
+pub(crate) mod stats;
 pub mod test_functions;
 pub(crate) mod uncertainty;
 
@@ -68,6 +69,7 @@ pub use cuckoo::CuckooSearch;
 pub use de::{DeStrategy, DifferentialEvolution};
 pub use lm::{refine, FiniteDifference, JacobianOptions, LmOptions, RefineResult, RefineStop};
 pub use problem::{Problem, ResidualProblem};
+pub use stats::median;
 pub use uncertainty::{uncertainty, uncertainty_with_inputs, Uncertainty};
 
 use rayon::prelude::*;

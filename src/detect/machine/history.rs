@@ -78,17 +78,9 @@ impl Machine {
     }
 }
 
-pub(super) fn median(mut v: Vec<f64>) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
+/// The median of `v`, 0 for none (a span with no frame reads as no signal).
+pub(super) fn median(v: Vec<f64>) -> f64 {
+    crate::optim::median(v).unwrap_or(0.0)
 }
 
 /// Robust noise estimate: spread of successive differences about their median (a clean ramp
