@@ -18,7 +18,7 @@ use gtwatch::signals::Signal;
 use std::collections::HashMap;
 
 /// The true unit: the reference engine file with its design values moved.
-fn true_unit(reference: &Engine) -> Engine {
+pub(crate) fn true_unit(reference: &Engine) -> Engine {
     let v = |k: &str| reference.get_param(k).expect(k);
     let values: Vec<(String, f64)> = [
         (

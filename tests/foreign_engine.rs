@@ -29,7 +29,9 @@
 //! degradation moves the points. Nor is the grid's reading a property of the unit: calibrations
 //! of the same unit on a load more, each within noise, read it with 4 to 15 of 15 `good`, and
 //! one reads fouling 0.77 points off and calls it `good` (the ignored test
-//! [`a_baseline_with_a_load_more_reads_the_grid_honestly`] reproduces it).
+//! [`a_baseline_with_a_load_more_reads_the_grid_honestly`] reproduces it). Rows from before a
+//! compressor wash beside the baseline narrow it (the ignored measurement
+//! [`rows_before_a_wash_inform_the_grid`]: worst errors 0.24–0.53 over the same baselines).
 //!
 //! A second foreign unit (`tests/data/foreign/pyc30_truth.toml`: pyCycle's map family, its own
 //! VIGV schedule, PR 17, 30 MW), with the same settings, meets the issue's floors but one:
@@ -1134,10 +1136,11 @@ fn a_foreign_unit_the_adaptation_cannot_fit_is_said_to_be_unfit() {
 /// | + 42.5 % | 0.72 σ | 15 of 15 | 0.77 (D_GC 4.77 for 4.0) | 0.982 | **yes** |
 /// | + 60 % | 0.62 σ | 9 of 15 | 0.41 | 0.949 | no |
 ///
-/// Fixing it needs information off the healthy line (rows from before a compressor wash, their
-/// fouling found with the calibration, read such a grid within 0.24–0.53 points in scratch
-/// trials) or a measure of this uncertainty in the diagnosis; until then no verdict can promise
-/// that a `good` fit on an adapted foreign unit is within 0.5 points.
+/// Fixing it needs information off the healthy line (rows from before a compressor wash,
+/// `calibrate --prewash-group`: [`rows_before_a_wash_inform_the_grid`] reads these baselines'
+/// grids within 0.24–0.53 points, still once calling 0.53 `good`) or a measure of this
+/// uncertainty in the diagnosis; until then no verdict can promise that a `good` fit on an
+/// adapted foreign unit is within 0.5 points.
 #[test]
 #[ignore = "known defect (issue 22): a baseline with a 42.5 % load more reads compressor fouling 0.77 points off and calls it good"]
 fn a_baseline_with_a_load_more_reads_the_grid_honestly() {
@@ -1170,4 +1173,84 @@ fn a_baseline_with_a_load_more_reads_the_grid_honestly() {
     let (est, verdicts) = grid_estimates(&truth, AERO25, &adapted, &cfg);
     grid_ranks(&est, &verdicts);
     assert_no_miss_called_good(&est, &verdicts);
+}
+
+/// Rows from before a compressor wash beside the healthy baseline (`calibrate --prewash-group`,
+/// `calibrate::prewash`): the same unit fouled by D_GC 2, D_EC 0.8 (`GTWATCH_FOREIGN_FOULED`
+/// to change it) at the 9 loads on other days, its fouling found with the calibration, then
+/// the grid read on it. `GTWATCH_FOREIGN_EXTRA_LOADS` adds healthy loads as in
+/// [`a_baseline_with_a_load_more_reads_the_grid_honestly`]. A measurement (about 30–60 s; run
+/// with `--ignored --nocapture`), figures in the README ("Rows from before a wash"): it
+/// asserts that the fouling is found and the baseline stays healthy; the grid is printed.
+#[test]
+#[ignore = "a measurement of the pre-wash calibration on the combinator unit (30–60 s)"]
+fn rows_before_a_wash_inform_the_grid() {
+    let (truth, _, model) = first_unit();
+    let list = |name: &str, default: Vec<f64>| -> Vec<f64> {
+        std::env::var(name).map_or(default, |v| {
+            v.split(',')
+                .filter(|x| !x.trim().is_empty())
+                .map(|x| x.trim().parse().expect("numbers like 0.34375,0.425"))
+                .collect()
+        })
+    };
+    let extra = list("GTWATCH_FOREIGN_EXTRA_LOADS", Vec::new());
+    let fouled = list("GTWATCH_FOREIGN_FOULED", vec![2.0, 0.8]);
+    let (mut pts, mut n2) = loads(0);
+    for (i, f) in extra.iter().enumerate() {
+        pts.push(OperatingPoint {
+            t_amb_k: 283.0 + 5.0 * i as f64,
+            p_amb_kpa: 101.0 - 0.5 * i as f64,
+            power_mw: AERO25.design_mw * f,
+        });
+        n2.push(combinator_n2(*f));
+    }
+    let healthy = rows_at(&truth, (pts, n2), [0.0; 6], 0, "healthy");
+    let before = [fouled[0], fouled[1], 0.0, 0.0, 0.0, 0.0];
+    let mut all = healthy.clone();
+    all.extend(rows_at(&truth, loads(3), before, 3, "prewash"));
+    let settings = CalibrationSettings {
+        prewash_group: Some("prewash".into()),
+        ..settings(Some(AdaptStrategy::Grown))
+    };
+    let cands = default_candidates(&model).expect("candidates");
+    let started = std::time::Instant::now();
+    let (report, adapted) = calibrate(&model, &all, &[], cands, &settings).expect("calibrate");
+    eprintln!(
+        "calibration on {} healthy and 9 pre-wash rows: {:.1} s wall, {} model runs",
+        healthy.len(),
+        started.elapsed().as_secs_f64(),
+        report.model_runs
+    );
+    let pw = report.prewash.as_ref().expect("a pre-wash report");
+    for line in pw.describe() {
+        eprintln!("{line}");
+    }
+    let Some(found) = pw.fouling else {
+        // Kept the healthy rows' calibration (measured with D_GC 3.5, D_EC 1.3: 1.34 σ with
+        // the pre-wash rows, 0.62 without); the 2-point default is adopted.
+        assert!(std::env::var("GTWATCH_FOREIGN_FOULED").is_ok(), "{pw:?}");
+        return;
+    };
+    assert!(
+        (found.d_gc - before[0]).abs() <= 0.15 && (found.d_ec - before[1]).abs() <= 0.15,
+        "{found:?} for {before:?}"
+    );
+    let cfg = diagnosis_cfg();
+    let b = diagnose_snapshots(&adapted, &healthy, &cfg).expect("diagnosis");
+    let baseline = b.groups[0].result.health.to_array();
+    let quality = format!("{:?}", b.groups[0].result.fit_quality.verdict).to_lowercase();
+    eprintln!("healthy baseline: {baseline:.3?} {quality}");
+    assert_eq!(quality, "good");
+    assert!(baseline.iter().all(|v| v.abs() <= 0.3), "{baseline:?}");
+    let (est, verdicts) = grid_estimates(&truth, AERO25, &adapted, &cfg);
+    grid_ranks(&est, &verdicts);
+    for (i, q) in verdicts.iter().enumerate() {
+        let err = (0..4)
+            .map(|p| (est[i][p] - grid(i)[p]).abs())
+            .fold(0.0, f64::max);
+        if err > 0.5 && q == "good" {
+            eprintln!("level {i}: {err:.2} points off, called good");
+        }
+    }
 }

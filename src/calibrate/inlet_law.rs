@@ -23,7 +23,6 @@
 use super::problem::CalibrationPoint;
 use crate::engine::config::PressureLossLaw;
 use crate::engine::Engine;
-use crate::health::HealthParams;
 use crate::signals::Signal;
 use serde::Serialize;
 
@@ -116,7 +115,7 @@ pub fn choose(
         .filter_map(|p| {
             let &(_, p1, sd_p1) = p.data.outputs.iter().find(|o| o.0 == Signal::P1)?;
             let p_amb = p.data.inputs.p_amb_kpa;
-            let m = flow_squared.model_at(&HealthParams::HEALTHY, p.data.inputs.t_amb_k, p_amb);
+            let m = flow_squared.model_at(&p.health, p.data.inputs.t_amb_k, p_amb);
             let s = p.data.solve_on(&m).ok()?;
             let r2 = (1.0 - s.stations.p1_kpa / p_amb) / k;
             let f = 1.0 - p1 / p_amb;

@@ -19,14 +19,17 @@
 //!    residuals before and after per signal and per operating point.
 //!
 //! A baseline by definition has health 0, so after calibration the health the diagnosis finds
-//! on the same data is ≈ 0 (tests/calibrate_twin.rs). Pure: no I/O (`edit` rewrites text the
-//! CLI reads and writes).
+//! on the same data is ≈ 0 (tests/calibrate_twin.rs). Rows taken before a compressor wash may
+//! join it ([`CalibrationSettings::prewash_group`], [`prewash`]): their fouling is found with
+//! the calibration, and they show the adaptation the unit off its healthy operating line.
+//! Pure: no I/O (`edit` rewrites text the CLI reads and writes).
 
 pub mod adapt;
 pub mod candidates;
 pub(crate) mod edit;
 pub(crate) mod identify;
 pub mod inlet_law;
+pub mod prewash;
 pub mod problem;
 mod rejudge;
 mod report;
@@ -37,6 +40,7 @@ pub mod validate;
 use crate::diagnosis::snapshot::lines_of;
 use crate::diagnosis::snapshot::Snapshot;
 use crate::engine::Engine;
+use crate::health::HealthParams;
 use crate::optim::lm::jacobian_unit;
 use crate::optim::{refine, thread_pool, JacobianOptions, LmOptions};
 use candidates::Candidate;
@@ -72,6 +76,9 @@ pub struct CalibrationSettings {
     pub threads: Option<usize>,
     /// Off-design adaptation after the design values ([`adapt`]); `None` = design values only.
     pub adapt: Option<adapt::AdaptSettings>,
+    /// The group of rows taken before a compressor wash, at a fouling the calibration finds
+    /// ([`prewash`]); `None`: every row is healthy.
+    pub prewash_group: Option<String>,
 }
 
 impl Default for CalibrationSettings {
@@ -80,6 +87,7 @@ impl Default for CalibrationSettings {
             max_iterations: 30,
             threads: None,
             adapt: None,
+            prewash_group: None,
         }
     }
 }
@@ -114,7 +122,9 @@ fn mean(v: &[f64]) -> f64 {
 ///
 /// The steps: the points solved on the healthy model; which candidates the data identify (the
 /// Jacobian at the guesses); the fit of the identified set; the off-design adaptation when
-/// asked for; the report of the residuals before and after.
+/// asked for; the report of the residuals before and after. With
+/// [`CalibrationSettings::prewash_group`], that group's fouling is found with the calibration
+/// ([`prewash`]).
 pub fn calibrate(
     engine: &Engine,
     rows: &[Snapshot],
@@ -122,10 +132,33 @@ pub fn calibrate(
     candidates: Vec<Candidate>,
     settings: &CalibrationSettings,
 ) -> Result<(Calibration, Engine), CalibrateError> {
+    match &settings.prewash_group {
+        None => calibrate_at(engine, rows, rest, candidates, settings, &[]),
+        Some(group) => {
+            prewash::calibrate_with_prewash(engine, rows, rest, candidates, settings, group)
+        }
+    }
+}
+
+/// [`calibrate`] with the rows of each group in `fouled` run at its health (every other row
+/// healthy).
+fn calibrate_at(
+    engine: &Engine,
+    rows: &[Snapshot],
+    rest: &[RestReading],
+    candidates: Vec<Candidate>,
+    settings: &CalibrationSettings,
+    fouled: &[(String, HealthParams)],
+) -> Result<(Calibration, Engine), CalibrateError> {
     if candidates.is_empty() {
         return Err(CalibrateError::Data("no candidate parameter to fit".into()));
     }
-    let prepared = solvable_points(engine, rows)?;
+    let mut prepared = solvable_points(engine, rows)?;
+    for p in prepared.points.iter_mut() {
+        if let Some((_, health)) = fouled.iter().find(|(g, _)| *g == p.source) {
+            p.health = *health;
+        }
+    }
     // The inlet loss law the measured P1 shows, before anything is fitted with the file's.
     let inlet_loss_law = inlet_law::choose(engine, &prepared.points, prepared.ambient_from_p1);
     let with_law;
@@ -256,6 +289,7 @@ pub fn calibrate(
         model_runs: full.runs() + runs,
         baseline_fit,
         inlet_loss_law,
+        prewash: None,
     };
     Ok((report, calibrated))
 }

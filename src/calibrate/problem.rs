@@ -1,5 +1,5 @@
-//! The calibration as a least-squares problem: healthy steady snapshots against the healthy
-//! model whose design parameters are the unknowns.
+//! The calibration as a least-squares problem: steady snapshots against the model, at each
+//! point's known health, whose design parameters are the unknowns.
 //!
 //! What it is for: residuals `(model − measured) / σ` per compared signal and operating point
 //! (σ the instrument's one-sample noise at the reading, as the snapshot diagnosis uses), for
@@ -21,7 +21,10 @@
 //! speed (its fuel flow compared instead): the adaptation's second start, where the fuel-given
 //! residuals are too curved to converge.
 //!
-//! What it must not do: I/O, or fit health (health is 0 by definition of a baseline).
+//! Each point runs at the health it carries: zero on a baseline (by definition), the fouling
+//! `calibrate::prewash` found for a row from before a wash.
+//!
+//! What it must not do: I/O, or fit health (a point's health is given to it).
 
 use super::candidates::{offset_key, Candidate};
 use super::startup::RestReading;
@@ -37,7 +40,7 @@ use crate::optim::{Bounds, Problem, ResidualProblem};
 use crate::signals::Signal;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-/// One healthy operating point of the calibration.
+/// One operating point of the calibration (healthy, or from before a wash at its fouling).
 #[derive(Debug, Clone, PartialEq)]
 pub struct CalibrationPoint {
     /// File line of the snapshot (of a start-up window: of its first sample).
@@ -46,13 +49,18 @@ pub struct CalibrationPoint {
     /// times).
     pub source: String,
     pub data: SteadyData,
+    /// The health the point was taken at: healthy on a baseline; the compressor fouling a
+    /// pre-wash group carries ([`super::prewash`]), which the model is run at so the point
+    /// informs the curves off the healthy operating line.
+    pub health: HealthParams,
 }
 
 impl CalibrationPoint {
-    /// The point's healthy steady solution on `engine` at its own inputs.
-    pub fn healthy_on(&self, engine: &Engine) -> Result<SteadyPoint, CalibrateError> {
+    /// The point's steady solution on `engine` at its own inputs and health (healthy on a
+    /// baseline).
+    pub fn solved_on(&self, engine: &Engine) -> Result<SteadyPoint, CalibrateError> {
         let inp = &self.data.inputs;
-        let m = engine.model_at(&HealthParams::HEALTHY, inp.t_amb_k, inp.p_amb_kpa);
+        let m = engine.model_at(&self.health, inp.t_amb_k, inp.p_amb_kpa);
         self.data
             .solve_on(&m)
             .map_err(|e| CalibrateError::Model(format!("line {}: steady solve: {e}", self.line)))
@@ -140,6 +148,7 @@ pub fn prepare(engine: &Engine, rows: &[Snapshot]) -> PreparedPoints {
                 line: r.line,
                 source: r.group.clone(),
                 data,
+                health: HealthParams::HEALTHY,
             }),
             Err(reason) => out.dropped.push(DroppedRow {
                 line: r.line,
@@ -302,7 +311,7 @@ impl CalibrationProblem {
         for (i, (p, &law_point)) in self.points.iter().zip(&self.law).enumerate() {
             let start = starts.and_then(|s| s.get(i));
             let inp = &p.data.inputs;
-            let m = engine.model_at(&HealthParams::HEALTHY, inp.t_amb_k, inp.p_amb_kpa);
+            let m = engine.model_at(&p.health, inp.t_amb_k, inp.p_amb_kpa);
             let fuel_sigma = self.speed_given.get(i).copied().flatten();
             let sp = match (fuel_sigma, p.data.n1_hint_rpm) {
                 (Some(_), Some(n1)) => p.data.solve_at_speed(&m, n1, start),
@@ -372,7 +381,7 @@ fn speed_given_sigma(engine: &Engine, p: &CalibrationPoint, start: &SteadyPoint)
         .iter()
         .find(|o| o.0 == Signal::N1)
         .map(|o| o.2)?;
-    let m = engine.model_at(&HealthParams::HEALTHY, inp.t_amb_k, inp.p_amb_kpa);
+    let m = engine.model_at(&p.health, inp.t_amb_k, inp.p_amb_kpa);
     let at = |n: f64| {
         p.data
             .solve_at_speed(&m, n, Some(start))
@@ -401,11 +410,7 @@ fn solve_all(
     let mut out: Vec<Option<SteadyPoint>> = vec![None; points.len()];
     let mut failed: Vec<(usize, String)> = Vec::new();
     let model_of = |p: &CalibrationPoint| {
-        engine.model_at(
-            &HealthParams::HEALTHY,
-            p.data.inputs.t_amb_k,
-            p.data.inputs.p_amb_kpa,
-        )
+        engine.model_at(&p.health, p.data.inputs.t_amb_k, p.data.inputs.p_amb_kpa)
     };
     for (i, p) in points.iter().enumerate() {
         match p.data.solve_on(&model_of(p)) {
@@ -454,7 +459,7 @@ fn solve_all(
 /// point measured neither power nor torque.
 fn law_point(engine: &Engine, p: &CalibrationPoint) -> Option<LawPoint> {
     let inp = &p.data.inputs;
-    let m = engine.model_at(&HealthParams::HEALTHY, inp.t_amb_k, inp.p_amb_kpa);
+    let m = engine.model_at(&p.health, inp.t_amb_k, inp.p_amb_kpa);
     let law = PtLoad::of(&m)?;
     let omega = inp.n2_rpm * std::f64::consts::PI / 30.0;
     let find = |s: Signal| {

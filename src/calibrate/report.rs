@@ -86,6 +86,9 @@ pub struct Calibration {
     /// tell, e.g. no P1 or no measured ambient pressure); the calibration uses `chosen`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub inlet_loss_law: Option<inlet_law::InletLawChoice>,
+    /// The pre-wash rows' fouling and the rounds that found it (`--prewash-group`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub prewash: Option<super::prewash::PrewashReport>,
 }
 
 /// The verdict on the calibrated model's fit to the healthy baseline, on the snapshot

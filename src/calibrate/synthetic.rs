@@ -116,10 +116,22 @@ pub const GENERATOR_WRITTEN: [Signal; 9] = [
 /// instrument noise (`seed`), group `baseline`. The baseline of the foreign generator unit
 /// (`tests/foreign_startups.rs`, `cargo run --example foreign_baseline`).
 pub fn generator_baseline_csv(truth: &Engine, seed: u64) -> Result<String, String> {
+    generator_rows_csv(truth, &HealthParams::HEALTHY, "baseline", seed, 4)
+}
+
+/// [`generator_baseline_csv`]'s loads at `health`, group `group`, the days shuffled by
+/// `shuffle` (4: the baseline's; another pairs the loads with other days).
+pub fn generator_rows_csv(
+    truth: &Engine,
+    health: &HealthParams,
+    group: &str,
+    seed: u64,
+    shuffle: usize,
+) -> Result<String, String> {
     let design_mw = truth.cfg().design.power_mw;
     let points: Vec<OperatingPoint> = (0..9)
         .map(|k| {
-            let j = (k * 4) % 9;
+            let j = (k * shuffle) % 9;
             OperatingPoint {
                 t_amb_k: 278.0 + 20.0 * j as f64 / 8.0,
                 p_amb_kpa: 99.0 + 3.0 * ((j * 5) % 9) as f64 / 8.0,
@@ -130,10 +142,10 @@ pub fn generator_baseline_csv(truth: &Engine, seed: u64) -> Result<String, Strin
     let n2 = vec![truth.cfg().design.pt_speed_rpm; points.len()];
     snapshot_csv_at_speeds(
         truth,
-        &HealthParams::HEALTHY,
+        health,
         &points,
         &n2,
-        "baseline",
+        group,
         100.0,
         seed,
         &GENERATOR_WRITTEN,

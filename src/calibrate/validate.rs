@@ -145,8 +145,10 @@ pub fn prediction_errors_pct(engine: &Engine, row: &Snapshot) -> Option<Vec<(Sig
     (!out.is_empty()).then_some(out)
 }
 
-/// Leaves each of `rows` out in turn: `engine` (the guesses) calibrated to the others (and
-/// `rest`) over `candidates` with `settings`, as [`calibrate`] would, and the point predicted.
+/// Leaves each of `rows` out in turn (each healthy row: not one of
+/// [`CalibrationSettings::prewash_group`]): `engine` (the guesses) calibrated to the others
+/// (and `rest`) over `candidates` with `settings`, as [`calibrate`] would, and the point
+/// predicted.
 pub fn leave_one_out(
     engine: &Engine,
     rows: &[Snapshot],
@@ -162,7 +164,11 @@ pub fn leave_one_out(
     }
     let mut points = Vec::with_capacity(rows.len());
     let mut model_runs = 0;
-    for k in 0..rows.len() {
+    // A pre-wash row stays in every fold: its fouling is the calibration's to find, and a row
+    // left out is predicted healthy.
+    let healthy =
+        (0..rows.len()).filter(|&k| settings.prewash_group.as_ref() != Some(&rows[k].group));
+    for k in healthy {
         if let Some((point, runs)) = left_out(engine, rows, k, rest, candidates, settings) {
             model_runs += runs;
             points.push(point);

@@ -45,7 +45,7 @@ use crate::diagnosis::steady::{with_model_error, SteadyProblem};
 use crate::diagnosis::{fit, result_of, DiagnosisConfig, DiagnosisProblem, Method};
 use crate::engine::config::MAX_HEALTH_ERROR_PTS;
 use crate::engine::Engine;
-use crate::health::HEALTH_NAMES;
+use crate::health::{HealthParams, HEALTH_NAMES};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -96,7 +96,12 @@ pub(super) fn estimate(
     shape: &Shape,
     ctx: Ctx,
 ) -> Result<(HealthError, usize), CalibrateError> {
-    let n = ctx.points.len();
+    // Only healthy points are diagnosed as healthy: a pre-wash row (`calibrate::prewash`) is
+    // in every refit, at the fouling the calibration runs it at.
+    let healthy: Vec<usize> = (0..ctx.points.len())
+        .filter(|&i| ctx.points[i].health == HealthParams::HEALTHY)
+        .collect();
+    let n = healthy.len();
     let interior = n.saturating_sub(2);
     if interior < 2 * MIN_PART_POINTS {
         return Ok((
@@ -113,7 +118,7 @@ pub(super) fn estimate(
         ));
     }
     let gg = &gg_speeds(engine, ctx.points)?;
-    let mut order: Vec<usize> = (0..n).collect();
+    let mut order = healthy.clone();
     order.sort_by(|&a, &b| gg[a].total_cmp(&gg[b]));
     let parts = if interior >= THIRDS_FROM { 3 } else { 2 };
     // Part `j`'s points (every `parts`-th interior point in GG speed order) or, `false`, the
@@ -132,6 +137,12 @@ pub(super) fn estimate(
                 here == inside
             })
             .map(|(_, &i)| ctx.points[i].clone())
+            .chain(
+                ctx.points
+                    .iter()
+                    .filter(|p| !inside && p.health != HealthParams::HEALTHY)
+                    .cloned(),
+            )
             .collect()
     };
     let mut runs = 0;

@@ -310,7 +310,7 @@ fn relative_speeds(
     let mut out: [Vec<f64>; 3] = [Vec::new(), Vec::new(), Vec::new()];
     for p in points {
         let inp = &p.data.inputs;
-        let s = p.healthy_on(engine)?.stations;
+        let s = p.solved_on(engine)?.stations;
         // Measured speeds and temperatures where the point has them (the model's speeds are
         // outputs, and on a foreign unit far from the truth before the adaptation).
         let n1 = p.data.measured(Signal::N1).unwrap_or(s.n1_rpm);
@@ -343,7 +343,7 @@ fn gg_speeds(engine: &Engine, points: &[CalibrationPoint]) -> Result<Vec<f64>, C
         .iter()
         .map(|p| match relative_gg_speed(engine, &p.data) {
             Some(g) => Ok(g),
-            None => Ok(gg_speed(engine, p, p.healthy_on(engine)?.stations.n1_rpm)),
+            None => Ok(gg_speed(engine, p, p.solved_on(engine)?.stations.n1_rpm)),
         })
         .collect()
 }

@@ -54,7 +54,7 @@ pub(super) fn relabel_guess(
         if g.abs() < MIN_WEIGHT || n_meas <= 0.0 {
             continue;
         }
-        let Ok(solved) = p.healthy_on(engine) else {
+        let Ok(solved) = p.solved_on(engine) else {
             continue;
         };
         let y = solved.stations.n1_rpm / n_meas - 1.0;

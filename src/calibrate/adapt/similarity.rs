@@ -22,7 +22,6 @@ use super::super::problem::CalibrationPoint;
 use super::before::Before;
 use crate::engine::steady::{solve, Demand, SteadyInputs, SteadyPoint};
 use crate::engine::Engine;
-use crate::health::HealthParams;
 use serde::Serialize;
 
 /// The ambient shift either way, K.
@@ -108,11 +107,11 @@ fn state(p: &SteadyPoint) -> Moves {
 /// warmer than point `p`'s at its corrected speeds on `engine`, or `None` where a solve fails.
 pub(super) fn moves(engine: &Engine, p: &CalibrationPoint) -> Option<Moves> {
     let inp = &p.data.inputs;
-    let at = p.healthy_on(engine).ok()?;
+    let at = p.solved_on(engine).ok()?;
     let day = |dt: f64| -> Option<SteadyPoint> {
         let t = inp.t_amb_k + dt;
         let r = (t / inp.t_amb_k).sqrt();
-        let shifted = engine.model_at(&HealthParams::HEALTHY, t, inp.p_amb_kpa);
+        let shifted = engine.model_at(&p.health, t, inp.p_amb_kpa);
         let inputs = SteadyInputs {
             t_amb_k: t,
             p_amb_kpa: inp.p_amb_kpa,

@@ -64,9 +64,9 @@ impl OperatingLine {
     }
 }
 
-/// The surge margin of point `p` (healthy, its own inputs) on `engine`, %.
+/// The surge margin of point `p` (at its own inputs and health) on `engine`, %.
 pub(super) fn margin(engine: &Engine, p: &CalibrationPoint) -> Option<f64> {
-    let s = p.healthy_on(engine).ok()?;
+    let s = p.solved_on(engine).ok()?;
     s.stations
         .surge_margin_pct
         .is_finite()

@@ -90,6 +90,17 @@ pub struct CalibrateArgs {
     /// Costs one more calibration per point.
     #[arg(long)]
     pub validate: bool,
+    /// The group of the snapshot file (its `group` column) whose rows were taken just before a
+    /// compressor wash, the others after it (healthy): the calibration finds their compressor
+    /// fouling (D_GC, D_EC; a wash removes nothing else) in rounds with the fit, and with
+    /// --adapt they show the curves how the unit runs off its healthy operating line, which a
+    /// healthy baseline cannot (README, "Rows from before a wash"). Costs 2–4 calibrations.
+    #[arg(long, value_name = "GROUP", requires = "group_by")]
+    pub prewash_group: Option<String>,
+    /// The column of --input that names each row's group (as `diagnose --group-by`); needed by
+    /// --prewash-group. Without it every row of --input is one group, named by the file.
+    #[arg(long, value_name = "COLUMN")]
+    pub group_by: Option<String>,
     /// Column mapping for the snapshot file: `t1_k=T_inlet,n1_rpm=NGG,…`.
     #[arg(long)]
     pub map: Option<String>,
@@ -134,14 +145,35 @@ fn sources(a: &CalibrateArgs) -> Vec<String> {
 
 fn header(a: &CalibrateArgs, report: &Calibration, n_rows: usize) -> Vec<String> {
     let now = crate::time::fmt_rfc3339(time::OffsetDateTime::now_utc());
+    // Rows before a wash are operating points, not healthy ones; left out when no round ran.
+    let (n_points, healthy) = match &report.prewash {
+        Some(pw) if pw.fouling.is_some() => (n_rows, ""),
+        Some(pw) => (n_rows.saturating_sub(pw.rows), "healthy "),
+        None => (n_rows, "healthy "),
+    };
     let mut h = vec![format!(
-        "Calibrated by gtwatch calibrate {} at {now}: {} fitted to {} healthy operating \
+        "Calibrated by gtwatch calibrate {} at {now}: {} fitted to {n_points} {healthy}operating \
          point(s) of {}",
         env!("CARGO_PKG_VERSION"),
         a.engine.display(),
-        n_rows,
         sources(a).join(", ")
     )];
+    if let Some(pw) = &report.prewash {
+        // The rows before the wash are not healthy: say at what they were run.
+        h.push(match &pw.fouling {
+            Some(f) => format!(
+                "  of them {} of group {} taken before a wash, run at a compressor fouling \
+                 found with the calibration: D_GC {:+.2}, D_EC {:+.2} points",
+                pw.rows, pw.group, f.d_gc, f.d_ec
+            ),
+            None => format!(
+                "  the {} rows of group {} (before a wash) left out: {}",
+                pw.rows,
+                pw.group,
+                pw.stopped.as_deref().unwrap_or("no round ran")
+            ),
+        });
+    }
     for p in &report.params {
         if p.identifiable {
             h.push(format!(
@@ -274,10 +306,17 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
     if let Some(input) = &a.input {
         let file =
             std::fs::File::open(input).with_context(|| format!("opening {}", input.display()))?;
-        let mut snaps = read_snapshots_in(BufReader::new(file), &mapping, &units, None)
-            .with_context(|| format!("reading {}", input.display()))?;
-        for r in &mut snaps {
-            r.group = input.display().to_string();
+        let mut snaps = read_snapshots_in(
+            BufReader::new(file),
+            &mapping,
+            &units,
+            a.group_by.as_deref(),
+        )
+        .with_context(|| format!("reading {}", input.display()))?;
+        if a.group_by.is_none() {
+            for r in &mut snaps {
+                r.group = input.display().to_string();
+            }
         }
         rows.extend(snaps);
     }
@@ -353,6 +392,7 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
     let settings = CalibrationSettings {
         threads: a.threads,
         adapt: adapt_settings(&a),
+        prewash_group: a.prewash_group.clone(),
         ..CalibrationSettings::default()
     };
     // The validation first, while `candidates` are still ours to lend.

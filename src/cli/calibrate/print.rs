@@ -115,6 +115,12 @@ pub(super) fn print_text(report: &Calibration, wall_s: f64) {
             p.source, p.line, p.rms_before, p.rms_after
         );
     }
+    if let Some(pw) = &report.prewash {
+        println!();
+        for line in pw.describe() {
+            println!("{line}");
+        }
+    }
     println!("\nafter calibration, per signal and point (model − measured, in noise σ):");
     for l in report.table.render().lines() {
         println!("  {l}");
