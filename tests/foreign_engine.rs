@@ -1119,6 +1119,31 @@ fn a_foreign_unit_the_adaptation_cannot_fit_is_said_to_be_unfit() {
     // limits (measured 2026-11-28); the grid above is the one whose residuals could mislead.
 }
 
+/// The numbers of environment variable `name` (comma-separated; empty: none), else `default`.
+fn env_numbers(name: &str, default: Vec<f64>) -> Vec<f64> {
+    std::env::var(name).map_or(default, |v| {
+        v.split(',')
+            .filter(|x| !x.trim().is_empty())
+            .map(|x| x.trim().parse().expect("numbers like 0.34375,0.425"))
+            .collect()
+    })
+}
+
+/// The first unit's 9 healthy loads and one more at each load fraction of `extra` (the k-th on
+/// a 283 + 5k K, 101 − 0.5k kPa day).
+fn healthy_with_loads(truth: &Engine, extra: &[f64]) -> Vec<Snapshot> {
+    let (mut pts, mut n2) = loads(0);
+    for (i, f) in extra.iter().enumerate() {
+        pts.push(OperatingPoint {
+            t_amb_k: 283.0 + 5.0 * i as f64,
+            p_amb_kpa: 101.0 - 0.5 * i as f64,
+            power_mw: AERO25.design_mw * f,
+        });
+        n2.push(combinator_n2(*f));
+    }
+    rows_at(truth, (pts, n2), [0.0; 6], 0, "healthy")
+}
+
 /// A known defect, kept as a test that reproduces it (run with `--ignored`): the healthy
 /// baseline fixes the curves along the healthy operating line only, and degradation is read
 /// off it, where calibrations that fit the same unit equally well differ — by a scale the
@@ -1145,24 +1170,8 @@ fn a_foreign_unit_the_adaptation_cannot_fit_is_said_to_be_unfit() {
 #[ignore = "known defect (issue 22): a baseline with a 42.5 % load more reads compressor fouling 0.77 points off and calls it good"]
 fn a_baseline_with_a_load_more_reads_the_grid_honestly() {
     let (truth, _, model) = first_unit();
-    let extra: Vec<f64> = std::env::var("GTWATCH_FOREIGN_EXTRA_LOADS")
-        .map(|v| {
-            v.split(',')
-                .filter(|x| !x.trim().is_empty())
-                .map(|x| x.trim().parse().expect("load fractions like 0.34375,0.425"))
-                .collect()
-        })
-        .unwrap_or_else(|_| vec![0.425]);
-    let (mut pts, mut n2) = loads(0);
-    for (i, f) in extra.iter().enumerate() {
-        pts.push(OperatingPoint {
-            t_amb_k: 283.0 + 5.0 * i as f64,
-            p_amb_kpa: 101.0 - 0.5 * i as f64,
-            power_mw: AERO25.design_mw * f,
-        });
-        n2.push(combinator_n2(*f));
-    }
-    let more = rows_at(&truth, (pts, n2), [0.0; 6], 0, "healthy");
+    let extra = env_numbers("GTWATCH_FOREIGN_EXTRA_LOADS", vec![0.425]);
+    let more = healthy_with_loads(&truth, &extra);
     let (adapted, cfg, baseline, quality) = adapted_baseline(&model, &more, AdaptStrategy::Grown);
     eprintln!(
         "healthy baseline on {} loads: {baseline:.3?} {quality}",
@@ -1186,26 +1195,9 @@ fn a_baseline_with_a_load_more_reads_the_grid_honestly() {
 #[ignore = "a measurement of the pre-wash calibration on the combinator unit (30–60 s)"]
 fn rows_before_a_wash_inform_the_grid() {
     let (truth, _, model) = first_unit();
-    let list = |name: &str, default: Vec<f64>| -> Vec<f64> {
-        std::env::var(name).map_or(default, |v| {
-            v.split(',')
-                .filter(|x| !x.trim().is_empty())
-                .map(|x| x.trim().parse().expect("numbers like 0.34375,0.425"))
-                .collect()
-        })
-    };
-    let extra = list("GTWATCH_FOREIGN_EXTRA_LOADS", Vec::new());
-    let fouled = list("GTWATCH_FOREIGN_FOULED", vec![2.0, 0.8]);
-    let (mut pts, mut n2) = loads(0);
-    for (i, f) in extra.iter().enumerate() {
-        pts.push(OperatingPoint {
-            t_amb_k: 283.0 + 5.0 * i as f64,
-            p_amb_kpa: 101.0 - 0.5 * i as f64,
-            power_mw: AERO25.design_mw * f,
-        });
-        n2.push(combinator_n2(*f));
-    }
-    let healthy = rows_at(&truth, (pts, n2), [0.0; 6], 0, "healthy");
+    let extra = env_numbers("GTWATCH_FOREIGN_EXTRA_LOADS", Vec::new());
+    let fouled = env_numbers("GTWATCH_FOREIGN_FOULED", vec![2.0, 0.8]);
+    let healthy = healthy_with_loads(&truth, &extra);
     let before = [fouled[0], fouled[1], 0.0, 0.0, 0.0, 0.0];
     let mut all = healthy.clone();
     all.extend(rows_at(&truth, loads(3), before, 3, "prewash"));

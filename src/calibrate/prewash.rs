@@ -18,9 +18,9 @@
 //! [`MAX_ROUNDS`] times, the calibration on every row with the pre-wash rows run at that
 //! fouling, and the pre-wash rows diagnosed again, until the fouling moves less than
 //! [`TOLERANCE_PTS`]. The calibration of the last round is kept (of the last that ran, where a
-//! round fails: the report says why), unless it does not fit within noise where the healthy
-//! rows alone did: the pre-wash rows are then a fouled state the curves cannot carry, and the
-//! healthy rows' calibration is kept. The report lists each round.
+//! round fails: the report says why), unless it does not fit within noise and fits worse than
+//! the healthy rows alone: the pre-wash rows are then a fouled state the curves cannot carry,
+//! and the healthy rows' calibration is kept. The report lists each round.
 //!
 //! Measured (README, "Rows from before a wash"): on the combinator unit the fouling is found
 //! within 0.11 points and the grid's worst error over four baselines falls from 0.26–0.77 to
@@ -276,10 +276,11 @@ pub(super) fn calibrate_with_prewash(
             break;
         }
     }
-    // Adopted only where the pre-wash rows fit beside the baseline: a fouled state the curves
-    // cannot carry (D_GC 3.5 on the combinator unit: 1.34 σ, its grid read up to 0.74 points
-    // off) would hand every diagnosis that misfit.
-    if fouling.is_some() && !fits(kept.0.rms_after) && fits(first.rms_after) {
+    // Adopted only where the pre-wash rows fit beside the baseline (within noise, or at least
+    // as well as the healthy rows alone): a fouled state the curves cannot carry (D_GC 3.5 on
+    // the combinator unit: 1.34 σ, its grid read up to 0.74 points off) would hand every
+    // diagnosis that misfit.
+    if fouling.is_some() && !fits(kept.0.rms_after) && kept.0.rms_after > first.rms_after {
         stopped = Some(format!(
             "the pre-wash rows do not fit beside the baseline ({:.2} σ with them, {:.2} σ \
              without): the calibration on the healthy rows alone is kept",

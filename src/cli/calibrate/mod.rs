@@ -94,7 +94,7 @@ pub struct CalibrateArgs {
     /// compressor wash, the others after it (healthy): the calibration finds their compressor
     /// fouling (D_GC, D_EC; a wash removes nothing else) in rounds with the fit, and with
     /// --adapt they show the curves how the unit runs off its healthy operating line, which a
-    /// healthy baseline cannot (README, "Rows from before a wash"). Costs 2–4 calibrations.
+    /// healthy baseline cannot (README, "Rows from before a wash"). Costs 2–5 calibrations.
     #[arg(long, value_name = "GROUP", requires = "group_by")]
     pub prewash_group: Option<String>,
     /// The column of --input that names each row's group (as `diagnose --group-by`); needed by
