@@ -1218,6 +1218,22 @@ fn rows_before_a_wash_inform_the_grid() {
     for line in pw.describe() {
         eprintln!("{line}");
     }
+    // Where the kept calibration misses: each point's RMS (noise σ) and the table's worst cell.
+    for (p, row) in report.points.iter().zip(&report.table.rows) {
+        let (worst, at) = row
+            .values
+            .iter()
+            .zip(&report.table.signals)
+            .filter_map(|(v, s)| v.map(|v| (v, s.as_str())))
+            .fold(
+                (0.0f64, ""),
+                |m, (v, s)| if v.abs() > m.0.abs() { (v, s) } else { m },
+            );
+        eprintln!(
+            "  {} line {}: {} RMS {:.2} σ, worst {at} {worst:+.2}",
+            p.source, p.line, row.label, p.rms_after
+        );
+    }
     let Some(found) = pw.fouling else {
         // Kept the healthy rows' calibration (measured with D_GC 3.5, D_EC 1.3: 1.34 σ with
         // the pre-wash rows, 0.62 without); the 2-point default is adopted.
