@@ -90,7 +90,7 @@ pub struct CalibrateArgs {
     /// Costs one more calibration per point.
     #[arg(long)]
     pub validate: bool,
-    /// The group of the snapshot file (its `group` column) whose rows were taken just before a
+    /// The group (a value of the --group-by column) whose rows were taken just before a
     /// compressor wash, the others after it (healthy): the calibration finds their compressor
     /// fouling (D_GC, D_EC; a wash removes nothing else) in rounds with the fit, and with
     /// --adapt they show the curves how the unit runs off its healthy operating line, which a
