@@ -133,14 +133,14 @@ pub fn calibrate(
     settings: &CalibrationSettings,
 ) -> Result<(Calibration, Engine), CalibrateError> {
     match &settings.prewash_group {
-        None => calibrate_at(engine, rows, rest, candidates, settings, &[]),
+        None => calibrate_at(engine, rows, rest, candidates, settings, None),
         Some(group) => {
             prewash::calibrate_with_prewash(engine, rows, rest, candidates, settings, group)
         }
     }
 }
 
-/// [`calibrate`] with the rows of each group in `fouled` run at its health (every other row
+/// [`calibrate`] with the rows of the group `fouled` names run at its health (every other row
 /// healthy).
 fn calibrate_at(
     engine: &Engine,
@@ -148,15 +148,15 @@ fn calibrate_at(
     rest: &[RestReading],
     candidates: Vec<Candidate>,
     settings: &CalibrationSettings,
-    fouled: &[(String, HealthParams)],
+    fouled: Option<(&str, HealthParams)>,
 ) -> Result<(Calibration, Engine), CalibrateError> {
     if candidates.is_empty() {
         return Err(CalibrateError::Data("no candidate parameter to fit".into()));
     }
     let mut prepared = solvable_points(engine, rows)?;
-    for p in prepared.points.iter_mut() {
-        if let Some((_, health)) = fouled.iter().find(|(g, _)| *g == p.source) {
-            p.health = *health;
+    if let Some((group, health)) = fouled {
+        for p in prepared.points.iter_mut().filter(|p| p.source == group) {
+            p.health = health;
         }
     }
     // The inlet loss law the measured P1 shows, before anything is fitted with the file's.

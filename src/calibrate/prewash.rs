@@ -39,9 +39,10 @@
 //! What it must not do: I/O; treat a pre-wash row as healthy; estimate anything of the
 //! pre-wash rows but compressor fouling.
 
+use super::adapt::within_noise;
 use super::startup::RestReading;
 use super::{calibrate_at, CalibrateError, Calibration, CalibrationSettings, Candidate};
-use crate::diagnosis::fit_quality::{Thresholds, Verdict};
+use crate::diagnosis::fit_quality::Verdict;
 use crate::diagnosis::snapshot::{diagnose_snapshots, Snapshot};
 use crate::diagnosis::DiagnosisConfig;
 use crate::engine::Engine;
@@ -230,20 +231,19 @@ pub(super) fn calibrate_with_prewash(
         )));
     }
     let (first, first_engine) =
-        calibrate_at(engine, &healthy, rest, candidates.clone(), settings, &[])?;
+        calibrate_at(engine, &healthy, rest, candidates.clone(), settings, None)?;
     let mut runs = first.model_runs;
     let first_read = compressor_fouling(&first_engine, &prewash, settings.threads)?;
     let mut read = first_read;
     let mut rounds: Vec<PrewashRound> = Vec::new();
-    let mut kept = (first.clone(), first_engine.clone());
-    let mut fouling = None;
+    // The last round's calibration; its fouling is the last round's `read`.
+    let mut last: Option<(Calibration, Engine)> = None;
     let mut converged = false;
     let mut stopped = None;
-    let fits = |rms: f64| rms.powi(2) <= Thresholds::default().good_level;
     for _ in 0..MAX_ROUNDS {
         let at = read;
-        let fouled = [(group.to_string(), at.health())];
-        let round = calibrate_at(engine, rows, rest, candidates.clone(), settings, &fouled)
+        let fouled = Some((group, at.health()));
+        let round = calibrate_at(engine, rows, rest, candidates.clone(), settings, fouled)
             .and_then(|(report, adapted)| {
                 let again = compressor_fouling(&adapted, &prewash, settings.threads)?;
                 Ok((report, adapted, again))
@@ -263,8 +263,7 @@ pub(super) fn calibrate_with_prewash(
             rms_after: report.rms_after,
         });
         read = again;
-        kept = (report, adapted);
-        fouling = Some(at);
+        last = Some((report, adapted));
         if read.moved_from(&at) < TOLERANCE_PTS {
             converged = true;
             break;
@@ -272,7 +271,13 @@ pub(super) fn calibrate_with_prewash(
         // Two rounds in a row that do not fit within noise: the fouled state is not one the
         // curves carry, and more rounds swing about it (on GSPy's generator unit 1.21, 0.99,
         // 1.15 σ, each round 30 s) rather than reach it.
-        if rounds.len() >= 2 && rounds.iter().rev().take(2).all(|r| !fits(r.rms_after)) {
+        if rounds.len() >= 2
+            && rounds
+                .iter()
+                .rev()
+                .take(2)
+                .all(|r| !within_noise(r.rms_after))
+        {
             break;
         }
     }
@@ -280,26 +285,33 @@ pub(super) fn calibrate_with_prewash(
     // as well as the healthy rows alone): a fouled state the curves cannot carry (D_GC 3.5 on
     // the combinator unit: 1.34 σ, its grid read up to 0.74 points off) would hand every
     // diagnosis that misfit.
-    if fouling.is_some() && !fits(kept.0.rms_after) && kept.0.rms_after > first.rms_after {
-        stopped = Some(format!(
-            "the pre-wash rows do not fit beside the baseline ({:.2} σ with them, {:.2} σ \
-             without): the calibration on the healthy rows alone is kept",
-            kept.0.rms_after, first.rms_after
-        ));
-        kept = (first.clone(), first_engine);
-        fouling = None;
-        read = first_read;
-        converged = false;
-    }
-    let (mut report, calibrated) = kept;
+    let adopted = match last {
+        Some((r, _)) if !within_noise(r.rms_after) && r.rms_after > first.rms_after => {
+            stopped = Some(format!(
+                "the pre-wash rows do not fit beside the baseline ({:.2} σ with them, {:.2} σ \
+                 without): the calibration on the healthy rows alone is kept",
+                r.rms_after, first.rms_after
+            ));
+            None
+        }
+        other => other,
+    };
+    let healthy_rms_after = first.rms_after;
+    let (fouling, read_again, (mut report, calibrated)) = match adopted {
+        Some(kept) => (rounds.last().map(|r| r.read), read, kept),
+        None => {
+            converged = false;
+            (None, first_read, (first, first_engine))
+        }
+    };
     report.model_runs = runs;
     report.prewash = Some(PrewashReport {
         group: group.to_string(),
         rows: prewash.len(),
-        healthy_rms_after: first.rms_after,
+        healthy_rms_after,
         rounds,
         fouling,
-        read_again: read,
+        read_again,
         converged,
         stopped,
     });

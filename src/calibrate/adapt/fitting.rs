@@ -37,7 +37,7 @@ impl Pass {
 
 /// Whether a fit at data RMS `rms` (noise σ) reproduces its data within noise (the baseline
 /// verdict's `good` level), where more shape is not needed.
-pub(super) fn within_noise(rms: f64) -> bool {
+pub(in crate::calibrate) fn within_noise(rms: f64) -> bool {
     rms.powi(2) <= Thresholds::default().good_level
 }
 

@@ -98,10 +98,10 @@ pub(super) fn estimate(
 ) -> Result<(HealthError, usize), CalibrateError> {
     // Only healthy points are diagnosed as healthy: a pre-wash row (`calibrate::prewash`) is
     // in every refit, at the fouling the calibration runs it at.
-    let healthy: Vec<usize> = (0..ctx.points.len())
+    let mut order: Vec<usize> = (0..ctx.points.len())
         .filter(|&i| ctx.points[i].health == HealthParams::HEALTHY)
         .collect();
-    let n = healthy.len();
+    let n = order.len();
     let interior = n.saturating_sub(2);
     if interior < 2 * MIN_PART_POINTS {
         return Ok((
@@ -118,7 +118,6 @@ pub(super) fn estimate(
         ));
     }
     let gg = &gg_speeds(engine, ctx.points)?;
-    let mut order = healthy.clone();
     order.sort_by(|&a, &b| gg[a].total_cmp(&gg[b]));
     let parts = if interior >= THIRDS_FROM { 3 } else { 2 };
     // Part `j`'s points (every `parts`-th interior point in GG speed order) or, `false`, the

@@ -72,6 +72,8 @@ mod alternatives;
 mod before;
 mod coverage;
 mod fitting;
+// The calibration's "within noise" (the baseline verdict's `good` level), also `prewash`'s.
+pub(in crate::calibrate) use fitting::within_noise;
 mod growth;
 mod health_error;
 mod knots;
@@ -98,8 +100,7 @@ use crate::engine::cycle::corrected_speed;
 use crate::engine::Engine;
 use crate::signals::Signal;
 use fitting::{
-    candidates_for, fit, fit_within, identify_at, penalty_rows, rms_of, within_noise, Fitted, Pass,
-    Starts,
+    candidates_for, fit, fit_within, identify_at, penalty_rows, rms_of, Fitted, Pass, Starts,
 };
 use growth::Growth;
 use knots::{distinct_speeds, has_reach, knot_limit};
