@@ -14,6 +14,7 @@ mod ranking;
 
 mod architecture;
 mod archive_tiers;
+mod calibrate_ensemble;
 mod calibrate_prewash;
 mod calibrate_twin;
 mod check_config;

@@ -15,6 +15,8 @@ pub(crate) enum NewValue {
     Text(String),
     /// A list of numbers (an `[adaptation]` curve or its knots).
     Numbers(Vec<f64>),
+    /// A list of words (`adaptation.ensemble.files`).
+    Words(Vec<String>),
 }
 
 /// A number rounded to 7 significant digits (the engine file's precision; the fit's σ is far
@@ -137,6 +139,11 @@ pub(crate) fn rewrite(
                             .collect::<toml_edit::Array>(),
                     ),
                     NewValue::Number(v) => toml_edit::value(rounded(*v)),
+                    NewValue::Words(list) => toml_edit::value(
+                        list.iter()
+                            .map(String::as_str)
+                            .collect::<toml_edit::Array>(),
+                    ),
                     // Which speed a component's knots are in (`adaptation.hpt.speed_of`).
                     NewValue::Text(word) if key.ends_with(".speed_of") => {
                         toml_edit::value(word.as_str())

@@ -27,6 +27,7 @@
 pub mod adapt;
 pub mod candidates;
 pub(crate) mod edit;
+pub mod ensemble;
 pub(crate) mod identify;
 pub mod inlet_law;
 pub mod prewash;

@@ -32,6 +32,14 @@
 //! and the healthy line within noise (1.1–1.5 σ against 0.9 with one), the rounds did not
 //! settle in four, one failed on a solve, and they took 96–255 s.
 //!
+//! A second direction the rows could inform was tried (2026-12-06): slopes along the
+//! compressor's speed lines (flow and efficiency × (1 + k·(β − β_design))), fitted after the
+//! growth beside the pre-wash rows. They fitted the rows better (0.92 → 0.77 σ with a slope
+//! varying with speed) and read the combinator unit's grid worse (1 of 15 fits `good` where 14
+//! were; constant slopes: 15 of 15 on one baseline, but 3 of 15 where 9 were on another): one
+//! fouled state pins what fits it, not the unit's response off its line. Not in the build (README, "A second
+//! direction, tried and not kept").
+//!
 //! In the adaptation's own error the pre-wash rows count as the others: predicted at their
 //! fouling when left out (`adapt::model_error`), and always among the points refitted where
 //! the healthy ones are read for the error in health units (`adapt::health_error`).

@@ -8,9 +8,11 @@
 //! lines with the header as line 1: the first data row is line 2.
 
 use super::diagnose::{print_text_of, result_json, DiagnoseArgs};
+use crate::diagnosis::ensemble::{ensemble_read, EnsembleRead};
 use crate::diagnosis::snapshot::{diagnose_snapshots, read_snapshots_in};
 use crate::diagnosis::steady::model_error_note;
 use crate::diagnosis::{DiagnosisConfig, Method};
+use crate::engine::config::EngineConfig;
 use crate::engine::Engine;
 use crate::units::ColumnUnits;
 use anyhow::{bail, Context};
@@ -45,6 +47,75 @@ pub(super) fn wants_snapshots(
         .any(|h| h.trim().trim_matches('"').eq_ignore_ascii_case(phase)))
 }
 
+/// Each group read again with the calibrations the engine file lists in
+/// `[adaptation.ensemble]` (`calibrate --ensemble`), by group name; empty without them. A
+/// relative path is taken from the engine file's directory. A member file that cannot be read
+/// is an error naming it; a group a member cannot diagnose is recorded as such.
+fn ensemble_reads(
+    a: &DiagnoseArgs,
+    engine: &Engine,
+    rows: &[crate::diagnosis::snapshot::Snapshot],
+    cfg: &DiagnosisConfig,
+    report: &crate::diagnosis::snapshot::SnapshotReport,
+) -> anyhow::Result<HashMap<String, EnsembleRead>> {
+    let Some(files) = engine
+        .cfg()
+        .adaptation
+        .as_ref()
+        .and_then(|ad| ad.ensemble.as_ref())
+        .map(|e| e.files.clone())
+    else {
+        return Ok(HashMap::new());
+    };
+    let dir = a
+        .engine
+        .as_deref()
+        .and_then(Path::parent)
+        .unwrap_or_else(|| Path::new(""));
+    let mut member_reports = Vec::new();
+    for f in &files {
+        let path = dir.join(f);
+        let member = EngineConfig::load(&path)
+            .map_err(anyhow::Error::from)
+            .and_then(|c| Engine::new(c).map_err(anyhow::Error::from))
+            .with_context(|| {
+                format!(
+                    "[adaptation.ensemble] names {} (calibrate --ensemble writes it beside the \
+                     engine file)",
+                    path.display()
+                )
+            })?;
+        member_reports.push((f.clone(), diagnose_snapshots(&member, rows, cfg)));
+    }
+    Ok(report
+        .groups
+        .iter()
+        .map(|g| {
+            let members = member_reports
+                .iter()
+                .map(|(f, r)| {
+                    let read = match r {
+                        Err(e) => Err(e.to_string()),
+                        Ok(r) => r
+                            .groups
+                            .iter()
+                            .find(|x| x.group == g.group)
+                            .map(|x| x.result.clone())
+                            .ok_or_else(|| {
+                                r.failed
+                                    .iter()
+                                    .find(|x| x.group == g.group)
+                                    .map_or("not diagnosed".to_string(), |x| x.reason.clone())
+                            }),
+                    };
+                    (f.clone(), read)
+                })
+                .collect();
+            (g.group.clone(), ensemble_read(&g.result, members))
+        })
+        .collect())
+}
+
 /// Runs the snapshot diagnosis of `input`.
 pub(super) fn run(
     a: &DiagnoseArgs,
@@ -62,6 +133,7 @@ pub(super) fn run(
     let rows = read_snapshots_in(BufReader::new(file), mapping, units, a.group_by.as_deref())
         .with_context(|| format!("reading {}", input.display()))?;
     let report = diagnose_snapshots(engine, &rows, cfg)?;
+    let ensembles = ensemble_reads(a, engine, &rows, cfg, &report)?;
     if a.json {
         let groups: Vec<_> = report
             .groups
@@ -80,6 +152,9 @@ pub(super) fn run(
                     o.insert("dropped".into(), json!(g.dropped));
                     o.insert("assumptions".into(), json!(g.assumptions));
                     o.insert("residual_table".into(), json!(g.residual_table));
+                    if let Some(e) = ensembles.get(&g.group) {
+                        o.insert("ensemble".into(), json!(e));
+                    }
                 }
                 v
             })
@@ -121,6 +196,26 @@ pub(super) fn run(
                 Method::Steady,
                 &g.result,
             );
+            if let Some(e) = ensembles.get(&g.group) {
+                println!("  {}", e.describe());
+                for m in &e.members {
+                    match (&m.health, &m.failed) {
+                        (Some(h), _) => {
+                            let v: Vec<String> =
+                                h.iter().map(|(k, x)| format!("{k} {x:+.2}")).collect();
+                            println!(
+                                "    {}: {} ({})",
+                                m.file,
+                                v.join(", "),
+                                m.fit.as_deref().unwrap_or("")
+                            );
+                        }
+                        (None, why) => {
+                            println!("    {}: not read: {}", m.file, why.as_deref().unwrap_or(""))
+                        }
+                    }
+                }
+            }
             if !g.residual_table.rows.is_empty() {
                 println!("  residuals per row (model − measured, {scale}):");
                 for l in g.residual_table.render().lines() {

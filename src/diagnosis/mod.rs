@@ -42,6 +42,7 @@ pub(crate) mod assess;
 pub mod bench;
 pub mod config;
 pub mod csv_input;
+pub mod ensemble;
 pub mod fit_quality;
 pub mod fuel_noise;
 pub mod identifiability;

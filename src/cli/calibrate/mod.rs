@@ -11,6 +11,7 @@ use super::common::moved_map_paths;
 use crate::calibrate::adapt::{AdaptSettings, AdaptStrategy};
 use crate::calibrate::candidates::{candidate, candidate_in, default_candidates, offset_candidate};
 use crate::calibrate::edit::{rewrite, NewValue};
+use crate::calibrate::ensemble::Member;
 use crate::calibrate::startup::{rest_readings, startup_snapshots};
 use crate::calibrate::validate::{leave_one_out, Summary, Validation};
 use crate::calibrate::{calibrate, Calibration, CalibrationSettings};
@@ -90,6 +91,14 @@ pub struct CalibrateArgs {
     /// Costs one more calibration per point.
     #[arg(long)]
     pub validate: bool,
+    /// Also calibrate the baseline three more times, an interleaved third of its interior
+    /// loads left out each (the same settings), and write them beside --out
+    /// (`<out>.part1.toml` …), listed in its `[adaptation.ensemble]`: calibrations that fit the
+    /// baseline alike differ off the healthy line, where degradation is read, and snapshot
+    /// diagnosis on the written file then states how far they part on your unit's data
+    /// (README, "Calibrations that fit alike: --ensemble"). Costs three more calibrations.
+    #[arg(long, requires_all = ["adapt", "out"])]
+    pub ensemble: bool,
     /// The group (a value of the --group-by column) whose rows were taken just before a
     /// compressor wash, the others after it (healthy): the calibration finds their compressor
     /// fouling (D_GC, D_EC; a wash removes nothing else) in rounds with the fit, and with
@@ -399,6 +408,7 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
     // The calibration's own wall time is reported without the validation's.
     let (validation, validation_design_only, validation_s) =
         validations(a.validate, &engine, &rows, &rest, &candidates, &settings)?;
+    let (members, ensemble_s) = ensemble(&a, &engine, &rows, &rest, &candidates, &settings)?;
     let (report, _calibrated) = calibrate(&engine, &rows, &rest, candidates, &settings)
         .with_context(|| {
             format!(
@@ -412,8 +422,9 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
         validation.as_ref(),
         validation_design_only.as_ref(),
     );
-    write_out(&a, &original, &report, &head)?;
-    let wall_s = start.elapsed().as_secs_f64() - validation_s;
+    let ensemble_files = write_members(&a, &original, &members, rows.len())?;
+    write_out(&a, &original, &report, &head, &ensemble_files)?;
+    let wall_s = start.elapsed().as_secs_f64() - validation_s - ensemble_s;
     if a.json {
         println!(
             "{}",
@@ -428,6 +439,8 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
                 "validation": validation,
                 "validation_design_only": validation_design_only,
                 "validation_s": validation.as_ref().map(|_| validation_s),
+                "ensemble": ensemble_json(&members, &ensemble_files),
+                "ensemble_s": a.ensemble.then_some(ensemble_s),
                 "wall_s": wall_s,
             }))?
         );
@@ -436,8 +449,65 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
         if let Some(v) = &validation {
             print_validation(v, validation_design_only.as_ref(), validation_s);
         }
+        print_ensemble(&members, &ensemble_files, ensemble_s);
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// With `--ensemble`, the calibrations on parts of the baseline ([`crate::calibrate::ensemble`])
+/// and their wall time, s; none without it.
+fn ensemble(
+    a: &CalibrateArgs,
+    engine: &Engine,
+    rows: &[crate::diagnosis::snapshot::Snapshot],
+    rest: &[crate::calibrate::startup::RestReading],
+    candidates: &[crate::calibrate::candidates::Candidate],
+    settings: &CalibrationSettings,
+) -> anyhow::Result<(Vec<Member>, f64)> {
+    if !a.ensemble {
+        return Ok((Vec::new(), 0.0));
+    }
+    let start = Instant::now();
+    let members = crate::calibrate::ensemble::members(engine, rows, rest, candidates, settings)
+        .map_err(|e| anyhow::anyhow!("--ensemble: {e}"))?;
+    Ok((members, start.elapsed().as_secs_f64()))
+}
+
+/// The ensemble's members for `--json`: file, rows left out, fit.
+fn ensemble_json(members: &[Member], files: &[String]) -> Vec<serde_json::Value> {
+    members
+        .iter()
+        .zip(files)
+        .map(|(m, f)| {
+            json!({
+                "file": f,
+                "left_out_lines": m.left_out,
+                "rms_after": m.report.rms_after,
+                "baseline_fit": m.report.baseline_fit.verdict.as_str(),
+            })
+        })
+        .collect()
+}
+
+/// The ensemble's members in the text report.
+fn print_ensemble(members: &[Member], files: &[String], secs: f64) {
+    if members.is_empty() {
+        return;
+    }
+    println!(
+        "\nensemble (--ensemble): {} calibrations, each without an interleaved part of the \
+         interior loads ({secs:.1} s); a snapshot diagnosis on the written file reads each group \
+         with them too and states their spread",
+        members.len()
+    );
+    for (m, f) in members.iter().zip(files) {
+        println!(
+            "  without lines {:?}: RMS {:.2} σ, baseline fit {} → {f}",
+            m.left_out,
+            m.report.rms_after,
+            m.report.baseline_fit.verdict.as_str()
+        );
+    }
 }
 
 /// With `validate`, every point left out in turn ([`leave_one_out`]) with `settings`, and with
@@ -473,21 +543,87 @@ fn validations(
 }
 
 /// Writes the calibrated engine file to `--out` (the file's text `original` with the fitted
-/// values and the header lines `head`) and checks it loads, maps included; says so when there
-/// is no `--out`.
+/// values, the header lines `head` and, with `--ensemble`, its members' files in
+/// `[adaptation.ensemble]`) and checks it loads, maps included; says so when there is no
+/// `--out`.
 fn write_out(
     a: &CalibrateArgs,
     original: &str,
     report: &Calibration,
     head: &[String],
+    ensemble_files: &[String],
 ) -> anyhow::Result<()> {
     let Some(out) = &a.out else {
         eprintln!("no --out given: nothing written");
         return Ok(());
     };
+    // The ensemble's members, written first, are listed in the file they belong to.
+    let extra = if ensemble_files.is_empty() {
+        Vec::new()
+    } else {
+        vec![(
+            "adaptation.ensemble.files".to_string(),
+            NewValue::Words(ensemble_files.to_vec()),
+        )]
+    };
+    write_file(a, original, out, report, head, extra)
+}
+
+/// The path of ensemble member `j` (from 1) beside `out`: `unit.toml` → `unit.part1.toml`.
+fn member_path(out: &Path, j: usize) -> PathBuf {
+    let stem = out
+        .file_stem()
+        .map_or_else(|| "calibrated".into(), |s| s.to_string_lossy().into_owned());
+    out.with_file_name(format!("{stem}.part{j}.toml"))
+}
+
+/// Writes each ensemble member beside `--out` with its own header and a line saying which
+/// rows it left out (of the `n_rows` calibrated); their absolute paths, in order.
+fn write_members(
+    a: &CalibrateArgs,
+    original: &str,
+    members: &[Member],
+    n_rows: usize,
+) -> anyhow::Result<Vec<String>> {
+    let Some(out) = &a.out else {
+        return Ok(Vec::new());
+    };
+    let mut paths = Vec::new();
+    for (j, m) in members.iter().enumerate() {
+        let path = member_path(out, j + 1);
+        let mut h = vec![format!(
+            "One of {} calibrations of an ensemble (gtwatch calibrate --ensemble): the baseline \
+             without lines {:?}; RMS {:.2} σ, baseline fit {}",
+            members.len(),
+            m.left_out,
+            m.report.rms_after,
+            m.report.baseline_fit.verdict.as_str()
+        )];
+        h.extend(header(
+            a,
+            &m.report,
+            n_rows.saturating_sub(m.left_out.len()),
+        ));
+        write_file(a, original, &path, &m.report, &h, Vec::new())?;
+        let abs = std::path::absolute(&path).with_context(|| path.display().to_string())?;
+        paths.push(abs.display().to_string());
+    }
+    Ok(paths)
+}
+
+/// Writes `report`'s calibrated engine file to `out` (see [`write_out`]).
+fn write_file(
+    a: &CalibrateArgs,
+    original: &str,
+    out: &Path,
+    report: &Calibration,
+    head: &[String],
+    extra: Vec<(String, NewValue)>,
+) -> anyhow::Result<()> {
     let from_dir = a.engine.parent().unwrap_or_else(|| Path::new(""));
     let to_dir = out.parent().unwrap_or_else(|| Path::new(""));
     let mut values = fitted_values(report);
+    values.extend(extra);
     values.extend(moved_map_paths(original, &a.engine, from_dir, to_dir)?);
     let text = rewrite(original, &a.engine.display().to_string(), &values, head)?;
     std::fs::write(out, &text).with_context(|| format!("writing {}", out.display()))?;

@@ -59,6 +59,12 @@
 //! parameter's σ, so a parameter the adapted model cannot tell apart from its own error is not
 //! called separable however small the residual is.
 //!
+//! `[adaptation.ensemble]` (written by `calibrate --ensemble`) lists `files`: engine files of
+//! the same unit calibrated on the baseline with a part of its loads left out each. They fit
+//! the baseline as well as this file and differ off the healthy line, where the baseline does
+//! not reach; steady snapshot diagnosis reads every group with each of them too and states
+//! the spread of the reads (`diagnosis::ensemble`).
+//!
 //! `[adaptation.calibrated]` (written with them) states the reach of the calibration:
 //! `gg_speed = [lo, hi]`, the relative corrected GG speeds of its lowest and highest operating
 //! point. Steady diagnosis leaves out a snapshot beyond them by more than
@@ -142,6 +148,20 @@ pub struct AdaptationConfig {
     /// points: what a healthy unit at loads the curves were not fitted to reads.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub health_error: BTreeMap<String, f64>,
+    /// Other calibrations of the same unit that fit parts of its baseline
+    /// (`calibrate --ensemble`): steady diagnosis reads each snapshot group with them too and
+    /// states the spread.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ensemble: Option<EnsembleFiles>,
+}
+
+/// `[adaptation.ensemble]`: the engine files of the calibrations on parts of the baseline.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EnsembleFiles {
+    /// Paths of engine files (relative paths are taken from the directory the diagnosis runs
+    /// in; `calibrate --ensemble` writes absolute ones).
+    pub files: Vec<String>,
 }
 
 /// The operating range the adaptation was fitted on: beyond it the curves are extrapolated
@@ -377,6 +397,14 @@ impl AdaptationConfig {
                     ));
                 }
                 check_length(v, &t.speed_knots).map_err(|r| (key(name), r))?;
+            }
+        }
+        if let Some(e) = &self.ensemble {
+            if e.files.is_empty() || e.files.iter().any(|f| f.trim().is_empty()) {
+                return Err((
+                    "adaptation.ensemble.files".into(),
+                    "must name at least one engine file, none empty".into(),
+                ));
             }
         }
         if let Some(c) = &self.calibrated {
