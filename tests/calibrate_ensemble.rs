@@ -24,6 +24,26 @@ fn gtwatch(args: &[&std::ffi::OsStr]) -> Output {
         .expect("run gtwatch")
 }
 
+/// `gtwatch diagnose --method steady` of `input` by its `test` column on `engine`, with
+/// `--json` when `json`.
+fn diagnose(engine: &Path, input: &Path, json: bool) -> Output {
+    let mut args: Vec<&std::ffi::OsStr> = vec![
+        "diagnose".as_ref(),
+        "--engine".as_ref(),
+        engine.as_os_str(),
+        "--input".as_ref(),
+        input.as_os_str(),
+        "--group-by".as_ref(),
+        "test".as_ref(),
+        "--method".as_ref(),
+        "steady".as_ref(),
+    ];
+    if json {
+        args.push("--json".as_ref());
+    }
+    gtwatch(&args)
+}
+
 /// The healthy baseline (9 loads) and the degraded unit at the same loads on other days.
 fn files(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
     let file = Engine::reference().expect("reference");
@@ -114,18 +134,7 @@ fn an_ensemble_is_written_and_read_with() {
     let written = std::fs::read_to_string(&out).expect("written");
     assert!(written.contains("[adaptation.ensemble]"), "{written}");
 
-    let diag = gtwatch(&[
-        "diagnose".as_ref(),
-        "--engine".as_ref(),
-        out.as_os_str(),
-        "--input".as_ref(),
-        degraded.as_os_str(),
-        "--group-by".as_ref(),
-        "test".as_ref(),
-        "--method".as_ref(),
-        "steady".as_ref(),
-        "--json".as_ref(),
-    ]);
+    let diag = diagnose(&out, &degraded, true);
     assert!(
         diag.status.success(),
         "{}",
@@ -156,17 +165,7 @@ fn an_ensemble_is_written_and_read_with() {
         );
     }
     // The text report says it.
-    let text = gtwatch(&[
-        "diagnose".as_ref(),
-        "--engine".as_ref(),
-        out.as_os_str(),
-        "--input".as_ref(),
-        degraded.as_os_str(),
-        "--group-by".as_ref(),
-        "test".as_ref(),
-        "--method".as_ref(),
-        "steady".as_ref(),
-    ]);
+    let text = diagnose(&out, &degraded, false);
     let said = String::from_utf8_lossy(&text.stdout);
     assert!(
         said.contains("calibration spread (the reads of 3 other"),
@@ -175,17 +174,7 @@ fn an_ensemble_is_written_and_read_with() {
 
     // A member file gone: the diagnosis names it rather than reading without it.
     std::fs::remove_file(dir.path().join("unit.part2.toml")).expect("remove");
-    let gone = gtwatch(&[
-        "diagnose".as_ref(),
-        "--engine".as_ref(),
-        out.as_os_str(),
-        "--input".as_ref(),
-        degraded.as_os_str(),
-        "--group-by".as_ref(),
-        "test".as_ref(),
-        "--method".as_ref(),
-        "steady".as_ref(),
-    ]);
+    let gone = diagnose(&out, &degraded, false);
     assert!(!gone.status.success());
     let err = String::from_utf8_lossy(&gone.stderr);
     assert!(

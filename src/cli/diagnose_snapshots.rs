@@ -201,8 +201,10 @@ pub(super) fn run(
                 for m in &e.members {
                     match (&m.health, &m.failed) {
                         (Some(h), _) => {
-                            let v: Vec<String> =
-                                h.iter().map(|(k, x)| format!("{k} {x:+.2}")).collect();
+                            let v: Vec<String> = crate::health::HEALTH_NAMES
+                                .iter()
+                                .filter_map(|k| h.get(*k).map(|x| format!("{k} {x:+.2}")))
+                                .collect();
                             println!(
                                 "    {}: {} ({})",
                                 m.file,

@@ -159,8 +159,8 @@ pub struct AdaptationConfig {
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EnsembleFiles {
-    /// Paths of engine files (relative paths are taken from the directory the diagnosis runs
-    /// in; `calibrate --ensemble` writes absolute ones).
+    /// Paths of engine files (a relative path is taken from this engine file's directory;
+    /// `calibrate --ensemble` writes absolute ones).
     pub files: Vec<String>,
 }
 
