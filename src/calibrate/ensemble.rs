@@ -22,6 +22,7 @@
 //!
 //! What it must not do: I/O (the CLI writes the files); change the whole's calibration.
 
+use super::adapt::{interleaved_part, MIN_PART_POINTS};
 use super::{calibrate, CalibrateError, Calibration, CalibrationSettings, Candidate};
 use crate::calibrate::startup::RestReading;
 use crate::diagnosis::snapshot::Snapshot;
@@ -32,9 +33,10 @@ use crate::signals::Signal;
 /// Parts of the interior loads, one calibration each.
 pub const PARTS: usize = 3;
 
-/// Fewest interior rows (between the lowest and highest GG speed) for an ensemble: two per
-/// part, so each calibration still has most of the baseline.
-pub const MIN_INTERIOR: usize = 2 * PARTS;
+/// Fewest interior rows (between the lowest and highest GG speed) for an ensemble: as many per
+/// part as the error in health units asks of its parts, so each calibration still has most of
+/// the baseline.
+pub const MIN_INTERIOR: usize = MIN_PART_POINTS * PARTS;
 
 /// One member: the rows left out (file lines), the calibration on the others and its engine.
 pub struct Member {
@@ -76,7 +78,7 @@ pub fn parts(rows: &[Snapshot], prewash_group: Option<&str>) -> Result<Vec<Part>
                 left_out: Vec::new(),
             };
             for (k, r) in healthy.iter().enumerate() {
-                if k != 0 && k != n - 1 && (k - 1) % PARTS == j {
+                if interleaved_part(k, n, PARTS) == Some(j) {
                     part.left_out.push(r.line);
                 } else {
                     part.rows.push((*r).clone());

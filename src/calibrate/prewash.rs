@@ -37,8 +37,8 @@
 //! growth beside the pre-wash rows. They fitted the rows better (0.92 → 0.77 σ with a slope
 //! varying with speed) and read the combinator unit's grid worse (1 of 15 fits `good` where 14
 //! were; constant slopes: 15 of 15 on one baseline, but 3 of 15 where 9 were on another): one
-//! fouled state pins what fits it, not the unit's response off its line. Not in the build (README, "A second
-//! direction, tried and not kept").
+//! fouled state pins what fits it, not the unit's response off its line. Not in the build
+//! (README, "A second direction, tried and not kept").
 //!
 //! In the adaptation's own error the pre-wash rows count as the others: predicted at their
 //! fouling when left out (`adapt::model_error`), and always among the points refitted where

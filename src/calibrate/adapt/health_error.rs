@@ -60,6 +60,13 @@ pub const MIN_PART_POINTS: usize = 2;
 /// thirds 0.06–0.26.
 pub const THIRDS_FROM: usize = 6;
 
+/// The part (of `parts`) the point at position `k` of `n`, in order of GG speed, is dealt to;
+/// `None` for the lowest and highest, which are in every refit (a refit without them
+/// extrapolates). Also how `calibrate::ensemble` deals its members' loads.
+pub(in crate::calibrate) fn interleaved_part(k: usize, n: usize, parts: usize) -> Option<usize> {
+    (k != 0 && k + 1 != n).then(|| (k - 1) % parts)
+}
+
 /// One part's read: calibrated on the other loads, this part's points diagnosed as healthy.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PartRead {
@@ -130,11 +137,7 @@ pub(super) fn estimate(
         order
             .iter()
             .enumerate()
-            .filter(|&(k, _)| {
-                let end = k == 0 || k == n - 1;
-                let here = !end && (k - 1) % parts == j;
-                here == inside
-            })
+            .filter(|&(k, _)| (interleaved_part(k, n, parts) == Some(j)) == inside)
             .map(|(_, &i)| ctx.points[i].clone())
             .chain(
                 ctx.points

@@ -74,6 +74,8 @@ mod coverage;
 mod fitting;
 // The calibration's "within noise" (the baseline verdict's `good` level), also `prewash`'s.
 pub(in crate::calibrate) use fitting::within_noise;
+// How interior loads are dealt into interleaved parts, also `ensemble`'s.
+pub(in crate::calibrate) use health_error::interleaved_part;
 mod growth;
 mod health_error;
 mod knots;
@@ -85,7 +87,7 @@ mod surge;
 
 pub use alternatives::adapt;
 pub use coverage::{CoverageAdvice, ADVICE_PCT};
-pub use health_error::{HealthError, PartRead};
+pub use health_error::{HealthError, PartRead, MIN_PART_POINTS};
 pub use model_error::{ModelError, SignalModelError};
 pub use similarity::{Similarity, DEPARTURE_PCT, SHIFT_K};
 pub use surge::OperatingLine;
