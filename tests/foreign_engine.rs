@@ -695,17 +695,7 @@ fn grid_estimates_at(
     cfg: &DiagnosisConfig,
     levels: &[usize],
 ) -> (Vec<[f64; 6]>, Vec<String>) {
-    let mut rows_all = Vec::new();
-    for &i in levels {
-        let loads = loads_of(unit.design_mw, i + 1);
-        rows_all.extend(rows_at(
-            truth,
-            loads,
-            grid(i),
-            i + 1,
-            &format!("level{i:02}"),
-        ));
-    }
+    let rows_all = grid_rows(truth, unit, levels);
     let report = diagnose_snapshots(adapted, &rows_all, cfg).expect("diagnosis");
     assert!(report.failed.is_empty(), "{:?}", report.failed);
     for g in &report.groups {
@@ -732,6 +722,23 @@ fn grid_estimates_at(
             )
         })
         .unzip()
+}
+
+/// The snapshots of the grid's levels `levels` made by `truth` at the 9 loads of `unit`, each
+/// level its own group (`level07`).
+fn grid_rows(truth: &Engine, unit: Unit, levels: &[usize]) -> Vec<Snapshot> {
+    let mut rows = Vec::new();
+    for &i in levels {
+        let loads = loads_of(unit.design_mw, i + 1);
+        rows.extend(rows_at(
+            truth,
+            loads,
+            grid(i),
+            i + 1,
+            &format!("level{i:02}"),
+        ));
+    }
+    rows
 }
 
 /// Levels of the degradation grid.
@@ -1294,17 +1301,8 @@ fn an_ensemble_states_what_the_baseline_leaves_open() {
         members.len(),
         started.elapsed().as_secs_f64()
     );
-    let mut rows = Vec::new();
-    for i in 0..LEVELS {
-        let loads = loads_of(AERO25.design_mw, i + 1);
-        rows.extend(rows_at(
-            &truth,
-            loads,
-            grid(i),
-            i + 1,
-            &format!("level{i:02}"),
-        ));
-    }
+    let all: Vec<usize> = (0..LEVELS).collect();
+    let rows = grid_rows(&truth, AERO25, &all);
     let main = diagnose_snapshots(&whole, &rows, &cfg).expect("diagnosis");
     let reads: Vec<_> = members
         .iter()
