@@ -102,6 +102,7 @@ const EXTRA_SPREADS: &[(&str, Spread)] = &[
     ("design.gg_mechanical_efficiency", Spread::Absolute(0.01)),
     ("design.pt_mechanical_efficiency", Spread::Absolute(0.01)),
     ("design.cooling_bleed_frac", Spread::Absolute(0.02)),
+    ("design.cooling_return_frac", Spread::Absolute(0.04)),
     ("maps.compressor_design_speed", Spread::Absolute(0.05)),
     ("maps.hpt_design_speed", Spread::Absolute(0.05)),
     ("maps.pt_design_speed", Spread::Absolute(0.05)),

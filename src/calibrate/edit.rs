@@ -172,17 +172,25 @@ pub(crate) fn rewrite(
             table.insert(param, toml_edit::value(rounded(*v)));
             continue;
         }
-        if let (false, Some((section, name)), NewValue::Text(text)) =
-            (has_value(&doc, key), key.split_once('.'), new)
+        let default_value = match new {
+            NewValue::Text(text) => Some(toml_edit::value(text.as_str())),
+            // A number only for a key the engine file knows (it has an allowed range).
+            NewValue::Number(v) if crate::engine::config::param_range(key).is_some() => {
+                Some(toml_edit::value(rounded(*v)))
+            }
+            _ => None,
+        };
+        if let (false, Some((section, name)), Some(value)) =
+            (has_value(&doc, key), key.split_once('.'), default_value)
         {
-            // A word the file leaves at its default (`design.inlet_loss_law`): added to its
-            // section's table, which must exist.
+            // A word or number the file leaves at its default (`design.inlet_loss_law`,
+            // `design.cooling_return_frac`): added to its section's table, which must exist.
             let table = doc
                 .get_mut(section)
                 .and_then(Item::as_table_mut)
                 .filter(|_| !name.contains('.'))
                 .ok_or_else(|| bad("its section is not a table in the file"))?;
-            table.insert(name, toml_edit::value(text.as_str()));
+            table.insert(name, value);
             continue;
         }
         let value = item_mut(&mut doc, key)
@@ -278,6 +286,16 @@ mod tests {
         assert_eq!(cfg.design.inlet_loss_law, PressureLossLaw::FlowSquared);
         let cfg = EngineConfig::from_toml_str(&set(&without), "x").expect("loads");
         assert_eq!(cfg.design.inlet_loss_law, PressureLossLaw::Constant);
+        // A number the file leaves at its default is added the same way.
+        let text = rewrite(
+            &without,
+            "engine.toml",
+            &[("design.cooling_return_frac".into(), NewValue::Number(0.03))],
+            &[],
+        )
+        .expect("rewrite");
+        let cfg = EngineConfig::from_toml_str(&text, "x").expect("loads");
+        assert_eq!(cfg.design.cooling_return_frac, 0.03);
         // A word for a section the file does not have is refused, naming the key.
         let e = rewrite(
             REFERENCE_ENGINE_TOML,

@@ -13,14 +13,23 @@ use super::gas_path::Stations;
 use crate::thermo::{Fuel, Gas};
 
 /// Fuel flow for a given T3 at fixed total exhaust flow (fixed point, converges in a few steps):
-/// W_air·h2 + W_f·(η_b·LHV + h_fuel) = (W_air + W_f)·h3.
-fn fuel_for_t3(cfg: &EngineConfig, fuel: &Fuel, w_total: f64, h2: f64, t3: f64) -> (f64, f64, Gas) {
+/// W_air·h2 + W_f·(η_b·LHV + h_fuel) = (W_air + W_f)·h3, where of the exhaust flow less the
+/// fuel the share `burnt_share` of the air went through the combustor (the rest was returned at
+/// the HPT exit; 1 without returned air).
+fn fuel_for_t3(
+    cfg: &EngineConfig,
+    fuel: &Fuel,
+    w_total: f64,
+    burnt_share: f64,
+    h2: f64,
+    t3: f64,
+) -> (f64, f64, Gas) {
     let d = &cfg.design;
     let mut wf = 0.02 * w_total;
     let mut gas = fuel.products(0.02);
     let mut w_comb_air = w_total - wf;
     for _ in 0..50 {
-        w_comb_air = w_total - wf;
+        w_comb_air = (w_total - wf) * burnt_share;
         gas = fuel.products(wf / w_comb_air);
         let wf_new = w_comb_air * (gas.h(t3) - h2)
             / (d.combustion_efficiency * fuel.lhv() + fuel.sensible_enthalpy() - gas.h(t3));
@@ -56,16 +65,21 @@ pub(crate) fn design_cycle(cfg: &EngineConfig, fuel: &Fuel) -> Result<Stations, 
 
     // Everything that follows from a T3 guess.
     let eval = |t3: f64| -> Result<Stations, EngineError> {
-        let (wf, w_comb_air, gas) = fuel_for_t3(cfg, fuel, w_total, h2, t3);
-        // Bleed leaves the compressor overboard: the compressor passes more than the combustor gets.
-        // (`gas_path::combustor_air` is the forward rule: w_comb_air = w_comp (1 − bleed).)
-        let w_comp = w_comb_air / (1.0 - d.cooling_bleed_frac);
+        // Of the air leaving the compressor, the bleed goes overboard and the returned share
+        // mixes in at the HPT exit: the exhaust carries the rest, the returned air and the fuel.
+        // (`gas_path::combustor_air` is the forward rule: w_comb_air = w_comp (1 − bleed − return).)
+        let kept = 1.0 - d.cooling_bleed_frac;
+        let burnt_share = (kept - d.cooling_return_frac) / kept;
+        let (wf, w_comb_air, gas) = fuel_for_t3(cfg, fuel, w_total, burnt_share, h2, t3);
+        let w_comp = w_comb_air / (kept - d.cooling_return_frac);
+        let w_return = w_comp * d.cooling_return_frac;
+        let w_hpt = w_total - w_return; // the burnt air and the fuel (bit for bit w_total without return)
         let p_comp = w_comp * (h2 - h1);
         let p_hpt = (p_comp + gg_friction) / losses.gg_mechanical_efficiency;
         let h3 = gas.h(t3);
-        let h34 = h3 - p_hpt / w_total;
-        let t34 = gas.t_from_h(h34);
-        let h34s = h3 - (h3 - h34) / d.hpt_efficiency;
+        let h34_hpt = h3 - p_hpt / w_hpt;
+        let t34_hpt = gas.t_from_h(h34_hpt);
+        let h34s = h3 - (h3 - h34_hpt) / d.hpt_efficiency;
         let t34s = gas.t_from_h(h34s);
         let hpt_pr = ((gas.phi(t3) - gas.phi(t34s)) / gas.r()).exp();
         let p34 = p3 / hpt_pr;
@@ -75,9 +89,21 @@ pub(crate) fn design_cycle(cfg: &EngineConfig, fuel: &Fuel) -> Result<Stations, 
                 "T3 = {t3:.0} K leaves no expansion for the power turbine (P34/P4 = {pt_pr:.3})"
             )));
         }
-        let t4s = gas.isentropic_t(t34, 1.0 / pt_pr);
-        let h4 = h34 - d.pt_efficiency * (h34 - gas.h(t4s));
-        let t4 = gas.t_from_h(h4);
+        // The returned air mixes in at the HPT exit (the forward rule: `gas_path::pt_inlet`).
+        let (pt_gas, h34) = if w_return > 0.0 {
+            let mixed = fuel.products(wf / (w_comb_air + w_return));
+            (mixed, (w_hpt * h34_hpt + w_return * h2) / w_total)
+        } else {
+            (gas, h34_hpt)
+        };
+        let t34 = if w_return > 0.0 {
+            pt_gas.t_from_h(h34)
+        } else {
+            t34_hpt
+        };
+        let t4s = pt_gas.isentropic_t(t34, 1.0 / pt_pr);
+        let h4 = h34 - d.pt_efficiency * (h34 - pt_gas.h(t4s));
+        let t4 = pt_gas.t_from_h(h4);
         let p_pt = w_total * (h34 - h4);
         let power = losses.pt_shaft(p_pt) - pt_windage;
         Ok(Stations {
@@ -98,7 +124,7 @@ pub(crate) fn design_cycle(cfg: &EngineConfig, fuel: &Fuel) -> Result<Stations, 
             fuel_kg_s: wf,
             fuel_burnt_kg_s: wf,
             fuel_air_ratio: gas.far(),
-            hpt_flow_kg_s: w_total,
+            hpt_flow_kg_s: w_hpt,
             pt_flow_kg_s: w_total,
             power_mw: power / 1e6,
             pt_shaft_mw: power / 1e6,

@@ -362,8 +362,9 @@ fn core_rhs<R>(
     let b = far / (1.0 + far);
     let db = (wf - b * (w_air + wf)) / m;
     let dfar = db * (1.0 + far) * (1.0 + far);
-    // Duct: isothermal filling (paper eq. 4 form) at the HPT exit temperature.
-    let dp34 = r * gp.hpt.t_out_k * (w3 - w4) / (c.v_duct * 1e3);
+    // Duct: isothermal filling (paper eq. 4 form) at the PT inlet's temperature, the returned
+    // cooling air (if any) flowing in beside the HPT's gas.
+    let dp34 = r * gp.t34_k * (w3 + gp.w_return_kg_s - w4) / (c.v_duct * 1e3);
 
     // GG shaft: torque balance (eq. 6 is the same written with power and n).
     let w1 = n1 * PI / 30.0;

@@ -188,6 +188,11 @@ pub(crate) struct GasPath {
     pub(crate) t3_k: f64,
     /// Fuel-air ratio of the combustor gas.
     pub(crate) fuel_air_ratio: f64,
+    /// PT inlet: the HPT's exit gas with the returned cooling air mixed in
+    /// (`design.cooling_return_frac`; without it the HPT's exit temperature), K.
+    pub(crate) t34_k: f64,
+    /// Cooling air mixed in at the HPT exit, kg/s (0 without `design.cooling_return_frac`).
+    pub(crate) w_return_kg_s: f64,
     /// Compressor exit state.
     pub(crate) compressor: CompressorStation,
     pub(crate) hpt: TurbineStation,
@@ -225,7 +230,7 @@ impl GasPath {
             p2_kpa: self.p2_kpa,
             t3_k: self.t3_k,
             p3_kpa: self.p3_kpa,
-            t34_k: hpt.t_out_k,
+            t34_k: self.t34_k,
             p34_kpa: self.p34_kpa,
             t4_k: pt.t_out_k,
             p4_kpa: self.p4_kpa,
@@ -401,7 +406,9 @@ fn after_compressor(
         Some(a) if a.extra_bleed != 0.0 => (c.bleed + a.extra_bleed).clamp(0.0, 0.5),
         _ => c.bleed,
     };
-    let w_air = combustor_air(w2, bleed);
+    // Air returned at the HPT exit leaves the compressor's exit with the bleed.
+    let w_return = w2 * c.cooling_return;
+    let w_air = combustor_air(w2, bleed + c.cooling_return);
 
     // Combustor and HPT.
     let p3 = c.p3(p2, w2.max(0.0), comp.t_out_k);
@@ -419,9 +426,11 @@ fn after_compressor(
     let gg_nc = cycle::corrected_speed(n1.max(0.0), t1);
     let hpt = cycle::turbine(hpt_map, gas, t3, p3, n1.max(0.0), p3 / inp.p34_kpa, gg_nc);
     let w3 = w_burn.unwrap_or(hpt.w_kg_s);
+    let pt_in = pt_inlet(c, gas, &hpt, w3, w_return, comp.h_out);
+    let w_pt = w3 + w_return;
     let p4 = match losses {
-        Some(l) if l.exhaust != 1.0 => p_amb + (c.p4(p_amb, w3, hpt.t_out_k) - p_amb) * l.exhaust,
-        _ => c.p4(p_amb, w3, hpt.t_out_k),
+        Some(l) if l.exhaust != 1.0 => p_amb + (c.p4(p_amb, w_pt, pt_in.1) - p_amb) * l.exhaust,
+        _ => c.p4(p_amb, w_pt, pt_in.1),
     };
 
     // PT. Its gas torque is largest at stall; the map's efficiency (and so P/ω) is meaningless
@@ -429,7 +438,7 @@ fn after_compressor(
     // held constant below it (a turbine's torque-speed line is nearly flat near stall).
     let n2_eval = n2.max(PT_STALL_FRACTION * c.n2_design);
     let p34 = inp.p34_kpa;
-    let pt = cycle::turbine(pt_map, gas, hpt.t_out_k, p34, n2_eval, p34 / p4, gg_nc);
+    let pt = cycle::turbine(pt_map, &pt_in.0, pt_in.1, p34, n2_eval, p34 / p4, gg_nc);
     let pt_gas_torque = c.shaft.pt_shaft(pt.power_w) / (n2_eval * PI / 30.0);
     let pt_net = pt_gas_torque * n2.max(0.0) * PI / 30.0 - c.pt_loss_w(n2.max(0.0));
     let gg_net = c.shaft.gg_shaft_w(hpt.power_w) - p_comp - c.gg_loss_w(n1);
@@ -446,6 +455,8 @@ fn after_compressor(
         p4_kpa: p4,
         t3_k: t3,
         fuel_air_ratio: gas.far(),
+        t34_k: pt_in.1,
+        w_return_kg_s: w_return,
         compressor: comp,
         hpt,
         pt,
@@ -457,6 +468,30 @@ fn after_compressor(
         pt_net_w: pt_net,
         gg_net_w: gg_net,
     }
+}
+
+/// The PT's inlet gas and temperature: the HPT's exit gas (`w_hpt` kg/s of `gas`) with
+/// `w_return` kg/s of compressor-exit air (enthalpy `h_air`) mixed in at constant pressure, its
+/// fuel-air ratio diluted. Without returned air, the HPT's exit as it is.
+#[inline]
+fn pt_inlet(
+    c: &super::model::Constants,
+    gas: &Gas,
+    hpt: &cycle::TurbineStation,
+    w_hpt: f64,
+    w_return: f64,
+    h_air: f64,
+) -> (Gas, f64) {
+    if w_return <= 0.0 || w_hpt <= 0.0 {
+        return (*gas, hpt.t_out_k);
+    }
+    // The gas's fuel-air ratio counts fuel per kg of its air: w_hpt carries w_hpt/(1+far) of it.
+    let air_in_gas = w_hpt / (1.0 + gas.far());
+    let mixed = c
+        .fuel
+        .products(gas.far() * air_in_gas / (air_in_gas + w_return));
+    let h = (w_hpt * hpt.h_out + w_return * h_air) / (w_hpt + w_return);
+    (mixed, mixed.t_from_h(h))
 }
 
 /// The model's maps with effect deltas multiplied onto their health factors.

@@ -38,6 +38,9 @@ pub struct Constants {
     /// The fuel: LHV, sensible enthalpy at its supply temperature, products' properties.
     pub fuel: Fuel,
     pub bleed: f64,
+    /// Compressor air mixed back in at the HP-turbine exit, fraction of compressor flow
+    /// (`design.cooling_return_frac`).
+    pub cooling_return: f64,
     pub gg_inertia: f64,
     pub pt_inertia: f64,
     pub v_comb: f64,
@@ -373,6 +376,7 @@ impl Engine {
             eta_b: d.combustion_efficiency,
             fuel,
             bleed: d.cooling_bleed_frac,
+            cooling_return: d.cooling_return_frac,
             gg_inertia: dy.gg_inertia_kg_m2,
             pt_inertia: dy.pt_inertia_kg_m2,
             v_comb: dy.combustor_volume_m3,

@@ -136,7 +136,7 @@ fn evaluate(model: &Model, inp: &SteadyInputs, x: &Unknowns) -> Evaluated {
     };
     let residuals = [
         (gp.hpt.w_kg_s - w3) / wd,
-        (gp.pt.w_kg_s - w3) / wd,
+        (gp.pt.w_kg_s - w3 - gp.w_return_kg_s) / wd,
         gg_err / pd,
         (power_w - target_power) / pd,
     ];
@@ -153,7 +153,7 @@ fn evaluate(model: &Model, inp: &SteadyInputs, x: &Unknowns) -> Evaluated {
         },
         thermal_efficiency: if heat > 0.0 { power_w / heat } else { 0.0 },
         hpt_flow_error_kg_s: gp.hpt.w_kg_s - w3,
-        pt_flow_error_kg_s: gp.pt.w_kg_s - w3,
+        pt_flow_error_kg_s: gp.pt.w_kg_s - w3 - gp.w_return_kg_s,
         gg_power_error_w: gg_err,
     };
     Evaluated { point, residuals }
@@ -588,6 +588,66 @@ mod tests {
             let c = &m.consts;
             let heat_in = c.fuel_heat_w(p.fuel_kg_s);
             let exhaust = p.pt_flow_kg_s * gas.h(p.t4_k) - p.air_flow_kg_s * air.h(p.t1_k);
+            let shafts = (p.pt_power_mw + p.hpt_power_mw - p.compressor_power_mw) * 1e6;
+            assert!(
+                ((exhaust + shafts) - heat_in).abs() / heat_in < 1e-6,
+                "{demand:?}: {exhaust} + {shafts} vs {heat_in}"
+            );
+        }
+    }
+
+    /// Air returned at the HPT exit (`design.cooling_return_frac`): the design point is
+    /// reproduced, mass and energy close with it mixed into the PT's gas, and the same power
+    /// needs a hotter combustor exit than with that air burnt.
+    #[test]
+    fn cooling_air_returned_at_the_hpt_exit_closes_mass_and_energy() {
+        let mut e = Engine::reference().expect("engine");
+        let before = *e.design();
+        e.set_param("design.cooling_return_frac", 0.04)
+            .expect("a valid fraction");
+        let d = *e.design();
+        assert!(
+            (d.pt_flow_kg_s - d.hpt_flow_kg_s - 0.04 * d.air_flow_kg_s).abs() < 1e-9,
+            "{d:?}"
+        );
+        // The same power from less gas through the HPT: a hotter combustor exit.
+        assert!(d.t3_k > before.t3_k + 5.0, "{} vs {}", d.t3_k, before.t3_k);
+        let m = e.model(&HealthParams::HEALTHY);
+        let design = solve(
+            &m,
+            &SteadyInputs {
+                n2_rpm: d.n2_rpm,
+                ..iso(Demand::PowerMw(d.power_mw))
+            },
+            None,
+        )
+        .expect("design point");
+        for (what, got, want) in [
+            ("n1", design.n1_rpm, d.n1_rpm),
+            ("T34", design.t34_k, d.t34_k),
+            ("T4", design.t4_k, d.t4_k),
+            ("P34", design.p34_kpa, d.p34_kpa),
+            ("fuel", design.fuel_kg_s, d.fuel_kg_s),
+        ] {
+            assert!((got / want - 1.0).abs() < 1e-4, "{what}: {got} vs {want}");
+        }
+        for demand in [Demand::PowerMw(20.0), Demand::PowerMw(8.0)] {
+            let p = solve(&m, &iso(demand), None).expect("solves");
+            assert!(
+                p.pt_flow_error_kg_s.abs() / p.pt_flow_kg_s < 1e-6,
+                "{demand:?}"
+            );
+            assert!(
+                (p.pt_flow_kg_s - p.hpt_flow_kg_s - 0.04 * p.air_flow_kg_s).abs() / p.pt_flow_kg_s
+                    < 1e-6,
+                "{demand:?}: the PT passes the HPT's gas and the returned air"
+            );
+            // The exhaust is the combustion products of the fuel in all the air (none overboard).
+            let c = &m.consts;
+            let exhaust_gas = c.fuel.products(p.fuel_kg_s / p.air_flow_kg_s);
+            let air = crate::thermo::Gas::air();
+            let heat_in = c.fuel_heat_w(p.fuel_kg_s);
+            let exhaust = p.pt_flow_kg_s * exhaust_gas.h(p.t4_k) - p.air_flow_kg_s * air.h(p.t1_k);
             let shafts = (p.pt_power_mw + p.hpt_power_mw - p.compressor_power_mw) * 1e6;
             assert!(
                 ((exhaust + shafts) - heat_in).abs() / heat_in < 1e-6,

@@ -129,6 +129,14 @@ pub struct DesignConfig {
     pub exhaust_loss_law: PressureLossLaw,
     /// Compressor air bled overboard (cooling/leakage), fraction of compressor flow.
     pub cooling_bleed_frac: f64,
+    /// Compressor-exit air that bypasses the combustor and the HP turbine and mixes into the
+    /// gas at the HP-turbine exit (rotor and disc cooling, seal leakage returned), fraction of
+    /// compressor flow: it does no work in the HPT, is measured in T34 and P34 as mixed, and
+    /// works in the PT. Air returned before the HPT rotor (nozzle cooling) is not this: mixed
+    /// before the work it is combustor air in a one-dimensional model. Default 0: every
+    /// result as before the key existed.
+    #[serde(default)]
+    pub cooling_return_frac: f64,
 }
 
 fn default_min_gg_speed_fraction() -> f64 {
@@ -502,6 +510,13 @@ impl EngineConfig {
                      \"flow_squared\" or \"constant\"",
                 ));
             }
+        }
+        let d = &self.design;
+        if d.cooling_bleed_frac + d.cooling_return_frac >= 0.5 {
+            return Err(bad(
+                "design.cooling_return_frac",
+                "with design.cooling_bleed_frac must take less than half the compressor's air",
+            ));
         }
         let c = &self.control;
         if c.accel_limit_speed_rpm.len() != c.accel_limit_ratio_kg_s_per_kpa.len()

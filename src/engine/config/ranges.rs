@@ -97,6 +97,7 @@ const RANGES: &[(&str, ParamRange)] = &[
         ParamRange::new(1.0, 2.0),
     ),
     ("design.cooling_bleed_frac", ParamRange::new(0.0, 0.5)),
+    ("design.cooling_return_frac", ParamRange::new(0.0, 0.3)),
     ("maps.compressor_design_speed", ParamRange::new(0.05, 5.0)),
     ("maps.compressor_design_beta", ParamRange::new(-1.0, 2.0)),
     ("maps.hpt_design_speed", ParamRange::new(0.05, 5.0)),

@@ -1,0 +1,286 @@
+//! A unit of another simulator, end to end as a user runs gtwatch on it: every other foreign
+//! unit of the tests is written by this project's own steady solver (another map family, load
+//! or design, but gtwatch's thermodynamics, gas path and health scalers); this one is not.
+//!
+//! The truth (`tests/data/foreign/indep30/`): `sim.py`, a steady two-shaft gas-turbine model in
+//! plain Python written for these tests from textbook performance physics by someone who did
+//! not read gtwatch's code — NASA-polynomial gas properties, analytic compressor speed lines and
+//! efficiency island, variable guide vanes closing below 93 % corrected speed, Stodola-ellipse
+//! turbines with efficiency on the blade-speed ratio, 5 % nozzle cooling mixed before the HPT
+//! rotor and 3 % rotor cooling returned at the HPT exit, a pipeline compressor's cubic load.
+//! 30 MW, PR 18.5, 9 950 / 5 500 rpm. Its files are in the plant's units (°C, bar a, kg/h) and
+//! tag names, with 100-s-average noise; `true_D_*` columns give the health it was run at (the
+//! same convention: flow capacity and efficiency × (1 − D/100)). Its README says what it is.
+//!
+//! The user's steps: `config/engine_md22.toml` with the datasheet's design point and cooling
+//! split (`tests/data/foreign/indep30_user_md22.toml`), `gtwatch calibrate --adapt` on the 9
+//! healthy loads with `--map` and `--units`, then `gtwatch diagnose --method steady --group-by
+//! group` on a grid of 16 levels (compressor fouling, HP-turbine erosion, PT wear, combined).
+//!
+//! Measured (`cargo test --release --test integration foreign_simulator -- --nocapture`,
+//! 2026-12-06): the baseline fits at 0.94 σ, `good` (md22's habit of dumping the cooling air
+//! overboard instead: 1.42 σ, `suspect`, T4 missed by −2.6 σ and T34 by +1.8 σ at every load);
+//! the grid is read with every parameter within 0.84 points (D_GC 0.84, D_EC 0.75, D_GT 0.67,
+//! D_ET 0.30, D_GP 0.77, D_EP 0.58), Spearman ρ 0.72–0.91, compressor fouling under-read by
+//! about a fifth and PT wear over-read by about a third (how the borrowed maps' speed lines
+//! respond to a flow or efficiency change off the healthy line, which a healthy baseline does
+//! not show); the diagnosis says so: the adapted model's own error in health units puts every
+//! σ over 0.25 points on most levels and no level is read further than 3.4 of its σ, but on 6
+//! of the 16 D_GC is called separable and missed by up to 0.81 points there (not solved). Floors
+//! below are these figures with a margin; they are what this version meets on an engine it was
+//! not made with, not the issue's targets.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
+
+use gtwatch::health::HEALTH_NAMES;
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The plant's tags, as the user maps them to gtwatch's signals.
+const MAP: &str = "t1_k=CIT_C,p1_kpa=CIP_BARA,p_amb_kpa=AMB_P_BARA,n1_rpm=NGG_RPM,\
+n2_rpm=NPT_RPM,fuel_kg_s=FUEL_KGH,p2_kpa=CDP_BARA,t2_k=CDT_C,p34_kpa=P34_BARA,t34_k=T34_C,\
+p4_kpa=EXP_BARA,t4_k=EGT_C,power_mw=PWR_MW";
+
+/// The plant's units.
+const UNITS: &str = "t1_k=degC,p1_kpa=bar,p_amb_kpa=bar,fuel_kg_s=kg/h,p2_kpa=bar,t2_k=degC,\
+p34_kpa=bar,t34_k=degC,p4_kpa=bar,t4_k=degC";
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn data(file: &str) -> PathBuf {
+    root().join("tests/data/foreign/indep30").join(file)
+}
+
+/// `gtwatch <args> --json`, parsed; panics with its stderr when it fails.
+fn gtwatch_json(args: &[&str]) -> Value {
+    let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(args)
+        .arg("--json")
+        .output()
+        .expect("run gtwatch");
+    assert!(
+        out.status.success(),
+        "gtwatch {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("one JSON document")
+}
+
+/// `gtwatch calibrate --adapt` of `engine` on the healthy baseline, written to `out`: the
+/// calibration's JSON.
+fn calibrate(engine: &Path, out: &Path) -> Value {
+    let input = data("baseline_noisy.csv");
+    gtwatch_json(&[
+        "calibrate",
+        "--engine",
+        engine.to_str().expect("utf-8"),
+        "--input",
+        input.to_str().expect("utf-8"),
+        "--map",
+        MAP,
+        "--units",
+        UNITS,
+        "--adapt",
+        "--threads",
+        "2",
+        "--out",
+        out.to_str().expect("utf-8"),
+    ])
+}
+
+fn verdict(calibration: &Value) -> (String, f64) {
+    let c = &calibration["calibration"];
+    (
+        c["baseline_fit"]["verdict"]
+            .as_str()
+            .expect("verdict")
+            .to_string(),
+        c["rms_after"].as_f64().expect("rms"),
+    )
+}
+
+/// The true health of each group of the grid file (its `true_D_*` columns).
+fn truth() -> BTreeMap<String, [f64; 6]> {
+    let text = std::fs::read_to_string(data("grid_noisy.csv")).expect("grid");
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).expect(name);
+    let group = col("group");
+    let cols: Vec<usize> = HEALTH_NAMES
+        .iter()
+        .map(|n| col(&format!("true_{n}")))
+        .collect();
+    let mut out = BTreeMap::new();
+    for line in lines {
+        let cells: Vec<&str> = line.split(',').collect();
+        let mut h = [0.0; 6];
+        for (p, &c) in cols.iter().enumerate() {
+            h[p] = cells[c].parse().expect("a number");
+        }
+        out.insert(cells[group].to_string(), h);
+    }
+    out
+}
+
+/// Spearman's rank correlation, ties at their mean rank.
+fn spearman(a: &[f64], b: &[f64]) -> f64 {
+    fn ranks(v: &[f64]) -> Vec<f64> {
+        let mut idx: Vec<usize> = (0..v.len()).collect();
+        idx.sort_by(|&i, &j| v[i].total_cmp(&v[j]));
+        let mut r = vec![0.0; v.len()];
+        let mut i = 0;
+        while i < idx.len() {
+            let mut j = i;
+            while j + 1 < idx.len() && v[idx[j + 1]] == v[idx[i]] {
+                j += 1;
+            }
+            for &k in &idx[i..=j] {
+                r[k] = (i + j) as f64 / 2.0;
+            }
+            i = j + 1;
+        }
+        r
+    }
+    let (ra, rb) = (ranks(a), ranks(b));
+    let n = ra.len() as f64;
+    let (ma, mb) = (ra.iter().sum::<f64>() / n, rb.iter().sum::<f64>() / n);
+    let cov: f64 = ra.iter().zip(&rb).map(|(x, y)| (x - ma) * (y - mb)).sum();
+    let va: f64 = ra.iter().map(|x| (x - ma).powi(2)).sum();
+    let vb: f64 = rb.iter().map(|y| (y - mb).powi(2)).sum();
+    cov / (va * vb).sqrt()
+}
+
+#[test]
+fn a_unit_of_another_simulator_is_calibrated_and_its_grid_read_within_its_stated_error() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let user = root().join("tests/data/foreign/indep30_user_md22.toml");
+
+    // md22's habit (the cooling air overboard) against the datasheet's split.
+    let text = std::fs::read_to_string(&user).expect("user file");
+    let overboard_text = text
+        .replace("cooling_bleed_frac = 0.0\n", "cooling_bleed_frac = 0.08\n")
+        .replace("cooling_return_frac = 0.03\n", "");
+    assert_ne!(overboard_text, text);
+    let overboard = dir.path().join("overboard.toml");
+    std::fs::write(
+        &overboard,
+        overboard_text.replace("../../../config/", &format!("{}/config/", root().display())),
+    )
+    .expect("write");
+    let (v_over, rms_over) = verdict(&calibrate(&overboard, &dir.path().join("o.toml")));
+    let unit = dir.path().join("unit.toml");
+    let (v, rms) = verdict(&calibrate(&user, &unit));
+    eprintln!("baseline: cooling returned {rms:.2} σ {v}; overboard {rms_over:.2} σ {v_over}");
+    assert_eq!(v, "good", "the datasheet's cooling split: {rms:.2} σ");
+    assert!(
+        rms < 0.8 * rms_over,
+        "returned {rms:.2} σ against overboard {rms_over:.2} σ"
+    );
+    let written = std::fs::read_to_string(&unit).expect("written");
+    assert!(
+        written.contains("cooling_return_frac = 0.03"),
+        "kept in the written file"
+    );
+
+    // The grid, as the user diagnoses it.
+    let grid = data("grid_noisy.csv");
+    let diag = gtwatch_json(&[
+        "diagnose",
+        "--method",
+        "steady",
+        "--engine",
+        unit.to_str().expect("utf-8"),
+        "--input",
+        grid.to_str().expect("utf-8"),
+        "--map",
+        MAP,
+        "--units",
+        UNITS,
+        "--group-by",
+        "group",
+        "--threads",
+        "2",
+    ]);
+    let truth = truth();
+    let groups = diag["groups"].as_array().expect("groups");
+    assert_eq!(groups.len(), truth.len());
+    let mut est: Vec<[f64; 6]> = Vec::new();
+    let mut tru: Vec<[f64; 6]> = Vec::new();
+    let mut worst = [0.0f64; 6];
+    let mut worst_z = 0.0f64;
+    for g in groups {
+        let name = g["group"].as_str().expect("group");
+        let t = truth[name];
+        let mut e = [0.0; 6];
+        for (p, n) in HEALTH_NAMES.iter().enumerate() {
+            e[p] = g["health"][*n].as_f64().expect("estimate");
+            let sigma = g["sigma"][*n].as_f64().expect("σ");
+            let err = (e[p] - t[p]).abs();
+            worst[p] = worst[p].max(err);
+            worst_z = worst_z.max(err / sigma);
+        }
+        eprintln!(
+            "{name} {:8} {}",
+            g["fit_quality"]["verdict"].as_str().unwrap_or("?"),
+            (0..6)
+                .map(|p| format!("{:+.2} ({:+.2})", e[p], t[p]))
+                .collect::<Vec<_>>()
+                .join(" ")
+        );
+        est.push(e);
+        tru.push(t);
+    }
+    let rho: Vec<f64> = (0..6)
+        .map(|p| {
+            let a: Vec<f64> = est.iter().map(|e| e[p]).collect();
+            let b: Vec<f64> = tru.iter().map(|t| t[p]).collect();
+            spearman(&a, &b)
+        })
+        .collect();
+    eprintln!("worst error {worst:.2?}, ρ {rho:.3?}, worst |error|/σ {worst_z:.2}");
+    // Measured 0.84 / 0.75 / 0.67 / 0.30 / 0.77 / 0.58 points and ρ 0.90 / 0.72 / 0.87 / 0.91 /
+    // 0.82 / 0.82 (each parameter is 0 on half the levels or more: a tie no estimate repeats).
+    for (p, (most, least)) in [
+        (1.0, 0.85),
+        (0.9, 0.62),
+        (0.85, 0.8),
+        (0.45, 0.85),
+        (0.95, 0.75),
+        (0.75, 0.75),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        assert!(
+            worst[p] <= most,
+            "{}: worst error {:.2}",
+            HEALTH_NAMES[p],
+            worst[p]
+        );
+        assert!(rho[p] >= least, "{}: ρ {:.3}", HEALTH_NAMES[p], rho[p]);
+    }
+    // Every error within 4 of its stated σ (measured 3.4). Not yet honest enough: D_GC is
+    // called separable (1σ under 0.25 points) on 6 of the 16 levels and missed there by up
+    // to 0.81 points (a healthy compressor read −0.81 beside HP-turbine erosion; fouling of 3.2
+    // read 2.6): the adapted model's stated error in health units, measured on healthy loads
+    // left out, does not see a response to degradation that the borrowed map scales otherwise
+    // (nor does the --ensemble spread: 0.03–0.20 there). The floor below is that, not a target.
+    assert!(worst_z <= 4.0, "worst |error|/σ {worst_z:.2}");
+    let mut separable_miss = 0.0f64;
+    for g in groups {
+        let name = g["group"].as_str().expect("group");
+        for s in g["separability"]["separable"].as_array().expect("list") {
+            let p = HEALTH_NAMES
+                .iter()
+                .position(|n| Some(*n) == s.as_str())
+                .expect("a name");
+            let err = (g["health"][HEALTH_NAMES[p]].as_f64().expect("e") - truth[name][p]).abs();
+            separable_miss = separable_miss.max(err);
+        }
+    }
+    eprintln!("worst miss of a parameter called separable: {separable_miss:.2} points");
+    assert!(separable_miss <= 0.9, "{separable_miss:.2}");
+}
