@@ -153,6 +153,92 @@ fn spearman(a: &[f64], b: &[f64]) -> f64 {
     cov / (va * vb).sqrt()
 }
 
+/// How the grid was read on an engine file: per parameter the worst error (points) and
+/// Spearman ρ against the truth, the worst error in units of the stated σ, and the worst miss
+/// of a parameter the diagnosis called separable.
+struct GridRead {
+    worst: [f64; 6],
+    rho: [f64; 6],
+    worst_z: f64,
+    separable_miss: f64,
+}
+
+/// `gtwatch diagnose --method steady` of the grid on `unit`, as the user runs it, scored
+/// against the grid's `true_D_*` columns (each level printed).
+fn read_grid(unit: &Path) -> GridRead {
+    let grid = data("grid_noisy.csv");
+    let diag = gtwatch_json(&[
+        "diagnose",
+        "--method",
+        "steady",
+        "--engine",
+        unit.to_str().expect("utf-8"),
+        "--input",
+        grid.to_str().expect("utf-8"),
+        "--map",
+        MAP,
+        "--units",
+        UNITS,
+        "--group-by",
+        "group",
+        "--threads",
+        "2",
+    ]);
+    let truth = truth();
+    let groups = diag["groups"].as_array().expect("groups");
+    assert_eq!(groups.len(), truth.len());
+    let mut est: Vec<[f64; 6]> = Vec::new();
+    let mut tru: Vec<[f64; 6]> = Vec::new();
+    let mut worst = [0.0f64; 6];
+    let mut worst_z = 0.0f64;
+    let mut separable_miss = 0.0f64;
+    for g in groups {
+        let name = g["group"].as_str().expect("group");
+        let t = truth[name];
+        let mut e = [0.0; 6];
+        for (p, n) in HEALTH_NAMES.iter().enumerate() {
+            e[p] = g["health"][*n].as_f64().expect("estimate");
+            let sigma = g["sigma"][*n].as_f64().expect("σ");
+            let err = (e[p] - t[p]).abs();
+            worst[p] = worst[p].max(err);
+            worst_z = worst_z.max(err / sigma);
+        }
+        for s in g["separability"]["separable"].as_array().expect("list") {
+            let p = HEALTH_NAMES
+                .iter()
+                .position(|n| Some(*n) == s.as_str())
+                .expect("a name");
+            separable_miss = separable_miss.max((e[p] - t[p]).abs());
+        }
+        eprintln!(
+            "{name} {:8} {}",
+            g["fit_quality"]["verdict"].as_str().unwrap_or("?"),
+            (0..6)
+                .map(|p| format!("{:+.2} ({:+.2})", e[p], t[p]))
+                .collect::<Vec<_>>()
+                .join(" ")
+        );
+        est.push(e);
+        tru.push(t);
+    }
+    let mut rho = [0.0; 6];
+    for (p, r) in rho.iter_mut().enumerate() {
+        let a: Vec<f64> = est.iter().map(|e| e[p]).collect();
+        let b: Vec<f64> = tru.iter().map(|t| t[p]).collect();
+        *r = spearman(&a, &b);
+    }
+    eprintln!(
+        "worst error {worst:.2?}, ρ {rho:.3?}, worst |error|/σ {worst_z:.2}, worst miss of a \
+         parameter called separable {separable_miss:.2}"
+    );
+    GridRead {
+        worst,
+        rho,
+        worst_z,
+        separable_miss,
+    }
+}
+
 #[test]
 fn a_unit_of_another_simulator_is_calibrated_and_its_grid_read_within_its_stated_error() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -185,62 +271,12 @@ fn a_unit_of_another_simulator_is_calibrated_and_its_grid_read_within_its_stated
         "kept in the written file"
     );
 
-    // The grid, as the user diagnoses it.
-    let grid = data("grid_noisy.csv");
-    let diag = gtwatch_json(&[
-        "diagnose",
-        "--method",
-        "steady",
-        "--engine",
-        unit.to_str().expect("utf-8"),
-        "--input",
-        grid.to_str().expect("utf-8"),
-        "--map",
-        MAP,
-        "--units",
-        UNITS,
-        "--group-by",
-        "group",
-        "--threads",
-        "2",
-    ]);
-    let truth = truth();
-    let groups = diag["groups"].as_array().expect("groups");
-    assert_eq!(groups.len(), truth.len());
-    let mut est: Vec<[f64; 6]> = Vec::new();
-    let mut tru: Vec<[f64; 6]> = Vec::new();
-    let mut worst = [0.0f64; 6];
-    let mut worst_z = 0.0f64;
-    for g in groups {
-        let name = g["group"].as_str().expect("group");
-        let t = truth[name];
-        let mut e = [0.0; 6];
-        for (p, n) in HEALTH_NAMES.iter().enumerate() {
-            e[p] = g["health"][*n].as_f64().expect("estimate");
-            let sigma = g["sigma"][*n].as_f64().expect("σ");
-            let err = (e[p] - t[p]).abs();
-            worst[p] = worst[p].max(err);
-            worst_z = worst_z.max(err / sigma);
-        }
-        eprintln!(
-            "{name} {:8} {}",
-            g["fit_quality"]["verdict"].as_str().unwrap_or("?"),
-            (0..6)
-                .map(|p| format!("{:+.2} ({:+.2})", e[p], t[p]))
-                .collect::<Vec<_>>()
-                .join(" ")
-        );
-        est.push(e);
-        tru.push(t);
-    }
-    let rho: Vec<f64> = (0..6)
-        .map(|p| {
-            let a: Vec<f64> = est.iter().map(|e| e[p]).collect();
-            let b: Vec<f64> = tru.iter().map(|t| t[p]).collect();
-            spearman(&a, &b)
-        })
-        .collect();
-    eprintln!("worst error {worst:.2?}, ρ {rho:.3?}, worst |error|/σ {worst_z:.2}");
+    let GridRead {
+        worst,
+        rho,
+        worst_z,
+        separable_miss,
+    } = read_grid(&unit);
     // Measured 0.84 / 0.75 / 0.67 / 0.30 / 0.77 / 0.58 points and ρ 0.90 / 0.72 / 0.87 / 0.91 /
     // 0.82 / 0.82 (each parameter is 0 on half the levels or more: a tie no estimate repeats).
     for (p, (most, least)) in [
@@ -269,18 +305,59 @@ fn a_unit_of_another_simulator_is_calibrated_and_its_grid_read_within_its_stated
     // left out, does not see a response to degradation that the borrowed map scales otherwise
     // (nor does the --ensemble spread: 0.03–0.20 there). The floor below is that, not a target.
     assert!(worst_z <= 4.0, "worst |error|/σ {worst_z:.2}");
-    let mut separable_miss = 0.0f64;
-    for g in groups {
-        let name = g["group"].as_str().expect("group");
-        for s in g["separability"]["separable"].as_array().expect("list") {
-            let p = HEALTH_NAMES
-                .iter()
-                .position(|n| Some(*n) == s.as_str())
-                .expect("a name");
-            let err = (g["health"][HEALTH_NAMES[p]].as_f64().expect("e") - truth[name][p]).abs();
-            separable_miss = separable_miss.max(err);
-        }
-    }
-    eprintln!("worst miss of a parameter called separable: {separable_miss:.2} points");
     assert!(separable_miss <= 0.9, "{separable_miss:.2}");
+}
+
+/// Measurement (ignored: a calibration in rounds, about 30 s): rows from just before an offline
+/// wash (`indep30/prewash_noisy.csv`, the 9 loads fouled D_GC 2.0, D_EC 0.8) beside the
+/// baseline, `calibrate --prewash-group`. Measured 2026-12-06: fouling found 1.46 / 0.59 (the
+/// model responds to fouling about a third more than the unit, and the rows cannot tell that
+/// from a smaller fouling), the baseline `good`; the grid's worst errors 0.79 / 0.58 / 0.47 /
+/// 0.39 / 0.47 / 0.40 (0.84 / 0.75 / 0.67 / 0.30 / 0.77 / 0.58 on the baseline alone).
+#[test]
+#[ignore = "measurement: cargo test --release --test integration rows_before_a_wash_on -- --ignored --nocapture"]
+fn rows_before_a_wash_on_another_simulators_unit() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let base = std::fs::read_to_string(data("baseline_noisy.csv")).expect("baseline");
+    let pre = std::fs::read_to_string(data("prewash_noisy.csv")).expect("pre-wash rows");
+    let washed = dir.path().join("washed.csv");
+    let rows: String = pre.lines().skip(1).map(|l| format!("{l}\n")).collect();
+    std::fs::write(&washed, format!("{base}{rows}")).expect("write");
+    let user = root().join("tests/data/foreign/indep30_user_md22.toml");
+    let unit = dir.path().join("washed.toml");
+    let c = gtwatch_json(&[
+        "calibrate",
+        "--engine",
+        user.to_str().expect("utf-8"),
+        "--input",
+        washed.to_str().expect("utf-8"),
+        "--map",
+        MAP,
+        "--units",
+        UNITS,
+        "--group-by",
+        "group",
+        "--prewash-group",
+        "before_wash",
+        "--adapt",
+        "--threads",
+        "2",
+        "--out",
+        unit.to_str().expect("utf-8"),
+    ]);
+    eprintln!("pre-wash: {}", c["calibration"]["prewash"]);
+    let (v, rms) = verdict(&c);
+    eprintln!("calibration {rms:.2} σ {v}");
+    let read = read_grid(&unit);
+    // The rows must not make the grid worse than the baseline alone reads it (the CI test's
+    // floors).
+    for (p, most) in [1.0, 0.9, 0.85, 0.45, 0.95, 0.75].into_iter().enumerate() {
+        assert!(
+            read.worst[p] <= most,
+            "{}: {:.2}",
+            HEALTH_NAMES[p],
+            read.worst[p]
+        );
+    }
+    assert!(read.rho.iter().all(|r| *r >= 0.6), "{:?}", read.rho);
 }

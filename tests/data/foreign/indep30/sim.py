@@ -976,6 +976,7 @@ def readme_text(base_states, checks, runtime):
     a('| `sim.py` | the simulator (thermo, maps, design point, Newton matching, file writers, checks) |')
     a('| `baseline_exact.csv`, `baseline_noisy.csv` | healthy engine, 9 loads, 9 different days |')
     a('| `grid_exact.csv`, `grid_noisy.csv` | 16 degradation levels x 9 loads (144 rows), other days |')
+    a('| `prewash_exact.csv`, `prewash_noisy.csv` | the baseline loads just before an offline compressor wash (days 3 K warmer, D_GC 2.0, D_EC 0.8; group `before_wash`; added after the blind files, own noise stream) |')
     a('| `baseline_internal.csv`, `grid_internal.csv` | NOT measured: internal states of the same rows (TIT, beta, SM, efficiencies...) for diagnosis only |')
     a('| `design.txt` | datasheet at ISO full load |')
     a('| `checks.txt` | output of the self-checks (robustness sweep, trends, degradation signs, linearity) |')
@@ -1171,7 +1172,15 @@ def main():
         write_csv(os.path.join(HERE, name + '_exact.csv'), states, noisy=False)
         write_csv(os.path.join(HERE, name + '_noisy.csv'), states, noisy=True, rng=rng)
         write_internal(os.path.join(HERE, name + '_internal.csv'), states)
-    maxres = max(s['resid'] for s in base + grid)
+    # Rows from before an offline compressor wash (added after the blind files; its own noise
+    # stream, so the files above are unchanged): the baseline's loads on days 3 K warmer, the
+    # compressor fouled D_GC 2.0, D_EC 0.8 (what the wash then removed).
+    pspec = [('before_wash', T + 3.0, P, L, dict(zero_health(), D_GC=2.0, D_EC=0.8))
+             for L, T, P in zip(LOADS, BASE_T, BASE_P)]
+    pre = run_set(pspec)
+    write_csv(os.path.join(HERE, 'prewash_exact.csv'), pre, noisy=False)
+    write_csv(os.path.join(HERE, 'prewash_noisy.csv'), pre, noisy=True, rng=random.Random(2027))
+    maxres = max(s['resid'] for s in base + grid + pre)
     print('solved %d points, max relative residual %.2e, TIT max %.1f K, SM min %.1f %%' % (
         len(base) + len(grid), maxres, max(s['T3'] for s in base + grid), min(s['SM'] for s in base + grid)))
     with open(os.path.join(HERE, 'design.txt'), 'w') as f:
