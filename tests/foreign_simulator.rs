@@ -18,7 +18,8 @@
 //! group` on a grid of 16 levels (compressor fouling, HP-turbine erosion, PT wear, combined).
 //!
 //! Measured (`cargo test --release --test integration foreign_simulator -- --nocapture`,
-//! 2026-12-06): the baseline fits at 0.94 σ, `good` (md22's habit of dumping the cooling air
+//! 2026-12-06): the baseline fits at 0.94 σ, `good`, and diagnoses `good` within 0.24 points
+//! of healthy (md22's habit of dumping the cooling air
 //! overboard instead: 1.42 σ, `suspect`, T4 missed by −2.6 σ and T34 by +1.8 σ at every load);
 //! the grid is read with every parameter within 0.84 points (D_GC 0.84, D_EC 0.75, D_GT 0.67,
 //! D_ET 0.30, D_GP 0.77, D_EP 0.58), Spearman ρ 0.72–0.91, compressor fouling under-read by
@@ -270,6 +271,35 @@ fn a_unit_of_another_simulator_is_calibrated_and_its_grid_read_within_its_stated
         written.contains("cooling_return_frac = 0.03"),
         "kept in the written file"
     );
+
+    // The healthy baseline on its own calibration: `good`, each parameter within 0.3 points
+    // (measured 0.24 at most, D_EP).
+    let base = data("baseline_noisy.csv");
+    let healthy = gtwatch_json(&[
+        "diagnose",
+        "--method",
+        "steady",
+        "--engine",
+        unit.to_str().expect("utf-8"),
+        "--input",
+        base.to_str().expect("utf-8"),
+        "--map",
+        MAP,
+        "--units",
+        UNITS,
+        "--group-by",
+        "group",
+    ]);
+    let g = &healthy["groups"][0];
+    eprintln!(
+        "healthy baseline: {} {}",
+        g["fit_quality"]["verdict"], g["health"]
+    );
+    assert_eq!(g["fit_quality"]["verdict"], "good");
+    for n in HEALTH_NAMES {
+        let v = g["health"][n].as_f64().expect("estimate");
+        assert!(v.abs() <= 0.3, "healthy baseline {n} {v:.3}");
+    }
 
     let GridRead {
         worst,
