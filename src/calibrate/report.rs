@@ -184,23 +184,29 @@ impl BaselineFit {
                     format!(" (worst: {} at {:.1} σ RMS)", s.signal, s.rms_after)
                 });
             let tried_both = adapt.is_some_and(|a| a.fallback.is_some());
+            // What to check besides the curves. The cooling air is named because a file that
+            // dumps it overboard where the unit returns some at the HPT exit misses T34 and T4
+            // in opposite directions at every load, which no curve of corrected speed mends
+            // (the independent simulator's unit: 1.42 σ overboard, 0.94 σ with its datasheet's
+            // split; README, "Cooling air").
+            let check = "check the data (units, instrument offsets, steadiness) and the file's \
+                         cooling air against the datasheet (overboard: design.cooling_bleed_frac; \
+                         returned at the HPT exit: design.cooling_return_frac)";
             let next = match adapt.map(|a| a.strategy) {
-                None => "if the unit is of another make than the file's maps, add --adapt",
-                Some(s) if s == adapt::AdaptStrategy::Grown.name() && tried_both => {
+                None => "if the unit is of another make than the file's maps, add --adapt".into(),
+                Some(s) if s == adapt::AdaptStrategy::Grown.name() && tried_both => format!(
                     "the --adapt-strategy continuation, tried in its place, did no better; with \
                      --adapt-max-knots below the default, raise it; else the curves of corrected \
-                     speed cannot follow this unit: check the data (units, instrument offsets, \
-                     steadiness) and the file's maps"
-                }
-                Some(s) if s == adapt::AdaptStrategy::Grown.name() => {
+                     speed cannot follow this unit: {check}, and the file's maps"
+                ),
+                Some(s) if s == adapt::AdaptStrategy::Grown.name() => format!(
                     "try --adapt-strategy continuation (every informed curve; --validate \
-                     compares how each predicts the points left out), and check the data \
-                     (units, instrument offsets, steadiness)"
-                }
-                Some(_) => {
-                    "the curves of corrected speed cannot follow this unit; check the data \
-                     (units, instrument offsets, steadiness) and the file's maps"
-                }
+                     compares how each predicts the points left out), and {check}"
+                ),
+                Some(_) => format!(
+                    "the curves of corrected speed cannot follow this unit; {check}, and the \
+                     file's maps"
+                ),
             };
             (
                 verdict,
