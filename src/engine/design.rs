@@ -9,7 +9,7 @@
 use super::config::EngineConfig;
 use super::cycle::ShaftLosses;
 use super::error::EngineError;
-use super::gas_path::Stations;
+use super::gas_path::{mixed_with_air, Stations, Stream};
 use crate::thermo::{Fuel, Gas};
 
 /// Fuel flow for a given T3 at fixed total exhaust flow (fixed point, converges in a few steps):
@@ -89,18 +89,19 @@ pub(crate) fn design_cycle(cfg: &EngineConfig, fuel: &Fuel) -> Result<Stations, 
                 "T3 = {t3:.0} K leaves no expansion for the power turbine (P34/P4 = {pt_pr:.3})"
             )));
         }
-        // The returned air mixes in at the HPT exit (the forward rule: `gas_path::pt_inlet`).
-        let (pt_gas, h34) = if w_return > 0.0 {
-            let mixed = fuel.products(wf / (w_comb_air + w_return));
-            (mixed, (w_hpt * h34_hpt + w_return * h2) / w_total)
-        } else {
-            (gas, h34_hpt)
+        // The returned air mixes in at the HPT exit, as off design.
+        let hpt_out = Stream {
+            gas,
+            w_kg_s: w_hpt,
+            h: h34_hpt,
+            t_k: t34_hpt,
         };
-        let t34 = if w_return > 0.0 {
-            pt_gas.t_from_h(h34)
-        } else {
-            t34_hpt
-        };
+        let Stream {
+            gas: pt_gas,
+            h: h34,
+            t_k: t34,
+            ..
+        } = mixed_with_air(fuel, hpt_out, w_return, h2);
         let t4s = pt_gas.isentropic_t(t34, 1.0 / pt_pr);
         let h4 = h34 - d.pt_efficiency * (h34 - pt_gas.h(t4s));
         let t4 = pt_gas.t_from_h(h4);

@@ -15,7 +15,7 @@ use super::cycle::{self, CompressorStation, TurbineStation};
 use super::effects::{ComponentDeltas, DuctLosses};
 use super::model::Model;
 use crate::signals::{Signal, Values, NSIG};
-use crate::thermo::Gas;
+use crate::thermo::{Fuel, Gas};
 use std::f64::consts::PI;
 
 pub(crate) use super::cycle::MAX_FAR;
@@ -426,11 +426,18 @@ fn after_compressor(
     let gg_nc = cycle::corrected_speed(n1.max(0.0), t1);
     let hpt = cycle::turbine(hpt_map, gas, t3, p3, n1.max(0.0), p3 / inp.p34_kpa, gg_nc);
     let w3 = w_burn.unwrap_or(hpt.w_kg_s);
-    let pt_in = pt_inlet(c, gas, &hpt, w3, w_return, comp.h_out);
-    let w_pt = w3 + w_return;
+    let hpt_out = Stream {
+        gas: *gas,
+        w_kg_s: w3,
+        h: hpt.h_out,
+        t_k: hpt.t_out_k,
+    };
+    let pt_in = mixed_with_air(&c.fuel, hpt_out, w_return, comp.h_out);
     let p4 = match losses {
-        Some(l) if l.exhaust != 1.0 => p_amb + (c.p4(p_amb, w_pt, pt_in.1) - p_amb) * l.exhaust,
-        _ => c.p4(p_amb, w_pt, pt_in.1),
+        Some(l) if l.exhaust != 1.0 => {
+            p_amb + (c.p4(p_amb, pt_in.w_kg_s, pt_in.t_k) - p_amb) * l.exhaust
+        }
+        _ => c.p4(p_amb, pt_in.w_kg_s, pt_in.t_k),
     };
 
     // PT. Its gas torque is largest at stall; the map's efficiency (and so P/ω) is meaningless
@@ -438,7 +445,7 @@ fn after_compressor(
     // held constant below it (a turbine's torque-speed line is nearly flat near stall).
     let n2_eval = n2.max(PT_STALL_FRACTION * c.n2_design);
     let p34 = inp.p34_kpa;
-    let pt = cycle::turbine(pt_map, &pt_in.0, pt_in.1, p34, n2_eval, p34 / p4, gg_nc);
+    let pt = cycle::turbine(pt_map, &pt_in.gas, pt_in.t_k, p34, n2_eval, p34 / p4, gg_nc);
     let pt_gas_torque = c.shaft.pt_shaft(pt.power_w) / (n2_eval * PI / 30.0);
     let pt_net = pt_gas_torque * n2.max(0.0) * PI / 30.0 - c.pt_loss_w(n2.max(0.0));
     let gg_net = c.shaft.gg_shaft_w(hpt.power_w) - p_comp - c.gg_loss_w(n1);
@@ -455,7 +462,7 @@ fn after_compressor(
         p4_kpa: p4,
         t3_k: t3,
         fuel_air_ratio: gas.far(),
-        t34_k: pt_in.1,
+        t34_k: pt_in.t_k,
         w_return_kg_s: w_return,
         compressor: comp,
         hpt,
@@ -470,28 +477,35 @@ fn after_compressor(
     }
 }
 
-/// The PT's inlet gas and temperature: the HPT's exit gas (`w_hpt` kg/s of `gas`) with
-/// `w_return` kg/s of compressor-exit air (enthalpy `h_air`) mixed in at constant pressure, its
-/// fuel-air ratio diluted. Without returned air, the HPT's exit as it is.
+/// A flow of one gas: its composition, mass flow, specific enthalpy and temperature.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Stream {
+    pub(crate) gas: Gas,
+    pub(crate) w_kg_s: f64,
+    pub(crate) h: f64,
+    pub(crate) t_k: f64,
+}
+
+/// `stream` with `w_air` kg/s of air at enthalpy `h_air` mixed in at constant pressure (its
+/// fuel-air ratio diluted); without air, `stream` as it is. The PT's inlet where cooling air
+/// returns at the HPT exit (`design.cooling_return_frac`), in the design cycle and off design.
 #[inline]
-fn pt_inlet(
-    c: &super::model::Constants,
-    gas: &Gas,
-    hpt: &cycle::TurbineStation,
-    w_hpt: f64,
-    w_return: f64,
-    h_air: f64,
-) -> (Gas, f64) {
-    if w_return <= 0.0 || w_hpt <= 0.0 {
-        return (*gas, hpt.t_out_k);
+pub(crate) fn mixed_with_air(fuel: &Fuel, stream: Stream, w_air: f64, h_air: f64) -> Stream {
+    if w_air <= 0.0 || stream.w_kg_s <= 0.0 {
+        return stream;
     }
-    // The gas's fuel-air ratio counts fuel per kg of its air: w_hpt carries w_hpt/(1+far) of it.
-    let air_in_gas = w_hpt / (1.0 + gas.far());
-    let mixed = c
-        .fuel
-        .products(gas.far() * air_in_gas / (air_in_gas + w_return));
-    let h = (w_hpt * hpt.h_out + w_return * h_air) / (w_hpt + w_return);
-    (mixed, mixed.t_from_h(h))
+    let far = stream.gas.far();
+    // The fuel-air ratio counts fuel per kg of air: the stream carries w/(1+far) of air.
+    let air_in_gas = stream.w_kg_s / (1.0 + far);
+    let gas = fuel.products(far * air_in_gas / (air_in_gas + w_air));
+    let w_kg_s = stream.w_kg_s + w_air;
+    let h = (stream.w_kg_s * stream.h + w_air * h_air) / w_kg_s;
+    Stream {
+        gas,
+        w_kg_s,
+        h,
+        t_k: gas.t_from_h(h),
+    }
 }
 
 /// The model's maps with effect deltas multiplied onto their health factors.

@@ -518,6 +518,7 @@ mod tests {
     use super::*;
     use crate::engine::Engine;
     use crate::health::HealthParams;
+    use crate::thermo::Gas;
 
     fn iso(demand: Demand) -> SteadyInputs {
         SteadyInputs {
@@ -558,6 +559,20 @@ mod tests {
         );
     }
 
+    /// Energy closure over the whole engine at `p`, its exhaust of composition `exhaust`: fuel
+    /// heat = exhaust enthalpy rise + PT shaft work + the GG's net shaft work (its mechanical
+    /// losses leave the gas path).
+    fn assert_energy_closes(m: &Model, p: &SteadyPoint, exhaust: &Gas, demand: Demand) {
+        let air = Gas::air();
+        let heat_in = m.consts.fuel_heat_w(p.fuel_kg_s);
+        let rise = p.pt_flow_kg_s * exhaust.h(p.t4_k) - p.air_flow_kg_s * air.h(p.t1_k);
+        let shafts = (p.pt_power_mw + p.hpt_power_mw - p.compressor_power_mw) * 1e6;
+        assert!(
+            ((rise + shafts) - heat_in).abs() / heat_in < 1e-6,
+            "{demand:?}: {rise} + {shafts} vs {heat_in}"
+        );
+    }
+
     #[test]
     fn mass_and_energy_close_at_off_design() {
         let e = Engine::reference().expect("engine");
@@ -581,18 +596,7 @@ mod tests {
                 p.gg_power_error_w.abs() / (p.compressor_power_mw * 1e6) < 1e-6,
                 "{demand:?}"
             );
-            // Energy closure over the whole engine: fuel heat = exhaust enthalpy rise + PT shaft
-            // work + the GG's net shaft work (its mechanical losses leave the gas path).
-            let gas = m.consts.fuel.products(p.fuel_air_ratio);
-            let air = crate::thermo::Gas::air();
-            let c = &m.consts;
-            let heat_in = c.fuel_heat_w(p.fuel_kg_s);
-            let exhaust = p.pt_flow_kg_s * gas.h(p.t4_k) - p.air_flow_kg_s * air.h(p.t1_k);
-            let shafts = (p.pt_power_mw + p.hpt_power_mw - p.compressor_power_mw) * 1e6;
-            assert!(
-                ((exhaust + shafts) - heat_in).abs() / heat_in < 1e-6,
-                "{demand:?}: {exhaust} + {shafts} vs {heat_in}"
-            );
+            assert_energy_closes(&m, &p, &m.consts.fuel.products(p.fuel_air_ratio), demand);
         }
     }
 
@@ -643,16 +647,8 @@ mod tests {
                 "{demand:?}: the PT passes the HPT's gas and the returned air"
             );
             // The exhaust is the combustion products of the fuel in all the air (none overboard).
-            let c = &m.consts;
-            let exhaust_gas = c.fuel.products(p.fuel_kg_s / p.air_flow_kg_s);
-            let air = crate::thermo::Gas::air();
-            let heat_in = c.fuel_heat_w(p.fuel_kg_s);
-            let exhaust = p.pt_flow_kg_s * exhaust_gas.h(p.t4_k) - p.air_flow_kg_s * air.h(p.t1_k);
-            let shafts = (p.pt_power_mw + p.hpt_power_mw - p.compressor_power_mw) * 1e6;
-            assert!(
-                ((exhaust + shafts) - heat_in).abs() / heat_in < 1e-6,
-                "{demand:?}: {exhaust} + {shafts} vs {heat_in}"
-            );
+            let exhaust = m.consts.fuel.products(p.fuel_kg_s / p.air_flow_kg_s);
+            assert_energy_closes(&m, &p, &exhaust, demand);
         }
     }
 
