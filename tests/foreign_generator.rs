@@ -233,8 +233,9 @@ fn grid_results(truth: &Engine, adapted: &Engine, written: &[Signal]) -> Vec<Met
         .map(|(g, (label, truth))| {
             assert_eq!(g.group, *label);
             let r = &g.result;
+            let sigma: Vec<f64> = HEALTH_NAMES.iter().map(|n| r.sigma[*n]).collect();
             eprintln!(
-                "{label:>9}: truth {truth:+.1?} est {:+.2?} {:?} (residual {:.2}); {}",
+                "{label:>9}: truth {truth:+.1?} est {:+.2?} ± {sigma:.2?} {:?} (residual {:.2}); {}",
                 r.health.to_array(),
                 r.fit_quality.verdict,
                 r.fit_quality.normalised_residual,
@@ -391,14 +392,21 @@ fn with_few_instruments_a_miss_is_named_not_presented_as_good() {
                 named += 1;
             }
         }
-        // The compressor is what these signals carry: always separable.
-        for name in ["D_GC", "D_EC"] {
-            assert!(
-                sep.separable.iter().any(|n| n == name),
-                "{label}: {name} not separable: {}",
-                sep.statement
-            );
-        }
+        // The compressor is what these signals carry: D_EC always separable. D_GC's σ has
+        // the snapshot inputs' noise in it (one T1 reading's 0.5 K is 0.09 % of corrected
+        // speed): about 0.3 points, at the separability limit, and the read within it.
+        assert!(
+            sep.separable.iter().any(|n| n == "D_EC"),
+            "{label}: D_EC not separable: {}",
+            sep.statement
+        );
+        let gc = r.sigma["D_GC"];
+        assert!(
+            gc <= 0.45 && (est[0] - t[0]).abs() <= gc,
+            "{label}: D_GC {:+.2} ± {gc:.2} against {:+.1}",
+            est[0],
+            t[0]
+        );
     }
     eprintln!("{named} estimate(s) beyond 0.5 points, each named");
 }

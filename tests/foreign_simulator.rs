@@ -26,11 +26,12 @@
 //! and D_EP in perfect order), compressor fouling under-read by
 //! about a fifth and PT wear over-read by about a third (how the borrowed maps' speed lines
 //! respond to a flow or efficiency change off the healthy line, which a healthy baseline does
-//! not show); the diagnosis says so: the adapted model's own error in health units puts every
-//! σ over 0.25 points on most levels and no level is read further than 3.4 of its σ, but on 6
-//! of the 16 D_GC is called separable and missed by up to 0.81 points there (not solved). Floors
-//! below are these figures with a margin; they are what this version meets on an engine it was
-//! not made with, not the issue's targets.
+//! not show); the diagnosis says so: with the adapted model's own error in health units and
+//! the snapshot inputs' noise (T1, fuel, n2: one reading's σ each, as every compared value has)
+//! in the σ, no parameter is called separable on this 9-load grid, no level is read further
+//! than 2.44 of its σ, and 6 of the 16 fits are `good`. Floors below are these figures with a
+//! margin; they are what this version meets on an engine it was not made with, not the issue's
+//! targets.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use crate::ranking::{spearman, spearman_ceiling};
@@ -164,6 +165,8 @@ struct GridRead {
     rho: [f64; 6],
     worst_z: f64,
     separable_miss: f64,
+    /// Levels whose fit is `good`.
+    good: usize,
 }
 
 /// `gtwatch diagnose --method steady` of the grid on `unit`, as the user runs it, scored
@@ -178,7 +181,9 @@ fn read_grid(unit: &Path) -> GridRead {
     let mut worst = [0.0f64; 6];
     let mut worst_z = 0.0f64;
     let mut separable_miss = 0.0f64;
+    let mut good = 0;
     for g in groups {
+        good += usize::from(g["fit_quality"]["verdict"] == "good");
         let name = g["group"].as_str().expect("group");
         let t = truth[name];
         let mut e = [0.0; 6];
@@ -217,13 +222,16 @@ fn read_grid(unit: &Path) -> GridRead {
     }
     eprintln!(
         "worst error {worst:.2?}, ρ {rho:.3?} (ceilings {ceiling:.3?}: healthy levels tie), worst \
-         |error|/σ {worst_z:.2}, worst miss of a parameter called separable {separable_miss:.2}"
+         |error|/σ {worst_z:.2}, worst miss of a parameter called separable {separable_miss:.2}, \
+         {good} of {} fits good",
+        groups.len()
     );
     GridRead {
         worst,
         rho,
         worst_z,
         separable_miss,
+        good,
     }
 }
 
@@ -278,6 +286,7 @@ fn a_unit_of_another_simulator_is_calibrated_and_its_grid_read_within_its_stated
         rho,
         worst_z,
         separable_miss,
+        good,
     } = read_grid(&unit);
     // Measured 0.84 / 0.75 / 0.67 / 0.30 / 0.77 / 0.58 points and ρ 0.90 / 0.72 / 0.87 / 0.91 /
     // 0.82 / 0.82 (each parameter is 0 on half the levels or more: a tie no estimate repeats).
@@ -300,14 +309,15 @@ fn a_unit_of_another_simulator_is_calibrated_and_its_grid_read_within_its_stated
         );
         assert!(rho[p] >= least, "{}: ρ {:.3}", HEALTH_NAMES[p], rho[p]);
     }
-    // Every error within 4 of its stated σ (measured 3.4). Not yet honest enough: D_GC is
-    // called separable (1σ under 0.25 points) on 6 of the 16 levels and missed there by up
-    // to 0.81 points (a healthy compressor read −0.81 beside HP-turbine erosion; fouling of 3.2
-    // read 2.6): the adapted model's stated error in health units, measured on healthy loads
-    // left out, does not see a response to degradation that the borrowed map scales otherwise
-    // (nor does the --ensemble spread: 0.03–0.20 there). The floor below is that, not a target.
-    assert!(worst_z <= 4.0, "worst |error|/σ {worst_z:.2}");
-    assert!(separable_miss <= 0.9, "{separable_miss:.2}");
+    // Every error within 3 of its stated σ (measured 2.44), and nothing called separable
+    // (1σ under 0.25 points) missed by more than twice that. Until the snapshot inputs' noise
+    // was in the σ (fuel and T1 scatter D_GC's read over 9 loads by 0.21 points), D_GC
+    // was called separable on 6 levels and missed there by up to 0.81 points (3.4 σ). The
+    // verdict still takes the inputs as exact (6 of 16 `good`, the rest `suspect`: these rows'
+    // inputs are spot readings, which `--noisy-inputs` is for).
+    assert!(worst_z <= 3.0, "worst |error|/σ {worst_z:.2}");
+    assert!(separable_miss <= 0.5, "{separable_miss:.2}");
+    assert!(good >= 5, "{good} of 16 fits good");
 }
 
 /// Measurement (ignored: a calibration in rounds, about 30 s): rows from just before an offline

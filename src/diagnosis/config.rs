@@ -200,9 +200,10 @@ pub struct DiagnosisConfig {
     /// Snapshots: each row's measured inputs (fuel flow, T1, n2; P1 where it gives the ambient
     /// pressure) carry one reading's instrument noise, and the fit runs under the covariance it
     /// gives the row's compared values (see [`super::steady::with_input_noise`]). Off (the
-    /// default): a row's inputs are exact, as a performance test's or a historian's averages
-    /// nearly are; on for spot readings. Method A's windows always carry their inputs' noise
-    /// (window means of the same record, σ/√n).
+    /// default): the fit and its verdict take a row's inputs as given, as a performance test's or
+    /// a historian's averages nearly are, and their noise is in the read's σ only
+    /// ([`super::steady::InputNoise::SigmaOnly`]); on for spot readings. Method A's windows
+    /// always carry their inputs' noise (window means of the same record, σ/√n).
     pub snapshot_input_noise: bool,
     /// Method A's stability criteria.
     pub steady: SteadyCriteria,

@@ -221,6 +221,18 @@ impl Objective {
         mut self,
         response: impl Fn(usize, Signal) -> Vec<f64>,
     ) -> Objective {
+        let columns = self.point_columns(response);
+        self.shared = Whitening::new(&columns);
+        self
+    }
+
+    /// The shared errors of [`Objective::with_shared_errors`] as residual-length columns in
+    /// noise units (one per point and error; all-zero columns left out), without fitting under
+    /// them.
+    pub(crate) fn point_columns(
+        &self,
+        response: impl Fn(usize, Signal) -> Vec<f64>,
+    ) -> Vec<Vec<f64>> {
         let n = self.terms.len();
         let mut columns: Vec<Vec<f64>> = Vec::new();
         let mut i = 0;
@@ -242,8 +254,7 @@ impl Objective {
             i += len;
         }
         columns.retain(|c| c.iter().any(|v| *v != 0.0));
-        self.shared = Whitening::new(&columns);
-        self
+        columns
     }
 
     /// Number of residuals.

@@ -14,9 +14,11 @@
 //! 1σ is the instrument's noise σ at that value (`[sensors]`): an average of many samples is
 //! more precise than that, but its instrument bias is not, so the one-sample σ is the honest
 //! scale; an adapted engine file's own model error (`[adaptation.model_error_pct]`) is added to
-//! it in quadrature, and a row below the adaptation's calibrated speeds is noted. The inputs are
-//! taken as exact unless [`DiagnosisConfig::snapshot_input_noise`] (`--noisy-inputs`: spot
-//! readings) gives them one reading's noise, which the fit then runs under. Pure
+//! it in quadrature, and a row below the adaptation's calibrated speeds is noted. The inputs
+//! carry one reading's noise as the compared values do: by default the fit and its verdict take
+//! them as given and their noise is added to the read's σ ([`InputNoise::SigmaOnly`]); with
+//! [`DiagnosisConfig::snapshot_input_noise`] (`--noisy-inputs`: spot readings) the fit runs
+//! under the covariance it gives each row's values. Pure
 //! orchestration of Method A's steady problem plus a CSV reader over any `io::Read`; opens no
 //! files, never prints.
 
@@ -24,8 +26,8 @@ use super::csv_input::{find_column, open_csv, parse_value, CsvError, AMBIENT_PRE
 use super::residual_table::{Cell, ResidualTable};
 use super::steady::{
     below_adaptation_note, beyond_calibration, health_error_note, input_noise_note,
-    model_error_note, relative_gg_speeds, with_input_noise, with_model_error, InputSigma,
-    SteadyData, SteadyProblem, SteadyWindow,
+    input_noise_sigma_note, model_error_note, relative_gg_speeds, with_input_noise,
+    with_model_error, InputNoise, InputSigma, SteadyData, SteadyProblem, SteadyWindow,
 };
 use super::unit_check::likely_unit;
 use super::{fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, Method, MethodResult};
@@ -423,6 +425,7 @@ pub(crate) fn steady_data(
         n1_hint_rpm,
         input_sd,
         input_response: Vec::new(),
+        input_noise: InputNoise::Fitted,
     };
     let m = engine.model_at(base, inputs.t_amb_k, inputs.p_amb_kpa);
     data.solve_on(&m).map_err(|e| unsolved(engine, snap, &e))?;
@@ -459,9 +462,11 @@ pub fn diagnose_snapshots(
             .into_iter()
             .chain(health_error_note(engine.cfg()))
             .collect();
-        if cfg.snapshot_input_noise {
-            assumptions.push(input_noise_note());
-        }
+        assumptions.push(if cfg.snapshot_input_noise {
+            input_noise_note()
+        } else {
+            input_noise_sigma_note()
+        });
         let mut points = Vec::new();
         let mut dropped = Vec::new();
         for (i, r) in &members {
@@ -475,11 +480,12 @@ pub fn diagnose_snapshots(
                         continue;
                     }
                     assumptions.extend(below_adaptation_note(engine, &p));
-                    let p = if cfg.snapshot_input_noise {
-                        with_input_noise(engine, &cfg.base, p)
-                    } else {
-                        p
-                    };
+                    // The inputs' noise: fitted under with `--noisy-inputs`, else in the σ
+                    // of a read fitted with the inputs as given (`InputNoise::SigmaOnly`).
+                    let mut p = with_input_noise(engine, &cfg.base, p);
+                    if !cfg.snapshot_input_noise {
+                        p.input_noise = InputNoise::SigmaOnly;
+                    }
                     points.push(with_model_error(engine, p));
                 }
                 Err(reason) => dropped.push(DroppedRow {
@@ -700,6 +706,70 @@ mod tests {
             "{}",
             report.failed[0].reason
         );
+    }
+
+    /// The inputs' noise widens the read's σ and leaves the read itself as the fit with the
+    /// inputs as given makes it: the same rows on a file whose fuel meter, T1 and n2 have no
+    /// noise read the same health, with a narrower σ; `--noisy-inputs` fits under that noise
+    /// instead and says so.
+    #[test]
+    fn the_inputs_noise_is_in_the_sigma_not_in_the_read() {
+        let engine = Engine::reference().expect("engine");
+        let truth = HealthParams::from_array([2.0, 1.0, 0.0, 0.0, 0.0, 0.0]);
+        let loads = [12.0, 15.0, 18.0, 21.0, 24.0, 27.0, 29.0, 31.0];
+        // Every row one group (the helper deals them into T0 and T1 by four).
+        let csv = snapshot_csv(&engine, &truth, &loads, 11).replace("\nT1,", "\nT0,");
+        let rows = read_snapshots(csv.as_bytes(), &HashMap::new(), Some("test")).expect("rows");
+        let mut quiet_cfg = engine.cfg().clone();
+        for ch in [
+            &mut quiet_cfg.sensors.fuel,
+            &mut quiet_cfg.sensors.t1,
+            &mut quiet_cfg.sensors.n2,
+        ] {
+            ch.noise_abs = 0.0;
+            ch.noise_rel = 0.0;
+        }
+        let quiet = Engine::new(quiet_cfg).expect("engine");
+        let cfg = DiagnosisConfig {
+            max_model_runs: 1500,
+            threads: Some(1),
+            ..DiagnosisConfig::default()
+        };
+        let read = |e: &Engine, cfg: &DiagnosisConfig| {
+            let report = diagnose_snapshots(e, &rows, cfg).expect("diagnosis");
+            assert!(report.failed.is_empty(), "{:?}", report.failed);
+            report.groups[0].clone()
+        };
+        let noisy = read(&engine, &cfg);
+        let exact = read(&quiet, &cfg);
+        let h = |g: &SnapshotGroup| g.result.health.to_array();
+        for (a, b) in h(&noisy).iter().zip(h(&exact)) {
+            assert!((a - b).abs() < 1e-9, "{:?} vs {:?}", h(&noisy), h(&exact));
+        }
+        for name in ["D_GC", "D_EC", "D_GT", "D_ET"] {
+            let (wide, narrow) = (noisy.result.sigma[name], exact.result.sigma[name]);
+            eprintln!("{name}: σ {wide:.3} with the inputs' noise, {narrow:.3} without");
+            assert!(wide > 1.2 * narrow, "{name}: σ {wide:.3} vs {narrow:.3}");
+        }
+        assert!(noisy
+            .assumptions
+            .iter()
+            .any(|a| a.contains("taken as given in the fit")));
+        let fitted = read(
+            &engine,
+            &DiagnosisConfig {
+                snapshot_input_noise: true,
+                ..cfg.clone()
+            },
+        );
+        assert!(fitted
+            .assumptions
+            .iter()
+            .any(|a| a.contains("noise of the measured inputs")));
+        assert!(h(&fitted)
+            .iter()
+            .zip(h(&noisy))
+            .any(|(a, b)| (a - b).abs() > 1e-6));
     }
 
     #[test]

@@ -150,3 +150,11 @@ pub(crate) fn input_noise_note() -> String {
      it gives the ambient pressure; [sensors]) gives each point's compared values"
         .into()
 }
+
+/// What [`InputNoise::SigmaOnly`](super::InputNoise::SigmaOnly) adds, for a report's
+/// assumptions.
+pub(crate) fn input_noise_sigma_note() -> String {
+    "inputs (fuel flow, T1, n2; P1 where it gives the ambient pressure) taken as given in the \
+     fit; what their instruments' noise ([sensors]) moves the read by is in its σ"
+        .into()
+}

@@ -19,7 +19,7 @@
 
 mod input_noise;
 
-pub(crate) use input_noise::{input_noise_note, with_input_noise};
+pub(crate) use input_noise::{input_noise_note, input_noise_sigma_note, with_input_noise};
 pub use input_noise::{InputSigma, INPUTS};
 
 use super::objective::Objective;
@@ -190,6 +190,29 @@ pub struct SteadyData {
     /// Per compared value (as [`SteadyData::outputs`]), its change per 1σ of each input
     /// ([`InputSigma`]'s order), from [`with_input_noise`]; empty: inputs taken as exact.
     pub input_response: Vec<[f64; INPUTS]>,
+    /// Where that response is carried: the fit's covariance, or the parameters' σ alone.
+    pub input_noise: InputNoise,
+}
+
+/// Where the noise of a point's measured inputs ([`SteadyData::input_response`]) is carried.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum InputNoise {
+    /// In the covariance the fit runs under (generalised least squares): Method A's window
+    /// means, snapshots with `--noisy-inputs`.
+    #[default]
+    Fitted,
+    /// In the health parameters' σ only: the fit takes the inputs as exact (a snapshot's
+    /// default, so the read is the one least squares gives), and what each input's σ would
+    /// move the read by, linearised, is added to the σ of the read
+    /// ([`crate::optim::uncertainty_with_inputs`]). A snapshot's fuel flow and T1 are
+    /// instruments like the compared ones (0.5 K at the compressor face is 0.09 % of corrected
+    /// speed, more than a tachometer's σ): on the independent simulator's unit
+    /// (`tests/foreign_simulator.rs`, 24 draws of its noise on one level of 9 loads) the
+    /// inputs' noise scattered D_GC's read by 0.21 points (fuel 0.15, T1 0.11), the compared
+    /// values' by 0.07, where the fit stated 0.14 for all of it. The fit's verdict still takes
+    /// the inputs as exact: judged under their noise, a foreign unit's level read 0.74 points
+    /// off was called `good`, and an input's error must not pass for a fit.
+    SigmaOnly,
 }
 
 impl SteadyData {
@@ -460,6 +483,7 @@ pub fn average_windows(
             // The ambient pressure is the mean of P1 at rest over the record: exact here.
             input_sd: InputSigma::of(&cfg.sensors, &inputs, t1.is_some(), samples),
             input_response: Vec::new(),
+            input_noise: InputNoise::Fitted,
         });
     }
     out
@@ -472,6 +496,9 @@ pub struct SteadyProblem {
     /// Healthy solutions, the Newton start of every solve (keeps evaluations independent).
     guesses: Vec<SteadyPoint>,
     objective: Objective,
+    /// The residuals' change per 1σ of each input of each [`InputNoise::SigmaOnly`] point
+    /// (noise units, residual-length; empty when none): the inputs' part of the σ.
+    input_columns: Vec<Vec<f64>>,
     params: ParamMap,
     least_squares: bool,
     runs: AtomicUsize,
@@ -500,15 +527,25 @@ impl SteadyProblem {
         } else {
             None
         };
-        // Each point's values share its inputs' errors: fitted under that covariance.
-        let objective = Objective::from_points(&pts).with_shared_errors(|k, s| {
-            let p = &kept[k];
-            p.outputs
-                .iter()
-                .position(|o| o.0 == s)
-                .and_then(|i| p.input_response.get(i))
-                .map_or_else(Vec::new, |r| r.to_vec())
-        });
+        // Each point's values share its inputs' errors: fitted under that covariance, or
+        // (`InputNoise::SigmaOnly`) carried into the parameters' σ alone.
+        let kept_ref = &kept;
+        let response = |mode: InputNoise| {
+            move |k: usize, s: Signal| {
+                let p = &kept_ref[k];
+                if p.input_noise != mode {
+                    return Vec::new();
+                }
+                p.outputs
+                    .iter()
+                    .position(|o| o.0 == s)
+                    .and_then(|i| p.input_response.get(i))
+                    .map_or_else(Vec::new, |r| r.to_vec())
+            }
+        };
+        let objective = Objective::from_points(&pts);
+        let input_columns = objective.point_columns(response(InputNoise::SigmaOnly));
+        let objective = objective.with_shared_errors(response(InputNoise::Fitted));
         if objective.len() <= cfg.n_fitted() {
             return Err(DiagnosisError::Data(format!(
                 "Method A needs more averaged values than parameters: {} steady point(s) give {} values for {} parameters",
@@ -522,6 +559,7 @@ impl SteadyProblem {
             points: kept,
             guesses,
             objective,
+            input_columns,
             params: ParamMap::for_diagnosis(
                 &cfg.free(),
                 cfg.base,
@@ -590,10 +628,24 @@ impl SteadyProblem {
     fn residual_inflation(&self, _r: &[f64]) -> f64 {
         1.0 // window means are independent
     }
-    fn input_draws(&self, _x: &[f64]) -> Vec<Vec<f64>> {
-        // The inputs' noise is in the residuals' covariance (`with_input_noise`): the fit's own
-        // σ carries it.
-        Vec::new()
+    fn input_draws(&self, x: &[f64]) -> Vec<Vec<f64>> {
+        // Fitted inputs' noise is in the residuals' covariance (`with_input_noise`): the fit's
+        // own σ carries it. Inputs taken as exact in the fit (`InputNoise::SigmaOnly`): each
+        // one's 1σ column is a draw, scaled by √(columns) so that the mean square over the
+        // draws is the sum over the inputs, the linearised variance they add.
+        if self.input_columns.is_empty() {
+            return Vec::new();
+        }
+        let Ok(model) = self.simulate(x) else {
+            return Vec::new();
+        };
+        let mut r = Vec::new();
+        self.objective.residuals(&model, &mut r);
+        let scale = (self.input_columns.len() as f64).sqrt();
+        self.input_columns
+            .iter()
+            .map(|c| r.iter().zip(c).map(|(a, b)| a - scale * b).collect())
+            .collect()
     }
     fn whiten(&self, _r: &mut [f64]) {
         // The objective's residuals are whitened already (`Objective::with_shared_errors`).

@@ -24,6 +24,7 @@ fn point(t_amb_k: f64, outputs: Vec<(Signal, f64, f64)>) -> SteadyData {
         n1_hint_rpm: None,
         input_sd: InputSigma::default(),
         input_response: Vec::new(),
+        input_noise: InputNoise::Fitted,
     }
 }
 
