@@ -14,7 +14,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
 
 use gtwatch::diagnosis::fit_quality::Verdict;
-use gtwatch::diagnosis::snapshot::{diagnose_snapshots, read_snapshots};
+use gtwatch::diagnosis::snapshot::{diagnose_snapshots, read_snapshots, SnapshotReport};
 use gtwatch::diagnosis::steady::steady_reading;
 use gtwatch::diagnosis::DiagnosisConfig;
 use gtwatch::engine::sensors::noise_sigma;
@@ -110,66 +110,22 @@ fn noisy_inputs_are_carried_into_the_fit_and_its_sigma() {
         let rows = read_snapshots(csv(&engine, seed).as_bytes(), &HashMap::new(), Some("test"))
             .expect("rows");
         let plain = diagnose_snapshots(&engine, &rows, &exact).expect("diagnosis");
-        let g = &plain.groups[0];
-        let (q, r) = (&g.result.fit_quality, &g.result);
-        println!(
-            "seed {seed}, inputs as given: {:?} {:.2}, D_GC {:.3} ± {:.3}, D_EC {:.3} ± {:.3}",
-            q.verdict,
-            q.normalised_residual,
-            r.health.D_GC,
-            r.sigma["D_GC"],
-            r.health.D_EC,
-            r.sigma["D_EC"]
-        );
-        assert!(
-            g.assumptions
-                .iter()
-                .any(|a| a.contains("taken as given in the fit")),
-            "{:?}",
-            g.assumptions
-        );
+        let q = scored(&plain, seed, "inputs as given", "taken as given in the fit");
         poor_when_exact += usize::from(q.verdict == Verdict::Poor);
-        let est = r.health.to_array();
-        for (j, name) in ["D_GC", "D_EC"].iter().enumerate() {
-            let z = (est[j] - truth[j]) / r.sigma[*name];
-            assert!(
-                z.abs() < 3.0,
-                "seed {seed}, inputs as given: {name} off by {z:.2} σ"
-            );
-            z2_given[j] += z * z / n;
-        }
+        accumulate(&q, &truth, n, &mut z2_given);
         let report = diagnose_snapshots(&engine, &rows, &cfg).expect("diagnosis");
-        assert!(report.failed.is_empty(), "{:?}", report.failed);
-        let g = &report.groups[0];
-        assert!(
-            g.assumptions
-                .iter()
-                .any(|a| a.contains("noise of the measured inputs")),
-            "{:?}",
-            g.assumptions
-        );
-        let r = &g.result;
-        let q = &r.fit_quality;
-        println!(
-            "seed {seed}: {:?} {:.2}, D_GC {:.3} ± {:.3}, D_EC {:.3} ± {:.3}",
-            q.verdict,
-            q.normalised_residual,
-            r.health.D_GC,
-            r.sigma["D_GC"],
-            r.health.D_EC,
-            r.sigma["D_EC"]
+        let q = scored(
+            &report,
+            seed,
+            "inputs' noise fitted",
+            "noise of the measured inputs",
         );
         // The model is the truth's: its noisy snapshots are never said not to fit.
         assert_ne!(q.verdict, Verdict::Poor, "seed {seed}: {q:?}");
         if q.verdict == Verdict::Good {
             good += 1;
         }
-        let est = r.health.to_array();
-        for (j, name) in ["D_GC", "D_EC"].iter().enumerate() {
-            let z = (est[j] - truth[j]) / r.sigma[*name];
-            assert!(z.abs() < 3.0, "seed {seed}: {name} off by {z:.2} σ");
-            z2[j] += z * z / n;
-        }
+        accumulate(&q, &truth, n, &mut z2);
     }
     // The σ covers the error (its RMS in σ units near 1, not 2 or 3), in both modes; and not
     // by far more than the error (a σ that covered it tenfold would say nothing).
@@ -195,6 +151,50 @@ fn noisy_inputs_are_carried_into_the_fit_and_its_sigma() {
         poor_when_exact >= 1,
         "the defect this guards against shows without the option"
     );
+}
+
+/// One diagnosis of the seed's rows: its read, σ and verdict, after checking it was made in
+/// `mode` (its assumptions say `says`) and printing it.
+#[derive(Debug)]
+struct Scored {
+    verdict: Verdict,
+    normalised_residual: f64,
+    health: [f64; 6],
+    sigma: [f64; 2],
+    label: String,
+}
+
+fn scored(report: &SnapshotReport, seed: u64, mode: &str, says: &str) -> Scored {
+    assert!(report.failed.is_empty(), "{:?}", report.failed);
+    let g = &report.groups[0];
+    assert!(
+        g.assumptions.iter().any(|a| a.contains(says)),
+        "{:?}",
+        g.assumptions
+    );
+    let r = &g.result;
+    let q = Scored {
+        verdict: r.fit_quality.verdict,
+        normalised_residual: r.fit_quality.normalised_residual,
+        health: r.health.to_array(),
+        sigma: [r.sigma["D_GC"], r.sigma["D_EC"]],
+        label: format!("seed {seed}, {mode}"),
+    };
+    println!(
+        "{}: {:?} {:.2}, D_GC {:.3} ± {:.3}, D_EC {:.3} ± {:.3}",
+        q.label, q.verdict, q.normalised_residual, q.health[0], q.sigma[0], q.health[1], q.sigma[1]
+    );
+    q
+}
+
+/// Adds the squared errors of D_GC and D_EC in units of their σ (over `n` seeds) to `z2`; each
+/// within 3 σ.
+fn accumulate(q: &Scored, truth: &[f64; 6], n: f64, z2: &mut [f64; 2]) {
+    for (j, name) in ["D_GC", "D_EC"].iter().enumerate() {
+        let z = (q.health[j] - truth[j]) / q.sigma[j];
+        assert!(z.abs() < 3.0, "{}: {name} off by {z:.2} σ", q.label);
+        z2[j] += z * z / n;
+    }
 }
 
 /// The CLI's `--noisy-inputs` turns it on and says so among the assumptions.
