@@ -31,6 +31,7 @@ use super::startup::RestReading;
 use super::CalibrateError;
 use crate::diagnosis::snapshot::{steady_data, DroppedRow, Snapshot};
 use crate::diagnosis::steady::{steady_reading, SteadyData};
+use crate::engine::design::DesignCycles;
 use crate::engine::load::PtLoad;
 use crate::engine::sensors::noise_sigma;
 use crate::engine::steady::{Demand, SteadyPoint};
@@ -39,6 +40,7 @@ use crate::health::HealthParams;
 use crate::optim::{Bounds, Problem, ResidualProblem};
 use crate::signals::Signal;
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
 
 /// One operating point of the calibration (healthy, or from before a wash at its fouling).
 #[derive(Debug, Clone, PartialEq)]
@@ -115,6 +117,9 @@ pub struct CalibrationProblem {
     /// Per point, when the problem is posed on the measured GG speed ([`Self::on_gg_speed`]):
     /// σ of its fuel-flow residual, kg/s; `None` for a point solved on its fuel flow.
     speed_given: Vec<Option<f64>>,
+    /// The design cycles of recent evaluations' engines (most evaluations move no number the
+    /// cycle reads: it is taken over, bit for bit, not solved again).
+    cycles: Arc<DesignCycles>,
 }
 
 /// Points prepared from snapshot rows: the rows whose healthy solve failed (by line), and how
@@ -197,6 +202,7 @@ impl CalibrationProblem {
             runs: RunCount::default(),
             smoothness: Vec::new(),
             speed_given: Vec::new(),
+            cycles: Arc::new(engine.design_cycles()),
         })
     }
 
@@ -271,7 +277,7 @@ impl CalibrationProblem {
             .map(|(c, v)| (c.key.clone(), *v))
             .collect();
         self.engine
-            .with_params(&values)
+            .with_params_cycles(&values, &self.cycles)
             .map_err(|e| CalibrateError::Model(e.to_string()))
     }
 
@@ -360,6 +366,7 @@ pub fn residuals_on(
         runs: RunCount::default(),
         smoothness: Vec::new(),
         speed_given: Vec::new(),
+        cycles: Arc::new(DesignCycles::default()),
     };
     let starts = solve_all(engine, points)?;
     prob.residuals_of_engine(engine, Some(&starts))

@@ -4,13 +4,87 @@
 //! The table fixes pressure ratio, compressor efficiency, exhaust flow and power; the cycle
 //! assumptions fix losses and turbine efficiencies. T3 is the one unknown: it is found so that
 //! the power at the PT coupling equals the table value. The map scalers are then derived from
-//! this cycle in [`super::model::Engine::new`]. Pure arithmetic, no I/O.
+//! this cycle in [`super::model::Engine::new`]. Pure arithmetic, no I/O; [`DesignCycles`]
+//! keeps a few solved cycles so that an engine rebuilt with the same cycle numbers takes its
+//! cycle over (the same numbers, less work).
 
-use super::config::EngineConfig;
+use super::config::{AmbientConfig, DesignConfig, DynamicsConfig, EngineConfig, FuelConfig};
 use super::cycle::ShaftLosses;
 use super::error::EngineError;
 use super::gas_path::{mixed_with_air, Stations, Stream};
 use crate::thermo::{Fuel, Gas};
+use std::sync::Mutex;
+
+/// How many solved cycles [`DesignCycles`] keeps.
+const KEPT_CYCLES: usize = 8;
+
+/// Every number of an engine file the design cycle reads: the design table, the ambient, the
+/// dynamics section (its shaft losses) and the fuel.
+#[derive(Debug, Clone, PartialEq)]
+struct CycleInputs {
+    design: DesignConfig,
+    ambient: AmbientConfig,
+    dynamics: DynamicsConfig,
+    fuel: Option<FuelConfig>,
+}
+
+impl CycleInputs {
+    fn of(cfg: &EngineConfig) -> CycleInputs {
+        CycleInputs {
+            design: cfg.design.clone(),
+            ambient: cfg.ambient.clone(),
+            dynamics: cfg.dynamics.clone(),
+            fuel: cfg.fuel.clone(),
+        }
+    }
+
+    fn are_of(&self, cfg: &EngineConfig) -> bool {
+        self.design == cfg.design
+            && self.ambient == cfg.ambient
+            && self.dynamics == cfg.dynamics
+            && self.fuel == cfg.fuel
+    }
+}
+
+/// The last few design cycles solved, each with the numbers it was solved from: an engine
+/// rebuilt from a file whose cycle numbers are those of one of them takes that cycle over
+/// instead of solving it again. Why: a calibration's Jacobian moves one number at a time,
+/// mostly an adaptation curve's knot, which leaves the cycle as it was, and solving it again
+/// was a tenth of a foreign unit's calibration time. The cycle is a pure function of those
+/// numbers (compared exactly), so an engine is the same bit for bit with or without this; it
+/// only saves the work. Shared between the threads of one problem (a lock held only to look
+/// up or store).
+#[derive(Debug, Default)]
+pub(crate) struct DesignCycles {
+    kept: Mutex<Vec<(CycleInputs, Stations)>>,
+}
+
+impl DesignCycles {
+    /// Holding the cycle of `cfg`, already solved (`design`: an engine's own design point).
+    pub(crate) fn with(cfg: &EngineConfig, design: &Stations) -> DesignCycles {
+        DesignCycles {
+            kept: Mutex::new(vec![(CycleInputs::of(cfg), *design)]),
+        }
+    }
+
+    /// The design cycle of `cfg` ([`design_cycle`]), taken over when kept.
+    pub(crate) fn cycle(&self, cfg: &EngineConfig, fuel: &Fuel) -> Result<Stations, EngineError> {
+        if let Ok(kept) = self.kept.lock() {
+            if let Some((_, s)) = kept.iter().find(|(k, _)| k.are_of(cfg)) {
+                return Ok(*s);
+            }
+        }
+        let solved = design_cycle(cfg, fuel)?;
+        // A poisoned lock (a panic elsewhere) only costs the memo.
+        if let Ok(mut kept) = self.kept.lock() {
+            if kept.len() >= KEPT_CYCLES {
+                kept.remove(0);
+            }
+            kept.push((CycleInputs::of(cfg), solved));
+        }
+        Ok(solved)
+    }
+}
 
 /// Fuel flow for a given T3 at fixed total exhaust flow (fixed point, converges in a few steps):
 /// W_air·h2 + W_f·(η_b·LHV + h_fuel) = (W_air + W_f)·h3, where of the exhaust flow less the

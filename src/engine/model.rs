@@ -7,6 +7,7 @@
 
 use super::config::{EngineConfig, MapInterpolation, PressureLossLaw, SpeedOf};
 use super::cycle::{ShaftLosses, P_STD_KPA, T_STD_K};
+use super::design::DesignCycles;
 use super::effects::EffectSet;
 use crate::health::HealthParams;
 use crate::maps::{self, CompressorMap, ScaledCompressor, ScaledTurbine, TurbineMap};
@@ -298,12 +299,22 @@ impl Engine {
 
     /// Design calibration and frozen constants from `cfg` on already loaded maps.
     pub(crate) fn calibrate(cfg: EngineConfig, maps: RawMaps) -> Result<Engine, EngineError> {
+        Engine::calibrate_with(cfg, maps, &DesignCycles::default())
+    }
+
+    /// [`Engine::calibrate`] taking the design cycle from `cycles` where it holds the one of
+    /// `cfg` (the same engine, bit for bit; see [`DesignCycles`]).
+    pub(crate) fn calibrate_with(
+        cfg: EngineConfig,
+        maps: RawMaps,
+        cycles: &DesignCycles,
+    ) -> Result<Engine, EngineError> {
         let comp_map = Arc::clone(&maps.comp);
         let hpt_map = Arc::clone(&maps.hpt);
         let pt_map = Arc::clone(&maps.pt);
         let effects = Arc::new(Engine::build_effects(&cfg)?);
         let fuel = cfg.fuel()?;
-        let mut design = super::design::design_cycle(&cfg, &fuel)?;
+        let mut design = cycles.cycle(&cfg, &fuel)?;
         let d = &cfg.design;
         let m = &cfg.maps;
         let theta1 = design.t1_k / T_STD_K;
@@ -452,6 +463,15 @@ impl Engine {
     }
 
     /// The maps this engine was calibrated on (for a rebuild after a parameter change).
+    /// A [`DesignCycles`] holding this engine's own design cycle.
+    pub(crate) fn design_cycles(&self) -> DesignCycles {
+        let mut cycle = self.design;
+        // As the cycle leaves them: the engine fills them in from its scaled map.
+        cycle.compressor_beta = 0.0;
+        cycle.surge_margin_pct = 0.0;
+        DesignCycles::with(self.cfg(), &cycle)
+    }
+
     pub(crate) fn raw_maps(&self) -> &RawMaps {
         &self.maps
     }

@@ -4,7 +4,7 @@
 //! Unknowns (normalised by design values): GG speed n1, compressor β, PT inlet pressure P34 and
 //! fuel flow; one of them is fixed or replaced by the demand. Residuals: HPT flow compatibility,
 //! PT flow compatibility, GG work balance, and (for a power demand) the power. Newton's method
-//! with a finite-difference Jacobian and backtracking; far off-design demands are reached by
+//! with a finite-difference Jacobian, Broyden's updates of it and backtracking; far off-design demands are reached by
 //! continuation from the design point, and past a fold of the demand (near idle the fuel flow
 //! is not monotone in GG speed) by walking the running line in GG speed. A demand beyond every
 //! running point is refused with the extreme point reached. Pure: no I/O.
@@ -188,6 +188,17 @@ fn valid(x: &Unknowns, model: &Model, inp: &SteadyInputs) -> bool {
         && x.0.iter().all(|v| v.is_finite())
 }
 
+/// Residual norm below which a steady point is converged.
+const CONVERGED: f64 = 1e-11;
+/// Residual norm Broyden's iterations go on towards while a whole step still lowers the norm
+/// (one evaluation each). Why: Newton's last step, quadratic, used to land far below
+/// [`CONVERGED`]; Broyden's, superlinear, stops just under it, and a calibration's
+/// finite-difference Jacobian (steps of 1e-3 of an interval) then read that noise: the
+/// continuation-shaped adaptation of a foreign unit predicted its left-out full load 0.53 %
+/// off (worst signal 1.02 %); polished, 0.37 % (0.81 %), as with Newton's full Jacobians
+/// (0.39 %, 0.80 %).
+const POLISHED: f64 = 1e-14;
+
 /// Newton iteration from `x0`; returns the converged unknowns.
 fn newton(
     model: &Model,
@@ -195,67 +206,137 @@ fn newton(
     x0: Unknowns,
     stats: &mut SolveStats,
 ) -> Result<Unknowns, String> {
+    newton_at(model, inp, x0, stats).map(|(x, _)| x)
+}
+
+/// [`newton`], with the point at the converged unknowns (evaluated there on the way).
+///
+/// The Jacobian is taken by finite differences at the first iterate only; each step taken then
+/// updates it by Broyden's rank-one rule (the residuals' change along the step), and a step the
+/// updated Jacobian cannot make descend is retried on a fresh finite-difference one. Why: a
+/// finite-difference Jacobian costs one gas-path evaluation per free unknown, so a warm start
+/// needing three iterations spent 13–16 evaluations on what Broyden's iterations, one
+/// evaluation each, finish in about half (`gtwatch bench steady`); the steady solve is most of
+/// a calibration's and a snapshot diagnosis's time. The stopping rule is the same, so the point
+/// is the same within its tolerance.
+fn newton_at(
+    model: &Model,
+    inp: &SteadyInputs,
+    x0: Unknowns,
+    stats: &mut SolveStats,
+) -> Result<(Unknowns, SteadyPoint), String> {
     let (free, rows) = layout(inp.demand);
     let mut x = x0;
     fix_demand(model, inp.demand, &mut x);
     let mut ev = evaluate(model, inp, &x);
     stats.evaluations += 1;
     let mut f = norm(&ev.residuals, rows);
+    let mut updated: Option<DMatrix<f64>> = None;
     for _iter in 0..60 {
-        if f < 1e-11 {
-            return Ok(x);
+        if f < POLISHED {
+            return Ok((x, ev.point));
         }
         stats.newton_iterations += 1;
-        let n = free.len();
-        let mut jac = DMatrix::<f64>::zeros(n, n);
-        for (j, &k) in free.iter().enumerate() {
-            let h = 1e-7 * x.0[k].abs().max(1e-2);
-            let mut xp = x;
-            xp.0[k] += h;
-            let evp = evaluate(model, inp, &xp);
-            stats.evaluations += 1;
-            for (i, &r) in rows.iter().enumerate() {
-                jac[(i, j)] = (evp.residuals[r] - ev.residuals[r]) / h;
-            }
-        }
-        let rhs = DVector::from_iterator(n, rows.iter().map(|&r| -ev.residuals[r]));
-        let dx = jac
-            .lu()
-            .solve(&rhs)
-            .ok_or("singular Jacobian (no unique operating point)")?;
-        // Backtracking: accept the largest step that keeps the point valid and lowers |r|.
-        let mut lambda = 1.0;
-        let mut accepted = false;
-        for _ in 0..30 {
-            let mut xn = x;
-            for (j, &k) in free.iter().enumerate() {
-                xn.0[k] += lambda * dx[j];
-            }
-            if valid(&xn, model, inp) {
-                let evn = evaluate(model, inp, &xn);
-                stats.evaluations += 1;
-                let fnew = norm(&evn.residuals, rows);
-                if fnew.is_finite() && fnew < f {
-                    x = xn;
-                    ev = evn;
-                    f = fnew;
-                    accepted = true;
-                    break;
+        let (jac, fresh) = match updated.take() {
+            Some(j) => (j, false),
+            None => (fd_jacobian(model, inp, &x, &ev, stats), true),
+        };
+        // Once converged, a step is only tried whole: where it no longer lowers the norm the
+        // point is as good as the arithmetic allows.
+        let halvings = if f < CONVERGED { 0 } else { 30 };
+        match descend(model, inp, (&x, &ev, f), &jac, halvings, stats) {
+            Ok((xn, evn, fnew)) => {
+                // Broyden: J += (Δr − J·s) sᵀ / (sᵀ s) for the step s taken.
+                let s = DVector::from_iterator(free.len(), free.iter().map(|&k| xn.0[k] - x.0[k]));
+                let dr = DVector::from_iterator(
+                    rows.len(),
+                    rows.iter().map(|&r| evn.residuals[r] - ev.residuals[r]),
+                );
+                let ss = s.dot(&s);
+                let mut jac = jac;
+                if ss > 0.0 {
+                    let miss = dr - &jac * &s;
+                    jac += miss * s.transpose() / ss;
                 }
+                updated = Some(jac);
+                x = xn;
+                ev = evn;
+                f = fnew;
             }
-            lambda *= 0.5;
-        }
-        if !accepted {
-            return Err(format!("Newton stalled with residual norm {f:.3e}"));
+            Err(_) if f < CONVERGED => return Ok((x, ev.point)),
+            Err(e) if fresh => return Err(e),
+            // The updated Jacobian led nowhere: the next iteration takes a fresh one here.
+            Err(_) => {}
         }
     }
     if f < 1e-9 {
-        Ok(x)
+        Ok((x, ev.point))
     } else {
         Err(format!(
             "no convergence after 60 iterations (residual norm {f:.3e})"
         ))
     }
+}
+
+/// The Jacobian of the used residuals over the free unknowns at `x` (residuals `ev`), by
+/// forward differences.
+fn fd_jacobian(
+    model: &Model,
+    inp: &SteadyInputs,
+    x: &Unknowns,
+    ev: &Evaluated,
+    stats: &mut SolveStats,
+) -> DMatrix<f64> {
+    let (free, rows) = layout(inp.demand);
+    let n = free.len();
+    let mut jac = DMatrix::<f64>::zeros(rows.len(), n);
+    for (j, &k) in free.iter().enumerate() {
+        let h = 1e-7 * x.0[k].abs().max(1e-2);
+        let mut xp = *x;
+        xp.0[k] += h;
+        let evp = evaluate(model, inp, &xp);
+        stats.evaluations += 1;
+        for (i, &r) in rows.iter().enumerate() {
+            jac[(i, j)] = (evp.residuals[r] - ev.residuals[r]) / h;
+        }
+    }
+    jac
+}
+
+/// One Newton step on `jac` from `(x, its residuals, their norm)`, backtracking: the largest
+/// step that keeps the point valid and lowers the residual norm, with the point there.
+fn descend(
+    model: &Model,
+    inp: &SteadyInputs,
+    (x, ev, f): (&Unknowns, &Evaluated, f64),
+    jac: &DMatrix<f64>,
+    halvings: usize,
+    stats: &mut SolveStats,
+) -> Result<(Unknowns, Evaluated, f64), String> {
+    let (free, rows) = layout(inp.demand);
+    let rhs = DVector::from_iterator(rows.len(), rows.iter().map(|&r| -ev.residuals[r]));
+    let dx = jac
+        .clone()
+        .lu()
+        .solve(&rhs)
+        .ok_or("singular Jacobian (no unique operating point)")?;
+    let mut lambda = 1.0;
+    for _ in 0..=halvings {
+        let mut xn = *x;
+        for (j, &k) in free.iter().enumerate() {
+            xn.0[k] += lambda * dx[j];
+        }
+        if valid(&xn, model, inp) {
+            let evn = evaluate(model, inp, &xn);
+            stats.evaluations += 1;
+            let fnew = norm(&evn.residuals, rows);
+            if fnew.is_finite() && fnew < f {
+                return Ok((xn, evn, fnew));
+            }
+        }
+        lambda *= 0.5;
+    }
+    Err(format!("Newton stalled with residual norm {f:.3e}"))
 }
 
 fn design_guess(model: &Model) -> Unknowns {
@@ -318,8 +399,8 @@ fn solve_counted(
     let x0 = guess
         .map(|g| guess_from(model, g))
         .unwrap_or_else(|| design_guess(model));
-    if let Ok(x) = newton(model, inp, x0, stats) {
-        return Ok(evaluate(model, inp, &x).point);
+    if let Ok((_, point)) = newton_at(model, inp, x0, stats) {
+        return Ok(point);
     }
     // Continuation: start from the design point's own demand value and step towards the target.
     let design = newton(
@@ -753,7 +834,9 @@ mod tests {
         let inp = iso(Demand::PowerMw(20.0));
         let (p, cold) = solve_with_stats(&m, &inp, None).expect("solves");
         assert!(cold.newton_iterations >= 2, "{cold:?}");
-        assert!(cold.evaluations > 4 * cold.newton_iterations, "{cold:?}");
+        // The first iteration's finite-difference Jacobian (4 free unknowns for a power
+        // demand) and the start, then one or more evaluations per Broyden step.
+        assert!(cold.evaluations > 4 + cold.newton_iterations, "{cold:?}");
         assert_eq!(solve(&m, &inp, None).expect("solves"), p);
         let (q, warm) = solve_with_stats(&m, &inp, Some(&p)).expect("solves");
         assert!(warm.newton_iterations <= 1, "{warm:?}");
