@@ -339,6 +339,8 @@ pub struct FitOutcome {
     /// 1σ per free parameter from the noise of the measured inputs (added to `sigma` in
     /// quadrature once `sigma` is inflated for correlated residuals).
     pub input_sigma: Vec<f64>,
+    /// Correlation of that part between the free parameters (zeros where not estimated).
+    pub input_correlation: Vec<Vec<f64>>,
 }
 
 fn unit_step_jacobian(cfg: &DiagnosisConfig) -> Result<JacobianOptions, OptimError> {
@@ -418,13 +420,20 @@ pub fn fit<P: DiagnosisProblem>(
             Err(e) => return Err(e.into()),
         }
     }
-    let unknown = || (vec![f64::INFINITY; n], vec![vec![0.0; n]; n], vec![0.0; n]);
-    let (sigma, correlation, input_sigma) = if cancel.is_cancelled() {
+    let unknown = || {
+        (
+            vec![f64::INFINITY; n],
+            vec![vec![0.0; n]; n],
+            vec![0.0; n],
+            vec![vec![0.0; n]; n],
+        )
+    };
+    let (sigma, correlation, input_sigma, input_correlation) = if cancel.is_cancelled() {
         unknown()
     } else {
         let draws = problem.input_noise_draws(&x);
         match uncertainty_with_inputs(&*problem, &x, &unit_step_jacobian(cfg)?, pool, &draws) {
-            Ok(u) => (u.sigma, u.correlation, u.input_sigma),
+            Ok(u) => (u.sigma, u.correlation, u.input_sigma, u.input_correlation),
             Err(OptimError::NonFiniteResiduals) | Err(OptimError::TooFewResiduals { .. }) => {
                 unknown()
             }
@@ -438,6 +447,7 @@ pub fn fit<P: DiagnosisProblem>(
         sigma,
         correlation,
         input_sigma,
+        input_correlation,
     })
 }
 
@@ -473,8 +483,7 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
         };
         fit_part(k, s).hypot(model)
     };
-    // Parameter k's σ from the fit alone and in all (∞ where the fit has none).
-    let fit_sigma = |k: usize| fit.sigma.get(k).map_or(f64::INFINITY, |&s| fit_part(k, s));
+    // Parameter k's σ in all (∞ where the fit has none).
     let total_sigma = |k: usize| fit.sigma.get(k).map_or(f64::INFINITY, |&s| total(k, s));
     for (k, (p, &s)) in pm.params().iter().zip(&fit.sigma).enumerate() {
         if let ParamTarget::Health(i) = p.target {
@@ -513,22 +522,26 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
             index: i,
             value: fit.x[k],
             sigma: total_sigma(k),
-            // The model's own error, independent between parameters, weakens the fit's
-            // correlations: ρ·σₖσₗ over the totals.
+            // Each part's covariance with its own correlation, over the totals: the residuals'
+            // ρ·σₖσₗ, the inputs' (one fuel meter moves D_GC and D_GT together) and the
+            // model's own error, independent between parameters, which weakens both.
             correlation: health_at
                 .iter()
                 .map(|&(l, _)| {
-                    let rho = fit
-                        .correlation
-                        .get(k)
-                        .and_then(|row| row.get(l))
-                        .copied()
-                        .unwrap_or(0.0);
-                    let scale = (fit_sigma(k) * fit_sigma(l)) / (total_sigma(k) * total_sigma(l));
-                    if k == l || !scale.is_finite() {
+                    let at = |m: &[Vec<f64>]| {
+                        m.get(k).and_then(|row| row.get(l)).copied().unwrap_or(0.0)
+                    };
+                    let rho = at(&fit.correlation);
+                    let residual_part =
+                        |m: usize| fit.sigma.get(m).map_or(f64::INFINITY, |&s| s * inflation);
+                    let input_part = |m: usize| fit.input_sigma.get(m).copied().unwrap_or(0.0);
+                    let cov = rho * residual_part(k) * residual_part(l)
+                        + at(&fit.input_correlation) * input_part(k) * input_part(l);
+                    let r = cov / (total_sigma(k) * total_sigma(l));
+                    if k == l || !r.is_finite() {
                         rho
                     } else {
-                        rho * scale
+                        r
                     }
                 })
                 .collect(),

@@ -43,6 +43,9 @@ pub struct Uncertainty {
     /// where not identifiable): the spread of the linearised re-fits to the residual vectors
     /// the caller computed at `x` with other draws of that noise. Not part of `covariance`.
     pub input_sigma: Vec<f64>,
+    /// Correlation of that part between parameters (one input, the fuel meter, moves several
+    /// parameters together); 1 on the diagonal, 0 where either part is 0 or not identifiable.
+    pub input_correlation: Vec<Vec<f64>>,
 }
 
 /// Uncertainty of the parameters `x` (physical units) of `problem`, from the residual
@@ -138,15 +141,30 @@ pub fn uncertainty_with_inputs<P: ResidualProblem + ?Sized>(
         }
     }
     let sigma: Vec<f64> = (0..n).map(|i| covariance[i][i].max(0.0).sqrt()).collect();
-    let input_sigma = input_spread(&cov_unit, &scores, &identifiable)
-        .iter()
-        .enumerate()
-        .map(|(i, v)| {
+    let spread = input_spread(&cov_unit, &scores, &identifiable);
+    let input_sigma = (0..n)
+        .map(|i| {
             if identifiable[i] {
-                v.sqrt() * bounds.width(i)
+                spread[i][i].max(0.0).sqrt() * bounds.width(i)
             } else {
                 f64::INFINITY
             }
+        })
+        .collect();
+    let input_correlation = (0..n)
+        .map(|i| {
+            (0..n)
+                .map(|j| {
+                    let scale = (spread[i][i] * spread[j][j]).sqrt();
+                    if i == j {
+                        1.0
+                    } else if identifiable[i] && identifiable[j] && scale > 0.0 {
+                        (spread[i][j] / scale).clamp(-1.0, 1.0)
+                    } else {
+                        0.0
+                    }
+                })
+                .collect()
         })
         .collect();
     let mut correlation = vec![vec![0.0; n]; n];
@@ -174,6 +192,7 @@ pub fn uncertainty_with_inputs<P: ResidualProblem + ?Sized>(
         rank,
         evals: used + 1,
         input_sigma,
+        input_correlation,
     })
 }
 
@@ -197,23 +216,30 @@ fn input_scores(jac: &nalgebra::DMatrix<f64>, r: &[f64], draws: &[Vec<f64>]) -> 
         .collect()
 }
 
-/// Per parameter (unit scale), the mean square of the linearised re-fits `B s_j` over the
-/// draws' `scores` (`B = (JᵀJ)⁺`; columns of parameters that are not identifiable left out);
-/// zeros without any.
-fn input_spread(bread: &[Vec<f64>], scores: &[Vec<f64>], identifiable: &[bool]) -> Vec<f64> {
+/// The mean product of the linearised re-fits `B s_j` over the draws' `scores`, parameter by
+/// parameter (unit scale; `B = (JᵀJ)⁺`, columns of parameters that are not identifiable left
+/// out): the input part's covariance. Zeros without any draw.
+fn input_spread(bread: &[Vec<f64>], scores: &[Vec<f64>], identifiable: &[bool]) -> Vec<Vec<f64>> {
     let n = bread.len();
-    let mut acc = vec![0.0; n];
+    let mut acc = vec![vec![0.0; n]; n];
     for score in scores {
-        for (i, ai) in acc.iter_mut().enumerate() {
-            let g: f64 = (0..n)
-                .filter(|&k| identifiable[k])
-                .map(|k| bread[i][k] * score[k])
-                .sum();
-            *ai += g * g;
+        let g: Vec<f64> = (0..n)
+            .map(|i| {
+                (0..n)
+                    .filter(|&k| identifiable[k])
+                    .map(|k| bread[i][k] * score[k])
+                    .sum()
+            })
+            .collect();
+        for (i, row) in acc.iter_mut().enumerate() {
+            for (j, v) in row.iter_mut().enumerate() {
+                *v += g[i] * g[j];
+            }
         }
     }
     if !scores.is_empty() {
-        acc.iter_mut().for_each(|v| *v /= scores.len() as f64);
+        let m = scores.len() as f64;
+        acc.iter_mut().flatten().for_each(|v| *v /= m);
     }
     acc
 }
@@ -287,6 +313,63 @@ mod tests {
             out.clear();
             out.extend(self.u.iter().zip(&self.z).map(|(u, z)| z - x[0] * u));
         }
+    }
+
+    /// A straight line `x0 + x1·t` through 11 points.
+    struct Line(Bounds);
+    impl Problem for Line {
+        fn dim(&self) -> usize {
+            2
+        }
+        fn bounds(&self) -> &Bounds {
+            &self.0
+        }
+        fn cost(&self, x: &[f64]) -> f64 {
+            self.ssr(x)
+        }
+    }
+    impl ResidualProblem for Line {
+        fn residuals(&self, x: &[f64], out: &mut Vec<f64>) {
+            out.clear();
+            for i in 0..11 {
+                let t = f64::from(i);
+                out.push(x[0] + x[1] * t - (1.0 + 0.5 * t) + 0.01 * (t * 1.7).sin());
+            }
+        }
+    }
+
+    /// An input error that moves both parameters together (its draws shift the residuals
+    /// along `v0 + v1·t`) is correlated between them as `v` says, with each one's σ `|vᵢ|`.
+    #[test]
+    fn the_inputs_part_carries_its_own_correlation() {
+        let p = Line(Bounds::uniform(2, -5.0, 5.0).expect("valid"));
+        let pool = thread_pool(Some(1)).expect("pool");
+        let x = [1.0, 0.5];
+        let mut r = Vec::new();
+        p.residuals(&x, &mut r);
+        for (v, sign) in [([0.3, 0.1], 1.0), ([0.2, -0.05], -1.0)] {
+            let draws: Vec<Vec<f64>> = [1.0, -1.0, 2.0f64.sqrt(), -(2.0f64.sqrt())]
+                .iter()
+                .map(|e| {
+                    r.iter()
+                        .enumerate()
+                        .map(|(i, ri)| ri + e * (v[0] + v[1] * i as f64))
+                        .collect()
+                })
+                .collect();
+            let u = uncertainty_with_inputs(&p, &x, &JacobianOptions::default(), &pool, &draws)
+                .expect("uncertainty");
+            // The draws' mean square is 1.5.
+            for (vi, si) in v.iter().zip(&u.input_sigma) {
+                let want = vi.abs() * 1.5f64.sqrt();
+                assert!((si / want - 1.0).abs() < 1e-4, "{u:?}");
+            }
+            assert!((u.input_correlation[0][1] - sign).abs() < 1e-6, "{u:?}");
+            assert_eq!(u.input_correlation[1][0], u.input_correlation[0][1]);
+            assert_eq!(u.input_correlation[0][0], 1.0);
+        }
+        let none = uncertainty(&p, &x, &JacobianOptions::default(), &pool).expect("none");
+        assert_eq!(none.input_correlation, vec![vec![1.0, 0.0], vec![0.0, 1.0]]);
     }
 
     #[test]
