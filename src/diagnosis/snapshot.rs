@@ -23,6 +23,7 @@
 //! files, never prints.
 
 use super::csv_input::{find_column, open_csv, parse_value, CsvError, AMBIENT_PRESSURE_COLUMN};
+use super::fit_quality::Verdict;
 use super::residual_table::{Cell, ResidualTable};
 use super::steady::{
     below_adaptation_note, beyond_calibration, health_error_note, input_noise_note,
@@ -253,6 +254,11 @@ pub struct SnapshotGroup {
     pub result: MethodResult,
     /// (model − measured)/σ of every compared signal at every row used, at the fitted health.
     pub residual_table: ResidualTable,
+    /// With the inputs taken as given and a fit not `good`: its normalised residual judged
+    /// under the inputs' noise ([`SteadyProblem::level_under_input_noise`]), which the summary
+    /// names when it is within `good` (the rows' inputs are noisier than averages').
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub level_under_input_noise: Option<f64>,
 }
 
 /// The residual table of a fitted snapshot group: one row per snapshot the problem kept (its
@@ -339,6 +345,16 @@ fn unsolved(engine: &Engine, snap: &Snapshot, e: &impl std::fmt::Display) -> Str
 
 /// A fit-quality summary in a snapshot's terms: snapshots have no start-up phases, so a
 /// residual cell "t34_k during steady_load" is "t34_k over the snapshots".
+/// What a verdict's summary adds when the residuals are within `good` under the inputs' noise
+/// (`level`: the normalised residual under it).
+fn noisy_inputs_hint(level: f64) -> String {
+    format!(
+        "; under the noise of the rows' inputs (fuel flow, T1, n2) the residuals are within \
+         good ({level:.2}): if these rows are spot readings rather than averages, \
+         --noisy-inputs fits and judges them under that noise"
+    )
+}
+
 fn snapshot_words(summary: &str) -> String {
     let mut text = summary.replace(
         "spread over signals and phases",
@@ -527,12 +543,24 @@ pub fn diagnose_snapshots(
                 &result.signals,
                 &relative_gg_speeds(engine, problem.points()),
             );
-            Ok((result, table))
+            // Only where the residuals themselves make the verdict: a health at its limit or
+            // implausible (an input's bias absorbed, say) is not the inputs' noise.
+            let q = &result.fit_quality;
+            let under_inputs = (q.verdict != Verdict::Good
+                && q.normalised_residual > q.thresholds.good_level)
+                .then(|| problem.level_under_input_noise(&out.x))
+                .flatten();
+            Ok((result, table, under_inputs))
         });
         match outcome {
-            Ok((mut result, residual_table)) => {
+            Ok((mut result, residual_table, level_under_input_noise)) => {
                 result.wall_s = start.elapsed().as_secs_f64();
                 result.fit_quality.summary = snapshot_words(&result.fit_quality.summary);
+                if let Some(q) = level_under_input_noise {
+                    if q <= result.fit_quality.thresholds.good_level {
+                        result.fit_quality.summary.push_str(&noisy_inputs_hint(q));
+                    }
+                }
                 report.groups.push(SnapshotGroup {
                     group: g,
                     lines,
@@ -540,6 +568,7 @@ pub fn diagnose_snapshots(
                     assumptions,
                     result,
                     residual_table,
+                    level_under_input_noise,
                 });
             }
             Err(e) => report.failed.push(FailedGroup {
@@ -771,6 +800,82 @@ mod tests {
             .zip(h(&noisy))
             .any(|(a, b)| (a - b).abs() > 1e-6));
     }
+
+    /// `csv` with each row's fuel flow scaled by `factor(row)`.
+    fn fuel_scaled(csv: &str, factor: impl Fn(usize) -> f64) -> String {
+        let mut lines = csv.lines();
+        let header = lines.next().expect("header");
+        let col = header
+            .split(',')
+            .position(|c| c == Signal::FuelFlow.column())
+            .expect("fuel column");
+        let mut out = format!("{header}\n");
+        for (k, line) in lines.enumerate() {
+            let cells: Vec<String> = line
+                .split(',')
+                .enumerate()
+                .map(|(i, c)| {
+                    if i == col {
+                        (c.parse::<f64>().expect("fuel") * factor(k)).to_string()
+                    } else {
+                        c.to_string()
+                    }
+                })
+                .collect();
+            out.push_str(&cells.join(","));
+            out.push('\n');
+        }
+        out
+    }
+
+    /// Residuals that are the rows' fuel readings scattered by their meter's noise: the
+    /// verdict, with the inputs taken as given, is not `good`, and its summary says that under
+    /// the inputs' noise they are (pointing at `--noisy-inputs`); the same meter reading 3 %
+    /// high on every row is a bias the health absorbs (D_GT at its limit, `suspect` with small
+    /// residuals): no such words.
+    #[test]
+    fn a_verdict_the_inputs_noise_explains_says_so_and_a_meter_bias_does_not() {
+        let engine = Engine::reference().expect("engine");
+        let truth = HealthParams::from_array([2.0, 1.0, 0.0, 0.0, 0.0, 0.0]);
+        let loads = [12.0, 15.0, 18.0, 21.0, 24.0, 27.0, 29.0, 31.0];
+        let csv = snapshot_csv(&engine, &truth, &loads, 5).replace("\nT1,", "\nT0,");
+        let sd_rel = noise_sigma(&engine.cfg().sensors, Signal::FuelFlow, 1.5) / 1.5;
+        let cfg = DiagnosisConfig {
+            max_model_runs: 1500,
+            threads: Some(1),
+            ..DiagnosisConfig::default()
+        };
+        let read = |csv: &str| {
+            let rows = read_snapshots(csv.as_bytes(), &HashMap::new(), Some("test")).expect("rows");
+            let report = diagnose_snapshots(&engine, &rows, &cfg).expect("diagnosis");
+            assert!(report.failed.is_empty(), "{:?}", report.failed);
+            report.groups[0].clone()
+        };
+        let scattered = read(&fuel_scaled(&csv, |k| {
+            1.0 + SCATTER_SIGMAS * sd_rel * if k % 2 == 0 { 1.0 } else { -1.0 }
+        }));
+        let q = &scattered.result.fit_quality;
+        eprintln!(
+            "scattered: {:?} {:.2}, under the inputs' noise {:?}: {}",
+            q.verdict, q.normalised_residual, scattered.level_under_input_noise, q.summary
+        );
+        assert_ne!(q.verdict, Verdict::Good);
+        let level = scattered.level_under_input_noise.expect("judged");
+        assert!(level <= q.thresholds.good_level, "{level}");
+        assert!(q.summary.contains("--noisy-inputs"), "{}", q.summary);
+
+        let biased = read(&fuel_scaled(&csv, |_| 1.03));
+        let b = &biased.result.fit_quality;
+        eprintln!(
+            "biased: {:?} {:.2}, under the inputs' noise {:?}: {}",
+            b.verdict, b.normalised_residual, biased.level_under_input_noise, b.summary
+        );
+        assert!(!b.summary.contains("--noisy-inputs"), "{}", b.summary);
+        assert_eq!(biased.level_under_input_noise, None);
+    }
+
+    /// How many of its one-reading σ each row's fuel reading is off by, alternately.
+    const SCATTER_SIGMAS: f64 = 2.0;
 
     #[test]
     fn reduced_instrument_sets_say_what_they_separate_and_estimate_it() {

@@ -1,16 +1,18 @@
 //! The noise of a steady point's *inputs*: the fuel flow (or other demand), T1, n2 and — where
 //! it gives the ambient pressure — P1 that the steady solve is given as measured. Their σ
 //! ([`InputSigma`]) and what each moves the point's compared values by ([`with_input_noise`]),
-//! from which the objective takes the covariance of the point's residuals. Pure: model solves
-//! only, no I/O; it does not fit anything.
+//! from which the objective takes the covariance of the point's residuals, and what a fit's
+//! residuals amount to under that noise ([`SteadyProblem::level_under_input_noise`]). Pure:
+//! model solves only, no I/O; it does not fit anything.
 
-use super::{steady_reading, SteadyData};
+use super::{steady_reading, SteadyData, SteadyProblem};
 use crate::engine::config::SensorsConfig;
 use crate::engine::sensors::noise_sigma;
 use crate::engine::steady::{demand_value, with_value, Demand, SteadyInputs, SteadyPoint};
 use crate::engine::Engine;
 use crate::health::HealthParams;
 use crate::signals::Signal;
+use nalgebra::{DMatrix, DVector};
 
 /// 1σ of what a steady point's solve is given as measured, in the inputs' units; 0 where the
 /// value is assumed (the engine file's ambient) or has no instrument noise configured.
@@ -157,4 +159,34 @@ pub(crate) fn input_noise_sigma_note() -> String {
     "inputs (fuel flow, T1, n2; P1 where it gives the ambient pressure) taken as given in the \
      fit; what their instruments' noise ([sensors]) moves the read by is in its σ"
         .into()
+}
+
+impl SteadyProblem {
+    /// The normalised residual (mean square, as the fit's verdict reads it) at `x` judged under
+    /// the noise of the inputs taken as given ([`super::InputNoise::SigmaOnly`]):
+    /// `rᵀ (I + C Cᵀ)⁻¹ r / m`
+    /// over their 1σ columns `C` (Woodbury: one k×k solve). `None` without such inputs or where
+    /// the model cannot be evaluated. What `--noisy-inputs` would judge, linearised: a verdict
+    /// whose residuals this explains is the inputs' noise (spot readings rather than averages),
+    /// not the model's misfit; a meter's bias, common to every row, is not explained by it.
+    pub fn level_under_input_noise(&self, x: &[f64]) -> Option<f64> {
+        if self.input_columns.is_empty() {
+            return None;
+        }
+        let model = self.simulate(x).ok()?;
+        let mut r = Vec::new();
+        self.objective.residuals(&model, &mut r);
+        let m = r.len();
+        let k = self.input_columns.len();
+        if m == 0 || self.input_columns.iter().any(|c| c.len() != m) {
+            return None;
+        }
+        let c = DMatrix::from_fn(m, k, |i, j| self.input_columns[j][i]);
+        let rv = DVector::from_column_slice(&r);
+        let ctr = c.transpose() * &rv;
+        let inner = DMatrix::<f64>::identity(k, k) + c.transpose() * &c;
+        let solved = inner.cholesky()?.solve(&ctr);
+        let q = rv.dot(&rv) - ctr.dot(&solved);
+        (q.is_finite() && q >= 0.0).then(|| q / m as f64)
+    }
 }
