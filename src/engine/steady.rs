@@ -4,10 +4,11 @@
 //! Unknowns (normalised by design values): GG speed n1, compressor β, PT inlet pressure P34 and
 //! fuel flow; one of them is fixed or replaced by the demand. Residuals: HPT flow compatibility,
 //! PT flow compatibility, GG work balance, and (for a power demand) the power. Newton's method
-//! with a finite-difference Jacobian, Broyden's updates of it and backtracking; far off-design demands are reached by
-//! continuation from the design point, and past a fold of the demand (near idle the fuel flow
-//! is not monotone in GG speed) by walking the running line in GG speed. A demand beyond every
-//! running point is refused with the extreme point reached. Pure: no I/O.
+//! with a finite-difference Jacobian, Broyden's updates of it and backtracking; far off-design
+//! demands are reached by continuation from the design point, and past a fold of the demand
+//! (near idle the fuel flow is not monotone in GG speed) by walking the running line in GG
+//! speed. A demand beyond every running point is refused with the extreme point reached. Pure:
+//! no I/O.
 
 use super::effects::CoreView;
 use super::gas_path::{self, Adjust, CompressorSetting, HotSection, Inputs, Stations};
