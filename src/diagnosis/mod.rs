@@ -472,10 +472,8 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
     let model_health = problem.model_health_sigma();
     // The residuals' σ (inflated for their correlation), the inputs' σ and, for a health
     // parameter, the model's own error in health units, in quadrature.
-    let fit_part = |k: usize, s: f64| {
-        let input = fit.input_sigma.get(k).copied().unwrap_or(0.0);
-        (s * inflation).hypot(input)
-    };
+    let input_part = |k: usize| fit.input_sigma.get(k).copied().unwrap_or(0.0);
+    let fit_part = |k: usize, s: f64| (s * inflation).hypot(input_part(k));
     let total = |k: usize, s: f64| {
         let model = match pm.params().get(k).map(|p| &p.target) {
             Some(ParamTarget::Health(i)) => model_health.get(*i).copied().unwrap_or(0.0),
@@ -534,7 +532,6 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
                     let rho = at(&fit.correlation);
                     let residual_part =
                         |m: usize| fit.sigma.get(m).map_or(f64::INFINITY, |&s| s * inflation);
-                    let input_part = |m: usize| fit.input_sigma.get(m).copied().unwrap_or(0.0);
                     let cov = rho * residual_part(k) * residual_part(l)
                         + at(&fit.input_correlation) * input_part(k) * input_part(l);
                     let r = cov / (total_sigma(k) * total_sigma(l));

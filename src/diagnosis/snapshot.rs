@@ -343,8 +343,6 @@ fn unsolved(engine: &Engine, snap: &Snapshot, e: &impl std::fmt::Display) -> Str
     format!("the model has no steady point for this row: {e}{hint}")
 }
 
-/// A fit-quality summary in a snapshot's terms: snapshots have no start-up phases, so a
-/// residual cell "t34_k during steady_load" is "t34_k over the snapshots".
 /// What a verdict's summary adds when the residuals are within `good` under the inputs' noise
 /// (`level`: the normalised residual under it).
 fn noisy_inputs_hint(level: f64) -> String {
@@ -355,6 +353,8 @@ fn noisy_inputs_hint(level: f64) -> String {
     )
 }
 
+/// A fit-quality summary in a snapshot's terms: snapshots have no start-up phases, so a
+/// residual cell "t34_k during steady_load" is "t34_k over the snapshots".
 fn snapshot_words(summary: &str) -> String {
     let mut text = summary.replace(
         "spread over signals and phases",
@@ -764,11 +764,7 @@ mod tests {
             threads: Some(1),
             ..DiagnosisConfig::default()
         };
-        let read = |e: &Engine, cfg: &DiagnosisConfig| {
-            let report = diagnose_snapshots(e, &rows, cfg).expect("diagnosis");
-            assert!(report.failed.is_empty(), "{:?}", report.failed);
-            report.groups[0].clone()
-        };
+        let read = |e: &Engine, cfg: &DiagnosisConfig| only_group(e, &rows, cfg);
         let noisy = read(&engine, &cfg);
         let exact = read(&quiet, &cfg);
         let h = |g: &SnapshotGroup| g.result.health.to_array();
@@ -799,6 +795,13 @@ mod tests {
             .iter()
             .zip(h(&noisy))
             .any(|(a, b)| (a - b).abs() > 1e-6));
+    }
+
+    /// The first group of `rows` diagnosed on `engine`, none failed.
+    fn only_group(engine: &Engine, rows: &[Snapshot], cfg: &DiagnosisConfig) -> SnapshotGroup {
+        let report = diagnose_snapshots(engine, rows, cfg).expect("diagnosis");
+        assert!(report.failed.is_empty(), "{:?}", report.failed);
+        report.groups[0].clone()
     }
 
     /// `csv` with each row's fuel flow scaled by `factor(row)`.
@@ -847,9 +850,7 @@ mod tests {
         };
         let read = |csv: &str| {
             let rows = read_snapshots(csv.as_bytes(), &HashMap::new(), Some("test")).expect("rows");
-            let report = diagnose_snapshots(&engine, &rows, &cfg).expect("diagnosis");
-            assert!(report.failed.is_empty(), "{:?}", report.failed);
-            report.groups[0].clone()
+            only_group(&engine, &rows, &cfg)
         };
         let scattered = read(&fuel_scaled(&csv, |k| {
             1.0 + SCATTER_SIGMAS * sd_rel * if k % 2 == 0 { 1.0 } else { -1.0 }

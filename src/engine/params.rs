@@ -221,11 +221,10 @@ impl EngineConfig {
         if values.is_empty() {
             return Ok(base);
         }
-        let cfg = if values
-            .iter()
-            .all(|(key, _)| number_mut(&mut base, key).is_some())
-        {
-            set_directly(base, &values)
+        // A key the direct setter does not reach sends all of them through the tree, which
+        // sets every one again on top of those already set.
+        let cfg = if set_directly(&mut base, &values) {
+            base
         } else {
             self.set_through_tree(base, &values)?
         };
@@ -274,14 +273,16 @@ impl EngineConfig {
     }
 }
 
-/// `values` set on `base` field by field: every key one [`number_mut`] reaches.
-fn set_directly(mut base: EngineConfig, values: &[(&str, f64)]) -> EngineConfig {
+/// `values` set on `base` field by field ([`number_mut`]); `false` at the first key it does not
+/// reach (those before it are set).
+fn set_directly(base: &mut EngineConfig, values: &[(&str, f64)]) -> bool {
     for &(key, value) in values {
-        if let Some(slot) = number_mut(&mut base, key) {
-            *slot = value;
+        match number_mut(base, key) {
+            Some(slot) => *slot = value,
+            None => return false,
         }
     }
-    base
+    true
 }
 
 /// Whether the file numbers are set on is known to be valid.
@@ -687,11 +688,15 @@ mod tests {
             assert!(number_mut(&mut probe, key).is_some(), "{key}");
             let one = [(key, value)];
             let tree = cfg.set_through_tree(cfg.clone(), &one).expect(key);
-            assert_eq!(set_directly(cfg.clone(), &one), tree, "{key}");
+            let mut direct = cfg.clone();
+            assert!(set_directly(&mut direct, &one), "{key}");
+            assert_eq!(direct, tree, "{key}");
             assert_eq!(tree.get_param(key).expect(key), value, "{key}");
         }
         let tree = cfg.set_through_tree(cfg.clone(), &values).expect("all");
-        assert_eq!(set_directly(cfg.clone(), &values), tree);
+        let mut direct = cfg.clone();
+        assert!(set_directly(&mut direct, &values));
+        assert_eq!(direct, tree);
         // Keys it does not reach: other sections, optional numbers, lists without an index,
         // indices beyond a curve, nothing at all.
         for key in [

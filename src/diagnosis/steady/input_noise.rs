@@ -164,8 +164,7 @@ pub(crate) fn input_noise_sigma_note() -> String {
 impl SteadyProblem {
     /// The normalised residual (mean square, as the fit's verdict reads it) at `x` judged under
     /// the noise of the inputs taken as given ([`super::InputNoise::SigmaOnly`]):
-    /// `rᵀ (I + C Cᵀ)⁻¹ r / m`
-    /// over their 1σ columns `C` (Woodbury: one k×k solve). `None` without such inputs or where
+    /// `rᵀ (I + C Cᵀ)⁻¹ r / m` over their 1σ columns `C` (Woodbury: one k×k solve). `None` without such inputs or where
     /// the model cannot be evaluated. What `--noisy-inputs` would judge, linearised: a verdict
     /// whose residuals this explains is the inputs' noise (spot readings rather than averages),
     /// not the model's misfit; a meter's bias, common to every row, is not explained by it.
@@ -173,9 +172,7 @@ impl SteadyProblem {
         if self.input_columns.is_empty() {
             return None;
         }
-        let model = self.simulate(x).ok()?;
-        let mut r = Vec::new();
-        self.objective.residuals(&model, &mut r);
+        let r = self.objective_residuals(x)?;
         let m = r.len();
         let k = self.input_columns.len();
         if m == 0 || self.input_columns.iter().any(|c| c.len() != m) {

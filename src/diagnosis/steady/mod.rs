@@ -579,6 +579,16 @@ impl SteadyProblem {
         &self.points
     }
 
+    /// The objective's residuals (noise units, whitened) at `x`, without counting a model run
+    /// or logging a failure: for what is derived from the fit (the inputs' draws, the residual
+    /// under their noise). `None` where the model cannot be evaluated.
+    pub(crate) fn objective_residuals(&self, x: &[f64]) -> Option<Vec<f64>> {
+        let model = self.simulate(x).ok()?;
+        let mut r = Vec::new();
+        self.objective.residuals(&model, &mut r);
+        Some(r)
+    }
+
     /// Model values at every point, as rows indexed like a trace, or why a solve failed.
     pub fn simulate(&self, x: &[f64]) -> Result<Vec<Values>, EvalError> {
         self.runs.fetch_add(1, Ordering::Relaxed);
@@ -636,11 +646,9 @@ impl SteadyProblem {
         if self.input_columns.is_empty() {
             return Vec::new();
         }
-        let Ok(model) = self.simulate(x) else {
+        let Some(r) = self.objective_residuals(x) else {
             return Vec::new();
         };
-        let mut r = Vec::new();
-        self.objective.residuals(&model, &mut r);
         let scale = (self.input_columns.len() as f64).sqrt();
         self.input_columns
             .iter()
