@@ -647,8 +647,11 @@ fn with_validation(
     let said = |s: &Option<Summary>| {
         s.map_or("none predicted".to_string(), |s| {
             format!(
-                "mean |error| {:.3} %, worst {:.3} % ({} point(s))",
-                s.mean_pct, s.worst_pct, s.points
+                "mean |error| {:.3} %, worst {:.3} % ({} point(s)){}",
+                s.mean_pct,
+                s.worst_pct,
+                s.points,
+                print::beside_noise(&s)
             )
         })
     };

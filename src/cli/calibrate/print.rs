@@ -201,6 +201,17 @@ pub(super) fn print_text(report: &Calibration, wall_s: f64) {
     );
 }
 
+/// What a validation summary's points' own noise alone would give, in words ("" without it).
+pub(super) fn beside_noise(s: &Summary) -> String {
+    match (s.noise_mean_pct, s.noise_rms) {
+        (Some(m), Some(r)) => format!(
+            "; the rows' own noise alone would give {m:.3} % mean (the errors are {r:.2} of \
+             its σ, RMS)"
+        ),
+        _ => String::new(),
+    }
+}
+
 /// The `--validate` table: each point left out, its prediction errors, and the summaries (and
 /// those of the design values alone, `design_only`, when the calibration adapted).
 pub(super) fn print_validation(v: &Validation, design_only: Option<&Validation>, wall_s: f64) {
@@ -222,13 +233,17 @@ pub(super) fn print_validation(v: &Validation, design_only: Option<&Validation>,
         s
     };
     let head: Vec<String> = signals.iter().map(|s| format!("{s:>9}")).collect();
+    // `noise %`: the mean |error| the row's own noise alone would give; `noise σ`: the RMS of
+    // the errors in that noise's σ (about 1 where the miss is the reading's, not the model's).
     println!(
-        "  {:>6} {:>8} {:<9} {:>7} {:>7}  {}",
+        "  {:>6} {:>8} {:<9} {:>7} {:>7} {:>7} {:>7}  {}",
         "line",
         "rel. N1",
         "position",
         "mean %",
         "worst %",
+        "noise %",
+        "noise σ",
         head.join("")
     );
     for p in &v.points {
@@ -251,20 +266,28 @@ pub(super) fn print_validation(v: &Validation, design_only: Option<&Validation>,
                     .map_or(format!("{:>9}", "-"), |e| format!("{:>+9.3}", e.pct))
             })
             .collect();
+        let opt = |x: Option<f64>, digits: usize| {
+            x.map_or(format!("{:>7}", "-"), |x| format!("{x:>7.digits$}"))
+        };
         println!(
-            "  {:>6} {:>8} {:<9} {:>7.3} {:>7.3}  {}",
+            "  {:>6} {:>8} {:<9} {:>7.3} {:>7.3} {} {}  {}",
             p.line,
             speed,
             p.position.as_str(),
             p.mean_abs_pct,
             p.worst_abs_pct,
+            opt(p.noise_mean_abs_pct, 3),
+            opt(p.noise_rms, 2),
             cells.join("")
         );
     }
     let line = |label: &str, s: &Option<Summary>| match s {
         Some(s) => println!(
-            "  {label}: mean |error| {:.3} %, worst {:.3} % ({} point(s))",
-            s.mean_pct, s.worst_pct, s.points
+            "  {label}: mean |error| {:.3} %, worst {:.3} % ({} point(s)){}",
+            s.mean_pct,
+            s.worst_pct,
+            s.points,
+            beside_noise(s)
         ),
         None => println!("  {label}: no point predicted"),
     };
