@@ -773,6 +773,8 @@ fn cli_validate_predicts_each_point_left_out() {
         text.contains("design values only, interior points"),
         "{text}"
     );
+    // Averages of a unit of the model's own maps: no miss beyond the rows' own noise.
+    assert!(!text.contains("beyond the rows' own noise"), "{text}");
     // The written file says how it was validated.
     let file = std::fs::read_to_string(&out).expect("written");
     assert!(

@@ -201,6 +201,39 @@ pub(super) fn print_text(report: &Calibration, wall_s: f64) {
     );
 }
 
+/// In the noise's σ, how far a left-out signal must miss to be named as the model's miss rather
+/// than the reading's (2: one signal in twenty of pure noise would be named; fewer than that in
+/// a table of nine signals at nine points means the model).
+const BEYOND_NOISE: f64 = 2.0;
+
+/// Each predicted point's signals that miss by more than [`BEYOND_NOISE`] of their own noise's
+/// σ, in words ("line 3 (interior): power_mw +2.35 % (2.6 σ)").
+fn beyond_noise(v: &Validation) -> Vec<String> {
+    v.points
+        .iter()
+        .filter(|p| p.failed.is_none())
+        .filter_map(|p| {
+            let cells: Vec<String> = p
+                .errors
+                .iter()
+                .filter_map(|e| {
+                    let z = e.pct / e.noise_pct?;
+                    (z.abs() > BEYOND_NOISE)
+                        .then(|| format!("{} {:+.2} % ({:.1} σ)", e.signal, e.pct, z.abs()))
+                })
+                .collect();
+            (!cells.is_empty()).then(|| {
+                format!(
+                    "line {} ({}): {}",
+                    p.line,
+                    p.position.as_str(),
+                    cells.join(", ")
+                )
+            })
+        })
+        .collect()
+}
+
 /// What a validation summary's points' own noise alone would give, in words ("" without it).
 pub(super) fn beside_noise(s: &Summary) -> String {
     match (s.noise_mean_pct, s.noise_rms) {
@@ -316,6 +349,13 @@ pub(super) fn print_validation(v: &Validation, design_only: Option<&Validation>,
     }
     line("interior points (interpolated)", &v.interior);
     line("every point (extrapolations included)", &v.all);
+    let beyond = beyond_noise(v);
+    if !beyond.is_empty() {
+        println!(
+            "  beyond the rows' own noise (a signal more than {BEYOND_NOISE} of its σ off): {}",
+            beyond.join("; ")
+        );
+    }
     if let Some(d) = design_only {
         let per_point: Vec<String> = d
             .points
@@ -334,5 +374,59 @@ pub(super) fn print_validation(v: &Validation, design_only: Option<&Validation>,
         );
         line("  design values only, interior points", &d.interior);
         line("  design values only, every point", &d.all);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calibrate::validate::{LeftOutPoint, Position, SignalError};
+
+    /// A signal is named where it misses by more than [`BEYOND_NOISE`] of its own noise's σ,
+    /// whatever the sign; one without a σ, or a failed point, is not.
+    #[test]
+    fn only_misses_beyond_the_rows_noise_are_named() {
+        let e = |signal: &str, pct: f64, noise_pct: Option<f64>| SignalError {
+            signal: signal.into(),
+            pct,
+            noise_pct,
+        };
+        let point = |line: u64, errors: Vec<SignalError>, failed: Option<String>| LeftOutPoint {
+            line,
+            source: String::new(),
+            gg_speed: Some(0.82),
+            position: Position::Interior,
+            errors,
+            mean_abs_pct: 0.0,
+            worst_abs_pct: 0.0,
+            worst_signal: String::new(),
+            noise_mean_abs_pct: None,
+            noise_rms: None,
+            failed,
+            shape: None,
+        };
+        let v = Validation {
+            points: vec![
+                point(
+                    3,
+                    vec![
+                        e("power_mw", 2.35, Some(0.92)),
+                        e("n1_rpm", -0.60, Some(0.14)),
+                        e("t2_k", 0.5, Some(0.36)),
+                        e("p2_kpa", 3.0, None),
+                    ],
+                    None,
+                ),
+                point(4, vec![e("t4_k", 0.1, Some(0.4))], None),
+                point(5, vec![e("t4_k", 9.0, Some(0.4))], Some("x".into())),
+            ],
+            interior: None,
+            all: None,
+            model_runs: 0,
+        };
+        assert_eq!(
+            beyond_noise(&v),
+            ["line 3 (interior): power_mw +2.35 % (2.6 σ), n1_rpm -0.60 % (4.3 σ)"]
+        );
     }
 }
