@@ -380,20 +380,14 @@ fn left_out_loads_predicted_against_the_simulators_own_values() {
     use gtwatch::calibrate::candidates::default_candidates;
     use gtwatch::calibrate::validate::left_out;
     use gtwatch::calibrate::CalibrationSettings;
+    use gtwatch::diagnosis::csv_input::parse_mapping;
     use gtwatch::diagnosis::snapshot::read_snapshots_in;
     use gtwatch::engine::{Engine, EngineConfig};
     use gtwatch::units::ColumnUnits;
-    use std::collections::HashMap;
 
     let user = root().join("tests/data/foreign/indep30_user_md22.toml");
     let engine = Engine::new(EngineConfig::load(&user).expect("user file")).expect("engine");
-    let mapping: HashMap<String, String> = MAP
-        .split(',')
-        .map(|kv| {
-            let (k, v) = kv.split_once('=').expect("key=column");
-            (k.to_string(), v.to_string())
-        })
-        .collect();
+    let mapping = parse_mapping(MAP).expect("the --map text");
     let units = ColumnUnits::parse(UNITS).expect("units");
     let read = |file: &str| {
         let f = std::fs::File::open(data(file)).expect(file);
