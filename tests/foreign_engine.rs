@@ -261,6 +261,9 @@ fn calibrated(model: &Engine, rows: &[Snapshot], adapt: Option<AdaptStrategy>) -
             if let Some(line) = &a.operating_line {
                 eprintln!("  {}", line.describe());
             }
+            if let Some(line) = &a.efficiency_tried {
+                eprintln!("  {line}");
+            }
         }
     }
     engine

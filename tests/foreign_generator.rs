@@ -194,6 +194,9 @@ fn calibrated(written: &[Signal]) -> (Engine, Vec<Snapshot>, Engine, Calibration
         if let Some(line) = &a.operating_line {
             eprintln!("  {}", line.describe());
         }
+        if let Some(line) = &a.efficiency_tried {
+            eprintln!("  {line}");
+        }
         eprintln!(
             "  its error in health units: {:?} ({})",
             a.health_error.points, a.health_error.note

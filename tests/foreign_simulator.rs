@@ -18,18 +18,21 @@
 //! group` on a grid of 16 levels (compressor fouling, HP-turbine erosion, PT wear, combined).
 //!
 //! Measured (`cargo test --release --test integration foreign_simulator -- --nocapture`,
-//! 2026-12-06): the baseline fits at 0.94 σ, `good`, and diagnoses `good` within 0.24 points
+//! 2026-12-07): the baseline fits at 0.93 σ, `good`, with the PT's efficiency shaped by its
+//! adaptation curve alone (`efficiency_shape = "curve"`, chosen by the calibration: the unit's
+//! PT runs at 0.903–0.905 where md22's map falls off), and diagnoses `good` within 0.19 points
 //! of healthy (md22's habit of dumping the cooling air
 //! overboard instead: 1.42 σ, `suspect`, T4 missed by −2.6 σ and T34 by +1.8 σ at every load);
-//! the grid is read with every parameter within 0.84 points (D_GC 0.84, D_EC 0.75, D_GT 0.67,
-//! D_ET 0.30, D_GP 0.77, D_EP 0.58), Spearman ρ 0.72–0.91 (ceilings 0.82–0.93: D_ET, D_GP
-//! and D_EP in perfect order), compressor fouling under-read by
+//! the grid is read with every parameter within 0.93 points (D_GC 0.93, D_EC 0.66, D_GT 0.77,
+//! D_ET 0.38, D_GP 0.76, D_EP 0.34), Spearman ρ 0.72–0.90 (ceilings 0.82–0.93), compressor
+//! fouling under-read by
 //! about a fifth and PT wear over-read by about a third (how the borrowed maps' speed lines
 //! respond to a flow or efficiency change off the healthy line, which a healthy baseline does
 //! not show); the diagnosis says so: with the adapted model's own error in health units and
 //! the snapshot inputs' noise (T1, fuel, n2: one reading's σ each, as every compared value has)
 //! in the σ, no parameter is called separable on this 9-load grid, no level is read further
-//! than 2.44 of its σ, and 6 of the 16 fits are `good`. Floors below are these figures with a
+//! than 2.05 of its σ, and 12 of the 16 fits are `good` (6 with the PT map's own efficiency
+//! shape, every parameter then within 0.84 points). Floors below are these figures with a
 //! margin; they are what this version meets on an engine it was not made with, not the issue's
 //! targets.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code: a failure is the test failing
@@ -266,9 +269,22 @@ fn a_unit_of_another_simulator_is_calibrated_and_its_grid_read_within_its_stated
         written.contains("cooling_return_frac = 0.03"),
         "kept in the written file"
     );
+    // The unit's power turbine runs at 0.903–0.905 over its loads (`baseline_internal.csv`)
+    // where md22's PT map falls off with speed: the calibration finds the curve alone
+    // predicts the unit better and writes so.
+    let pt = written
+        .split("[adaptation.pt]")
+        .nth(1)
+        .expect("a PT adaptation");
+    assert!(
+        pt.split("\n[")
+            .next()
+            .is_some_and(|t| t.contains("efficiency_shape = \"curve\"")),
+        "{pt}"
+    );
 
     // The healthy baseline on its own calibration: `good`, each parameter within 0.3 points
-    // (measured 0.24 at most, D_EP).
+    // (measured 0.19 at most, D_EP).
     let healthy = diagnose(&unit, &data("baseline_noisy.csv"));
     let g = &healthy["groups"][0];
     eprintln!(
@@ -288,8 +304,10 @@ fn a_unit_of_another_simulator_is_calibrated_and_its_grid_read_within_its_stated
         separable_miss,
         good,
     } = read_grid(&unit);
-    // Measured 0.84 / 0.75 / 0.67 / 0.30 / 0.77 / 0.58 points and ρ 0.90 / 0.72 / 0.87 / 0.91 /
-    // 0.82 / 0.82 (each parameter is 0 on half the levels or more: a tie no estimate repeats).
+    // Measured 0.93 / 0.66 / 0.77 / 0.38 / 0.76 / 0.34 points and ρ 0.90 / 0.72 / 0.90 / 0.90 /
+    // 0.80 / 0.82 (each parameter is 0 on half the levels or more: a tie no estimate repeats);
+    // with the PT map's own efficiency shape 0.84 / 0.75 / 0.67 / 0.30 / 0.77 / 0.58, ρ 0.90 /
+    // 0.72 / 0.87 / 0.91 / 0.82 / 0.82 and 6 of 16 `good`.
     for (p, (most, least)) in [
         (1.0, 0.85),
         (0.9, 0.62),
@@ -309,20 +327,21 @@ fn a_unit_of_another_simulator_is_calibrated_and_its_grid_read_within_its_stated
         );
         assert!(rho[p] >= least, "{}: ρ {:.3}", HEALTH_NAMES[p], rho[p]);
     }
-    // Every error within 3 of its stated σ (measured 2.44), and nothing called separable
+    // Every error within 3 of its stated σ (measured 2.05), and nothing called separable
     // (1σ under 0.25 points) missed by more than twice that. Until the snapshot inputs' noise
     // was in the σ (fuel and T1 scatter D_GC's read over 9 loads by 0.21 points), D_GC
     // was called separable on 6 levels and missed there by up to 0.81 points (3.4 σ). The
-    // verdict still takes the inputs as exact (6 of 16 `good`, the rest `suspect`: these rows'
+    // verdict still takes the inputs as exact (12 of 16 `good`, the rest `suspect`: these rows'
     // inputs are spot readings, which `--noisy-inputs` is for).
     assert!(worst_z <= 3.0, "worst |error|/σ {worst_z:.2}");
     assert!(separable_miss <= 0.5, "{separable_miss:.2}");
-    assert!(good >= 5, "{good} of 16 fits good");
+    assert!(good >= 10, "{good} of 16 fits good");
 }
 
 /// Measurement (ignored: a calibration in rounds, about 30 s): rows from just before an offline
 /// wash (`indep30/prewash_noisy.csv`, the 9 loads fouled D_GC 2.0, D_EC 0.8) beside the
-/// baseline, `calibrate --prewash-group`. Measured 2026-12-06: fouling found 1.46 / 0.59 (the
+/// baseline, `calibrate --prewash-group`. Measured 2026-12-06 (before the calibration chose
+/// the PT's efficiency shape, `efficiency_shape`): fouling found 1.46 / 0.59 (the
 /// model responds to fouling about a third more than the unit, and the rows cannot tell that
 /// from a smaller fouling), the baseline `good`; the grid's worst errors 0.79 / 0.58 / 0.47 /
 /// 0.39 / 0.47 / 0.40 (0.84 / 0.75 / 0.67 / 0.30 / 0.77 / 0.58 on the baseline alone).

@@ -144,12 +144,16 @@ pub(crate) fn rewrite(
                             .map(String::as_str)
                             .collect::<toml_edit::Array>(),
                     ),
-                    // Which speed a component's knots are in (`adaptation.hpt.speed_of`).
-                    NewValue::Text(word) if key.ends_with(".speed_of") => {
+                    // Which speed a component's knots are in (`adaptation.hpt.speed_of`), what
+                    // shapes a turbine's efficiency (`adaptation.pt.efficiency_shape`).
+                    NewValue::Text(word)
+                        if key.ends_with(".speed_of") || key.ends_with(".efficiency_shape") =>
+                    {
                         toml_edit::value(word.as_str())
                     }
                     NewValue::Text(_) => return Err(bad(
-                        "an adaptation value is a number or a list (a word only for `speed_of`)",
+                        "an adaptation value is a number or a list (a word only for `speed_of` \
+                         and `efficiency_shape`)",
                     )),
                 };
             let (table_name, name) = rest

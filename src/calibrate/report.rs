@@ -7,7 +7,7 @@ use super::identify;
 use super::{adapt, inlet_law, problem};
 use super::{mean, rms};
 use crate::diagnosis::residual_table::{Cell, ResidualTable};
-use crate::engine::config::SpeedOf;
+use crate::engine::config::{EfficiencyShape, SpeedOf};
 use serde::Serialize;
 
 /// One candidate's outcome.
@@ -257,19 +257,31 @@ impl Calibration {
     }
 
     /// The adaptation's words for the new file: which corrected speed a component's knots are
-    /// in, where it is not the component's own (`adaptation.hpt.speed_of = "gg_inlet"`).
+    /// in, where it is not the component's own (`adaptation.hpt.speed_of = "gg_inlet"`), and
+    /// what shapes a turbine's efficiency, where not its map (`adaptation.pt.efficiency_shape =
+    /// "curve"`).
     pub fn adaptation_words(&self) -> Vec<(String, String)> {
-        self.adaptation
+        let fitted = self
+            .adaptation
             .iter()
             .flat_map(|a| &a.components)
-            .filter(|c| !c.curves.is_empty() && c.speed_of != SpeedOf::OwnInlet)
-            .map(|c| {
-                (
+            .filter(|c| !c.curves.is_empty());
+        let mut words = Vec::new();
+        for c in fitted {
+            if c.speed_of != SpeedOf::OwnInlet {
+                words.push((
                     format!("adaptation.{}.speed_of", c.component),
                     c.speed_of.name().to_string(),
-                )
-            })
-            .collect()
+                ));
+            }
+            if c.efficiency_shape != EfficiencyShape::Map {
+                words.push((
+                    format!("adaptation.{}.efficiency_shape", c.component),
+                    c.efficiency_shape.name().to_string(),
+                ));
+            }
+        }
+        words
     }
 
     /// The adaptation curves to write, as `(adaptation.<component>.<curve>, values)` with each

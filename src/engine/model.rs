@@ -5,7 +5,7 @@
 //! health vector applied; the steady solver and the dynamic model both run on a `Model`.
 //! Pure: map files are read only by [`Engine::new`] when the config names a file path.
 
-use super::config::{EngineConfig, MapInterpolation, PressureLossLaw, SpeedOf};
+use super::config::{EfficiencyShape, EngineConfig, MapInterpolation, PressureLossLaw, SpeedOf};
 use super::cycle::{ShaftLosses, P_STD_KPA, T_STD_K};
 use super::design::DesignCycles;
 use super::effects::EffectSet;
@@ -264,6 +264,7 @@ fn adaptation_of(cfg: &EngineConfig, component: &str) -> maps::ComponentAdaptati
         eff: curve(&c.efficiency),
         pr: curve(&c.pressure_ratio),
         speed: curve(&c.speed),
+        hold_map_efficiency: c.efficiency_shape == Some(EfficiencyShape::Curve),
     }
 }
 

@@ -609,6 +609,7 @@ mod tests {
             pressure_ratio: vec![0.02, 0.01 * scale, 0.0],
             speed: vec![0.003, -0.001, 0.0],
             speed_of: None,
+            efficiency_shape: None,
         };
         let mut cfg = EngineConfig::reference()
             .with_param("effects.vigv_schedule.flow_delta_pct", -3.0)

@@ -151,6 +151,10 @@ pub struct ComponentAdaptation {
     pub pr: Option<SpeedCurve>,
     /// Map read at relative speed × (1 + f) (compressor only): speed-line re-labelling.
     pub speed: Option<SpeedCurve>,
+    /// Whether the map's efficiency is held at its value at the design point (turbine only):
+    /// the efficiency curve alone then shapes the efficiency over corrected speed, where the
+    /// map family's own fall-off is not the unit's (`engine::config::EfficiencyShape`).
+    pub hold_map_efficiency: bool,
 }
 
 /// The four factors at one speed (1 where a curve is absent).
@@ -174,7 +178,11 @@ impl Factors {
 impl ComponentAdaptation {
     /// Whether any curve is present.
     pub fn is_active(&self) -> bool {
-        self.flow.is_some() || self.eff.is_some() || self.pr.is_some() || self.speed.is_some()
+        self.flow.is_some()
+            || self.eff.is_some()
+            || self.pr.is_some()
+            || self.speed.is_some()
+            || self.hold_map_efficiency
     }
 
     /// The factors at relative corrected speed `n`.

@@ -17,12 +17,16 @@
 //!
 //! Off-design adaptation ([`super::adapt`], the engine file's `[adaptation]`): curves of relative
 //! corrected speed, zero at the design speed, that multiply flow, efficiency and (PR − 1) and
-//! re-label the compressor speed line read; kept through `with_health`.
+//! re-label the compressor speed line read; kept through `with_health`. A turbine's adaptation
+//! may hold the map's efficiency at its design-point value, so its efficiency curve alone
+//! shapes the efficiency (`ComponentAdaptation::hold_map_efficiency`).
 //!
 //! Surge margin, percent: `SM = (PR_surge(Wc) / PR − 1) · 100` with `PR_surge` the scaled surge
 //! line's pressure ratio at the operating point's corrected flow. Positive inside the map, 0 on
 //! the surge line, negative beyond it.
 
+#[cfg(test)]
+use super::adapt::SpeedCurve;
 use super::adapt::{ComponentAdaptation, Factors};
 use super::compressor::CompressorMap;
 use super::turbine::TurbineMap;
@@ -234,6 +238,9 @@ pub struct ScaledTurbine {
     eff_factor: f64,
     adaptation: Option<Adaptation>,
     curves_at: CurveSpeed,
+    /// The map's efficiency at the map point the design point was scaled to: what an
+    /// adaptation that holds the map's efficiency reads everywhere.
+    design_map_eff: f64,
 }
 
 impl ScaledTurbine {
@@ -255,18 +262,14 @@ impl ScaledTurbine {
             pr_minus_one: (design_pr - 1.0) / (pr_map - 1.0),
             eff: design_eff / p.eff,
         };
-        Self::from_scalers(map, scalers)
-    }
-
-    /// A scaled turbine with given scalers, healthy.
-    pub fn from_scalers(map: impl Into<Arc<TurbineMap>>, scalers: MapScalers) -> Self {
         ScaledTurbine {
-            map: map.into(),
+            map,
             scalers,
             flow_factor: 1.0,
             eff_factor: 1.0,
             adaptation: None,
             curves_at: CurveSpeed::Own,
+            design_map_eff: p.eff,
         }
     }
 
@@ -279,6 +282,7 @@ impl ScaledTurbine {
             eff_factor,
             adaptation: self.adaptation.clone(),
             curves_at: self.curves_at,
+            design_map_eff: self.design_map_eff,
         }
     }
 
@@ -331,9 +335,14 @@ impl ScaledTurbine {
         let p = self
             .map
             .point(nc_rpm / s.speed, 1.0 + (pr - 1.0) / s.pr_minus_one);
+        let held = self
+            .adaptation
+            .as_ref()
+            .is_some_and(|a| a.curves.hold_map_efficiency);
+        let map_eff = if held { self.design_map_eff } else { p.eff };
         TurbineOp {
             wc_kg_s: s.flow * self.flow_factor * a.flow * p.wc,
-            eff: s.eff * self.eff_factor * a.eff * p.eff,
+            eff: s.eff * self.eff_factor * a.eff * map_eff,
             beta: p.beta,
         }
     }
@@ -397,6 +406,48 @@ mod tests {
             assert!((b.wc_kg_s - 0.98 * a.wc_kg_s).abs() < 1e-12);
             assert!((b.eff - 0.95 * a.eff).abs() < 1e-14);
         }
+    }
+
+    #[test]
+    fn a_held_map_efficiency_leaves_the_curve_alone_to_shape_it() {
+        let t = ScaledTurbine::calibrate(lpt().expect("lpt"), 1.0, 5.0, 9500.0, 12.5, 5.3, 0.90);
+        let curve = SpeedCurve::new(&[0.7], &[0.02]).expect("curve");
+        let held = t.with_adaptation(
+            9500.0,
+            ComponentAdaptation {
+                eff: Some(curve.clone()),
+                hold_map_efficiency: true,
+                ..Default::default()
+            },
+        );
+        let shaped = t.with_adaptation(
+            9500.0,
+            ComponentAdaptation {
+                eff: Some(curve.clone()),
+                ..Default::default()
+            },
+        );
+        let mut spread = 0.0_f64;
+        for (n, pr) in [(9500.0, 5.3), (6650.0, 3.0), (6650.0, 6.0), (8000.0, 1.5)] {
+            let (m, h, s) = (t.at_pr(n, pr), held.at_pr(n, pr), shaped.at_pr(n, pr));
+            // Held: the design point's efficiency times the curve, whatever the map says here;
+            // the flow still the map's.
+            let want = 0.90 * (1.0 + curve.at(n / 9500.0));
+            assert!(
+                (h.eff - want).abs() < 1e-12,
+                "{n} {pr}: {} vs {want}",
+                h.eff
+            );
+            assert!((h.wc_kg_s - m.wc_kg_s).abs() < 1e-12);
+            // Not held: the map's own efficiency times the curve.
+            assert!((s.eff - m.eff * (1.0 + curve.at(n / 9500.0))).abs() < 1e-12);
+            spread = spread.max((m.eff / 0.90 - 1.0).abs());
+        }
+        // The map's own shape is there to be dropped (else the test proves nothing).
+        assert!(spread > 0.01, "map efficiency spread {spread}");
+        // Health still scales it.
+        let sick = held.with_health(1.0, 0.97);
+        assert!((sick.at_pr(6650.0, 3.0).eff - 0.97 * held.at_pr(6650.0, 3.0).eff).abs() < 1e-14);
     }
 
     #[test]

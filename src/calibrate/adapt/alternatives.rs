@@ -10,7 +10,8 @@
 
 use super::before::Before;
 use super::fitting::within_noise;
-use super::{adapt_shape, gg_speeds, similarity, surge, AdaptReport, AdaptSettings, Ctx};
+use super::{adapt_shape, efficiency_shape, gg_speeds, similarity, surge};
+use super::{AdaptReport, AdaptSettings, Ctx};
 use super::{CalibrateError, Similarity};
 use crate::engine::config::SpeedOf;
 use crate::engine::Engine;
@@ -31,7 +32,23 @@ pub fn adapt(
     ctx: Ctx,
 ) -> Result<(AdaptReport, Engine), CalibrateError> {
     let before = Before::new(engine, ctx.points);
-    let first = checked(engine, design_keys, ctx, &before)?;
+    let (kept, settings) = similar_and_on_map(engine, design_keys, ctx, &before)?;
+    let c = Ctx {
+        settings: &settings,
+        ..ctx
+    };
+    efficiency_shape::tried(engine, design_keys, c, &before, kept)
+}
+
+/// The first adaptation, or the alternative kept where it departs from similarity (module
+/// docs), with the settings it was fitted with.
+fn similar_and_on_map(
+    engine: &Engine,
+    design_keys: &[String],
+    ctx: Ctx,
+    before: &Before,
+) -> Result<((AdaptReport, Engine), AdaptSettings), CalibrateError> {
+    let first = checked(engine, design_keys, ctx, before)?;
     let departs = first.0.similarity.as_ref().is_some_and(|s| s.departs);
     let off_map = first.0.operating_line.as_ref().is_some_and(|o| o.beyond());
     let hpt_fitted = first
@@ -84,7 +101,7 @@ pub fn adapt(
         });
     }
     if tries.is_empty() {
-        return Ok(first);
+        return Ok((first, ctx.settings.clone()));
     }
     let why = if relabel {
         "the first fit put the compressor's healthy operating line beyond its map's surge line \
@@ -103,7 +120,7 @@ pub fn adapt(
     let mut kept: Option<usize> = None;
     for (i, settings) in tries.iter().enumerate() {
         let c = Ctx { settings, ..ctx };
-        let other = checked(engine, design_keys, c, &before)?;
+        let other = checked(engine, design_keys, c, before)?;
         runs += other.0.model_runs;
         lines.push(format!("{}: {}", describe_try(settings), summary(&other.0)));
         if passes(&other.0) && (kept.is_none() || excess(&other.0) < excess(&best.0)) {
@@ -124,11 +141,12 @@ pub fn adapt(
     let (mut report, adapted) = best;
     report.model_runs = runs;
     report.retried = lines;
-    Ok((report, adapted))
+    let settings = kept.map_or_else(|| ctx.settings.clone(), |i| tries[i].clone());
+    Ok(((report, adapted), settings))
 }
 
 /// An adaptation and its two checks against `before` (`engine` at the same points).
-fn checked(
+pub(super) fn checked(
     engine: &Engine,
     design_keys: &[String],
     ctx: Ctx,
@@ -145,7 +163,7 @@ fn checked(
 }
 
 /// An adaptation's fit and checks in one phrase, for the report.
-fn summary(r: &AdaptReport) -> String {
+pub(super) fn summary(r: &AdaptReport) -> String {
     format!(
         "data RMS {:.2} σ; {}; {}",
         r.rms_after,
@@ -163,7 +181,7 @@ fn summary(r: &AdaptReport) -> String {
 /// `tests/foreign_engine.rs` with its 38.75 % load left out, the first fit ran its lowest load
 /// 4.9 % beyond the surge line and both alternatives did too; the one a little more similar
 /// predicted the load left out at 3.3 % mean where the first predicts 0.3 %.
-fn passes(r: &AdaptReport) -> bool {
+pub(super) fn passes(r: &AdaptReport) -> bool {
     within_noise(r.rms_after)
         && r.similarity.as_ref().is_some_and(|s| !s.departs)
         && r.operating_line.as_ref().is_some_and(|o| !o.beyond())

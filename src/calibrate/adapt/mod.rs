@@ -71,6 +71,7 @@
 mod alternatives;
 mod before;
 mod coverage;
+mod efficiency_shape;
 mod fitting;
 // The calibration's "within noise" (the baseline verdict's `good` level), also `prewash`'s.
 pub(in crate::calibrate) use fitting::within_noise;
@@ -97,7 +98,7 @@ use super::startup::RestReading;
 use super::CalibrateError;
 use crate::diagnosis::fit_quality::Thresholds;
 use crate::diagnosis::steady::{relative_gg_speed, relative_gg_speed_at};
-use crate::engine::config::{CalibratedRange, SpeedOf, COMPONENTS};
+use crate::engine::config::{CalibratedRange, EfficiencyShape, SpeedOf, COMPONENTS};
 use crate::engine::cycle::corrected_speed;
 use crate::engine::Engine;
 use crate::signals::Signal;
@@ -180,6 +181,10 @@ pub struct AdaptSettings {
     /// (`relabel`) rather than from zero ([`adapt`] sets it where the fit from zero put the
     /// healthy operating line beyond the map's surge line and departs from similarity).
     pub relabel_start: bool,
+    /// What shapes the turbines' efficiency away from the design point (the map's by default;
+    /// [`adapt`] tries the efficiency curve alone where a turbine's curve works against the
+    /// map's shape: `engine::config::EfficiencyShape`).
+    pub turbine_efficiency: EfficiencyShape,
 }
 
 impl Default for AdaptSettings {
@@ -195,6 +200,7 @@ impl Default for AdaptSettings {
             health_error: true,
             hpt_speed_of: SpeedOf::OwnInlet,
             relabel_start: false,
+            turbine_efficiency: EfficiencyShape::Map,
         }
     }
 }
@@ -242,6 +248,8 @@ pub struct ComponentFit {
     pub component: String,
     /// Which corrected speed the knots are in (`own_inlet`, `gg_inlet`).
     pub speed_of: SpeedOf,
+    /// What shapes the efficiency away from the design point (`map`, `curve`).
+    pub efficiency_shape: EfficiencyShape,
     /// Lowest and highest relative corrected speed of the data on the calibrated engine.
     pub speed_range: [f64; 2],
     /// Knot speeds chosen (the anchor 1.0 implicit).
@@ -296,6 +304,14 @@ pub struct AdaptReport {
     /// what it reached and whether it is kept (empty when it was not run again).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub retried: Vec<String>,
+    /// Where a turbine's efficiency curve worked against its map's shape: the fit with the
+    /// map's efficiency held, what it reached and whether it is kept (`efficiency_shape`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub efficiency_tried: Option<String>,
+    /// The final fit's values and shape, to refit it on part of the points
+    /// (`efficiency_shape`); `None` when nothing was fitted.
+    #[serde(skip)]
+    fitted: Option<(Vec<String>, Shape)>,
 }
 
 /// Relative corrected speed of each component at each point, in the speed its knots are in
@@ -524,6 +540,7 @@ fn report(
         .map(|(((ci, name), not_fitted), knots_reason)| ComponentFit {
             component: name.to_string(),
             speed_of: shape.speed_of(name),
+            efficiency_shape: shape.efficiency_shape(name),
             speed_range: ranges[ci],
             knots: shape.knots[ci].clone(),
             curves: shape.curves[ci]
@@ -574,5 +591,7 @@ fn report(
         similarity: None,
         operating_line: None,
         retried: Vec::new(),
+        efficiency_tried: None,
+        fitted: None,
     }
 }

@@ -3,7 +3,9 @@
 //! the smoothness rows of the penalty. Must not fit (that is the parent module's `fit`).
 
 use super::super::problem::SmoothnessRow;
-use crate::engine::config::{AdaptationConfig, ComponentCurves, SpeedOf, COMPONENTS};
+use crate::engine::config::{
+    AdaptationConfig, ComponentCurves, EfficiencyShape, SpeedOf, COMPONENTS,
+};
 use crate::engine::Engine;
 use crate::maps::SpeedCurve;
 
@@ -26,6 +28,8 @@ pub(super) struct Shape {
     pub(super) held: [Vec<Held>; 3],
     /// Which corrected speed the HP turbine's knots are in.
     pub(super) hpt_speed_of: SpeedOf,
+    /// What shapes the turbines' efficiency away from the design point.
+    pub(super) turbine_efficiency: EfficiencyShape,
 }
 
 /// A curve held at the shape it was fitted to at fewer knots, and why (the report says it).
@@ -50,6 +54,8 @@ impl Shape {
             let mut c = ComponentCurves {
                 speed_knots: self.knots[ci].clone(),
                 speed_of: (speed_of != SpeedOf::OwnInlet).then_some(speed_of),
+                efficiency_shape: (self.efficiency_shape(name) != EfficiencyShape::Map)
+                    .then_some(self.turbine_efficiency),
                 ..Default::default()
             };
             let held = self.held[ci].iter().map(|h| (&h.curve, &h.values));
@@ -72,6 +78,15 @@ impl Shape {
             self.hpt_speed_of
         } else {
             SpeedOf::OwnInlet
+        }
+    }
+
+    /// What shapes component `name`'s efficiency away from the design point.
+    pub(super) fn efficiency_shape(&self, name: &str) -> EfficiencyShape {
+        if name == "compressor" {
+            EfficiencyShape::Map
+        } else {
+            self.turbine_efficiency
         }
     }
 
@@ -192,6 +207,7 @@ mod tests {
     fn a_held_curve_stays_in_the_file_but_not_in_the_fit() {
         let shape = Shape {
             hpt_speed_of: SpeedOf::OwnInlet,
+            turbine_efficiency: EfficiencyShape::Map,
             knots: [vec![0.75, 0.875], vec![], vec![]],
             curves: [
                 vec![
@@ -245,6 +261,7 @@ mod tests {
         // 0.8, 0.9, (1.0, 0), 1.1.
         let shape = Shape {
             hpt_speed_of: SpeedOf::OwnInlet,
+            turbine_efficiency: EfficiencyShape::Map,
             knots: [vec![], vec![], vec![0.8, 0.9, 1.1]],
             curves: [
                 vec![],
@@ -272,6 +289,7 @@ mod tests {
         // Below the design only, as before: the anchor last.
         let below = Shape {
             hpt_speed_of: SpeedOf::OwnInlet,
+            turbine_efficiency: EfficiencyShape::Map,
             knots: [vec![0.8, 0.9], vec![], vec![]],
             curves: [
                 vec![("speed".to_string(), vec![0.02, 0.01])],

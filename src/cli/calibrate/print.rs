@@ -49,6 +49,9 @@ pub(super) fn print_model_errors(ad: &crate::calibrate::adapt::AdaptReport) {
     for (i, line) in ad.retried.iter().enumerate() {
         println!("  {}{line}", if i == 0 { "" } else { "  " });
     }
+    if let Some(line) = &ad.efficiency_tried {
+        println!("  {line}");
+    }
     let he = &ad.health_error;
     if he.points.is_empty() {
         println!("  model error in health units: {}", he.note);

@@ -12,6 +12,7 @@
 //! [adaptation.hpt]                      # flow, efficiency
 //! speed_of = "gg_inlet"                 # knots in the GG's corrected speed (see below)
 //! [adaptation.pt]                       # flow, efficiency
+//! efficiency_shape = "curve"            # the map's efficiency held (see below)
 //! ```
 //!
 //! `speed_of` says which corrected speed a component's knots are in. `own_inlet` (the default):
@@ -35,6 +36,19 @@
 //! expressive there; the HPT's own speed stays the first choice because on the other foreign
 //! units it gives their figures (the GG's moved them, not always for the better). Files
 //! written before `speed_of` existed keep their meaning (own inlet).
+//!
+//! `efficiency_shape` (turbines only) says what shapes a turbine's efficiency away from the
+//! design point. `map` (the default): the map's own efficiency at each point, times the
+//! efficiency curve. `curve`: the map's efficiency held at its value at the design point, so the
+//! efficiency curve alone shapes it over corrected speed (and the map's change of efficiency
+//! with pressure ratio is dropped). A map borrowed from another make brings its own fall-off
+//! of efficiency with speed: the independent simulator's unit (`tests/data/foreign/indep30`)
+//! runs its power turbine at 0.903–0.905 from 30 % to 100 % load where md22's PT map, scaled
+//! to the same design point, gives 0.843 at the lowest load, and the curve undoing that
+//! fall-off is bent beyond what its smoothness and the data allow. `calibrate --adapt` writes `curve` where a
+//! turbine's fitted efficiency curve moves the map by more than
+//! [`EFFICIENCY_SHAPE_TRY_FRACTION`] and the fit with the map's efficiency held predicts its
+//! own left-out points better (`calibrate::adapt` docs).
 //!
 //! `[adaptation.model_error_pct]` (written by `calibrate --adapt`, or set by hand) states, per
 //! compared signal (CSV name, e.g. `n1_rpm = 0.4`), the 1σ of the adapted model's own error in
@@ -102,7 +116,38 @@ pub struct ComponentCurves {
     /// Which corrected speed the knots are in (absent: the component's own).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub speed_of: Option<SpeedOf>,
+    /// What shapes a turbine's efficiency away from the design point (absent: the map).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub efficiency_shape: Option<EfficiencyShape>,
 }
+
+/// What shapes a turbine's efficiency away from the design point (module docs).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EfficiencyShape {
+    /// The map's efficiency at each point, times the efficiency curve.
+    #[default]
+    Map,
+    /// The map's efficiency held at its design-point value; the efficiency curve alone.
+    Curve,
+}
+
+impl EfficiencyShape {
+    /// The word the engine file uses.
+    pub fn name(self) -> &'static str {
+        match self {
+            EfficiencyShape::Map => "map",
+            EfficiencyShape::Curve => "curve",
+        }
+    }
+}
+
+/// A turbine's fitted efficiency curve that moves the map's efficiency by more than this
+/// fraction at some knot is working against the map's own efficiency shape, and
+/// `calibrate --adapt` fits the unit again with the map's efficiency held
+/// ([`EfficiencyShape::Curve`]). Below it the map's shape serves (on our own twins the curves
+/// stay within a few tenths of a percent).
+pub const EFFICIENCY_SHAPE_TRY_FRACTION: f64 = 0.01;
 
 /// The corrected speed a component's adaptation knots are in (module docs).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -430,6 +475,14 @@ impl AdaptationConfig {
                     ),
                 ));
             }
+            if c.efficiency_shape == Some(EfficiencyShape::Curve) && name == "compressor" {
+                return Err((
+                    key("efficiency_shape"),
+                    "`curve` is for a turbine's efficiency only (the compressor's follows its \
+                     map: leave `efficiency_shape` out)"
+                        .into(),
+                ));
+            }
             check_knots(&c.speed_knots).map_err(|r| (key("speed_knots"), r))?;
             if let Some(k) = c.speed_knots.iter().find(|k| (**k - 1.0).abs() < 0.01) {
                 return Err((
@@ -517,6 +570,17 @@ mod tests {
                 // The GG's corrected speed is for the HP turbine's knots only.
                 "[adaptation.pt]\nspeed_knots = [0.8]\nflow = [0.01]\nspeed_of = \"gg_inlet\"",
                 "adaptation.pt.speed_of",
+            ),
+            (
+                // The map's efficiency is held for a turbine's only.
+                "[adaptation.compressor]\nspeed_knots = [0.8]\nflow = [0.01]\n\
+                 efficiency_shape = \"curve\"",
+                "adaptation.compressor.efficiency_shape",
+            ),
+            (
+                "[adaptation.pt]\nspeed_knots = [0.8]\nflow = [0.01]\n\
+                 efficiency_shape = \"flat\"",
+                "efficiency_shape",
             ),
             (
                 "[adaptation.model_error_pct]\nn1 = 0.3",

@@ -15,9 +15,9 @@ mod load;
 mod maps;
 mod ranges;
 pub use adaptation::{
-    curves_of, AdaptationConfig, CalibratedRange, ComponentCurves, EnsembleFiles,
-    ModelErrorBySpeed, SpeedOf, CALIBRATED_MARGIN, COMPONENTS, MAX_HEALTH_ERROR_PTS,
-    MAX_MODEL_ERROR_PCT, UNRESOLVING_MODEL_ERROR_PCT,
+    curves_of, AdaptationConfig, CalibratedRange, ComponentCurves, EfficiencyShape, EnsembleFiles,
+    ModelErrorBySpeed, SpeedOf, CALIBRATED_MARGIN, COMPONENTS, EFFICIENCY_SHAPE_TRY_FRACTION,
+    MAX_HEALTH_ERROR_PTS, MAX_MODEL_ERROR_PCT, UNRESOLVING_MODEL_ERROR_PCT,
 };
 pub use fuel::{FuelConfig, FuelKind, GasComposition};
 pub use load::{LoadConfig, LoadMode};

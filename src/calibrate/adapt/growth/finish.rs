@@ -103,6 +103,7 @@ impl<'a> Growth<'a> {
         r.health_error = health;
         r.coverage = coverage;
         r.calibrated = Some(reach);
+        r.fitted = Some((final_keys, self.shape));
         Ok((r, current))
     }
 }
@@ -134,7 +135,10 @@ fn with_model_error_and_reach(
 }
 
 /// `engine` with `health` as its file's `[adaptation.health_error]` (when estimated).
-fn with_health_error(engine: &Engine, health: &HealthError) -> Result<Engine, CalibrateError> {
+pub(in super::super) fn with_health_error(
+    engine: &Engine,
+    health: &HealthError,
+) -> Result<Engine, CalibrateError> {
     if health.points.is_empty() {
         return Ok(engine.clone());
     }

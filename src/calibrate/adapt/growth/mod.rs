@@ -28,6 +28,7 @@ use super::{
 };
 use crate::engine::config::{curves_of, CalibratedRange, COMPONENTS};
 use crate::engine::Engine;
+pub(super) use finish::with_health_error;
 
 /// Times a growth's fit that stopped on its iteration limit, no better than the shape before,
 /// goes on before the knots are judged (each as many iterations again).
@@ -92,6 +93,7 @@ impl<'a> Growth<'a> {
         let mut knots_reason: [String; 3] = Default::default();
         let mut shape = Shape {
             hpt_speed_of: ctx.settings.hpt_speed_of,
+            turbine_efficiency: ctx.settings.turbine_efficiency,
             knots: Default::default(),
             curves: Default::default(),
             held: Default::default(),
