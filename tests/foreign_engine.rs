@@ -269,23 +269,50 @@ fn calibrated(model: &Engine, rows: &[Snapshot], adapt: Option<AdaptStrategy>) -
     engine
 }
 
+/// The adaptation settings of `strategy` with the turbines' efficiency shape the calibration
+/// on all of `rows` chooses, fixed: what `calibrate --validate` fits each fold with.
+fn chosen(model: &Engine, rows: &[Snapshot], strategy: AdaptStrategy) -> AdaptSettings {
+    let cands = default_candidates(model).expect("candidates");
+    let adapt = AdaptSettings {
+        health_error: false,
+        ..AdaptSettings::of(strategy)
+    };
+    let whole = CalibrationSettings {
+        adapt: Some(adapt.clone()),
+        ..settings(None)
+    };
+    let (report, _) = calibrate(model, rows, &[], cands, &whole).expect("calibrate");
+    let a = report.adaptation.expect("adapted");
+    eprintln!(
+        "efficiency shape on all {} rows ({}): {}",
+        rows.len(),
+        strategy.name(),
+        a.turbine_efficiency.name()
+    );
+    AdaptSettings::of(strategy).with_efficiency_shape_of(&a)
+}
+
 /// Load `k` of `rows` left out: `model` calibrated to the others with design values only and
-/// with the adaptation of `strategy`, each's (mean, worst) |error| in % over the measured
-/// signals of row `k` (printed with `label`).
+/// with the adaptation `adapt` (from [`chosen`]), each's (mean, worst) |error| in % over the
+/// measured signals of row `k` (printed with `label`).
 fn leave_out(
     model: &Engine,
     rows: &[Snapshot],
     k: usize,
     label: &str,
-    strategy: AdaptStrategy,
+    adapt: &AdaptSettings,
 ) -> [[f64; 2]; 2] {
     let cands = default_candidates(model).expect("candidates");
     let mut cells = [[f64::NAN; 2]; 2];
-    for (m, adapt) in [None, Some(strategy)].into_iter().enumerate() {
+    for (m, adapt) in [None, Some(adapt)].into_iter().enumerate() {
         // `calibrate --validate`'s own fold: the calibration without row k, the row predicted.
         let started = std::time::Instant::now();
-        let (p, runs) =
-            left_out(model, rows, k, &[], &cands, &settings(adapt)).expect("row k exists");
+        let fold = CalibrationSettings {
+            adapt: adapt.cloned(),
+            ..settings(None)
+        };
+        let adapt = adapt.map(|a| a.strategy);
+        let (p, runs) = left_out(model, rows, k, &[], &cands, &fold).expect("row k exists");
         if let Some(why) = &p.failed {
             panic!("left-out row {k} (adapt {adapt:?}): {why}");
         }
@@ -348,9 +375,10 @@ fn adapted_md22_predicts_left_out_loads_of_a_foreign_unit() {
     assert_eq!(rows.len(), 9);
     // Every load in turn (≈ 5 s a calibration since parameters are set in one batch): per
     // left-out load k, [design only, adapted] × [mean, worst].
+    let grown = chosen(&model, &rows, AdaptStrategy::Grown);
     let folds: Vec<(usize, [[f64; 2]; 2])> = left_out_loads(rows.len())
         .into_iter()
-        .map(|k| (k, leave_out(&model, &rows, k, "", AdaptStrategy::Grown)))
+        .map(|k| (k, leave_out(&model, &rows, k, "", &grown)))
         .collect();
     let mean_of = |m: usize| folds.iter().map(|(_, c)| c[m][0]).sum::<f64>() / folds.len() as f64;
     let worst_of = |m: usize| folds.iter().map(|(_, c)| c[m][1]).fold(0.0, f64::max);
@@ -448,8 +476,9 @@ fn the_calibration_names_where_the_baseline_wants_a_load_more() {
     n2.push(combinator_n2(f));
     let more = rows_at(&truth, (pts, n2), [0.0; 6], 0, "healthy");
     assert_eq!(more.len(), 10);
-    let before = leave_out(&model, &rows, 2, "9 loads: ", AdaptStrategy::Grown)[1];
-    let after = leave_out(&model, &more, 2, "10 loads: ", AdaptStrategy::Grown)[1];
+    let grown = |rows: &[Snapshot]| chosen(&model, rows, AdaptStrategy::Grown);
+    let before = leave_out(&model, &rows, 2, "9 loads: ", &grown(&rows))[1];
+    let after = leave_out(&model, &more, 2, "10 loads: ", &grown(&more))[1];
     eprintln!(
         "47.5 % left out: {:.3} / {:.3} % on 9 loads, {:.3} / {:.3} % with the 42.5 % load",
         before[0], before[1], after[0], after[1]
@@ -477,14 +506,9 @@ fn continuation_predicts_left_out_loads_of_a_foreign_unit_within_the_floors() {
     let (truth, rows, model) = first_unit();
     let mut means = Vec::new();
     let mut worst = 0.0f64;
+    let continuation = chosen(&model, &rows, AdaptStrategy::Continuation);
     for k in left_out_loads(rows.len()) {
-        let cells = leave_out(
-            &model,
-            &rows,
-            k,
-            "continuation ",
-            AdaptStrategy::Continuation,
-        );
+        let cells = leave_out(&model, &rows, k, "continuation ", &continuation);
         eprintln!(
             "continuation: line {} | design only {:.3} / {:.3} % | adapted {:.3} / {:.3} %",
             rows[k].line, cells[0][0], cells[0][1], cells[1][0], cells[1][1]
@@ -792,8 +816,9 @@ fn second_unit(strategy: AdaptStrategy) {
     let left_out = left_out_loads(rows.len());
     // Per left-out load k: [design only, adapted] × [mean, worst].
     let mut table: Vec<(usize, [[f64; 2]; 2])> = Vec::new();
+    let adapt = chosen(&model, &rows, strategy);
     for k in left_out {
-        let cells = leave_out(&model, &rows, k, "pyc30 ", strategy);
+        let cells = leave_out(&model, &rows, k, "pyc30 ", &adapt);
         table.push((k, cells));
     }
     eprintln!("pyc30 left-out line | design only: mean / worst % | adapted: mean / worst %");

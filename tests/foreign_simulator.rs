@@ -398,7 +398,7 @@ fn left_out_loads_predicted_against_the_simulators_own_values() {
     use gtwatch::calibrate::adapt::{AdaptSettings, AdaptStrategy};
     use gtwatch::calibrate::candidates::default_candidates;
     use gtwatch::calibrate::validate::left_out;
-    use gtwatch::calibrate::CalibrationSettings;
+    use gtwatch::calibrate::{calibrate, CalibrationSettings};
     use gtwatch::diagnosis::csv_input::parse_mapping;
     use gtwatch::diagnosis::snapshot::read_snapshots_in;
     use gtwatch::engine::{Engine, EngineConfig};
@@ -419,9 +419,26 @@ fn left_out_loads_predicted_against_the_simulators_own_values() {
         (AdaptStrategy::Continuation, 0.3, 1.0),
         (AdaptStrategy::Grown, 0.3, 1.8),
     ] {
+        // As `calibrate --validate` does: the turbines' efficiency shape chosen once, on every
+        // row, and each fold fitted with it.
+        let whole = CalibrationSettings {
+            threads: Some(2),
+            adapt: Some(AdaptSettings {
+                health_error: false,
+                ..AdaptSettings::of(strategy)
+            }),
+            ..CalibrationSettings::default()
+        };
+        let (report, _) =
+            calibrate(&engine, &noisy, &[], cands.clone(), &whole).expect("calibration");
+        let chosen = report.adaptation.expect("adapted");
+        eprintln!(
+            "{strategy:?}: efficiency shape {}",
+            chosen.turbine_efficiency.name()
+        );
         let settings = CalibrationSettings {
             threads: Some(2),
-            adapt: Some(AdaptSettings::of(strategy)),
+            adapt: Some(AdaptSettings::of(strategy).with_efficiency_shape_of(&chosen)),
             ..CalibrationSettings::default()
         };
         let (mut means, mut worst) = (Vec::new(), 0.0f64);

@@ -20,6 +20,9 @@
 //! leave out another set of points on each fit (6 of 7 with the map's shape) and rank the two
 //! the other way round from the full re-runs of `calibrate --validate`.
 //!
+//! A leave-one-out fold (`calibrate::validate`) does not choose again: it is fitted with the
+//! shape the calibration on every point chose (`AdaptSettings::choose_efficiency_shape`).
+//!
 //! What it must not do: I/O; change a fit (it runs, compares and chooses).
 
 use super::super::problem::{residuals_on, CalibrationPoint};
@@ -52,7 +55,9 @@ pub(super) fn tried(
     before: &Before,
     kept: (AdaptReport, Engine),
 ) -> Result<(AdaptReport, Engine), CalibrateError> {
-    if ctx.settings.turbine_efficiency != EfficiencyShape::Map {
+    if !ctx.settings.choose_efficiency_shape
+        || ctx.settings.turbine_efficiency != EfficiencyShape::Map
+    {
         return Ok(kept);
     }
     let Some((turbine, bend)) = most_bent(&kept.0) else {

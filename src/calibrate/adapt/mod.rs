@@ -185,6 +185,22 @@ pub struct AdaptSettings {
     /// [`adapt`] tries the efficiency curve alone where a turbine's curve works against the
     /// map's shape: `engine::config::EfficiencyShape`).
     pub turbine_efficiency: EfficiencyShape,
+    /// Whether [`adapt`] may choose the turbines' efficiency shape on the data (else
+    /// `turbine_efficiency` stands): a leave-one-out fold takes what the calibration on every
+    /// point chose ([`AdaptSettings::with_efficiency_shape_of`]).
+    pub choose_efficiency_shape: bool,
+}
+
+impl AdaptSettings {
+    /// These settings with the turbines' efficiency shape `report` ended with, fixed (not
+    /// chosen again).
+    pub fn with_efficiency_shape_of(&self, report: &AdaptReport) -> AdaptSettings {
+        AdaptSettings {
+            turbine_efficiency: report.turbine_efficiency,
+            choose_efficiency_shape: false,
+            ..self.clone()
+        }
+    }
 }
 
 impl Default for AdaptSettings {
@@ -201,6 +217,7 @@ impl Default for AdaptSettings {
             hpt_speed_of: SpeedOf::OwnInlet,
             relabel_start: false,
             turbine_efficiency: EfficiencyShape::Map,
+            choose_efficiency_shape: true,
         }
     }
 }
@@ -308,6 +325,8 @@ pub struct AdaptReport {
     /// map's efficiency held, what it reached and whether it is kept (`efficiency_shape`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub efficiency_tried: Option<String>,
+    /// What shapes the turbines' efficiency in the kept fit (`map`, `curve`).
+    pub turbine_efficiency: EfficiencyShape,
     /// The final fit's values and shape, to refit it on part of the points
     /// (`efficiency_shape`); `None` when nothing was fitted.
     #[serde(skip)]
@@ -592,6 +611,7 @@ fn report(
         operating_line: None,
         retried: Vec::new(),
         efficiency_tried: None,
+        turbine_efficiency: shape.turbine_efficiency,
         fitted: None,
     }
 }

@@ -257,6 +257,12 @@ pub(super) fn print_validation(v: &Validation, design_only: Option<&Validation>,
          in all)",
         v.model_runs
     );
+    if let Some(shape) = v.efficiency_shape {
+        println!(
+            "  each fold fitted with the turbines' efficiency shaped as the calibration on every \
+             point chose (efficiency_shape = \"{shape}\")"
+        );
+    }
     let signals: Vec<String> = {
         let mut s: Vec<String> = Vec::new();
         for p in &v.points {
@@ -426,6 +432,7 @@ mod tests {
             interior: None,
             all: None,
             model_runs: 0,
+            efficiency_shape: None,
         };
         assert_eq!(
             beyond_noise(&v),
