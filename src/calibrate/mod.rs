@@ -82,6 +82,20 @@ pub struct CalibrationSettings {
     pub prewash_group: Option<String>,
 }
 
+impl CalibrationSettings {
+    /// These settings with the turbines' efficiency shape `report`'s adaptation ended with,
+    /// fixed (not chosen again); as they are where either has no adaptation.
+    pub fn with_efficiency_shape_of(&self, report: &Calibration) -> CalibrationSettings {
+        match (&self.adapt, &report.adaptation) {
+            (Some(a), Some(r)) => CalibrationSettings {
+                adapt: Some(a.with_efficiency_shape_of(r)),
+                ..self.clone()
+            },
+            _ => self.clone(),
+        }
+    }
+}
+
 impl Default for CalibrationSettings {
     fn default() -> Self {
         Self {

@@ -241,20 +241,10 @@ pub(super) fn calibrate_with_prewash(
     let (first, first_engine) =
         calibrate_at(engine, &healthy, rest, candidates.clone(), settings, None)?;
     let mut runs = first.model_runs;
-    // The rounds keep the turbines' efficiency shape the healthy rows chose: chosen again in
-    // each round, it can flip between rounds and the fouling read with it, and the rounds then
-    // never settle (`adapt::efficiency_shape`).
-    let fixed;
-    let settings = match (&settings.adapt, &first.adaptation) {
-        (Some(a), Some(r)) => {
-            fixed = CalibrationSettings {
-                adapt: Some(a.with_efficiency_shape_of(r)),
-                ..settings.clone()
-            };
-            &fixed
-        }
-        _ => settings,
-    };
+    // The rounds keep the turbines' efficiency shape the healthy rows chose
+    // (`adapt::efficiency_shape`): every round then fits the model form the fouling was first
+    // read on, and the rounds' reads compare like with like.
+    let settings = &settings.with_efficiency_shape_of(&first);
     let first_read = compressor_fouling(&first_engine, &prewash, settings.threads)?;
     let mut read = first_read;
     let mut rounds: Vec<PrewashRound> = Vec::new();

@@ -239,7 +239,7 @@ pub fn leave_one_out(
     // validation's time, and on the independent simulator's unit the truth-judged predictions
     // of its interior loads came out alike (0.204 % mean, 0.757 % worst chosen in each fold;
     // 0.200 / 0.849 % with the shape chosen on every point).
-    let (settings, efficiency_shape) = match &settings.adapt {
+    let whole = match &settings.adapt {
         Some(a) if a.choose_efficiency_shape => {
             let whole = CalibrationSettings {
                 adapt: Some(AdaptSettings {
@@ -248,26 +248,21 @@ pub fn leave_one_out(
                 }),
                 ..settings.clone()
             };
-            match calibrate(engine, rows, rest, candidates.to_vec(), &whole) {
-                Ok((report, _)) => {
-                    model_runs += report.model_runs;
-                    match report.adaptation {
-                        Some(r) => (
-                            CalibrationSettings {
-                                adapt: Some(a.with_efficiency_shape_of(&r)),
-                                ..settings.clone()
-                            },
-                            Some(r.turbine_efficiency.name()),
-                        ),
-                        None => (settings.clone(), None),
-                    }
-                }
-                Err(_) => (settings.clone(), None),
-            }
+            calibrate(engine, rows, rest, candidates.to_vec(), &whole).ok()
         }
-        _ => (settings.clone(), None),
+        _ => None,
     };
-    let settings = &settings;
+    let efficiency_shape = whole
+        .as_ref()
+        .and_then(|(r, _)| r.adaptation.as_ref())
+        .map(|a| a.turbine_efficiency.name());
+    let settings = &match &whole {
+        Some((report, _)) => {
+            model_runs += report.model_runs;
+            settings.with_efficiency_shape_of(report)
+        }
+        None => settings.clone(),
+    };
     // A pre-wash row stays in every fold: its fouling is the calibration's to find, and a row
     // left out is predicted healthy.
     let healthy =

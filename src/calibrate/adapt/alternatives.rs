@@ -181,7 +181,7 @@ pub(super) fn summary(r: &AdaptReport) -> String {
 /// `tests/foreign_engine.rs` with its 38.75 % load left out, the first fit ran its lowest load
 /// 4.9 % beyond the surge line and both alternatives did too; the one a little more similar
 /// predicted the load left out at 3.3 % mean where the first predicts 0.3 %.
-pub(super) fn passes(r: &AdaptReport) -> bool {
+fn passes(r: &AdaptReport) -> bool {
     within_noise(r.rms_after)
         && r.similarity.as_ref().is_some_and(|s| !s.departs)
         && r.operating_line.as_ref().is_some_and(|o| !o.beyond())

@@ -51,11 +51,12 @@ impl Shape {
                 continue;
             }
             let speed_of = self.speed_of(name);
+            let efficiency_shape = self.efficiency_shape(name);
             let mut c = ComponentCurves {
                 speed_knots: self.knots[ci].clone(),
                 speed_of: (speed_of != SpeedOf::OwnInlet).then_some(speed_of),
-                efficiency_shape: (self.efficiency_shape(name) != EfficiencyShape::Map)
-                    .then_some(self.turbine_efficiency),
+                efficiency_shape: (efficiency_shape != EfficiencyShape::Map)
+                    .then_some(efficiency_shape),
                 ..Default::default()
             };
             let held = self.held[ci].iter().map(|h| (&h.curve, &h.values));
