@@ -1,6 +1,8 @@
-//! A unit of another simulator, end to end as a user runs gtwatch on it: every other foreign
+//! Units of other simulators, end to end as a user runs gtwatch on them: every other foreign
 //! unit of the tests is written by this project's own steady solver (another map family, load
-//! or design, but gtwatch's thermodynamics, gas path and health scalers); this one is not.
+//! or design, but gtwatch's thermodynamics, gas path and health scalers); these two are not.
+//! The second (`tests/data/foreign/indep2/`, a generator set logged in °F, psia and lb/h) is
+//! described at its tests below; the first follows.
 //!
 //! The truth (`tests/data/foreign/indep30/`): `sim.py`, a steady two-shaft gas-turbine model in
 //! plain Python written for these tests from textbook performance physics by someone who did
@@ -44,21 +46,57 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// The plant's tags, as the user maps them to gtwatch's signals.
-const MAP: &str = "t1_k=CIT_C,p1_kpa=CIP_BARA,p_amb_kpa=AMB_P_BARA,n1_rpm=NGG_RPM,\
-n2_rpm=NPT_RPM,fuel_kg_s=FUEL_KGH,p2_kpa=CDP_BARA,t2_k=CDT_C,p34_kpa=P34_BARA,t34_k=T34_C,\
-p4_kpa=EXP_BARA,t4_k=EGT_C,power_mw=PWR_MW";
+/// One simulator's unit as a user meets it: its files, the plant's tags as the user maps them
+/// to gtwatch's signals, the plant's units, and the user's engine file.
+struct Sim {
+    /// Folder under `tests/data/foreign/`.
+    dir: &'static str,
+    map: &'static str,
+    units: &'static str,
+    /// The user's engine file, under `tests/data/foreign/`.
+    user: &'static str,
+}
 
-/// The plant's units.
-const UNITS: &str = "t1_k=degC,p1_kpa=bar,p_amb_kpa=bar,fuel_kg_s=kg/h,p2_kpa=bar,t2_k=degC,\
-p34_kpa=bar,t34_k=degC,p4_kpa=bar,t4_k=degC";
+/// The first independent simulator's unit (a 30 MW mechanical drive, °C and bar a).
+const INDEP30: Sim = Sim {
+    dir: "indep30",
+    map: "t1_k=CIT_C,p1_kpa=CIP_BARA,p_amb_kpa=AMB_P_BARA,n1_rpm=NGG_RPM,n2_rpm=NPT_RPM,\
+          fuel_kg_s=FUEL_KGH,p2_kpa=CDP_BARA,t2_k=CDT_C,p34_kpa=P34_BARA,t34_k=T34_C,\
+          p4_kpa=EXP_BARA,t4_k=EGT_C,power_mw=PWR_MW",
+    units: "t1_k=degC,p1_kpa=bar,p_amb_kpa=bar,fuel_kg_s=kg/h,p2_kpa=bar,t2_k=degC,\
+            p34_kpa=bar,t34_k=degC,p4_kpa=bar,t4_k=degC",
+    user: "indep30_user_md22.toml",
+};
+
+/// The second independent simulator's unit (a 13 MW generator set, °F, psia and lb/h, no
+/// pressure measured between or after the turbines).
+const INDEP2: Sim = Sim {
+    dir: "indep2",
+    map: "t1_k=T1_F,p1_kpa=P1_PSIA,p_amb_kpa=AMB_P_PSIA,n1_rpm=NGG_RPM,n2_rpm=NPT_RPM,\
+          fuel_kg_s=FUEL_LBH,p2_kpa=CDP_PSIA,t2_k=CDT_F,t34_k=T48_F,t4_k=EGT_F,power_mw=MW",
+    units: "t1_k=degF,p1_kpa=psia,p_amb_kpa=psia,fuel_kg_s=lb/h,p2_kpa=psia,t2_k=degF,\
+            t34_k=degF,t4_k=degF",
+    user: "indep2_user_md22.toml",
+};
+
+impl Sim {
+    fn data(&self, file: &str) -> PathBuf {
+        root().join("tests/data/foreign").join(self.dir).join(file)
+    }
+    fn user(&self) -> PathBuf {
+        root().join("tests/data/foreign").join(self.user)
+    }
+    /// The tag map as one `--map` argument (the constants are wrapped for reading).
+    fn map(&self) -> String {
+        self.map.split_whitespace().collect()
+    }
+    fn units(&self) -> String {
+        self.units.split_whitespace().collect()
+    }
+}
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn data(file: &str) -> PathBuf {
-    root().join("tests/data/foreign/indep30").join(file)
 }
 
 /// `gtwatch <args> --json`, parsed; panics with its stderr when it fails.
@@ -78,7 +116,8 @@ fn gtwatch_json(args: &[&str]) -> Value {
 
 /// `gtwatch calibrate --adapt` of `engine` on `input` (the healthy baseline unless said), with
 /// `extra` arguments, written to `out`: the calibration's JSON.
-fn calibrate_on(engine: &Path, input: &Path, extra: &[&str], out: &Path) -> Value {
+fn calibrate_on(sim: &Sim, engine: &Path, input: &Path, extra: &[&str], out: &Path) -> Value {
+    let (map, units) = (sim.map(), sim.units());
     let mut args = vec![
         "calibrate",
         "--engine",
@@ -86,9 +125,9 @@ fn calibrate_on(engine: &Path, input: &Path, extra: &[&str], out: &Path) -> Valu
         "--input",
         input.to_str().expect("utf-8"),
         "--map",
-        MAP,
+        &map,
         "--units",
-        UNITS,
+        &units,
         "--adapt",
         "--threads",
         "2",
@@ -100,8 +139,8 @@ fn calibrate_on(engine: &Path, input: &Path, extra: &[&str], out: &Path) -> Valu
 }
 
 /// [`calibrate_on`] the healthy baseline.
-fn calibrate(engine: &Path, out: &Path) -> Value {
-    calibrate_on(engine, &data("baseline_noisy.csv"), &[], out)
+fn calibrate(sim: &Sim, engine: &Path, out: &Path) -> Value {
+    calibrate_on(sim, engine, &sim.data("baseline_noisy.csv"), &[], out)
 }
 
 fn verdict(calibration: &Value) -> (String, f64) {
@@ -116,8 +155,8 @@ fn verdict(calibration: &Value) -> (String, f64) {
 }
 
 /// The true health of each group of the grid file (its `true_D_*` columns).
-fn truth() -> BTreeMap<String, [f64; 6]> {
-    let text = std::fs::read_to_string(data("grid_noisy.csv")).expect("grid");
+fn truth(sim: &Sim) -> BTreeMap<String, [f64; 6]> {
+    let text = std::fs::read_to_string(sim.data("grid_noisy.csv")).expect("grid");
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().expect("header").split(',').collect();
     let col = |name: &str| header.iter().position(|h| *h == name).expect(name);
@@ -139,9 +178,10 @@ fn truth() -> BTreeMap<String, [f64; 6]> {
 }
 
 /// `gtwatch diagnose --method steady` of `input` (the plant's tags and units) on `unit`, by its
-/// `group` column, as the user runs it.
-fn diagnose(unit: &Path, input: &Path) -> Value {
-    gtwatch_json(&[
+/// `group` column, as the user runs it, with `extra` arguments.
+fn diagnose(sim: &Sim, unit: &Path, input: &Path, extra: &[&str]) -> Value {
+    let (map, units) = (sim.map(), sim.units());
+    let mut args = vec![
         "diagnose",
         "--method",
         "steady",
@@ -150,14 +190,16 @@ fn diagnose(unit: &Path, input: &Path) -> Value {
         "--input",
         input.to_str().expect("utf-8"),
         "--map",
-        MAP,
+        &map,
         "--units",
-        UNITS,
+        &units,
         "--group-by",
         "group",
         "--threads",
         "2",
-    ])
+    ];
+    args.extend_from_slice(extra);
+    gtwatch_json(&args)
 }
 
 /// How the grid was read on an engine file: per parameter the worst error (points) and
@@ -172,11 +214,11 @@ struct GridRead {
     good: usize,
 }
 
-/// `gtwatch diagnose --method steady` of the grid on `unit`, as the user runs it, scored
-/// against the grid's `true_D_*` columns (each level printed).
-fn read_grid(unit: &Path) -> GridRead {
-    let diag = diagnose(unit, &data("grid_noisy.csv"));
-    let truth = truth();
+/// `gtwatch diagnose --method steady` of the grid on `unit` (with `extra` arguments), as the
+/// user runs it, scored against the grid's `true_D_*` columns (each level printed).
+fn read_grid(sim: &Sim, unit: &Path, extra: &[&str]) -> GridRead {
+    let diag = diagnose(sim, unit, &sim.data("grid_noisy.csv"), extra);
+    let truth = truth(sim);
     let groups = diag["groups"].as_array().expect("groups");
     assert_eq!(groups.len(), truth.len());
     let mut est: Vec<[f64; 6]> = Vec::new();
@@ -241,7 +283,7 @@ fn read_grid(unit: &Path) -> GridRead {
 #[test]
 fn a_unit_of_another_simulator_is_calibrated_and_its_grid_read_within_its_stated_error() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let user = root().join("tests/data/foreign/indep30_user_md22.toml");
+    let user = INDEP30.user();
 
     // md22's habit (the cooling air overboard) against the datasheet's split.
     let text = std::fs::read_to_string(&user).expect("user file");
@@ -255,9 +297,9 @@ fn a_unit_of_another_simulator_is_calibrated_and_its_grid_read_within_its_stated
         overboard_text.replace("../../../config/", &format!("{}/config/", root().display())),
     )
     .expect("write");
-    let (v_over, rms_over) = verdict(&calibrate(&overboard, &dir.path().join("o.toml")));
+    let (v_over, rms_over) = verdict(&calibrate(&INDEP30, &overboard, &dir.path().join("o.toml")));
     let unit = dir.path().join("unit.toml");
-    let (v, rms) = verdict(&calibrate(&user, &unit));
+    let (v, rms) = verdict(&calibrate(&INDEP30, &user, &unit));
     eprintln!("baseline: cooling returned {rms:.2} σ {v}; overboard {rms_over:.2} σ {v_over}");
     assert_eq!(v, "good", "the datasheet's cooling split: {rms:.2} σ");
     assert!(
@@ -285,7 +327,7 @@ fn a_unit_of_another_simulator_is_calibrated_and_its_grid_read_within_its_stated
 
     // The healthy baseline on its own calibration: `good`, each parameter within 0.3 points
     // (measured 0.19 at most, D_EP).
-    let healthy = diagnose(&unit, &data("baseline_noisy.csv"));
+    let healthy = diagnose(&INDEP30, &unit, &INDEP30.data("baseline_noisy.csv"), &[]);
     let g = &healthy["groups"][0];
     eprintln!(
         "healthy baseline: {} {}",
@@ -303,7 +345,7 @@ fn a_unit_of_another_simulator_is_calibrated_and_its_grid_read_within_its_stated
         worst_z,
         separable_miss,
         good,
-    } = read_grid(&unit);
+    } = read_grid(&INDEP30, &unit, &[]);
     // Measured 0.93 / 0.66 / 0.77 / 0.38 / 0.76 / 0.34 points and ρ 0.90 / 0.72 / 0.90 / 0.90 /
     // 0.80 / 0.82 (each parameter is 0 on half the levels or more: a tie no estimate repeats);
     // with the PT map's own efficiency shape 0.84 / 0.75 / 0.67 / 0.30 / 0.77 / 0.58, ρ 0.90 /
@@ -352,15 +394,15 @@ fn a_unit_of_another_simulator_is_calibrated_and_its_grid_read_within_its_stated
 #[ignore = "measurement: cargo test --release --test integration rows_before_a_wash_on -- --ignored --nocapture"]
 fn rows_before_a_wash_on_another_simulators_unit() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let base = std::fs::read_to_string(data("baseline_noisy.csv")).expect("baseline");
-    let pre = std::fs::read_to_string(data("prewash_noisy.csv")).expect("pre-wash rows");
+    let base = std::fs::read_to_string(INDEP30.data("baseline_noisy.csv")).expect("baseline");
+    let pre = std::fs::read_to_string(INDEP30.data("prewash_noisy.csv")).expect("pre-wash rows");
     let washed = dir.path().join("washed.csv");
     let rows: String = pre.lines().skip(1).map(|l| format!("{l}\n")).collect();
     std::fs::write(&washed, format!("{base}{rows}")).expect("write");
-    let user = root().join("tests/data/foreign/indep30_user_md22.toml");
     let unit = dir.path().join("washed.toml");
     let c = calibrate_on(
-        &user,
+        &INDEP30,
+        &INDEP30.user(),
         &washed,
         &["--group-by", "group", "--prewash-group", "before_wash"],
         &unit,
@@ -368,7 +410,7 @@ fn rows_before_a_wash_on_another_simulators_unit() {
     eprintln!("pre-wash: {}", c["calibration"]["prewash"]);
     let (v, rms) = verdict(&c);
     eprintln!("calibration {rms:.2} σ {v}");
-    let read = read_grid(&unit);
+    let read = read_grid(&INDEP30, &unit, &[]);
     // The rows must not make the grid worse than the baseline alone reads it (the CI test's
     // floors).
     for (p, most) in [1.0, 0.9, 0.85, 0.45, 0.95, 0.75].into_iter().enumerate() {
@@ -398,7 +440,21 @@ fn rows_before_a_wash_on_another_simulators_unit() {
 /// readings instead, the same folds read 0.31 / 1.57 % and 0.35 / 2.35 %.
 #[test]
 fn left_out_loads_predicted_against_the_simulators_own_values() {
-    use gtwatch::calibrate::adapt::{AdaptSettings, AdaptStrategy};
+    use gtwatch::calibrate::adapt::AdaptStrategy;
+    left_out_loads(
+        &INDEP30,
+        &[
+            (AdaptStrategy::Continuation, 0.3, 1.0),
+            (AdaptStrategy::Grown, 0.3, 1.8),
+        ],
+    );
+}
+
+/// Each interior load of `sim`'s baseline left out of the noisy baseline's calibration in turn
+/// and predicted against the simulator's own values (`baseline_exact.csv`), per strategy, its
+/// mean and worst |error| (%) over the loads held to the floors given with it.
+fn left_out_loads(sim: &Sim, floors: &[(gtwatch::calibrate::adapt::AdaptStrategy, f64, f64)]) {
+    use gtwatch::calibrate::adapt::AdaptSettings;
     use gtwatch::calibrate::candidates::default_candidates;
     use gtwatch::calibrate::validate::left_out;
     use gtwatch::calibrate::{calibrate, CalibrationSettings};
@@ -407,21 +463,31 @@ fn left_out_loads_predicted_against_the_simulators_own_values() {
     use gtwatch::engine::{Engine, EngineConfig};
     use gtwatch::units::ColumnUnits;
 
-    let user = root().join("tests/data/foreign/indep30_user_md22.toml");
-    let engine = Engine::new(EngineConfig::load(&user).expect("user file")).expect("engine");
-    let mapping = parse_mapping(MAP).expect("the --map text");
-    let units = ColumnUnits::parse(UNITS).expect("units");
+    let engine = Engine::new(EngineConfig::load(&sim.user()).expect("user file")).expect("engine");
+    let mapping = parse_mapping(&sim.map()).expect("the --map text");
+    let units = ColumnUnits::parse(&sim.units()).expect("units");
     let read = |file: &str| {
-        let f = std::fs::File::open(data(file)).expect(file);
+        let f = std::fs::File::open(sim.data(file)).expect(file);
         read_snapshots_in(f, &mapping, &units, None).expect(file)
     };
     let (noisy, exact) = (read("baseline_noisy.csv"), read("baseline_exact.csv"));
     assert_eq!((noisy.len(), exact.len()), (9, 9));
     let cands = default_candidates(&engine).expect("candidates");
-    for (strategy, mean_floor, worst_floor) in [
-        (AdaptStrategy::Continuation, 0.3, 1.0),
-        (AdaptStrategy::Grown, 0.3, 1.8),
-    ] {
+    // The interior loads: all but the lowest and highest corrected GG speed (the ends are
+    // extrapolations).
+    let corrected = |r: &gtwatch::diagnosis::snapshot::Snapshot| {
+        let n1 = r
+            .values
+            .iter()
+            .find(|(s, _)| *s == gtwatch::signals::Signal::N1)
+            .expect("GG speed")
+            .1;
+        n1 / (r.t_amb_k / 288.15).sqrt()
+    };
+    let mut order: Vec<usize> = (0..noisy.len()).collect();
+    order.sort_by(|&a, &b| corrected(&noisy[a]).total_cmp(&corrected(&noisy[b])));
+    let interior = &order[1..order.len() - 1];
+    for &(strategy, mean_floor, worst_floor) in floors {
         // As `calibrate --validate` does: the turbines' efficiency shape chosen once, on every
         // row, and each fold fitted with it.
         let whole = CalibrationSettings {
@@ -445,7 +511,7 @@ fn left_out_loads_predicted_against_the_simulators_own_values() {
             ..CalibrationSettings::default()
         };
         let (mut means, mut worst) = (Vec::new(), 0.0f64);
-        for k in 1..8 {
+        for k in interior.iter().copied() {
             let mut rows = noisy.clone();
             rows[k] = exact[k].clone();
             let (p, _) = left_out(&engine, &rows, k, &[], &cands, &settings).expect("row k");
@@ -469,4 +535,107 @@ fn left_out_loads_predicted_against_the_simulators_own_values() {
         assert!(mean <= mean_floor, "{strategy:?}: mean {mean:.3} %");
         assert!(worst <= worst_floor, "{strategy:?}: worst {worst:.3} %");
     }
+}
+
+/// A unit of a second simulator nobody here wrote (`tests/data/foreign/indep2/`: its own
+/// thermodynamics, maps, guide-vane schedule, cooling split and drive train, written blind to
+/// gtwatch's code), as a US plant logs it: °F, psia, lb/h, electrical MW at the generator
+/// terminals, and no pressure between or after the turbines. A 13 MW generator set (PT held
+/// at 8 500 rpm); md22's file with the datasheet's design point
+/// (`tests/data/foreign/indep2_user_md22.toml`) calibrated with `--adapt` on 9 healthy loads
+/// (35–100 %, the full load a hot day's, temperature-limited), then a grid of 20 levels
+/// (compressor fouling, HP-turbine fouling and erosion, PT wear, six random mixes of all six
+/// parameters) diagnosed as what its rows are, spot readings (`--noisy-inputs`).
+///
+/// Measured 2026-12-07 (`cargo test --release --test integration foreign_simulator::a_generator
+/// -- --nocapture`, 2 s): the baseline at 0.98 σ RMS, `suspect`, and 0.70 under its inputs'
+/// noise, which the verdict says instead of sending the user to the curves and the cooling air;
+/// the healthy baseline `good`, D_GC / D_EC / D_GT within 0.18 points; the grid's compressor
+/// and HP-turbine flow read within 0.62 / 0.53 / 0.52 points (ρ 0.91 / 0.93 / 0.95, ceilings
+/// 0.94 / 0.94 / 0.97), D_ET within 0.88 (ρ 0.86), and the PT's two, which these signals cannot
+/// tell from the HP turbine's efficiency (no P48, no exhaust pressure), stated with σ 1.2–4
+/// points and never called separable (errors up to 3.0 and 1.9; ρ 0.24 / 0.59); every error
+/// within 1.85 of its σ; 16 of 20 fits `good`, the rest `suspect` with D_GP on its −3 limit.
+/// Each level's full-load row (relative corrected GG speed 1.006–1.019, cold days) is left out
+/// as above the calibrated speeds (the baseline's full load, a hot day, reached 0.985), and
+/// the diagnosis says so.
+#[test]
+fn a_generator_unit_of_a_second_simulator_without_turbine_pressures() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let unit = dir.path().join("unit.toml");
+    let c = calibrate(&INDEP2, &INDEP2.user(), &unit);
+    let (v, rms) = verdict(&c);
+    let fit = &c["calibration"]["baseline_fit"];
+    let summary = fit["summary"].as_str().expect("summary");
+    let under = fit["level_under_input_noise"]
+        .as_f64()
+        .expect("inputs' level");
+    eprintln!("baseline: {rms:.2} σ {v}, {under:.2} under the inputs' noise: {summary}");
+    assert!(rms <= 1.1, "{rms:.2} σ");
+    assert!(under <= 0.8, "{under:.2} under the inputs' noise");
+    if v != "good" {
+        assert!(
+            summary.contains("--noisy-inputs") && !summary.contains("cooling air"),
+            "{summary}"
+        );
+    }
+
+    let healthy = diagnose(
+        &INDEP2,
+        &unit,
+        &INDEP2.data("baseline_noisy.csv"),
+        &["--noisy-inputs"],
+    );
+    let g = &healthy["groups"][0];
+    eprintln!(
+        "healthy baseline: {} {} ± {}",
+        g["fit_quality"]["verdict"], g["health"], g["sigma"]
+    );
+    assert_eq!(g["fit_quality"]["verdict"], "good");
+    for n in HEALTH_NAMES {
+        let v = g["health"][n].as_f64().expect("estimate");
+        let sigma = g["sigma"][n].as_f64().expect("σ");
+        // The gas generator's within 0.3 points (measured 0.18); the others, which these
+        // signals do not separate, within their stated σ (D_GP −0.50 ± 1.97).
+        let most = if ["D_GC", "D_EC", "D_GT"].contains(&n) {
+            0.3
+        } else {
+            sigma
+        };
+        assert!(v.abs() <= most, "healthy baseline {n} {v:.3} ± {sigma:.2}");
+    }
+
+    let GridRead {
+        worst,
+        rho,
+        worst_z,
+        separable_miss,
+        good,
+    } = read_grid(&INDEP2, &unit, &["--noisy-inputs"]);
+    for (p, (most, least)) in [(0.75, 0.88), (0.65, 0.9), (0.65, 0.92), (1.1, 0.8)]
+        .into_iter()
+        .enumerate()
+    {
+        assert!(
+            worst[p] <= most,
+            "{}: worst error {:.2}",
+            HEALTH_NAMES[p],
+            worst[p]
+        );
+        assert!(rho[p] >= least, "{}: ρ {:.3}", HEALTH_NAMES[p], rho[p]);
+    }
+    assert!(worst_z <= 2.5, "worst |error|/σ {worst_z:.2}");
+    assert!(separable_miss <= 0.5, "{separable_miss:.2}");
+    assert!(good >= 14, "{good} of 20 fits good");
+}
+
+/// The issue's leave-one-load-out floors on the second simulator's unit, judged against its
+/// own values ([`left_out_loads`]). Measured 2026-12-07 (`cargo test --release --test
+/// integration foreign_simulator::left_out_loads_of_the_second -- --nocapture`, 8 s): the
+/// default (grown) shape 0.205 % mean, 0.761 % worst (P2 at 59 % load); `--adapt-strategy
+/// continuation`, not run here, 0.336 / 1.188 % (power at 75 %).
+#[test]
+fn left_out_loads_of_the_second_simulators_unit() {
+    use gtwatch::calibrate::adapt::AdaptStrategy;
+    left_out_loads(&INDEP2, &[(AdaptStrategy::Grown, 0.3, 1.0)]);
 }

@@ -278,7 +278,9 @@ fn calibrate_at(
     let r1 = residuals_of(&calibrated, &prepared.points, rest)?;
     let layout = full.layout();
     let signals = signal_residuals(&layout, &r0, &r1);
-    let baseline_fit = BaselineFit::of(&r1, &signals, adaptation.as_ref());
+    let under_inputs =
+        problem::level_under_input_noise(&calibrated, &prepared.points, &layout, &r1);
+    let baseline_fit = BaselineFit::of(&r1, &signals, adaptation.as_ref(), under_inputs);
     let report = Calibration {
         params: candidates
             .iter()
@@ -412,11 +414,11 @@ mod tests {
     /// names the worst signal and says what to try next.
     #[test]
     fn the_baseline_fit_says_when_the_calibrated_model_misses_the_unit() {
-        let within = BaselineFit::of(&[0.5, -0.8, 0.6], &[signal("t4_k", 0.7)], None);
+        let within = BaselineFit::of(&[0.5, -0.8, 0.6], &[signal("t4_k", 0.7)], None, None);
         assert_eq!(within.verdict, Verdict::Good);
         let off = [3.0, -2.5, 2.0];
         let signals = [signal("n1_rpm", 4.0), signal("t4_k", 1.0)];
-        let poor = BaselineFit::of(&off, &signals, None);
+        let poor = BaselineFit::of(&off, &signals, None, None);
         assert_eq!(poor.verdict, Verdict::Poor);
         assert!((poor.normalised_residual - rms(&off).powi(2)).abs() < 1e-12);
         assert!(
@@ -424,7 +426,29 @@ mod tests {
             "{}",
             poor.summary
         );
-        let suspect = BaselineFit::of(&[1.2, -1.2], &signals, None);
+        let suspect = BaselineFit::of(&[1.2, -1.2], &signals, None, None);
         assert_eq!(suspect.verdict, Verdict::Suspect);
+        assert!(!suspect.summary.contains("--noisy-inputs"));
+        // The same residuals, which the inputs' noise explains: still `suspect` (the rows are
+        // fitted with their inputs as given), but the summary says what the misfit is instead
+        // of sending the user to the curves, the cooling air and the maps.
+        let inputs = BaselineFit::of(&[1.2, -1.2], &signals, None, Some(0.6));
+        assert_eq!(inputs.verdict, Verdict::Suspect);
+        assert_eq!(inputs.level_under_input_noise, Some(0.6));
+        assert!(
+            inputs.summary.contains("within good (0.60)")
+                && inputs.summary.contains("--noisy-inputs")
+                && !inputs.summary.contains("add --adapt"),
+            "{}",
+            inputs.summary
+        );
+        // Not explained by them (above 0.9): the advice as before.
+        let model = BaselineFit::of(&[1.2, -1.2], &signals, None, Some(1.3));
+        assert!(model.summary.contains("add --adapt"), "{}", model.summary);
+        assert!(
+            !model.summary.contains("--noisy-inputs"),
+            "{}",
+            model.summary
+        );
     }
 }

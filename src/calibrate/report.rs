@@ -102,15 +102,21 @@ pub struct BaselineFit {
     pub normalised_residual: f64,
     /// The verdict in words, with the worst signal and what to try.
     pub summary: String,
+    /// The normalised residual judged under the noise of the rows' inputs (fuel flow, T1, n2),
+    /// which the fit takes as exact ([`super::problem::level_under_input_noise`]); `None` where
+    /// no input carries noise.
+    pub level_under_input_noise: Option<f64>,
 }
 
 impl BaselineFit {
     /// The verdict on residuals `r1` (per signal summary `signals`) after a calibration with
-    /// the adaptation `adapt` (`None`: design values only).
+    /// the adaptation `adapt` (`None`: design values only); `under_inputs`: their normalised
+    /// residual under the noise of the rows' inputs.
     pub(super) fn of(
         r1: &[f64],
         signals: &[SignalResiduals],
         adapt: Option<&adapt::AdaptReport>,
+        under_inputs: Option<f64>,
     ) -> Self {
         use crate::diagnosis::fit_quality::{assess, HealthFlags, Thresholds, Verdict};
         let level = rms(r1).powi(2);
@@ -184,6 +190,11 @@ impl BaselineFit {
                     format!(" (worst: {} at {:.1} σ RMS)", s.signal, s.rms_after)
                 });
             let tried_both = adapt.is_some_and(|a| a.fallback.is_some());
+            // Within `good` under the inputs' noise: that noise is the misfit (spot readings
+            // whose fuel flow, T1 and n2 the fit takes as exact), and the curves, the cooling
+            // air and the maps are not where to look.
+            let thresholds = Thresholds::default();
+            let explained = under_inputs.filter(|q| *q <= thresholds.good_level);
             // What to check besides the curves. The cooling air is named because a file that
             // dumps it overboard where the unit returns some at the HPT exit misses T34 and T4
             // in opposite directions at every load, which no curve of corrected speed mends
@@ -192,30 +203,48 @@ impl BaselineFit {
             let check = "check the data (units, instrument offsets, steadiness) and the file's \
                          cooling air against the datasheet (overboard: design.cooling_bleed_frac; \
                          returned at the HPT exit: design.cooling_return_frac)";
-            let next = match adapt.map(|a| a.strategy) {
-                None => "if the unit is of another make than the file's maps, add --adapt".into(),
-                Some(s) if s == adapt::AdaptStrategy::Grown.name() && tried_both => format!(
+            let next = match (explained, adapt.map(|a| a.strategy)) {
+                (Some(q), _) => format!(
+                    "under the noise of the rows' inputs (fuel flow, T1, n2), which the fit \
+                     takes as exact, the residuals are within good ({q:.2}): if these rows are \
+                     spot readings rather than averages, that noise is the misfit, not the \
+                     model, and a snapshot diagnosis of such rows judges them under it with \
+                     --noisy-inputs"
+                ),
+                (None, None) => {
+                    "if the unit is of another make than the file's maps, add --adapt".into()
+                }
+                (None, Some(s)) if s == adapt::AdaptStrategy::Grown.name() && tried_both => {
+                    format!(
                     "the --adapt-strategy continuation, tried in its place, did no better; with \
                      --adapt-max-knots below the default, raise it; else the curves of corrected \
                      speed cannot follow this unit: {check}, and the file's maps"
-                ),
-                Some(s) if s == adapt::AdaptStrategy::Grown.name() => format!(
+                )
+                }
+                (None, Some(s)) if s == adapt::AdaptStrategy::Grown.name() => format!(
                     "try --adapt-strategy continuation (every informed curve; --validate \
                      compares how each predicts the points left out), and {check}"
                 ),
-                Some(_) => format!(
+                (None, Some(_)) => format!(
                     "the curves of corrected speed cannot follow this unit; {check}, and the \
                      file's maps"
                 ),
             };
+            let carried = if explained.is_some() {
+                String::new()
+            } else {
+                format!(
+                    ": a diagnosis on this file carries that misfit and will be labelled {} at \
+                     best",
+                    verdict.as_str()
+                )
+            };
             (
                 verdict,
                 format!(
-                    "the calibrated model misses the healthy baseline by {:.2} σ RMS{worst}: a \
-                     diagnosis on this file carries that misfit and will be labelled {} at best; \
-                     {next}",
+                    "the calibrated model misses the healthy baseline by {:.2} σ RMS{worst}\
+                     {carried}; {next}",
                     level.sqrt(),
-                    verdict.as_str()
                 ),
             )
         };
@@ -223,6 +252,7 @@ impl BaselineFit {
             verdict,
             normalised_residual: level,
             summary,
+            level_under_input_noise: under_inputs,
         }
     }
 }
