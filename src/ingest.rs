@@ -188,9 +188,21 @@ pub fn replay_file_checked(
     }
     let clock = LocalClock::new(&cfg.time_zone)
         .map_err(|e| ReplayError::Config(format!("replay.time_zone: {e}")))?;
-    let units = cfg
+    let mut units = cfg
         .column_units()
         .map_err(|e| ReplayError::Config(format!("replay.units.{}: {}", e.key, e.reason)))?;
+    if units.needs_fuel() {
+        let fuel = cfg.fuel.ok_or_else(|| {
+            ReplayError::Config(
+                "replay.units: a fuel flow by volume is converted with the engine file's fuel, \
+                 and none was given ([plant] engine_model)"
+                    .into(),
+            )
+        })?;
+        units
+            .bind_fuel(&fuel)
+            .map_err(|e| ReplayError::Config(format!("replay.units.{}: {}", e.key, e.reason)))?;
+    }
     let started = Instant::now();
     let io_err = |source| ReplayError::Io {
         path: path.to_path_buf(),

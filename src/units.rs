@@ -8,9 +8,16 @@
 //! (`barg`, `psig`: the model reads absolute pressures, and the site's barometer is not a
 //! constant). A speed in % of design is refused too: the design speed is the engine file's,
 //! not the file's.
+//!
+//! A gas fuel metered by volume (`Nm3/h`, `Sm3/h`, `scf/h`, `kscf/h`, `MMscfd`) is a mass flow
+//! once the fuel's density at the meter's reference conditions is known: the engine file's
+//! `[fuel]` gives it ([`crate::thermo::Fuel::density_kg_m3`]), and [`ColumnUnits::bind_fuel`]
+//! binds it to the stated units once the engine is read; a volume unit with no fuel bound
+//! converts to NaN (a missing value), never to a guess.
 //! What it must not do: I/O, or guess a unit from values (that is `diagnosis::unit_check`).
 
 use crate::signals::Signal;
+use crate::thermo::{Fuel, VolumeBasis};
 use std::collections::BTreeMap;
 
 /// Canonical name of the ambient (barometric) pressure column, kPa.
@@ -84,21 +91,33 @@ pub struct Unit {
     /// Other spellings accepted (case-insensitive, like `name`).
     aliases: &'static [&'static str],
     pub quantity: Quantity,
-    /// model value = `scale` · value + `offset`.
+    /// model value = `scale` · value + `offset` (times the fuel's density at `volume`'s
+    /// reference conditions for a fuel metered by volume).
     scale: f64,
     offset: f64,
+    /// A gas fuel's volume flow at these reference conditions: `scale` turns it into m³/s.
+    volume: Option<VolumeBasis>,
 }
 
 impl Unit {
-    /// `value` in the model's unit.
+    /// `value` in the model's unit; NaN for a volume flow, which needs the fuel's density
+    /// ([`ColumnUnits::to_model`] once [`ColumnUnits::bind_fuel`] has it).
     #[inline]
     pub fn to_model(&self, value: f64) -> f64 {
-        self.scale * value + self.offset
+        match self.volume {
+            None => self.scale * value + self.offset,
+            Some(_) => f64::NAN,
+        }
     }
 
     /// Whether converting changes nothing (the model's own unit).
     pub fn is_identity(&self) -> bool {
-        self.scale == 1.0 && self.offset == 0.0
+        self.scale == 1.0 && self.offset == 0.0 && self.volume.is_none()
+    }
+
+    /// The reference conditions of a gas fuel's volume flow (`None`: not a volume flow).
+    pub fn volume_basis(&self) -> Option<VolumeBasis> {
+        self.volume
     }
 }
 
@@ -117,8 +136,32 @@ const fn unit(
         quantity,
         scale,
         offset,
+        volume: None,
     }
 }
+
+/// A gas fuel's volume flow at `basis`'s reference conditions, `m3_per_s` cubic metres a
+/// second per unit.
+const fn volume_unit(
+    name: &'static str,
+    label: &'static str,
+    aliases: &'static [&'static str],
+    basis: VolumeBasis,
+    m3_per_s: f64,
+) -> Unit {
+    Unit {
+        name,
+        label,
+        aliases,
+        quantity: MassFlow,
+        scale: m3_per_s,
+        offset: 0.0,
+        volume: Some(basis),
+    }
+}
+
+/// A cubic foot in m³ (exact by definition).
+const FT3_M3: f64 = 0.3048 * 0.3048 * 0.3048;
 
 use Quantity::{
     Fraction, MassFlow, Power, Pressure, PressureDifference, RotationalSpeed, Temperature, Torque,
@@ -285,6 +328,56 @@ pub const UNITS: &[Unit] = &[
         LB_KG / 3600.0,
         0.0,
     ),
+    // A gas fuel by volume at a meter's reference conditions (module docs).
+    volume_unit(
+        "Nm3/h",
+        "Nm³/h",
+        &["Nm³/h", "Nm3/hr", "Nm^3/h"],
+        VolumeBasis::Normal,
+        1.0 / 3600.0,
+    ),
+    volume_unit(
+        "Nm3/s",
+        "Nm³/s",
+        &["Nm³/s", "Nm^3/s"],
+        VolumeBasis::Normal,
+        1.0,
+    ),
+    volume_unit(
+        "Sm3/h",
+        "Sm³/h",
+        &["Sm³/h", "Sm3/hr", "Sm^3/h"],
+        VolumeBasis::Standard,
+        1.0 / 3600.0,
+    ),
+    volume_unit(
+        "Sm3/s",
+        "Sm³/s",
+        &["Sm³/s", "Sm^3/s"],
+        VolumeBasis::Standard,
+        1.0,
+    ),
+    volume_unit(
+        "scf/h",
+        "scf/h",
+        &["scfh", "scf/hr"],
+        VolumeBasis::StandardCubicFoot,
+        FT3_M3 / 3600.0,
+    ),
+    volume_unit(
+        "kscf/h",
+        "kscf/h",
+        &["kscfh", "Mscf/h", "Mscfh", "mscf/hr"],
+        VolumeBasis::StandardCubicFoot,
+        1e3 * FT3_M3 / 3600.0,
+    ),
+    volume_unit(
+        "MMscfd",
+        "MMscf/d",
+        &["MMscf/d", "MMscf/day", "mmscfd"],
+        VolumeBasis::StandardCubicFoot,
+        1e6 * FT3_M3 / 86_400.0,
+    ),
     unit("MW", "MW", &[], Power, 1.0, 0.0),
     unit("kW", "kW", &[], Power, 1e-3, 0.0),
     unit("W", "W", &[], Power, 1e-6, 0.0),
@@ -373,6 +466,16 @@ pub fn unit_for(quantity: Quantity, text: &str) -> Result<&'static Unit, String>
     ))
 }
 
+/// The names of the mass-flow units that need no fuel, ', '-joined.
+fn mass_names() -> String {
+    UNITS
+        .iter()
+        .filter(|u| u.quantity == MassFlow && u.volume.is_none())
+        .map(|u| u.name)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// The names the units of `quantity` are stated by, ', '-joined.
 pub fn names_of(quantity: Quantity) -> String {
     UNITS
@@ -398,6 +501,8 @@ fn column_of(key: &str) -> Result<(String, Quantity), String> {
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct ColumnUnits {
     units: BTreeMap<String, &'static Unit>,
+    /// The fuel a volume flow is converted with ([`ColumnUnits::bind_fuel`]).
+    fuel: Option<Fuel>,
 }
 
 /// A unit statement that cannot be used: which entry, and why.
@@ -426,7 +531,7 @@ impl ColumnUnits {
                 return Err(err(format!("{column} is stated twice")));
             }
         }
-        Ok(ColumnUnits { units })
+        Ok(ColumnUnits { units, fuel: None })
     }
 
     /// Parses `t2_k=degC,p2_kpa=bar,fuel_kg_s=kg/h` (the `--units` option).
@@ -453,13 +558,54 @@ impl ColumnUnits {
     }
 
     /// `value` of canonical column `column` in the model's unit (unchanged when none was
-    /// stated; NaN stays NaN).
+    /// stated; NaN stays NaN; a fuel's volume flow is NaN until a fuel is bound).
     #[inline]
     pub fn to_model(&self, column: &str, value: f64) -> f64 {
         match self.units.get(column) {
-            Some(u) => u.to_model(value),
+            Some(u) => self.convert(u, value),
             None => value,
         }
+    }
+
+    /// `value` in unit `u` (one of these columns' units) in the model's unit: a fuel's volume
+    /// flow with the bound fuel's density (NaN with none), any other as [`Unit::to_model`].
+    #[inline]
+    pub fn convert(&self, u: &Unit, value: f64) -> f64 {
+        match u.volume {
+            None => u.to_model(value),
+            Some(basis) => self
+                .fuel
+                .and_then(|f| f.density_kg_m3(basis))
+                .map_or(f64::NAN, |rho| u.scale * value * rho),
+        }
+    }
+
+    /// Whether a column is stated as a gas fuel's volume flow (which needs the engine's fuel).
+    pub fn needs_fuel(&self) -> bool {
+        self.units.values().any(|u| u.volume.is_some())
+    }
+
+    /// The engine's fuel, for a fuel column stated by volume: its density at the meter's
+    /// reference conditions turns the volume flow into a mass flow. Refused (naming the column)
+    /// when the fuel is a liquid, which has no such density.
+    pub fn bind_fuel(&mut self, fuel: &Fuel) -> Result<(), UnitError> {
+        for (column, u) in &self.units {
+            if let Some(basis) = u.volume {
+                if fuel.density_kg_m3(basis).is_none() {
+                    return Err(UnitError {
+                        key: column.clone(),
+                        reason: format!(
+                            "'{}' is a gas volume flow, and the engine file's fuel is a liquid: \
+                             state the column's mass flow unit ({})",
+                            u.name,
+                            mass_names()
+                        ),
+                    });
+                }
+            }
+        }
+        self.fuel = Some(*fuel);
+        Ok(())
     }
 
     /// The stated units as `column=unit`, ','-joined (what `--units` takes).
@@ -569,5 +715,63 @@ mod tests {
         assert!(e.reason.contains("COLUMN=UNIT"), "{e}");
         let e = ColumnUnits::parse("T2=degC,t2_k=K").expect_err("twice");
         assert!(e.reason.contains("twice"), "{e}");
+    }
+
+    /// A gas fuel by volume is a mass flow through the bound fuel's density at the meter's
+    /// reference conditions; unbound it is NaN (missing), never a guess; a liquid refuses it.
+    #[test]
+    fn a_gas_fuel_by_volume_converts_with_the_bound_fuel() {
+        let mut u = ColumnUnits::parse("fuel_kg_s=Nm3/h,t2_k=degC").expect("ok");
+        assert!(u.needs_fuel());
+        assert!(!ColumnUnits::parse("fuel_kg_s=kg/h")
+            .expect("ok")
+            .needs_fuel());
+        assert!(u.to_model("fuel_kg_s", 3600.0).is_nan(), "no fuel bound");
+        assert_eq!(u.to_model("t2_k", 400.0), 673.15);
+        let methane = Fuel::methane_with_lhv(50.0e6);
+        u.bind_fuel(&methane).expect("a gas");
+        let rho_n = methane.density_kg_m3(VolumeBasis::Normal).expect("gas");
+        assert!((u.to_model("fuel_kg_s", 3600.0) - rho_n).abs() < 1e-12);
+        assert!((rho_n - 0.7175).abs() < 5e-4, "{rho_n}");
+        for (text, basis, m3_per_s) in [
+            ("Sm3/h", VolumeBasis::Standard, 1.0 / 3600.0),
+            ("scfh", VolumeBasis::StandardCubicFoot, FT3_M3 / 3600.0),
+            (
+                "Mscf/h",
+                VolumeBasis::StandardCubicFoot,
+                1e3 * FT3_M3 / 3600.0,
+            ),
+            (
+                "MMscfd",
+                VolumeBasis::StandardCubicFoot,
+                1e6 * FT3_M3 / 86_400.0,
+            ),
+        ] {
+            let mut u = ColumnUnits::parse(&format!("fuel_flow={text}")).expect(text);
+            u.bind_fuel(&methane).expect("a gas");
+            let rho = methane.density_kg_m3(basis).expect("gas");
+            let got = u.to_model("fuel_kg_s", 2.0);
+            assert!(
+                (got / (2.0 * m3_per_s * rho) - 1.0).abs() < 1e-12,
+                "{text}: {got}"
+            );
+        }
+        // 1 MMscfd of methane is about 0.222 kg/s (19.2 t/day).
+        let mut d = ColumnUnits::parse("fuel_kg_s=MMscfd").expect("ok");
+        d.bind_fuel(&methane).expect("gas");
+        let kg_s = d.to_model("fuel_kg_s", 1.0);
+        assert!((kg_s - 0.2224).abs() < 1e-3, "{kg_s}");
+        let diesel = Fuel::liquid(1.8, 300.0, None).expect("diesel");
+        let e = u
+            .clone()
+            .bind_fuel(&diesel)
+            .expect_err("a liquid by volume");
+        assert_eq!(e.key, "fuel_kg_s");
+        assert!(
+            e.reason.contains("liquid") && e.reason.contains("kg/h"),
+            "{e}"
+        );
+        let e = unit_for(Temperature, "Nm3/h").expect_err("a volume flow for T");
+        assert!(e.contains("a mass flow"), "{e}");
     }
 }

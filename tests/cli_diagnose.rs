@@ -559,6 +559,60 @@ fn a_file_in_the_plants_own_units_is_read_once_they_are_stated() {
     }
 }
 
+/// A gas fuel metered by volume: the same snapshots with the fuel in normal m³/h
+/// (`--units fuel_kg_s=Nm3/h`) read as in kg/s, the engine file's methane converting them at
+/// ISO 6976's 0.7175 kg/m³ (the built-in engine burns methane).
+#[test]
+fn a_gas_fuel_metered_by_volume_is_read_with_the_engines_fuel() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let snaps = dir.path().join("snapshots.csv");
+    let mild = HealthParams {
+        D_GC: 1.5,
+        D_EC: 0.8,
+        ..HealthParams::HEALTHY
+    };
+    write_snapshots(&snaps, &[("2026-01-10", mild)]);
+    let by_volume = dir.path().join("nm3.csv");
+    let lines = alter_column(&snaps, "FUEL", |_, v| {
+        Some(format!("{:.10}", v * 3600.0 / 0.7175))
+    });
+    std::fs::write(&by_volume, lines.join("\n")).expect("write");
+    let map = "t1_k=T_inlet,p_amb_kpa=P_baro,n1_rpm=NGG,n2_rpm=NPT,t2_k=T_cdp,p2_kpa=P_cdp,\
+               t34_k=T_egt,p34_kpa=P_hpt,fuel_kg_s=FUEL,power_mw=MW";
+    let run = |file: &std::path::Path, units: Option<&str>| {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_gtwatch"));
+        cmd.args(["diagnose", "--method", "steady", "--json", "--input"])
+            .arg(file)
+            .args(["--group-by", "day", "--map", map]);
+        if let Some(u) = units {
+            cmd.args(["--units", u]);
+        }
+        let out = cmd.output().expect("runs");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+        let g = &v["groups"][0]["health"];
+        ["D_GC", "D_EC", "D_GT", "D_ET", "D_GP", "D_EP"].map(|p| g[p].as_f64().expect("health"))
+    };
+    let (a, b) = (run(&snaps, None), run(&by_volume, Some("fuel_kg_s=Nm3/h")));
+    eprintln!("kg/s {a:?}, Nm3/h {b:?}");
+    for p in 0..6 {
+        assert!(
+            (a[p] - b[p]).abs() < 0.02,
+            "parameter {p}: {} vs {}",
+            a[p],
+            b[p]
+        );
+    }
+    assert!(
+        (a[0] - 1.5).abs() < 0.2,
+        "the diagnosis itself is right: {a:?}"
+    );
+}
+
 /// A row the model has no steady point for (fuel 1 % of design, below the lowest fuel the
 /// model's running line reaches) is left out with that reason, by file line (header = line 1),
 /// in JSON and text; the group is still diagnosed.

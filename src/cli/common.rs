@@ -45,9 +45,13 @@ impl DataSections {
         // The detector's engine speeds come from the engine file unless the section sets them.
         let engine_file = engine_model_path(&value, path);
         match crate::engine::config::EngineConfig::load_or_reference(engine_file.as_deref()) {
-            Ok(engine) => sections
-                .detector
-                .fill_from_engine(value.get("detector"), &engine),
+            Ok(engine) => {
+                sections
+                    .detector
+                    .fill_from_engine(value.get("detector"), &engine);
+                // A fuel column stated by volume is converted with the engine's fuel.
+                sections.replay.fuel = engine.fuel().ok();
+            }
             // Commands that only read the database must not fail on the engine file; the
             // commands that use the engine report it themselves.
             Err(e) => tracing::warn!(
@@ -107,14 +111,27 @@ pub(super) fn parse_cli_time(s: &str) -> anyhow::Result<i64> {
 }
 
 /// The `--units` option's statement of the columns not in the model's units (none: every column
-/// is in the model's units).
-pub(super) fn column_units(text: Option<&str>) -> anyhow::Result<crate::units::ColumnUnits> {
-    match text {
-        Some(t) => {
-            Ok(crate::units::ColumnUnits::parse(t).map_err(|e| anyhow::anyhow!("--units: {e}"))?)
-        }
-        None => Ok(crate::units::ColumnUnits::default()),
+/// is in the model's units), a fuel flow by volume (`fuel_kg_s=Nm3/h`) converted with the fuel
+/// of `engine`.
+pub(super) fn column_units(
+    text: Option<&str>,
+    engine: &crate::engine::Engine,
+) -> anyhow::Result<crate::units::ColumnUnits> {
+    let Some(t) = text else {
+        return Ok(crate::units::ColumnUnits::default());
+    };
+    let mut units =
+        crate::units::ColumnUnits::parse(t).map_err(|e| anyhow::anyhow!("--units: {e}"))?;
+    if units.needs_fuel() {
+        let fuel = engine
+            .cfg()
+            .fuel()
+            .context("--units: the engine file's [fuel]")?;
+        units
+            .bind_fuel(&fuel)
+            .map_err(|e| anyhow::anyhow!("--units: {e}"))?;
     }
+    Ok(units)
 }
 
 /// The map paths of `original` (as written, relative to `from_dir`) restated for a file in

@@ -48,7 +48,8 @@ pub struct GapArgs {
     /// Units of columns not in the model's (K, kPa absolute, rpm, kg/s, MW, kN·m), converted as
     /// read: `t2_k=degC,p2_kpa=bar,fuel_kg_s=kg/h` (canonical or short signal names, and
     /// `p_amb_kpa`; units such as degC, degF, bar, mbar, psi, Pa, MPa, kg/h, t/h, lb/s, kW, hp,
-    /// Nm, rad/s; gauge pressures are refused).
+    /// Nm, rad/s; a gas fuel by volume, Nm3/h, Sm3/h, scf/h, kscf/h or MMscfd, with the engine
+    /// file's [fuel]; gauge pressures are refused).
     #[arg(long)]
     pub units: Option<String>,
     /// Engine TOML (default: the built-in reference engine).
@@ -114,12 +115,12 @@ fn adopt(a: &GapArgs, report: &crate::gap::GapReport, out: &Path) -> anyhow::Res
     ))
 }
 
-fn read(path: &Path, a: &GapArgs) -> anyhow::Result<Recording> {
+fn read(path: &Path, a: &GapArgs, engine: &crate::engine::Engine) -> anyhow::Result<Recording> {
     let mapping = match &a.map {
         Some(m) => parse_mapping(m)?,
         None => HashMap::new(),
     };
-    let units = super::common::column_units(a.units.as_deref())?;
+    let units = super::common::column_units(a.units.as_deref(), engine)?;
     let file = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
     read_recording_checked(
         std::io::BufReader::new(file),
@@ -219,13 +220,14 @@ struct Inputs {
 fn inputs(a: &GapArgs) -> anyhow::Result<Inputs> {
     match (&a.input, a.segment) {
         (Some(input), _) => {
+            let engine = super::load_engine(a.engine.as_deref())?;
             let holdout = match &a.holdout {
-                Some(p) => Some(read(p, a)?),
+                Some(p) => Some(read(p, a, &engine)?),
                 None => None,
             };
             Ok(Inputs {
-                engine: super::load_engine(a.engine.as_deref())?,
-                rec: read(input, a)?,
+                rec: read(input, a, &engine)?,
+                engine,
                 holdout,
                 store: None,
             })

@@ -64,6 +64,11 @@ pub struct ReplayConfig {
     /// "kg/h"`): converted as read, before the bad-value policy judges them (`crate::units`).
     /// Default: none (every signal in the model's unit).
     pub units: BTreeMap<String, String>,
+    /// The engine's fuel, which a fuel column stated by volume (`fuel_kg_s = "Nm3/h"`) is
+    /// converted with (its density at the meter's reference conditions): set by the caller from
+    /// the engine file (`[plant] engine_model`), never read from `[replay]`.
+    #[serde(skip)]
+    pub fuel: Option<crate::thermo::Fuel>,
     /// `skip` (default) or `stop`.
     pub on_malformed: OnMalformed,
     /// How many malformed rows are listed in the report (all are counted). Default 20.
@@ -94,6 +99,7 @@ impl Default for ReplayConfig {
             delimiter: ",".into(),
             columns: BTreeMap::new(),
             units: BTreeMap::new(),
+            fuel: None,
             on_malformed: OnMalformed::Skip,
             max_reported: 20,
             transaction_samples: 200_000,

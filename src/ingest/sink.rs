@@ -232,7 +232,7 @@ impl<'a> Sink<'a> {
         // Into the model's units first: the GG speed judges the other values.
         for cell in cells.iter_mut().filter(|c| c.problem.is_none()) {
             if let Some(u) = self.columns[cell.column].unit {
-                cell.sample.value = u.to_model(cell.sample.value);
+                cell.sample.value = self.units.convert(u, cell.sample.value);
             }
         }
         let n1 = self.n1_column.and_then(|i| {

@@ -383,6 +383,40 @@ fn stated_units_are_converted_before_they_are_judged_and_stored() {
     assert!(e.to_string().contains("replay.units.t34_k"), "{e}");
 }
 
+/// A gas fuel metered by volume (`fuel_kg_s = "Nm3/h"`) is stored as a mass flow through the
+/// engine's fuel, which the caller binds (`ReplayConfig::fuel`, from `[plant] engine_model`);
+/// without one the replay is refused naming the section, never stored as a guess.
+#[test]
+fn a_gas_fuel_by_volume_is_stored_as_mass_with_the_engines_fuel() {
+    let mut cfg: ReplayConfig = toml::from_str(
+        "[columns]\nNGG = \"n1\"\nFuel = \"fuel_flow\"\n[units]\nfuel_kg_s = \"Nm3/h\"",
+    )
+    .expect("parse");
+    assert!(cfg.validate().is_empty(), "{:?}", cfg.validate());
+    let csv = "time,NGG,Fuel\n2024-03-01T00:00:00Z,7500,3600\n2024-03-01T00:00:01Z,7510,7200\n";
+    let (_d, mut store, path) = setup(csv);
+    let e = replay_file(&mut store, &cfg, &path, Progress::Silent).expect_err("no fuel");
+    assert!(
+        e.to_string().contains("replay.units") && e.to_string().contains("engine_model"),
+        "{e}"
+    );
+    let methane = crate::thermo::Fuel::methane_with_lhv(50.0e6);
+    cfg.fuel = Some(methane);
+    let (_d, mut store, path) = setup(csv);
+    let r = replay_file(&mut store, &cfg, &path, Progress::Silent).expect("replay");
+    assert_eq!(r.quality.good, 4, "{r:?}");
+    // Methane: 0.7175 kg per normal m³ (ISO 6976).
+    for (t, want) in [(0, 0.7175), (1, 1.435)] {
+        let v = stored_at(&store, "fuel_kg_s", t).0;
+        assert!((v / want - 1.0).abs() < 5e-4, "at {t}: {v}");
+    }
+    let mut liquid = cfg.clone();
+    liquid.fuel = Some(crate::thermo::Fuel::liquid(1.8, 300.0, None).expect("diesel"));
+    let (_d, mut store, path) = setup(csv);
+    let e = replay_file(&mut store, &liquid, &path, Progress::Silent).expect_err("a liquid");
+    assert!(e.to_string().contains("replay.units.fuel_kg_s"), "{e}");
+}
+
 #[test]
 fn implausible_values_are_flagged_not_good() {
     let csv = "time,n1_rpm,t2_k,fuel_kg_s,power_mw\n\

@@ -22,6 +22,18 @@
 //! (ISO 6976:2016 net calorific values at 15 °C: 802.69, 1428.84, 2043.37, 2657.60, 241.72
 //! kJ/mol, i.e. 50.04, 47.52, 46.34, 45.72, 119.91 MJ/kg; tested in `fuel_tests.rs`).
 //!
+//! # Density at a meter's reference conditions
+//!
+//! A gas meter states volumes at reference conditions ([`VolumeBasis`]: normal m³ at 0 °C,
+//! standard m³ at 15 °C, both 101.325 kPa; standard ft³ at 60 °F and 14.696 psia). The density
+//! there is `ρ = p M / (Z R T)` with the compression factor of ISO 6976 (1995, §5):
+//! `Z = 1 − (Σ x_i √b_i)²`, `√b_i` the components' summation factors at 0 °C and 15 °C
+//! (CH4 0.0490 / 0.0447, C2H6 0.1000 / 0.0922, C3H8 0.1453 / 0.1338, n-C4H10 0.2069 / 0.1871,
+//! N2 0.0224 / 0.0173, CO2 0.0819 / 0.0748, H2 −0.0040 / −0.0048); the 15 °C factors serve
+//! 60 °F (0.56 K apart, Z then changes by under 1e-5). Methane: 0.7175 kg/m³ at 0 °C (Z
+//! 0.9976; an ideal gas would be 0.24 % lighter, the size of a fuel meter's whole error
+//! budget). A liquid has no such density here.
+//!
 //! Liquid `CH_y`: the higher heating value from the correlation of Channiwala & Parikh (2002),
 //! *A unified correlation for estimating HHV of solid, liquid and gaseous fuels*, Fuel 81,
 //! 1051–1063: `HHV [MJ/kg] = 0.3491 C + 1.1783 H` (C, H in mass percent; no S, O, N, ash), less
@@ -67,6 +79,61 @@ const GAS_SPECIES: [(&Species, f64, f64); 7] = [
 const IX_N2: usize = 4;
 const IX_CO2: usize = 5;
 
+/// Universal gas constant, J/(mol K) (CODATA 2018, exact).
+const R_UNIVERSAL: f64 = 8.314_462_618;
+
+/// ISO 6976 summation factors √b of the gas-fuel species at 0 °C and at 15 °C, in the order of
+/// [`GAS_FUEL_SPECIES`] (C4H10 as n-butane; module docs).
+const SUMMATION_FACTORS: [[f64; 2]; 7] = [
+    [0.0490, 0.0447],
+    [0.1000, 0.0922],
+    [0.1453, 0.1338],
+    [0.2069, 0.1871],
+    [0.0224, 0.0173],
+    [0.0819, 0.0748],
+    [-0.0040, -0.0048],
+];
+
+/// The reference conditions a gas meter states volumes at.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum VolumeBasis {
+    /// Normal cubic metre: 0 °C, 101.325 kPa (DIN 1343; European gas metering).
+    Normal,
+    /// Standard cubic metre: 15 °C, 101.325 kPa (ISO 13443).
+    Standard,
+    /// Standard cubic foot: 60 °F, 14.696 psia (GPA 2145; a meter on the AGA base of 14.73
+    /// psia counts 0.23 % fewer of them per kilogram).
+    StandardCubicFoot,
+}
+
+impl VolumeBasis {
+    /// Reference temperature (K) and pressure (kPa).
+    pub fn conditions(self) -> (f64, f64) {
+        match self {
+            VolumeBasis::Normal => (273.15, 101.325),
+            VolumeBasis::Standard => (288.15, 101.325),
+            VolumeBasis::StandardCubicFoot => (288.15 + 5.0 / 9.0 * (60.0 - 59.0), 101.325),
+        }
+    }
+
+    /// Cubic metres in one of this basis's volume units (1 for m³, 0.3048³ for ft³).
+    pub fn unit_volume_m3(self) -> f64 {
+        match self {
+            VolumeBasis::Normal | VolumeBasis::Standard => 1.0,
+            VolumeBasis::StandardCubicFoot => 0.3048 * 0.3048 * 0.3048,
+        }
+    }
+}
+
+/// What a gas fuel's density at a meter's reference conditions rests on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct GasVolume {
+    /// Molar mass, kg/kmol.
+    molar_mass: f64,
+    /// Σ x_i √b_i at 0 °C and at 15 °C (ISO 6976).
+    summation: [f64; 2],
+}
+
 /// A fuel description that cannot be used; `field` names the offending part
 /// (`composition.CH4`, `composition`, `h_to_c_ratio`, `temperature_k`, `lhv_j_per_kg`).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -93,6 +160,8 @@ pub struct Fuel {
     lhv: f64,
     h_sensible: f64,
     temperature_k: f64,
+    /// A gas's molar mass and compression-factor sums (none for a liquid).
+    gas_volume: Option<GasVolume>,
 }
 
 fn check_temperature(t_k: f64) -> Result<(), FuelError> {
@@ -116,6 +185,10 @@ impl Fuel {
             lhv: lhv_j_per_kg,
             h_sensible: 0.0,
             temperature_k: T_REF_K,
+            gas_volume: Some(GasVolume {
+                molar_mass: CH4.w,
+                summation: SUMMATION_FACTORS[0],
+            }),
         }
     }
 
@@ -144,7 +217,10 @@ impl Fuel {
         }
         let x = mole_fractions.map(|v| v / sum);
         let (mut c, mut h, mut w, mut h_ref, mut h_fuel) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for (xi, (sp, ci, hi)) in x.iter().zip(GAS_SPECIES) {
+        let mut summation = [0.0; 2];
+        for ((xi, (sp, ci, hi)), b) in x.iter().zip(GAS_SPECIES).zip(SUMMATION_FACTORS) {
+            summation[0] += xi * b[0];
+            summation[1] += xi * b[1];
             c += xi * ci;
             h += xi * hi;
             w += xi * sp.w;
@@ -176,6 +252,10 @@ impl Fuel {
             lhv: released / w,
             h_sensible: (h_fuel - h_ref) / w,
             temperature_k,
+            gas_volume: Some(GasVolume {
+                molar_mass: w,
+                summation,
+            }),
         })
     }
 
@@ -217,6 +297,7 @@ impl Fuel {
             lhv,
             h_sensible: LIQUID_CP_J_PER_KG_K * (temperature_k - T_REF_K),
             temperature_k,
+            gas_volume: None,
         })
     }
 
@@ -241,6 +322,19 @@ impl Fuel {
     /// Supply temperature, K.
     pub fn temperature_k(&self) -> f64 {
         self.temperature_k
+    }
+
+    /// Density at the reference conditions of `basis`, kg/m³ (real gas, ISO 6976's compression
+    /// factor; module docs); `None` for a liquid.
+    pub fn density_kg_m3(&self, basis: VolumeBasis) -> Option<f64> {
+        let g = self.gas_volume?;
+        let (t_k, p_kpa) = basis.conditions();
+        let sum = match basis {
+            VolumeBasis::Normal => g.summation[0],
+            VolumeBasis::Standard | VolumeBasis::StandardCubicFoot => g.summation[1],
+        };
+        let z = 1.0 - sum * sum;
+        Some(p_kpa * g.molar_mass / (z * R_UNIVERSAL * t_k))
     }
 
     /// Fuel-air ratio at which the products' O2 vanishes.

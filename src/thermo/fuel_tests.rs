@@ -185,3 +185,51 @@ fn bad_fuels_are_named() {
     let f = Fuel::gas(&near, T_REF_K).expect("within tolerance");
     assert_eq!(f.lhv(), Fuel::gas(&pure(0), T_REF_K).expect("CH4").lhv());
 }
+
+/// Densities at a meter's reference conditions against ISO 6976's real-gas densities of the
+/// pure gases (1995, Table 3: methane 0.7175, ethane 1.3551, propane 2.0098 kg/m³ at 0 °C and
+/// 101.325 kPa; methane 0.6798 at 15 °C): within 0.05 %. A natural gas lies between its
+/// components' and above its ideal-gas density by its compression factor; a standard cubic
+/// foot at 60 °F weighs a little less than a standard cubic metre at 15 °C per m³; a liquid
+/// has no such density.
+#[test]
+fn gas_densities_at_reference_conditions_match_iso_6976() {
+    for (i, basis, iso) in [
+        (0, VolumeBasis::Normal, 0.7175),
+        (1, VolumeBasis::Normal, 1.3551),
+        (2, VolumeBasis::Normal, 2.0098),
+        (0, VolumeBasis::Standard, 0.6798),
+    ] {
+        let f = Fuel::gas(&pure(i), T_REF_K).expect("pure gas");
+        let rho = f.density_kg_m3(basis).expect("a gas");
+        assert!(
+            (rho / iso - 1.0).abs() < 5e-4,
+            "{} {basis:?}: {rho:.5} vs ISO {iso}",
+            GAS_FUEL_SPECIES[i]
+        );
+    }
+    let methane = Fuel::methane_with_lhv(50.0e6);
+    let by_composition = Fuel::gas(&pure(0), T_REF_K).expect("methane");
+    let (a, b) = (
+        methane.density_kg_m3(VolumeBasis::Normal).expect("gas"),
+        by_composition
+            .density_kg_m3(VolumeBasis::Normal)
+            .expect("gas"),
+    );
+    assert!((a / b - 1.0).abs() < 1e-3, "{a} vs {b}");
+    let ng = Fuel::gas(&NATURAL_GAS, T_REF_K).expect("natural gas");
+    let rho = ng.density_kg_m3(VolumeBasis::Normal).expect("gas");
+    let ideal = 101.325 * 18.876 / (8.314_462_618 * 273.15);
+    assert!(rho > b && rho < 1.3551, "{rho}");
+    assert!(
+        rho / ideal > 1.001 && rho / ideal < 1.005,
+        "{rho} vs ideal {ideal}"
+    );
+    let scf = ng
+        .density_kg_m3(VolumeBasis::StandardCubicFoot)
+        .expect("gas");
+    let sm3 = ng.density_kg_m3(VolumeBasis::Standard).expect("gas");
+    assert!(scf < sm3 && sm3 / scf < 1.003, "{scf} vs {sm3}");
+    let diesel = Fuel::liquid(1.8, 300.0, None).expect("diesel");
+    assert_eq!(diesel.density_kg_m3(VolumeBasis::Normal), None);
+}

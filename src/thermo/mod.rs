@@ -78,8 +78,8 @@ const LN_T_EXT_HI: f64 = 8.160518247477505;
 mod fuel;
 mod species;
 pub use fuel::{
-    Fuel, FuelError, COMPOSITION_SUM_TOLERANCE, FUEL_T_MAX_K, FUEL_T_MIN_K, GAS_FUEL_SPECIES,
-    LIQUID_CP_J_PER_KG_K,
+    Fuel, FuelError, VolumeBasis, COMPOSITION_SUM_TOLERANCE, FUEL_T_MAX_K, FUEL_T_MIN_K,
+    GAS_FUEL_SPECIES, LIQUID_CP_J_PER_KG_K,
 };
 use species::*;
 

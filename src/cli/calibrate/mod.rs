@@ -116,7 +116,8 @@ pub struct CalibrateArgs {
     /// Units of columns not in the model's (K, kPa absolute, rpm, kg/s, MW, kN·m), converted as
     /// read: `t2_k=degC,p2_kpa=bar,fuel_kg_s=kg/h` (canonical or short signal names, and
     /// `p_amb_kpa`; units such as degC, degF, bar, mbar, psi, Pa, MPa, kg/h, t/h, lb/s, kW, hp,
-    /// Nm, rad/s; gauge pressures are refused).
+    /// Nm, rad/s; a gas fuel by volume, Nm3/h, Sm3/h, scf/h, kscf/h or MMscfd, with the engine
+    /// file's [fuel]; gauge pressures are refused).
     #[arg(long)]
     pub units: Option<String>,
     /// Worker threads (default: all cores).
@@ -309,7 +310,7 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
         Some(m) => parse_mapping(m)?,
         None => HashMap::new(),
     };
-    let units = super::common::column_units(a.units.as_deref())?;
+    let units = super::common::column_units(a.units.as_deref(), &engine)?;
     let mut rows = Vec::new();
     let mut rest = Vec::new();
     if let Some(input) = &a.input {
