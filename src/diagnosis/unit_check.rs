@@ -43,8 +43,16 @@ impl UnitSuspect {
             ),
             None => format!("convert the column to {unit}"),
         };
+        // A gas meter's volume flow is of the same order as kg/h (0.7–0.8 kg per normal m³):
+        // name those units too, or the user converts at the wrong density.
+        let volume = if self.signal == Signal::FuelFlow {
+            " (a gas metered by volume is stated as such: Nm3/h, Sm3/h, scf/h, kscf/h or \
+             MMscfd, converted with the engine file's [fuel])"
+        } else {
+            ""
+        };
         format!(
-            "{} looks like {}{converted}, not {unit}: {what}",
+            "{} looks like {}{converted}, not {unit}: {what}{volume}",
             self.value, self.likely_unit
         )
     }
@@ -230,6 +238,8 @@ mod tests {
             let x = check_fired_point(&with(s, v)).unwrap_or_else(|| panic!("{s} = {v} passed"));
             assert_eq!((x.signal, x.likely_unit), (s, unit), "{s} = {v}: {x:?}");
             assert!(x.describe().contains(unit));
+            // A fuel flow also names the gas meter's volume units.
+            assert_eq!(x.describe().contains("Nm3/h"), s == Signal::FuelFlow, "{s}");
         }
     }
 }
