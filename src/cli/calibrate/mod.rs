@@ -405,12 +405,8 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
         prewash_group: a.prewash_group.clone(),
         ..CalibrationSettings::default()
     };
-    // The validation first, while `candidates` are still ours to lend.
-    // The calibration's own wall time is reported without the validation's.
-    let (validation, validation_design_only, validation_s) =
-        validations(a.validate, &engine, &rows, &rest, &candidates, &settings)?;
     let (members, ensemble_s) = ensemble(&a, &engine, &rows, &rest, &candidates, &settings)?;
-    let (report, _calibrated) = calibrate(&engine, &rows, &rest, candidates, &settings)
+    let (report, _calibrated) = calibrate(&engine, &rows, &rest, candidates.clone(), &settings)
         .with_context(|| {
             format!(
                 "calibrating {} on {}",
@@ -418,6 +414,17 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
                 sources(&a).join(", ")
             )
         })?;
+    // Each fold fitted with the turbines' efficiency shape this calibration chose on every
+    // point (which `leave_one_out` would otherwise choose again with a calibration of its own).
+    // The calibration's own wall time is reported without the validation's.
+    let (validation, validation_design_only, validation_s) = validations(
+        a.validate,
+        &engine,
+        &rows,
+        &rest,
+        &candidates,
+        &settings.with_efficiency_shape_of(&report),
+    )?;
     let head = with_validation(
         header(&a, &report, rows.len()),
         validation.as_ref(),
