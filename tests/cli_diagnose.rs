@@ -456,6 +456,40 @@ fn a_column_in_the_wrong_unit_is_named() {
     );
 }
 
+/// Snapshots of a mildly fouled reference engine (D_GC 1.5, D_EC 0.8) written to `dir`.
+fn mild_snapshots(dir: &std::path::Path) -> std::path::PathBuf {
+    let snaps = dir.join("snapshots.csv");
+    let mild = HealthParams {
+        D_GC: 1.5,
+        D_EC: 0.8,
+        ..HealthParams::HEALTHY
+    };
+    write_snapshots(&snaps, &[("2026-01-10", mild)]);
+    snaps
+}
+
+/// `gtwatch diagnose --method steady --json` of `file` with the snapshot columns mapped, and
+/// `units` stated when given.
+fn run_mapped(file: &std::path::Path, units: Option<&str>) -> std::process::Output {
+    let map = "t1_k=T_inlet,p_amb_kpa=P_baro,n1_rpm=NGG,n2_rpm=NPT,t2_k=T_cdp,p2_kpa=P_cdp,\
+               t34_k=T_egt,p34_kpa=P_hpt,fuel_kg_s=FUEL,power_mw=MW";
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_gtwatch"));
+    cmd.args(["diagnose", "--method", "steady", "--json", "--input"])
+        .arg(file)
+        .args(["--group-by", "day", "--map", map]);
+    if let Some(u) = units {
+        cmd.args(["--units", u]);
+    }
+    cmd.output().expect("runs")
+}
+
+/// The first group's six health estimates of a `--json` diagnosis.
+fn health_of(out: &std::process::Output) -> [f64; 6] {
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    let g = &v["groups"][0]["health"];
+    ["D_GC", "D_EC", "D_GT", "D_ET", "D_GP", "D_EP"].map(|p| g[p].as_f64().expect("health"))
+}
+
 /// A file in the plant's own units (°C, bar, mbar, kg/h, kW, an n1 in rad/s) is read once each
 /// column's unit is stated (`--units`): the same health as the file in the model's units, to
 /// the digits written; a unit of the wrong kind, or a gauge pressure, is refused naming the
@@ -463,13 +497,7 @@ fn a_column_in_the_wrong_unit_is_named() {
 #[test]
 fn a_file_in_the_plants_own_units_is_read_once_they_are_stated() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let snaps = dir.path().join("snapshots.csv");
-    let mild = HealthParams {
-        D_GC: 1.5,
-        D_EC: 0.8,
-        ..HealthParams::HEALTHY
-    };
-    write_snapshots(&snaps, &[("2026-01-10", mild)]);
+    let snaps = mild_snapshots(dir.path());
     let plant = dir.path().join("plant_units.csv");
     let mut lines = std::fs::read_to_string(&snaps)
         .expect("csv")
@@ -491,20 +519,9 @@ fn a_file_in_the_plants_own_units_is_read_once_they_are_stated() {
         lines = alter_column(&plant, column, |_, v| Some(format!("{:.10}", f(v))));
     }
     std::fs::write(&plant, lines.join("\n")).expect("write");
-    let map = "t1_k=T_inlet,p_amb_kpa=P_baro,n1_rpm=NGG,n2_rpm=NPT,t2_k=T_cdp,p2_kpa=P_cdp,\
-               t34_k=T_egt,p34_kpa=P_hpt,fuel_kg_s=FUEL,power_mw=MW";
     let units = "T1=degC,t2_k=C,t34_k=degF,p_amb_kpa=mbar,p2_kpa=bara,p34_kpa=psia,n1_rpm=rad/s,\
                  fuel_kg_s=kg/h,power_mw=kW";
-    let run = |file: &std::path::Path, units: Option<&str>| {
-        let mut cmd = Command::new(env!("CARGO_BIN_EXE_gtwatch"));
-        cmd.args(["diagnose", "--method", "steady", "--json", "--input"])
-            .arg(file)
-            .args(["--group-by", "day", "--map", map]);
-        if let Some(u) = units {
-            cmd.args(["--units", u]);
-        }
-        cmd.output().expect("runs")
-    };
+    let run = run_mapped;
     let own = run(&snaps, None);
     assert!(
         own.status.success(),
@@ -525,12 +542,7 @@ fn a_file_in_the_plants_own_units_is_read_once_they_are_stated() {
         "{}",
         String::from_utf8_lossy(&stated.stderr)
     );
-    let health = |out: &std::process::Output| {
-        let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
-        let g = &v["groups"][0]["health"];
-        ["D_GC", "D_EC", "D_GT", "D_ET", "D_GP", "D_EP"].map(|p| g[p].as_f64().expect("health"))
-    };
-    let (a, b) = (health(&own), health(&stated));
+    let (a, b) = (health_of(&own), health_of(&stated));
     for p in 0..6 {
         assert!(
             (a[p] - b[p]).abs() < 1e-3,
@@ -565,39 +577,24 @@ fn a_file_in_the_plants_own_units_is_read_once_they_are_stated() {
 #[test]
 fn a_gas_fuel_metered_by_volume_is_read_with_the_engines_fuel() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let snaps = dir.path().join("snapshots.csv");
-    let mild = HealthParams {
-        D_GC: 1.5,
-        D_EC: 0.8,
-        ..HealthParams::HEALTHY
-    };
-    write_snapshots(&snaps, &[("2026-01-10", mild)]);
+    let snaps = mild_snapshots(dir.path());
     let by_volume = dir.path().join("nm3.csv");
     let lines = alter_column(&snaps, "FUEL", |_, v| {
         Some(format!("{:.10}", v * 3600.0 / 0.7175))
     });
     std::fs::write(&by_volume, lines.join("\n")).expect("write");
-    let map = "t1_k=T_inlet,p_amb_kpa=P_baro,n1_rpm=NGG,n2_rpm=NPT,t2_k=T_cdp,p2_kpa=P_cdp,\
-               t34_k=T_egt,p34_kpa=P_hpt,fuel_kg_s=FUEL,power_mw=MW";
-    let run = |file: &std::path::Path, units: Option<&str>| {
-        let mut cmd = Command::new(env!("CARGO_BIN_EXE_gtwatch"));
-        cmd.args(["diagnose", "--method", "steady", "--json", "--input"])
-            .arg(file)
-            .args(["--group-by", "day", "--map", map]);
-        if let Some(u) = units {
-            cmd.args(["--units", u]);
-        }
-        let out = cmd.output().expect("runs");
+    let (own, stated) = (
+        run_mapped(&snaps, None),
+        run_mapped(&by_volume, Some("fuel_kg_s=Nm3/h")),
+    );
+    for out in [&own, &stated] {
         assert!(
             out.status.success(),
             "{}",
             String::from_utf8_lossy(&out.stderr)
         );
-        let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
-        let g = &v["groups"][0]["health"];
-        ["D_GC", "D_EC", "D_GT", "D_ET", "D_GP", "D_EP"].map(|p| g[p].as_f64().expect("health"))
-    };
-    let (a, b) = (run(&snaps, None), run(&by_volume, Some("fuel_kg_s=Nm3/h")));
+    }
+    let (a, b) = (health_of(&own), health_of(&stated));
     eprintln!("kg/s {a:?}, Nm3/h {b:?}");
     for p in 0..6 {
         assert!(
