@@ -67,6 +67,32 @@ impl Machine {
         median(v)
     }
 
+    /// The GG speed level the newest frames have held for the last `hold_ms` (every frame then
+    /// within 0.5 % of their median, or 4 noise σ where the readings are noisier), and where
+    /// that hold began (the first frame after the last one outside that band, walking back
+    /// from the newest); `None` while the frames rise or fall or span less than `hold_ms`.
+    pub(super) fn n1_plateau(&self, now_ms: i64, hold_ms: i64) -> Option<(f64, i64)> {
+        let from = now_ms - hold_ms;
+        let lo = self.index_at_or_after(from);
+        let win = &self.hist[lo..];
+        // Each frame may stand for up to a second: the window must be covered.
+        let (first, last) = (win.first()?, win.last()?);
+        if win.len() < 5 || last.t_ms - first.t_ms < hold_ms * 9 / 10 {
+            return None;
+        }
+        let speeds: Vec<f64> = win.iter().map(|x| x.n1).collect();
+        let level = median(speeds.clone());
+        let band = (0.005 * level).max(4.0 * noise(&speeds));
+        if speeds.iter().any(|v| (v - level).abs() > band) {
+            return None;
+        }
+        let mut i = lo;
+        while i > 0 && (self.hist[i - 1].n1 - level).abs() <= band {
+            i -= 1;
+        }
+        Some((level, self.hist[i].t_ms))
+    }
+
     /// Walks back from the newest frame to the last one within `band` of `level`: the knee
     /// where a plateau turned into the current ramp.
     pub(super) fn knee_back(&self, get: impl Fn(&Frame) -> f64, level: f64, band: f64) -> i64 {

@@ -54,7 +54,26 @@ struct Active {
     ignition_n1: f64,
     /// Fuel flow the light-off held before acceleration (the unit's lowest burning level).
     light_off_fuel: Option<f64>,
+    /// The GG speed the starter held for the purge, when the purge was found as a plateau
+    /// below the configured purge speed ([`PLATEAU_MS`]).
+    purge_level: Option<f64>,
 }
+
+/// A GG speed held this long (within 0.5 %) during the crank is the purge, and during the
+/// acceleration is idle, though below the speeds the detector was configured with (the engine
+/// file's `[sequence]`, or `[detector]`): a unit's purge and idle speeds need not be the file's
+/// to the percent — an engine file copied from another unit, an idle scheduled on corrected
+/// speed — and a purge 3 % below the file's (the second independent simulator's unit, purge at
+/// 2 230 rpm against md22's 2 300) ended every start as an operator stop during the crank.
+const PLATEAU_MS: i64 = 10_000;
+
+/// The lowest a held speed may be, as a fraction of the configured purge speed, to count as
+/// the purge (a crank's starter that holds less is no purge the file describes).
+const PURGE_PLATEAU_MIN_FRAC: f64 = 0.7;
+
+/// The same for idle: a speed held below this fraction of the configured idle is a hung
+/// start's stagnation, not idle, and stays acceleration.
+const IDLE_PLATEAU_MIN_FRAC: f64 = 0.9;
 
 /// How far back the fuel's trend is read before a cut, to tell a trip from a ramped stop.
 const TREND_BEFORE_CUT_MS: i64 = 10_000;
@@ -296,6 +315,7 @@ impl Machine {
             ignition_ms: None,
             ignition_n1: 0.0,
             light_off_fuel: None,
+            purge_level: None,
         };
         // Catch up on the frames between the onset and now (they are already in `hist`).
         let start_idx = self.index_at_or_after(start_ms);
@@ -354,6 +374,12 @@ impl Machine {
                 }
                 if f.n1 >= c.purge_entry_frac * c.purge_speed_rpm {
                     enter(&mut a, Phase::Purge, f.t_ms);
+                } else if let Some((level, since)) = self
+                    .n1_plateau(f.t_ms, PLATEAU_MS)
+                    .filter(|(level, _)| *level >= PURGE_PLATEAU_MIN_FRAC * c.purge_speed_rpm)
+                {
+                    a.purge_level = Some(level);
+                    enter(&mut a, Phase::Purge, since);
                 } else if f.n1 < a.peak_n1 - (0.03 * a.peak_n1).max(50.0) {
                     let at = a.peak_ms;
                     self.finish_abort(a, AbortCause::OperatorStop, at, f);
@@ -361,7 +387,8 @@ impl Machine {
                 }
             }
             Phase::Purge => {
-                if f.n1 < c.purge_speed_rpm * (1.0 - c.purge_band_frac) {
+                let purge = a.purge_level.unwrap_or(c.purge_speed_rpm);
+                if f.n1 < purge * (1.0 - c.purge_band_frac) {
                     // Starter released: light-off starts where n1 left the purge level.
                     let start = a.rec.phases.last().map_or(f.t_ms, |p| p.start_ms);
                     let level = self.median_between(start, f.t_ms, |x| x.n1);
@@ -409,6 +436,11 @@ impl Machine {
             Phase::Acceleration => {
                 if f.n1 >= c.idle_entry_frac * c.idle_speed_rpm {
                     enter(&mut a, Phase::Idle, f.t_ms);
+                } else if let Some((_, since)) = self
+                    .n1_plateau(f.t_ms, PLATEAU_MS)
+                    .filter(|(level, _)| *level >= IDLE_PLATEAU_MIN_FRAC * c.idle_speed_rpm)
+                {
+                    enter(&mut a, Phase::Idle, since);
                 }
                 if f.power > c.breaker_closed_mw {
                     enter(&mut a, Phase::Loading, f.t_ms);

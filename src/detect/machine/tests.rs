@@ -505,3 +505,59 @@ fn frozen_power_signal_closes_the_start_after_the_limit() {
     assert_eq!(done[1].outcome, Outcome::Completed);
     assert!(done[1].start_ms as f64 >= T0_MS as f64 + 1000.0 * (restart - 1.0));
 }
+
+/// A unit whose purge and idle are held a few percent below the configured speeds (an engine
+/// file copied from another unit, an idle on corrected speed): the held speeds are its purge
+/// and idle, the start completes with every phase where the script put it; a speed held far
+/// below idle (a hung start's stagnation) is not idle.
+#[test]
+fn held_speeds_below_the_configured_ones_are_purge_and_idle() {
+    let mut s = empty_script();
+    let k = push_start(&mut s, 10.0, 0.0);
+    let f = frames(&s, (k.at_load + 200.0) as i64, 11, true);
+    let detect = |cfg: DetectorConfig| {
+        let mut m = Machine::new(cfg, None);
+        for x in &f {
+            m.push(*x);
+        }
+        m.take_finished()
+    };
+    // Purge held at 2 300 rpm against 2 392 configured (0.96), idle at 6 800 against 7 140
+    // (0.95).
+    let cfg = DetectorConfig {
+        purge_speed_rpm: 2392.0,
+        idle_speed_rpm: 7140.0,
+        ..DetectorConfig::default()
+    };
+    let segs = detect(cfg.clone());
+    assert_eq!(segs.len(), 1, "{segs:#?}");
+    let seg = &segs[0];
+    assert_eq!(seg.outcome, Outcome::Completed, "{seg:#?}");
+    let at = |p: Phase| {
+        seg.phase(p)
+            .map(|x| (x.start_ms - T0_MS) as f64 / 1000.0)
+            .unwrap_or_else(|| panic!("{p} missing: {seg:#?}"))
+    };
+    let purge_at = first_where(k.crank, k.purge_hold_end, |t| s.n1.at(t) >= 2300.0 - 2.0);
+    assert!(
+        (at(Phase::Purge) - purge_at).abs() <= 2.0,
+        "purge {}",
+        at(Phase::Purge)
+    );
+    assert!((at(Phase::LightOff) - k.purge_hold_end).abs() <= 2.0);
+    assert!(
+        (at(Phase::Idle) - k.at_idle).abs() <= 2.0,
+        "idle {}",
+        at(Phase::Idle)
+    );
+    assert!(seg.phase(Phase::Synchronisation).is_some() && seg.phase(Phase::Steady).is_some());
+    // Held at 0.8 of the configured idle: acceleration until the breaker closes, no idle.
+    let hung = DetectorConfig {
+        idle_speed_rpm: 8500.0,
+        ..cfg
+    };
+    let segs = detect(hung);
+    assert_eq!(segs.len(), 1, "{segs:#?}");
+    assert!(segs[0].phase(Phase::Idle).is_none(), "{:#?}", segs[0]);
+    assert_eq!(segs[0].outcome, Outcome::Completed);
+}
