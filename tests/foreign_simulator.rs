@@ -621,3 +621,115 @@ fn left_out_loads_of_the_second_simulators_unit() {
     use gtwatch::calibrate::adapt::AdaptStrategy;
     left_out_loads(&INDEP2, &[(AdaptStrategy::Grown, 0.3, 1.0)]);
 }
+
+/// The second simulator's start-ups (`indep2/dyn.py`: the same engine in time, from standstill
+/// through purge, light-off, idle, the PT's break-away and synchronisation to load, with its
+/// own starter, fuel control, inertias and thermocouple lags) replayed as a user replays a
+/// historian export: five days, each a start and, on four of them, a normal shutdown
+/// (`indep2/startups/operations_log.csv`; truth in `operations_truth.csv`). The engine file
+/// is the one the baseline's calibration writes from md22's, whose sequence speeds (purge
+/// 2 300, idle 6 600 rpm) are not the unit's (2 230, 6 496) and whose dynamics are md22's:
+/// what a user has before knowing better.
+///
+/// Measured 2026-12-07 (`cargo test --release --test integration
+/// foreign_simulator::start_ups_of -- --nocapture`, 7 s): every start completed with every
+/// phase (before the detector took a held speed as purge and idle, every one was an operator
+/// stop in crank); each diagnosed by Method B, `suspect` (md22's dynamics), healthy starts at
+/// D_GC −0.47 and −1.00; compressor fouling read as the change from the healthy start on a
+/// like load: +1.49 / +0.84 for 1.5 / 0.75 and +2.88 / +1.68 for 3.0 / 1.5; HP-turbine erosion
+/// D_GT −0.83 for −1.0.
+#[test]
+fn start_ups_of_the_second_simulators_unit_replay_detect_and_diagnose() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let unit = dir.path().join("unit.toml");
+    calibrate(&INDEP2, &INDEP2.user(), &unit);
+    let columns = "[replay.columns]\nT1_F = \"t1_k\"\nP1_PSIA = \"p1_kpa\"\nNGG_RPM = \"n1_rpm\"\n\
+                   NPT_RPM = \"n2_rpm\"\nFUEL_LBH = \"fuel_kg_s\"\nCDP_PSIA = \"p2_kpa\"\n\
+                   CDT_F = \"t2_k\"\nT48_F = \"t34_k\"\nEGT_F = \"t4_k\"\nMW = \"power_mw\"";
+    let units = "[replay.units]\nt1_k = \"degF\"\np1_kpa = \"psia\"\nfuel_kg_s = \"lb/h\"\n\
+                 p2_kpa = \"psia\"\nt2_k = \"degF\"\nt34_k = \"degF\"\nt4_k = \"degF\"";
+    let cfg = include_str!("../config/gtwatch.toml")
+        .replace(
+            "path = \"/var/lib/gtwatch/gtwatch.db\"",
+            &format!("path = {:?}", dir.path().join("u.db").display().to_string()),
+        )
+        .replace(
+            "# engine_model = \"engine.toml\"",
+            &format!("engine_model = {:?}", unit.display().to_string()),
+        )
+        .replace("time_column = \"time\"", "time_column = \"timestamp\"")
+        .replace("[replay.columns]\n# \"GG_SPEED\" = \"n1\"", columns)
+        .replace("[replay.units]\n# t2_k = \"degC\"", units)
+        .replace("threads = 1", "threads = 2");
+    assert!(cfg.contains("NGG_RPM = ") && cfg.contains("t4_k = \"degF\""));
+    let cfg_path = dir.path().join("gtwatch.toml");
+    std::fs::write(&cfg_path, cfg).expect("config");
+    let log = INDEP2.data("startups/operations_log.csv");
+    crate::common::gtwatch_ok(&["replay", log.to_str().expect("utf-8")], &cfg_path);
+    let segs: Value = serde_json::from_slice(&crate::common::gtwatch_ok(
+        &["segments", "--format", "json"],
+        &cfg_path,
+    ))
+    .expect("json");
+    let segs = segs.as_array().expect("segments");
+    assert_eq!(segs.len(), 5, "{segs:#?}");
+    for s in segs {
+        assert_eq!(s["outcome"], "completed", "{s:#}");
+        let phases: Vec<&str> = s["phases"]
+            .as_array()
+            .expect("phases")
+            .iter()
+            .map(|p| p["phase"].as_str().expect("name"))
+            .collect();
+        assert_eq!(
+            phases,
+            [
+                "crank",
+                "purge",
+                "light_off",
+                "acceleration",
+                "idle",
+                "synchronisation",
+                "loading",
+                "steady"
+            ],
+            "{s:#}"
+        );
+    }
+    let history: Value = serde_json::from_slice(&crate::common::gtwatch_ok(
+        &["history", "--method", "B", "--format", "json"],
+        &cfg_path,
+    ))
+    .expect("json");
+    let b: BTreeMap<i64, &Value> = history
+        .as_array()
+        .expect("rows")
+        .iter()
+        .map(|r| (r["segment_id"].as_i64().expect("id"), &r["health"]))
+        .collect();
+    assert_eq!(b.len(), 5, "one Method B result per start: {history:#}");
+    let d = |seg: i64, p: &str| b[&seg][p].as_f64().expect("estimate");
+    // Starts 1 and 2 are healthy (base load, 70 %); 3 and 4 fouled on like loads; 5 eroded at
+    // 70 % (operations_truth.csv).
+    let changes = [
+        ("D_GC", d(3, "D_GC") - d(1, "D_GC"), 1.5),
+        ("D_EC", d(3, "D_EC") - d(1, "D_EC"), 0.75),
+        ("D_GC", d(4, "D_GC") - d(2, "D_GC"), 3.0),
+        ("D_EC", d(4, "D_EC") - d(2, "D_EC"), 1.5),
+        ("D_GT", d(5, "D_GT") - d(2, "D_GT"), -1.0),
+    ];
+    for (p, read, truth) in changes {
+        eprintln!("{p}: read {read:+.2} for {truth:+.2}");
+        assert!(
+            (read - truth).abs() <= 0.4,
+            "{p}: {read:+.2} for {truth:+.2}"
+        );
+    }
+    for seg in [1, 2] {
+        assert!(
+            d(seg, "D_GC").abs() <= 1.5,
+            "healthy start {seg}: D_GC {}",
+            d(seg, "D_GC")
+        );
+    }
+}
