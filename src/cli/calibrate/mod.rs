@@ -406,25 +406,12 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
         ..CalibrationSettings::default()
     };
     let (members, ensemble_s) = ensemble(&a, &engine, &rows, &rest, &candidates, &settings)?;
-    let (report, _calibrated) = calibrate(&engine, &rows, &rest, candidates.clone(), &settings)
-        .with_context(|| {
-            format!(
-                "calibrating {} on {}",
-                a.engine.display(),
-                sources(&a).join(", ")
-            )
-        })?;
-    // Each fold fitted with the turbines' efficiency shape this calibration chose on every
-    // point (which `leave_one_out` would otherwise choose again with a calibration of its own).
-    // The calibration's own wall time is reported without the validation's.
-    let (validation, validation_design_only, validation_s) = validations(
-        a.validate,
-        &engine,
-        &rows,
-        &rest,
-        &candidates,
-        &settings.with_efficiency_shape_of(&report),
-    )?;
+    let report = calibrated(&a, &engine, &rows, &rest, candidates.clone(), &settings)?;
+    // Folds fitted with the efficiency shape this calibration chose (`leave_one_out` would
+    // calibrate again to choose it); its wall time is reported without the validation's.
+    let chosen = settings.with_efficiency_shape_of(&report);
+    let (validation, validation_design_only, validation_s) =
+        validations(a.validate, &engine, &rows, &rest, &candidates, &chosen)?;
     let head = with_validation(
         header(&a, &report, rows.len()),
         validation.as_ref(),
@@ -460,6 +447,26 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
         print_ensemble(&members, &ensemble_files, ensemble_s);
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The calibration of `engine` on `rows` (and `rest`), its error naming the engine file and the
+/// data it was calibrated on.
+fn calibrated(
+    a: &CalibrateArgs,
+    engine: &Engine,
+    rows: &[crate::diagnosis::snapshot::Snapshot],
+    rest: &[crate::calibrate::startup::RestReading],
+    candidates: Vec<crate::calibrate::candidates::Candidate>,
+    settings: &CalibrationSettings,
+) -> anyhow::Result<Calibration> {
+    let (report, _) = calibrate(engine, rows, rest, candidates, settings).with_context(|| {
+        format!(
+            "calibrating {} on {}",
+            a.engine.display(),
+            sources(a).join(", ")
+        )
+    })?;
+    Ok(report)
 }
 
 /// With `--ensemble`, the calibrations on parts of the baseline ([`crate::calibrate::ensemble`])
