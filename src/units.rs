@@ -114,11 +114,6 @@ impl Unit {
     pub fn is_identity(&self) -> bool {
         self.scale == 1.0 && self.offset == 0.0 && self.volume.is_none()
     }
-
-    /// The reference conditions of a gas fuel's volume flow (`None`: not a volume flow).
-    pub fn volume_basis(&self) -> Option<VolumeBasis> {
-        self.volume
-    }
 }
 
 const fn unit(
@@ -150,13 +145,8 @@ const fn volume_unit(
     m3_per_s: f64,
 ) -> Unit {
     Unit {
-        name,
-        label,
-        aliases,
-        quantity: MassFlow,
-        scale: m3_per_s,
-        offset: 0.0,
         volume: Some(basis),
+        ..unit(name, label, aliases, MassFlow, m3_per_s, 0.0)
     }
 }
 

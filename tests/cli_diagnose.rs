@@ -483,6 +483,18 @@ fn run_mapped(file: &std::path::Path, units: Option<&str>) -> std::process::Outp
     cmd.output().expect("runs")
 }
 
+/// Each of two reads' six parameters within `tolerance` points of the other's.
+fn assert_same_health(a: &[f64; 6], b: &[f64; 6], tolerance: f64) {
+    for p in 0..6 {
+        assert!(
+            (a[p] - b[p]).abs() < tolerance,
+            "parameter {p}: {} vs {}",
+            a[p],
+            b[p]
+        );
+    }
+}
+
 /// The first group's six health estimates of a `--json` diagnosis.
 fn health_of(out: &std::process::Output) -> [f64; 6] {
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
@@ -543,14 +555,7 @@ fn a_file_in_the_plants_own_units_is_read_once_they_are_stated() {
         String::from_utf8_lossy(&stated.stderr)
     );
     let (a, b) = (health_of(&own), health_of(&stated));
-    for p in 0..6 {
-        assert!(
-            (a[p] - b[p]).abs() < 1e-3,
-            "parameter {p}: {} vs {}",
-            a[p],
-            b[p]
-        );
-    }
+    assert_same_health(&a, &b, 1e-3);
     assert!(
         (a[0] - 1.5).abs() < 0.2,
         "the diagnosis itself is right: {a:?}"
@@ -596,14 +601,7 @@ fn a_gas_fuel_metered_by_volume_is_read_with_the_engines_fuel() {
     }
     let (a, b) = (health_of(&own), health_of(&stated));
     eprintln!("kg/s {a:?}, Nm3/h {b:?}");
-    for p in 0..6 {
-        assert!(
-            (a[p] - b[p]).abs() < 0.02,
-            "parameter {p}: {} vs {}",
-            a[p],
-            b[p]
-        );
-    }
+    assert_same_health(&a, &b, 0.02);
     assert!(
         (a[0] - 1.5).abs() < 0.2,
         "the diagnosis itself is right: {a:?}"

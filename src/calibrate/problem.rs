@@ -531,7 +531,7 @@ impl ResidualProblem for CalibrationProblem {
 /// diagnosis's [`with_input_noise`]), summed over the points and divided by the number of
 /// residuals. The inputs of one reading scatter every value of its point together; a
 /// baseline of spot readings can miss `good` on that alone (the second independent
-/// simulator's unit: 1.13 σ RMS, 0.7 under its inputs' noise), which no curve, cooling split
+/// simulator's unit: 0.98 σ RMS, 0.70 under its inputs' noise), which no curve, cooling split
 /// or map explains. A residual with no input column (a load law's speed, a reading at rest)
 /// counts as it is. `None` when a point has no input noise to carry or `r` does not match.
 pub(crate) fn level_under_input_noise(
@@ -540,7 +540,7 @@ pub(crate) fn level_under_input_noise(
     layout: &[(usize, Signal)],
     r: &[f64],
 ) -> Option<f64> {
-    use crate::diagnosis::steady::{with_input_noise, INPUTS};
+    use crate::diagnosis::steady::{squares_under_columns, with_input_noise, INPUTS};
     use nalgebra::{DMatrix, DVector};
     if r.is_empty() || r.len() != layout.len() {
         return None;
@@ -565,21 +565,14 @@ pub(crate) fn level_under_input_noise(
                 }
             })
         });
-        let q = match columns {
+        total += match columns {
             Some(c) if c.iter().any(|v| *v != 0.0) => {
                 carried = true;
-                let ctr = c.transpose() * &block;
-                let inner = DMatrix::<f64>::identity(INPUTS, INPUTS) + c.transpose() * &c;
-                let solved = inner.cholesky()?.solve(&ctr);
-                block.dot(&block) - ctr.dot(&solved)
+                squares_under_columns(&c, &block)?
             }
             _ => block.dot(&block),
         };
-        if !(q.is_finite() && q >= 0.0) {
-            return None;
-        }
-        total += q;
         j = end;
     }
-    carried.then(|| total / r.len() as f64)
+    (carried && total.is_finite()).then(|| total / r.len() as f64)
 }

@@ -252,19 +252,6 @@ pub fn leave_one_out(
         }
         _ => None,
     };
-    // Chosen here, or already by the caller's calibration on every point (`calibrate
-    // --validate` validates after it).
-    let efficiency_shape = whole
-        .as_ref()
-        .and_then(|(r, _)| r.adaptation.as_ref())
-        .map(|a| a.turbine_efficiency.name())
-        .or_else(|| {
-            settings
-                .adapt
-                .as_ref()
-                .filter(|a| !a.choose_efficiency_shape)
-                .map(|a| a.turbine_efficiency.name())
-        });
     let settings = &match &whole {
         Some((report, _)) => {
             model_runs += report.model_runs;
@@ -272,6 +259,13 @@ pub fn leave_one_out(
         }
         None => settings.clone(),
     };
+    // Fixed here, or already by the caller's calibration on every point (`calibrate
+    // --validate` validates after it).
+    let efficiency_shape = settings
+        .adapt
+        .as_ref()
+        .filter(|a| !a.choose_efficiency_shape)
+        .map(|a| a.turbine_efficiency.name());
     // A pre-wash row stays in every fold: its fouling is the calibration's to find, and a row
     // left out is predicted healthy.
     let healthy =

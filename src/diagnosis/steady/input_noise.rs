@@ -161,6 +161,17 @@ pub(crate) fn input_noise_sigma_note() -> String {
         .into()
 }
 
+/// `rᵀ (I + C Cᵀ)⁻¹ r`: the sum of squares of residuals `r` (in σ) judged under shared errors
+/// whose 1σ columns are `C` (Woodbury: one k×k solve for k columns); `None` where `I + CᵀC`
+/// does not factor or the result is not a finite non-negative number.
+pub(crate) fn squares_under_columns(c: &DMatrix<f64>, r: &DVector<f64>) -> Option<f64> {
+    let ctr = c.transpose() * r;
+    let inner = DMatrix::<f64>::identity(c.ncols(), c.ncols()) + c.transpose() * c;
+    let solved = inner.cholesky()?.solve(&ctr);
+    let q = r.dot(r) - ctr.dot(&solved);
+    (q.is_finite() && q >= 0.0).then_some(q)
+}
+
 impl SteadyProblem {
     /// The normalised residual (mean square, as the fit's verdict reads it) at `x` judged under
     /// the noise of the inputs taken as given ([`super::InputNoise::SigmaOnly`]):
@@ -179,11 +190,6 @@ impl SteadyProblem {
             return None;
         }
         let c = DMatrix::from_fn(m, k, |i, j| self.input_columns[j][i]);
-        let rv = DVector::from_column_slice(&r);
-        let ctr = c.transpose() * &rv;
-        let inner = DMatrix::<f64>::identity(k, k) + c.transpose() * &c;
-        let solved = inner.cholesky()?.solve(&ctr);
-        let q = rv.dot(&rv) - ctr.dot(&solved);
-        (q.is_finite() && q >= 0.0).then(|| q / m as f64)
+        squares_under_columns(&c, &DVector::from_column_slice(&r)).map(|q| q / m as f64)
     }
 }

@@ -19,7 +19,9 @@
 
 mod input_noise;
 
-pub(crate) use input_noise::{input_noise_note, input_noise_sigma_note, with_input_noise};
+pub(crate) use input_noise::{
+    input_noise_note, input_noise_sigma_note, squares_under_columns, with_input_noise,
+};
 pub use input_noise::{InputSigma, INPUTS};
 
 use super::objective::Objective;
