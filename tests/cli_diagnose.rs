@@ -788,3 +788,94 @@ fn a_hole_in_the_record_is_reported_and_the_shafts_resynchronised_after_it() {
         );
     }
 }
+
+/// The fouled start-up as a historian exports it: no phase column, ISO 8601 time stamps in a
+/// `timestamp` column. The start-up detector finds it in memory and labels its phases, and
+/// both methods read the health they read from the simulator's own labels.
+#[test]
+fn a_start_up_without_phase_labels_is_found_and_diagnosed() {
+    let (dir, csv, clean) = fouled_startup();
+    let text = std::fs::read_to_string(&csv).expect("csv");
+    let header: Vec<&str> = text.lines().next().expect("header").split(',').collect();
+    let (t_col, phase_col) = (
+        header.iter().position(|h| *h == "time_s").expect("time"),
+        header.iter().position(|h| *h == "phase").expect("phase"),
+    );
+    let t0 = 1_750_000_000_000_i64; // 2025-06-15T15:06:40Z
+    let log: Vec<String> = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            let cells: Vec<&str> = l.split(',').collect();
+            let mut out: Vec<String> = Vec::new();
+            for (c, cell) in cells.iter().enumerate() {
+                if c == phase_col {
+                    continue;
+                }
+                out.push(match (i, c == t_col) {
+                    (0, true) => "timestamp".to_string(),
+                    (_, true) if i > 0 => {
+                        let ms = t0 + (cell.parse::<f64>().expect("t") * 1000.0).round() as i64;
+                        gtwatch::time::fmt_ms_rfc3339(ms)
+                    }
+                    _ => (*cell).to_string(),
+                });
+            }
+            out.join(",")
+        })
+        .collect();
+    let path = dir.path().join("historian.csv");
+    std::fs::write(&path, log.join("\n")).expect("write");
+    let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(["diagnose", "--input"])
+        .arg(&path)
+        .args(["--seed", "3", "--json"])
+        .output()
+        .expect("runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
+    let found = v["startup"]["found"].as_array().expect("found");
+    assert_eq!(found.len(), 1, "{:#}", v["startup"]);
+    assert_eq!(found[0]["outcome"], "completed");
+    assert_eq!(
+        found[0]["phases"]
+            .as_array()
+            .expect("phases")
+            .last()
+            .expect("one"),
+        "steady"
+    );
+    assert!(found[0]["start_utc"]
+        .as_str()
+        .expect("utc")
+        .starts_with("2025-06-15T15:0"));
+    for m in ["transient", "steady"] {
+        for p in ["D_GC", "D_EC", "D_GT", "D_ET", "D_GP", "D_EP"] {
+            let (a, b) = (
+                v["methods"][m]["health"][p].as_f64().expect("from the log"),
+                clean[m]["health"][p].as_f64().expect("from the labels"),
+            );
+            assert!(
+                (a - b).abs() <= 0.15,
+                "{m} {p}: {a:+.3} unlabelled, {b:+.3} labelled"
+            );
+        }
+    }
+    // A start that is not there, and --start on a file that carries its phases.
+    let refused = |file: &std::path::Path, why: &str| {
+        let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+            .args(["diagnose", "--input"])
+            .arg(file)
+            .args(["--start", "2", "--method", "transient"])
+            .output()
+            .expect("runs");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(why), "{err}");
+    };
+    refused(&path, "holds 1 start-up(s)");
+    refused(&csv, "carries its phases");
+}

@@ -732,4 +732,41 @@ fn start_ups_of_the_second_simulators_unit_replay_detect_and_diagnose() {
             d(seg, "D_GC")
         );
     }
+    // The same log handed to `diagnose --input` without a database: the detector runs over
+    // the file in memory, finds the same five start-ups, and the third (`--start 3`) is fitted
+    // to the same health as the stored one (the worker's settings: seed 1, 400 model runs).
+    let (map, units) = (INDEP2.map(), INDEP2.units());
+    let direct = gtwatch_json(&[
+        "diagnose",
+        "--engine",
+        unit.to_str().expect("utf-8"),
+        "--input",
+        log.to_str().expect("utf-8"),
+        "--map",
+        &map,
+        "--units",
+        &units,
+        "--method",
+        "transient",
+        "--start",
+        "3",
+        "--max-runs",
+        "400",
+        "--threads",
+        "2",
+    ]);
+    let found = direct["startup"]["found"].as_array().expect("found");
+    assert_eq!(found.len(), 5, "{:#}", direct["startup"]);
+    assert!(found.iter().all(|f| f["outcome"] == "completed"));
+    assert_eq!(found[2]["start_utc"], "2025-10-08T08:00:10Z");
+    for p in ["D_GC", "D_EC", "D_GT", "D_ET", "D_GP", "D_EP"] {
+        let h = direct["methods"]["transient"]["health"][p]
+            .as_f64()
+            .expect("estimate");
+        assert!(
+            (h - d(3, p)).abs() <= 0.02,
+            "{p}: {h:+.3} from the file, {:+.3} stored",
+            d(3, p)
+        );
+    }
 }

@@ -2,14 +2,14 @@
 //! parameters with 1σ, the objective, model runs and wall time (text or JSON).
 //! Must not open the database or store results: it reads a CSV and prints.
 
-use crate::diagnosis::csv_input::{parse_mapping, read_recording_checked};
+use crate::diagnosis::csv_input::parse_mapping;
 use crate::diagnosis::params::FitParam;
 use crate::diagnosis::steady::diagnose_steady;
 use crate::diagnosis::transient::diagnose_transient;
 use crate::diagnosis::{DiagnosisConfig, Method, MethodResult, Optimiser};
 use crate::engine::measured_drive::DriveMode;
 use crate::health::HEALTH_NAMES;
-use anyhow::{bail, Context};
+use anyhow::bail;
 use clap::{Args, ValueEnum};
 use serde_json::{json, Value};
 use std::collections::HashMap;
@@ -142,13 +142,20 @@ impl FitArgs {
 /// `gtwatch diagnose`
 #[derive(Debug, Clone, Args)]
 pub struct DiagnoseArgs {
-    /// Start-up CSV (the layout `gtwatch simulate` writes, or any CSV with --map).
+    /// Start-up CSV (the layout `gtwatch simulate` writes, or any CSV with --map). Without a
+    /// phase column the start-up detector finds the start-ups in it (as `gtwatch replay`
+    /// would, with the engine file's sequence speeds) and labels their phases; the time column
+    /// may be seconds or ISO 8601 date-times.
     #[arg(long, required_unless_present = "segment")]
     pub input: Option<PathBuf>,
     /// Instead of a CSV: re-run one stored start-up segment of the database (prints JSON,
     /// stores nothing); engine and settings from --config's [plant] and [diagnosis].
     #[arg(long, conflicts_with = "input")]
     pub segment: Option<i64>,
+    /// A log without phase labels holding several start-ups: diagnose this one (1-based, in
+    /// the order the start-up detector finds them; default: the first that reached load).
+    #[arg(long, value_name = "N", conflicts_with = "segment")]
+    pub start: Option<usize>,
     /// Config file (with --segment): database path, engine file, [diagnosis] settings.
     #[arg(long, requires = "segment")]
     pub config: Option<PathBuf>,
@@ -326,15 +333,14 @@ pub(super) fn run(a: &DiagnoseArgs) -> anyhow::Result<ExitCode> {
     if super::diagnose_snapshots::wants_snapshots(a, input, &mapping)? {
         return super::diagnose_snapshots::run(a, input, &engine, &cfg, &mapping, &units);
     }
-    let file =
-        std::fs::File::open(input).with_context(|| format!("opening {}", input.display()))?;
-    let (seg, flagged) = read_recording_checked(
-        std::io::BufReader::new(file),
-        &mapping,
-        &units,
-        &crate::quality::QualityConfig::default(),
-    )
-    .with_context(|| format!("reading {}", input.display()))?;
+    let (seg, flagged, found) =
+        super::diagnose_log::read_startup_file(input, &mapping, &units, &engine, a.start)?;
+    if let (Some(found), false) = (&found, a.json) {
+        for l in &found.lines {
+            println!("{l}");
+        }
+    }
+    let startup_json = found.map(|f| f.summary);
     for (signal, c) in &flagged.flagged {
         tracing::warn!(
             file = %input.display(),
@@ -376,7 +382,10 @@ pub(super) fn run(a: &DiagnoseArgs) -> anyhow::Result<ExitCode> {
     if a.json {
         println!(
             "{}",
-            serde_json::to_string_pretty(&json!({ "methods": out }))?
+            serde_json::to_string_pretty(&match startup_json {
+                Some(s) => json!({ "startup": s, "methods": out }),
+                None => json!({ "methods": out }),
+            })?
         );
     }
     if failed == methods.len() {

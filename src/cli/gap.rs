@@ -6,7 +6,7 @@
 //! logic of its own (that is `crate::gap`) or a database handle across the analysis.
 
 use super::diagnose::FitArgs;
-use crate::diagnosis::csv_input::{parse_mapping, read_recording_checked};
+use crate::diagnosis::csv_input::parse_mapping;
 use crate::recording::Recording;
 use anyhow::{bail, Context};
 use clap::Args;
@@ -121,15 +121,9 @@ fn read(path: &Path, a: &GapArgs, engine: &crate::engine::Engine) -> anyhow::Res
         None => HashMap::new(),
     };
     let units = super::common::column_units(a.units.as_deref(), engine)?;
-    let file = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
-    read_recording_checked(
-        std::io::BufReader::new(file),
-        &mapping,
-        &units,
-        &crate::quality::QualityConfig::default(),
-    )
-    .map(|(rec, _)| rec)
-    .with_context(|| format!("reading {}", path.display()))
+    // A log without phase labels: its first start-up that reached load, as `diagnose` picks.
+    super::diagnose_log::read_startup_file(path, &mapping, &units, engine, None)
+        .map(|(rec, _, _)| rec)
 }
 
 pub(super) fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {

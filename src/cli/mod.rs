@@ -10,6 +10,7 @@ mod check_config;
 mod common;
 mod demo;
 mod diagnose;
+mod diagnose_log;
 mod diagnose_snapshots;
 mod diagnose_stored;
 pub(crate) mod engine_args;

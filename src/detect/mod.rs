@@ -10,6 +10,7 @@
 //! machine is deterministic, so a start interrupted by a daemon restart is found whole and
 //! never twice. Must not talk to Modbus or fit models.
 
+pub mod in_memory;
 pub(crate) mod machine;
 
 pub use machine::{Frame, Machine};

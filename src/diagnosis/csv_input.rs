@@ -32,9 +32,9 @@ pub enum CsvError {
     #[error(
         "required column '{0}' is missing from the header: a start-up's rows need their phase \
          (standstill, crank, purge, light_off, acceleration, idle, synchronisation, loading, \
-         steady; the `gtwatch simulate` layout). For a log without them, `gtwatch replay` finds \
-         the start-ups and their phases, then `gtwatch diagnose --segment ID` (or `gtwatch gap \
-         --segment ID`) fits one; a file of steady points is read with `--method steady`"
+         steady; the `gtwatch simulate` layout). `gtwatch diagnose`, `gap` and `calibrate \
+         --startup` find the start-ups of a log without them themselves; `gtwatch replay` \
+         stores them; a file of steady points is read with `--method steady`"
     )]
     MissingPhase(String),
     #[error("line {line}, column '{column}': {reason}")]
@@ -256,15 +256,103 @@ pub fn read_recording_checked<R: Read>(
     units: &ColumnUnits,
     quality: &QualityConfig,
 ) -> Result<(Recording, CsvQuality), CsvError> {
+    let r = read_rows(reader, mapping, units, quality, Phases::Required)?;
+    let rec = Recording::new(r.t_s, r.phases, r.rows).map_err(|source| CsvError::Recording {
+        line: source.index().and_then(|i| r.lines.get(i).copied()),
+        source,
+    })?;
+    Ok((rec, r.report))
+}
+
+/// A log as read: its rows in time order, not yet a [`Recording`] (a log may span days and
+/// have holes; each start-up cut from it is checked as a recording then).
+#[derive(Debug, Clone)]
+pub struct Log {
+    /// Times, s (from the first row when the file's are ISO 8601).
+    pub t_s: Vec<f64>,
+    /// Values per row, model units, indexed by [`Signal::index`] (NaN = missing).
+    pub rows: Vec<Values>,
+    /// The file line of each row.
+    pub lines: Vec<u64>,
+    /// The first row's time, Unix ms, when the file's times are ISO 8601.
+    pub origin_ms: Option<i64>,
+}
+
+/// A recorded log without phase labels (a historian's export of a start-up or of days of
+/// operation, another simulator's output): the same columns, units, checks and bad-value
+/// policy as [`read_recording_checked`], no phase column, for `detect::in_memory` to find the
+/// start-ups in.
+pub fn read_log_checked<R: Read>(
+    reader: R,
+    mapping: &HashMap<String, String>,
+    units: &ColumnUnits,
+    quality: &QualityConfig,
+) -> Result<(Log, CsvQuality), CsvError> {
+    let r = read_rows(reader, mapping, units, quality, Phases::Absent)?;
+    Ok((
+        Log {
+            t_s: r.t_s,
+            rows: r.rows,
+            lines: r.lines,
+            origin_ms: r.origin_ms,
+        },
+        r.report,
+    ))
+}
+
+/// What [`read_rows`] read.
+struct Rows {
+    t_s: Vec<f64>,
+    phases: Vec<Phase>,
+    rows: Vec<Values>,
+    lines: Vec<u64>,
+    report: CsvQuality,
+    origin_ms: Option<i64>,
+}
+
+/// Whether the file carries its rows' phases.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Phases {
+    /// A `phase` column is required (a start-up as `gtwatch simulate` writes it).
+    Required,
+    /// None is read: every row is standstill until labelled.
+    Absent,
+}
+
+/// One row's time: seconds, or an ISO 8601 date-time (then epoch ms, turned into seconds from
+/// the first row's by the caller).
+fn parse_time_cell(text: &str) -> Result<(f64, bool), String> {
+    match parse_value(text) {
+        Ok(t) => Ok((t, false)),
+        Err(number_error) => crate::time::parse_iso8601_ms(text)
+            .map(|ms| (ms as f64, true))
+            .map_err(|_| format!("{number_error} nor an ISO 8601 date-time")),
+    }
+}
+
+fn read_rows<R: Read>(
+    reader: R,
+    mapping: &HashMap<String, String>,
+    units: &ColumnUnits,
+    quality: &QualityConfig,
+    phases_from: Phases,
+) -> Result<Rows, CsvError> {
     let (mut rdr, headers) = open_csv(reader)?;
     let find =
         |canonical: &str, short: Option<&str>| find_column(&headers, mapping, canonical, short);
-    let time_col = find("time_s", None).ok_or_else(|| {
-        CsvError::MissingColumn(mapping.get("time_s").cloned().unwrap_or("time_s".into()))
-    })?;
-    let phase_col = find("phase", None).ok_or_else(|| {
-        CsvError::MissingPhase(mapping.get("phase").cloned().unwrap_or("phase".into()))
-    })?;
+    // A log's time column is often `time` or `timestamp`; a mapping names any other.
+    let time_col = find("time_s", Some("time"))
+        .or_else(|| find("time_s", Some("timestamp")))
+        .ok_or_else(|| {
+            CsvError::MissingColumn(mapping.get("time_s").cloned().unwrap_or("time_s".into()))
+        })?;
+    let phase_col = match phases_from {
+        Phases::Required => Some(find("phase", None).ok_or_else(|| {
+            CsvError::MissingPhase(mapping.get("phase").cloned().unwrap_or("phase".into()))
+        })?),
+        Phases::Absent => None,
+    };
+    let mut iso: Option<bool> = None;
     let sig_cols: Vec<(Signal, usize)> = Signal::ALL
         .iter()
         .filter_map(|&s| find(s.column(), Some(s.short())).map(|c| (s, c)))
@@ -283,7 +371,7 @@ pub fn read_recording_checked<R: Read>(
         let line = rec.position().map_or(0, |p| p.line());
         let cell = |c: usize| rec.get(c).unwrap_or("");
         let col_name = |c: usize| headers.get(c).unwrap_or("?").to_string();
-        let t = parse_value(cell(time_col)).map_err(|reason| CsvError::Cell {
+        let (t, is_iso) = parse_time_cell(cell(time_col)).map_err(|reason| CsvError::Cell {
             line,
             column: col_name(time_col),
             reason,
@@ -295,6 +383,13 @@ pub fn read_recording_checked<R: Read>(
                 reason: "time is missing".into(),
             });
         }
+        if *iso.get_or_insert(is_iso) != is_iso {
+            return Err(CsvError::Cell {
+                line,
+                column: col_name(time_col),
+                reason: "mixes ISO 8601 date-times and numbers".into(),
+            });
+        }
         if let Some(&prev) = t_s.last() {
             if t <= prev {
                 return Err(CsvError::Cell {
@@ -304,11 +399,14 @@ pub fn read_recording_checked<R: Read>(
                 });
             }
         }
-        let ph = parse_phase(cell(phase_col)).ok_or_else(|| CsvError::Cell {
-            line,
-            column: col_name(phase_col),
-            reason: format!("unknown phase '{}'", cell(phase_col)),
-        })?;
+        let ph = match phase_col {
+            Some(c) => parse_phase(cell(c)).ok_or_else(|| CsvError::Cell {
+                line,
+                column: col_name(c),
+                reason: format!("unknown phase '{}'", cell(c)),
+            })?,
+            None => Phase::Standstill,
+        };
         let mut v: Values = [f64::NAN; NSIG];
         for &(s, c) in &sig_cols {
             let raw = parse_value(cell(c)).map_err(|reason| CsvError::Cell {
@@ -326,13 +424,25 @@ pub fn read_recording_checked<R: Read>(
     if t_s.is_empty() {
         return Err(CsvError::Empty);
     }
+    // ISO 8601 times: seconds from the first row, which is the origin returned.
+    let origin_ms = match iso {
+        Some(true) => {
+            let t0 = t_s[0];
+            t_s.iter_mut().for_each(|t| *t = (*t - t0) / 1000.0);
+            Some(t0 as i64)
+        }
+        _ => None,
+    };
     check_units(&sig_cols, &headers, &rows, &lines)?;
     let report = apply_policy(quality, &sig_cols, &t_s, &mut rows);
-    let rec = Recording::new(t_s, phases, rows).map_err(|source| CsvError::Recording {
-        line: source.index().and_then(|i| lines.get(i).copied()),
-        source,
-    })?;
-    Ok((rec, report))
+    Ok(Rows {
+        t_s,
+        phases,
+        rows,
+        lines,
+        report,
+        origin_ms,
+    })
 }
 
 /// Refuses a column in another unit (°C for K, bar for kPa, …), judged at the recording's
@@ -454,6 +564,37 @@ mod tests {
             parse_mapping("bogus=X"),
             Err(CsvError::UnknownTarget(_))
         ));
+    }
+
+    /// A log is read without phases; its ISO 8601 times become seconds from the first row
+    /// (the origin returned), a `timestamp` column is found by name, and a file that mixes
+    /// date-times with numbers is refused at the line that does.
+    #[test]
+    fn a_log_reads_iso_times_from_its_first_row() {
+        let read = |text: &str| {
+            read_log_checked(
+                text.as_bytes(),
+                &HashMap::new(),
+                &ColumnUnits::default(),
+                &QualityConfig::default(),
+            )
+        };
+        let (log, _) = read(
+            "timestamp,n1_rpm\n2025-07-01T06:00:00Z,0\n2025-07-01T06:00:01.5Z,10\n\
+             2025-07-01 06:00:03,20\n",
+        )
+        .expect("a log");
+        assert_eq!(log.t_s, vec![0.0, 1.5, 3.0]);
+        assert_eq!(log.origin_ms, Some(1_751_349_600_000));
+        assert_eq!(log.lines, vec![2, 3, 4]);
+        assert_eq!(log.rows[2][Signal::N1.index()], 20.0);
+        let (seconds, _) = read("time,n1_rpm\n10,0\n11,5\n").expect("seconds");
+        assert_eq!((seconds.t_s, seconds.origin_ms), (vec![10.0, 11.0], None));
+        let e = read("time_s,n1_rpm\n2025-07-01T06:00:00Z,0\n5,1\n").expect_err("mixed");
+        assert!(
+            matches!(&e, CsvError::Cell { line: 3, reason, .. } if reason.contains("mixes")),
+            "{e}"
+        );
     }
 
     #[test]

@@ -15,7 +15,7 @@ use crate::calibrate::ensemble::Member;
 use crate::calibrate::startup::{rest_readings, startup_snapshots};
 use crate::calibrate::validate::{leave_one_out, Summary, Validation};
 use crate::calibrate::{calibrate, Calibration, CalibrationSettings};
-use crate::diagnosis::csv_input::{parse_mapping, read_recording_checked};
+use crate::diagnosis::csv_input::parse_mapping;
 use crate::diagnosis::snapshot::read_snapshots_in;
 use crate::engine::{Engine, EngineConfig};
 use anyhow::{bail, Context};
@@ -43,8 +43,9 @@ pub struct CalibrateArgs {
     )]
     pub input: Option<PathBuf>,
     /// Healthy start-up recordings (the layout `gtwatch simulate` writes, or any CSV with
-    /// --map; repeat for several): each steady window (idle, holds, the settled load) becomes
-    /// one operating point, found and averaged with Method A's stability criteria.
+    /// --map; repeat for several; a log without a phase column gives every start-up the
+    /// detector finds in it that reached load): each steady window (idle, holds, the settled
+    /// load) becomes one operating point, found and averaged with Method A's stability criteria.
     #[arg(long, value_name = "STARTUP.csv")]
     pub startup: Vec<PathBuf>,
     /// Write the calibrated engine file here (without it nothing is written).
@@ -332,16 +333,17 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
     }
     let criteria = crate::diagnosis::config::SteadyCriteria::default();
     for path in &a.startup {
-        let file =
-            std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
-        let (rec, _) = read_recording_checked(
-            BufReader::new(file),
-            &mapping,
-            &units,
-            &crate::quality::QualityConfig::default(),
-        )
-        .with_context(|| format!("reading {}", path.display()))?;
-        let windows = startup_snapshots(&rec, engine.cfg(), &criteria, &path.display().to_string());
+        // A log without phase labels gives every start-up in it that reached load.
+        let recs = super::diagnose_log::startups_of_file(path, &mapping, &units, &engine)?;
+        let mut windows = Vec::new();
+        for (k, rec) in recs.iter().enumerate() {
+            let source = match recs.len() {
+                1 => path.display().to_string(),
+                _ => format!("{} start {}", path.display(), k + 1),
+            };
+            windows.extend(startup_snapshots(rec, engine.cfg(), &criteria, &source));
+            rest.extend(rest_readings(rec, engine.cfg(), &source));
+        }
         if windows.is_empty() {
             bail!(
                 "{}: no steady window (Method A's criteria: n1, P2, T2, T34 and power stable \
@@ -352,11 +354,6 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
             );
         }
         rows.extend(windows);
-        rest.extend(rest_readings(
-            &rec,
-            engine.cfg(),
-            &path.display().to_string(),
-        ));
     }
     let mut candidates = match &a.params {
         None => default_candidates(&engine)?,
