@@ -26,6 +26,7 @@
 
 pub mod adapt;
 pub mod candidates;
+pub mod dynamics;
 pub(crate) mod edit;
 pub mod ensemble;
 pub(crate) mod identify;

@@ -5,6 +5,7 @@
 //! Must not fit anything itself (that is `crate::calibrate`) or write any file but the output
 //! engine file.
 
+mod dynamics;
 mod print;
 
 use super::common::moved_map_paths;
@@ -100,6 +101,15 @@ pub struct CalibrateArgs {
     /// (README, "Calibrations that fit alike: --ensemble"). Costs three more calibrations.
     #[arg(long, requires_all = ["adapt", "out"])]
     pub ensemble: bool,
+    /// Also fit the unit's dynamics to the --startup recordings (healthy start-ups): each
+    /// measured thermocouple's lag (T2, T34, T4) and both rotors' inertias, by Method B with
+    /// the health held at zero on the calibrated file, pooled over the start-ups; a value is
+    /// written where the pool determines it (1σ within 20 %), and each start-up's health is
+    /// shown read with the file's values and with the fitted ones. For an engine file copied
+    /// from another unit, whose lags and inertias are that unit's. Costs three Method B fits
+    /// per start-up
+    #[arg(long, requires = "startup")]
+    pub dynamics: bool,
     /// The group (a value of the --group-by column) whose rows were taken just before a
     /// compressor wash, the others after it (healthy): the calibration finds their compressor
     /// fouling (D_GC, D_EC; a wash removes nothing else) in rounds with the fit, and with
@@ -331,30 +341,7 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
         }
         rows.extend(snaps);
     }
-    let criteria = crate::diagnosis::config::SteadyCriteria::default();
-    for path in &a.startup {
-        // A log without phase labels gives every start-up in it that reached load.
-        let recs = super::diagnose_log::startups_of_file(path, &mapping, &units, &engine)?;
-        let mut windows = Vec::new();
-        for (k, rec) in recs.iter().enumerate() {
-            let source = match recs.len() {
-                1 => path.display().to_string(),
-                _ => format!("{} start {}", path.display(), k + 1),
-            };
-            windows.extend(startup_snapshots(rec, engine.cfg(), &criteria, &source));
-            rest.extend(rest_readings(rec, engine.cfg(), &source));
-        }
-        if windows.is_empty() {
-            bail!(
-                "{}: no steady window (Method A's criteria: n1, P2, T2, T34 and power stable \
-                 for at least {} s above {:.0} % GG speed)",
-                path.display(),
-                criteria.min_duration_s,
-                100.0 * criteria.min_n1_fraction
-            );
-        }
-        rows.extend(windows);
-    }
+    let startup_recs = startups(&a, &engine, &mapping, &units, &mut rows, &mut rest)?;
     let mut candidates = match &a.params {
         None => default_candidates(&engine)?,
         Some(list) => {
@@ -403,20 +390,37 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
         ..CalibrationSettings::default()
     };
     let (members, ensemble_s) = ensemble(&a, &engine, &rows, &rest, &candidates, &settings)?;
-    let report = calibrated(&a, &engine, &rows, &rest, candidates.clone(), &settings)?;
+    let (report, fitted) = calibrated(&a, &engine, &rows, &rest, candidates.clone(), &settings)?;
     // Folds fitted with the efficiency shape this calibration chose (`leave_one_out` would
     // calibrate again to choose it); its wall time is reported without the validation's.
     let chosen = settings.with_efficiency_shape_of(&report);
     let (validation, validation_design_only, validation_s) =
         validations(a.validate, &engine, &rows, &rest, &candidates, &chosen)?;
-    let head = with_validation(
+    let dynamics = dynamics::fit(&a, &fitted, &startup_recs)?;
+    let mut head = with_validation(
         header(&a, &report, rows.len()),
         validation.as_ref(),
         validation_design_only.as_ref(),
     );
+    head.extend(dynamics.as_ref().map(dynamics::header_line));
     let ensemble_files = write_members(&a, &original, &members, rows.len())?;
-    write_out(&a, &original, &report, &head, &ensemble_files)?;
-    let wall_s = start.elapsed().as_secs_f64() - validation_s - ensemble_s;
+    let dynamic_values: Vec<(String, NewValue)> = dynamics
+        .as_ref()
+        .map(|d| d.changes())
+        .unwrap_or_default()
+        .into_iter()
+        .map(|(k, v)| (k, NewValue::Number(v)))
+        .collect();
+    write_out(
+        &a,
+        &original,
+        &report,
+        &head,
+        &ensemble_files,
+        dynamic_values,
+    )?;
+    let dynamics_s = dynamics.as_ref().map_or(0.0, |d| d.wall_s);
+    let wall_s = start.elapsed().as_secs_f64() - validation_s - ensemble_s - dynamics_s;
     if a.json {
         println!(
             "{}",
@@ -433,6 +437,7 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
                 "validation_s": validation.as_ref().map(|_| validation_s),
                 "ensemble": ensemble_json(&members, &ensemble_files),
                 "ensemble_s": a.ensemble.then_some(ensemble_s),
+                "dynamics": dynamics,
                 "wall_s": wall_s,
             }))?
         );
@@ -442,12 +447,55 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
             print_validation(v, validation_design_only.as_ref(), validation_s);
         }
         print_ensemble(&members, &ensemble_files, ensemble_s);
+        if let Some(d) = &dynamics {
+            dynamics::print(d);
+        }
     }
     Ok(ExitCode::SUCCESS)
 }
 
-/// The calibration of `engine` on `rows` (and `rest`), its error naming the engine file and the
-/// data it was calibrated on.
+/// The `--startup` files' start-ups (each with its source's name), their steady windows added
+/// to `rows` and their pressure readings at rest to `rest`. A file without a steady window is
+/// an error naming it.
+fn startups(
+    a: &CalibrateArgs,
+    engine: &Engine,
+    mapping: &HashMap<String, String>,
+    units: &crate::units::ColumnUnits,
+    rows: &mut Vec<crate::diagnosis::snapshot::Snapshot>,
+    rest: &mut Vec<crate::calibrate::startup::RestReading>,
+) -> anyhow::Result<Vec<(String, crate::recording::Recording)>> {
+    let criteria = crate::diagnosis::config::SteadyCriteria::default();
+    let mut startup_recs = Vec::new();
+    for path in &a.startup {
+        // A log without phase labels gives every start-up in it that reached load.
+        let recs = super::diagnose_log::startups_of_file(path, mapping, units, engine)?;
+        let mut windows = Vec::new();
+        for (k, rec) in recs.iter().enumerate() {
+            let source = match recs.len() {
+                1 => path.display().to_string(),
+                _ => format!("{} start {}", path.display(), k + 1),
+            };
+            windows.extend(startup_snapshots(rec, engine.cfg(), &criteria, &source));
+            rest.extend(rest_readings(rec, engine.cfg(), &source));
+            startup_recs.push((source, rec.clone()));
+        }
+        if windows.is_empty() {
+            bail!(
+                "{}: no steady window (Method A's criteria: n1, P2, T2, T34 and power stable \
+                 for at least {} s above {:.0} % GG speed)",
+                path.display(),
+                criteria.min_duration_s,
+                100.0 * criteria.min_n1_fraction
+            );
+        }
+        rows.extend(windows);
+    }
+    Ok(startup_recs)
+}
+
+/// The calibration of `engine` on `rows` (and `rest`) and the calibrated engine, its error
+/// naming the engine file and the data it was calibrated on.
 fn calibrated(
     a: &CalibrateArgs,
     engine: &Engine,
@@ -455,15 +503,14 @@ fn calibrated(
     rest: &[crate::calibrate::startup::RestReading],
     candidates: Vec<crate::calibrate::candidates::Candidate>,
     settings: &CalibrationSettings,
-) -> anyhow::Result<Calibration> {
-    let (report, _) = calibrate(engine, rows, rest, candidates, settings).with_context(|| {
+) -> anyhow::Result<(Calibration, Engine)> {
+    calibrate(engine, rows, rest, candidates, settings).with_context(|| {
         format!(
             "calibrating {} on {}",
             a.engine.display(),
             sources(a).join(", ")
         )
-    })?;
-    Ok(report)
+    })
 }
 
 /// With `--ensemble`, the calibrations on parts of the baseline ([`crate::calibrate::ensemble`])
@@ -555,8 +602,8 @@ fn validations(
 }
 
 /// Writes the calibrated engine file to `--out` (the file's text `original` with the fitted
-/// values, the header lines `head` and, with `--ensemble`, its members' files in
-/// `[adaptation.ensemble]`) and checks it loads, maps included; says so when there is no
+/// values and the `extra` ones (`--dynamics`), the header lines `head` and, with `--ensemble`,
+/// its members' files in `[adaptation.ensemble]`) and checks it loads, maps included; says so when there is no
 /// `--out`.
 fn write_out(
     a: &CalibrateArgs,
@@ -564,20 +611,19 @@ fn write_out(
     report: &Calibration,
     head: &[String],
     ensemble_files: &[String],
+    mut extra: Vec<(String, NewValue)>,
 ) -> anyhow::Result<()> {
     let Some(out) = &a.out else {
         eprintln!("no --out given: nothing written");
         return Ok(());
     };
     // The ensemble's members, written first, are listed in the file they belong to.
-    let extra = if ensemble_files.is_empty() {
-        Vec::new()
-    } else {
-        vec![(
+    if !ensemble_files.is_empty() {
+        extra.push((
             "adaptation.ensemble.files".to_string(),
             NewValue::Words(ensemble_files.to_vec()),
-        )]
-    };
+        ));
+    }
     write_file(a, original, out, report, head, extra)
 }
 
