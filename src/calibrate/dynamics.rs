@@ -45,7 +45,7 @@ pub struct DynamicValue {
     /// The start-ups' scatter about the mean in units of their σ (RMS; 1 when they agree as
     /// their noise says; `None` with one start-up).
     pub scatter: Option<f64>,
-    /// Each start-up's estimate and 1σ, in the order given.
+    /// Each fitted start-up's estimate and 1σ, in the order of [`DynamicsFit::startups`].
     pub per_startup: Vec<(f64, f64)>,
     /// Whether the value is written (1σ within [`MAX_WRITTEN_SIGMA_FRAC`] of it, not on its
     /// search limit), else why not.
@@ -91,7 +91,10 @@ impl HealthRead {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct DynamicsFit {
     pub values: Vec<DynamicValue>,
+    /// The start-ups fitted, in the order given.
     pub startups: Vec<StartupDynamics>,
+    /// The start-ups Method B could not fit, with the reason (source, reason).
+    pub left_out: Vec<(String, String)>,
     pub wall_s: f64,
 }
 
@@ -135,7 +138,7 @@ pub fn dynamic_candidates(
 /// Fits `candidates` to each healthy start-up of `recordings` (named by `sources`) with Method
 /// B under `base` (its seed, budget and threads; the health held at zero), pools them, and
 /// diagnoses each start-up (health free, `base`) with the file's values and with the written
-/// ones. A start-up Method B cannot fit is an error naming it.
+/// ones. A start-up Method B cannot fit is left out with its reason; none fitted is an error.
 pub fn fit_dynamics(
     engine: &Engine,
     recordings: &[Recording],
@@ -156,23 +159,32 @@ pub fn fit_dynamics(
         ..base.clone()
     };
     let mut estimates: Vec<Vec<(f64, f64)>> = vec![Vec::new(); candidates.len()];
-    let mut befores = Vec::new();
+    let mut used = Vec::new();
+    let mut left_out = Vec::new();
     for (rec, source) in recordings.iter().zip(sources) {
-        let named = |e: crate::diagnosis::DiagnosisError| {
-            CalibrateError::Data(format!("{source}: Method B: {e}"))
+        // A start-up Method B cannot fit (an odd start, a recording too short) is left out with
+        // its reason; the others still inform the values.
+        let both = diagnose_transient(engine, rec, base)
+            .and_then(|before| Ok((before, diagnose_transient(engine, rec, &held)?)));
+        let (before, fit) = match both {
+            Ok(b) => b,
+            Err(e) => {
+                left_out.push((source.clone(), format!("Method B: {e}")));
+                continue;
+            }
         };
-        befores.push(HealthRead::of(
-            &diagnose_transient(engine, rec, base).map_err(named)?,
-        ));
-        let fit = diagnose_transient(engine, rec, &held).map_err(named)?;
         for (k, c) in candidates.iter().enumerate() {
-            let p = fit
-                .params
-                .iter()
-                .find(|p| p.name == c.name)
-                .ok_or_else(|| CalibrateError::Data(format!("{source}: {} not fitted", c.name)))?;
-            estimates[k].push((p.value, p.sigma));
+            let p = fit.params.iter().find(|p| p.name == c.name);
+            estimates[k].push(p.map_or((f64::NAN, f64::NAN), |p| (p.value, p.sigma)));
         }
+        used.push((rec, source, HealthRead::of(&before)));
+    }
+    if used.is_empty() {
+        let why: Vec<String> = left_out.iter().map(|(s, e)| format!("{s}: {e}")).collect();
+        return Err(CalibrateError::Data(format!(
+            "no start-up could be fitted for the dynamics: {}",
+            why.join("; ")
+        )));
     }
     let mut values = Vec::new();
     let mut fitted = engine.clone();
@@ -189,7 +201,7 @@ pub fn fit_dynamics(
         values.push(v);
     }
     let mut startups = Vec::new();
-    for ((rec, source), before) in recordings.iter().zip(sources).zip(befores) {
+    for (rec, source, before) in used {
         let after = diagnose_transient(&fitted, rec, base)
             .map_err(|e| CalibrateError::Data(format!("{source}: Method B: {e}")))?;
         startups.push(StartupDynamics {
@@ -201,6 +213,7 @@ pub fn fit_dynamics(
     Ok(DynamicsFit {
         values,
         startups,
+        left_out,
         wall_s: start.elapsed().as_secs_f64(),
     })
 }

@@ -76,6 +76,9 @@ pub(super) fn print(fit: &DynamicsFit) {
             if v.written { "yes" } else { v.why.as_str() }
         );
     }
+    for (source, why) in &fit.left_out {
+        println!("  left out: {source}: {why}");
+    }
     println!(
         "  each start-up diagnosed (health free; truth zero) with the file's values → the \
          written ones:"
