@@ -45,6 +45,15 @@ pub enum CsvError {
     },
     #[error("no data rows")]
     Empty,
+    /// A log whose time steps are no sampling period a start-up is recorded at (a time column
+    /// in milliseconds read as seconds).
+    #[error(
+        "the median time step is {median_s} s, outside {} … {} s: a time column must be \
+         seconds or ISO 8601 date-times (one in milliseconds divides by 1000 first)",
+        crate::recording::MIN_SAMPLE_PERIOD_S,
+        crate::recording::MAX_SAMPLE_PERIOD_S
+    )]
+    Period { median_s: f64 },
     /// The rows do not form a usable recording (see [`Recording::new`]).
     #[error("{}{source}", line.map(|l| format!("line {l}: ")).unwrap_or_default())]
     Recording {
@@ -289,6 +298,14 @@ pub fn read_log_checked<R: Read>(
     quality: &QualityConfig,
 ) -> Result<(Log, CsvQuality), CsvError> {
     let r = read_rows(reader, mapping, units, quality, Phases::Absent)?;
+    let mut steps: Vec<f64> = r.t_s.windows(2).map(|w| w[1] - w[0]).collect();
+    steps.sort_by(f64::total_cmp);
+    if let Some(&median_s) = steps.get(steps.len().saturating_sub(1) / 2) {
+        let allowed = crate::recording::MIN_SAMPLE_PERIOD_S..=crate::recording::MAX_SAMPLE_PERIOD_S;
+        if !allowed.contains(&median_s) {
+            return Err(CsvError::Period { median_s });
+        }
+    }
     Ok((
         Log {
             t_s: r.t_s,
@@ -590,6 +607,12 @@ mod tests {
         assert_eq!(log.rows[2][Signal::N1.index()], 20.0);
         let (seconds, _) = read("time,n1_rpm\n10,0\n11,5\n").expect("seconds");
         assert_eq!((seconds.t_s, seconds.origin_ms), (vec![10.0, 11.0], None));
+        let e = read("time,n1_rpm\n1751349600000,0\n1751349601000,1\n1751349602000,2\n")
+            .expect_err("milliseconds");
+        assert!(
+            matches!(e, CsvError::Period { median_s } if median_s == 1000.0),
+            "{e}"
+        );
         let e = read("time_s,n1_rpm\n2025-07-01T06:00:00Z,0\n5,1\n").expect_err("mixed");
         assert!(
             matches!(&e, CsvError::Cell { line: 3, reason, .. } if reason.contains("mixes")),
