@@ -735,26 +735,7 @@ fn start_ups_of_the_second_simulators_unit_replay_detect_and_diagnose() {
     // The same log handed to `diagnose --input` without a database: the detector runs over
     // the file in memory, finds the same five start-ups, and the third (`--start 3`) is fitted
     // to the same health as the stored one (the worker's settings: seed 1, 400 model runs).
-    let (map, units) = (INDEP2.map(), INDEP2.units());
-    let direct = gtwatch_json(&[
-        "diagnose",
-        "--engine",
-        unit.to_str().expect("utf-8"),
-        "--input",
-        log.to_str().expect("utf-8"),
-        "--map",
-        &map,
-        "--units",
-        &units,
-        "--method",
-        "transient",
-        "--start",
-        "3",
-        "--max-runs",
-        "400",
-        "--threads",
-        "2",
-    ]);
+    let direct = diagnose_start(&unit, &log, 3);
     let found = direct["startup"]["found"].as_array().expect("found");
     assert_eq!(found.len(), 5, "{:#}", direct["startup"]);
     assert!(found.iter().all(|f| f["outcome"] == "completed"));
@@ -769,6 +750,31 @@ fn start_ups_of_the_second_simulators_unit_replay_detect_and_diagnose() {
             d(3, p)
         );
     }
+}
+
+/// `gtwatch diagnose` (Method B, the worker's settings: seed 1, 400 model runs) of start-up
+/// `start` of the second simulator's log `log` (no phase column: the detector finds it).
+fn diagnose_start(engine: &Path, log: &Path, start: usize) -> Value {
+    let (map, units, start) = (INDEP2.map(), INDEP2.units(), start.to_string());
+    gtwatch_json(&[
+        "diagnose",
+        "--engine",
+        engine.to_str().expect("utf-8"),
+        "--input",
+        log.to_str().expect("utf-8"),
+        "--map",
+        &map,
+        "--units",
+        &units,
+        "--method",
+        "transient",
+        "--start",
+        &start,
+        "--max-runs",
+        "400",
+        "--threads",
+        "2",
+    ])
 }
 
 /// The second simulator's unit's dynamics fitted to its own healthy start-ups. The md22 file
@@ -839,30 +845,10 @@ fn dynamics_of_the_second_simulators_unit_from_its_healthy_start_ups() {
         (5, [0.0, 0.0, -1.0]),
     ];
     let errors = |engine: &Path| -> Vec<f64> {
-        let (map, units) = (INDEP2.map(), INDEP2.units());
         truth
             .iter()
             .flat_map(|(start, t)| {
-                let start = start.to_string();
-                let d = gtwatch_json(&[
-                    "diagnose",
-                    "--engine",
-                    engine.to_str().expect("utf-8"),
-                    "--input",
-                    log.to_str().expect("utf-8"),
-                    "--start",
-                    &start,
-                    "--map",
-                    &map,
-                    "--units",
-                    &units,
-                    "--method",
-                    "transient",
-                    "--threads",
-                    "2",
-                    "--max-runs",
-                    "400",
-                ]);
+                let d = diagnose_start(engine, &log, *start);
                 let h = &d["methods"]["transient"]["health"];
                 ["D_GC", "D_EC", "D_GT"]
                     .iter()

@@ -38,6 +38,26 @@ pub(super) fn read_startup_file(
     engine: &Engine,
     start: Option<usize>,
 ) -> anyhow::Result<(Recording, CsvQuality, Option<LogStartup>)> {
+    match labelled(input, mapping, units)? {
+        None => {
+            let found = startup_from_log(input, mapping, units, engine, start)?;
+            Ok((found.recording.clone(), found.flagged.clone(), Some(found)))
+        }
+        Some(_) if start.is_some() => bail!(
+            "--start picks a start-up of a log without phase labels; {} carries its phases \
+             (one start-up)",
+            input.display()
+        ),
+        Some((rec, flagged)) => Ok((rec, flagged, None)),
+    }
+}
+
+/// `input` read as a start-up with its phase column; `None` when it has none (a log).
+fn labelled(
+    input: &Path,
+    mapping: &HashMap<String, String>,
+    units: &ColumnUnits,
+) -> anyhow::Result<Option<(Recording, CsvQuality)>> {
     let file =
         std::fs::File::open(input).with_context(|| format!("opening {}", input.display()))?;
     match read_recording_checked(
@@ -46,16 +66,9 @@ pub(super) fn read_startup_file(
         units,
         &crate::quality::QualityConfig::default(),
     ) {
-        Err(CsvError::MissingPhase(_)) => {
-            let found = startup_from_log(input, mapping, units, engine, start)?;
-            Ok((found.recording.clone(), found.flagged.clone(), Some(found)))
-        }
+        Ok(read) => Ok(Some(read)),
+        Err(CsvError::MissingPhase(_)) => Ok(None),
         Err(e) => Err(e).with_context(|| format!("reading {}", input.display())),
-        Ok(_) if start.is_some() => bail!(
-            "--start picks a start-up of a log without phase labels; {} carries its phases              (one start-up)",
-            input.display()
-        ),
-        Ok((rec, flagged)) => Ok((rec, flagged, None)),
     }
 }
 
@@ -67,16 +80,9 @@ pub(super) fn startups_of_file(
     units: &ColumnUnits,
     engine: &Engine,
 ) -> anyhow::Result<Vec<Recording>> {
-    let file =
-        std::fs::File::open(input).with_context(|| format!("opening {}", input.display()))?;
-    match read_recording_checked(
-        std::io::BufReader::new(file),
-        mapping,
-        units,
-        &crate::quality::QualityConfig::default(),
-    ) {
-        Ok((rec, _)) => Ok(vec![rec]),
-        Err(CsvError::MissingPhase(_)) => {
+    match labelled(input, mapping, units)? {
+        Some((rec, _)) => Ok(vec![rec]),
+        None => {
             let (log, _) = read_log(input, mapping, units)?;
             let found = find_startups(&log.t_s, &log.rows, &detector_config(engine));
             let usable: Vec<Recording> = found
@@ -91,7 +97,6 @@ pub(super) fn startups_of_file(
             }
             Ok(usable)
         }
-        Err(e) => Err(e).with_context(|| format!("reading {}", input.display())),
     }
 }
 
