@@ -656,6 +656,11 @@ fn a_row_without_a_steady_point_is_left_out_with_its_reason() {
 
 /// Runs `gtwatch diagnose --json` (both methods) on `path`; the methods' JSON.
 fn diagnose_json(path: &std::path::Path) -> serde_json::Value {
+    diagnose_document(path)["methods"].clone()
+}
+
+/// Runs `gtwatch diagnose --json` (both methods) on `path`; its whole JSON document.
+fn diagnose_document(path: &std::path::Path) -> serde_json::Value {
     let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
         .args(["diagnose", "--input"])
         .arg(path)
@@ -668,8 +673,7 @@ fn diagnose_json(path: &std::path::Path) -> serde_json::Value {
         path.display(),
         String::from_utf8_lossy(&out.stderr)
     );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
-    v["methods"].clone()
+    serde_json::from_slice(&out.stdout).expect("one JSON document")
 }
 
 /// A noisy start-up of a fouled engine (D_GC 2, D_EC 0.8) written to a temporary folder, and
@@ -826,18 +830,7 @@ fn a_start_up_without_phase_labels_is_found_and_diagnosed() {
         .collect();
     let path = dir.path().join("historian.csv");
     std::fs::write(&path, log.join("\n")).expect("write");
-    let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
-        .args(["diagnose", "--input"])
-        .arg(&path)
-        .args(["--seed", "3", "--json"])
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
+    let v = diagnose_document(&path);
     let found = v["startup"]["found"].as_array().expect("found");
     assert_eq!(found.len(), 1, "{:#}", v["startup"]);
     assert_eq!(found[0]["outcome"], "completed");
