@@ -121,9 +121,14 @@ fn read(path: &Path, a: &GapArgs, engine: &crate::engine::Engine) -> anyhow::Res
         None => HashMap::new(),
     };
     let units = super::common::column_units(a.units.as_deref(), engine)?;
-    // A log without phase labels: its first start-up that reached load, as `diagnose` picks.
-    super::diagnose_log::read_startup_file(path, &mapping, &units, engine, None)
-        .map(|(rec, _, _)| rec)
+    // A log without phase labels: its first start-up that reached load, as `diagnose` picks;
+    // what was found is said on stderr (stdout may be the one JSON document).
+    let (rec, _, found) =
+        super::diagnose_log::read_startup_file(path, &mapping, &units, engine, None)?;
+    for line in found.iter().flat_map(|f| &f.lines) {
+        eprintln!("{}: {line}", path.display());
+    }
+    Ok(rec)
 }
 
 pub(super) fn run(a: &GapArgs) -> anyhow::Result<ExitCode> {
