@@ -871,3 +871,37 @@ fn dynamics_of_the_second_simulators_unit_from_its_healthy_start_ups() {
         after[8]
     );
 }
+
+/// Both blind simulators' baselines are spot readings (one noisy reading per load, fuel flow
+/// and T1 included). Calibrated with `--noisy-inputs`, each point is fitted under the noise of
+/// its inputs (`rᵀ (I + C Cᵀ)⁻¹ r`) and judged so: both baselines `good` (0.98 and 0.93 σ
+/// RMS, `suspect` and `good`, taken as exact), and the grids read by the gas generator's
+/// parameters no worse than the exact-input calibration's floors (measured, release:
+/// indep2 D_GC/D_EC/D_GT 0.50 / 0.65 / 0.38 against 0.62 / 0.53 / 0.52; indep30 1.06 / 0.48 /
+/// 0.64 / D_ET 0.29 against 1.09 / 0.64 / 0.90 / 0.39).
+#[test]
+fn spot_readings_calibrated_under_their_inputs_noise() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    for (sim, floors) in [
+        (&INDEP2, vec![(0.55, 0.9), (0.7, 0.9), (0.45, 0.9)]),
+        (
+            &INDEP30,
+            vec![(1.15, 0.9), (0.55, 0.75), (0.7, 0.8), (0.35, 0.85)],
+        ),
+    ] {
+        let unit = dir.path().join(format!("{}.toml", sim.dir));
+        let c = calibrate_on(
+            sim,
+            &sim.user(),
+            &sim.data("baseline_noisy.csv"),
+            &["--noisy-inputs"],
+            &unit,
+        );
+        let (v, rms) = verdict(&c);
+        eprintln!("{}: {rms:.2} σ RMS, {v} under the inputs' noise", sim.dir);
+        assert_eq!(v, "good", "{}", c["calibration"]["baseline_fit"]);
+        let read = read_grid(sim, &unit, &["--noisy-inputs"]);
+        eprintln!("{}: worst {:.2?}, ρ {:.2?}", sim.dir, read.worst, read.rho);
+        read.assert_floors(&floors);
+    }
+}

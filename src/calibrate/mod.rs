@@ -81,6 +81,9 @@ pub struct CalibrationSettings {
     /// The group of rows taken before a compressor wash, at a fouling the calibration finds
     /// ([`prewash`]); `None`: every row is healthy.
     pub prewash_group: Option<String>,
+    /// The rows are spot readings: each point is fitted under its inputs' noise
+    /// ([`problem::whiten_under_input_noise`]) rather than with its inputs taken as exact.
+    pub noisy_inputs: bool,
 }
 
 impl CalibrationSettings {
@@ -104,6 +107,7 @@ impl Default for CalibrationSettings {
             threads: None,
             adapt: None,
             prewash_group: None,
+            noisy_inputs: false,
         }
     }
 }
@@ -169,7 +173,7 @@ fn calibrate_at(
     if candidates.is_empty() {
         return Err(CalibrateError::Data("no candidate parameter to fit".into()));
     }
-    let mut prepared = solvable_points(engine, rows)?;
+    let mut prepared = solvable_points(engine, rows, settings.noisy_inputs)?;
     if let Some((group, health)) = fouled {
         for p in prepared.points.iter_mut().filter(|p| p.source == group) {
             p.health = health;
@@ -279,9 +283,13 @@ fn calibrate_at(
     let r1 = residuals_of(&calibrated, &prepared.points, rest)?;
     let layout = full.layout();
     let signals = signal_residuals(&layout, &r0, &r1);
-    let under_inputs =
-        problem::level_under_input_noise(&calibrated, &prepared.points, &layout, &r1);
-    let baseline_fit = BaselineFit::of(&r1, &signals, adaptation.as_ref(), under_inputs);
+    let baseline_fit = baseline_verdict(
+        settings.noisy_inputs,
+        (&full, &calibrated),
+        &r1,
+        &signals,
+        adaptation.as_ref(),
+    );
     let report = Calibration {
         params: candidates
             .iter()
@@ -312,9 +320,35 @@ fn calibrate_at(
     Ok((report, calibrated))
 }
 
+/// The verdict on the calibrated residuals `r1` of `prob`'s points on `calibrated`: spot
+/// readings fitted under their inputs' noise (`noisy_inputs`) are judged under it too (the
+/// measure the fit minimised); otherwise as they are, with that level beside them.
+fn baseline_verdict(
+    noisy_inputs: bool,
+    (prob, calibrated): (&CalibrationProblem, &Engine),
+    r1: &[f64],
+    signals: &[SignalResiduals],
+    adaptation: Option<&adapt::AdaptReport>,
+) -> BaselineFit {
+    if noisy_inputs {
+        BaselineFit::of(&prob.whitened(r1.to_vec()), signals, adaptation, None)
+    } else {
+        let under_inputs =
+            problem::level_under_input_noise(calibrated, prob.points(), &prob.layout(), r1);
+        BaselineFit::of(r1, signals, adaptation, under_inputs)
+    }
+}
+
 /// The snapshots solved on the healthy model; an error when none could be.
-fn solvable_points(engine: &Engine, rows: &[Snapshot]) -> Result<PreparedPoints, CalibrateError> {
-    let prepared = prepare(engine, rows);
+fn solvable_points(
+    engine: &Engine,
+    rows: &[Snapshot],
+    noisy_inputs: bool,
+) -> Result<PreparedPoints, CalibrateError> {
+    let mut prepared = prepare(engine, rows);
+    if noisy_inputs {
+        problem::whiten_under_input_noise(engine, &mut prepared.points);
+    }
     if prepared.points.is_empty() {
         return Err(CalibrateError::Data(format!(
             "no snapshot could be solved on the healthy model (lines {:?}; first: {})",

@@ -55,6 +55,11 @@ pub struct CalibrationPoint {
     /// pre-wash group carries ([`super::prewash`]), which the model is run at so the point
     /// informs the curves off the healthy operating line.
     pub health: HealthParams,
+    /// With spot readings (`calibrate --noisy-inputs`), the whitening `W = L⁻¹` of the point's
+    /// compared values under its inputs' noise (`L Lᵀ = I + C Cᵀ`, `C` the 1σ columns of what
+    /// each input moves them by): the fit then minimises `rᵀ (I + C Cᵀ)⁻¹ r` per point, the
+    /// measure its verdict reads as `level_under_input_noise`. `None`: inputs taken as exact.
+    pub whiten: Option<Arc<nalgebra::DMatrix<f64>>>,
 }
 
 impl CalibrationPoint {
@@ -154,6 +159,7 @@ pub fn prepare(engine: &Engine, rows: &[Snapshot]) -> PreparedPoints {
                 source: r.group.clone(),
                 data,
                 health: HealthParams::HEALTHY,
+                whiten: None,
             }),
             Err(reason) => out.dropped.push(DroppedRow {
                 line: r.line,
@@ -297,6 +303,24 @@ impl CalibrationProblem {
             })
             .chain(self.rest.iter().map(|r| (self.points.len(), r.signal)))
             .collect()
+    }
+
+    /// `r` (laid out as [`Self::layout`]) with each point's compared values whitened under its
+    /// inputs' noise where the point carries a whitening ([`CalibrationPoint::whiten`]): what
+    /// the optimiser minimises. The residuals reported stay `r`, in each reading's σ.
+    pub(crate) fn whitened(&self, mut r: Vec<f64>) -> Vec<f64> {
+        let mut j = 0;
+        for (p, law) in self.points.iter().zip(&self.law) {
+            let n = p.data.outputs.len();
+            if let (Some(w), Some(block)) = (&p.whiten, r.get(j..j + n)) {
+                if w.nrows() == n {
+                    let white = w.as_ref() * nalgebra::DVector::from_column_slice(block);
+                    r[j..j + n].copy_from_slice(white.as_slice());
+                }
+            }
+            j += n + usize::from(law.is_some());
+        }
+        r
     }
 
     /// Residuals `(model − measured) / σ` at `x`, point-major; an error names the point whose
@@ -500,7 +524,7 @@ impl Problem for CalibrationProblem {
         &self.bounds
     }
     fn cost(&self, x: &[f64]) -> f64 {
-        match self.residuals_at(x) {
+        match self.residuals_at(x).map(|r| self.whitened(r)) {
             Ok(r) => r
                 .iter()
                 .chain(&self.penalties(x).collect::<Vec<_>>())
@@ -514,12 +538,41 @@ impl Problem for CalibrationProblem {
 impl ResidualProblem for CalibrationProblem {
     fn residuals(&self, x: &[f64], out: &mut Vec<f64>) {
         out.clear();
-        match self.residuals_at(x) {
+        match self.residuals_at(x).map(|r| self.whitened(r)) {
             Ok(r) => out.extend(r),
             // A failed solve: the right length of NaN marks the evaluation as failed.
             Err(_) => out.extend(std::iter::repeat_n(f64::NAN, self.layout().len())),
         }
         out.extend(self.penalties(x));
+    }
+}
+
+/// Each of `points` given its whitening under its inputs' noise on `engine`
+/// ([`CalibrationPoint::whiten`]; `calibrate --noisy-inputs`). The inputs' responses are those of
+/// `engine` (the guesses): they move little with the design values, and a point whose
+/// responses cannot be found keeps its inputs exact.
+pub fn whiten_under_input_noise(engine: &Engine, points: &mut [CalibrationPoint]) {
+    use crate::diagnosis::steady::{with_input_noise, INPUTS};
+    use nalgebra::DMatrix;
+    for p in points.iter_mut() {
+        let data = with_input_noise(engine, &p.health, p.data.clone());
+        let n = data.outputs.len();
+        if data.input_response.len() != n || n == 0 {
+            continue;
+        }
+        let c = DMatrix::from_fn(n, INPUTS, |row, k| {
+            let sd = data.outputs[row].2;
+            if sd > 0.0 {
+                data.input_response[row][k] / sd
+            } else {
+                0.0
+            }
+        });
+        let m = DMatrix::<f64>::identity(n, n) + &c * c.transpose();
+        let w = m
+            .cholesky()
+            .and_then(|l| l.l().solve_lower_triangular(&DMatrix::identity(n, n)));
+        p.whiten = w.filter(|w| w.iter().all(|v| v.is_finite())).map(Arc::new);
     }
 }
 

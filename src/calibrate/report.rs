@@ -208,8 +208,8 @@ impl BaselineFit {
                     "under the noise of the rows' inputs (fuel flow, T1, n2), which the fit \
                      takes as exact, the residuals are within good ({q:.2}): if these rows are \
                      spot readings rather than averages, that noise is the misfit, not the \
-                     model, and a snapshot diagnosis of such rows judges them under it with \
-                     --noisy-inputs"
+                     model; `calibrate --noisy-inputs` fits and judges them under it, and a \
+                     snapshot diagnosis of such rows reads them under it with --noisy-inputs"
                 ),
                 (None, None) => {
                     "if the unit is of another make than the file's maps, add --adapt".into()

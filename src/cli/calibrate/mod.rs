@@ -110,6 +110,13 @@ pub struct CalibrateArgs {
     /// per start-up
     #[arg(long, requires = "startup")]
     pub dynamics: bool,
+    /// The --input rows are spot readings, their inputs (fuel flow, T1, n2, P1) as noisy as
+    /// their compared values (`[sensors]`): each point is fitted under the covariance that
+    /// noise gives it, `rᵀ (I + C Cᵀ)⁻¹ r`, rather than with its inputs taken as exact (as
+    /// `diagnose --noisy-inputs` reads such rows). Without it a row's inputs are exact
+    /// (averages)
+    #[arg(long)]
+    pub noisy_inputs: bool,
     /// The group (a value of the --group-by column) whose rows were taken just before a
     /// compressor wash, the others after it (healthy): the calibration finds their compressor
     /// fouling (D_GC, D_EC; a wash removes nothing else) in rounds with the fit, and with
@@ -179,6 +186,12 @@ fn header(a: &CalibrateArgs, report: &Calibration, n_rows: usize) -> Vec<String>
         a.engine.display(),
         sources(a).join(", ")
     )];
+    if a.noisy_inputs {
+        h.push(
+            "  the rows fitted as spot readings, under their inputs' noise (--noisy-inputs)"
+                .to_string(),
+        );
+    }
     if let Some(pw) = &report.prewash {
         // The rows before the wash are not healthy: say at what they were run.
         h.push(match &pw.fouling {
@@ -387,6 +400,7 @@ pub(super) fn run(a: CalibrateArgs) -> anyhow::Result<ExitCode> {
         threads: a.threads,
         adapt: adapt_settings(&a),
         prewash_group: a.prewash_group.clone(),
+        noisy_inputs: a.noisy_inputs,
         ..CalibrationSettings::default()
     };
     let (members, ensemble_s) = ensemble(&a, &engine, &rows, &rest, &candidates, &settings)?;
