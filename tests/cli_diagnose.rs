@@ -858,6 +858,25 @@ fn a_start_up_without_phase_labels_is_found_and_diagnosed() {
             );
         }
     }
+    // `--method steady` alone: the detected start-up's windows (Method A), not the rows as
+    // snapshots (whose rows at rest failed the unit check).
+    let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+        .args(["diagnose", "--input"])
+        .arg(&path)
+        .args(["--method", "steady", "--seed", "3", "--json"])
+        .output()
+        .expect("runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let steady: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    assert_eq!(steady["startup"]["chosen"], 1, "{steady:#}");
+    assert_eq!(
+        steady["methods"]["steady"]["health"],
+        v["methods"]["steady"]["health"]
+    );
     // A start that is not there, and --start on a file that carries its phases.
     let refused = |file: &std::path::Path, why: &str| {
         let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))

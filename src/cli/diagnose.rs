@@ -330,7 +330,7 @@ pub(super) fn run(a: &DiagnoseArgs) -> anyhow::Result<ExitCode> {
         None => HashMap::new(),
     };
     let units = super::common::column_units(a.units.as_deref(), &engine)?;
-    if super::diagnose_snapshots::wants_snapshots(a, input, &mapping)? {
+    if super::diagnose_snapshots::wants_snapshots(a, input, &mapping, &units, &engine)? {
         return super::diagnose_snapshots::run(a, input, &engine, &cfg, &mapping, &units);
     }
     let (seg, flagged, found) =

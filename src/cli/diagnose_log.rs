@@ -100,6 +100,19 @@ pub(super) fn startups_of_file(
     }
 }
 
+/// Whether `input`, read as a log, holds a start-up the detector finds (any outcome); a file
+/// that cannot be read as one (a snapshot file without a time column) holds none.
+pub(super) fn holds_a_startup(
+    input: &Path,
+    mapping: &HashMap<String, String>,
+    units: &ColumnUnits,
+    engine: &Engine,
+) -> bool {
+    read_log(input, mapping, units).is_ok_and(|(log, _)| {
+        !find_startups(&log.t_s, &log.rows, &detector_config(engine)).is_empty()
+    })
+}
+
 fn read_log(
     input: &Path,
     mapping: &HashMap<String, String>,

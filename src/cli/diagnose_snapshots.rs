@@ -23,11 +23,15 @@ use std::path::Path;
 use std::process::ExitCode;
 
 /// Whether `--method steady` should read `input` as snapshots: asked for (`--snapshots`,
-/// `--group-by`), or the file has no phase column (a start-up always has one).
+/// `--group-by`), or the file has no phase column and is no log in which the start-up detector
+/// finds a start (a historian's export of one: Method A on its steady windows, as for a
+/// labelled start-up; read as snapshots, its rows at rest failed the unit check at line 2).
 pub(super) fn wants_snapshots(
     a: &DiagnoseArgs,
     input: &Path,
     mapping: &HashMap<String, String>,
+    units: &crate::units::ColumnUnits,
+    engine: &crate::engine::Engine,
 ) -> anyhow::Result<bool> {
     if a.snapshots || a.group_by.is_some() {
         return Ok(true);
@@ -42,9 +46,10 @@ pub(super) fn wants_snapshots(
         .read_line(&mut header)
         .with_context(|| format!("reading {}", input.display()))?;
     let phase = mapping.get("phase").map_or("phase", String::as_str);
-    Ok(!header
+    let labelled = header
         .split(',')
-        .any(|h| h.trim().trim_matches('"').eq_ignore_ascii_case(phase)))
+        .any(|h| h.trim().trim_matches('"').eq_ignore_ascii_case(phase));
+    Ok(!labelled && !super::diagnose_log::holds_a_startup(input, mapping, units, engine))
 }
 
 /// Each group read again with the calibrations the engine file lists in
