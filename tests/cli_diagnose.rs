@@ -661,9 +661,15 @@ fn diagnose_json(path: &std::path::Path) -> serde_json::Value {
 
 /// Runs `gtwatch diagnose --json` (both methods) on `path`; its whole JSON document.
 fn diagnose_document(path: &std::path::Path) -> serde_json::Value {
+    diagnose_document_with(path, &[])
+}
+
+/// [`diagnose_document`] with `extra` arguments.
+fn diagnose_document_with(path: &std::path::Path, extra: &[&str]) -> serde_json::Value {
     let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
         .args(["diagnose", "--input"])
         .arg(path)
+        .args(extra)
         .args(["--seed", "3", "--json"])
         .output()
         .expect("runs");
@@ -860,18 +866,7 @@ fn a_start_up_without_phase_labels_is_found_and_diagnosed() {
     }
     // `--method steady` alone: the detected start-up's windows (Method A), not the rows as
     // snapshots (whose rows at rest failed the unit check).
-    let out = Command::new(env!("CARGO_BIN_EXE_gtwatch"))
-        .args(["diagnose", "--input"])
-        .arg(&path)
-        .args(["--method", "steady", "--seed", "3", "--json"])
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let steady: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    let steady = diagnose_document_with(&path, &["--method", "steady"]);
     assert_eq!(steady["startup"]["chosen"], 1, "{steady:#}");
     assert_eq!(
         steady["methods"]["steady"]["health"],

@@ -45,6 +45,13 @@ pub enum CsvError {
     },
     #[error("no data rows")]
     Empty,
+    /// A historian's long layout (`tag,time,value[,status]`): one row per tag and time.
+    #[error(
+        "the header ({0}) is a long layout, one row per tag and time stamp: this command reads \
+         one column per signal. `gtwatch replay` reads long files ([replay] layout = \"long\") \
+         and finds their start-ups; then `gtwatch diagnose --segment ID`"
+    )]
+    LongLayout(String),
     /// A log whose time steps are no sampling period a start-up is recorded at (a time column
     /// in milliseconds read as seconds).
     #[error(
@@ -336,6 +343,17 @@ enum Phases {
     Absent,
 }
 
+/// Whether `headers` are a long layout's: `tag`, a time field, `value` and optionally
+/// `status`, nothing else (names case-insensitive).
+fn is_long_layout(headers: &csv::StringRecord) -> bool {
+    let names: Vec<String> = headers.iter().map(str::to_ascii_lowercase).collect();
+    let has = |n: &str| names.iter().any(|h| h == n);
+    let known = |h: &String| {
+        ["tag", "value", "status", "time", "timestamp", "time_s"].contains(&h.as_str())
+    };
+    has("tag") && has("value") && names.iter().all(known) && (3..=4).contains(&names.len())
+}
+
 /// One row's time: seconds, or an ISO 8601 date-time (then epoch ms, turned into seconds from
 /// the first row's by the caller).
 fn parse_time_cell(text: &str) -> Result<(f64, bool), String> {
@@ -355,6 +373,11 @@ fn read_rows<R: Read>(
     phases_from: Phases,
 ) -> Result<Rows, CsvError> {
     let (mut rdr, headers) = open_csv(reader)?;
+    if is_long_layout(&headers) {
+        return Err(CsvError::LongLayout(
+            headers.iter().collect::<Vec<_>>().join(","),
+        ));
+    }
     let find =
         |canonical: &str, short: Option<&str>| find_column(&headers, mapping, canonical, short);
     // A log's time column is often `time` or `timestamp`; a mapping names any other.
@@ -607,6 +630,12 @@ mod tests {
         assert_eq!(log.rows[2][Signal::N1.index()], 20.0);
         let (seconds, _) = read("time,n1_rpm\n10,0\n11,5\n").expect("seconds");
         assert_eq!((seconds.t_s, seconds.origin_ms), (vec![10.0, 11.0], None));
+        let e = read("tag,time,value\nNGG,2025-07-01T06:00:00Z,0\n").expect_err("long");
+        assert!(
+            matches!(&e, CsvError::LongLayout(h) if h == "tag,time,value")
+                && e.to_string().contains("gtwatch replay"),
+            "{e}"
+        );
         let e = read("time,n1_rpm\n1751349600000,0\n1751349601000,1\n1751349602000,2\n")
             .expect_err("milliseconds");
         assert!(
