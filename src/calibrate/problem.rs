@@ -547,27 +547,37 @@ impl ResidualProblem for CalibrationProblem {
     }
 }
 
+/// The 1σ columns of what each input of `p` (fuel flow, T1, n2, P1) moves its compared values
+/// by on `engine`, in each value's σ, over `rows` rows: its compared values first, in its
+/// outputs' order, and any row after them (a load law's residual) without a column. `None`
+/// where no input moves any of them (inputs without noise, or a point the model cannot solve).
+fn input_columns(
+    engine: &Engine,
+    p: &CalibrationPoint,
+    rows: usize,
+) -> Option<nalgebra::DMatrix<f64>> {
+    use crate::diagnosis::steady::{with_input_noise, INPUTS};
+    let data = with_input_noise(engine, &p.health, p.data.clone());
+    let c = nalgebra::DMatrix::from_fn(rows, INPUTS, |row, k| {
+        match (data.outputs.get(row), data.input_response.get(row)) {
+            (Some(&(_, _, sd)), Some(col)) if sd > 0.0 => col[k] / sd,
+            _ => 0.0,
+        }
+    });
+    c.iter().any(|v| *v != 0.0).then_some(c)
+}
+
 /// Each of `points` given its whitening under its inputs' noise on `engine`
 /// ([`CalibrationPoint::whiten`]; `calibrate --noisy-inputs`). The inputs' responses are those of
 /// `engine` (the guesses): they move little with the design values, and a point whose
 /// responses cannot be found keeps its inputs exact.
 pub fn whiten_under_input_noise(engine: &Engine, points: &mut [CalibrationPoint]) {
-    use crate::diagnosis::steady::{with_input_noise, INPUTS};
     use nalgebra::DMatrix;
     for p in points.iter_mut() {
-        let data = with_input_noise(engine, &p.health, p.data.clone());
-        let n = data.outputs.len();
-        if data.input_response.len() != n || n == 0 {
+        let n = p.data.outputs.len();
+        let Some(c) = input_columns(engine, p, n) else {
             continue;
-        }
-        let c = DMatrix::from_fn(n, INPUTS, |row, k| {
-            let sd = data.outputs[row].2;
-            if sd > 0.0 {
-                data.input_response[row][k] / sd
-            } else {
-                0.0
-            }
-        });
+        };
         let m = DMatrix::<f64>::identity(n, n) + &c * c.transpose();
         let w = m
             .cholesky()
@@ -593,8 +603,8 @@ pub(crate) fn level_under_input_noise(
     layout: &[(usize, Signal)],
     r: &[f64],
 ) -> Option<f64> {
-    use crate::diagnosis::steady::{squares_under_columns, with_input_noise, INPUTS};
-    use nalgebra::{DMatrix, DVector};
+    use crate::diagnosis::steady::squares_under_columns;
+    use nalgebra::DVector;
     if r.is_empty() || r.len() != layout.len() {
         return None;
     }
@@ -607,23 +617,15 @@ pub(crate) fn level_under_input_noise(
             .find(|&k| layout[k].0 != i)
             .unwrap_or(layout.len());
         let block = DVector::from_column_slice(&r[j..end]);
-        let columns = points.get(i).map(|p| {
-            let data = with_input_noise(engine, &p.health, p.data.clone());
-            // The point's compared values come first in its block, in its outputs' order; a
-            // load law's residual after them has no column.
-            DMatrix::from_fn(end - j, INPUTS, |row, k| {
-                match (data.outputs.get(row), data.input_response.get(row)) {
-                    (Some(&(_, _, sd)), Some(col)) if sd > 0.0 => col[k] / sd,
-                    _ => 0.0,
-                }
-            })
-        });
-        total += match columns {
-            Some(c) if c.iter().any(|v| *v != 0.0) => {
+        total += match points
+            .get(i)
+            .and_then(|p| input_columns(engine, p, end - j))
+        {
+            Some(c) => {
                 carried = true;
                 squares_under_columns(&c, &block)?
             }
-            _ => block.dot(&block),
+            None => block.dot(&block),
         };
         j = end;
     }

@@ -7,7 +7,7 @@
 
 use crate::detect::in_memory::{find_startups, FoundStartup};
 use crate::detect::DetectorConfig;
-use crate::diagnosis::csv_input::{read_log_checked, read_recording_checked, CsvError, CsvQuality};
+use crate::diagnosis::csv_input::{read_log_checked, read_recording_checked, CsvQuality, Log};
 use crate::engine::Engine;
 use crate::recording::Recording;
 use crate::units::ColumnUnits;
@@ -38,38 +38,55 @@ pub(super) fn read_startup_file(
     engine: &Engine,
     start: Option<usize>,
 ) -> anyhow::Result<(Recording, CsvQuality, Option<LogStartup>)> {
-    match labelled(input, mapping, units)? {
-        None => {
-            let found = startup_from_log(input, mapping, units, engine, start)?;
-            Ok((found.recording.clone(), found.flagged.clone(), Some(found)))
-        }
-        Some(_) if start.is_some() => bail!(
+    if !has_phase_column(input, mapping)? {
+        let (log, flagged) = read_log(input, mapping, units)?;
+        let found = startup_from_log(input, &log, flagged, engine, start)?;
+        return Ok((found.recording.clone(), found.flagged.clone(), Some(found)));
+    }
+    if start.is_some() {
+        bail!(
             "--start picks a start-up of a log without phase labels; {} carries its phases \
              (one start-up)",
             input.display()
-        ),
-        Some((rec, flagged)) => Ok((rec, flagged, None)),
+        );
     }
+    let (rec, flagged) = labelled(input, mapping, units)?;
+    Ok((rec, flagged, None))
 }
 
-/// `input` read as a start-up with its phase column; `None` when it has none (a log).
+/// Whether `input`'s header has the phase column (`phase`, or the one `mapping` names).
+pub(super) fn has_phase_column(
+    input: &Path,
+    mapping: &HashMap<String, String>,
+) -> anyhow::Result<bool> {
+    use std::io::BufRead;
+    let file =
+        std::fs::File::open(input).with_context(|| format!("opening {}", input.display()))?;
+    let mut header = String::new();
+    std::io::BufReader::new(file)
+        .read_line(&mut header)
+        .with_context(|| format!("reading {}", input.display()))?;
+    let phase = mapping.get("phase").map_or("phase", String::as_str);
+    Ok(header
+        .split(',')
+        .any(|h| h.trim().trim_matches('"').eq_ignore_ascii_case(phase)))
+}
+
+/// `input` read as a start-up with its phase column.
 fn labelled(
     input: &Path,
     mapping: &HashMap<String, String>,
     units: &ColumnUnits,
-) -> anyhow::Result<Option<(Recording, CsvQuality)>> {
+) -> anyhow::Result<(Recording, CsvQuality)> {
     let file =
         std::fs::File::open(input).with_context(|| format!("opening {}", input.display()))?;
-    match read_recording_checked(
+    read_recording_checked(
         std::io::BufReader::new(file),
         mapping,
         units,
         &crate::quality::QualityConfig::default(),
-    ) {
-        Ok(read) => Ok(Some(read)),
-        Err(CsvError::MissingPhase(_)) => Ok(None),
-        Err(e) => Err(e).with_context(|| format!("reading {}", input.display())),
-    }
+    )
+    .with_context(|| format!("reading {}", input.display()))
 }
 
 /// Every start-up of a file that can be diagnosed: the file itself when it carries its phases,
@@ -80,24 +97,22 @@ pub(super) fn startups_of_file(
     units: &ColumnUnits,
     engine: &Engine,
 ) -> anyhow::Result<Vec<Recording>> {
-    match labelled(input, mapping, units)? {
-        Some((rec, _)) => Ok(vec![rec]),
-        None => {
-            let (log, _) = read_log(input, mapping, units)?;
-            let found = find_startups(&log.t_s, &log.rows, &detector_config(engine));
-            let usable: Vec<Recording> = found
-                .iter()
-                .filter(|f| f.diagnosable())
-                .filter_map(|f| f.recording.clone().and_then(Result::ok))
-                .collect();
-            if usable.is_empty() {
-                // The reason in the words `diagnose` gives it.
-                startup_from_log(input, mapping, units, engine, None)?;
-                bail!("{}: no usable start-up", input.display());
-            }
-            Ok(usable)
-        }
+    if has_phase_column(input, mapping)? {
+        return Ok(vec![labelled(input, mapping, units)?.0]);
     }
+    let (log, flagged) = read_log(input, mapping, units)?;
+    let found = find_startups(&log.t_s, &log.rows, &detector_config(engine));
+    let usable: Vec<Recording> = found
+        .into_iter()
+        .filter(FoundStartup::diagnosable)
+        .filter_map(|f| f.recording.and_then(Result::ok))
+        .collect();
+    if usable.is_empty() {
+        // The reason in the words `diagnose` gives it.
+        startup_from_log(input, &log, flagged, engine, None)?;
+        bail!("{}: no usable start-up", input.display());
+    }
+    Ok(usable)
 }
 
 /// Whether `input`, read as a log, holds a start-up the detector finds (any outcome); a file
@@ -117,7 +132,7 @@ fn read_log(
     input: &Path,
     mapping: &HashMap<String, String>,
     units: &ColumnUnits,
-) -> anyhow::Result<(crate::diagnosis::csv_input::Log, CsvQuality)> {
+) -> anyhow::Result<(Log, CsvQuality)> {
     let file =
         std::fs::File::open(input).with_context(|| format!("opening {}", input.display()))?;
     read_log_checked(
@@ -137,16 +152,16 @@ fn detector_config(engine: &Engine) -> DetectorConfig {
     cfg
 }
 
-/// Reads `input` as a log, finds its start-ups with the engine's sequence speeds and picks
-/// `start` (1-based over every start found) or the first diagnosable one.
+/// Finds the start-ups of `log` (read from `input`, its flagged cells `flagged`) with the
+/// engine's sequence speeds and picks `start` (1-based over every start found) or the first
+/// diagnosable one.
 fn startup_from_log(
     input: &Path,
-    mapping: &HashMap<String, String>,
-    units: &ColumnUnits,
+    log: &Log,
+    flagged: CsvQuality,
     engine: &Engine,
     start: Option<usize>,
 ) -> anyhow::Result<LogStartup> {
-    let (log, flagged) = read_log(input, mapping, units)?;
     let cfg = detector_config(engine);
     let found = find_startups(&log.t_s, &log.rows, &cfg);
     let origin_ms = log.origin_ms;

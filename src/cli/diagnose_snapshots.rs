@@ -18,7 +18,7 @@ use crate::units::ColumnUnits;
 use anyhow::{bail, Context};
 use serde_json::json;
 use std::collections::HashMap;
-use std::io::{BufRead, BufReader};
+use std::io::BufReader;
 use std::path::Path;
 use std::process::ExitCode;
 
@@ -39,16 +39,7 @@ pub(super) fn wants_snapshots(
     if a.method != super::diagnose::MethodArg::Steady {
         return Ok(false);
     }
-    let file =
-        std::fs::File::open(input).with_context(|| format!("opening {}", input.display()))?;
-    let mut header = String::new();
-    BufReader::new(file)
-        .read_line(&mut header)
-        .with_context(|| format!("reading {}", input.display()))?;
-    let phase = mapping.get("phase").map_or("phase", String::as_str);
-    let labelled = header
-        .split(',')
-        .any(|h| h.trim().trim_matches('"').eq_ignore_ascii_case(phase));
+    let labelled = super::diagnose_log::has_phase_column(input, mapping)?;
     Ok(!labelled && !super::diagnose_log::holds_a_startup(input, mapping, units, engine))
 }
 
