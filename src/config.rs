@@ -382,7 +382,7 @@ mod tests {
             ("storage", 11),
             ("acquisition", 7),
             ("daemon", 2),
-            ("diagnosis", 12),
+            ("diagnosis", 14),
             ("quality", 2),
             ("wash", 8),
         ] {

@@ -45,6 +45,11 @@ fn is_default_bounds(b: &[f64; 2]) -> bool {
     *b == [HEALTH_BOUNDS.0, HEALTH_BOUNDS.1]
 }
 
+/// The same for a prior's σ: none (0) is left out.
+fn is_no_prior(p: &f64) -> bool {
+    *p == 0.0
+}
+
 /// `[diagnosis]` section: the worker's settings.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
@@ -78,6 +83,13 @@ pub struct DiagnosisSettings {
     /// stored with `fit_quality` at least "suspect" and named in the result.
     #[serde(skip_serializing_if = "is_default_bounds")]
     pub health_bounds: [f64; 2],
+    /// 1σ of a prior on each fitted health parameter about new, points, in Method A
+    /// (`diagnosis::prior`); 0: least squares on the data alone. Default 0.
+    #[serde(skip_serializing_if = "is_no_prior")]
+    pub health_prior_pts: f64,
+    /// The same for Method B. Default 1.
+    #[serde(skip_serializing_if = "is_no_prior")]
+    pub transient_health_prior_pts: f64,
     /// `gtwatch run` analyses the model–plant gap (`gtwatch gap`) of every start-up whose
     /// Method B fit is not `good`, in the background once the diagnosis queue is empty, and
     /// stores it for the report; not one that carries on an analysed misfit
@@ -104,6 +116,8 @@ impl Default for DiagnosisSettings {
             poll_interval_ms: 60_000,
             min_good_fraction: 0.9,
             health_bounds: [HEALTH_BOUNDS.0, HEALTH_BOUNDS.1],
+            health_prior_pts: crate::diagnosis::prior::DEFAULT_HEALTH_PRIOR_PTS,
+            transient_health_prior_pts: crate::diagnosis::prior::DEFAULT_TRANSIENT_HEALTH_PRIOR_PTS,
             gap_on_poor_fit: true,
             gap_on_health_step: true,
             gap_every_n: 0,
@@ -158,6 +172,20 @@ impl DiagnosisSettings {
                 .to_string();
             p.push(ConfigProblem::new("diagnosis.health_bounds", why));
         }
+        for (key, v) in [
+            ("diagnosis.health_prior_pts", self.health_prior_pts),
+            (
+                "diagnosis.transient_health_prior_pts",
+                self.transient_health_prior_pts,
+            ),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                p.push(ConfigProblem::new(
+                    key,
+                    "must be a number of points ≥ 0 (0: no prior)",
+                ));
+            }
+        }
         if self.poll_interval_ms < 100 {
             p.push(ConfigProblem::new(
                 "diagnosis.poll_interval_ms",
@@ -180,6 +208,8 @@ impl DiagnosisSettings {
                 ..Default::default()
             },
             health_bounds: self.bounds(),
+            health_prior_pts: self.health_prior_pts,
+            transient_health_prior_pts: self.transient_health_prior_pts,
             ..DiagnosisConfig::default()
         }
     }

@@ -77,6 +77,16 @@ pub struct FitArgs {
     /// `D_GC=-5:20`.
     #[arg(long = "fit-param", value_name = "KEY=LOW:HIGH")]
     pub fit_params: Vec<String>,
+    /// 1σ of a prior on each fitted health parameter about new, points, in a steady diagnosis
+    /// (Method A, snapshots; default 0: least squares on the data alone): along what the signals
+    /// barely determine the read is held toward new instead of absorbing the model's small
+    /// errors; the result names the parameters it held.
+    #[arg(long = "health-prior", value_name = "PTS")]
+    pub health_prior: Option<f64>,
+    /// The same for Method B (default 1: a start-up determines every direction of a
+    /// well-instrumented unit, where it takes no prior).
+    #[arg(long = "transient-health-prior", value_name = "PTS")]
+    pub transient_health_prior: Option<f64>,
 }
 
 /// Parses `KEY=LOW:HIGH` into a named fit parameter.
@@ -123,6 +133,12 @@ impl FitArgs {
         };
         if let Some(n) = self.max_runs {
             cfg.max_model_runs = n;
+        }
+        if let Some(p) = self.health_prior {
+            cfg.health_prior_pts = p;
+        }
+        if let Some(p) = self.transient_health_prior {
+            cfg.transient_health_prior_pts = p;
         }
         for p in &self.fit_params {
             let param = parse_fit_param(p)?;
@@ -220,6 +236,7 @@ pub(super) fn result_json(r: &MethodResult) -> Value {
         "failed_runs": r.failures,
         "fit_quality": r.fit_quality,
         "separability": r.separability,
+        "health_prior": r.health_prior,
         "localisation": r.localisation,
         "left_out": r.left_out,
     })
@@ -283,6 +300,9 @@ pub(crate) fn print_text_of(title: &str, subject: &str, m: Method, r: &MethodRes
     }
     if !r.separability.statement.is_empty() {
         println!("  separability: {}", r.separability.statement);
+    }
+    if let Some(p) = &r.health_prior {
+        println!("  {}", p.line());
     }
     let h = r.health.to_array();
     for (i, n) in HEALTH_NAMES.iter().enumerate() {

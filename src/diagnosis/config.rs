@@ -253,6 +253,14 @@ pub struct DiagnosisConfig {
     /// Search interval of each health parameter, percent (default −3 … +10 for all six).
     #[serde(skip_serializing_if = "HealthBounds::is_default")]
     pub health_bounds: HealthBounds,
+    /// 1σ of the prior on each fitted health parameter about new, points, taken by the
+    /// least-squares stage of a steady diagnosis (Method A, snapshots; see [`super::prior`]);
+    /// 0: none (least squares on the data alone, the default).
+    #[serde(skip_serializing_if = "is_no_prior")]
+    pub health_prior_pts: f64,
+    /// The same for Method B; default [`super::prior::DEFAULT_TRANSIENT_HEALTH_PRIOR_PTS`].
+    #[serde(skip_serializing_if = "is_no_prior")]
+    pub transient_health_prior_pts: f64,
     /// Thresholds of the `fit_quality` verdict.
     #[serde(default)]
     pub quality: fit_quality::Thresholds,
@@ -260,6 +268,11 @@ pub struct DiagnosisConfig {
     /// between generations of the global stage.
     #[serde(skip)]
     pub cancel: Cancel,
+}
+
+/// A prior's σ of 0 (none) is left out of the serialised settings, as before the key existed.
+fn is_no_prior(p: &f64) -> bool {
+    *p == 0.0
 }
 
 impl Default for DiagnosisConfig {
@@ -300,6 +313,8 @@ impl Default for DiagnosisConfig {
             base: HealthParams::HEALTHY,
             extra_params: Vec::new(),
             health_bounds: HealthBounds::default(),
+            health_prior_pts: super::prior::DEFAULT_HEALTH_PRIOR_PTS,
+            transient_health_prior_pts: super::prior::DEFAULT_TRANSIENT_HEALTH_PRIOR_PTS,
             quality: fit_quality::Thresholds::default(),
             cancel: Cancel::new(),
         }
@@ -331,6 +346,19 @@ impl DiagnosisConfig {
         }
         if self.threads == Some(0) {
             return Err(DiagnosisError::Config("threads must be at least 1".into()));
+        }
+        for (key, v) in [
+            ("health_prior_pts (--health-prior)", self.health_prior_pts),
+            (
+                "transient_health_prior_pts (--transient-health-prior)",
+                self.transient_health_prior_pts,
+            ),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(DiagnosisError::Config(format!(
+                    "{key} must be a number of points ≥ 0 (0: no prior), not {v}"
+                )));
+            }
         }
         if let Some(b) = self.window.blocks {
             if !(b.length_s.is_finite() && b.length_s > 0.0) {

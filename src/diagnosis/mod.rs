@@ -49,6 +49,7 @@ pub mod identifiability;
 pub(crate) mod objective;
 pub(crate) mod params;
 pub(crate) mod periodic;
+pub mod prior;
 pub(crate) mod residual_table;
 pub(crate) mod separability;
 pub mod snapshot;
@@ -65,8 +66,8 @@ pub use params::{
 use crate::engine::{Engine, EngineError};
 use crate::health::{HealthParams, HEALTH_NAMES};
 use crate::optim::{
-    self, refine, run, uncertainty_with_inputs, Budget, CmaEs, CuckooSearch, DifferentialEvolution,
-    JacobianOptions, LmOptions, OptimError, ResidualProblem,
+    self, refine, run, uncertainty, uncertainty_with_inputs, Budget, CmaEs, CuckooSearch,
+    DifferentialEvolution, JacobianOptions, LmOptions, OptimError, ResidualProblem,
 };
 use crate::signals::Signal;
 use rayon::ThreadPool;
@@ -293,6 +294,10 @@ pub struct MethodResult {
     /// at (`[adaptation.calibrated]`), where its curves are extrapolated.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub left_out: Vec<String>,
+    /// The prior the least-squares stage took on the health parameters and which of them the
+    /// data left to it ([`prior`]); `None` when it took none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub health_prior: Option<prior::PriorReport>,
     /// The fitted model's instrument values, rows like the data's (Method B; empty for Method
     /// A). For plots (before/after traces); not serialised.
     #[serde(skip)]
@@ -341,6 +346,9 @@ pub struct FitOutcome {
     pub input_sigma: Vec<f64>,
     /// Correlation of that part between the free parameters (zeros where not estimated).
     pub input_correlation: Vec<Vec<f64>>,
+    /// The prior's 1σ on the health parameters, points, where the least-squares stage took
+    /// one ([`prior`]).
+    pub prior_pts: Option<f64>,
 }
 
 fn unit_step_jacobian(cfg: &DiagnosisConfig) -> Result<JacobianOptions, OptimError> {
@@ -401,10 +409,59 @@ pub fn fit<P: DiagnosisProblem>(
         });
     }
     let mut x = global.x.clone();
+    // The prior's rows carry the weight of the data's residuals: each in its instrument's σ,
+    // counted as often as their serial correlation says (from the plain residuals at the
+    // global result, as `result_of` inflates σ).
+    let sum_sq = |p: &P| {
+        let mut r = Vec::new();
+        p.residuals(&x, &mut r);
+        let s: f64 = r.iter().map(|v| v * v).sum();
+        (s, r)
+    };
+    let plain = match cfg.health_prior_pts > 0.0 && !cancel.is_cancelled() {
+        true => {
+            let (ssr, r) = sum_sq(problem);
+            ssr.is_finite().then(|| (ssr, problem.sigma_inflation(&r)))
+        }
+        false => None,
+    };
     if !cancel.is_cancelled() {
         problem.prepare_least_squares(&x, pool);
     }
     problem.set_least_squares(true);
+    let prior_rows: Vec<prior::PriorRow> = plain
+        .and_then(|(ssr, inflation)| {
+            let (whitened, _) = sum_sq(problem);
+            prior::row_scale(inflation, whitened / ssr)
+        })
+        .and_then(|c| {
+            // The data's covariance of the health parameters at the global result, in points²
+            // as the rows weigh them: the least-squares stage's (JᵀJ)⁻¹ times c².
+            let u = uncertainty(&*problem, &x, &unit_step_jacobian(cfg).ok()?, pool).ok()?;
+            let health: Vec<usize> = problem
+                .params()
+                .params()
+                .iter()
+                .enumerate()
+                .filter(|(_, p)| matches!(p.target, ParamTarget::Health(_)))
+                .map(|(k, _)| k)
+                .collect();
+            let scale = c * c / u.s2;
+            scale.is_finite().then_some(())?;
+            let cov: Vec<Vec<f64>> = health
+                .iter()
+                .map(|&i| health.iter().map(|&j| u.covariance[i][j] * scale).collect())
+                .collect();
+            Some(prior::weak_direction_rows(
+                &health,
+                &cov,
+                c,
+                cfg.health_prior_pts,
+            ))
+        })
+        .unwrap_or_default();
+    let prior_pts = (!prior_rows.is_empty()).then_some(cfg.health_prior_pts);
+    let posterior = prior::WithPrior::new(&*problem, prior_rows);
     // After a cancel (daemon shutdown) the refinement and the uncertainty (up to a few hundred
     // model runs more) are skipped: the caller discards a cancelled fit anyway.
     if lm_budget >= 2 && !cancel.is_cancelled() {
@@ -413,7 +470,7 @@ pub fn fit<P: DiagnosisProblem>(
             .with_max_evals(lm_budget)?
             .with_ftol(1e-6)?
             .with_xtol(1e-6)?;
-        match refine(&*problem, &x, &opts, pool) {
+        match refine(&posterior, &x, &opts, pool) {
             Ok(r) => x = r.x,
             // A failed refinement (e.g. non-finite residuals) keeps the global result.
             Err(OptimError::NonFiniteResiduals) => {}
@@ -431,8 +488,12 @@ pub fn fit<P: DiagnosisProblem>(
     let (sigma, correlation, input_sigma, input_correlation) = if cancel.is_cancelled() {
         unknown()
     } else {
-        let draws = problem.input_noise_draws(&x);
-        match uncertainty_with_inputs(&*problem, &x, &unit_step_jacobian(cfg)?, pool, &draws) {
+        let draws: Vec<Vec<f64>> = problem
+            .input_noise_draws(&x)
+            .into_iter()
+            .map(|d| posterior.extend(&x, d))
+            .collect();
+        match uncertainty_with_inputs(&posterior, &x, &unit_step_jacobian(cfg)?, pool, &draws) {
             Ok(u) => (u.sigma, u.correlation, u.input_sigma, u.input_correlation),
             Err(OptimError::NonFiniteResiduals) | Err(OptimError::TooFewResiduals { .. }) => {
                 unknown()
@@ -448,6 +509,7 @@ pub fn fit<P: DiagnosisProblem>(
         correlation,
         input_sigma,
         input_correlation,
+        prior_pts,
     })
 }
 
@@ -611,6 +673,10 @@ pub(crate) fn result_of<P: DiagnosisProblem>(
         fuel_meter_zero: None,
         record_holes: Vec::new(),
         left_out: Vec::new(),
+        health_prior: fit.prior_pts.map(|p| {
+            let sigma = |k: usize| fit.sigma.get(k).map_or(f64::INFINITY, |&s| fit_part(k, s));
+            prior::PriorReport::of(p, health_at.iter().map(|&(k, i)| (i, sigma(k))))
+        }),
         model_values: Vec::new(),
     }
 }

@@ -472,7 +472,12 @@ pub fn diagnose_transient(
     let (segment, fuel_zero) = segment.fuel_zero_removed();
     let segment: &Recording = &segment;
     let mut problem = TransientProblem::new(engine, segment, cfg)?;
-    let out = fit(&mut problem, cfg, &pool)?;
+    // Method B takes its own prior (none by default, see `transient_health_prior_pts`).
+    let fit_cfg = DiagnosisConfig {
+        health_prior_pts: cfg.transient_health_prior_pts,
+        ..cfg.clone()
+    };
+    let out = fit(&mut problem, &fit_cfg, &pool)?;
     let signals = problem.objective().signals().to_vec();
     let n_res = problem.objective().len();
     // result_of evaluates the objective and residuals once more at the result (2 runs,
