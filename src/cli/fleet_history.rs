@@ -45,6 +45,9 @@ pub struct FleetHistoryArgs {
     pub config_hash: Option<String>,
     #[arg(long, value_enum, default_value_t = Format::Table)]
     pub format: Format,
+    /// The same as `--format json`: one JSON document.
+    #[arg(long, conflicts_with = "format")]
+    pub json: bool,
 }
 
 #[derive(Debug, clap::Args)]
@@ -101,7 +104,7 @@ pub(super) fn run(args: &FleetHistoryArgs) -> anyhow::Result<ExitCode> {
     let rows = fleet_history(&mut centre, &filter)?;
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
-    match args.format {
+    match args.format.or_json(args.json) {
         Format::Json => write_json(&mut out, &rows)?,
         Format::Csv => write_csv(&mut out, &rows)?,
         Format::Table => write_table(&mut out, &rows)?,

@@ -55,6 +55,9 @@ pub struct HistoryArgs {
     pub method: Option<MethodFilter>,
     #[arg(long, value_enum, default_value_t = Format::Table)]
     pub format: Format,
+    /// The same as `--format json`: one JSON document.
+    #[arg(long, conflicts_with = "format")]
+    pub json: bool,
 }
 
 /// The parameter names asked for, canonical spelling, in catalogue order.
@@ -378,7 +381,7 @@ pub(super) fn run(args: HistoryArgs) -> anyhow::Result<ExitCode> {
     let rows = store.history(&filter)?;
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
-    write_history(&rows, &names, args.format, &mut out)?;
+    write_history(&rows, &names, args.format.or_json(args.json), &mut out)?;
     Ok(ExitCode::SUCCESS)
 }
 

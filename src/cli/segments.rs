@@ -20,6 +20,9 @@ pub struct SegmentsArgs {
     pub since: Option<String>,
     #[arg(long, value_enum, default_value_t = Format::Table)]
     pub format: Format,
+    /// The same as `--format json`: one JSON document.
+    #[arg(long, conflicts_with = "format")]
+    pub json: bool,
 }
 
 pub(super) fn run(args: SegmentsArgs) -> anyhow::Result<ExitCode> {
@@ -29,6 +32,6 @@ pub(super) fn run(args: SegmentsArgs) -> anyhow::Result<ExitCode> {
     let segs = list_segments(&store, since)?;
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
-    write_segments(&segs, args.format, &mut out)?;
+    write_segments(&segs, args.format.or_json(args.json), &mut out)?;
     Ok(ExitCode::SUCCESS)
 }

@@ -70,6 +70,9 @@ pub enum WashCmd {
         db: DbArgs,
         #[arg(long, value_enum, default_value_t = Format::Table)]
         format: Format,
+        /// The same as `--format json`: one JSON document.
+        #[arg(long, conflicts_with = "format")]
+        json: bool,
     },
 }
 
@@ -111,7 +114,8 @@ pub(super) fn run(a: WashArgs) -> anyhow::Result<ExitCode> {
             Some(_) => bail!("wash {id} was recorded by an operator, not detected"),
             None => bail!("no wash {id}"),
         },
-        WashCmd::Advise { db, format } => {
+        WashCmd::Advise { db, format, json } => {
+            let format = format.or_json(json);
             let ctx = worker_context(db.config.as_deref())?;
             let econ = wash_economics(db.config.as_deref())?;
             let mut store = open(&db)?;

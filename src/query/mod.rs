@@ -27,13 +27,25 @@ pub(crate) struct SegmentSummary {
     pub(crate) phases: Vec<PhaseSpan>,
 }
 
-/// Output format of `segments`.
+/// Output format of `segments`, `history`, `fleet history` and `wash advise`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum Format {
     #[default]
     Table,
     Csv,
     Json,
+}
+
+impl Format {
+    /// `--format` as given, or JSON where the command's `--json` (the spelling every other
+    /// command takes) was given.
+    pub fn or_json(self, json: bool) -> Format {
+        if json {
+            Format::Json
+        } else {
+            self
+        }
+    }
 }
 
 /// Layout of `export`.
