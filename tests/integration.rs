@@ -39,6 +39,7 @@ mod fleet_sync;
 mod foreign_ambient;
 mod foreign_engine;
 mod foreign_generator;
+mod foreign_season;
 mod foreign_simulator;
 mod foreign_startups;
 mod fuzz_regressions;
