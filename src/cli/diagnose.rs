@@ -303,6 +303,15 @@ pub(crate) fn print_text_of(title: &str, subject: &str, m: Method, r: &MethodRes
     }
     if let Some(p) = &r.health_prior {
         println!("  {}", p.line());
+    } else if m == Method::Steady
+        && (!r.separability.not_identifiable.is_empty() || !r.separability.confounded.is_empty())
+    {
+        // Where least squares alone may wander along what the data do not determine.
+        println!(
+            "  no prior: the parameters these signals do not determine are read by least squares \
+             alone, which can move far along them to absorb a small model error; \
+             --health-prior 1 holds them toward new (README \"A prior on the health\")"
+        );
     }
     let h = r.health.to_array();
     for (i, n) in HEALTH_NAMES.iter().enumerate() {

@@ -214,7 +214,9 @@ impl PriorReport {
             )
         };
         format!(
-            "prior: each health parameter within ± {:.2} points of new (1σ, [diagnosis] health_prior_pts, --health-prior); {held}",
+            "prior: ± {:.2} points about new (1σ) along what these signals determine only to more \
+             than {WEAK_SIGMA_PTS} points ([diagnosis] health_prior_pts, --health-prior; Method B's \
+             transient_health_prior_pts); {held}",
             self.sigma_pts
         )
     }
