@@ -412,15 +412,11 @@ pub fn fit<P: DiagnosisProblem>(
     // The prior's rows carry the weight of the data's residuals: each in its instrument's σ,
     // counted as often as their serial correlation says (from the plain residuals at the
     // global result, as `result_of` inflates σ).
-    let sum_sq = |p: &P| {
-        let mut r = Vec::new();
-        p.residuals(&x, &mut r);
-        let s: f64 = r.iter().map(|v| v * v).sum();
-        (s, r)
-    };
     let plain = match cfg.health_prior_pts > 0.0 && !cancel.is_cancelled() {
         true => {
-            let (ssr, r) = sum_sq(problem);
+            let mut r = Vec::new();
+            problem.residuals(&x, &mut r);
+            let ssr: f64 = r.iter().map(|v| v * v).sum();
             ssr.is_finite().then(|| (ssr, problem.sigma_inflation(&r)))
         }
         false => None,
@@ -431,13 +427,11 @@ pub fn fit<P: DiagnosisProblem>(
     problem.set_least_squares(true);
     let prior_rows: Vec<prior::PriorRow> = plain
         .and_then(|(ssr, inflation)| {
-            let (whitened, _) = sum_sq(problem);
-            prior::row_scale(inflation, whitened / ssr)
-        })
-        .and_then(|c| {
             // The data's covariance of the health parameters at the global result, in points²
-            // as the rows weigh them: the least-squares stage's (JᵀJ)⁻¹ times c².
+            // as the rows weigh them: the least-squares stage's (JᵀJ)⁻¹ times c². Its sum of
+            // squares there is the stage's (whitened) one, against the plain `ssr`.
             let u = uncertainty(&*problem, &x, &unit_step_jacobian(cfg).ok()?, pool).ok()?;
+            let c = prior::row_scale(inflation, u.ssr / ssr)?;
             let health: Vec<usize> = problem
                 .params()
                 .params()
