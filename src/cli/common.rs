@@ -1,5 +1,6 @@
 //! Helpers shared by the data commands: loading the `[storage]`, `[replay]` and `[detector]`
-//! sections from the config file, and parsing times given on the command line.
+//! sections from the config file, parsing times given on the command line, and the listing
+//! commands' output-format options (`FormatArgs`).
 //!
 //! Reads only the three sections the data side owns and ignores the others (they belong to the
 //! full `Config`, which validates them); must not validate other sections.
@@ -168,4 +169,27 @@ pub(super) fn moved_map_paths(
         }
     }
     Ok(out)
+}
+
+/// The output format options of the listing commands (`history`, `segments`, `fleet history`,
+/// `wash advise`): `--format table|csv|json`, or `--json`, the spelling every other command
+/// takes.
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct FormatArgs {
+    #[arg(long, value_enum, default_value_t = crate::query::Format::Table)]
+    format: crate::query::Format,
+    /// The same as `--format json`: one JSON document.
+    #[arg(long, conflicts_with = "format")]
+    json: bool,
+}
+
+impl FormatArgs {
+    /// The format asked for.
+    pub fn format(&self) -> crate::query::Format {
+        if self.json {
+            crate::query::Format::Json
+        } else {
+            self.format
+        }
+    }
 }

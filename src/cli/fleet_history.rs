@@ -12,6 +12,7 @@
 //! Also `gtwatch fleet report --postgres-url URL --out DIR`: `DIR/fleet.html`, the page
 //! `report::fleet` builds from the centre's results, washes and advice.
 
+use super::common::FormatArgs;
 use super::history::{
     health_csv_cells, instrument_step_json, shown, write_corrected_line, write_health_cells,
     write_quality_and_gap, MethodFilter, ShownCorrection,
@@ -43,11 +44,8 @@ pub struct FleetHistoryArgs {
     /// of the edges' own results.
     #[arg(long)]
     pub config_hash: Option<String>,
-    #[arg(long, value_enum, default_value_t = Format::Table)]
-    pub format: Format,
-    /// The same as `--format json`: one JSON document.
-    #[arg(long, conflicts_with = "format")]
-    pub json: bool,
+    #[command(flatten)]
+    pub output: FormatArgs,
 }
 
 #[derive(Debug, clap::Args)]
@@ -104,7 +102,7 @@ pub(super) fn run(args: &FleetHistoryArgs) -> anyhow::Result<ExitCode> {
     let rows = fleet_history(&mut centre, &filter)?;
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
-    match args.format.or_json(args.json) {
+    match args.output.format() {
         Format::Json => write_json(&mut out, &rows)?,
         Format::Csv => write_csv(&mut out, &rows)?,
         Format::Table => write_table(&mut out, &rows)?,

@@ -16,7 +16,7 @@
 //! Must not compute
 //! trends.
 
-use super::common::{db_path, parse_cli_time};
+use super::common::{db_path, parse_cli_time, FormatArgs};
 use crate::engine::effects::is_instrument;
 use crate::health::HEALTH_NAMES;
 use crate::query::Format;
@@ -53,11 +53,8 @@ pub struct HistoryArgs {
     /// Only this method (A steady-state, B transient).
     #[arg(long, value_enum, ignore_case = true)]
     pub method: Option<MethodFilter>,
-    #[arg(long, value_enum, default_value_t = Format::Table)]
-    pub format: Format,
-    /// The same as `--format json`: one JSON document.
-    #[arg(long, conflicts_with = "format")]
-    pub json: bool,
+    #[command(flatten)]
+    pub output: FormatArgs,
 }
 
 /// The parameter names asked for, canonical spelling, in catalogue order.
@@ -381,7 +378,7 @@ pub(super) fn run(args: HistoryArgs) -> anyhow::Result<ExitCode> {
     let rows = store.history(&filter)?;
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
-    write_history(&rows, &names, args.format.or_json(args.json), &mut out)?;
+    write_history(&rows, &names, args.output.format(), &mut out)?;
     Ok(ExitCode::SUCCESS)
 }
 

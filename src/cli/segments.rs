@@ -1,8 +1,8 @@
 //! `gtwatch segments [--since …] [--format table|csv|json]`: list detected start-ups.
 //! Must not write to the database: it reads through a read-only store.
 
-use super::common::{db_path, parse_cli_time};
-use crate::query::{list_segments, write_segments, Format};
+use super::common::{db_path, parse_cli_time, FormatArgs};
+use crate::query::{list_segments, write_segments};
 use crate::store::Store;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -18,11 +18,8 @@ pub struct SegmentsArgs {
     /// Only start-ups beginning at or after this time (2024-03-01, 2024-03-01T06:00:00Z, @EPOCH_S).
     #[arg(long)]
     pub since: Option<String>,
-    #[arg(long, value_enum, default_value_t = Format::Table)]
-    pub format: Format,
-    /// The same as `--format json`: one JSON document.
-    #[arg(long, conflicts_with = "format")]
-    pub json: bool,
+    #[command(flatten)]
+    pub output: FormatArgs,
 }
 
 pub(super) fn run(args: SegmentsArgs) -> anyhow::Result<ExitCode> {
@@ -32,6 +29,6 @@ pub(super) fn run(args: SegmentsArgs) -> anyhow::Result<ExitCode> {
     let segs = list_segments(&store, since)?;
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
-    write_segments(&segs, args.format.or_json(args.json), &mut out)?;
+    write_segments(&segs, args.output.format(), &mut out)?;
     Ok(ExitCode::SUCCESS)
 }

@@ -10,7 +10,7 @@
 //! of failing with "database is locked". Must not hold wash or trend arithmetic of its own or
 //! keep a transaction open across anything slow.
 
-use super::common::{db_path, parse_cli_time};
+use super::common::{db_path, parse_cli_time, FormatArgs};
 use super::diagnose_stored::{wash_economics, worker_context};
 use crate::query::Format;
 use crate::store::Store;
@@ -68,11 +68,8 @@ pub enum WashCmd {
     Advise {
         #[command(flatten)]
         db: DbArgs,
-        #[arg(long, value_enum, default_value_t = Format::Table)]
-        format: Format,
-        /// The same as `--format json`: one JSON document.
-        #[arg(long, conflicts_with = "format")]
-        json: bool,
+        #[command(flatten)]
+        output: FormatArgs,
     },
 }
 
@@ -114,8 +111,8 @@ pub(super) fn run(a: WashArgs) -> anyhow::Result<ExitCode> {
             Some(_) => bail!("wash {id} was recorded by an operator, not detected"),
             None => bail!("no wash {id}"),
         },
-        WashCmd::Advise { db, format, json } => {
-            let format = format.or_json(json);
+        WashCmd::Advise { db, output } => {
+            let format = output.format();
             let ctx = worker_context(db.config.as_deref())?;
             let econ = wash_economics(db.config.as_deref())?;
             let mut store = open(&db)?;

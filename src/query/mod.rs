@@ -36,18 +36,6 @@ pub enum Format {
     Json,
 }
 
-impl Format {
-    /// `--format` as given, or JSON where the command's `--json` (the spelling every other
-    /// command takes) was given.
-    pub fn or_json(self, json: bool) -> Format {
-        if json {
-            Format::Json
-        } else {
-            self
-        }
-    }
-}
-
 /// Layout of `export`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum ExportLayout {
