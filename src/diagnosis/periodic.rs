@@ -67,13 +67,22 @@ pub(crate) fn find(
         .collect()
 }
 
-fn one_signal(
+/// One signal's residual in noise units, less its moving mean: what the periodogram reads.
+struct Detrended {
+    r: Vec<f64>,
+    /// The median sample spacing, s.
+    dt: f64,
+    /// The mean noise σ of the samples, in the signal's unit.
+    mean_sigma: f64,
+}
+
+fn detrended(
     t_s: &[f64],
     measured: &[Values],
     model: &[Values],
     s: Signal,
     sensors: &SensorsConfig,
-) -> Option<Periodicity> {
+) -> Option<Detrended> {
     let i = s.index();
     let idx: Vec<usize> = (0..t_s.len())
         .filter(|&k| measured[k][i].is_finite() && model[k][i].is_finite() && t_s[k].is_finite())
@@ -105,6 +114,18 @@ fn one_signal(
         .map(|(&k, sg)| (measured[k][i] - model[k][i]) / sg)
         .collect();
     let r = less_moving_mean(&r, ((DETREND_S / dt).round() as usize).max(3));
+    let mean_sigma = sig.iter().sum::<f64>() / sig.len() as f64;
+    Some(Detrended { r, dt, mean_sigma })
+}
+
+fn one_signal(
+    t_s: &[f64],
+    measured: &[Values],
+    model: &[Values],
+    s: Signal,
+    sensors: &SensorsConfig,
+) -> Option<Periodicity> {
+    let Detrended { r, dt, mean_sigma } = detrended(t_s, measured, model, s, sensors)?;
     let n = r.len();
     let nf = n as f64;
     let j_min = ((nf * dt / MAX_PERIOD_S).ceil() as usize).max(1);
@@ -128,7 +149,6 @@ fn one_signal(
     let around = neighbours.iter().sum::<f64>() / neighbours.len().max(1) as f64;
     // r = A cos(ωk) gives an ordinate of n A²/4.
     let amplitude_sigma = 2.0 * (p_max / nf).sqrt();
-    let mean_sigma = sig.iter().sum::<f64>() / sig.len() as f64;
     let frequency_hz = (j_min + best) as f64 / (nf * dt);
     (p_value < MAX_P_VALUE
         && p_max > MIN_SHARPNESS * around
@@ -141,6 +161,40 @@ fn one_signal(
             amplitude_sigma,
             p_value,
         })
+}
+
+/// The amplitude, in noise σ, of `measured − model`'s oscillation in signal `s` at
+/// `frequency_hz` (the largest of the three periodogram lines nearest it), however small and
+/// whatever the test of [`find`] would say: how much of an oscillation [`find`] reported for
+/// one model is left against another (`None` when the signal has too few samples).
+pub(crate) fn amplitude_at(
+    t_s: &[f64],
+    measured: &[Values],
+    model: &[Values],
+    s: Signal,
+    sensors: &SensorsConfig,
+    frequency_hz: f64,
+) -> Option<f64> {
+    let n_rows = t_s.len().min(measured.len()).min(model.len());
+    let Detrended { r, dt, .. } = detrended(
+        &t_s[..n_rows],
+        &measured[..n_rows],
+        &model[..n_rows],
+        s,
+        sensors,
+    )?;
+    let n = r.len();
+    let nf = n as f64;
+    let j = (frequency_hz * nf * dt).round();
+    if !j.is_finite() || j < 0.0 {
+        return None;
+    }
+    let j = j as usize;
+    let p = (j.saturating_sub(1)..=j + 1)
+        .filter(|&k| k >= 1 && k < n.div_ceil(2))
+        .map(|k| ordinate(&r, k))
+        .fold(0.0, f64::max);
+    Some(2.0 * (p / nf).sqrt())
 }
 
 /// `r` less its centred moving mean over `w` samples (shorter at the ends).
@@ -224,5 +278,26 @@ mod tests {
         assert!((p.frequency_hz - 0.2).abs() < 0.005, "{p:?}");
         assert!((p.amplitude_sigma - amp).abs() < 0.3, "{p:?}");
         assert!(p.p_value < 1e-10, "{p:?}");
+        // Against the model with the ripple in it, none is left; against the plain model, the
+        // same amplitude as `find` reported, and a sub-threshold one is still measured.
+        let at = |measured: &[Values], model: &[Values]| {
+            amplitude_at(&t, measured, model, Signal::P34, sensors, p.frequency_hz)
+                .expect("enough samples")
+        };
+        assert!((at(&ripple, &model) - p.amplitude_sigma).abs() < 1e-9);
+        let rippling_model: Vec<Values> = (0..n)
+            .map(|k| {
+                row(level(k) + amp * sigma(k) * (2.0 * std::f64::consts::PI * 0.2 * k as f64).sin())
+            })
+            .collect();
+        assert!(
+            at(&ripple, &rippling_model) < 0.2,
+            "{}",
+            at(&ripple, &rippling_model)
+        );
+        let faint = with(&|k| 0.2 * sigma(k) * (2.0 * std::f64::consts::PI * 0.2 * k as f64).sin());
+        assert_eq!(find(&t, &faint, &model, &[Signal::P34], sensors), vec![]);
+        let a = at(&faint, &model);
+        assert!((0.05..0.45).contains(&a), "{a}");
     }
 }

@@ -274,7 +274,12 @@ pub(crate) fn analyse(
     for c in &mut fitted.candidates {
         c.model_error = model_error_of(engine, rec, &c.effect);
     }
-    let verdict = run.verdict(&fitted.candidates, &aliases, fitted.optimiser_spread);
+    let verdict = run.verdict(
+        &fitted.candidates,
+        &aliases,
+        fitted.optimiser_spread,
+        &fitted.models,
+    );
     let worst_signal = run.worst_signal(&verdict, &fitted.models);
     let base = run.base;
     Ok(GapReport {
