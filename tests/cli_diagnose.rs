@@ -886,3 +886,78 @@ fn a_start_up_without_phase_labels_is_found_and_diagnosed() {
     refused(&path, "holds 1 start-up(s)");
     refused(&csv, "carries its phases");
 }
+
+/// `--phases` restricts what Method B compares: on the twin the steady phase alone, and the
+/// loading with it, read the fouling the whole start-up reads, from fewer residuals, and the
+/// result says what was left out; a phase that is not a start-up's is refused by name.
+#[test]
+fn method_b_compares_only_the_phases_asked_for() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let csv = dir.path().join("startup.csv");
+    let truth = HealthParams {
+        D_GC: 2.0,
+        D_EC: 1.0,
+        ..HealthParams::HEALTHY
+    };
+    write_startup(&csv, &truth);
+    let run = |extra: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_gtwatch"))
+            .args([
+                "diagnose",
+                "--method",
+                "transient",
+                "--threads",
+                "2",
+                "--json",
+            ])
+            .arg("--input")
+            .arg(&csv)
+            .args(extra)
+            .output()
+            .expect("runs")
+    };
+    let result = |extra: &[&str]| -> serde_json::Value {
+        let out = run(extra);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+        v["methods"]["transient"].clone()
+    };
+    let all = result(&[]);
+    let late = result(&["--phases", "loading,steady"]);
+    let steady = result(&["--phases", "steady"]);
+    let n = |r: &serde_json::Value| r["residuals"].as_u64().expect("residuals");
+    assert!(
+        n(&steady) < n(&late) && n(&late) < n(&all),
+        "{} {} {}",
+        n(&steady),
+        n(&late),
+        n(&all)
+    );
+    let notes = |r: &serde_json::Value| r["left_out"].to_string();
+    assert!(
+        notes(&steady).contains("only the samples of the phase(s) steady compared"),
+        "{}",
+        notes(&steady)
+    );
+    assert!(
+        notes(&late).contains("phase(s) loading, steady"),
+        "{}",
+        notes(&late)
+    );
+    assert!(!notes(&all).contains("--phases"), "{}", notes(&all));
+    for r in [&all, &late, &steady] {
+        let gc = r["health"]["D_GC"].as_f64().expect("D_GC");
+        assert!((gc - 2.0).abs() < 0.5, "D_GC {gc:.2} against 2.0");
+    }
+    let out = run(&["--phases", "steady,cruise"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--phases: `cruise` is not a start-up phase"),
+        "{err}"
+    );
+}

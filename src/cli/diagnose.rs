@@ -9,6 +9,7 @@ use crate::diagnosis::transient::diagnose_transient;
 use crate::diagnosis::{DiagnosisConfig, Method, MethodResult, Optimiser};
 use crate::engine::measured_drive::DriveMode;
 use crate::health::HEALTH_NAMES;
+use crate::signals::Phase;
 use anyhow::bail;
 use clap::{Args, ValueEnum};
 use serde_json::{json, Value};
@@ -87,6 +88,34 @@ pub struct FitArgs {
     /// well-instrumented unit, where it takes no prior).
     #[arg(long = "transient-health-prior", value_name = "PTS")]
     pub transient_health_prior: Option<f64>,
+    /// Method B compares only the samples of these start-up phases, comma-separated (crank,
+    /// purge, light_off, acceleration, idle, synchronisation, loading, steady; default all):
+    /// the model still runs through the whole start-up. Reading the same start-up on its
+    /// `steady` and on its `loading` part says whether the transient carries a model error the
+    /// health absorbs.
+    #[arg(long, value_name = "PHASE,…", value_delimiter = ',')]
+    pub phases: Vec<String>,
+}
+
+/// The start-up phases `names` name, or why not.
+fn parse_phases(names: &[String]) -> anyhow::Result<Vec<Phase>> {
+    names
+        .iter()
+        .map(|n| {
+            let n = n.trim();
+            Phase::STARTUP
+                .iter()
+                .copied()
+                .find(|p| p.name() == n)
+                .ok_or_else(|| {
+                    let known: Vec<&str> = Phase::STARTUP.iter().map(|p| p.name()).collect();
+                    anyhow::anyhow!(
+                        "--phases: `{n}` is not a start-up phase (one of {})",
+                        known.join(", ")
+                    )
+                })
+        })
+        .collect()
 }
 
 /// Parses `KEY=LOW:HIGH` into a named fit parameter.
@@ -139,6 +168,9 @@ impl FitArgs {
         }
         if let Some(p) = self.transient_health_prior {
             cfg.transient_health_prior_pts = p;
+        }
+        if !self.phases.is_empty() {
+            cfg.window.phases = parse_phases(&self.phases)?;
         }
         for p in &self.fit_params {
             let param = parse_fit_param(p)?;

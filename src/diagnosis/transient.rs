@@ -492,6 +492,14 @@ pub fn diagnose_transient(
         Vec::new(),
     );
     let within = within_calibration(engine, segment);
+    if cfg.window.phases != Phase::STARTUP {
+        let names: Vec<&str> = cfg.window.phases.iter().map(|p| p.name()).collect();
+        r.left_out.push(format!(
+            "only the samples of the phase(s) {} compared (`--phases`); the model still runs \
+             through the whole start-up",
+            names.join(", ")
+        ));
+    }
     r.left_out
         .extend(left_out_note(engine, segment, cfg, &within));
     // The residual map at the result: one more model run.
