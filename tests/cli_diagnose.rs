@@ -949,6 +949,16 @@ fn method_b_compares_only_the_phases_asked_for() {
         notes(&late)
     );
     assert!(!notes(&all).contains("--phases"), "{}", notes(&all));
+    // Without --phases the run to load and the steady end are read apart too, and on the
+    // model's own twin they agree; with --phases the user's choice stands alone.
+    let split = &all["phase_split"];
+    assert_eq!(split["differ"], serde_json::json!([]), "{split:#}");
+    for part in ["to_load", "steady"] {
+        let gc = split[part]["health"]["D_GC"].as_f64().expect("D_GC");
+        assert!((gc - 2.0).abs() < 0.5, "{part}: D_GC {gc:.2}");
+    }
+    assert_eq!(split["steady"]["phases"], serde_json::json!(["steady"]));
+    assert!(steady["phase_split"].is_null());
     for r in [&all, &late, &steady] {
         let gc = r["health"]["D_GC"].as_f64().expect("D_GC");
         assert!((gc - 2.0).abs() < 0.5, "D_GC {gc:.2} against 2.0");

@@ -4,6 +4,7 @@
 
 use crate::diagnosis::csv_input::parse_mapping;
 use crate::diagnosis::params::FitParam;
+use crate::diagnosis::phase_split::{phase_split, PhaseSplit, MIN_DIFFERENCE_PTS};
 use crate::diagnosis::steady::diagnose_steady;
 use crate::diagnosis::transient::diagnose_transient;
 use crate::diagnosis::{DiagnosisConfig, Method, MethodResult, Optimiser};
@@ -274,6 +275,38 @@ pub(super) fn result_json(r: &MethodResult) -> Value {
     })
 }
 
+/// The phase split's lines under Method B's result.
+fn print_phase_split(split: &PhaseSplit) {
+    let line = |p: &crate::diagnosis::phase_split::PartRead| {
+        HEALTH_NAMES
+            .iter()
+            .map(|n| {
+                format!(
+                    "{n} {:+.2}±{:.2}",
+                    p.health.get(*n).copied().unwrap_or(f64::NAN),
+                    p.sigma.get(*n).copied().unwrap_or(f64::NAN)
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("  ")
+    };
+    println!(
+        "  run to load alone ({}): {}",
+        split.to_load.fit_quality,
+        line(&split.to_load)
+    );
+    println!(
+        "  steady end alone ({}):  {}",
+        split.steady.fit_quality,
+        line(&split.steady)
+    );
+    if split.differ.is_empty() {
+        println!("  the two parts agree within {MIN_DIFFERENCE_PTS} points or 3σ");
+    } else {
+        println!("  {}", split.statement());
+    }
+}
+
 pub(crate) fn print_text(m: Method, r: &MethodResult) {
     print_text_of(m.name(), "this start-up", m, r);
 }
@@ -429,7 +462,18 @@ pub(super) fn run(a: &DiagnoseArgs) -> anyhow::Result<ExitCode> {
                 if !a.json {
                     print_text(*m, &r);
                 }
-                out.insert(m.name().into(), result_json(&r));
+                let mut j = result_json(&r);
+                // The run to load and the steady end read apart, unless the user chose phases.
+                if *m == Method::Transient && a.fit.phases.is_empty() {
+                    let split = phase_split(&engine, &seg, &cfg);
+                    if let Some(split) = &split {
+                        if !a.json {
+                            print_phase_split(split);
+                        }
+                    }
+                    j["phase_split"] = json!(split);
+                }
+                out.insert(m.name().into(), j);
             }
             Err(e) => {
                 failed += 1;

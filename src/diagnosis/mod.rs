@@ -49,6 +49,7 @@ pub mod identifiability;
 pub(crate) mod objective;
 pub(crate) mod params;
 pub(crate) mod periodic;
+pub mod phase_split;
 pub mod prior;
 pub(crate) mod residual_table;
 pub(crate) mod separability;
