@@ -127,12 +127,22 @@ pub(super) fn run_segment(db: &Path, config: Option<&Path>, segment: i64) -> any
     let rec = read_segment(&store, segment)?;
     drop(store);
     let assessment = assess_segment(&ctx, &rec, &Cancel::new());
+    // Method B's run to load and steady end read apart, as `diagnose --input` reports them
+    // (not stored: the daemon does not run it).
+    let split = rec.recording.as_ref().ok().and_then(|r| {
+        crate::diagnosis::phase_split::phase_split(
+            &ctx.engine,
+            r,
+            &ctx.settings.fit_config(&Cancel::new()),
+        )
+    });
     let doc = serde_json::json!({
         "segment_id": segment,
         "config_hash": ctx.config_hash,
         "gtwatch_version": env!("CARGO_PKG_VERSION"),
         "results": new_diagnoses(&ctx, segment, &assessment),
         "undiagnosable": failures(&assessment),
+        "phase_split": split,
     });
     println!("{}", serde_json::to_string_pretty(&doc)?);
     Ok(())
