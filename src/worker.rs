@@ -45,11 +45,6 @@ fn is_default_bounds(b: &[f64; 2]) -> bool {
     *b == [HEALTH_BOUNDS.0, HEALTH_BOUNDS.1]
 }
 
-/// The same for a prior's σ: none (0) is left out.
-fn is_no_prior(p: &f64) -> bool {
-    *p == 0.0
-}
-
 /// `[diagnosis]` section: the worker's settings.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
@@ -85,10 +80,10 @@ pub struct DiagnosisSettings {
     pub health_bounds: [f64; 2],
     /// 1σ of a prior on each fitted health parameter about new, points, in Method A
     /// (`diagnosis::prior`); 0: least squares on the data alone. Default 0.
-    #[serde(skip_serializing_if = "is_no_prior")]
+    #[serde(skip_serializing_if = "crate::diagnosis::config::is_no_prior")]
     pub health_prior_pts: f64,
     /// The same for Method B. Default 1.
-    #[serde(skip_serializing_if = "is_no_prior")]
+    #[serde(skip_serializing_if = "crate::diagnosis::config::is_no_prior")]
     pub transient_health_prior_pts: f64,
     /// `gtwatch run` analyses the model–plant gap (`gtwatch gap`) of every start-up whose
     /// Method B fit is not `good`, in the background once the diagnosis queue is empty, and

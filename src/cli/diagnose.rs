@@ -104,10 +104,9 @@ fn parse_phases(names: &[String]) -> anyhow::Result<Vec<Phase>> {
         .iter()
         .map(|n| {
             let n = n.trim();
-            Phase::STARTUP
-                .iter()
-                .copied()
-                .find(|p| p.name() == n)
+            n.parse::<Phase>()
+                .ok()
+                .filter(|p| Phase::STARTUP.contains(p))
                 .ok_or_else(|| {
                     let known: Vec<&str> = Phase::STARTUP.iter().map(|p| p.name()).collect();
                     anyhow::anyhow!(

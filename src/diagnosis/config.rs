@@ -271,7 +271,7 @@ pub struct DiagnosisConfig {
 }
 
 /// A prior's σ of 0 (none) is left out of the serialised settings, as before the key existed.
-fn is_no_prior(p: &f64) -> bool {
+pub(crate) fn is_no_prior(p: &f64) -> bool {
     *p == 0.0
 }
 
