@@ -239,27 +239,25 @@ fn crlf_to_lf(raw: Vec<u8>) -> Vec<u8> {
 }
 
 /// The header index of a canonical column: the file header `mapping` names for it, else the
-/// canonical name itself or (unmapped only) its short name, case-insensitive.
+/// canonical name itself or its short name, case-insensitive — never a header the mapping
+/// gives to another column (a plant's `P3_KPA` mapped as the compressor discharge, `p2_kpa`,
+/// is not also gtwatch's combustor-exit `p3_kpa`).
 pub(crate) fn find_column(
     headers: &csv::StringRecord,
     mapping: &HashMap<String, String>,
     canonical: &str,
     short: Option<&str>,
 ) -> Option<usize> {
-    let want = mapping
-        .get(canonical)
-        .map(String::as_str)
-        .unwrap_or(canonical);
-    headers
-        .iter()
-        .position(|h| h.eq_ignore_ascii_case(want))
-        .or_else(|| {
-            if mapping.contains_key(canonical) {
-                None
-            } else {
-                short.and_then(|s| headers.iter().position(|h| h.eq_ignore_ascii_case(s)))
-            }
-        })
+    if let Some(want) = mapping.get(canonical) {
+        return headers.iter().position(|h| h.eq_ignore_ascii_case(want));
+    }
+    let taken = |h: &str| mapping.values().any(|v| h.eq_ignore_ascii_case(v));
+    let named = |name: &str| {
+        headers
+            .iter()
+            .position(|h| h.eq_ignore_ascii_case(name) && !taken(h))
+    };
+    named(canonical).or_else(|| short.and_then(named))
 }
 
 /// Reads a recording. `mapping` maps canonical names to the file's headers (empty = the
@@ -559,6 +557,20 @@ mod tests {
         // Unstated, the same file is judged as it stands: a GG at 125 "rpm" is refused.
         let e = read_recording(csv.as_bytes(), &map).expect_err("unstated");
         assert!(e.to_string().contains("column 'NGG'"), "{e}");
+    }
+
+    /// A plant's tag that happens to be one of gtwatch's own names, mapped to another signal,
+    /// is that signal only: an aero-derivative's `P3` is its compressor discharge (gtwatch's
+    /// `p2_kpa`), not also the combustor exit's `p3_kpa`, which would compare it twice.
+    #[test]
+    fn a_mapped_header_is_not_also_taken_by_its_own_name() {
+        let csv = "Time,State,P3_KPA,T3\n0,standstill,101.3,288\n1,crank,102.0,289\n";
+        let map = parse_mapping("time_s=Time,phase=State,p2_kpa=P3_KPA").expect("mapping");
+        let seg = read_recording(csv.as_bytes(), &map).expect("reads");
+        assert_eq!(seg.value(1, Signal::P2), Some(102.0));
+        assert_eq!(seg.value(1, Signal::P3), None);
+        // Unmapped, a gtwatch name is still read as that signal.
+        assert_eq!(seg.value(1, Signal::T3), Some(289.0));
     }
 
     #[test]
