@@ -11,7 +11,7 @@
 //! has to undo that fall-off (+3.6 % at its lowest knot) against its smoothness penalty and
 //! beside the flow curve, and each interior load left out was predicted against the
 //! simulator's own values up to 1.60 % off (power at 38.75 %). Held, the curve stays within
-//! ±1 % and every interior load within 0.85 % (`tests/foreign_simulator.rs`).
+//! ±1 % and every interior load within 0.85 % (`tests/foreign_simulator/indep30.rs`).
 //! The data decide, not the unit's make: the map's shape is kept unless the held fit fits
 //! within noise, fails no check the first passes (similarity, the compressor's operating
 //! line, a stated model error along the line) and predicts the interior points better, each
@@ -101,7 +101,18 @@ pub(super) fn tried(
          alone shaping it (efficiency_shape = \"curve\"): {}; {prediction}: {}",
         100.0 * bend,
         summary(&other.0),
-        if keep { "kept" } else { "not kept" }
+        if keep {
+            "kept".to_string()
+        } else if !better {
+            "not kept".to_string()
+        } else if !within_noise(other.0.rms_after) {
+            format!(
+                "not kept: it predicts better but does not fit the baseline within noise ({:.2} σ)",
+                other.0.rms_after
+            )
+        } else {
+            "not kept: it predicts better but fails a check the map's shape passes".to_string()
+        }
     );
     let mut runs = kept.0.model_runs + other.0.model_runs + ra + rb;
     let (mut report, mut adapted) = if keep { other } else { kept };
