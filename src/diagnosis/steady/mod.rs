@@ -209,7 +209,7 @@ pub enum InputNoise {
     /// ([`crate::optim::uncertainty_with_inputs`]). A snapshot's fuel flow and T1 are
     /// instruments like the compared ones (0.5 K at the compressor face is 0.09 % of corrected
     /// speed, more than a tachometer's σ): on the independent simulator's unit
-    /// (`tests/foreign_simulator.rs`, 24 draws of its noise on one level of 9 loads) the
+    /// (`tests/foreign_simulator/`, 24 draws of its noise on one level of 9 loads) the
     /// inputs' noise scattered D_GC's read by 0.21 points (fuel 0.15, T1 0.11), the compared
     /// values' by 0.07, where the fit stated 0.14 for all of it. The fit's verdict still takes
     /// the inputs as exact: judged under their noise, a foreign unit's level read 0.74 points
