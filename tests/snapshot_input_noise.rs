@@ -146,11 +146,65 @@ fn noisy_inputs_are_carried_into_the_fit_and_its_sigma() {
             z2_given[j].sqrt()
         );
     }
-    assert!(good >= 3, "{good} of 6 fits good");
+    // Judged against what spot readings' own noise leaves the exact model (χ², the 99 %
+    // level: `fit_quality::spot_reading_good_level`); against `good` up to 0.9, set for
+    // start-ups and averaged rows, 3 of these 6 were `suspect` (1.17, 1.04, 0.99).
+    assert_eq!(good, 6, "{good} of 6 fits good");
     assert!(
         poor_when_exact >= 1,
         "the defect this guards against shows without the option"
     );
+}
+
+/// What the spot readings' tolerance must still see: the same rows with the compressor
+/// discharge pressure scattered by three of its σ more than its stated noise (0.75 % high and
+/// low on alternate rows) are not `good` under `--noisy-inputs`, on any of the draws. (The
+/// same reading 1 % high on every row is not seen in the residual at all, whatever the level:
+/// the health absorbs it, 1.17 as without it on the first draw; `gtwatch gap`'s alias check
+/// is what names such a bias.)
+#[test]
+fn a_transmitter_noisier_than_stated_is_not_good_under_the_inputs_noise() {
+    let engine = Engine::reference().expect("engine");
+    let cfg = DiagnosisConfig {
+        max_model_runs: 1500,
+        threads: Some(2),
+        snapshot_input_noise: true,
+        ..DiagnosisConfig::default()
+    };
+    for seed in 1..=3u64 {
+        let text = csv(&engine, seed);
+        let mut lines = text.lines();
+        let header = lines.next().expect("header");
+        let col = header
+            .split(',')
+            .position(|c| c == Signal::P2.column())
+            .expect("P2 column");
+        let mut biased = format!("{header}\n");
+        for (k, line) in lines.enumerate() {
+            let factor = if k % 2 == 0 { 1.0075 } else { 0.9925 };
+            let cells: Vec<String> = line
+                .split(',')
+                .enumerate()
+                .map(|(i, c)| {
+                    if i == col {
+                        (c.parse::<f64>().expect("P2") * factor).to_string()
+                    } else {
+                        c.to_string()
+                    }
+                })
+                .collect();
+            biased.push_str(&cells.join(","));
+            biased.push('\n');
+        }
+        let rows = read_snapshots(biased.as_bytes(), &HashMap::new(), Some("test")).expect("rows");
+        let report = diagnose_snapshots(&engine, &rows, &cfg).expect("diagnosis");
+        let q = &report.groups[0].result.fit_quality;
+        eprintln!(
+            "seed {seed}, P2 ±0.75 %: {:?} {:.2} (good up to {:.2})",
+            q.verdict, q.normalised_residual, q.thresholds.good_level
+        );
+        assert_ne!(q.verdict, Verdict::Good, "seed {seed}: {q:?}");
+    }
 }
 
 /// One diagnosis of the seed's rows: its read, σ and verdict, after checking it was made in

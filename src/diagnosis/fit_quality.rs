@@ -80,6 +80,29 @@ impl Default for Thresholds {
     }
 }
 
+/// Probability with which a fit of the exact model to spot readings must be judged `good`
+/// ([`spot_reading_good_level`]).
+pub const SPOT_READING_GOOD_PROBABILITY: f64 = 0.99;
+/// The standard normal quantile of [`SPOT_READING_GOOD_PROBABILITY`].
+const SPOT_READING_GOOD_Z: f64 = 2.326_348;
+
+/// The normalised residual up to which a fit of `params` parameters to `residuals` values of
+/// spot readings (each value one reading, its inputs' noise in its covariance: `--noisy-inputs`)
+/// is `good`: never below `base`, and at least the level the exact model stays under with
+/// probability [`SPOT_READING_GOOD_PROBABILITY`]. Why: on such rows the residual sum of the
+/// exact model is χ² with `residuals − params` degrees of freedom, its level (that sum per
+/// value) about 0.92 for nine rows of eight values and six parameters, with a spread of 0.16 —
+/// against `good` up to 0.9, set where the exact model reads 0.7 (a start-up, whose σ allows
+/// for timing, or averaged rows); the model's own twin on such rows was `suspect` on 3 of 6
+/// draws of its noise (1.17, 1.04, 0.99). Wilson–Hilferty's quantile (within 1 % from 10
+/// degrees of freedom up).
+pub fn spot_reading_good_level(base: f64, residuals: usize, params: usize) -> f64 {
+    let k = residuals.saturating_sub(params).max(1) as f64;
+    let a = 2.0 / (9.0 * k);
+    let quantile = k * (1.0 - a + SPOT_READING_GOOD_Z * a.sqrt()).powi(3);
+    base.max(quantile / residuals.max(1) as f64)
+}
+
 /// One cell of the residual map.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ResidualCell {
@@ -607,6 +630,21 @@ fn character(c: &ResidualCell) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// χ²'s 99 % quantile per value (tables: 66 degrees of freedom 95.63, 10 23.21, 200 249.4)
+    /// and never below the base level.
+    #[test]
+    fn spot_readings_are_good_up_to_the_exact_models_99_percent_level() {
+        for (n, p, table) in [(72, 6, 95.63), (16, 6, 23.21), (206, 6, 249.4)] {
+            let level = spot_reading_good_level(0.0, n, p);
+            let want = table / n as f64;
+            assert!(
+                (level / want - 1.0).abs() < 0.01,
+                "{n}, {p}: {level} vs {want}"
+            );
+        }
+        assert_eq!(spot_reading_good_level(5.0, 72, 6), 5.0);
+    }
 
     /// A stated model error of at least 2 % on a compared signal makes a `good` fit `suspect`
     /// and says why; on a signal not compared, or below the threshold, nothing changes; a fit

@@ -21,14 +21,17 @@
 //! under the covariance it gives each row's values. Pure orchestration of Method A's steady
 //! problem plus a CSV reader over any `io::Read` (`read`); opens no files, never prints.
 
-use super::fit_quality::Verdict;
+use super::fit_quality::{spot_reading_good_level, Verdict};
 use super::residual_table::{Cell, ResidualTable};
 use super::steady::{
     below_adaptation_note, beyond_calibration, health_error_note, input_noise_note,
     input_noise_sigma_note, model_error_note, relative_gg_speeds, with_input_noise,
     with_model_error, InputNoise, InputSigma, SteadyData, SteadyProblem, SteadyWindow,
 };
-use super::{fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, Method, MethodResult};
+use super::{
+    fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, DiagnosisProblem, Method,
+    MethodResult,
+};
 use crate::engine::sensors::noise_sigma;
 use crate::engine::steady::{solve, Demand, SteadyInputs};
 use crate::engine::Engine;
@@ -337,7 +340,20 @@ pub fn diagnose_snapshots(
                 .map(|p| (p.window.t_start_s, p.window.t_end_s))
                 .collect();
             let table = residual_table_of(&problem, &out.x, rows);
-            let mut result = result_of(Method::Steady, &problem, &out, &cfg, signals, n_res, win);
+            // Spot readings are judged against what their own noise leaves the exact model
+            // (`fit_quality::spot_reading_good_level`), as is the level under the inputs'
+            // noise of rows fitted as given.
+            let spot_good = spot_reading_good_level(
+                cfg.quality.good_level,
+                n_res,
+                problem.params().params().len(),
+            );
+            let mut judged = cfg.clone();
+            if cfg.snapshot_input_noise {
+                judged.quality.good_level = spot_good;
+            }
+            let mut result =
+                result_of(Method::Steady, &problem, &out, &judged, signals, n_res, win);
             result.fit_quality = result.fit_quality.with_model_error(
                 engine.cfg(),
                 &result.signals,
@@ -350,14 +366,14 @@ pub fn diagnose_snapshots(
                 && q.normalised_residual > q.thresholds.good_level)
                 .then(|| problem.level_under_input_noise(&out.x))
                 .flatten();
-            Ok((result, table, under_inputs))
+            Ok((result, table, under_inputs, spot_good))
         });
         match outcome {
-            Ok((mut result, residual_table, level_under_input_noise)) => {
+            Ok((mut result, residual_table, level_under_input_noise, spot_good)) => {
                 result.wall_s = start.elapsed().as_secs_f64();
                 result.fit_quality.summary = snapshot_words(&result.fit_quality.summary);
                 if let Some(q) = level_under_input_noise {
-                    if q <= result.fit_quality.thresholds.good_level {
+                    if q <= spot_good {
                         result.fit_quality.summary.push_str(&noisy_inputs_hint(q));
                     }
                 }
