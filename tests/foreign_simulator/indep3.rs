@@ -23,8 +23,10 @@ use super::*;
 /// --nocapture`, 50 s with the test below): the baseline 50.4 → 1.30 σ, `suspect` taken as
 /// exact; the grid read with every parameter within 1.10 points (D_GC … D_EP 1.02 / 1.10 / 0.97
 /// / 0.76 / 0.88 / 0.87), Spearman ρ 0.946 / 0.880 / 0.897 / 0.959 / 0.854 / 0.776 (ceilings
-/// 0.954 / 0.968 / 0.954 / 0.968 / 0.886 / 0.886), every error within 2.49 of its σ, 6 of 20
-/// fits `good` (the rest `suspect`: normalised residual 1.0–1.8, the baseline's own misfit).
+/// 0.954 / 0.968 / 0.954 / 0.968 / 0.886 / 0.886), every error within 2.49 of its σ, 10 of 20
+/// fits `good` (6 before spot readings were judged against their own noise); the rest
+/// `suspect`: four on their residual (1.40–1.83 against `good` up to 1.34–1.36), four read
+/// better than new as the truth's random mixes are, two on a −3 search limit.
 /// Compressor fouling is read a quarter low at 2 and 4 points (1.34 and 2.99), right at 3 and 5.
 #[test]
 fn a_marine_unit_on_a_controllable_pitch_propeller_of_a_third_simulator() {
@@ -49,7 +51,7 @@ fn a_marine_unit_on_a_controllable_pitch_propeller_of_a_third_simulator() {
         (1.0, 0.7),
     ]);
     assert!(read.worst_z <= 3.0, "worst |error|/σ {:.2}", read.worst_z);
-    assert!(read.good >= 4, "{} of 20 fits good", read.good);
+    assert!(read.good >= 8, "{} of 20 fits good", read.good);
 }
 
 /// The leave-one-load-out floors on the third simulator's unit, judged against its own
