@@ -86,15 +86,20 @@ fn csv(engine: &Engine, seed: u64) -> String {
     text
 }
 
-#[test]
-fn noisy_inputs_are_carried_into_the_fit_and_its_sigma() {
-    let engine = Engine::reference().expect("engine");
-    let cfg = DiagnosisConfig {
+/// The diagnosis settings of these tests: rows fitted as spot readings (`--noisy-inputs`).
+fn spot_readings() -> DiagnosisConfig {
+    DiagnosisConfig {
         max_model_runs: 1500,
         threads: Some(2),
         snapshot_input_noise: true,
         ..DiagnosisConfig::default()
-    };
+    }
+}
+
+#[test]
+fn noisy_inputs_are_carried_into_the_fit_and_its_sigma() {
+    let engine = Engine::reference().expect("engine");
+    let cfg = spot_readings();
     let exact = DiagnosisConfig {
         snapshot_input_noise: false,
         ..cfg.clone()
@@ -165,12 +170,7 @@ fn noisy_inputs_are_carried_into_the_fit_and_its_sigma() {
 #[test]
 fn a_transmitter_noisier_than_stated_is_not_good_under_the_inputs_noise() {
     let engine = Engine::reference().expect("engine");
-    let cfg = DiagnosisConfig {
-        max_model_runs: 1500,
-        threads: Some(2),
-        snapshot_input_noise: true,
-        ..DiagnosisConfig::default()
-    };
+    let cfg = spot_readings();
     for seed in 1..=3u64 {
         let text = csv(&engine, seed);
         let mut lines = text.lines();

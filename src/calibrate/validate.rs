@@ -20,10 +20,10 @@
 //! (`noise_pct`: the instrument's σ of the compared value and the σ of every input the solve is
 //! given — fuel, T1, n2, P1 for the ambient — carried through the calibrated model at the row).
 //! Why: a prediction is compared with a reading, not with the unit's true value; on the spot
-//! readings of the independent simulator's unit (`tests/foreign_simulator/indep30.rs`, its file stating
-//! a 0.5 % fuel meter) the readings' noise alone gives 0.30 % mean over the signals, as much as
-//! the model's own miss, and the user must see which of the two a figure is. Pure: no I/O, no
-//! printing.
+//! readings of the independent simulator's unit (`tests/foreign_simulator/indep30.rs`, its file
+//! stating a 0.5 % fuel meter) the readings' noise alone gives 0.30 % mean over the signals, as
+//! much as the model's own miss, and the user must see which of the two a figure is. Pure: no
+//! I/O, no printing.
 
 use super::adapt::AdaptSettings;
 use super::candidates::Candidate;

@@ -39,8 +39,8 @@ pub struct OperatingLine {
     /// can also slide the line the other way, towards the map's choke end, where the speed
     /// lines are steep and, past the last one, extrapolated; a healthy unit does not run at
     /// several times its margin elsewhere (on the independent simulator's unit of
-    /// `tests/foreign_simulator/indep30.rs` the grown fit runs its lowest load at 98 %, 27 % before the
-    /// adaptation, where the unit has 27 %). Reported for the user to weigh, not acted on: the
+    /// `tests/foreign_simulator/indep30.rs` the grown fit runs its lowest load at 98 %, 27 %
+    /// before the adaptation, where the unit has 27 %). Reported for the user to weigh, not acted on: the
     /// same unit's grid read no better (each parameter's worst miss within 0.26 points of this
     /// fit's, three worse, one better) on a fit without its 38.75 % load whose line stayed at
     /// 16–24 %.

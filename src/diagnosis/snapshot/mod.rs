@@ -18,7 +18,8 @@
 //! carry one reading's noise as the compared values do: by default the fit and its verdict take
 //! them as given and their noise is added to the read's σ ([`InputNoise::SigmaOnly`]); with
 //! [`DiagnosisConfig::snapshot_input_noise`] (`--noisy-inputs`: spot readings) the fit runs
-//! under the covariance it gives each row's values. Pure orchestration of Method A's steady
+//! under the covariance it gives each row's values, and judged against what that noise leaves
+//! the exact model (`fit_quality::spot_reading_good_level`). Pure orchestration of Method A's steady
 //! problem plus a CSV reader over any `io::Read` (`read`); opens no files, never prints.
 
 use super::fit_quality::{spot_reading_good_level, Verdict};
