@@ -51,7 +51,7 @@ fn problems_in_every_section_are_listed() {
 tests/data/config_bad_sections.toml: 6 problem(s)
   plant.name: must not be empty
   storage.batch_size: must be at least 1
-  detector.light_off_speed_rpm: must be below purge_speed_rpm
+  detector.light_off_speed_rpm: must not be above purge_speed_rpm (2500 > 2300)
   acquisition.poll_period_ms: 0 ms is outside 1 ms … 1 h
   acquisition.backoff_max_ms: cap 100 ms is below backoff_initial_ms 1000 ms
   daemon.detect_interval_ms: must be at least 100 ms

@@ -192,10 +192,14 @@ impl DetectorConfig {
                 ));
             }
         }
-        if self.light_off_speed_rpm >= self.purge_speed_rpm {
+        // Equal where the unit ignites at its purge speed (the engine file allows it too).
+        if self.light_off_speed_rpm > self.purge_speed_rpm {
             p.push(ConfigProblem::new(
                 "detector.light_off_speed_rpm",
-                "must be below purge_speed_rpm",
+                format!(
+                    "must not be above purge_speed_rpm ({} > {})",
+                    self.light_off_speed_rpm, self.purge_speed_rpm
+                ),
             ));
         }
         if self.purge_speed_rpm >= self.idle_speed_rpm {

