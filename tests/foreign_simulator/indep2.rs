@@ -113,49 +113,21 @@ fn start_ups_of_the_second_simulators_unit_replay_detect_and_diagnose() {
     calibrate(&INDEP2, &INDEP2.user(), &unit);
     let cfg_path = indep2_replay_config(dir.path(), &unit, 2);
     let log = INDEP2.data("startups/operations_log.csv");
-    crate::common::gtwatch_ok(&["replay", log.to_str().expect("utf-8")], &cfg_path);
-    let segs: Value = serde_json::from_slice(&crate::common::gtwatch_ok(
-        &["segments", "--json"],
+    let b = replayed_start_ups(
         &cfg_path,
-    ))
-    .expect("json");
-    let segs = segs.as_array().expect("segments");
-    assert_eq!(segs.len(), 5, "{segs:#?}");
-    for s in segs {
-        assert_eq!(s["outcome"], "completed", "{s:#}");
-        let phases: Vec<&str> = s["phases"]
-            .as_array()
-            .expect("phases")
-            .iter()
-            .map(|p| p["phase"].as_str().expect("name"))
-            .collect();
-        assert_eq!(
-            phases,
-            [
-                "crank",
-                "purge",
-                "light_off",
-                "acceleration",
-                "idle",
-                "synchronisation",
-                "loading",
-                "steady"
-            ],
-            "{s:#}"
-        );
-    }
-    let history: Value = serde_json::from_slice(&crate::common::gtwatch_ok(
-        &["history", "--method", "B", "--json"],
-        &cfg_path,
-    ))
-    .expect("json");
-    let b: BTreeMap<i64, &Value> = history
-        .as_array()
-        .expect("rows")
-        .iter()
-        .map(|r| (r["segment_id"].as_i64().expect("id"), &r["health"]))
-        .collect();
-    assert_eq!(b.len(), 5, "one Method B result per start: {history:#}");
+        &log,
+        5,
+        &[
+            "crank",
+            "purge",
+            "light_off",
+            "acceleration",
+            "idle",
+            "synchronisation",
+            "loading",
+            "steady",
+        ],
+    );
     let d = |seg: i64, p: &str| b[&seg][p].as_f64().expect("estimate");
     // Starts 1 and 2 are healthy (base load, 70 %); 3 and 4 fouled on like loads; 5 eroded at
     // 70 % (operations_truth.csv).
@@ -204,28 +176,12 @@ fn start_ups_of_the_second_simulators_unit_replay_detect_and_diagnose() {
 /// units mapped, time column `timestamp`) into `dir/u.db` with engine file `unit` and
 /// `threads` for the diagnosis, written as `dir/gtwatch.toml`; the shipped file otherwise.
 pub(crate) fn indep2_replay_config(dir: &Path, unit: &Path, threads: usize) -> PathBuf {
-    let columns = "[replay.columns]\nT1_F = \"t1_k\"\nP1_PSIA = \"p1_kpa\"\nNGG_RPM = \"n1_rpm\"\n\
+    let columns = "T1_F = \"t1_k\"\nP1_PSIA = \"p1_kpa\"\nNGG_RPM = \"n1_rpm\"\n\
                    NPT_RPM = \"n2_rpm\"\nFUEL_LBH = \"fuel_kg_s\"\nCDP_PSIA = \"p2_kpa\"\n\
                    CDT_F = \"t2_k\"\nT48_F = \"t34_k\"\nEGT_F = \"t4_k\"\nMW = \"power_mw\"";
-    let units = "[replay.units]\nt1_k = \"degF\"\np1_kpa = \"psia\"\nfuel_kg_s = \"lb/h\"\n\
+    let units = "t1_k = \"degF\"\np1_kpa = \"psia\"\nfuel_kg_s = \"lb/h\"\n\
                  p2_kpa = \"psia\"\nt2_k = \"degF\"\nt34_k = \"degF\"\nt4_k = \"degF\"";
-    let cfg = include_str!("../../config/gtwatch.toml")
-        .replace(
-            "path = \"/var/lib/gtwatch/gtwatch.db\"",
-            &format!("path = {:?}", dir.join("u.db").display().to_string()),
-        )
-        .replace(
-            "# engine_model = \"engine.toml\"",
-            &format!("engine_model = {:?}", unit.display().to_string()),
-        )
-        .replace("time_column = \"time\"", "time_column = \"timestamp\"")
-        .replace("[replay.columns]\n# \"GG_SPEED\" = \"n1\"", columns)
-        .replace("[replay.units]\n# t2_k = \"degC\"", units)
-        .replace("threads = 1", &format!("threads = {threads}"));
-    assert!(cfg.contains("NGG_RPM = ") && cfg.contains("t4_k = \"degF\""));
-    let cfg_path = dir.join("gtwatch.toml");
-    std::fs::write(&cfg_path, cfg).expect("config");
-    cfg_path
+    replay_config(dir, unit, "timestamp", columns, units, threads, &[])
 }
 
 /// The second simulator's operations log's first two start-ups (healthy), cut into

@@ -71,41 +71,21 @@ fn left_out_loads_of_the_third_simulators_unit() {
 /// off (a test of detection and diagnosis), and the detector's steady hold `steady_hold_s`
 /// where given; written as `dir/gtwatch.toml`.
 fn indep3_replay_config(dir: &Path, unit: &Path, steady_hold_s: Option<f64>) -> PathBuf {
-    let columns = "[replay.columns]\nT2_C = \"t1_k\"\nP2_KPA = \"p1_kpa\"\nNGG_RPM = \"n1_rpm\"\n\
+    let columns = "T2_C = \"t1_k\"\nP2_KPA = \"p1_kpa\"\nNGG_RPM = \"n1_rpm\"\n\
                    NPT_RPM = \"n2_rpm\"\nWF_KGH = \"fuel_kg_s\"\nP3_KPA = \"p2_kpa\"\n\
                    T3_C = \"t2_k\"\nP54_KPA = \"p34_kpa\"\nT54_C = \"t34_k\"\nT8_C = \"t4_k\"\n\
                    SHP_KW = \"power_mw\"";
-    let units = "[replay.units]\nt1_k = \"degC\"\nfuel_kg_s = \"kg/h\"\nt2_k = \"degC\"\n\
+    let units = "t1_k = \"degC\"\nfuel_kg_s = \"kg/h\"\nt2_k = \"degC\"\n\
                  t34_k = \"degC\"\nt4_k = \"degC\"\npower_mw = \"kW\"";
-    let mut cfg = include_str!("../../config/gtwatch.toml")
-        .replace(
-            "path = \"/var/lib/gtwatch/gtwatch.db\"",
-            &format!("path = {:?}", dir.join("u.db").display().to_string()),
-        )
-        .replace(
-            "# engine_model = \"engine.toml\"",
-            &format!("engine_model = {:?}", unit.display().to_string()),
-        )
-        .replace("time_column = \"time\"", "time_column = \"TIMESTAMP\"")
-        .replace("[replay.columns]\n# \"GG_SPEED\" = \"n1\"", columns)
-        .replace("[replay.units]\n# t2_k = \"degC\"", units)
-        .replace("threads = 1", "threads = 2")
-        .replace("gap_on_poor_fit = true", "gap_on_poor_fit = false")
-        .replace("gap_on_health_step = true", "gap_on_health_step = false");
-    if let Some(hold) = steady_hold_s {
-        cfg = cfg.replace(
-            "steady_hold_s = 60.0",
-            &format!("steady_hold_s = {hold:.1}"),
-        );
+    let hold = steady_hold_s.map(|h| format!("steady_hold_s = {h:.1}"));
+    let mut edits = vec![
+        ("gap_on_poor_fit = true", "gap_on_poor_fit = false"),
+        ("gap_on_health_step = true", "gap_on_health_step = false"),
+    ];
+    if let Some(h) = &hold {
+        edits.push(("steady_hold_s = 60.0", h));
     }
-    assert!(cfg.contains("NGG_RPM = ") && cfg.contains("gap_on_poor_fit = false"));
-    assert_eq!(
-        steady_hold_s.is_some(),
-        !cfg.contains("steady_hold_s = 60.0")
-    );
-    let cfg_path = dir.join("gtwatch.toml");
-    std::fs::write(&cfg_path, cfg).expect("config");
-    cfg_path
+    replay_config(dir, unit, "TIMESTAMP", columns, units, 2, &edits)
 }
 
 /// The third simulator's start-ups (`indep3/dyn.py`, by the same blind hand: an air starter,
@@ -152,51 +132,23 @@ fn start_ups_of_a_unit_whose_hot_section_soaks_read_nearer_held_longer() {
         let sub = dir.path().join(format!("{hold:?}"));
         std::fs::create_dir_all(&sub).expect("dir");
         let cfg_path = indep3_replay_config(&sub, &unit, hold);
-        crate::common::gtwatch_ok(&["replay", log.to_str().expect("utf-8")], &cfg_path);
-        let segs: Value = serde_json::from_slice(&crate::common::gtwatch_ok(
-            &["segments", "--json"],
+        let b = replayed_start_ups(
             &cfg_path,
-        ))
-        .expect("json");
-        let segs = segs.as_array().expect("segments");
-        assert_eq!(segs.len(), 6, "{segs:#?}");
-        for s in segs {
-            assert_eq!(s["outcome"], "completed", "{s:#}");
-            let phases: Vec<&str> = s["phases"]
-                .as_array()
-                .expect("phases")
-                .iter()
-                .map(|p| p["phase"].as_str().expect("name"))
-                .collect();
-            assert_eq!(
-                phases,
-                [
-                    "crank",
-                    "purge",
-                    "light_off",
-                    "acceleration",
-                    "idle",
-                    "loading",
-                    "steady"
-                ],
-                "{s:#}"
-            );
-        }
-        let history: Value = serde_json::from_slice(&crate::common::gtwatch_ok(
-            &["history", "--method", "B", "--json"],
-            &cfg_path,
-        ))
-        .expect("json");
-        let rows = history.as_array().expect("rows");
-        assert_eq!(rows.len(), 6, "one Method B result per voyage: {history:#}");
-        let gc: BTreeMap<i64, f64> = rows
+            &log,
+            6,
+            &[
+                "crank",
+                "purge",
+                "light_off",
+                "acceleration",
+                "idle",
+                "loading",
+                "steady",
+            ],
+        );
+        let gc: BTreeMap<i64, f64> = b
             .iter()
-            .map(|r| {
-                (
-                    r["segment_id"].as_i64().expect("id"),
-                    r["health"]["D_GC"].as_f64().expect("D_GC"),
-                )
-            })
+            .map(|(s, h)| (*s, h["D_GC"].as_f64().expect("D_GC")))
             .collect();
         let misses: Vec<f64> = gc.iter().map(|(s, v)| v - truth[s]).collect();
         let mean = misses.iter().map(|m| m.abs()).sum::<f64>() / misses.len() as f64;

@@ -188,6 +188,100 @@ fn diagnose(sim: &Sim, unit: &Path, input: &Path, extra: &[&str]) -> Value {
     gtwatch_json(&args)
 }
 
+/// The shipped `config/gtwatch.toml` as a user edits it for a blind unit's logs: database
+/// `dir/u.db`, engine file `unit`, the log's `time_column`, its `[replay.columns]` and
+/// `[replay.units]` (TOML lines), `threads` for the diagnosis, then each `(from, to)` of `edits`
+/// (each must change the file); written as `dir/gtwatch.toml`.
+fn replay_config(
+    dir: &Path,
+    unit: &Path,
+    time_column: &str,
+    columns: &str,
+    units: &str,
+    threads: usize,
+    edits: &[(&str, &str)],
+) -> PathBuf {
+    let mut cfg = include_str!("../../config/gtwatch.toml")
+        .replace(
+            "path = \"/var/lib/gtwatch/gtwatch.db\"",
+            &format!("path = {:?}", dir.join("u.db").display().to_string()),
+        )
+        .replace(
+            "# engine_model = \"engine.toml\"",
+            &format!("engine_model = {:?}", unit.display().to_string()),
+        )
+        .replace(
+            "time_column = \"time\"",
+            &format!("time_column = {time_column:?}"),
+        )
+        .replace(
+            "[replay.columns]\n# \"GG_SPEED\" = \"n1\"",
+            &format!("[replay.columns]\n{columns}"),
+        )
+        .replace(
+            "[replay.units]\n# t2_k = \"degC\"",
+            &format!("[replay.units]\n{units}"),
+        )
+        .replace("threads = 1", &format!("threads = {threads}"));
+    assert!(
+        cfg.contains(columns) && cfg.contains(units),
+        "the shipped file changed"
+    );
+    for (from, to) in edits {
+        assert!(cfg.contains(from), "{from}");
+        cfg = cfg.replace(from, to);
+    }
+    let cfg_path = dir.join("gtwatch.toml");
+    std::fs::write(&cfg_path, cfg).expect("config");
+    cfg_path
+}
+
+/// `log` replayed with `cfg_path` as a user replays a historian export: every start-up found is
+/// `completed` with exactly `phases`, `starts` of them, each with one Method B result; the
+/// Method B health of each, by segment id.
+fn replayed_start_ups(
+    cfg_path: &Path,
+    log: &Path,
+    starts: usize,
+    phases: &[&str],
+) -> BTreeMap<i64, Value> {
+    crate::common::gtwatch_ok(&["replay", log.to_str().expect("utf-8")], cfg_path);
+    let segs: Value = serde_json::from_slice(&crate::common::gtwatch_ok(
+        &["segments", "--json"],
+        cfg_path,
+    ))
+    .expect("json");
+    let segs = segs.as_array().expect("segments");
+    assert_eq!(segs.len(), starts, "{segs:#?}");
+    for s in segs {
+        assert_eq!(s["outcome"], "completed", "{s:#}");
+        let found: Vec<&str> = s["phases"]
+            .as_array()
+            .expect("phases")
+            .iter()
+            .map(|p| p["phase"].as_str().expect("name"))
+            .collect();
+        assert_eq!(found, phases, "{s:#}");
+    }
+    let history: Value = serde_json::from_slice(&crate::common::gtwatch_ok(
+        &["history", "--method", "B", "--json"],
+        cfg_path,
+    ))
+    .expect("json");
+    let b: BTreeMap<i64, Value> = history
+        .as_array()
+        .expect("rows")
+        .iter()
+        .map(|r| (r["segment_id"].as_i64().expect("id"), r["health"].clone()))
+        .collect();
+    assert_eq!(
+        b.len(),
+        starts,
+        "one Method B result per start: {history:#}"
+    );
+    b
+}
+
 /// How the grid was read on an engine file: per parameter the worst error (points) and
 /// Spearman ρ against the truth, the worst error in units of the stated σ, and the worst miss
 /// of a parameter the diagnosis called separable.
