@@ -20,15 +20,15 @@
 use super::*;
 
 /// Measured 2026-12-07 (`cargo test --release --test integration foreign_simulator::indep3:: --
-/// --nocapture`, 20 s with the test below): the baseline 50.8 → 1.32 σ, `suspect` taken as
-/// exact; the grid read with every parameter within 1.11 points (D_GC … D_EP 1.11 / 0.87 / 0.89
-/// / 0.68 / 0.59 / 0.83), Spearman ρ 0.949 / 0.893 / 0.921 / 0.957 / 0.846 / 0.818 (ceilings
+/// --nocapture`, 20 s with the test below): the baseline 50.7 → 1.32 σ, `suspect` taken as
+/// exact; the grid read with every parameter within 1.12 points (D_GC … D_EP 1.12 / 0.88 / 0.89
+/// / 0.67 / 0.60 / 0.84), Spearman ρ 0.949 / 0.893 / 0.921 / 0.966 / 0.846 / 0.818 (ceilings
 /// 0.954 / 0.968 / 0.954 / 0.968 / 0.886 / 0.886), 13 of 20 fits `good`; the rest `suspect`,
 /// for an estimate better than new as the truth's random mixes are, on a −3 search limit, or
 /// on the residual. Compressor fouling is read low (2.89 for 4, 4.47 for 5; 3.66 and 4.41
 /// without the noise: the borrowed map's response off the healthy line). Not covered by the σ:
 /// HP-turbine fouling (D_GT 1.5, D_ET 1.0) moves D_EC to −0.87 ± 0.23, called separable
-/// (3.89 σ; the worst other miss 2.7 σ).
+/// (3.86 σ; the worst other miss 2.7 σ).
 #[test]
 fn a_marine_unit_on_a_controllable_pitch_propeller_of_a_third_simulator() {
     let dir = tempfile::tempdir().expect("tempdir");
