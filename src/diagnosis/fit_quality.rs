@@ -80,18 +80,16 @@ impl Default for Thresholds {
     }
 }
 
-/// Probability with which a fit of the exact model to spot readings must be judged `good`
-/// ([`spot_reading_good_level`]).
-pub const SPOT_READING_GOOD_PROBABILITY: f64 = 0.99;
-/// The standard normal quantile of [`SPOT_READING_GOOD_PROBABILITY`].
+/// The standard normal quantile of the probability with which a fit of the exact model to spot
+/// readings must be judged `good` (99 %; [`spot_reading_good_level`]).
 const SPOT_READING_GOOD_Z: f64 = 2.326_348;
 
 /// The normalised residual up to which a fit of `params` parameters to `residuals` values of
 /// spot readings (each value one reading, its inputs' noise in its covariance: `--noisy-inputs`)
 /// is `good`: never below `base`, and at least the level the exact model stays under with
-/// probability [`SPOT_READING_GOOD_PROBABILITY`]. Why: on such rows the residual sum of the
-/// exact model is χ² with `residuals − params` degrees of freedom, its level (that sum per
-/// value) about 0.92 for nine rows of eight values and six parameters, with a spread of 0.16 —
+/// probability 0.99. Why: on such rows the residual sum of the exact model is χ² with
+/// `residuals − params` degrees of freedom, its level (that sum per value) about 0.92 for nine
+/// rows of eight values and six parameters, with a spread of 0.16 —
 /// against `good` up to 0.9, set where the exact model reads 0.7 (a start-up, whose σ allows
 /// for timing, or averaged rows); the model's own twin on such rows was `suspect` on 3 of 6
 /// draws of its noise (1.17, 1.04, 0.99). Wilson–Hilferty's quantile (within 1 % from 10

@@ -112,20 +112,11 @@ fn start_ups_of_a_unit_whose_hot_section_soaks_read_nearer_held_longer() {
     let dir = tempfile::tempdir().expect("tempdir");
     let unit = dir.path().join("unit.toml");
     calibrate(&INDEP3, &INDEP3.user(), &unit);
-    let truth: BTreeMap<i64, f64> = {
-        let text = std::fs::read_to_string(INDEP3.data("startups/operations_voyages.csv"))
-            .expect("voyages");
-        let mut lines = text.lines();
-        let header: Vec<&str> = lines.next().expect("header").split(',').collect();
-        let col = |n: &str| header.iter().position(|h| *h == n).expect(n);
-        let (v, gc) = (col("voyage"), col("true_D_GC"));
-        lines
-            .map(|l| {
-                let c: Vec<&str> = l.split(',').collect();
-                (c[v].parse().expect("voyage"), c[gc].parse().expect("D_GC"))
-            })
-            .collect()
-    };
+    // D_GC of each voyage, by the segment id its start-up gets (voyages in order).
+    let truth: BTreeMap<i64, f64> = truth_in(&INDEP3, "startups/operations_voyages.csv", "voyage")
+        .into_iter()
+        .map(|(v, h)| (v.parse().expect("voyage number"), h[0]))
+        .collect();
     let log = INDEP3.data("startups/operations_log.csv");
     let mut mean_miss = Vec::new();
     for hold in [None, Some(300.0)] {

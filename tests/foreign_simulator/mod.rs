@@ -142,11 +142,16 @@ fn verdict(calibration: &Value) -> (String, f64) {
 
 /// The true health of each group of the grid file (its `true_D_*` columns).
 fn truth(sim: &Sim) -> BTreeMap<String, [f64; 6]> {
-    let text = std::fs::read_to_string(sim.data("grid_noisy.csv")).expect("grid");
+    truth_in(sim, "grid_noisy.csv", "group")
+}
+
+/// The true health (`true_D_*` columns) of each row of `sim`'s `file`, by its `key` column.
+fn truth_in(sim: &Sim, file: &str, key: &str) -> BTreeMap<String, [f64; 6]> {
+    let text = std::fs::read_to_string(sim.data(file)).expect(file);
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().expect("header").split(',').collect();
     let col = |name: &str| header.iter().position(|h| *h == name).expect(name);
-    let group = col("group");
+    let group = col(key);
     let cols: Vec<usize> = HEALTH_NAMES
         .iter()
         .map(|n| col(&format!("true_{n}")))
