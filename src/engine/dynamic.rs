@@ -265,7 +265,7 @@ fn core_rhs<R>(
     // With no effect on, every hook is skipped: the arithmetic is the core model's alone.
     let core = (!effects.is_empty()).then(|| core_view(model, t, y, drive));
     let adjust = core.as_ref().map(|cv| Adjust {
-        extra_bleed: effects.bleed_fraction(cv, y),
+        extra_bleed: effects.bleed(cv, y),
         deltas: effects.component_deltas(cv, y),
         losses: effects.duct_losses(cv, y),
     });

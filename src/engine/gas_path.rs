@@ -12,7 +12,7 @@
 //! Pure: no I/O, no state.
 
 use super::cycle::{self, CompressorStation, TurbineStation};
-use super::effects::{ComponentDeltas, DuctLosses};
+use super::effects::{ComponentDeltas, DuctLosses, ExtraBleed};
 use super::model::Model;
 use crate::signals::{Signal, Values, NSIG};
 use crate::thermo::{Fuel, Gas};
@@ -154,7 +154,7 @@ pub(crate) struct Inputs<'g> {
 /// flow/efficiency multipliers.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Adjust {
-    pub(crate) extra_bleed: f64,
+    pub(crate) extra_bleed: ExtraBleed,
     pub(crate) deltas: ComponentDeltas,
     pub(crate) losses: DuctLosses,
 }
@@ -162,7 +162,7 @@ pub(crate) struct Adjust {
 impl Adjust {
     /// No change (the core model).
     pub(crate) const NONE: Adjust = Adjust {
-        extra_bleed: 0.0,
+        extra_bleed: ExtraBleed::NONE,
         deltas: ComponentDeltas::NONE,
         losses: DuctLosses::NONE,
     };
@@ -401,10 +401,17 @@ fn after_compressor(
         CompressorSetting::Plenum { p2_kpa } => p2_kpa,
     };
     let w2 = comp.w_kg_s * fade;
-    let p_comp = comp.power_w * fade;
-    let bleed = match adjust {
-        Some(a) if a.extra_bleed != 0.0 => (c.bleed + a.extra_bleed).clamp(0.0, 0.5),
-        _ => c.bleed,
+    let (bleed, p_comp) = match adjust {
+        Some(a) if a.extra_bleed.fraction != 0.0 => {
+            // An effect's bleed from part way along the compressor did not take the rest of
+            // its work (`ExtraBleed::work_saved`).
+            let saved = a.extra_bleed.work_saved(comp.t_out_k / t1);
+            (
+                (c.bleed + a.extra_bleed.fraction).clamp(0.0, 0.5),
+                comp.power_w * fade * (1.0 - saved),
+            )
+        }
+        _ => (c.bleed, comp.power_w * fade),
     };
     // Air returned at the HPT exit leaves the compressor's exit with the bleed.
     let w_return = w2 * c.cooling_return;

@@ -11,7 +11,8 @@
 //!
 //! The user's steps: `config/engine_md22.toml` with the datasheet's design point, component
 //! efficiencies, cooling split, liquid fuel and `[load] mode = "measured_speed"`
-//! (`tests/data/foreign/indep3_user_md22.toml`; the vane and bleed schedules not stated),
+//! (`tests/data/foreign/indep3_user_md22.toml`; the handling bleed stated as the datasheet gives
+//! it, its schedule and its stage-8 port; the vane schedule not),
 //! `gtwatch calibrate --adapt` on the 9 healthy lever positions, then `gtwatch diagnose --method
 //! steady --group-by group --noisy-inputs` on a grid of 20 levels (compressor fouling, HP-turbine
 //! erosion and fouling, PT fouling and erosion, random mixes of all six within ± 4).
@@ -19,16 +20,16 @@
 
 use super::*;
 
-/// Measured 2026-12-07 (`cargo test --release --test integration foreign_simulator::indep3:: --
-/// --nocapture`, 20 s with the test below): the baseline 50.7 → 1.32 σ, `suspect` taken as
-/// exact; the grid read with every parameter within 1.12 points (D_GC … D_EP 1.12 / 0.88 / 0.89
-/// / 0.67 / 0.60 / 0.84), Spearman ρ 0.949 / 0.893 / 0.921 / 0.966 / 0.846 / 0.818 (ceilings
+/// Measured 2026-12-08 (`cargo test --release --test integration foreign_simulator::indep3:: --
+/// --nocapture`, 38 s with the test below): the baseline 50.7 → 1.23 σ, `suspect` taken as
+/// exact; the grid read with every parameter within 0.99 points (D_GC … D_EP 0.99 / 0.80 / 0.77
+/// / 0.50 / 0.58 / 0.77), Spearman ρ 0.949 / 0.893 / 0.888 / 0.950 / 0.886 / 0.829 (ceilings
 /// 0.954 / 0.968 / 0.954 / 0.968 / 0.886 / 0.886), 13 of 20 fits `good`; the rest `suspect`,
 /// for an estimate better than new as the truth's random mixes are, on a −3 search limit, or
-/// on the residual. Compressor fouling is read low (2.89 for 4, 4.47 for 5; 3.66 and 4.41
-/// without the noise: the borrowed map's response off the healthy line). Not covered by the σ:
-/// HP-turbine fouling (D_GT 1.5, D_ET 1.0) moves D_EC to −0.87 ± 0.23, called separable
-/// (3.86 σ; the worst other miss 2.7 σ).
+/// on the residual. Compressor fouling is read low (3.01 for 4, 4.73 for 5: the borrowed map's
+/// response off the healthy line). The worst miss 3.17 σ. Without the bleed stated (the file
+/// before 2026-12-08): within 1.12 / 0.88 / 0.89 / 0.67 / 0.60 / 0.84, HP-turbine fouling moving
+/// D_EC to −0.87 ± 0.23, called separable (3.86 σ).
 #[test]
 fn a_marine_unit_on_a_controllable_pitch_propeller_of_a_third_simulator() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -40,30 +41,32 @@ fn a_marine_unit_on_a_controllable_pitch_propeller_of_a_third_simulator() {
     // combustor exit, 4.5 % lower) it was compared twice and the fit chased the difference.
     let signals = c["calibration"]["signals"].to_string();
     assert!(!signals.contains("p3_kpa"), "{signals}");
-    assert!(rms <= 1.5, "{rms:.2} σ");
+    assert!(rms <= 1.35, "{rms:.2} σ");
 
     let read = read_grid(&INDEP3, &unit, &["--noisy-inputs"]);
     read.assert_floors(&[
-        (1.25, 0.9),
-        (1.0, 0.85),
-        (1.0, 0.88),
-        (0.8, 0.9),
-        (0.75, 0.8),
-        (0.95, 0.75),
+        (1.1, 0.92),
+        (0.95, 0.85),
+        (0.9, 0.85),
+        (0.65, 0.92),
+        (0.7, 0.85),
+        (0.9, 0.78),
     ]);
-    assert!(read.worst_z <= 4.2, "worst |error|/σ {:.2}", read.worst_z);
-    assert!(read.separable_miss <= 1.0, "{:.2}", read.separable_miss);
+    assert!(read.worst_z <= 3.6, "worst |error|/σ {:.2}", read.worst_z);
+    assert!(read.separable_miss <= 0.7, "{:.2}", read.separable_miss);
     assert!(read.good >= 11, "{} of 20 fits good", read.good);
 }
 
 /// The leave-one-load-out floors on the third simulator's unit, judged against its own
-/// values ([`left_out_loads`]). Measured 2026-12-07: 0.294 % mean, 1.575 % worst (power at the
+/// values ([`left_out_loads`]). Measured 2026-12-08: 0.278 % mean, 1.282 % worst (power at the
 /// 56.5 % lever, relative corrected GG speed 0.836, where the unit's bleed is still open and its
-/// vanes closing): the 0.3 % met, its 1 % not on that load.
+/// vanes closing): the 0.3 % met, its 1 % not on that load. Without the bleed stated
+/// 0.294 / 1.575 %; stated at the compressor's exit (`port = 1`, the effect's simple form)
+/// 0.367 / 1.927 %.
 #[test]
 fn left_out_loads_of_the_third_simulators_unit() {
     use gtwatch::calibrate::adapt::AdaptStrategy;
-    left_out_loads(&INDEP3, &[(AdaptStrategy::Grown, 0.32, 1.7)]);
+    left_out_loads(&INDEP3, &[(AdaptStrategy::Grown, 0.3, 1.45)]);
 }
 
 /// The user's replay configuration for the third simulator's logs (its tags, °C, kg/h and kW

@@ -220,6 +220,36 @@ impl DuctLosses {
     };
 }
 
+/// The bleed the effects add to the core's (see [`Effect::bleed_fraction`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ExtraBleed {
+    /// Fraction of compressor flow bled overboard (all effects together).
+    pub fraction: f64,
+    /// Where it leaves: the fraction of the compressor's log pressure ratio ahead of the port
+    /// (bleed-weighted over the effects; 1 = the compressor's exit).
+    pub port: f64,
+}
+
+impl ExtraBleed {
+    /// No extra bleed.
+    pub const NONE: ExtraBleed = ExtraBleed {
+        fraction: 0.0,
+        port: 1.0,
+    };
+
+    /// The fraction of the compressor's power the bled air did not take, for a compressor of
+    /// temperature ratio `tau` (exit over inlet): the air bled at the port has had the work of
+    /// the polytropic path up to the port's pressure, `(tau^port − 1) / (tau − 1)` of the whole.
+    pub fn work_saved(&self, tau: f64) -> f64 {
+        if self.fraction == 0.0 || self.port >= 1.0 || !(tau > 1.0 + 1e-9) {
+            return 0.0;
+        }
+        let port = self.port.max(0.0);
+        let at_port = (tau.powf(port) - 1.0) / (tau - 1.0);
+        self.fraction * (1.0 - at_port)
+    }
+}
+
 /// What the hooks evaluated before the gas path may look at: the core states in physical units.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CoreView {
@@ -304,6 +334,11 @@ pub trait Effect: Debug + Send + Sync {
     /// Bleed / flow schedule: extra fraction of compressor flow bled overboard.
     fn bleed_fraction(&self, _core: &CoreView, _x: &[f64]) -> f64 {
         0.0
+    }
+    /// Where that bleed leaves the compressor, as the fraction of its log pressure ratio ahead
+    /// of the port (1: its exit, the air having had all its work).
+    fn bleed_port(&self) -> f64 {
+        1.0
     }
     /// Component deltas: multiply `d` by this effect's flow/efficiency changes.
     fn component_deltas(&self, _core: &CoreView, _x: &[f64], _d: &mut ComponentDeltas) {}
@@ -505,9 +540,19 @@ impl EffectSet {
             .fold(metered_kg_s, |wf, (e, x)| e.fuel_delivered(wf, core, x))
     }
 
-    /// Total extra bleed fraction.
-    pub fn bleed_fraction(&self, core: &CoreView, y: &[f64]) -> f64 {
-        self.each(y).map(|(e, x)| e.bleed_fraction(core, x)).sum()
+    /// Total extra bleed, with where it leaves the compressor (its bleed-weighted port).
+    pub fn bleed(&self, core: &CoreView, y: &[f64]) -> ExtraBleed {
+        let mut total = 0.0;
+        let mut ported = 0.0;
+        for (e, x) in self.each(y) {
+            let b = e.bleed_fraction(core, x);
+            total += b;
+            ported += b * e.bleed_port();
+        }
+        ExtraBleed {
+            fraction: total,
+            port: if total != 0.0 { ported / total } else { 1.0 },
+        }
     }
 
     /// Combined component deltas.

@@ -104,7 +104,7 @@ fn effect_adjust(model: &Model, inp: &Inputs) -> Adjust {
     let mut y = effects.layout().zeros();
     effects.steady_states(&core, &base, &mut y);
     Adjust {
-        extra_bleed: effects.bleed_fraction(&core, &y),
+        extra_bleed: effects.bleed(&core, &y),
         deltas: effects.component_deltas(&core, &y),
         losses: effects.duct_losses(&core, &y),
     }
