@@ -155,8 +155,13 @@ fn within_calibrated_speeds(label: &str, r: &MethodResult, e: [f64; 6], t: [f64;
 /// (9 831, as a datasheet might give it): the default calibration still reproduces the baseline
 /// within noise. Measured 2026-12-05: 0.63 σ, `good` (the compressor at 6 knots, its flow held
 /// at its 2-knot fit); before a stalled component looked two knots further where one was no
-/// better, 1.54 σ, `suspect` (the compressor stopped at 2 knots). About 30 s on 2 cores.
+/// better, 1.54 σ, `suspect` (the compressor stopped at 2 knots). About 30 s on 2 cores alone,
+/// 71 s beside the suite: run by hand (`cargo test --release --test integration -- --ignored
+/// gg_speed_written_otherwise`) since CI neared its 20 minutes; the same regression, a design GG
+/// speed written otherwise than the rows', stays in CI on the combinator unit
+/// (`foreign_engine::a_design_point_written_to_a_few_digits_calibrates_alike`, 9 800 rpm).
 #[test]
+#[ignore = "a measurement beside foreign_engine's few-digits test (70 s of CI's 20 minutes)"]
 fn a_generator_unit_calibrates_alike_with_its_gg_speed_written_otherwise() {
     let (_, report, _) = adapted_unit_with(
         "tests/data/foreign/aero25_truth.toml",

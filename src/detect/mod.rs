@@ -59,6 +59,15 @@ pub struct DetectorConfig {
     pub steady_band_frac: f64,
     /// ... for this long, seconds. Default 60.
     pub steady_hold_s: f64,
+    /// Once steady load is found, the start-up stays open this much longer while the power
+    /// holds within the band, s, so its diagnosis sees the unit settle: a hot section that
+    /// soaks heat for minutes still moves fuel and exhaust temperatures a minute into the load.
+    /// It closes as completed at the end of this time, or at the last steady sample when the
+    /// load moves, the fuel is cut or the data stop. Unlike a longer `steady_hold_s`, a unit
+    /// whose load never holds that long still completes its start-ups. Default 0 (closed where
+    /// steady load is found).
+    #[serde(default)]
+    pub steady_extend_s: f64,
     /// A plateau below this fraction of base load is warm-up, not steady load. Default 0.2.
     pub steady_min_load_frac: f64,
     /// Fuel falling from on to off within this time is a trip (abrupt cut), s. Default 3.
@@ -116,6 +125,7 @@ impl Default for DetectorConfig {
             sync_band_frac: 0.01,
             steady_band_frac: 0.01,
             steady_hold_s: 60.0,
+            steady_extend_s: 0.0,
             steady_min_load_frac: 0.2,
             trip_fuel_cut_s: 3.0,
             flame_out_drop_rpm: 1500.0,
@@ -165,6 +175,7 @@ impl DetectorConfig {
             }
         }
         let non_negative = [
+            ("steady_extend_s", self.steady_extend_s),
             ("hot_restart_window_s", self.hot_restart_window_s),
             ("resume_margin_s", self.resume_margin_s),
         ];

@@ -71,22 +71,28 @@ fn left_out_loads_of_the_third_simulators_unit() {
 
 /// The user's replay configuration for the third simulator's logs (its tags, °C, kg/h and kW
 /// mapped; time column `TIMESTAMP`) into `dir/u.db` with engine file `unit`, the gap analyses
-/// off (a test of detection and diagnosis), and the detector's steady hold `steady_hold_s`
-/// where given; written as `dir/gtwatch.toml`.
-fn indep3_replay_config(dir: &Path, unit: &Path, steady_hold_s: Option<f64>) -> PathBuf {
+/// off (a test of detection and diagnosis), and one `[detector]` key of the steady load
+/// (`steady_hold_s` or `steady_extend_s`) where given; written as `dir/gtwatch.toml`.
+fn indep3_replay_config(dir: &Path, unit: &Path, steady: Option<(&str, f64)>) -> PathBuf {
     let columns = "T2_C = \"t1_k\"\nP2_KPA = \"p1_kpa\"\nNGG_RPM = \"n1_rpm\"\n\
                    NPT_RPM = \"n2_rpm\"\nWF_KGH = \"fuel_kg_s\"\nP3_KPA = \"p2_kpa\"\n\
                    T3_C = \"t2_k\"\nP54_KPA = \"p34_kpa\"\nT54_C = \"t34_k\"\nT8_C = \"t4_k\"\n\
                    SHP_KW = \"power_mw\"";
     let units = "t1_k = \"degC\"\nfuel_kg_s = \"kg/h\"\nt2_k = \"degC\"\n\
                  t34_k = \"degC\"\nt4_k = \"degC\"\npower_mw = \"kW\"";
-    let hold = steady_hold_s.map(|h| format!("steady_hold_s = {h:.1}"));
+    let steady = steady.map(|(key, v)| {
+        let default = match key {
+            "steady_hold_s" => "steady_hold_s = 60.0",
+            _ => "steady_extend_s = 0.0",
+        };
+        (default, format!("{key} = {v:.1}"))
+    });
     let mut edits = vec![
         ("gap_on_poor_fit = true", "gap_on_poor_fit = false"),
         ("gap_on_health_step = true", "gap_on_health_step = false"),
     ];
-    if let Some(h) = &hold {
-        edits.push(("steady_hold_s = 60.0", h));
+    if let Some((default, written)) = &steady {
+        edits.push((default, written));
     }
     replay_config(dir, unit, "TIMESTAMP", columns, units, 2, &edits)
 }
@@ -100,16 +106,19 @@ fn indep3_replay_config(dir: &Path, unit: &Path, steady_hold_s: Option<f64>) -> 
 /// replayed with the steady calibration of the user's file, which states the datasheet's
 /// inertias, starter, sequence speeds (light-off at the purge speed) and thermocouple lags.
 ///
-/// Measured 2026-12-07 (`cargo test --release --test integration
-/// foreign_simulator::indep3::start_ups -- --nocapture`, 20 s): every voyage found completed
+/// Measured 2026-12-08 (`cargo test --release --test integration
+/// foreign_simulator::indep3::start_ups -- --nocapture`, 24 s): every voyage found completed
 /// with every phase and one Method B result each, `suspect` or `good`. With the detector's
-/// default steady hold (60 s after the lever ramp, then the start-up is closed) the casings
+/// defaults (steady load found 60 s after the lever ramp, the start-up closed there) the casings
 /// are still soaking and the fuel 1 % above its settled value: Method B reads compressor
-/// fouling 1.7–2.7 points low (mean 2.12), the healthy voyages "better than new" by 2.6 and
-/// 1.7 points (flagged so). Held 300 s (`[detector] steady_hold_s = 300`), 0.6–1.3 low (mean
-/// 0.86), and with the gap analyses on (137 s) voyage 4's names `heat_soak`, the library's
-/// candidate for the effect the model lacks. The fouling's growth is read alike both ways
-/// (voyage 6 against voyage 1: +3.7 and +3.4 for +3.0).
+/// fouling 1.8–2.4 points low (mean 2.06), the healthy voyages "better than new" by 2.4 and
+/// 1.9 points (flagged so). Held open 240 s more while the load holds (`[detector]
+/// steady_extend_s = 240`), 0.7–1.2 low (mean 0.89; `steady_hold_s = 300` reads the same,
+/// 0.90, but a unit whose load never holds five minutes would complete no start-up); 540 s,
+/// 0.35–0.93 (mean 0.59; `GTWATCH_INDEP3_STEADY=steady_extend_s=540`). With the gap analyses on
+/// and a 300 s hold (137 s, 2026-12-07) voyage 4's names `heat_soak`, the library's candidate
+/// for the effect the model lacks. The fouling's growth is read alike every way (voyage 6
+/// against voyage 1: +3.4 to +3.5 for +3.0).
 #[test]
 fn start_ups_of_a_unit_whose_hot_section_soaks_read_nearer_held_longer() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -122,8 +131,25 @@ fn start_ups_of_a_unit_whose_hot_section_soaks_read_nearer_held_longer() {
         .collect();
     let log = INDEP3.data("startups/operations_log.csv");
     let mut mean_miss = Vec::new();
-    for hold in [None, Some(300.0)] {
-        let sub = dir.path().join(format!("{hold:?}"));
+    let variants: Vec<Option<(&str, f64)>> = match std::env::var("GTWATCH_INDEP3_STEADY") {
+        // `key=value,…` to measure other holds by hand, e.g. `steady_hold_s=300`.
+        Ok(list) => std::iter::once(None)
+            .chain(list.split(',').map(|kv| {
+                let (k, v) = kv.split_once('=').expect("key=value");
+                Some((
+                    if k == "steady_hold_s" {
+                        "steady_hold_s"
+                    } else {
+                        "steady_extend_s"
+                    },
+                    v.parse().expect("a number"),
+                ))
+            }))
+            .collect(),
+        Err(_) => vec![None, Some(("steady_extend_s", 240.0))],
+    };
+    for (i, hold) in variants.into_iter().enumerate() {
+        let sub = dir.path().join(format!("variant{i}"));
         std::fs::create_dir_all(&sub).expect("dir");
         let cfg_path = indep3_replay_config(&sub, &unit, hold);
         let b = replayed_start_ups(
@@ -159,13 +185,13 @@ fn start_ups_of_a_unit_whose_hot_section_soaks_read_nearer_held_longer() {
         mean_miss.push(mean);
     }
     assert!(
-        mean_miss[1] <= 1.2,
-        "held 300 s: mean |miss| {:.2}",
+        mean_miss[1] <= 1.1,
+        "held 240 s more: mean |miss| {:.2}",
         mean_miss[1]
     );
     assert!(
-        mean_miss[1] <= mean_miss[0] - 0.8,
-        "held 300 s {:.2} against 60 s {:.2}",
+        mean_miss[1] <= mean_miss[0] - 0.9,
+        "held 240 s more {:.2} against closed at once {:.2}",
         mean_miss[1],
         mean_miss[0]
     );

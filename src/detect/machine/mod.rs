@@ -57,6 +57,32 @@ struct Active {
     /// The GG speed the starter held for the purge, when the purge was found as a plateau
     /// below the configured purge speed ([`PLATEAU_MS`]).
     purge_level: Option<f64>,
+    /// Steady load found and the start-up held open while it lasts
+    /// ([`DetectorConfig::steady_extend_s`]).
+    settling: Option<Settling>,
+}
+
+/// A completed start-up held open while its load stays in the steady band, so that its
+/// diagnosis sees the unit settle.
+#[derive(Debug, Clone, Copy)]
+struct Settling {
+    /// The steady power level and band the hold was found with, MW.
+    level: f64,
+    band: f64,
+    /// The start-up closes here at the latest (ms).
+    until_ms: i64,
+    /// The last frame whose power was in the band (ms): where it closes when the load moves.
+    last_in_ms: i64,
+    /// Consecutive frames outside the band (one is noise; two are the load moving).
+    outside: u32,
+}
+
+/// Steady load as [`Machine::steady_start`] finds it.
+#[derive(Debug, Clone, Copy)]
+struct SteadyFound {
+    start_ms: i64,
+    level: f64,
+    band: f64,
 }
 
 /// A GG speed held this long (within 0.5 %) during the crank is the purge, and during the
@@ -190,15 +216,28 @@ impl Machine {
             .is_some_and(|a| f.t_ms - a.rec.start_ms > max_ms);
         if overdue {
             if let Some(a) = self.active.take() {
-                self.finish_abort(a, AbortCause::Unknown, f.t_ms, f);
+                match a.settling {
+                    // Steady load was reached: the start-up completed; only its hold ends.
+                    Some(st) => self.complete(a, st.last_in_ms, &f),
+                    None => self.finish_abort(a, AbortCause::Unknown, f.t_ms, f),
+                }
             }
         }
     }
 
-    /// Marks a data gap; the open segment, if any, gets `has_gap`.
+    /// Marks a data gap; the open segment, if any, gets `has_gap` — unless it is a completed
+    /// start-up held open for its steady load, which closes at its last steady sample instead.
     pub fn note_gap(&mut self, _from_ms: i64, _to_ms: i64) {
-        if let Some(a) = &mut self.active {
+        if let Some(a) = self.active.take() {
+            if let Some(st) = a.settling {
+                close_completed(&mut self.finished, a, st.last_in_ms);
+                self.idle = Idle::Unknown;
+                self.trim_history();
+                return;
+            }
+            let mut a = a;
             a.rec.has_gap = true;
+            self.active = Some(a);
         }
     }
 
@@ -316,6 +355,7 @@ impl Machine {
             ignition_n1: 0.0,
             light_off_fuel: None,
             purge_level: None,
+            settling: None,
         };
         // Catch up on the frames between the onset and now (they are already in `hist`).
         let start_idx = self.index_at_or_after(start_ms);
@@ -339,6 +379,25 @@ impl Machine {
         };
         let c = self.cfg.clone();
         let fuel_on = self.fuel_on(&f);
+
+        // A completed start-up held open for its steady load: it ends when the load moves (two
+        // frames outside the band), the fuel goes or the hold is over.
+        if let Some(mut st) = a.settling {
+            let inside = (f.power - st.level).abs() <= st.band;
+            if inside {
+                st.last_in_ms = f.t_ms;
+                st.outside = 0;
+            } else {
+                st.outside += 1;
+            }
+            if !fuel_on || st.outside >= 2 || f.t_ms >= st.until_ms {
+                self.complete(a, st.last_in_ms, &f);
+            } else {
+                a.settling = Some(st);
+                self.active = Some(a);
+            }
+            return;
+        }
 
         // Fuel cut during a fuelled phase: trip (abrupt) or operator stop (ramped).
         if fuel_just_off && a.ignition_ms.is_some() {
@@ -460,13 +519,21 @@ impl Machine {
                 enter(&mut a, Phase::Loading, f.t_ms);
             }
             Phase::Loading => {
-                if let Some(steady_start) = self.steady_start(&a, f.t_ms) {
-                    enter(&mut a, Phase::Steady, steady_start);
-                    close(&mut a, f.t_ms, Outcome::Completed, None);
-                    self.finished.push(a.rec);
-                    self.idle = Idle::Running;
-                    self.trim_history();
-                    return;
+                if let Some(found) = self.steady_start(&a, f.t_ms) {
+                    enter(&mut a, Phase::Steady, found.start_ms);
+                    let extend_ms = (c.steady_extend_s * 1000.0) as i64;
+                    if extend_ms > 0 {
+                        a.settling = Some(Settling {
+                            level: found.level,
+                            band: found.band,
+                            until_ms: f.t_ms + extend_ms,
+                            last_in_ms: f.t_ms,
+                            outside: 0,
+                        });
+                    } else {
+                        self.complete(a, f.t_ms, &f);
+                        return;
+                    }
                 }
             }
             _ => {}
@@ -474,8 +541,26 @@ impl Machine {
         self.active = Some(a);
     }
 
-    /// Start of steady load, once power has held within the band for `steady_hold_s`.
-    fn steady_start(&self, a: &Active, now_ms: i64) -> Option<i64> {
+    /// Closes `a` as a completed start-up ending at `end_ms`; `f` (the frame just seen) says
+    /// what the engine does next.
+    fn complete(&mut self, a: Active, end_ms: i64, f: &Frame) {
+        close_completed(&mut self.finished, a, end_ms);
+        self.idle = if self.fuel_on(f) {
+            Idle::Running
+        } else if self.rest(f) {
+            Idle::Standstill
+        } else {
+            Idle::Coast {
+                min_n1: f.n1,
+                min_ms: f.t_ms,
+            }
+        };
+        self.trim_history();
+    }
+
+    /// Start of steady load, once power has held within the band for `steady_hold_s`, with the
+    /// level and band it held in.
+    fn steady_start(&self, a: &Active, now_ms: i64) -> Option<SteadyFound> {
         let c = &self.cfg;
         let hold_ms = (c.steady_hold_s * 1000.0) as i64;
         let loading_start = a.rec.phases.last().map_or(now_ms, |p| p.start_ms);
@@ -552,7 +637,11 @@ impl Machine {
                 }
             }
         }
-        Some(start)
+        Some(SteadyFound {
+            start_ms: start,
+            level,
+            band,
+        })
     }
 
     /// Was the fuel that just went off cut abruptly? Also returns when the cut began.
@@ -633,6 +722,12 @@ fn enter(a: &mut Active, phase: Phase, at_ms: i64) {
         });
     }
     a.phase = phase;
+}
+
+/// Closes `a` as completed at `end_ms` into `finished`.
+fn close_completed(finished: &mut Vec<SegmentRecord>, mut a: Active, end_ms: i64) {
+    close(&mut a, end_ms, Outcome::Completed, None);
+    finished.push(a.rec);
 }
 
 fn close(a: &mut Active, at_ms: i64, outcome: Outcome, cause: Option<AbortCause>) {

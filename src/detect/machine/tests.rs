@@ -561,3 +561,120 @@ fn held_speeds_below_the_configured_ones_are_purge_and_idle() {
     assert!(segs[0].phase(Phase::Idle).is_none(), "{:#?}", segs[0]);
     assert_eq!(segs[0].outcome, Outcome::Completed);
 }
+
+fn run_with(cfg: DetectorConfig, frames: &[Frame]) -> (Vec<SegmentRecord>, Option<SegmentRecord>) {
+    let mut m = Machine::new(cfg, None);
+    for f in frames {
+        m.push(*f);
+    }
+    (m.take_finished(), m.open_segment())
+}
+
+fn extended(extend_s: f64) -> DetectorConfig {
+    DetectorConfig {
+        steady_extend_s: extend_s,
+        ..DetectorConfig::default()
+    }
+}
+
+/// Held open for its steady load (`steady_extend_s`): the same phases as without, the start-up
+/// still completed, its steady phase as long as the hold asks while the load stays; without it,
+/// closed where steady load is found (the hold, 60 s, after it began).
+#[test]
+fn a_start_up_held_for_its_steady_load_ends_when_the_hold_is_over() {
+    for seed in 0..3 {
+        let mut s = empty_script();
+        let k = push_start(&mut s, 30.0, 0.0);
+        let fr = frames(&s, k.at_load as i64 + 900, seed, true);
+        let steady_len = |seg: &SegmentRecord| {
+            let span = seg.phase(Phase::Steady).expect("steady");
+            (span.end_ms.expect("closed") - span.start_ms) as f64 / 1000.0
+        };
+        let (plain, _) = run_with(DetectorConfig::default(), &fr);
+        let (held, open) = run_with(extended(300.0), &fr);
+        assert!(open.is_none(), "seed {seed}: left open");
+        assert_eq!((plain.len(), held.len()), (1, 1), "seed {seed}");
+        let (p, h) = (&plain[0], &held[0]);
+        assert_eq!(h.outcome, Outcome::Completed);
+        assert!(!h.has_gap && h.abort_cause.is_none());
+        assert_phases(h, &truth(&s, &k, true));
+        let (lp, lh) = (steady_len(p), steady_len(h));
+        assert!(
+            (55.0..=65.0).contains(&lp),
+            "seed {seed}: steady {lp} s without the hold"
+        );
+        assert!(
+            (lh - lp - 300.0).abs() <= 1.0,
+            "seed {seed}: steady {lh} s held, {lp} s without"
+        );
+    }
+}
+
+/// The load moving, the fuel cut or the data stopping during the hold close the start-up as
+/// completed at its last steady sample; one noisy sample outside the band does not.
+#[test]
+fn a_held_start_up_closes_completed_where_its_load_moves_or_its_data_stop() {
+    let mut s = empty_script();
+    let k = push_start(&mut s, 30.0, 0.0);
+    let load = k.at_load;
+    // The load steps down 150 s after it was reached (the hold would have run 300 s more).
+    s.power
+        .0
+        .extend([(load + 150.0, 31.4), (load + 151.0, 20.0)]);
+    s.fuel.0.extend([(load + 150.0, 2.1), (load + 151.0, 1.6)]);
+    let mut fr = frames(&s, load as i64 + 600, 4, true);
+    // One sample far off the band, 100 s into the load: a spike, not a move.
+    let spike = fr
+        .iter()
+        .position(|f| f.t_ms >= T0_MS + (load as i64 + 100) * 1000)
+        .expect("frame");
+    fr[spike].power *= 1.1;
+    let (done, open) = run_with(extended(300.0), &fr);
+    assert!(open.is_none());
+    assert_eq!(done.len(), 1, "{done:?}");
+    let seg = &done[0];
+    assert_eq!(seg.outcome, Outcome::Completed);
+    let end_s = (seg.end_ms.expect("closed") - T0_MS) as f64 / 1000.0;
+    assert!(
+        (end_s - (load + 150.0)).abs() <= 2.0,
+        "closed at {end_s} s, the load moved at {} s",
+        load + 150.0
+    );
+
+    // Data stopping for longer than the gap limit 120 s into the load: closed before the gap,
+    // not marked as having one.
+    let mut s = empty_script();
+    let k = push_start(&mut s, 30.0, 0.0);
+    let gap_from = k.at_load as i64 + 120;
+    let fr: Vec<Frame> = frames(&s, k.at_load as i64 + 900, 5, true)
+        .into_iter()
+        .filter(|f| {
+            let t = (f.t_ms - T0_MS) / 1000;
+            t <= gap_from || t > gap_from + 60
+        })
+        .collect();
+    let (done, _) = run_with(extended(300.0), &fr);
+    assert_eq!(done.len(), 1, "{done:?}");
+    let seg = &done[0];
+    assert_eq!(seg.outcome, Outcome::Completed);
+    assert!(!seg.has_gap);
+    assert_eq!(seg.end_ms, Some(T0_MS + gap_from * 1000));
+
+    // The fuel cut 200 s into the load (a trip): completed at its last steady sample, and the
+    // trip starts no new segment.
+    let mut s = empty_script();
+    let k = push_start(&mut s, 30.0, 0.0);
+    let cut = k.at_load + 200.0;
+    s.fuel.0.extend([(cut, 2.1), (cut + 0.5, 0.0)]);
+    s.power.0.extend([(cut, 31.4), (cut + 0.5, 0.0)]);
+    s.n1.0.extend([(cut, 7600.0), (cut + 120.0, 0.0)]);
+    let (done, open) = run_with(extended(300.0), &frames(&s, cut as i64 + 200, 6, true));
+    assert!(open.is_none());
+    assert_eq!(done.len(), 1, "{done:?}");
+    assert_eq!(done[0].outcome, Outcome::Completed);
+    let end_s = (done[0].end_ms.expect("closed") - T0_MS) as f64 / 1000.0;
+    assert!(
+        (end_s - cut).abs() <= 1.5,
+        "closed at {end_s} s, cut at {cut} s"
+    );
+}
