@@ -380,22 +380,8 @@ impl Machine {
         let c = self.cfg.clone();
         let fuel_on = self.fuel_on(&f);
 
-        // A completed start-up held open for its steady load: it ends when the load moves (two
-        // frames outside the band), the fuel goes or the hold is over.
-        if let Some(mut st) = a.settling {
-            let inside = (f.power - st.level).abs() <= st.band;
-            if inside {
-                st.last_in_ms = f.t_ms;
-                st.outside = 0;
-            } else {
-                st.outside += 1;
-            }
-            if !fuel_on || st.outside >= 2 || f.t_ms >= st.until_ms {
-                self.complete(a, st.last_in_ms, &f);
-            } else {
-                a.settling = Some(st);
-                self.active = Some(a);
-            }
+        if let Some(st) = a.settling {
+            self.step_settling(a, st, f, fuel_on);
             return;
         }
 
@@ -539,6 +525,24 @@ impl Machine {
             _ => {}
         }
         self.active = Some(a);
+    }
+
+    /// A completed start-up held open for its steady load: it ends when the load moves (two
+    /// frames outside the band), the fuel goes or the hold is over.
+    fn step_settling(&mut self, mut a: Active, mut st: Settling, f: Frame, fuel_on: bool) {
+        let inside = (f.power - st.level).abs() <= st.band;
+        if inside {
+            st.last_in_ms = f.t_ms;
+            st.outside = 0;
+        } else {
+            st.outside += 1;
+        }
+        if !fuel_on || st.outside >= 2 || f.t_ms >= st.until_ms {
+            self.complete(a, st.last_in_ms, &f);
+        } else {
+            a.settling = Some(st);
+            self.active = Some(a);
+        }
     }
 
     /// Closes `a` as a completed start-up ending at `end_ms`; `f` (the frame just seen) says

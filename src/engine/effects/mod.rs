@@ -241,7 +241,7 @@ impl ExtraBleed {
     /// temperature ratio `tau` (exit over inlet): the air bled at the port has had the work of
     /// the polytropic path up to the port's pressure, `(tau^port − 1) / (tau − 1)` of the whole.
     pub fn work_saved(&self, tau: f64) -> f64 {
-        if self.fraction == 0.0 || self.port >= 1.0 || !(tau > 1.0 + 1e-9) {
+        if self.fraction == 0.0 || self.port >= 1.0 || tau.is_nan() || tau <= 1.0 + 1e-9 {
             return 0.0;
         }
         let port = self.port.max(0.0);
