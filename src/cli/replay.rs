@@ -217,7 +217,10 @@ pub(super) fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
     let mut detector = None;
     let mut after = None;
     if !args.no_detect {
-        let scan = crate::detect::scan(&mut store, &cfg.detector).context("start-up detection")?;
+        // The log is all the replay has: a start-up held open for its steady load
+        // (`[detector] steady_extend_s`) closes at its last steady sample.
+        let scan =
+            crate::detect::scan_to_end(&mut store, &cfg.detector).context("start-up detection")?;
         let line = detector_line(&scan, cfg.detector.fuel_on_kg_s);
         if args.json {
             eprintln!("{line}");

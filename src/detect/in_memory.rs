@@ -99,6 +99,8 @@ pub fn find_startups(t_s: &[f64], rows: &[Values], cfg: &DetectorConfig) -> Vec<
             });
         }
     }
+    // The file is all there is: a start-up held open for its steady load ends with it.
+    machine.end_of_input();
     machine
         .take_finished()
         .into_iter()

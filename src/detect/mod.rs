@@ -365,7 +365,22 @@ const CHUNK_MS: i64 = 6 * 3600 * 1000;
 ///
 /// Returns an empty report when the input tags (n1, fuel flow, power) do not exist yet.
 pub fn scan(db: &mut dyn Db, cfg: &DetectorConfig) -> Result<ScanReport, DetectError> {
-    let (mut report, write) = plan(db.read(), cfg)?;
+    scan_with(db, cfg, false)
+}
+
+/// [`scan`] at the end of an input that does not go on (`gtwatch replay` of a log): a completed
+/// start-up still held open for its steady load ([`DetectorConfig::steady_extend_s`]) is closed
+/// at its last steady sample rather than left in progress. Live data use [`scan`].
+pub fn scan_to_end(db: &mut dyn Db, cfg: &DetectorConfig) -> Result<ScanReport, DetectError> {
+    scan_with(db, cfg, true)
+}
+
+fn scan_with(
+    db: &mut dyn Db,
+    cfg: &DetectorConfig,
+    end_of_input: bool,
+) -> Result<ScanReport, DetectError> {
+    let (mut report, write) = plan(db.read(), cfg, end_of_input)?;
     if let Some(w) = write {
         report.segments_written = db.write_scan(w)?;
     }
@@ -377,6 +392,7 @@ pub fn scan(db: &mut dyn Db, cfg: &DetectorConfig) -> Result<ScanReport, DetectE
 fn plan(
     store: &Store,
     cfg: &DetectorConfig,
+    end_of_input: bool,
 ) -> Result<(ScanReport, Option<ScanWrite>), DetectError> {
     let mut report = ScanReport::default();
     let Some(tags) = resolve_tags(store, cfg)? else {
@@ -460,6 +476,10 @@ fn plan(
             }
             Some(_) => {}
         }
+    }
+    if end_of_input {
+        machine.end_of_input();
+        finished.extend(machine.take_finished());
     }
     // A start's onset is placed back in time once the rise is seen (the knee of n1, the
     // coast-down minimum), so a scan that stopped between the onset and the rise left that

@@ -241,6 +241,19 @@ impl Machine {
         }
     }
 
+    /// The input has ended (a replayed log, a file): a completed start-up still held open for its
+    /// steady load ([`DetectorConfig::steady_extend_s`]) closes at its last steady sample. Any
+    /// other open start stays open: its end is not in the data. Not for live data, which go on.
+    pub fn end_of_input(&mut self) {
+        let held = self.active.as_ref().and_then(|a| a.settling);
+        let last = self.hist.last().copied();
+        if let (Some(st), Some(f)) = (held, last) {
+            if let Some(a) = self.active.take() {
+                self.complete(a, st.last_in_ms, &f);
+            }
+        }
+    }
+
     /// Segments closed since the last call.
     pub fn take_finished(&mut self) -> Vec<SegmentRecord> {
         std::mem::take(&mut self.finished)

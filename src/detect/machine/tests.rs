@@ -678,3 +678,34 @@ fn a_held_start_up_closes_completed_where_its_load_moves_or_its_data_stop() {
         "closed at {end_s} s, cut at {cut} s"
     );
 }
+
+/// An input that ends inside the hold (a replayed log, a file): the held start-up stays open
+/// while more data may come, and closes completed at its last steady sample once the input is
+/// said to have ended; a start still short of steady load stays open.
+#[test]
+fn a_held_start_up_closes_at_the_end_of_the_input() {
+    let mut s = empty_script();
+    let k = push_start(&mut s, 30.0, 0.0);
+    let end = k.at_load as i64 + 150;
+    let mut m = Machine::new(extended(300.0), None);
+    for f in frames(&s, end, 7, true) {
+        m.push(f);
+    }
+    assert!(m.take_finished().is_empty());
+    assert!(m.open_segment().is_some(), "held open while data may come");
+    m.end_of_input();
+    let done = m.take_finished();
+    assert_eq!(done.len(), 1, "{done:?}");
+    assert_eq!(done[0].outcome, Outcome::Completed);
+    assert_eq!(done[0].end_ms, Some(T0_MS + end * 1000));
+    assert!(m.open_segment().is_none());
+
+    // Ended during the loading ramp: nothing to close.
+    let mut m = Machine::new(extended(300.0), None);
+    for f in frames(&s, k.ramp_start as i64 + 30, 7, true) {
+        m.push(f);
+    }
+    m.end_of_input();
+    assert!(m.take_finished().is_empty());
+    assert!(m.open_segment().is_some());
+}

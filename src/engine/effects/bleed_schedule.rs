@@ -102,6 +102,10 @@ impl Effect for BleedSchedule {
     fn bleed_port(&self) -> f64 {
         self.port
     }
+
+    fn reads_gas_path(&self) -> bool {
+        false // corrected GG speed only
+    }
 }
 
 #[cfg(test)]

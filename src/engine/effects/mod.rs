@@ -305,6 +305,13 @@ pub trait Effect: Debug + Send + Sync {
     fn n_states(&self) -> usize {
         0
     }
+    /// Whether the effect's hooks read the gas path's state (P2, T3, P34 of [`CoreView`]) or
+    /// its states need it; `false` for a schedule on the speeds and the ambient alone, which a
+    /// steady point then evaluates without first computing the core's gas path for it (half
+    /// the cost of a point).
+    fn reads_gas_path(&self) -> bool {
+        true
+    }
     /// The fuel that burns at a steady point for a metered flow, kg/s: the steady limit of
     /// [`Effect::fuel_delivered`] (a delay or lag passes the metered flow unchanged; a meter
     /// error does not).
@@ -487,6 +494,14 @@ impl EffectSet {
     /// Whether no effect is on.
     pub fn is_empty(&self) -> bool {
         self.effects.is_empty()
+    }
+
+    /// Whether any enabled effect reads the gas path's state or carries states
+    /// ([`Effect::reads_gas_path`]).
+    pub fn reads_gas_path(&self) -> bool {
+        self.effects
+            .iter()
+            .any(|e| e.reads_gas_path() || e.n_states() > 0)
     }
 
     /// The state layout (core plus each effect's block).

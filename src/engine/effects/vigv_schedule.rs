@@ -94,6 +94,10 @@ impl Effect for VigvSchedule {
         SPEC.name
     }
 
+    fn reads_gas_path(&self) -> bool {
+        false // corrected GG speed only
+    }
+
     fn component_deltas(&self, core: &CoreView, _x: &[f64], d: &mut ComponentDeltas) {
         let nc = core.n1_rpm / (core.t_amb_k / T_STD_K).sqrt() / core.n1_design_rpm;
         let s = ((self.below - nc) / self.fade).clamp(0.0, 1.0);
