@@ -435,35 +435,53 @@ fn adapted_md22_predicts_left_out_loads_of_a_foreign_unit() {
     );
 }
 
+/// The coverage advice of the adapted calibration on the first unit's 9 loads
+/// (`AdaptReport::coverage`).
+fn coverage_of(
+    model: &Engine,
+    rows: &[Snapshot],
+) -> Vec<gtwatch::calibrate::adapt::CoverageAdvice> {
+    let cands = default_candidates(model).expect("candidates");
+    let (report, _) = calibrate(
+        model,
+        rows,
+        &[],
+        cands,
+        &settings(Some(AdaptStrategy::Grown)),
+    )
+    .expect("calibrate");
+    let c = report.adaptation.expect("adapted").coverage;
+    for a in &c {
+        eprintln!("coverage: {}", a.describe());
+    }
+    c
+}
+
 /// The adapted calibration names where the baseline wants a healthy load more
 /// (`AdaptReport::coverage`: beside interior loads the model's own error along the GG speed
-/// reaches 1 % on some signal), and following that advice helps: on this unit it names the
-/// span between 38.75 % and 47.5 % load (torque 1.39 %); with a 42.5 % load added, the 47.5 %
-/// load left out is predicted within the floors (measured 0.22 / 0.51 % against
-/// 0.67 / 1.11 % without it) and the advice moves to the span below.
+/// reaches 1 % on some signal): on this unit the span between 38.75 % and 47.5 % load (torque
+/// 1.39 %). That following the advice helps is
+/// [`following_the_coverage_advice_helps`]'s measurement.
 #[test]
 fn the_calibration_names_where_the_baseline_wants_a_load_more() {
-    let (truth, rows, model) = first_unit();
-    let coverage = |rows: &[Snapshot]| {
-        let cands = default_candidates(&model).expect("candidates");
-        let (report, _) = calibrate(
-            &model,
-            rows,
-            &[],
-            cands,
-            &settings(Some(AdaptStrategy::Grown)),
-        )
-        .expect("calibrate");
-        let c = report.adaptation.expect("adapted").coverage;
-        for a in &c {
-            eprintln!("coverage: {}", a.describe());
-        }
-        c
-    };
-    let advice = coverage(&rows);
+    let (_, rows, model) = first_unit();
+    let advice = coverage_of(&model, &rows);
     assert_eq!(advice.len(), 1, "{advice:?}");
     assert_eq!(advice[0].lines, [rows[1].line, rows[2].line], "{advice:?}");
     assert!(advice[0].worst_pct >= 1.0);
+}
+
+/// Following the coverage advice helps: with a 42.5 % load added, the 47.5 % load left out is
+/// predicted within the floors (measured 0.22 / 0.51 % against 0.67 / 1.11 % without
+/// it) and the advice moves to the span below. A measurement (45 s of CI's 20 minutes beside
+/// the suite; run by hand: `cargo test --release --test integration following_the_coverage --
+/// --ignored --nocapture`).
+#[test]
+#[ignore = "measurement: cargo test --release --test integration following_the_coverage -- --ignored --nocapture"]
+fn following_the_coverage_advice_helps() {
+    let (truth, rows, model) = first_unit();
+    let advice = coverage_of(&model, &rows);
+    assert_eq!(advice.len(), 1, "{advice:?}");
 
     // The advice followed: a healthy load at 42.5 % on a mid-range day.
     let f = 0.425;
@@ -485,7 +503,7 @@ fn the_calibration_names_where_the_baseline_wants_a_load_more() {
     );
     assert!(after[0] <= 0.3 && after[1] <= 1.0, "{after:?}");
     assert!(after[0] < before[0] && after[1] < before[1]);
-    let moved = coverage(&more);
+    let moved = coverage_of(&model, &more);
     assert!(
         moved.iter().all(|a| a.lines != advice[0].lines),
         "{moved:?}"
