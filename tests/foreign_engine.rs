@@ -519,7 +519,13 @@ fn following_the_coverage_advice_helps() {
 /// points; what the correlated curves do off the operating line the healthy data do not pin,
 /// so the degradation grid is read with more cross-talk than on the grown shape (floors below
 /// are what it meets; no miss is called good).
+///
+/// 36 s alone, 69 s beside the suite: run by hand (`cargo test --release --test integration
+/// foreign_engine::continuation -- --ignored --nocapture`) since CI neared its 20 minutes. The
+/// continuation as the grown shape's stand-in stays in CI
+/// (`a_foreign_unit_the_adaptation_cannot_fit_is_said_to_be_unfit`).
 #[test]
+#[ignore = "measurement (69 s of CI's 20 minutes): cargo test --release --test integration foreign_engine::continuation -- --ignored --nocapture"]
 fn continuation_predicts_left_out_loads_of_a_foreign_unit_within_the_floors() {
     let (truth, rows, model) = first_unit();
     let mut means = Vec::new();
