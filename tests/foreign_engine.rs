@@ -933,6 +933,9 @@ fn second_unit(strategy: AdaptStrategy) {
 /// compressor to six knots and left every fold out, so the file stated no model error at all;
 /// and the datasheet's round 9 800 rpm ended the grown shape at 1.77 σ (`poor`), where the
 /// continuation, now tried in its place, reproduces the baseline at 0.69 σ.
+///
+/// CI writes the round 9 800 rpm only (69 s beside the suite for all three); all three by hand:
+/// `GTWATCH_FEW_DIGITS_ALL=1 cargo test --release --test integration few_digits -- --nocapture`.
 #[test]
 fn a_design_point_written_to_a_few_digits_calibrates_alike() {
     let (_, rows, model) = first_unit();
@@ -942,12 +945,13 @@ fn a_design_point_written_to_a_few_digits_calibrates_alike() {
     let dir = tempfile::tempdir().expect("dir");
     let fmt = |v: f64, d: usize| format!("{v:.d$}");
     // The pressure ratio, the power and the GG speed as written.
-    let forms = [
-        (4, fmt(exact.gg_speed_rpm, 2)),
-        (2, fmt(exact.gg_speed_rpm, 1)),
-        // The datasheet's round GG speed rather than the row's.
-        (2, "9800".to_string()),
-    ];
+    // CI writes the datasheet's round GG speed; the digits' forms too with
+    // `GTWATCH_FEW_DIGITS_ALL=1` (each a calibration of 20 s beside the suite).
+    let mut forms = vec![(2, "9800".to_string())];
+    if std::env::var("GTWATCH_FEW_DIGITS_ALL").is_ok() {
+        forms.insert(0, (2, fmt(exact.gg_speed_rpm, 1)));
+        forms.insert(0, (4, fmt(exact.gg_speed_rpm, 2)));
+    }
     for (digits, gg_speed) in forms {
         let mut in_load = false;
         let mut text = String::new();

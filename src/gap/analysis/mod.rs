@@ -717,8 +717,12 @@ mod tests {
 
     /// The same casing scored on a second start-up (`gap --holdout`): the refinement follows
     /// the held-out scoring too (before, the named effect kept its single node there and the
-    /// health stayed as far off as without the refinement).
+    /// health stayed as far off as without the refinement). 44 s beside the suite: a
+    /// measurement run by hand (`cargo test --release --lib with_a_held_out -- --ignored`) for
+    /// CI's 20 minutes; the refinement itself stays in CI
+    /// (`a_named_tip_clearance_is_refined_to_the_casings_two_nodes`).
     #[test]
+    #[ignore = "measurement: cargo test --release --lib with_a_held_out -- --ignored"]
     fn with_a_held_out_startup_the_named_casing_is_refined_too() {
         case_11_is_refined(true);
     }
