@@ -136,14 +136,12 @@ fn start_ups_of_a_unit_whose_hot_section_soaks_read_nearer_held_longer() {
         Ok(list) => std::iter::once(None)
             .chain(list.split(',').map(|kv| {
                 let (k, v) = kv.split_once('=').expect("key=value");
-                Some((
-                    if k == "steady_hold_s" {
-                        "steady_hold_s"
-                    } else {
-                        "steady_extend_s"
-                    },
-                    v.parse().expect("a number"),
-                ))
+                let key = match k {
+                    "steady_hold_s" => "steady_hold_s",
+                    "steady_extend_s" => "steady_extend_s",
+                    other => panic!("GTWATCH_INDEP3_STEADY: {other} is no [detector] key here"),
+                };
+                Some((key, v.parse().expect("a number")))
             }))
             .collect(),
         Err(_) => vec![None, Some(("steady_extend_s", 240.0))],

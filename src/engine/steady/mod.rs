@@ -88,39 +88,28 @@ fn effect_adjust(model: &Model, inp: &Inputs) -> Adjust {
         return Adjust::NONE;
     }
     let c = &model.consts;
-    let mut y = effects.layout().zeros();
-    let core = if effects.reads_gas_path() {
-        let base = gas_path::evaluate(model, inp, None).stations();
-        let core = CoreView {
-            t_s: 0.0,
-            n1_rpm: base.n1_rpm,
-            n2_rpm: base.n2_rpm,
-            p2_kpa: base.p2_kpa,
-            t3_k: base.t3_k,
-            p34_kpa: base.p34_kpa,
-            t_amb_k: inp.t_amb_k,
-            p_amb_kpa: inp.p_amb_kpa,
-            n1_design_rpm: c.n1_design,
-            fuel_design_kg_s: c.fuel_design,
-        };
-        effects.steady_states(&core, &base, &mut y);
-        core
-    } else {
-        // Schedules on the speeds alone (`Effect::reads_gas_path`): the inputs are all they
-        // read, and no state needs the core's gas path. What they must not read is NaN.
-        CoreView {
-            t_s: 0.0,
-            n1_rpm: inp.n1_rpm,
-            n2_rpm: inp.n2_rpm,
-            p2_kpa: f64::NAN,
-            t3_k: f64::NAN,
-            p34_kpa: inp.p34_kpa,
-            t_amb_k: inp.t_amb_k,
-            p_amb_kpa: inp.p_amb_kpa,
-            n1_design_rpm: c.n1_design,
-            fuel_design_kg_s: c.fuel_design,
-        }
+    // The speeds, the PT inlet pressure and the ambient are the point's inputs; P2 and T3 need
+    // the core's gas path, computed only when an effect reads it or carries states
+    // (`Effect::reads_gas_path`); otherwise what must not be read is NaN.
+    let mut core = CoreView {
+        t_s: 0.0,
+        n1_rpm: inp.n1_rpm,
+        n2_rpm: inp.n2_rpm,
+        p2_kpa: f64::NAN,
+        t3_k: f64::NAN,
+        p34_kpa: inp.p34_kpa,
+        t_amb_k: inp.t_amb_k,
+        p_amb_kpa: inp.p_amb_kpa,
+        n1_design_rpm: c.n1_design,
+        fuel_design_kg_s: c.fuel_design,
     };
+    let mut y = effects.layout().zeros();
+    if effects.reads_gas_path() {
+        let base = gas_path::evaluate(model, inp, None).stations();
+        core.p2_kpa = base.p2_kpa;
+        core.t3_k = base.t3_k;
+        effects.steady_states(&core, &base, &mut y);
+    }
     Adjust {
         extra_bleed: effects.bleed(&core, &y),
         deltas: effects.component_deltas(&core, &y),
