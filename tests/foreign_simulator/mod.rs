@@ -287,12 +287,13 @@ fn replayed_start_ups(
     b
 }
 
-/// How the grid was read on an engine file: per parameter the worst error (points) and
-/// Spearman ρ against the truth, the worst error in units of the stated σ, and the worst miss
-/// of a parameter the diagnosis called separable.
+/// How the grid was read on an engine file: per parameter the worst error (points), Spearman
+/// ρ against the truth and the RMS of error/σ over the levels, the worst error in units of the
+/// stated σ, and the worst miss of a parameter the diagnosis called separable.
 struct GridRead {
     worst: [f64; 6],
     rho: [f64; 6],
+    rms_z: [f64; 6],
     worst_z: f64,
     separable_miss: f64,
     /// Levels whose fit is `good`.
@@ -326,6 +327,7 @@ fn read_grid(sim: &Sim, unit: &Path, extra: &[&str]) -> GridRead {
     let mut tru: Vec<[f64; 6]> = Vec::new();
     let mut worst = [0.0f64; 6];
     let mut worst_z = 0.0f64;
+    let mut sum_z2 = [0.0f64; 6];
     let mut separable_miss = 0.0f64;
     let mut good = 0;
     for g in groups {
@@ -339,6 +341,7 @@ fn read_grid(sim: &Sim, unit: &Path, extra: &[&str]) -> GridRead {
             let err = (e[p] - t[p]).abs();
             worst[p] = worst[p].max(err);
             worst_z = worst_z.max(err / sigma);
+            sum_z2[p] += (err / sigma).powi(2);
         }
         for s in g["separability"]["separable"].as_array().expect("list") {
             let p = HEALTH_NAMES
@@ -366,15 +369,17 @@ fn read_grid(sim: &Sim, unit: &Path, extra: &[&str]) -> GridRead {
         rho[p] = spearman(&a, &b);
         ceiling[p] = spearman_ceiling(&b);
     }
+    let rms_z = sum_z2.map(|s| (s / groups.len() as f64).sqrt());
     eprintln!(
-        "worst error {worst:.2?}, ρ {rho:.3?} (ceilings {ceiling:.3?}: healthy levels tie), worst \
-         |error|/σ {worst_z:.2}, worst miss of a parameter called separable {separable_miss:.2}, \
-         {good} of {} fits good",
+        "worst error {worst:.2?}, ρ {rho:.3?} (ceilings {ceiling:.3?}: healthy levels tie), RMS \
+         of |error|/σ {rms_z:.2?}, worst {worst_z:.2}, worst miss of a parameter called \
+         separable {separable_miss:.2}, {good} of {} fits good",
         groups.len()
     );
     GridRead {
         worst,
         rho,
+        rms_z,
         worst_z,
         separable_miss,
         good,

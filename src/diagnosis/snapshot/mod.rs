@@ -26,8 +26,9 @@ use super::fit_quality::{spot_reading_good_level, Verdict};
 use super::residual_table::{Cell, ResidualTable};
 use super::steady::{
     below_adaptation_note, beyond_calibration, health_error_note, input_noise_note,
-    input_noise_sigma_note, model_error_note, relative_gg_speeds, with_input_noise,
-    with_model_error, InputNoise, InputSigma, SteadyData, SteadyProblem, SteadyWindow,
+    input_noise_sigma_note, model_error_note, offline_shape_note, relative_gg_speeds,
+    with_input_noise, with_model_error, InputNoise, InputSigma, SteadyData, SteadyProblem,
+    SteadyWindow,
 };
 use super::{
     fit, pool_for, result_of, DiagnosisConfig, DiagnosisError, DiagnosisProblem, Method,
@@ -281,6 +282,7 @@ pub fn diagnose_snapshots(
         let mut assumptions: Vec<String> = model_error_note(engine.cfg())
             .into_iter()
             .chain(health_error_note(engine.cfg()))
+            .chain(offline_shape_note(engine.cfg()))
             .collect();
         assumptions.push(if cfg.snapshot_input_noise {
             input_noise_note()

@@ -8,6 +8,17 @@ use rand_distr::{Distribution, Normal};
 
 /// Snapshot rows from the steady model itself at `loads_mw`, with instrument noise.
 fn snapshot_csv(engine: &Engine, health: &HealthParams, loads_mw: &[f64], seed: u64) -> String {
+    rows_csv(engine, |_| *health, loads_mw, Some(seed))
+}
+
+/// Snapshot rows from the steady model at `loads_mw`, row `k` at `health(k)`, with instrument
+/// noise drawn from `seed` (none without).
+fn rows_csv(
+    engine: &Engine,
+    health: impl Fn(usize) -> HealthParams,
+    loads_mw: &[f64],
+    seed: Option<u64>,
+) -> String {
     let cfg = engine.cfg();
     let sigs = [
         Signal::T1,
@@ -21,7 +32,7 @@ fn snapshot_csv(engine: &Engine, health: &HealthParams, loads_mw: &[f64], seed: 
         Signal::FuelFlow,
         Signal::Power,
     ];
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed.unwrap_or(0));
     let mut csv = String::from("test");
     for s in sigs {
         csv.push(',');
@@ -37,7 +48,7 @@ fn snapshot_csv(engine: &Engine, health: &HealthParams, loads_mw: &[f64], seed: 
             n2_rpm: cfg.design.pt_speed_rpm,
             demand: Demand::PowerMw(load),
         };
-        let m = engine.model_at(health, t_amb, p_amb);
+        let m = engine.model_at(&health(k), t_amb, p_amb);
         let sp = solve(&m, &inputs, None).expect("steady");
         let wf = sp.stations.fuel_kg_s;
         let mut v = [f64::NAN; NSIG];
@@ -50,7 +61,10 @@ fn snapshot_csv(engine: &Engine, health: &HealthParams, loads_mw: &[f64], seed: 
         for s in sigs {
             let x = v[s.index()];
             let sd = noise_sigma(&cfg.sensors, s, x) / 5.0; // an average of 25 samples
-            let noisy = if sd > 0.0 && !matches!(s, Signal::T1 | Signal::FuelFlow | Signal::N2) {
+            let noisy = if seed.is_some()
+                && sd > 0.0
+                && !matches!(s, Signal::T1 | Signal::FuelFlow | Signal::N2)
+            {
                 x + Normal::new(0.0, sd).expect("normal").sample(&mut rng)
             } else {
                 x
@@ -356,4 +370,121 @@ fn reduced_instrument_sets_say_what_they_separate_and_estimate_it() {
             );
         }
     }
+}
+
+/// An adapted file's unknown compressor slopes off the healthy line (`[adaptation.offline_shape]`)
+/// widen a read's σ by about what a unit whose speed lines are steeper by that 1σ does to the
+/// read, and leave the read itself and a healthy unit's σ alone.
+#[test]
+fn the_compressor_shape_off_the_line_widens_the_sigma_as_a_steeper_unit_moves_the_read() {
+    use crate::engine::config::{
+        AdaptationConfig, ComponentCurves, EngineConfig, OfflineShape,
+        DEFAULT_EFFICIENCY_SLOPE_SIGMA,
+    };
+    // The model's own maps marked as adapted (a zero curve): the defaults apply, or none.
+    let adapted = |shape: Option<OfflineShape>| {
+        let mut cfg = EngineConfig::reference();
+        cfg.adaptation = Some(AdaptationConfig {
+            compressor: Some(ComponentCurves {
+                speed_knots: vec![0.8],
+                efficiency: vec![0.0],
+                ..Default::default()
+            }),
+            offline_shape: shape,
+            ..Default::default()
+        });
+        Engine::new(cfg).expect("adapted engine")
+    };
+    let with = adapted(None);
+    let without = adapted(Some(OfflineShape::NONE));
+    let loads = [12.0, 15.0, 18.0, 21.0, 24.0, 27.0, 29.0, 31.0];
+    let cfg = DiagnosisConfig {
+        max_model_runs: 1500,
+        threads: Some(1),
+        ..DiagnosisConfig::default()
+    };
+    let read = |e: &Engine, csv: &str| {
+        let one_group = csv.replace("\nT1,", "\nT0,");
+        let rows =
+            read_snapshots(one_group.as_bytes(), &HashMap::new(), Some("test")).expect("rows");
+        only_group(e, &rows, &cfg)
+    };
+    let d_ec = |g: &SnapshotGroup| (g.result.health.D_EC, g.result.sigma["D_EC"]);
+
+    // A healthy unit sits on the line: nothing added.
+    let healthy = rows_csv(&with, |_| HealthParams::default(), &loads, Some(5));
+    let (on, off) = (read(&with, &healthy), read(&without, &healthy));
+    let (h_on, h_off) = (on.result.health.to_array(), off.result.health.to_array());
+    assert!(h_on.iter().zip(&h_off).all(|(a, b)| (a - b).abs() < 1e-9));
+    assert!(
+        (d_ec(&on).1 / d_ec(&off).1 - 1.0).abs() < 0.02,
+        "healthy D_EC σ {:.3} vs {:.3}",
+        d_ec(&on).1,
+        d_ec(&off).1
+    );
+
+    // Fouled: the compressor runs towards choke, and its efficiency's σ widens.
+    let fouled = HealthParams::from_array([3.0, 1.2, 0.0, 0.0, 0.0, 0.0]);
+    let rows = rows_csv(&with, |_| fouled, &loads, None);
+    let (on, off) = (read(&with, &rows), read(&without, &rows));
+    let added = (d_ec(&on).1.powi(2) - d_ec(&off).1.powi(2)).sqrt();
+    assert!((d_ec(&on).0 - d_ec(&off).0).abs() < 1e-9);
+    assert!((d_ec(&on).0 - 1.2).abs() < 0.05, "{:?}", d_ec(&on));
+    assert!(
+        added > 0.2,
+        "D_EC σ {:.3} vs {:.3}",
+        d_ec(&on).1,
+        d_ec(&off).1
+    );
+
+    // A unit whose efficiency rises along its speed lines by the σ more than the map's: at each
+    // row its efficiency is higher by σ·Δ of itself, Δ the row's log pressure ratio above the
+    // healthy line at its GG speed. Its read misses the truth by about what the σ added.
+    let delta = |k: usize| {
+        let (t_amb, p_amb) = (283.0 + 3.0 * k as f64, 100.2 - 0.3 * k as f64);
+        let inputs = SteadyInputs {
+            t_amb_k: t_amb,
+            p_amb_kpa: p_amb,
+            n2_rpm: with.cfg().design.pt_speed_rpm,
+            demand: Demand::PowerMw(loads[k]),
+        };
+        let at = solve(&with.model_at(&fouled, t_amb, p_amb), &inputs, None).expect("fouled");
+        let line_inputs = SteadyInputs {
+            demand: Demand::N1Rpm(at.n1_rpm),
+            ..inputs
+        };
+        let line = solve(
+            &with.model_at(&HealthParams::default(), t_amb, p_amb),
+            &line_inputs,
+            None,
+        )
+        .expect("healthy line");
+        (at.pressure_ratio / line.pressure_ratio).ln()
+    };
+    let deltas: Vec<f64> = (0..loads.len()).map(delta).collect();
+    assert!(
+        deltas.iter().all(|d| *d < -0.005),
+        "towards choke: {deltas:?}"
+    );
+    let steeper = rows_csv(
+        &with,
+        |k| {
+            let mut h = fouled;
+            h.D_EC -= 100.0 * DEFAULT_EFFICIENCY_SLOPE_SIGMA * deltas[k];
+            h
+        },
+        &loads,
+        None,
+    );
+    let miss = d_ec(&read(&without, &steeper)).0 - 1.2;
+    eprintln!(
+        "D_EC σ {:.3} without, {:.3} with the off-line shape (added {added:.3}); a unit steeper \
+         by that σ read {miss:+.3} off",
+        d_ec(&off).1,
+        d_ec(&on).1
+    );
+    assert!(
+        miss.abs() > 0.8 * added && miss.abs() < 1.25 * added,
+        "miss {miss:.3} vs added σ {added:.3}"
+    );
 }

@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::engine::config::{AdaptationConfig, ModelErrorBySpeed};
+use crate::engine::sensors::noise_sigma;
 
 /// A steady point "snapshot at line 7" at ambient `t_amb_k` comparing `outputs`.
 fn point(t_amb_k: f64, outputs: Vec<(Signal, f64, f64)>) -> SteadyData {

@@ -13,6 +13,7 @@ mod adaptation;
 mod fuel;
 mod load;
 mod maps;
+mod offline_shape;
 mod ranges;
 pub use adaptation::{
     curves_of, AdaptationConfig, CalibratedRange, ComponentCurves, EfficiencyShape, EnsembleFiles,
@@ -22,6 +23,9 @@ pub use adaptation::{
 pub use fuel::{FuelConfig, FuelKind, GasComposition};
 pub use load::{LoadConfig, LoadMode};
 pub use maps::{inline_map_files, MapInterpolation, MapsConfig, MAP_FILE_AND_TEXT_KEYS};
+pub use offline_shape::{
+    OfflineShape, DEFAULT_EFFICIENCY_SLOPE_SIGMA, DEFAULT_FLOW_SLOPE_SIGMA, MAX_SLOPE_SIGMA,
+};
 pub use ranges::{param_range, ParamRange};
 
 /// The built-in reference engine, embedded so `gtwatch simulate` works with no files at all.

@@ -81,6 +81,14 @@ const RANGES: &[(&str, ParamRange)] = &[
     ("adaptation.*.efficiency", ParamRange::new(-0.5, 0.5)),
     ("adaptation.*.pressure_ratio", ParamRange::new(-0.5, 0.5)),
     ("adaptation.*.speed", ParamRange::new(-0.5, 0.5)),
+    (
+        "adaptation.offline_shape.efficiency_slope_sigma",
+        ParamRange::new(0.0, super::offline_shape::MAX_SLOPE_SIGMA),
+    ),
+    (
+        "adaptation.offline_shape.flow_slope_sigma",
+        ParamRange::new(0.0, super::offline_shape::MAX_SLOPE_SIGMA),
+    ),
     ("fuel.composition.CH4", ParamRange::new(0.0, 1.0)),
     ("fuel.composition.C2H6", ParamRange::new(0.0, 1.0)),
     ("fuel.composition.C3H8", ParamRange::new(0.0, 1.0)),

@@ -91,6 +91,7 @@
 //! fixes stays exact), so a knot may not sit at 1. A curve left out is no correction.
 //! What it must not do: physics (only the shape of the numbers is checked here).
 
+use super::offline_shape::OfflineShape;
 use crate::signals::Signal;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -198,6 +199,10 @@ pub struct AdaptationConfig {
     /// states the spread.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ensemble: Option<EnsembleFiles>,
+    /// How uncertain the compressor map's slopes off the healthy line are
+    /// ([`super::offline_shape`]); absent: the defaults, when the file has curves.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub offline_shape: Option<OfflineShape>,
 }
 
 /// `[adaptation.ensemble]`: the engine files of the calibrations on parts of the baseline.
@@ -300,6 +305,19 @@ pub const MAX_HEALTH_ERROR_PTS: f64 = 10.0;
 impl AdaptationConfig {
     /// The model's own 1σ error of health parameter `index` (order of
     /// [`crate::health::HEALTH_NAMES`]), points (0 when not stated).
+    /// The off-line slopes' σ steady diagnosis applies: the file's `[adaptation.offline_shape]`,
+    /// else the defaults where a component has curves (a borrowed map bent to this unit), else
+    /// none.
+    pub fn offline_shape(&self) -> OfflineShape {
+        match self.offline_shape {
+            Some(s) => s,
+            None if self.compressor.is_some() || self.hpt.is_some() || self.pt.is_some() => {
+                OfflineShape::default()
+            }
+            None => OfflineShape::NONE,
+        }
+    }
+
     pub fn health_error_pts(&self, index: usize) -> f64 {
         crate::health::HEALTH_NAMES
             .get(index)
@@ -532,158 +550,4 @@ fn check_length(values: &[f64], knots: &[f64]) -> Result<(), String> {
 }
 
 #[cfg(test)]
-mod tests {
-    use crate::engine::config::{EngineConfig, REFERENCE_ENGINE_TOML};
-    use crate::engine::steady::{solve, Demand, SteadyInputs};
-    use crate::engine::Engine;
-    use crate::health::HealthParams;
-
-    fn with(section: &str) -> Result<EngineConfig, String> {
-        let text = format!("{REFERENCE_ENGINE_TOML}\n{section}\n");
-        EngineConfig::from_toml_str(&text, "x.toml").map_err(|e| e.to_string())
-    }
-
-    #[test]
-    fn malformed_sections_name_the_key() {
-        for (section, key) in [
-            (
-                "[adaptation.compressor]\nspeed_knots = [0.8, 0.7]\nflow = [0.1, 0.1]",
-                "adaptation.compressor.speed_knots",
-            ),
-            (
-                "[adaptation.compressor]\nspeed_knots = [0.8, 1.0]\nflow = [0.1, 0.1]",
-                "adaptation.compressor.speed_knots",
-            ),
-            (
-                "[adaptation.hpt]\nspeed_knots = [0.8]\nflow = [0.1, 0.1]",
-                "adaptation.hpt.flow",
-            ),
-            (
-                "[adaptation.pt]\nspeed_knots = [0.8]\npressure_ratio = [0.1]",
-                "adaptation.pt.pressure_ratio",
-            ),
-            (
-                "[adaptation.pt]\nspeed_knots = [0.8]\nflow = [0.9]",
-                "adaptation.pt.flow",
-            ),
-            (
-                // The GG's corrected speed is for the HP turbine's knots only.
-                "[adaptation.pt]\nspeed_knots = [0.8]\nflow = [0.01]\nspeed_of = \"gg_inlet\"",
-                "adaptation.pt.speed_of",
-            ),
-            (
-                // The map's efficiency is held for a turbine's only.
-                "[adaptation.compressor]\nspeed_knots = [0.8]\nflow = [0.01]\n\
-                 efficiency_shape = \"curve\"",
-                "adaptation.compressor.efficiency_shape",
-            ),
-            (
-                "[adaptation.pt]\nspeed_knots = [0.8]\nflow = [0.01]\n\
-                 efficiency_shape = \"flat\"",
-                "efficiency_shape",
-            ),
-            (
-                "[adaptation.model_error_pct]\nn1 = 0.3",
-                "adaptation.model_error_pct.n1",
-            ),
-            (
-                "[adaptation.model_error_pct]\nt34_k = -0.3",
-                "adaptation.model_error_pct.t34_k",
-            ),
-            (
-                "[adaptation.model_error_pct]\nt34_k = 30.0",
-                "adaptation.model_error_pct.t34_k",
-            ),
-            (
-                "[adaptation.health_error]\nD_XX = 0.3",
-                "adaptation.health_error.D_XX",
-            ),
-            (
-                "[adaptation.health_error]\nD_GC = -0.3",
-                "adaptation.health_error.D_GC",
-            ),
-            (
-                "[adaptation.health_error]\nD_GC = 12.0",
-                "adaptation.health_error.D_GC",
-            ),
-            (
-                "[adaptation.model_error_by_speed]\nspeed_knots = [0.8, 0.7]\nn1_rpm = [1, 1]",
-                "adaptation.model_error_by_speed.speed_knots",
-            ),
-            (
-                "[adaptation.model_error_by_speed]\nspeed_knots = [0.7, 0.8]\nn1_rpm = [1]",
-                "adaptation.model_error_by_speed.n1_rpm",
-            ),
-            (
-                "[adaptation.model_error_by_speed]\nspeed_knots = [0.7, 0.8]\nn1 = [1, 1]",
-                "adaptation.model_error_by_speed.n1",
-            ),
-            (
-                "[adaptation.model_error_by_speed]\nspeed_knots = [0.7, 0.8]\nt4_k = [1, 30]",
-                "adaptation.model_error_by_speed.t4_k",
-            ),
-            (
-                "[adaptation.calibrated]\ngg_speed = [0.9, 0.8]",
-                "adaptation.calibrated.gg_speed",
-            ),
-            (
-                "[adaptation.calibrated]\ngg_speed = [0.0, 0.8]",
-                "adaptation.calibrated.gg_speed",
-            ),
-            ("[adaptation.calibrated]\ngg_speed = [0.8]", "gg_speed"),
-        ] {
-            let err = with(section).expect_err(section);
-            assert!(err.contains(key), "{section}: {err}");
-        }
-    }
-
-    #[test]
-    fn a_point_beyond_the_calibrated_speeds_is_named_with_its_side() {
-        let cfg = with("[adaptation.calibrated]\ngg_speed = [0.78, 0.998]").expect("loads");
-        let range = cfg.adaptation.and_then(|a| a.calibrated).expect("range");
-        assert_eq!(range.gg_speed, [0.78, 0.998]);
-        // Within the range and its margin: diagnosed.
-        for rel in [
-            0.78,
-            0.9,
-            0.998,
-            0.998 + super::CALIBRATED_MARGIN * 0.9,
-            0.776,
-        ] {
-            assert!(range.beyond(rel).is_none(), "{rel}");
-        }
-        let above = range.beyond(1.01).expect("above");
-        assert!(
-            above.contains("1.010 is above the highest") && above.contains("0.780…0.998"),
-            "{above}"
-        );
-        let below = range.beyond(0.7).expect("below");
-        assert!(below.contains("below the lowest"), "{below}");
-    }
-
-    #[test]
-    fn the_design_point_stays_and_part_load_moves() {
-        let plain = Engine::new(EngineConfig::reference()).expect("reference");
-        let cfg = with(
-            "[adaptation.compressor]\nspeed_knots = [0.7, 0.85]\nspeed = [0.05, 0.02]\n\
-             efficiency = [-0.02, -0.01]",
-        )
-        .expect("loads");
-        let adapted = Engine::new(cfg).expect("adapted");
-        assert_eq!(plain.design(), adapted.design());
-        let inp = |mw: f64| SteadyInputs {
-            t_amb_k: 288.15,
-            p_amb_kpa: 101.325,
-            n2_rpm: 3600.0,
-            demand: Demand::PowerMw(mw),
-        };
-        let h = HealthParams::HEALTHY;
-        let a = solve(&plain.model(&h), &inp(31.4), None).expect("design");
-        let b = solve(&adapted.model(&h), &inp(31.4), None).expect("design");
-        assert!((a.stations.n1_rpm / b.stations.n1_rpm - 1.0).abs() < 1e-6);
-        let a = solve(&plain.model(&h), &inp(10.0), None).expect("part load");
-        let b = solve(&adapted.model(&h), &inp(10.0), None).expect("part load");
-        // The speed line read is re-labelled upwards: the same flow at a lower speed.
-        assert!(b.stations.n1_rpm < a.stations.n1_rpm - 50.0, "{a:?} {b:?}");
-    }
-}
+mod tests;
