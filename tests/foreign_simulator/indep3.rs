@@ -27,7 +27,8 @@ use super::*;
 /// 0.954 / 0.968 / 0.954 / 0.968 / 0.886 / 0.886), 13 of 20 fits `good`; the rest `suspect`,
 /// for an estimate better than new as the truth's random mixes are, on a −3 search limit, or
 /// on the residual. Compressor fouling is read low (3.01 for 4, 4.73 for 5: the borrowed map's
-/// response off the healthy line). The worst miss 3.17 σ. Without the bleed stated (the file
+/// response off the healthy line). The worst miss 3.17 σ, 2.58 σ once the compressor's
+/// unknown slopes off the line are in the σ (`[adaptation.offline_shape]`, 2026-12-08). Without the bleed stated (the file
 /// before 2026-12-08): within 1.12 / 0.88 / 0.89 / 0.67 / 0.60 / 0.84, HP-turbine fouling moving
 /// D_EC to −0.87 ± 0.23, called separable (3.86 σ).
 #[test]
@@ -52,7 +53,7 @@ fn a_marine_unit_on_a_controllable_pitch_propeller_of_a_third_simulator() {
         (0.7, 0.85),
         (0.9, 0.78),
     ]);
-    assert!(read.worst_z <= 3.6, "worst |error|/σ {:.2}", read.worst_z);
+    assert!(read.worst_z <= 3.0, "worst |error|/σ {:.2}", read.worst_z);
     // The compressor's efficiency read off the healthy line (fouling moves it towards choke,
     // HP-turbine wear towards surge) misses by what the borrowed map's slope along its speed
     // lines gets wrong: without `[adaptation.offline_shape]` in the σ D_EC's misses were 1.38 σ
