@@ -178,6 +178,15 @@ pub fn steady_reading(m: &Model, p: &SteadyPoint, s: Signal) -> f64 {
     v[0]
 }
 
+/// Every signal's [`steady_reading`] of `p`, indexed like a trace row.
+pub(crate) fn steady_readings(m: &Model, p: &SteadyPoint) -> Values {
+    let mut v = [f64::NAN; NSIG];
+    for s in Signal::ALL {
+        v[s.index()] = steady_reading(m, p, s);
+    }
+    v
+}
+
 /// `data` with the adapted model's own error (`[adaptation.model_error_pct]`, estimated by
 /// `calibrate --adapt` on operating points left out of its fit) added in quadrature to each
 /// compared value's instrument σ: where the model predicts a signal no better than that, the
@@ -437,11 +446,7 @@ impl SteadyProblem {
             let m = engine.model_at(&h, inputs.t_amb_k, inputs.p_amb_kpa);
             let sp = solve(&m, &inputs, Some(g))
                 .map_err(|e| EvalError::Model(format!("{}: {e}", p.label)))?;
-            let mut v = [f64::NAN; NSIG];
-            for s in Signal::ALL {
-                v[s.index()] = steady_reading(&m, &sp, s);
-            }
-            rows.push(v);
+            rows.push(steady_readings(&m, &sp));
         }
         Ok(rows)
     }

@@ -16,12 +16,11 @@
 //! What it must not do: change the fit (only its σ), I/O, or touch the model's own maps (a
 //! file without adaptation curves has no term).
 
-use super::{steady_reading, SteadyProblem};
+use super::{steady_readings, SteadyProblem};
 use crate::engine::config::EngineConfig;
 use crate::engine::steady::{solve, Demand, SteadyInputs};
-use crate::engine::trace::{Values, NSIG};
+use crate::engine::trace::Values;
 use crate::health::HealthParams;
-use crate::signals::Signal;
 
 impl SteadyProblem {
     /// The residuals' change at `x` for 1σ of each off-line slope the file states (efficiency,
@@ -49,9 +48,10 @@ impl SteadyProblem {
             &self.engine
         };
         let h = applied.health;
-        let healthy = HealthParams::default();
-        // Each point's inputs and its log pressure ratio off the healthy line.
+        // Each point's inputs, its log pressure ratio off the healthy line and its values at
+        // the fitted health.
         let mut offsets = Vec::with_capacity(self.points.len());
+        let mut base_rows = Vec::with_capacity(self.points.len());
         for (p, g) in self.points.iter().zip(&self.guesses) {
             let inputs = SteadyInputs {
                 p_amb_kpa: applied.ambient_kpa.unwrap_or(p.inputs.p_amb_kpa),
@@ -65,7 +65,7 @@ impl SteadyProblem {
                 demand: Demand::N1Rpm(at.n1_rpm),
                 ..inputs
             };
-            let m0 = engine.model_at(&healthy, inputs.t_amb_k, inputs.p_amb_kpa);
+            let m0 = engine.model_at(&HealthParams::HEALTHY, inputs.t_amb_k, inputs.p_amb_kpa);
             let Ok(line) = solve(&m0, &line_inputs, Some(g)) else {
                 return Vec::new();
             };
@@ -74,22 +74,16 @@ impl SteadyProblem {
                 return Vec::new();
             }
             offsets.push((inputs, delta));
+            base_rows.push(steady_readings(&m, &at));
         }
         let rows_with = |per_point: &dyn Fn(f64) -> HealthParams| -> Option<Vec<Values>> {
             let mut rows = Vec::with_capacity(offsets.len());
             for ((inputs, delta), g) in offsets.iter().zip(&self.guesses) {
                 let m = engine.model_at(&per_point(*delta), inputs.t_amb_k, inputs.p_amb_kpa);
                 let sp = solve(&m, inputs, Some(g)).ok()?;
-                let mut v = [f64::NAN; NSIG];
-                for s in Signal::ALL {
-                    v[s.index()] = steady_reading(&m, &sp, s);
-                }
-                rows.push(v);
+                rows.push(steady_readings(&m, &sp));
             }
             Some(rows)
-        };
-        let Some(base_rows) = rows_with(&|_| h) else {
-            return Vec::new();
         };
         let mut r0 = Vec::new();
         self.objective.residuals(&base_rows, &mut r0);
