@@ -28,9 +28,9 @@ use super::*;
 /// for an estimate better than new as the truth's random mixes are, on a −3 search limit, or
 /// on the residual. Compressor fouling is read low (3.01 for 4, 4.73 for 5: the borrowed map's
 /// response off the healthy line). The worst miss 3.17 σ, 2.58 σ once the compressor's
-/// unknown slopes off the line are in the σ (`[adaptation.offline_shape]`, 2026-12-08). Without the bleed stated (the file
-/// before 2026-12-08): within 1.12 / 0.88 / 0.89 / 0.67 / 0.60 / 0.84, HP-turbine fouling moving
-/// D_EC to −0.87 ± 0.23, called separable (3.86 σ).
+/// unknown slopes off the line are in the σ (`[adaptation.offline_shape]`, 2026-12-08).
+/// Without the bleed stated (the file before 2026-12-08): within 1.12 / 0.88 / 0.89 / 0.67 /
+/// 0.60 / 0.84, HP-turbine fouling moving D_EC to −0.87 ± 0.23, called separable (3.86 σ).
 #[test]
 fn a_marine_unit_on_a_controllable_pitch_propeller_of_a_third_simulator() {
     let dir = tempfile::tempdir().expect("tempdir");

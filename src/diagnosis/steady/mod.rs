@@ -43,6 +43,7 @@ use crate::engine::{Engine, Model};
 use crate::health::HealthParams;
 use crate::recording::Recording;
 use crate::signals::Signal;
+use std::borrow::Cow;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
@@ -324,6 +325,13 @@ pub(crate) fn health_error_note(cfg: &EngineConfig) -> Option<String> {
     })
 }
 
+/// A [`SteadyProblem`] at one parameter vector ([`SteadyProblem::points_at`]).
+struct PointsAt<'a> {
+    engine: Cow<'a, Engine>,
+    health: HealthParams,
+    inputs: Vec<SteadyInputs>,
+}
+
 /// Method A as an optimisation problem.
 pub struct SteadyProblem {
     engine: Engine,
@@ -427,28 +435,58 @@ impl SteadyProblem {
     /// Model values at every point, as rows indexed like a trace, or why a solve failed.
     pub fn simulate(&self, x: &[f64]) -> Result<Vec<Values>, EvalError> {
         self.runs.fetch_add(1, Ordering::Relaxed);
+        let at = self.points_at(x)?;
+        let solved = self.solve_points(&at, |_| at.health)?;
+        Ok(solved.into_iter().map(|(_, v)| v).collect())
+    }
+
+    /// The problem at `x`: the engine its engine-file parameters make (the problem's own when
+    /// it fits none), the health, and each point's inputs with the fitted ambient pressure.
+    fn points_at(&self, x: &[f64]) -> Result<PointsAt<'_>, EvalError> {
         let applied = self.params.apply(x);
-        let modified;
         let engine = if self.params.touches_engine() {
-            modified = self.params.engine_for(&self.engine, &applied)?;
-            &modified
+            Cow::Owned(self.params.engine_for(&self.engine, &applied)?)
         } else {
-            &self.engine
+            Cow::Borrowed(&self.engine)
         };
-        let h: HealthParams = applied.health;
-        let p_amb = applied.ambient_kpa;
-        let mut rows = Vec::with_capacity(self.points.len());
-        for (p, g) in self.points.iter().zip(&self.guesses) {
-            let inputs = SteadyInputs {
-                p_amb_kpa: p_amb.unwrap_or(p.inputs.p_amb_kpa),
+        let inputs = self
+            .points
+            .iter()
+            .map(|p| SteadyInputs {
+                p_amb_kpa: applied.ambient_kpa.unwrap_or(p.inputs.p_amb_kpa),
                 ..p.inputs
-            };
-            let m = engine.model_at(&h, inputs.t_amb_k, inputs.p_amb_kpa);
-            let sp = solve(&m, &inputs, Some(g))
+            })
+            .collect();
+        Ok(PointsAt {
+            engine,
+            health: applied.health,
+            inputs,
+        })
+    }
+
+    /// Every point solved on `at`'s engine, point `k` at health `health(k)` (each from its
+    /// healthy guess): its solution and its readings, or why a solve failed.
+    fn solve_points(
+        &self,
+        at: &PointsAt,
+        health: impl Fn(usize) -> HealthParams,
+    ) -> Result<Vec<(SteadyPoint, Values)>, EvalError> {
+        let mut out = Vec::with_capacity(self.points.len());
+        for (k, ((p, g), inputs)) in self
+            .points
+            .iter()
+            .zip(&self.guesses)
+            .zip(&at.inputs)
+            .enumerate()
+        {
+            let m = at
+                .engine
+                .model_at(&health(k), inputs.t_amb_k, inputs.p_amb_kpa);
+            let sp = solve(&m, inputs, Some(g))
                 .map_err(|e| EvalError::Model(format!("{}: {e}", p.label)))?;
-            rows.push(steady_readings(&m, &sp));
+            out.push((sp, steady_readings(&m, &sp)));
         }
-        Ok(rows)
+        Ok(out)
     }
 
     /// The prepared objective.

@@ -16,7 +16,7 @@
 //! What it must not do: change the fit (only its σ), I/O, or touch the model's own maps (a
 //! file without adaptation curves has no term).
 
-use super::{steady_readings, SteadyProblem};
+use super::SteadyProblem;
 use crate::engine::config::EngineConfig;
 use crate::engine::steady::{solve, Demand, SteadyInputs};
 use crate::engine::trace::Values;
@@ -34,59 +34,34 @@ impl SteadyProblem {
         if !shape.any() {
             return Vec::new();
         }
-        let applied = self.params.apply(x);
-        let modified;
-        let engine = if self.params.touches_engine() {
-            match self.params.engine_for(&self.engine, &applied) {
-                Ok(e) => {
-                    modified = e;
-                    &modified
-                }
-                Err(_) => return Vec::new(),
-            }
-        } else {
-            &self.engine
+        let Ok(at) = self.points_at(x) else {
+            return Vec::new();
         };
-        let h = applied.health;
-        // Each point's inputs, its log pressure ratio off the healthy line and its values at
-        // the fitted health.
-        let mut offsets = Vec::with_capacity(self.points.len());
-        let mut base_rows = Vec::with_capacity(self.points.len());
-        for (p, g) in self.points.iter().zip(&self.guesses) {
-            let inputs = SteadyInputs {
-                p_amb_kpa: applied.ambient_kpa.unwrap_or(p.inputs.p_amb_kpa),
-                ..p.inputs
-            };
-            let m = engine.model_at(&h, inputs.t_amb_k, inputs.p_amb_kpa);
-            let Ok(at) = solve(&m, &inputs, Some(g)) else {
-                return Vec::new();
-            };
+        let Ok(base) = self.solve_points(&at, |_| at.health) else {
+            return Vec::new();
+        };
+        // Each point's log pressure ratio above the healthy line at its GG speed.
+        let mut deltas = Vec::with_capacity(base.len());
+        for ((solved, _), (inputs, g)) in base.iter().zip(at.inputs.iter().zip(&self.guesses)) {
             let line_inputs = SteadyInputs {
-                demand: Demand::N1Rpm(at.n1_rpm),
-                ..inputs
+                demand: Demand::N1Rpm(solved.n1_rpm),
+                ..*inputs
             };
-            let m0 = engine.model_at(&HealthParams::HEALTHY, inputs.t_amb_k, inputs.p_amb_kpa);
+            let m0 = at
+                .engine
+                .model_at(&HealthParams::HEALTHY, inputs.t_amb_k, inputs.p_amb_kpa);
             let Ok(line) = solve(&m0, &line_inputs, Some(g)) else {
                 return Vec::new();
             };
-            let delta = (at.pressure_ratio / line.pressure_ratio).ln();
+            let delta = (solved.pressure_ratio / line.pressure_ratio).ln();
             if !delta.is_finite() {
                 return Vec::new();
             }
-            offsets.push((inputs, delta));
-            base_rows.push(steady_readings(&m, &at));
+            deltas.push(delta);
         }
-        let rows_with = |per_point: &dyn Fn(f64) -> HealthParams| -> Option<Vec<Values>> {
-            let mut rows = Vec::with_capacity(offsets.len());
-            for ((inputs, delta), g) in offsets.iter().zip(&self.guesses) {
-                let m = engine.model_at(&per_point(*delta), inputs.t_amb_k, inputs.p_amb_kpa);
-                let sp = solve(&m, inputs, Some(g)).ok()?;
-                rows.push(steady_readings(&m, &sp));
-            }
-            Some(rows)
-        };
+        let rows: Vec<Values> = base.into_iter().map(|(_, v)| v).collect();
         let mut r0 = Vec::new();
-        self.objective.residuals(&base_rows, &mut r0);
+        self.objective.residuals(&rows, &mut r0);
         let mut columns = Vec::new();
         let slopes = [
             (shape.efficiency_slope_sigma, 1usize),
@@ -98,14 +73,15 @@ impl SteadyProblem {
             }
             // A slope s raises the point's efficiency (flow) by s·Δ of itself: a degradation
             // of −100 s Δ points there.
-            let per_point = |delta: f64| {
-                let mut a = h.to_array();
-                a[index] -= 100.0 * sigma * delta;
+            let per_point = |k: usize| {
+                let mut a = at.health.to_array();
+                a[index] -= 100.0 * sigma * deltas[k];
                 HealthParams::from_array(a)
             };
-            let Some(rows) = rows_with(&per_point) else {
+            let Ok(solved) = self.solve_points(&at, per_point) else {
                 return Vec::new();
             };
+            let rows: Vec<Values> = solved.into_iter().map(|(_, v)| v).collect();
             let mut r = Vec::new();
             self.objective.residuals(&rows, &mut r);
             if r.len() != r0.len() || r.iter().any(|v| !v.is_finite()) {
